@@ -1,0 +1,44 @@
+# shellrepair: `make setup` then `make test`. See README.md.
+PY      ?= .venv/bin/python
+SCAN    ?= data/bunny_zipper.ply
+OUT     ?= $(basename $(SCAN)).repaired.ply
+REPORT  ?= $(basename $(SCAN)).report.json
+SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
+
+.PHONY: setup syslibs test holes repair render bench table1 clean
+
+setup: syslibs
+	test -x $(PY) || python3 -m venv .venv
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+
+# open3d's wheel needs libusb (and libgomp); install them from Debian if missing.
+syslibs:
+	@missing=""; for p in $(SYSLIBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing system libraries:$$missing"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO=sudo; fi; \
+	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
+	fi
+
+test:
+	$(PY) -m pytest
+
+holes:
+	$(PY) -m shellrepair.cli holes $(SCAN)
+
+repair:
+	$(PY) -m shellrepair.cli repair $(SCAN) -o $(OUT) --report $(REPORT)
+
+render:
+	$(PY) -m shellrepair.cli render $(OUT) --before $(SCAN) --highlight-filled -o $(basename $(SCAN)).before_after.png
+
+bench:
+	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the benchmark records them as missing"
+	$(PY) eval/bench.py
+
+table1:
+	$(PY) eval/table1.py
+
+clean:
+	rm -rf .pytest_cache .hypothesis build *.egg-info data/*.repaired.ply data/*.report.json data/*.png

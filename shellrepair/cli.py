@@ -1,0 +1,169 @@
+"""Command line: a thin layer over the library.
+
+    shellrepair holes SCAN [--json] [--max-hole N] [--fill-borders]
+    shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3] [--smooth N]
+                       [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
+    shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
+
+Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
+exit status 2; no traceback, no output file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from .errors import MeshError
+
+__all__ = ["main"]
+
+
+def _parser():
+    p = argparse.ArgumentParser(prog="shellrepair", description="Fill the holes of 3D scans with smooth shells.")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    sub = p.add_subparsers(dest="cmd", required=True)
+
+    h = sub.add_parser("holes", help="list the boundary loops of a scan, classed hole or border")
+    h.add_argument("scan")
+    h.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    _hole_options(h)
+
+    r = sub.add_parser("repair", help="fill the holes and write the repaired scan and a report")
+    r.add_argument("scan")
+    r.add_argument("-o", "--output", help="output mesh (default: SCAN.repaired.ply)")
+    r.add_argument("--report", help="JSON report (default: beside the output, .report.json)")
+    r.add_argument("--order", type=int, choices=(1, 2, 3), default=2,
+                   help="fairing order: 1 harmonic, 2 bilaplacian (default), 3 curvature-continuous")
+    r.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch")
+    r.add_argument("--method", choices=("fair", "seed"), default="fair",
+                   help="fair: local faired shells (default); seed: the paper's smoothed-copy method")
+    r.add_argument("--jobs", type=int, default=1, help="fill holes on N cores (same output for any N)")
+    r.add_argument("--json", action="store_true", help="print the JSON report instead of the table")
+    _hole_options(r)
+
+    v = sub.add_parser("render", help="render a mesh with the aged-metal shading")
+    v.add_argument("mesh")
+    v.add_argument("-o", "--output", required=True)
+    v.add_argument("--size", default="1024x768")
+    v.add_argument("--material", default="aged-bronze", choices=("aged-bronze", "gilt", "bronze"))
+    v.add_argument("--highlight-filled", action="store_true")
+    v.add_argument("--view", default=None, help="AZ,EL in degrees")
+    v.add_argument("--before", default=None, help="also render this mesh and put it on the left")
+    return p
+
+
+def _hole_options(p):
+    p.add_argument("--max-hole", type=int, default=None, help="loops with more edges than N are left open")
+    p.add_argument("--fill-borders", action="store_true", help="treat borders (outer edges) as holes too")
+
+
+def main(argv=None):
+    """Run the command line; returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        return {"holes": _holes, "repair": _repair, "render": _render}[args.cmd](args)
+    except MeshError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        where = exc.filename or ""
+        print(f"error: {where}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # an internal bug: still one line unless --debug
+        if args.debug:
+            raise
+        print(f"error: internal error: {type(exc).__name__}: {exc} (run with --debug for a traceback)",
+              file=sys.stderr)
+        return 1
+
+
+def _holes(args):
+    from .holes import detect_holes
+    from .io import read_mesh
+    from .report import holes_dict, holes_table
+
+    mesh = read_mesh(args.scan)
+    scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders)
+    d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)
+    print(json.dumps(d, indent=1) if args.json else holes_table(d))
+    return 0
+
+
+def _default_output(scan):
+    p = Path(scan)
+    return p.with_name(p.stem + ".repaired.ply")
+
+
+def _repair(args):
+    from .io import atomic_write, read_mesh, write_mesh
+    from .repair import repair_mesh
+    from .report import table1_text
+
+    out = Path(args.output) if args.output else _default_output(args.scan)
+    if not out.parent.is_dir():
+        raise MeshError("output folder does not exist", out)
+    report_path = Path(args.report) if args.report else out.with_name(
+        (out.stem[:-9] if out.stem.endswith(".repaired") else out.stem) + ".report.json")
+    if not report_path.parent.is_dir():
+        raise MeshError("report folder does not exist", report_path)
+    if args.jobs < 1:
+        raise MeshError("--jobs must be at least 1")
+    t0 = time.perf_counter()
+    mesh = read_mesh(args.scan)
+    repaired, report = repair_mesh(mesh, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
+                                   fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
+                                   progress=sys.stderr.isatty())
+    write_mesh(out, repaired)
+    report["file"] = str(args.scan)
+    report["output"] = str(out)
+    report["seconds_total"] = round(time.perf_counter() - t0, 4)
+    atomic_write(report_path, json.dumps(report, indent=1) + "\n")
+    if args.json:
+        print(json.dumps(report, indent=1))
+    else:
+        print(table1_text(report))
+        print(f"  wrote {out} and {report_path}")
+    return 0
+
+
+def _render(args):
+    from .io import read_mesh
+    from . import render as rd
+
+    try:
+        w, h = (int(x) for x in args.size.lower().split("x"))
+    except ValueError:
+        raise MeshError(f"--size must be WIDTHxHEIGHT, got '{args.size}'") from None
+    view = None
+    if args.view:
+        try:
+            view = tuple(float(x) for x in args.view.split(","))
+            assert len(view) == 2
+        except (ValueError, AssertionError):
+            raise MeshError(f"--view must be AZ,EL in degrees, got '{args.view}'") from None
+    out = Path(args.output)
+    if not out.parent.is_dir():
+        raise MeshError("output folder does not exist", out)
+    mesh = read_mesh(args.mesh)
+    kw = dict(size=(w, h), material=args.material, view=view)
+    img = rd.render_mesh(mesh.V, mesh.F, filled=mesh.face_filled, highlight_filled=args.highlight_filled,
+                         vertex_colors=mesh.vertex_colors, **kw)
+    if args.before:
+        before = read_mesh(args.before)
+        left = rd.render_mesh(before.V, before.F, vertex_colors=before.vertex_colors, **kw)
+        import numpy as np
+        img = np.concatenate([left, img], axis=1)
+    rd.save_png(out, img)
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

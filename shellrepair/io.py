@@ -1,0 +1,738 @@
+"""Reading and writing scans: PLY (ascii and binary), OBJ, OFF, STL.
+
+What loading guarantees
+-----------------------
+* Vertices keep their order and their exact values. A PLY stored as
+  ``float`` is read as float32 and widened to float64 (exact), and written
+  back as float32, so the original coordinates round-trip bit for bit.
+* Vertex colours (PLY ``red green blue [alpha]``, OBJ ``v x y z r g b``,
+  OFF ``COFF``) are kept as ``uint8``.
+* Polygons with more than three corners are split into a fan of triangles.
+* Faces that repeat a vertex (``[a, a, b]``) and exact duplicate faces are
+  dropped; zero-area faces with three distinct corners are kept and counted.
+* STL's per-triangle vertices are welded on exact coordinates.
+* Anything that cannot be read raises :class:`~shellrepair.errors.MeshError`
+  naming the file and what is wrong; NaN/inf coordinates, out-of-range or
+  negative indices, a file with no faces, truncated or inconsistent files.
+
+Writing always goes to a temporary file in the target folder that is renamed
+into place, so a failed write never leaves a partial file behind.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import MeshError
+
+__all__ = ["Mesh", "read_mesh", "write_mesh", "clean_faces", "atomic_write"]
+
+SUPPORTED = (".ply", ".obj", ".off", ".stl")
+
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+_PLY_NAMES = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort",
+              "i4": "int", "u4": "uint", "f4": "float", "f8": "double"}
+
+
+@dataclass
+class Mesh:
+    """A triangle mesh with the per-element data a scan carries.
+
+    Attributes
+    ----------
+    V : (n,3) float64 array
+        Vertex positions.
+    F : (m,3) int64 array
+        Triangle corner indices into ``V``.
+    vertex_colors : (n,3) or (n,4) uint8 array or None
+        Per-vertex colour, if the file has it.
+    vertex_filled, face_filled : (n,) / (m,) bool arrays or None
+        True for elements synthesized by a repair.
+    vertex_props : dict of str -> (n,) array
+        Other scalar vertex properties of a PLY (normals, quality, ...),
+        kept so that writing loses nothing.
+    vertex_dtype : str
+        ``'f4'`` or ``'f8'``: how the file stored coordinates; used when
+        writing so original values round-trip exactly.
+    path : str or None
+        Where it was read from.
+    notes : list of str
+        What loading changed (polygons split, faces dropped, ...).
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    vertex_colors: np.ndarray | None = None
+    vertex_filled: np.ndarray | None = None
+    face_filled: np.ndarray | None = None
+    vertex_props: dict = field(default_factory=dict)
+    vertex_dtype: str = "f8"
+    path: str | None = None
+    notes: list = field(default_factory=list)
+
+    @property
+    def n_vertices(self):
+        return int(self.V.shape[0])
+
+    @property
+    def n_faces(self):
+        return int(self.F.shape[0])
+
+
+# --------------------------------------------------------------------------
+# public entry points
+# --------------------------------------------------------------------------
+def read_mesh(path, *, clean=True):
+    """Read a triangle mesh from a PLY, OBJ, OFF or STL file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file. Its extension picks the reader; PLY and OFF also check
+        their magic line.
+    clean : bool
+        Drop faces that repeat a vertex and exact duplicate faces
+        (see :func:`clean_faces`). Default True.
+
+    Returns
+    -------
+    mesh : Mesh
+
+    Raises
+    ------
+    MeshError
+        For any file that cannot be read as a triangle mesh.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise MeshError("is a directory, not a mesh file", path)
+    if not path.exists():
+        raise MeshError("no such file", path)
+    ext = path.suffix.lower()
+    if ext not in SUPPORTED:
+        raise MeshError(f"unknown extension '{path.suffix}' (expected one of {', '.join(SUPPORTED)})", path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise MeshError(f"cannot read: {exc.strerror or exc}", path) from None
+    if len(data) == 0:
+        raise MeshError("empty file", path)
+    reader = {".ply": _read_ply, ".obj": _read_obj, ".off": _read_off, ".stl": _read_stl}[ext]
+    try:
+        mesh = reader(data)
+    except MeshError as exc:
+        raise MeshError(exc.message, path) from None
+    except (ValueError, IndexError, UnicodeDecodeError, OverflowError) as exc:
+        raise MeshError(f"malformed {ext[1:].upper()} file ({exc})", path) from None
+    mesh.path = str(path)
+    try:
+        _validate(mesh)
+        if clean:
+            F, kept, notes = clean_faces(mesh.F)
+            mesh.F = F
+            if mesh.face_filled is not None:
+                mesh.face_filled = mesh.face_filled[kept]
+            mesh.notes.extend(notes)
+    except MeshError as exc:
+        raise MeshError(exc.message, path) from None
+    zero = _zero_area_count(mesh.V, mesh.F)
+    if zero:
+        mesh.notes.append(f"{zero} zero-area faces kept")
+    return mesh
+
+
+def write_mesh(path, mesh, *, binary=True):
+    """Write a mesh; PLY keeps colours and the ``filled`` flags.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file; its extension picks the format (.ply, .obj, .off, .stl).
+    mesh : Mesh
+    binary : bool
+        For PLY and STL, write binary (default) or ascii.
+
+    Notes
+    -----
+    The file is written to a temporary file in the same folder and renamed
+    into place, so a failure leaves no partial output.
+    """
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext not in SUPPORTED:
+        raise MeshError(f"unknown output extension '{path.suffix}' (expected one of {', '.join(SUPPORTED)})", path)
+    if not path.parent.exists() or not path.parent.is_dir():
+        raise MeshError("output folder does not exist", path)
+    writer = {".ply": _ply_bytes, ".obj": _obj_bytes, ".off": _off_bytes, ".stl": _stl_bytes}[ext]
+    payload = writer(mesh, binary)
+    atomic_write(path, payload)
+
+
+def atomic_write(path, payload):
+    """Write ``payload`` (bytes or str) to ``path`` through a temp file + rename."""
+    path = Path(path)
+    if isinstance(payload, str):
+        payload = payload.encode("utf-8")
+    fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=str(path.parent))
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(payload)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def clean_faces(F):
+    """Drop faces that repeat a vertex and exact duplicate faces.
+
+    Parameters
+    ----------
+    F : (m,3) int64 array
+
+    Returns
+    -------
+    F_clean : (k,3) int64 array
+        Kept faces, in their original order.
+    kept : (k,) int64 array
+        Indices into ``F`` of the kept faces.
+    notes : list of str
+        One line per kind of face dropped.
+    """
+    F = np.asarray(F, dtype=np.int64)
+    notes = []
+    ok = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
+    n_degen = int((~ok).sum())
+    idx = np.flatnonzero(ok)
+    S = np.sort(F[idx], axis=1)
+    _, first = np.unique(S, axis=0, return_index=True)
+    first.sort()
+    n_dup = len(idx) - len(first)
+    kept = idx[first]
+    if n_degen:
+        notes.append(f"{n_degen} faces with a repeated vertex dropped")
+    if n_dup:
+        notes.append(f"{n_dup} duplicate faces dropped")
+    return F[kept], kept, notes
+
+
+# --------------------------------------------------------------------------
+# validation
+# --------------------------------------------------------------------------
+def _validate(mesh):
+    V, F = mesh.V, mesh.F
+    if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] == 0:
+        raise MeshError("no vertices")
+    bad = ~np.isfinite(V).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise MeshError(f"vertex {i} has a non-finite coordinate ({int(bad.sum())} such vertices)")
+    if F.shape[0] == 0:
+        raise MeshError("no faces: this is a point cloud, not a surface mesh")
+    lo, hi = F.min(), F.max()
+    if lo < 0 or hi >= V.shape[0]:
+        rows = np.flatnonzero(((F < 0) | (F >= V.shape[0])).any(axis=1))
+        i = int(rows[0])
+        raise MeshError(f"face {i} has vertex index {int(F[i][(F[i] < 0) | (F[i] >= V.shape[0])][0])} "
+                        f"out of range 0..{V.shape[0] - 1}")
+
+
+def _zero_area_count(V, F):
+    if len(F) == 0:
+        return 0
+    e1 = V[F[:, 1]] - V[F[:, 0]]
+    e2 = V[F[:, 2]] - V[F[:, 0]]
+    return int((np.linalg.norm(np.cross(e1, e2), axis=1) == 0).sum())
+
+
+def _polygons_to_triangles(polys, notes):
+    """Fan-triangulate a list of index lists; returns (m,3) int64."""
+    tris = []
+    n_poly = 0
+    n_small = 0
+    for p in polys:
+        if len(p) < 3:
+            n_small += 1
+            continue
+        if len(p) > 3:
+            n_poly += 1
+        for j in range(1, len(p) - 1):
+            tris.append((p[0], p[j], p[j + 1]))
+    if n_poly:
+        notes.append(f"{n_poly} polygons with more than 3 corners split into triangles")
+    if n_small:
+        notes.append(f"{n_small} faces with fewer than 3 corners dropped")
+    return np.array(tris, dtype=np.int64).reshape(-1, 3)
+
+
+# --------------------------------------------------------------------------
+# PLY
+# --------------------------------------------------------------------------
+def _parse_ply_header(data):
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply"):
+        raise MeshError("not a PLY file (missing 'ply' magic)")
+    if end < 0:
+        raise MeshError("PLY header has no 'end_header'")
+    nl = data.find(b"\n", end)
+    body_start = len(data) if nl < 0 else nl + 1
+    lines = data[:end].decode("ascii", errors="replace").splitlines()
+    fmt = None
+    elements = []
+    for lineno, raw in enumerate(lines, 1):
+        tok = raw.split()
+        if not tok or tok[0] in ("ply", "comment", "obj_info"):
+            continue
+        if tok[0] == "format":
+            if len(tok) < 2 or tok[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                raise MeshError(f"PLY header line {lineno}: unknown format '{raw.strip()}'")
+            fmt = tok[1]
+        elif tok[0] == "element":
+            if len(tok) != 3 or not tok[2].lstrip("-").isdigit():
+                raise MeshError(f"PLY header line {lineno}: bad element line '{raw.strip()}'")
+            count = int(tok[2])
+            if count < 0:
+                raise MeshError(f"PLY header line {lineno}: negative element count")
+            elements.append({"name": tok[1], "count": count, "props": []})
+        elif tok[0] == "property":
+            if not elements:
+                raise MeshError(f"PLY header line {lineno}: property before any element")
+            if tok[1] == "list":
+                if len(tok) != 5 or tok[2] not in _PLY_TYPES or tok[3] not in _PLY_TYPES:
+                    raise MeshError(f"PLY header line {lineno}: bad list property '{raw.strip()}'")
+                elements[-1]["props"].append((tok[4], "list", _PLY_TYPES[tok[2]], _PLY_TYPES[tok[3]]))
+            else:
+                if len(tok) != 3 or tok[1] not in _PLY_TYPES:
+                    raise MeshError(f"PLY header line {lineno}: bad property '{raw.strip()}'")
+                elements[-1]["props"].append((tok[2], "scalar", _PLY_TYPES[tok[1]], None))
+        else:
+            raise MeshError(f"PLY header line {lineno}: unknown keyword '{tok[0]}'")
+    if fmt is None:
+        raise MeshError("PLY header has no 'format' line")
+    return fmt, elements, body_start
+
+
+def _read_ply(data):
+    fmt, elements, pos = _parse_ply_header(data)
+    names = [e["name"] for e in elements]
+    if "vertex" not in names:
+        raise MeshError("PLY has no vertex element")
+    if "face" not in names:
+        raise MeshError("no faces: this is a point cloud, not a surface mesh")
+    if fmt == "ascii":
+        tables = _ply_ascii_body(data[pos:], elements)
+    else:
+        endian = "<" if fmt == "binary_little_endian" else ">"
+        tables = _ply_binary_body(data, pos, elements, endian)
+    vert = tables["vertex"]
+    for c in "xyz":
+        if c not in vert:
+            raise MeshError(f"PLY vertex element has no '{c}' property")
+    vdt = "f8" if any(vert[c].dtype == np.float64 for c in "xyz") else "f4"
+    V = np.column_stack([vert[c].astype(np.float64) for c in "xyz"])
+    mesh = Mesh(V=V, F=np.zeros((0, 3), np.int64), vertex_dtype=vdt)
+    col = [c for c in ("red", "green", "blue", "alpha") if c in vert]
+    if len(col) >= 3 and col[:3] == ["red", "green", "blue"]:
+        cols = [vert[c] for c in col]
+        if all(c.dtype == np.uint8 for c in cols):
+            mesh.vertex_colors = np.column_stack(cols).astype(np.uint8)
+        else:  # float colours in [0, 1]
+            mesh.vertex_colors = np.clip(np.round(np.column_stack(cols).astype(np.float64) * 255), 0, 255).astype(np.uint8)
+    skip = {"x", "y", "z", "red", "green", "blue", "alpha", "filled"}
+    for name, arr in vert.items():
+        if name not in skip and arr.ndim == 1:
+            mesh.vertex_props[name] = arr
+    if "filled" in vert:
+        mesh.vertex_filled = vert["filled"].astype(bool)
+    face = tables["face"]
+    F = face.get("__F__")
+    if F is None:
+        raise MeshError("PLY face element has no vertex index list")
+    if "__polys__" in face:
+        F = _polygons_to_triangles(face["__polys__"], mesh.notes)
+    else:
+        F = F.astype(np.int64)
+    mesh.F = F
+    if "filled" in face and "__polys__" not in face:
+        mesh.face_filled = face["filled"].astype(bool)
+    return mesh
+
+
+def _ply_binary_body(data, pos, elements, endian):
+    tables = {}
+    for el in elements:
+        props, count, name = el["props"], el["count"], el["name"]
+        if all(p[1] == "scalar" for p in props):
+            dt = np.dtype([(p[0], endian + p[2]) for p in props])
+            need = dt.itemsize * count
+            if pos + need > len(data):
+                raise MeshError(f"truncated: {name} data needs {need} bytes, "
+                                f"{max(0, len(data) - pos)} left")
+            arr = np.frombuffer(data, dtype=dt, count=count, offset=pos)
+            pos += need
+            tables[name] = {p[0]: arr[p[0]] for p in props}
+            continue
+        tab, pos = _ply_binary_lists(data, pos, el, endian)
+        tables[name] = tab
+    if pos < len(data) and data[pos:].strip(b"\x00\r\n\t ") and len(data) - pos > 0:
+        # trailing bytes are tolerated but only if they are whitespace/padding
+        raise MeshError(f"header disagrees with body: {len(data) - pos} bytes after the last element")
+    return tables
+
+
+def _ply_binary_lists(data, pos, el, endian):
+    """Element with list properties: a fast path for all-triangle faces."""
+    props, count, name = el["props"], el["count"], el["name"]
+    tab = {}
+    list_props = [p for p in props if p[1] == "list"]
+    idx_name = next((p[0] for p in list_props if p[0] in ("vertex_indices", "vertex_index")), None)
+    if len(list_props) == 1 and idx_name is not None and count > 0:
+        fields = []
+        for p in props:
+            if p[1] == "list":
+                fields += [("__n__", endian + p[2]), ("__F__", endian + p[3], (3,))]
+            else:
+                fields.append((p[0], endian + p[2]))
+        dt = np.dtype(fields)
+        need = dt.itemsize * count
+        avail = min(count, max(0, len(data) - pos) // dt.itemsize)
+        arr = np.frombuffer(data, dtype=dt, count=avail, offset=pos)
+        if (arr["__n__"] == 3).all() and avail < count:
+            raise MeshError(f"truncated: {name} data needs {need} bytes, {max(0, len(data) - pos)} left")
+        if avail == count:
+            if (arr["__n__"] == 3).all():
+                for p in props:
+                    tab[p[0] if p[1] == "scalar" else "__F__"] = arr[p[0] if p[1] == "scalar" else "__F__"]
+                return tab, pos + need
+    # general path: walk records one by one
+    scal = {p[0]: [] for p in props if p[1] == "scalar"}
+    lists = {p[0]: [] for p in props if p[1] == "list"}
+    mv = memoryview(data)
+    for i in range(count):
+        for p in props:
+            if p[1] == "scalar":
+                dt = np.dtype(endian + p[2])
+                if pos + dt.itemsize > len(data):
+                    raise MeshError(f"truncated: {name} {i} of {count} is cut off")
+                scal[p[0]].append(np.frombuffer(mv, dt, 1, pos)[0])
+                pos += dt.itemsize
+            else:
+                cdt, idt = np.dtype(endian + p[2]), np.dtype(endian + p[3])
+                if pos + cdt.itemsize > len(data):
+                    raise MeshError(f"truncated: {name} {i} of {count} is cut off")
+                n = int(np.frombuffer(mv, cdt, 1, pos)[0])
+                pos += cdt.itemsize
+                if pos + n * idt.itemsize > len(data):
+                    raise MeshError(f"truncated: {name} {i} of {count} is cut off")
+                lists[p[0]].append(np.frombuffer(mv, idt, n, pos).astype(np.int64).tolist())
+                pos += n * idt.itemsize
+    for k, v in scal.items():
+        tab[k] = np.array(v)
+    if idx_name is not None:
+        polys = lists[idx_name]
+        if all(len(p) == 3 for p in polys):
+            tab["__F__"] = np.array(polys, dtype=np.int64).reshape(-1, 3)
+        else:
+            tab["__F__"] = np.zeros((0, 3), np.int64)
+            tab["__polys__"] = polys
+    return tab, pos
+
+
+def _ply_ascii_body(body, elements):
+    text = body.decode("ascii", errors="replace")
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    tables = {}
+    at = 0
+    for el in elements:
+        props, count, name = el["props"], el["count"], el["name"]
+        chunk = lines[at:at + count]
+        if len(chunk) < count:
+            raise MeshError(f"header disagrees with body: {count} {name} lines announced, {len(chunk)} found")
+        at += count
+        tab = {}
+        if all(p[1] == "scalar" for p in props):
+            if count:
+                flat = " ".join(chunk).split()
+                if len(flat) != count * len(props):
+                    raise MeshError(f"header disagrees with body: {name} lines should have {len(props)} values each")
+                arr = np.array(flat, dtype=np.float64).reshape(count, len(props))
+            else:
+                arr = np.zeros((0, len(props)))
+            for j, p in enumerate(props):
+                tab[p[0]] = arr[:, j].astype(p[2]) if p[2] not in ("f4", "f8") else arr[:, j].astype(p[2])
+        else:
+            scal = {p[0]: [] for p in props if p[1] == "scalar"}
+            polys = []
+            for li, ln in enumerate(chunk):
+                tok = ln.split()
+                k = 0
+                for p in props:
+                    if p[1] == "scalar":
+                        scal[p[0]].append(float(tok[k]))
+                        k += 1
+                    else:
+                        n = int(tok[k])
+                        vals = tok[k + 1:k + 1 + n]
+                        if len(vals) != n:
+                            raise MeshError(f"{name} {li}: list announces {n} values, has {len(vals)}")
+                        if p[0] in ("vertex_indices", "vertex_index"):
+                            polys.append([int(v) for v in vals])
+                        k += 1 + n
+            for p in props:
+                if p[1] == "scalar":
+                    tab[p[0]] = np.array(scal[p[0]], dtype=p[2])
+            if all(len(p) == 3 for p in polys):
+                tab["__F__"] = np.array(polys, dtype=np.int64).reshape(-1, 3)
+            else:
+                tab["__F__"] = np.zeros((0, 3), np.int64)
+                tab["__polys__"] = polys
+        tables[name] = tab
+    if at < len(lines):
+        raise MeshError(f"header disagrees with body: {len(lines) - at} extra lines after the last element")
+    return tables
+
+
+def _ply_bytes(mesh, binary=True):
+    V = np.asarray(mesh.V, dtype=np.float64)
+    F = np.asarray(mesh.F, dtype=np.int64)
+    n, m = len(V), len(F)
+    vdt = mesh.vertex_dtype if mesh.vertex_dtype in ("f4", "f8") else "f8"
+    endian = "<"
+    vfields = [(c, endian + vdt) for c in "xyz"]
+    vcols = {c: V[:, j] for j, c in enumerate("xyz")}
+    for name, arr in mesh.vertex_props.items():
+        arr = np.asarray(arr)
+        if arr.shape == (n,) and arr.dtype.str[1:] in _PLY_NAMES:
+            vfields.append((name, endian + arr.dtype.str[1:]))
+            vcols[name] = arr
+    if mesh.vertex_colors is not None:
+        C = np.asarray(mesh.vertex_colors, dtype=np.uint8)
+        for j, c in enumerate(("red", "green", "blue", "alpha")[:C.shape[1]]):
+            vfields.append((c, "u1"))
+            vcols[c] = C[:, j]
+    if mesh.vertex_filled is not None:
+        vfields.append(("filled", "u1"))
+        vcols["filled"] = np.asarray(mesh.vertex_filled, dtype=np.uint8)
+    ffields = [("n", "u1"), ("i", endian + "i4", (3,))]
+    if mesh.face_filled is not None:
+        ffields.append(("filled", "u1"))
+    head = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
+            "comment written by shellrepair", f"element vertex {n}"]
+    head += [f"property {_PLY_NAMES[dt[-2:]]} {name}" for name, dt in vfields]
+    head += [f"element face {m}", "property list uchar int vertex_indices"]
+    if mesh.face_filled is not None:
+        head.append("property uchar filled")
+    head.append("end_header")
+    header = ("\n".join(head) + "\n").encode("ascii")
+    if binary:
+        va = np.empty(n, dtype=np.dtype(vfields))
+        for name, _ in vfields:
+            va[name] = vcols[name]
+        fa = np.empty(m, dtype=np.dtype(ffields))
+        fa["n"] = 3
+        fa["i"] = F
+        if mesh.face_filled is not None:
+            fa["filled"] = np.asarray(mesh.face_filled, dtype=np.uint8)
+        return header + va.tobytes() + fa.tobytes()
+    out = [header.decode()]
+    cols = []
+    for name, dt in vfields:
+        a = vcols[name]
+        if dt[-2] == "f":
+            cols.append(np.char.mod("%.17g" if dt[-2:] == "f8" else "%.9g", a.astype(np.float64)))
+        else:
+            cols.append(np.char.mod("%d", a.astype(np.int64)))
+    if n:
+        rows = cols[0]
+        for c in cols[1:]:
+            rows = np.char.add(np.char.add(rows, " "), c)
+        out.append("\n".join(rows.tolist()) + "\n")
+    if m:
+        fl = ("3 " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
+              + np.char.mod("%d", F[:, 2]))
+        if mesh.face_filled is not None:
+            fl = fl + " " + np.char.mod("%d", np.asarray(mesh.face_filled, np.int64))
+        out.append("\n".join(fl.tolist()) + "\n")
+    return "".join(out).encode("ascii")
+
+
+# --------------------------------------------------------------------------
+# OBJ
+# --------------------------------------------------------------------------
+def _read_obj(data):
+    text = data.decode("utf-8", errors="replace")
+    verts, cols, polys = [], [], []
+    for lineno, line in enumerate(text.splitlines(), 1):
+        if not line or line[0] not in "vf":
+            continue
+        tok = line.split()
+        if tok[0] == "v":
+            if len(tok) < 4:
+                raise MeshError(f"line {lineno}: vertex needs 3 coordinates")
+            try:
+                vals = [float(t) for t in tok[1:]]
+            except ValueError:
+                raise MeshError(f"line {lineno}: bad number in '{line.strip()}'") from None
+            verts.append(vals[:3])
+            if len(vals) >= 6:
+                cols.append(vals[3:6])
+        elif tok[0] == "f":
+            n = len(verts)
+            idx = []
+            for t in tok[1:]:
+                s = t.split("/", 1)[0]
+                try:
+                    k = int(s)
+                except ValueError:
+                    raise MeshError(f"line {lineno}: bad face index '{t}'") from None
+                if k == 0:
+                    raise MeshError(f"line {lineno}: face index 0 (OBJ indices start at 1)")
+                idx.append(k - 1 if k > 0 else n + k)
+            polys.append(idx)
+    if not verts:
+        raise MeshError("no vertices")
+    mesh = Mesh(V=np.array(verts, dtype=np.float64), F=np.zeros((0, 3), np.int64))
+    if cols and len(cols) == len(verts):
+        c = np.array(cols, dtype=np.float64)
+        if c.max() <= 1.0:
+            c = c * 255.0
+        mesh.vertex_colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
+    mesh.F = _polygons_to_triangles(polys, mesh.notes)
+    return mesh
+
+
+def _obj_bytes(mesh, binary=True):
+    V = np.asarray(mesh.V, np.float64)
+    lines = ["# written by shellrepair"]
+    vs = "v " + np.char.mod("%.17g", V[:, 0]) + " " + np.char.mod("%.17g", V[:, 1]) + " " + np.char.mod("%.17g", V[:, 2])
+    if mesh.vertex_colors is not None:
+        C = np.asarray(mesh.vertex_colors)[:, :3].astype(np.float64) / 255.0
+        for j in range(3):
+            vs = vs + " " + np.char.mod("%.6g", C[:, j])
+    lines += vs.tolist()
+    F = np.asarray(mesh.F, np.int64) + 1
+    lines += ("f " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
+              + np.char.mod("%d", F[:, 2])).tolist()
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------
+# OFF
+# --------------------------------------------------------------------------
+def _read_off(data):
+    text = data.decode("utf-8", errors="replace")
+    lines = [ln.split("#", 1)[0].strip() for ln in text.splitlines()]
+    lines = [ln for ln in lines if ln]
+    if not lines or not re.match(r"^C?N?OFF", lines[0]):
+        raise MeshError("not an OFF file (missing 'OFF' magic)")
+    head = lines[0]
+    rest = lines[1:]
+    first = head[head.index("OFF") + 3:].split()
+    if not first:
+        if not rest:
+            raise MeshError("OFF file has no counts line")
+        first = rest[0].split()
+        rest = rest[1:]
+    if len(first) < 2:
+        raise MeshError("OFF counts line needs vertex and face counts")
+    nv, nf = int(first[0]), int(first[1])
+    if len(rest) < nv + nf:
+        raise MeshError(f"header disagrees with body: {nv} vertices and {nf} faces announced, {len(rest)} lines found")
+    vrows = [r.split() for r in rest[:nv]]
+    V = np.array([[float(x) for x in r[:3]] for r in vrows], dtype=np.float64).reshape(-1, 3)
+    mesh = Mesh(V=V, F=np.zeros((0, 3), np.int64))
+    if head.startswith("C") and all(len(r) >= 6 for r in vrows):
+        c = np.array([[float(x) for x in r[3:6]] for r in vrows])
+        if c.max() <= 1.0:
+            c = c * 255
+        mesh.vertex_colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
+    polys = []
+    for i, r in enumerate(rest[nv:nv + nf]):
+        tok = r.split()
+        k = int(tok[0])
+        if len(tok) < 1 + k:
+            raise MeshError(f"face {i}: announces {k} corners, has {len(tok) - 1}")
+        polys.append([int(t) for t in tok[1:1 + k]])
+    mesh.F = _polygons_to_triangles(polys, mesh.notes)
+    return mesh
+
+
+def _off_bytes(mesh, binary=True):
+    V = np.asarray(mesh.V, np.float64)
+    F = np.asarray(mesh.F, np.int64)
+    lines = ["OFF", f"{len(V)} {len(F)} 0"]
+    lines += (np.char.mod("%.17g", V[:, 0]) + " " + np.char.mod("%.17g", V[:, 1]) + " "
+              + np.char.mod("%.17g", V[:, 2])).tolist()
+    lines += ("3 " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
+              + np.char.mod("%d", F[:, 2])).tolist()
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------
+# STL
+# --------------------------------------------------------------------------
+def _read_stl(data):
+    if len(data) >= 84:
+        ntri = int(np.frombuffer(data, "<u4", 1, 80)[0])
+        if 84 + 50 * ntri == len(data):
+            rec = np.dtype([("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("a", "<u2")])
+            arr = np.frombuffer(data, rec, ntri, 84)
+            P = arr["v"].reshape(-1, 3)
+            return _weld(P, "f4")
+    head = data[:5].lower()
+    if head.startswith(b"solid"):
+        text = data.decode("ascii", errors="replace")
+        nums = re.findall(r"vertex\s+(\S+)\s+(\S+)\s+(\S+)", text)
+        if not nums or len(nums) % 3:
+            raise MeshError("ASCII STL has no complete facets")
+        P = np.array(nums, dtype=np.float64)
+        return _weld(P, "f8")
+    if len(data) >= 84:
+        ntri = int(np.frombuffer(data, "<u4", 1, 80)[0])
+        raise MeshError(f"truncated or malformed binary STL: header announces {ntri} triangles "
+                        f"({84 + 50 * ntri} bytes), file has {len(data)} bytes")
+    raise MeshError("not an STL file")
+
+
+def _weld(P, vdt):
+    """Merge STL corners with bit-identical coordinates into shared vertices."""
+    P = np.ascontiguousarray(P, dtype=np.float64)
+    V, inv = np.unique(P, axis=0, return_inverse=True)
+    F = inv.reshape(-1, 3).astype(np.int64)
+    mesh = Mesh(V=V, F=F, vertex_dtype=vdt)
+    mesh.notes.append(f"STL: {len(P)} corners welded into {len(V)} vertices")
+    return mesh
+
+
+def _stl_bytes(mesh, binary=True):
+    V = np.asarray(mesh.V, np.float64)
+    F = np.asarray(mesh.F, np.int64)
+    T = V[F]
+    N = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    ln = np.linalg.norm(N, axis=1, keepdims=True)
+    N = np.divide(N, ln, out=np.zeros_like(N), where=ln > 0)
+    if binary:
+        rec = np.dtype([("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("a", "<u2")])
+        arr = np.zeros(len(F), rec)
+        arr["n"] = N
+        arr["v"] = T
+        return b"shellrepair".ljust(80, b" ") + np.uint32(len(F)).tobytes() + arr.tobytes()
+    out = ["solid shellrepair"]
+    for n, t in zip(N, T):
+        out.append(f"facet normal {n[0]:.9g} {n[1]:.9g} {n[2]:.9g}\nouter loop")
+        out += [f"vertex {p[0]:.17g} {p[1]:.17g} {p[2]:.17g}" for p in t]
+        out.append("endloop\nendfacet")
+    out.append("endsolid shellrepair")
+    return "\n".join(out) + "\n"

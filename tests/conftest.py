@@ -1,0 +1,34 @@
+"""Shared fixtures: synthetic meshes and the real scans in ../shared/data."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from shellrepair import shapes
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+def shared_scan(name):
+    """Path of a real scan in ../shared/data, or skip the test saying why."""
+    p = SHARED / name
+    if not p.exists():
+        pytest.skip(f"real scan {name} not available: ../shared/data is only present in the project's CI")
+    return p
+
+
+@pytest.fixture
+def sphere():
+    return shapes.icosphere(3)
+
+
+@pytest.fixture
+def two_pinched_holes():
+    """A 6x6 grid with two cells removed that touch at one corner vertex."""
+    V, F = shapes.grid(6, 6)
+    ny = 6
+    cell_faces = lambda i, j: [i * 5 + j, 25 + i * 5 + j]  # both triangles of cell (i, j)
+    remove = np.zeros(len(F), bool)
+    remove[cell_faces(2, 2) + cell_faces(3, 3)] = True
+    return V, F[~remove], (3 * ny + 3)

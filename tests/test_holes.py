@@ -1,0 +1,137 @@
+"""Hole detection: every boundary loop, its order, its class."""
+
+import numpy as np
+import pytest
+
+from shellrepair import detect_holes, read_mesh, shapes
+from shellrepair.holes import boundary_loops, loop_stats
+from shellrepair.topology import edge_topology
+
+from conftest import shared_scan
+
+
+def _assert_faces_left_of_loops(F, loops):
+    """Each loop edge (a, b) is a half-edge of exactly one face."""
+    he = {(int(a), int(b)) for f in F for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
+    for lp in loops:
+        for a, b in zip(lp, np.roll(lp, -1)):
+            assert (int(a), int(b)) in he
+            assert (int(b), int(a)) not in he
+
+
+def test_closed_sphere_has_no_loops(sphere):
+    V, F = sphere
+    scan = detect_holes(V, F)
+    assert scan.loops == [] and scan.n_boundary_edges == 0
+    assert scan.euler == 2
+
+
+def test_perforated_sphere_loops_match_removed_region():
+    V, F = shapes.icosphere(4)
+    V2, F2, removed, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.25, seed=1)
+    scan = detect_holes(V2, F2)
+    assert len(scan.loops) == 3 and len(scan.holes) == 3
+    assert scan.n_components == 1
+    assert sum(lp.edges for lp in scan.loops) == scan.n_boundary_edges
+    assert scan.euler == 2 - 3
+    _assert_faces_left_of_loops(F2, [lp.vertices for lp in scan.loops])
+    for lp in scan.loops:  # discs of geodesic radius 0.25 on a unit sphere
+        assert 2 * 0.25 < lp.diameter < 2 * 0.4
+        assert lp.planarity < 0.05
+
+
+def test_torus_with_two_holes():
+    V, F = shapes.torus()
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.2, seed=3)
+    scan = detect_holes(V2, F2)
+    assert len(scan.holes) == 2 and not scan.borders
+    assert scan.euler == 0 - 2
+
+
+def test_grid_outer_edge_is_one_border():
+    V, F = shapes.grid(8, 5)
+    scan = detect_holes(V, F)
+    assert len(scan.loops) == 1
+    lp = scan.loops[0]
+    assert lp.edges == 2 * (8 - 1) + 2 * (5 - 1)
+    assert lp.kind == "border"
+    assert lp.inside_fraction == pytest.approx(1.0, abs=0.02)
+    assert lp.perimeter == pytest.approx(4.0)
+
+
+def test_fill_borders_and_max_hole_override_the_class():
+    V, F = shapes.grid(8, 8)
+    assert detect_holes(V, F, fill_borders=True).loops[0].kind == "hole"
+    V, F = shapes.icosphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=1, radius=0.4, seed=0)
+    lp = detect_holes(V2, F2, max_hole=5).loops[0]
+    assert lp.kind == "border" and "max-hole" in lp.reason
+
+
+def test_two_holes_touching_at_a_vertex_are_two_loops(two_pinched_holes):
+    V, F, pinch = two_pinched_holes
+    loops, chains = boundary_loops(F, len(V))
+    assert chains == []
+    sizes = sorted(len(lp) for lp in loops)
+    assert sizes == [4, 4, 20]
+    small = [lp for lp in loops if len(lp) == 4]
+    assert all(pinch in lp.tolist() for lp in small)
+    _assert_faces_left_of_loops(F, loops)
+    scan = detect_holes(V, F)
+    assert [lp.kind for lp in sorted(scan.loops, key=lambda x: x.edges)] == ["hole", "hole", "border"]
+
+
+def test_sheet_with_a_hole_has_a_border_and_a_hole():
+    V, F = shapes.grid(20, 20)
+    c = np.array([0.5, 0.5, 0.0])
+    remove = (np.linalg.norm(V[F].mean(axis=1) - c, axis=1) < 0.2)
+    V2, F2, _ = shapes.remove_faces(V, F, remove)
+    V2 = V2.copy()
+    V2[:, 2] = 0.1 * np.sin(3 * V2[:, 0])  # a gently curved sheet
+    scan = detect_holes(V2, F2)
+    kinds = sorted((lp.kind, lp.edges) for lp in scan.loops)
+    assert [k for k, _ in kinds] == ["border", "hole"]
+    assert kinds[0][1] == 4 * 19
+
+
+def test_nonmanifold_edges_are_reported_not_crashed_on():
+    V, F = shapes.grid(4, 4)
+    # a fin: a third triangle on an interior edge
+    V = np.vstack([V, [[0.5, 0.5, 1.0]]])
+    a, b = F[0][0], F[0][2]
+    F = np.vstack([F, [[a, b, len(V) - 1]]])
+    scan = detect_holes(V, F)
+    assert scan.n_nonmanifold_edges == 1
+
+
+def test_loop_stats_of_a_square():
+    V = np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0]], float)
+    st = loop_stats(V, np.arange(4))
+    assert st["perimeter"] == pytest.approx(8.0)
+    assert st["area"] == pytest.approx(4.0)
+    assert st["diameter"] == pytest.approx(np.sqrt(8))
+    assert st["planarity"] == pytest.approx(0.0, abs=1e-12)
+    assert np.allclose(np.abs(st["axis"]), [0, 0, 1])
+
+
+def test_real_bunny_has_five_holes():
+    m = read_mesh(shared_scan("real_bunny_zipper.ply"))
+    scan = detect_holes(m.V, m.F)
+    assert sorted((lp.edges for lp in scan.holes), reverse=True) == [80, 42, 40, 39, 22]
+    assert scan.borders == [] and scan.n_components == 1
+
+
+def test_real_range_scan_outer_edges_are_borders():
+    m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
+    scan = detect_holes(m.V, m.F)
+    assert scan.n_components == 28
+    # the longest loop of every piece is its outer edge, never a hole
+    by_comp = {}
+    for lp in scan.loops:
+        if lp.component not in by_comp or lp.edges > by_comp[lp.component].edges:
+            by_comp[lp.component] = lp
+    assert len(by_comp) == 28
+    assert all(lp.kind == "border" for lp in by_comp.values())
+    big = max(scan.loops, key=lambda x: x.edges)
+    holes_big = sorted((lp.edges for lp in scan.holes if lp.component == big.component), reverse=True)
+    assert holes_big[0] > 300 and 59 in holes_big and 48 in holes_big
