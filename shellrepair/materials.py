@@ -1,0 +1,679 @@
+"""Material presets, the rust-coverage map and the aged-metal shader.
+
+A gilt-bronze statue after centuries (source paper, 4.4; Dorsey & Hanrahan
+1996) is bronze partly covered by corrosion layers -- cuprite (Cu2O) next to
+the metal, then green basic copper salts -- with remnants of gold leaf where
+the corrosion has not reached.  Per vertex a *rust coverage* c in [0, 1]
+says how much of the surface is corroded; it drives
+
+- the Beckmann roughness ``m = m_exposed + (m_rust - m_exposed) c``
+  (source paper 4.3: the spread of rust is used as the roughness), and
+- the thickness of each corrosion layer ``X_l = c X_l_max``,
+
+and the BRDF is the area-weighted mix of the exposed metal (Torrance-Sparrow
+with conductor Fresnel) and the corroded part (Torrance-Sparrow with
+dielectric Fresnel over the Kubelka-Munk stack on bronze)::
+
+    f = (1 - c) f_TS,metal + c [f_TS,patina + rho_dt(i) R_KM(c) rho_dt(o) / pi]
+
+Colour is three channels at the wavelengths :data:`RGB_WAVELENGTHS_NM`.
+
+References
+----------
+.. [1] P. B. Johnson and R. W. Christy, "Optical Constants of the Noble
+   Metals", Phys. Rev. B 6, 4370-4379, 1972 (Au and Cu n, k).
+.. [2] J. Dorsey and P. Hanrahan, "Modeling and Rendering of Metallic
+   Patinas", SIGGRAPH 1996.
+.. [3] J. W. Anthony et al., Handbook of Mineralogy, Mineralogical Society
+   of America (refractive indices of malachite and brochantite).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from . import shading as sh
+
+__all__ = [
+    "RGB_WAVELENGTHS_NM",
+    "Conductor",
+    "KMLayer",
+    "Material",
+    "GOLD_LEAF",
+    "BRONZE",
+    "CUPRITE",
+    "GREEN_PATINA",
+    "MATERIALS",
+    "get_material",
+    "rust_coverage_from_colors",
+    "rust_coverage_from_occlusion",
+    "rust_coverage",
+    "surface_params",
+    "substrate_reflectance",
+    "shade_reference",
+    "MaterialShader",
+    "ModelChoice",
+    "choose_model",
+]
+
+#: Wavelengths (nm) of the R, G, B channels: rows of Johnson & Christy's
+#: table, so no interpolation of the published constants is needed.
+RGB_WAVELENGTHS_NM = (659.5, 548.6, 450.9)
+
+
+@dataclasses.dataclass(frozen=True)
+class Conductor:
+    """A metal: complex refractive index ``n + i k`` per RGB channel."""
+
+    name: str
+    n: tuple
+    k: tuple
+    source: str
+
+
+@dataclasses.dataclass(frozen=True)
+class KMLayer:
+    """A Kubelka-Munk layer: K and S per RGB channel in 1/um."""
+
+    name: str
+    K: tuple
+    S: tuple
+    eta: float
+    illustrative: bool
+    source: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Material:
+    """An aged-metal preset.
+
+    Attributes
+    ----------
+    name : str
+    exposed : Conductor
+        Metal seen where there is no rust (gold leaf, or bronze).
+    substrate : Conductor
+        Metal under the corrosion layers.
+    layers : tuple of (KMLayer, float)
+        Corrosion layers from the metal up, with their thickness (um) at
+        full coverage.  Empty for an uncorroded metal.
+    m_exposed, m_rust : float
+        Beckmann RMS slope at coverage 0 and 1.
+    eta_top : float
+        Refractive index of the outermost corrosion layer (the rough
+        dielectric interface).
+    """
+
+    name: str
+    exposed: Conductor
+    substrate: Conductor
+    layers: tuple
+    m_exposed: float
+    m_rust: float
+    eta_top: float
+
+    @property
+    def corrodes(self):
+        return len(self.layers) > 0
+
+
+GOLD_LEAF = Conductor(
+    "gold leaf",
+    n=(0.14, 0.43, 1.38),
+    k=(3.697, 2.455, 1.914),
+    source="Johnson & Christy 1972, Au at 659.5, 548.6, 450.9 nm",
+)
+
+#: No standard optical-constant table exists for tin bronze; copper's is the
+#: closest published one.  A ~10 % Sn bronze is somewhat less red than this.
+BRONZE = Conductor(
+    "bronze (copper constants)",
+    n=(0.22, 1.02, 1.24),
+    k=(3.747, 2.577, 2.397),
+    source="Johnson & Christy 1972, Cu at 659.5, 548.6, 450.9 nm (stand-in for Cu-Sn bronze)",
+)
+
+#: Cuprite, Cu2O, the red oxide next to the metal.  No published
+#: Kubelka-Munk K, S exist for it: the values are ILLUSTRATIVE, chosen only
+#: to follow its ~2.1 eV band gap (weak absorption in red, strong in green
+#: and blue).  Its index (n ~ 2.85, Handbook of Mineralogy) is not used for
+#: an interface because it lies under the green patina.
+CUPRITE = KMLayer(
+    "cuprite",
+    K=(0.04, 1.0, 4.0),
+    S=(0.15, 0.15, 0.15),
+    eta=2.85,
+    illustrative=True,
+    source="illustrative K, S (no published values); n from Handbook of Mineralogy",
+)
+
+#: Green patina of basic copper salts (brochantite / malachite).  No
+#: published K, S: the values are ILLUSTRATIVE (absorb red, scatter
+#: weakly).  eta = 1.75 lies within the principal indices of brochantite
+#: (1.73-1.80) and malachite (1.66-1.91), Handbook of Mineralogy.
+GREEN_PATINA = KMLayer(
+    "green patina",
+    K=(0.060, 0.010, 0.030),
+    S=(0.05, 0.06, 0.06),
+    eta=1.75,
+    illustrative=True,
+    source="illustrative K, S (no published values); eta from Handbook of Mineralogy",
+)
+
+MATERIALS = {
+    "aged-bronze": Material(
+        "aged-bronze",
+        exposed=GOLD_LEAF,
+        substrate=BRONZE,
+        layers=((CUPRITE, 3.0), (GREEN_PATINA, 60.0)),
+        m_exposed=0.15,
+        m_rust=0.45,
+        eta_top=GREEN_PATINA.eta,
+    ),
+    "gilt": Material("gilt", GOLD_LEAF, BRONZE, (), 0.12, 0.12, GREEN_PATINA.eta),
+    "bronze": Material("bronze", BRONZE, BRONZE, (), 0.2, 0.2, GREEN_PATINA.eta),
+}
+
+
+def get_material(name):
+    """Look up a preset by name.
+
+    Parameters
+    ----------
+    name : str or Material
+        One of ``MATERIALS`` (``aged-bronze``, ``gilt``, ``bronze``), or a
+        :class:`Material`, returned as is.
+
+    Returns
+    -------
+    Material
+
+    Raises
+    ------
+    ValueError
+        For an unknown name; the message lists the known ones.
+    """
+    if isinstance(name, Material):
+        return name
+    try:
+        return MATERIALS[name]
+    except (KeyError, TypeError):
+        raise ValueError(
+            "unknown material %r; choose one of %s" % (name, ", ".join(sorted(MATERIALS)))
+        ) from None
+
+
+# --------------------------------------------------------------------------
+# Rust coverage
+# --------------------------------------------------------------------------
+
+#: Hue (degrees) at which a colour starts / stops reading as green patina.
+_PATINA_HUE = (75.0, 105.0, 200.0, 250.0)
+#: Saturation at which the hue is fully trusted (greys carry no rust cue).
+_SAT_FULL = 0.25
+#: Median saturation below which vertex colours are treated as uninformative.
+_SAT_UNINFORMATIVE = 0.05
+
+
+def _smoothstep(a, b, x):
+    t = np.clip((x - a) / (b - a), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _hue_sat(rgb):
+    rgb = np.asarray(rgb, dtype=np.float64)
+    mx = rgb.max(axis=-1)
+    mn = rgb.min(axis=-1)
+    d = mx - mn
+    sat = np.where(mx > 0.0, d / np.where(mx > 0.0, mx, 1.0), 0.0)
+    ds = np.where(d > 0.0, d, 1.0)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    h = np.where(mx == r, ((g - b) / ds) % 6.0, np.where(mx == g, (b - r) / ds + 2.0, (r - g) / ds + 4.0))
+    return np.where(d > 0.0, 60.0 * h, 0.0), sat
+
+
+def rust_coverage_from_colors(vertex_colors):
+    """Rust coverage from scanned vertex colours.
+
+    Parameters
+    ----------
+    vertex_colors : (n,3) numpy uint8 array (or floats in [0, 1])
+
+    Returns
+    -------
+    c : (n,) float64 array in [0, 1]
+
+    Notes
+    -----
+    A heuristic, not a measurement: green-blue hues (about 90-230 degrees)
+    read as green patina (c -> 1), red-yellow hues (gold leaf, bronze) as
+    exposed metal (c -> 0); the hue is trusted in proportion to the
+    saturation (full at 0.25) and unsaturated colours give 0.5.
+    """
+    col = np.asarray(vertex_colors)
+    if col.ndim != 2 or col.shape[1] != 3:
+        raise ValueError("vertex_colors must be (n,3), got shape %s" % (col.shape,))
+    rgb = col.astype(np.float64) / 255.0 if col.dtype == np.uint8 else col.astype(np.float64)
+    hue, sat = _hue_sat(np.clip(rgb, 0.0, 1.0))
+    a0, a1, b0, b1 = _PATINA_HUE
+    green = _smoothstep(a0, a1, hue) * (1.0 - _smoothstep(b0, b1, hue))
+    w = np.clip(sat / _SAT_FULL, 0.0, 1.0)
+    return w * green + (1.0 - w) * 0.5
+
+
+def _fibonacci_sphere(n):
+    i = np.arange(n, dtype=np.float64) + 0.5
+    z = 1.0 - 2.0 * i / n
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * i
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def vertex_normals(V, F):
+    """Area-weighted unit vertex normals.
+
+    Parameters
+    ----------
+    V : (n,3) numpy float array
+    F : (m,3) numpy int array
+
+    Returns
+    -------
+    N : (n,3) float64 array; (0, 0, 1) at isolated or degenerate vertices.
+    """
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    N = np.zeros_like(V)
+    for j in range(3):
+        np.add.at(N, F[:, j], fn)
+    ln = np.linalg.norm(N, axis=1)
+    ok = ln > 0.0
+    N[ok] /= ln[ok, None]
+    N[~ok] = (0.0, 0.0, 1.0)
+    return N
+
+
+def rust_coverage_from_occlusion(V, F, *, n_dirs=24, radius=0.1, base=0.2, gain=1.6):
+    """Rust coverage from an ambient-occlusion estimate.
+
+    Parameters
+    ----------
+    V : (n,3) numpy float array
+    F : (m,3) numpy int array
+    n_dirs : int, optional
+        Ray directions on a fixed Fibonacci sphere (deterministic); those in
+        each vertex's upper hemisphere are used.
+    radius : float, optional
+        Rays longer than ``radius`` x bounding-box diagonal count as open sky.
+    base, gain : float, optional
+        ``c = clip(base + gain * occlusion, 0, 1)``.
+
+    Returns
+    -------
+    c : (n,) float64 array in [0, 1]
+
+    Notes
+    -----
+    A heuristic in the spirit of Dorsey & Hanrahan's exposure maps:
+    recesses keep moisture and dirt and corrode first, exposed convex parts
+    keep their gilding.  Occlusion is the cosine-weighted fraction of
+    directions whose ray hits the mesh within the radius.
+    """
+    import open3d as o3d
+
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    N = vertex_normals(V, F)
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 1.0
+    diag = diag if diag > 0.0 else 1.0
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
+    dirs = _fibonacci_sphere(int(n_dirs))
+    occ = np.zeros(len(V))
+    wsum = np.zeros(len(V))
+    origin = V + (1e-4 * diag) * N
+    for d in dirs:
+        w = N @ d
+        up = w > 0.05
+        if not np.any(up):
+            continue
+        rays = np.concatenate([origin[up], np.broadcast_to(d, (int(up.sum()), 3))], axis=1)
+        t = scene.cast_rays(o3d.core.Tensor(rays.astype(np.float32)))["t_hit"].numpy()
+        hit = t < radius * diag
+        occ[up] += w[up] * hit
+        wsum[up] += w[up]
+    occlusion = occ / np.maximum(wsum, 1e-12)
+    return np.clip(base + gain * occlusion, 0.0, 1.0)
+
+
+def rust_coverage(V, F, vertex_colors=None):
+    """Per-vertex rust coverage: from colours when informative, else occlusion.
+
+    Parameters
+    ----------
+    V : (n,3) numpy float array
+    F : (m,3) numpy int array
+    vertex_colors : (n,3) numpy uint8 array or None
+
+    Returns
+    -------
+    c : (n,) float64 array in [0, 1]
+    source : str
+        ``"colors"`` or ``"occlusion"`` (colours that are nearly grey, median
+        saturation below 0.05, carry no rust cue and are ignored).
+    """
+    if vertex_colors is not None:
+        col = np.asarray(vertex_colors)
+        rgb = col.astype(np.float64) / 255.0 if col.dtype == np.uint8 else col.astype(np.float64)
+        _, sat = _hue_sat(np.clip(rgb, 0.0, 1.0))
+        if len(sat) and np.median(sat) >= _SAT_UNINFORMATIVE:
+            return rust_coverage_from_colors(col), "colors"
+    return rust_coverage_from_occlusion(V, F), "occlusion"
+
+
+# --------------------------------------------------------------------------
+# The full model: reference composition and the fast shader
+# --------------------------------------------------------------------------
+
+
+def surface_params(coverage, material):
+    """Roughness and layer thicknesses driven by the rust coverage.
+
+    Parameters
+    ----------
+    coverage : (...) float array in [0, 1]
+    material : Material or str
+
+    Returns
+    -------
+    m : (...) float64 array
+        ``m_exposed + (m_rust - m_exposed) c``.
+    X : list of (...) float64 arrays
+        Thickness (um) of each corrosion layer, ``c X_max``.
+    """
+    mat = get_material(material)
+    c = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)
+    m = mat.m_exposed + (mat.m_rust - mat.m_exposed) * c
+    return m, [c * xmax for _, xmax in mat.layers]
+
+
+def substrate_reflectance(material):
+    """Diffuse reflectance of the metal under the corrosion layers.
+
+    Returns
+    -------
+    Rg : (3,) float64 array
+
+    Notes
+    -----
+    Approximated by the conductor's normal-incidence Fresnel reflectance
+    seen from inside the top layer (index relative to ``eta_top``); for
+    gold and copper its hemispherical average differs by a few percent.
+    """
+    mat = get_material(material)
+    n = np.asarray(mat.substrate.n) / mat.eta_top
+    k = np.asarray(mat.substrate.k) / mat.eta_top
+    return sh.fresnel_conductor(1.0, n, k)
+
+
+def _km_of_coverage(c, mat):
+    c = np.asarray(c, dtype=np.float64)
+    Rg = substrate_reflectance(mat)
+    layers = [
+        (np.asarray(L.K), np.asarray(L.S), (c * xmax)[..., None]) for L, xmax in mat.layers
+    ]
+    return sh.km_layers(layers, Rg)
+
+
+def shade_reference(wi, wo, n, coverage, material):
+    """The full aged-metal BRDF, composed term by term from :mod:`shading`.
+
+    Parameters
+    ----------
+    wi, wo, n : (..., 3) float arrays
+        Unit light direction, view direction and normal.
+    coverage : (...) float array in [0, 1]
+    material : Material or str
+
+    Returns
+    -------
+    f : (..., 3) float64 array
+        BRDF per RGB channel (1/sr).
+
+    Notes
+    -----
+    See the module docstring; this is the specification that
+    :class:`MaterialShader` reproduces quickly.
+    """
+    mat = get_material(material)
+    c = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)
+    m, _ = surface_params(c, mat)
+    metal = sh.torrance_sparrow_conductor(wi, wo, n, m, np.asarray(mat.exposed.n),
+                                          np.asarray(mat.exposed.k))
+    if not mat.corrodes:
+        return metal
+    R_km = _km_of_coverage(c, mat)
+    rust = sh.local_brdf(wi, wo, n, m, mat.eta_top, R_km)
+    return (1.0 - c)[..., None] * metal + c[..., None] * rust
+
+
+class MaterialShader:
+    """Precomputed, fast evaluation of :func:`shade_reference`.
+
+    Parameters
+    ----------
+    material : Material or str
+    n_lut : int, optional
+        Nodes of the 1-D lookup tables (Fresnel in o.h, R_KM in c).
+
+    Notes
+    -----
+    For one material every nonlinear factor except the Beckmann exponent is
+    a function of one or two bounded scalars, so it is tabulated once:
+
+    - conductor and dielectric Fresnel as functions of o.h (1-D),
+    - R_KM as a function of the coverage c (1-D; m and X follow from c),
+    - rho_dt as a function of (sqrt(cos theta), c) (2-D), sliced from the
+      shared rho_dt table at this material's eta.
+
+    Evaluation works on chunks of :attr:`chunk` points so the temporaries
+    stay in cache.  Agreement with :func:`shade_reference` is tested and
+    measured in eval/bench_shading.py.
+    """
+
+    chunk = 32768
+
+    def __init__(self, material, *, n_lut=2049):
+        self.material = mat = get_material(material)
+        self.n_lut = int(n_lut)
+        x = np.linspace(0.0, 1.0, self.n_lut)
+        self._F_metal = sh.fresnel_conductor(x[:, None], np.asarray(mat.exposed.n),
+                                             np.asarray(mat.exposed.k))  # (L, 3)
+        self._dF_metal = np.diff(self._F_metal, axis=0, append=self._F_metal[-1:])
+        self.corrodes = mat.corrodes
+        if self.corrodes:
+            self._F_top = sh.fresnel_dielectric(x, mat.eta_top)
+            self._dF_top = np.diff(self._F_top, append=self._F_top[-1])
+            self._R_km = _km_of_coverage(x, mat)  # (L, 3), nodes in c
+            self._dR_km = np.diff(self._R_km, axis=0, append=self._R_km[-1:])
+            table = sh.rho_dt_table()
+            sl = table.slice_eta(mat.eta_top)  # (Nu, Nm)
+            self._nc = 257
+            cn = np.linspace(0.0, 1.0, self._nc)
+            m_c, _ = surface_params(cn, mat)
+            lm = np.log(np.maximum(m_c, sh.M_MIN))
+            L = table.log_m
+            j, w = sh._axis_index(lm, L[0], L[1] - L[0], L.size)
+            self._rho_tab = (1.0 - w)[None, :] * sl[:, j] + w[None, :] * sl[:, j + 1]  # (Nu, Nc)
+            self._nu = table.u.size
+        self._m0 = mat.m_exposed
+        self._dm = mat.m_rust - mat.m_exposed
+
+    def _lut(self, T, dT, x):
+        f = x * (self.n_lut - 1)
+        i = f.astype(np.intp)
+        np.minimum(i, self.n_lut - 1, out=i)
+        w = f - i
+        if T.ndim == 2:
+            return T[i] + w[:, None] * dT[i]
+        return T[i] + w * dT[i]
+
+    def _rho(self, u, c):
+        fu = u * (self._nu - 1)
+        i = np.minimum(fu.astype(np.intp), self._nu - 2)
+        a = fu - i
+        fc = c * (self._nc - 1)
+        j = np.minimum(fc.astype(np.intp), self._nc - 2)
+        b = fc - j
+        R = self._rho_tab
+        r0 = R[i, j] + b * (R[i, j + 1] - R[i, j])
+        r1 = R[i + 1, j] + b * (R[i + 1, j + 1] - R[i + 1, j])
+        return r0 + a * (r1 - r0)
+
+    def __call__(self, wi, wo, n, coverage):
+        """Evaluate the BRDF.
+
+        Parameters
+        ----------
+        wi, wo, n : (..., 3) float arrays (broadcasting)
+        coverage : (...) float array in [0, 1]
+
+        Returns
+        -------
+        f : (..., 3) float64 array
+        """
+        wi, wo, n = (np.asarray(a, dtype=np.float64) for a in (wi, wo, n))
+        c = np.asarray(coverage, dtype=np.float64)
+        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape)
+        P = int(np.prod(shape))
+        wi = np.broadcast_to(wi, shape + (3,)).reshape(P, 3)
+        wo = np.broadcast_to(wo, shape + (3,)).reshape(P, 3)
+        n = np.broadcast_to(n, shape + (3,)).reshape(P, 3)
+        c = np.broadcast_to(c, shape).reshape(P)
+        out = np.empty((P, 3), dtype=np.float64)
+        for s in range(0, P, self.chunk):
+            sl = slice(s, s + self.chunk)
+            out[sl] = self._eval(wi[sl], wo[sl], n[sl], c[sl])
+        return out.reshape(shape + (3,))
+
+    def _eval(self, wi, wo, n, c):
+        c = np.clip(c, 0.0, 1.0)
+        ni = np.einsum("ij,ij->i", n, wi)
+        no = np.einsum("ij,ij->i", n, wo)
+        h = wi + wo
+        hl = np.sqrt(np.einsum("ij,ij->i", h, h))
+        valid = (ni > sh.COS_EPS) & (no > sh.COS_EPS) & (hl > sh.COS_EPS)
+        inv_hl = 1.0 / np.where(valid, hl, 1.0)
+        nh = np.clip(np.einsum("ij,ij->i", n, h) * inv_hl, 0.0, 1.0)
+        oh = np.clip(np.einsum("ij,ij->i", wo, h) * inv_hl, 0.0, 1.0)
+        nis = np.where(valid, ni, 1.0)
+        nos = np.where(valid, no, 1.0)
+        m = np.maximum(self._m0 + self._dm * c, sh.M_MIN)
+        inv_m2 = 1.0 / (m * m)
+        # Beckmann D (eq 13, normalised); nh <= COS_EPS gives 0
+        nh2 = np.maximum(nh * nh, sh.COS_EPS)
+        D = np.exp((nh2 - 1.0) / nh2 * inv_m2) * inv_m2 / (np.pi * nh2 * nh2)
+        # G / (4 ni no)  (eq 11 over the denominator of eq 8)
+        g = np.minimum(1.0 / (nis * nos), 2.0 * nh / (np.maximum(oh, sh.COS_EPS) * np.maximum(nis, nos)))
+        DG4 = np.where(valid & (nh > sh.COS_EPS), 0.25 * D * g, 0.0)
+        Fm = self._lut(self._F_metal, self._dF_metal, oh)  # (P, 3)
+        if not self.corrodes:
+            return DG4[:, None] * Fm
+        Ft = self._lut(self._F_top, self._dF_top, oh)  # (P,)
+        spec = DG4[:, None] * ((1.0 - c)[:, None] * Fm + (c * Ft)[:, None])
+        ui = np.sqrt(np.clip(ni, 0.0, 1.0))
+        uo = np.sqrt(np.clip(no, 0.0, 1.0))
+        diff = np.where(valid, c * self._rho(ui, c) * self._rho(uo, c) / np.pi, 0.0)
+        R = self._lut(self._R_km, self._dR_km, c)
+        return spec + diff[:, None] * R
+
+
+# --------------------------------------------------------------------------
+# Model choice
+# --------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelChoice:
+    """The simplest adequate reflectance model for a footprint.
+
+    Attributes
+    ----------
+    model : str
+        ``"specular"`` (opaque conductor, Torrance-Sparrow only),
+        ``"local"`` (f_spec + rho_dt R_KM rho_dt / pi) or ``"dipole"``
+        (the diffuse term spread by the dipole profile).
+    error_estimate : float
+        For ``local``: the fraction of the diffusely re-emitted light that
+        leaves the surface farther than half a footprint from where it
+        entered (what the local form puts in the wrong pixel).  For
+        ``dipole``: the same fraction, i.e. the error the local form would
+        have made.  0 for ``specular``.
+    diffusion_length_um : float
+        ``1 / sigma_tr`` of the corrosion stack (largest over channels).
+    footprint_um : float
+    reason : str
+    """
+
+    model: str
+    error_estimate: float
+    diffusion_length_um: float
+    footprint_um: float
+    reason: str
+
+
+def choose_model(footprint_um, material, *, coverage=1.0, tol=0.01):
+    """Pick the simplest model adequate at a pixel footprint.
+
+    Parameters
+    ----------
+    footprint_um : float
+        Width of one pixel on the surface, in micrometres.
+    material : Material or str
+    coverage : float, optional
+        Rust coverage at which to judge (the worst case, 1, by default).
+    tol : float, optional
+        Largest acceptable fraction of misplaced diffuse light.
+
+    Returns
+    -------
+    ModelChoice
+
+    Notes
+    -----
+    The corrosion stack's K, S are mixed by thickness (eq 7) and mapped to
+    sigma_a, sigma_s' (:func:`shellrepair.shading.km_to_transport`); the
+    dipole profile's radial integral (:func:`shellrepair.shading.dipole_tail_fraction`)
+    gives the fraction of light exiting beyond half the footprint.  If it
+    is at most ``tol`` the local form of eq 2 is adequate.
+
+    Examples
+    --------
+    >>> choose_model(500.0, "aged-bronze").model   # 0.5 mm pixels
+    'local'
+    >>> choose_model(500.0, "gilt").model
+    'specular'
+    """
+    mat = get_material(material)
+    fp = float(footprint_um)
+    if not mat.corrodes or coverage <= 0.0:
+        return ModelChoice("specular", 0.0, 0.0, fp,
+                           "opaque conductor: no light enters, Torrance-Sparrow alone is exact")
+    Ks = np.array([L.K for L, _ in mat.layers], dtype=np.float64)
+    Ss = np.array([L.S for L, _ in mat.layers], dtype=np.float64)
+    X = np.array([x * coverage for _, x in mat.layers], dtype=np.float64)
+    K, S = sh.km_mix(Ks, Ss, X)  # eq 7, weighted by thickness
+    sa, ssp = sh.km_to_transport(K, S)
+    s_tr = np.sqrt(3.0 * sa * (sa + ssp))
+    ell = float(np.max(1.0 / np.maximum(s_tr, 1e-300)))
+    err = float(np.max(sh.dipole_tail_fraction(0.5 * fp, sa, ssp, mat.eta_top)))
+    if err <= tol:
+        return ModelChoice("local", err, ell, fp,
+                           "diffusion length %.3g um << footprint %.3g um: local form, "
+                           "%.2g of diffuse light leaves its pixel" % (ell, fp, err))
+    return ModelChoice("dipole", err, ell, fp,
+                       "diffusion length %.3g um visible at footprint %.3g um: the local form "
+                       "would misplace %.2g of the diffuse light" % (ell, fp, err))
