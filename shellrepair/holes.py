@@ -15,15 +15,17 @@ outer edge. The rule, in order:
 
 1. ``max_hole``: a loop with more edges than this is a *border*
    ("larger than --max-hole").
-2. *Outer edge*: look at the loop's component along the loop's own axis
-   (the normal of its best-fit plane). If at least ``OUTER_FRACTION`` (60 %)
-   of the component's area lies inside the loop's outline, the scan is a
-   sheet seen through this opening and the loop is its rim: a *border*.
-   A hole in a closed surface has only the far side behind it (for a hole
-   of 30 % of a sphere about 43 %, for small holes almost nothing).
+2. *Outer edge*: look at the loop's piece (the faces connected to it
+   across edges) along the loop's own axis (the normal of its best-fit
+   plane). If at least ``OUTER_FRACTION`` (60 %) of the piece's area lies
+   inside the loop's outline, the scan is a sheet seen through this opening
+   and the loop is its rim: a *border*. A hole in a closed surface has only
+   the far side behind it (for a hole of 30 % of a sphere about 43 %, for
+   small holes almost nothing). A lone triangle hanging on by its corners
+   is a piece of its own, and its outline a border.
 3. *Too large*: if the loop's spanning area (the norm of its vector area)
-   exceeds the area of its whole component, filling it would invent most of
-   the component: a *border*.
+   exceeds the area of its whole piece, filling it would invent most of
+   the piece: a *border*.
 4. Otherwise a *hole*.
 
 ``fill_borders=True`` turns every border into a hole (rule 1 still applies).
@@ -35,7 +37,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .topology import edge_topology, face_areas, face_components
+from .topology import edge_topology, face_areas, face_components, face_pieces
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats", "OUTER_FRACTION"]
 
@@ -63,11 +65,13 @@ class Loop:
         RMS distance of the loop to its best-fit plane over its diameter
         (0 for a planar loop).
     component : int
-        Connected component the loop belongs to.
-    component_area : float
+        Connected component the loop belongs to (faces joined by vertices).
+    piece_area : float
+        Area of the loop's piece (faces joined across edges), which the
+        classification rules use.
     inside_fraction : float
-        Fraction of the component's area inside the loop's outline seen
-        along its axis (rule 2).
+        Fraction of the piece's area inside the loop's outline seen along
+        its axis (rule 2).
     kind : str
         ``'hole'`` or ``'border'``.
     reason : str
@@ -83,7 +87,7 @@ class Loop:
     diameter: float
     planarity: float
     component: int
-    component_area: float
+    piece_area: float
     inside_fraction: float = 0.0
     kind: str = "hole"
     reason: str = ""
@@ -356,8 +360,11 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
         topo = edge_topology(F, n)
     loops, chains = boundary_loops(F, n, topo)
     n_comp, vcomp, fcomp = face_components(F, n)
+    n_piece, fpiece = face_pieces(topo, len(F))
     A = face_areas(V, F)
-    comp_area = np.bincount(fcomp, weights=A, minlength=n_comp)
+    piece_area = np.bincount(fpiece, weights=A, minlength=n_piece)
+    bhe = topo.boundary_he
+    he_face = dict(zip(map(tuple, topo.he[bhe].tolist()), (bhe // 3).tolist()))
     nv_used = int(np.count_nonzero(vcomp >= 0))
     scan = HoleScan(loops=[], open_chains=chains, n_components=n_comp,
                     n_boundary_edges=topo.n_boundary_edges,
@@ -367,16 +374,17 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
     for i, lp in enumerate(loops):
         st = loop_stats(V, lp)
         comp = int(vcomp[lp[0]])
+        piece = int(fpiece[he_face[(int(lp[0]), int(lp[1]))]])
         L = Loop(id=i, vertices=lp, edges=int(lp.size), perimeter=st["perimeter"],
                  mean_edge=st["mean_edge"], area=st["area"], diameter=st["diameter"],
-                 planarity=st["planarity"], component=comp, component_area=float(comp_area[comp]))
-        if comp not in samples:
-            fidx = np.flatnonzero(fcomp == comp)
+                 planarity=st["planarity"], component=comp, piece_area=float(piece_area[piece]))
+        if piece not in samples:
+            fidx = np.flatnonzero(fpiece == piece)
             if fidx.size > OUTER_SAMPLES:
-                rng = np.random.default_rng(comp)
+                rng = np.random.default_rng(piece)
                 fidx = np.sort(rng.choice(fidx, OUTER_SAMPLES, replace=False))
-            samples[comp] = (V[F[fidx]].mean(axis=1), A[fidx])
-        cent, w = samples[comp]
+            samples[piece] = (V[F[fidx]].mean(axis=1), A[fidx])
+        cent, w = samples[piece]
         L.inside_fraction = _inside_fraction(V, lp, st["axis"], st["center"], cent, w)
         if max_hole is not None and L.edges > int(max_hole):
             L.kind, L.reason = "border", f"larger than --max-hole {int(max_hole)} edges"
@@ -386,7 +394,7 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
             L.kind = "border"
             L.reason = (f"outer edge of its piece: {100 * L.inside_fraction:.0f}% of the piece "
                         f"lies within the opening")
-        elif L.area > L.component_area:
+        elif L.area > L.piece_area:
             L.kind = "border"
             L.reason = "filling would invent more surface than its piece has"
         else:

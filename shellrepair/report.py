@@ -64,7 +64,7 @@ def holes_dict(scan, *, path=None, n_vertices=None, n_faces=None, notes=()):
     loops = []
     for lp in scan.loops:
         d = lp.as_dict()
-        for k in ("perimeter", "mean_edge", "area", "diameter", "planarity", "component_area", "inside_fraction"):
+        for k in ("perimeter", "mean_edge", "area", "diameter", "planarity", "piece_area", "inside_fraction"):
             d[k] = _r(d[k], 9 if k != "inside_fraction" else 4)
         loops.append(d)
     return {

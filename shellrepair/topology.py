@@ -12,7 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["EdgeTopology", "edge_topology", "face_components", "face_areas",
+__all__ = ["EdgeTopology", "edge_topology", "face_components", "face_pieces", "face_areas",
            "vertex_ring_faces", "euler_characteristic"]
 
 
@@ -109,6 +109,28 @@ def face_components(F, n_vertices):
     remap[order] = np.arange(order.size)
     vertex_comp = np.where(used, remap[lab], -1)
     return int(order.size), vertex_comp, remap[face_lab]
+
+
+def face_pieces(topo, n_faces):
+    """Pieces: faces joined across shared edges (not across lone vertices).
+
+    Parameters
+    ----------
+    topo : EdgeTopology
+    n_faces : int
+
+    Returns
+    -------
+    n_pieces : int
+    face_piece : (m,) int64
+    """
+    order = np.argsort(topo.edge_of_he, kind="stable")
+    e = topo.edge_of_he[order]
+    f = order // 3
+    same = np.flatnonzero(e[1:] == e[:-1])
+    A = sp.csr_matrix((np.ones(same.size, np.int8), (f[same], f[same + 1])), shape=(n_faces, n_faces))
+    n, lab = connected_components(A, directed=False)
+    return int(n), lab.astype(np.int64)
 
 
 def face_areas(V, F):

@@ -1,0 +1,197 @@
+"""Fair a hole patch: solve Δᵏx = 0 on its interior, the scan around it fixed.
+
+The solve is local: the patch plus ``order`` rings of scan faces around
+its loop (enough for the discrete operator at every unknown to see complete
+neighbourhoods), never the whole scan. Unknowns are only the patch's new
+vertices; every scan vertex, the loop included, is fixed, so position
+(k = 1), tangent plane (k = 2) and curvature (k = 3) continue across the
+rim.
+
+With K = −L the (positive semidefinite) cotangent Laplacian and M the
+Voronoi mass matrix, the energy is xᵀ Q x with
+
+    k = 1:  Q = K                   (membrane, harmonic)
+    k = 2:  Q = K M⁻¹ K             (thin plate, bilaplacian)
+    k = 3:  Q = K M⁻¹ K M⁻¹ K       (minimum variation of curvature)
+
+minimised with the fixed rows given (libigl ``min_quad_with_fixed``, one
+factorisation per round). The first round uses uniform (umbrella) weights,
+since cotangents of the initial, flat patch are meaningless; later rounds
+re-evaluate cotangent weights and masses on the patch's own current
+geometry. Where a triangle is degenerate the round falls back to uniform
+weights.
+
+Coordinates are centred on the loop and scaled by its mean edge length
+before any solve, so scans in millimetres far from the origin give the same
+relative result as unit-scale meshes.
+
+References
+----------
+M. Botsch, L. Kobbelt, "An intuitive framework for real-time freeform
+modeling", SIGGRAPH 2004. M. Desbrun, M. Meyer, P. Schröder, A. Barr,
+"Implicit fairing of irregular meshes", SIGGRAPH 1999. G. Taubin, "A signal
+processing approach to fair surface design", SIGGRAPH 1995.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+__all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "harmonic_interpolate"]
+
+#: Rounds of cotangent re-evaluation after the uniform first solve.
+COTAN_ROUNDS = 2
+#: Triangles with area below this (in units of the squared mean rim edge) are degenerate.
+DEGENERATE_AREA = 1e-10
+#: Taubin λ|μ smoothing factors (non-shrinking pass band).
+TAUBIN_LAMBDA = 0.5
+TAUBIN_MU = -0.53
+
+
+def uniform_laplacian(F, n):
+    """K = D − A of the edge graph (positive semidefinite), CSC."""
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    A = sp.csr_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
+    A = ((A + A.T) > 0).astype(np.float64)
+    return (sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A).tocsc()
+
+
+def _cotan_operators(X, F):
+    import igl
+
+    K = (-igl.cotmatrix(X, F)).tocsc()
+    M = igl.massmatrix(X, F, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
+    return K, M
+
+
+def _energy(K, Minv, order):
+    if order == 1:
+        return K
+    Dm = sp.diags(Minv)
+    Q = K @ Dm @ K
+    if order == 3:
+        Q = Q @ Dm @ K
+    return ((Q + Q.T) * 0.5).tocsc()
+
+
+def _solve(Q, fixed, unknown, X):
+    """Minimise xᵀQx with rows ``fixed`` of X given; returns X[unknown]."""
+    import igl
+
+    try:
+        Z = igl.min_quad_with_fixed(Q, np.zeros((Q.shape[0], 3)), fixed.astype(np.int64),
+                                    np.ascontiguousarray(X[fixed]), sp.csc_matrix((0, Q.shape[0])),
+                                    np.zeros((0, 3)), True)
+        Xu = Z[unknown]
+        if np.isfinite(Xu).all():
+            return Xu
+    except Exception:  # fall through to SciPy's LU
+        pass
+    Quu = Q[unknown][:, unknown].tocsc()
+    rhs = -(Q[unknown][:, fixed] @ X[fixed])
+    return spla.splu(Quu).solve(rhs)
+
+
+def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS):
+    """Fair the free vertices of a local submesh.
+
+    Parameters
+    ----------
+    X : (n,3) float64
+        Submesh positions: the first ``n_fixed`` are scan vertices (fixed),
+        the rest the patch's new vertices (initial guess).
+    F : (m,3) int64
+        Submesh triangles: scan ring faces and patch faces.
+    n_fixed : int
+    order : {1, 2, 3}
+    rounds : int
+        Cotangent re-evaluations after the uniform first solve.
+
+    Returns
+    -------
+    Xu : (n - n_fixed, 3) float64
+        Faired positions of the free vertices.
+    K : (n,n) CSC
+        The order-1 operator of the last round (for interpolating colours).
+    """
+    X = np.array(X, np.float64)
+    n = len(X)
+    if n == n_fixed:
+        return X[n_fixed:], uniform_laplacian(F, n)
+    fixed = np.arange(n_fixed)
+    unknown = np.arange(n_fixed, n)
+    K = uniform_laplacian(F, n)
+    X[unknown] = _solve(_energy(K, np.ones(n), order), fixed, unknown, X)
+    for _ in range(int(rounds)):
+        e = X[F]
+        area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
+        if not np.isfinite(X).all() or area.min() <= DEGENERATE_AREA:
+            break
+        Kc, Mc = _cotan_operators(X, F)
+        if not (np.isfinite(Kc.data).all() and np.isfinite(Mc).all()):
+            break
+        Minv = 1.0 / np.maximum(Mc, DEGENERATE_AREA + 1e-3 * np.median(Mc))
+        Xn = _solve(_energy(Kc, Minv, order), fixed, unknown, X)
+        if not np.isfinite(Xn).all():
+            break
+        X[unknown] = Xn
+        K = Kc
+    return X[unknown], K
+
+
+def taubin_smooth(X, F, n_fixed, passes, lam=TAUBIN_LAMBDA, mu=TAUBIN_MU):
+    """Non-shrinking λ|μ smoothing of the free vertices (umbrella operator).
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+    n_fixed : int
+        The first ``n_fixed`` vertices do not move.
+    passes : int
+
+    Returns
+    -------
+    Xu : (n - n_fixed, 3) float64
+    """
+    X = np.array(X, np.float64)
+    n = len(X)
+    K = uniform_laplacian(F, n)
+    deg = K.diagonal()
+    W = (sp.diags(deg) - K).tocsr()
+    inv = 1.0 / np.maximum(deg, 1.0)
+    free = np.arange(n_fixed, n)
+    for _ in range(int(passes)):
+        for f in (lam, mu):
+            D = (W @ X) * inv[:, None] - X
+            X[free] += f * D[free]
+    return X[n_fixed:]
+
+
+def harmonic_interpolate(K, values_fixed, n_fixed):
+    """Interpolate per-vertex values from the fixed vertices (ΔC = 0).
+
+    Parameters
+    ----------
+    K : (n,n) sparse
+        Order-1 operator of the submesh.
+    values_fixed : (n_fixed, c) float64
+    n_fixed : int
+
+    Returns
+    -------
+    values_free : (n - n_fixed, c) float64
+    """
+    K = sp.csc_matrix(K)
+    n = K.shape[0]
+    if n == n_fixed:
+        return np.zeros((0, values_fixed.shape[1]))
+    u = np.arange(n_fixed, n)
+    f = np.arange(n_fixed)
+    Kuu = K[u][:, u].tocsc()
+    rhs = -(K[u][:, f] @ values_fixed)
+    out = spla.splu(Kuu).solve(np.asarray(rhs, np.float64))
+    lo, hi = values_fixed.min(axis=0), values_fixed.max(axis=0)
+    return np.clip(out, lo, hi)  # the maximum principle, against round-off and negative cotangents

@@ -1,0 +1,199 @@
+"""Local triangle–triangle intersection tests for new patches.
+
+Two triangles that share no vertex intersect when an edge of one crosses
+the other. Triangles that share one vertex (a patch triangle at the rim and
+a scan face at the same loop vertex) intersect beyond it only where the
+edge opposite the shared vertex of one crosses the other. Triangles that
+share an edge intersect only when folded flat onto each other. Touching at
+shared vertices and edges is not an intersection. Coplanar overlaps without
+a fold are not detected (they do not arise from faired patches).
+
+Candidate pairs come from a k-d tree of triangle centroids, so a check
+costs O(t log m) for a patch of t triangles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+__all__ = ["TriangleIndex", "pair_intersections", "self_intersections"]
+
+#: Barycentric / segment-parameter tolerance: hits this close to an edge or
+#: endpoint count as touching, not crossing.
+TOUCH_TOL = 1e-7
+#: Normals of two triangles sharing an edge with a dot product below
+#: ``-1 + FOLD_TOL`` are folded onto each other.
+FOLD_TOL = 1e-6
+
+
+def _seg_tri(p0, p1, a, b, c, tol=TOUCH_TOL):
+    """Does segment p0–p1 cross the interior of triangle abc (vectorised)?"""
+    d = p1 - p0
+    e1 = b - a
+    e2 = c - a
+    h = np.cross(d, e2)
+    det = np.sum(e1 * h, axis=-1)
+    scale = np.linalg.norm(d, axis=-1) * np.linalg.norm(e1, axis=-1) * np.linalg.norm(e2, axis=-1)
+    ok = np.abs(det) > 1e-12 * np.maximum(scale, 1e-300)
+    f = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    s = p0 - a
+    u = f * np.sum(s * h, axis=-1)
+    q = np.cross(s, e1)
+    v = f * np.sum(d * q, axis=-1)
+    t = f * np.sum(e2 * q, axis=-1)
+    return ok & (u > tol) & (v > tol) & (u + v < 1 - tol) & (t > tol) & (t < 1 - tol)
+
+
+def pair_intersections(A, Aid, B, Bid):
+    """Which triangle pairs intersect.
+
+    Parameters
+    ----------
+    A, B : (p,3,3) float64
+        Corner positions of the two triangles of each pair.
+    Aid, Bid : (p,3) int64
+        Corner vertex ids (equal ids mean a shared vertex).
+
+    Returns
+    -------
+    hit : (p,) bool
+    """
+    p = len(A)
+    hit = np.zeros(p, bool)
+    if p == 0:
+        return hit
+    eq = Aid[:, :, None] == Bid[:, None, :]
+    sa = eq.any(axis=2)  # corner of A shared
+    sb = eq.any(axis=1)
+    ns = sa.sum(axis=1)
+    # no shared vertex: all six edge/triangle tests
+    z = np.flatnonzero(ns == 0)
+    if z.size:
+        a, b = A[z], B[z]
+        h = np.zeros(z.size, bool)
+        for i in range(3):
+            j = (i + 1) % 3
+            h |= _seg_tri(a[:, i], a[:, j], b[:, 0], b[:, 1], b[:, 2])
+            h |= _seg_tri(b[:, i], b[:, j], a[:, 0], a[:, 1], a[:, 2])
+        hit[z] = h
+    # one shared vertex: the opposite edges
+    o = np.flatnonzero(ns == 1)
+    if o.size:
+        ia = np.argmax(sa[o], axis=1)
+        ib = np.argmax(sb[o], axis=1)
+        r = np.arange(o.size)
+        a, b = A[o], B[o]
+        a1, a2 = a[r, (ia + 1) % 3], a[r, (ia + 2) % 3]
+        b1, b2 = b[r, (ib + 1) % 3], b[r, (ib + 2) % 3]
+        hit[o] = (_seg_tri(a1, a2, b[:, 0], b[:, 1], b[:, 2])
+                  | _seg_tri(b1, b2, a[:, 0], a[:, 1], a[:, 2]))
+    # a shared edge: folded onto each other
+    t = np.flatnonzero(ns == 2)
+    if t.size:
+        na = np.cross(A[t, 1] - A[t, 0], A[t, 2] - A[t, 0])
+        nb = np.cross(B[t, 1] - B[t, 0], B[t, 2] - B[t, 0])
+        den = np.linalg.norm(na, axis=1) * np.linalg.norm(nb, axis=1)
+        cos = np.sum(na * nb, axis=1) / np.maximum(den, 1e-300)
+        hit[t] = (cos < -1 + FOLD_TOL) | (den == 0)
+    hit[ns == 3] = True  # the same triangle twice
+    return hit
+
+
+class TriangleIndex:
+    """A k-d tree over triangle centroids for candidate-pair queries.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+    origin : (3,) float64, optional
+        Subtracted from coordinates (large offsets).
+    """
+
+    def __init__(self, V, F, origin=None):
+        self.V = np.asarray(V, np.float64)
+        self.F = np.asarray(F, np.int64)
+        self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
+        T = self.V[self.F] - self.origin
+        c = T.mean(axis=1)
+        r = np.linalg.norm(T - c[:, None, :], axis=2).max(axis=1)
+        self.centroids = c
+        self.radius = r
+        # a few huge triangles should not blow every query up: treat the top
+        # 0.1 % apart and add them to every candidate list
+        self.r_cut = float(np.quantile(r, 0.999)) if len(r) > 1000 else float(r.max(initial=0.0))
+        self.big = np.flatnonzero(r > self.r_cut)
+        self.tree = cKDTree(c)
+
+    def candidates(self, C, R):
+        """Faces whose bounding sphere may meet spheres (C, R); list per query."""
+        out = self.tree.query_ball_point(C - self.origin, R + self.r_cut)
+        if self.big.size:
+            out = [np.union1d(np.asarray(o, np.int64), self.big) for o in out]
+        return out
+
+
+def patch_vs_index(Pt, Pid, index):
+    """Count patch triangles crossing the indexed triangles.
+
+    Parameters
+    ----------
+    Pt : (t,3,3) float64
+        Patch triangle corners (absolute coordinates).
+    Pid : (t,3) int64
+        Corner ids in the index's numbering (new vertices: ids no indexed
+        face uses, e.g. negative).
+    index : TriangleIndex
+
+    Returns
+    -------
+    n_hits : int
+    """
+    if len(Pt) == 0 or len(index.F) == 0:
+        return 0
+    Q = Pt - index.origin
+    c = Q.mean(axis=1)
+    r = np.linalg.norm(Q - c[:, None, :], axis=2).max(axis=1)
+    lists = index.candidates(c, r)
+    ai = np.repeat(np.arange(len(Pt)), [len(x) for x in lists])
+    if ai.size == 0:
+        return 0
+    bi = np.concatenate([np.asarray(x, np.int64) for x in lists])
+    T = index.V[index.F[bi]] - index.origin
+    # bounding-box filter before the exact tests
+    amin, amax = Q[ai].min(axis=1), Q[ai].max(axis=1)
+    bmin, bmax = T.min(axis=1), T.max(axis=1)
+    keep = np.all((amin <= bmax) & (bmin <= amax), axis=1)
+    ai, bi, T = ai[keep], bi[keep], T[keep]
+    hits = 0
+    for s in range(0, len(ai), 200_000):
+        sl = slice(s, s + 200_000)
+        hits += int(pair_intersections(Q[ai[sl]], Pid[ai[sl]], T[sl], index.F[bi[sl]]).sum())
+    return hits
+
+
+def self_intersections(V, F):
+    """Number of intersecting pairs among the triangles of one mesh."""
+    V = np.asarray(V, np.float64)
+    F = np.asarray(F, np.int64)
+    if len(F) < 2:
+        return 0
+    index = TriangleIndex(V, F, origin=V.mean(axis=0))
+    Q = V[F] - index.origin
+    c = index.centroids
+    lists = index.tree.query_ball_point(c, index.radius + index.r_cut)
+    ai = np.repeat(np.arange(len(F)), [len(x) for x in lists])
+    bi = np.concatenate([np.asarray(x, np.int64) for x in lists]) if ai.size else np.zeros(0, np.int64)
+    m = ai != bi
+    pairs = np.unique(np.column_stack([np.minimum(ai[m], bi[m]), np.maximum(ai[m], bi[m])]), axis=0)
+    ai, bi = pairs[:, 0], pairs[:, 1]
+    amin, amax = Q[ai].min(axis=1), Q[ai].max(axis=1)
+    bmin, bmax = Q[bi].min(axis=1), Q[bi].max(axis=1)
+    keep = np.all((amin <= bmax) & (bmin <= amax), axis=1)
+    ai, bi = ai[keep], bi[keep]
+    hits = 0
+    for s in range(0, len(ai), 200_000):
+        sl = slice(s, s + 200_000)
+        hits += int(pair_intersections(Q[ai[sl]], F[ai[sl]], Q[bi[sl]], F[bi[sl]]).sum())
+    return hits

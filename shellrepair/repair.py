@@ -1,0 +1,534 @@
+"""Fill every hole of a scan with a faired shell patch and merge it.
+
+Per hole (a loop classed ``hole`` by :mod:`shellrepair.holes`):
+
+1. triangulate the loop (:mod:`~shellrepair.triangulate`, Liepa's
+   minimum-weight triangulation);
+2. refine it to the density of the rim (:mod:`~shellrepair.refine`);
+3. fair it, Δᵏx = 0 with ``order`` rings of the scan fixed
+   (:mod:`~shellrepair.fair`), optionally smooth it (Taubin, non-shrinking);
+4. check it: no patch triangle may cross the scan, itself or an earlier
+   patch, and no patch may create an edge the mesh has. A patch that fails
+   is rebuilt with the next option (harmonic order, then the plain
+   triangulation); if every option fails, the hole stays open and the
+   report says why.
+
+Then every accepted patch is appended: original vertices keep their index
+and exact values, new vertices and faces come after them and are flagged
+``filled``; vertex colours (and other vertex properties) are interpolated
+harmonically from the rim.
+
+``method="seed"`` is the paper's simple shape model for comparison: close
+each hole with the same triangulation, smooth a duplicate of the whole
+mesh ``smooth`` times (10 by default) with the umbrella operator, and take
+the filled region's vertices from the smoothed duplicate.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import MeshError
+from .fair import fair_patch, harmonic_interpolate, taubin_smooth, uniform_laplacian
+from .holes import detect_holes
+from .intersect import TriangleIndex, pair_intersections, patch_vs_index
+from .io import Mesh
+from .refine import refine_patch
+from .report import table1_dict
+from .topology import edge_topology
+from .triangulate import triangulate_loop
+
+__all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
+
+#: Smoothing passes of the paper's seed method when ``smooth`` is not given.
+SEED_SMOOTH_PASSES = 10
+
+
+class PatchError(Exception):
+    """A patch option that cannot be used; the message is the reason."""
+
+
+@dataclass
+class Patch:
+    """A hole's shell patch, before merging.
+
+    Attributes
+    ----------
+    hole_id : int
+    loop : (k,) int64
+        Global loop vertex indices.
+    P : (q,3) float64
+        New vertex positions.
+    T : (t,3) int64
+        Triangles: index i < k is ``loop[i]``, index k + j is new vertex j.
+    colors : (q,c) uint8 or None
+    props : dict of name -> (q,) array
+    option : str
+        Which option was accepted.
+    """
+
+    hole_id: int
+    loop: np.ndarray
+    P: np.ndarray
+    T: np.ndarray
+    colors: np.ndarray | None = None
+    props: dict = field(default_factory=dict)
+    option: str = ""
+
+    def global_faces(self, base):
+        """Faces with new vertex j at index ``base + j``."""
+        k = len(self.loop)
+        G = np.where(self.T < k, self.loop[np.minimum(self.T, k - 1)], base + self.T - k)
+        return G.astype(np.int64)
+
+
+class _Context:
+    """Whole-mesh structures built once; per-hole work only reads them."""
+
+    def __init__(self, mesh):
+        self.V = mesh.V
+        self.F = mesh.F
+        self.n = len(mesh.V)
+        self.colors = mesh.vertex_colors
+        self.props = {k: v for k, v in mesh.vertex_props.items()
+                      if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
+        flat = self.F.ravel()
+        self.vf_order = np.argsort(flat, kind="stable")
+        self.vf_start = np.searchsorted(flat[self.vf_order], np.arange(self.n + 1))
+        self._index = None
+
+    @property
+    def index(self):
+        if self._index is None:
+            self._index = TriangleIndex(self.V, self.F, origin=self.V.mean(axis=0))
+        return self._index
+
+    def faces_of(self, verts):
+        verts = np.asarray(verts, np.int64)
+        s, e = self.vf_start[verts], self.vf_start[verts + 1]
+        cnt = e - s
+        if cnt.sum() == 0:
+            return np.zeros(0, np.int64)
+        idx = np.repeat(s - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(cnt.sum())
+        return np.unique(self.vf_order[idx] // 3)
+
+    def ring_faces(self, verts, rings):
+        faces = np.zeros(0, np.int64)
+        front = np.unique(verts)
+        seen = set(front.tolist())
+        for _ in range(max(1, int(rings))):
+            faces = np.union1d(faces, self.faces_of(front))
+            vs = np.unique(self.F[faces])
+            front = np.array([v for v in vs.tolist() if v not in seen], np.int64)
+            seen.update(front.tolist())
+            if front.size == 0:
+                break
+        return faces
+
+
+def _rim_data(ctx, loop):
+    """Scale σ per loop vertex, scan normals across loop edges, forbidden chords."""
+    k = len(loop)
+    pos = {int(v): i for i, v in enumerate(loop)}
+    f1 = ctx.faces_of(loop)
+    T = ctx.F[f1]
+    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    ln = np.linalg.norm(ctx.V[E[:, 0]] - ctx.V[E[:, 1]], axis=1)
+    sig_sum = np.zeros(k)
+    sig_cnt = np.zeros(k)
+    edge_normals = np.zeros((k, 3))
+    forbidden = set()
+    nrm = np.cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    nl = np.linalg.norm(nrm, axis=1, keepdims=True)
+    nrm = np.divide(nrm, nl, out=np.zeros_like(nrm), where=nl > 0)
+    m = len(T)
+    for r, ((a, b), L) in enumerate(zip(E.tolist(), ln.tolist())):
+        ia, ib = pos.get(a), pos.get(b)
+        if ia is not None:
+            sig_sum[ia] += L
+            sig_cnt[ia] += 1
+        if ib is not None:
+            sig_sum[ib] += L
+            sig_cnt[ib] += 1
+        if ia is not None and ib is not None:
+            if ib == (ia + 1) % k:
+                edge_normals[ia] = nrm[r % m]
+            elif ia != (ib + 1) % k:
+                forbidden.add((min(ia, ib), max(ia, ib)))
+    sigma = sig_sum / np.maximum(sig_cnt, 1)
+    loop_len = np.linalg.norm(ctx.V[np.roll(loop, -1)] - ctx.V[loop], axis=1)
+    sigma = np.where(sig_cnt > 0, sigma, loop_len)
+    return sigma, edge_normals, forbidden
+
+
+def _submesh(ctx, loop, Pl, T, rings):
+    """Local submesh: scan faces within ``rings`` of the loop, plus the patch.
+
+    Returns X (fixed scan vertices first, then new), Fs, g (global ids of
+    the fixed vertices)."""
+    k = len(loop)
+    rf = ctx.ring_faces(loop, rings)
+    g = np.unique(ctx.F[rf])
+    remap = {int(v): i for i, v in enumerate(g.tolist())}
+    Fr = np.searchsorted(g, ctx.F[rf])
+    loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
+    nf = len(g)
+    Tp = np.where(T < k, loc_loop[np.minimum(T, k - 1)], nf + T - k)
+    return g, np.vstack([Fr, Tp]).astype(np.int64), nf
+
+
+def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True):
+    """Build one hole's patch (no checks against the scan).
+
+    Parameters
+    ----------
+    ctx : _Context
+    hole_id : int
+    loop : (k,) int64
+    order : {1, 2, 3}
+    smooth : int
+        Taubin passes after fairing.
+    refine, fair : bool
+
+    Returns
+    -------
+    patch : Patch
+
+    Raises
+    ------
+    PatchError
+    """
+    loop = np.asarray(loop, np.int64)
+    k = len(loop)
+    P = ctx.V[loop]
+    origin = P.mean(axis=0)
+    sigma, edge_normals, forbidden = _rim_data(ctx, loop)
+    scale = float(np.mean(sigma))
+    if not np.isfinite(scale) or scale <= 0:
+        scale = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))) or 1.0
+    Pl = (P - origin) / scale
+    try:
+        T = triangulate_loop(Pl, edge_normals, forbidden)
+    except MeshError as exc:
+        raise PatchError(str(exc)) from None
+    if refine:
+        Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
+    q = len(Pl) - k
+    colors = None
+    props = {}
+    new_local = Pl[k:]
+    if q > 0 and (fair or smooth or ctx.colors is not None or ctx.props):
+        g, Fs, nf = _submesh(ctx, loop, Pl, T, rings=max(order, 1))
+        X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
+        K = None
+        if fair:
+            Xu, K = fair_patch(X, Fs, nf, order=order)
+            X[nf:] = Xu
+        if smooth:
+            X[nf:] = taubin_smooth(X, Fs, nf, smooth)
+        new_local = X[nf:]
+        if ctx.colors is not None or ctx.props:
+            if K is None:
+                K = uniform_laplacian(Fs, len(X))
+            if ctx.colors is not None:
+                c = harmonic_interpolate(K, ctx.colors[g].astype(np.float64), nf)
+                colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
+            for name, arr in ctx.props.items():
+                vals = harmonic_interpolate(K, np.asarray(arr, np.float64)[g][:, None], nf)[:, 0]
+                props[name] = vals.astype(np.asarray(arr).dtype) if np.issubdtype(np.asarray(arr).dtype, np.floating) \
+                    else np.round(vals).astype(np.asarray(arr).dtype)
+    if not np.isfinite(new_local).all():
+        raise PatchError("the fairing solve did not converge (non-finite positions)")
+    Pn = origin + scale * new_local
+    return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props)
+
+
+def _corners(ctx, patch):
+    k = len(patch.loop)
+    allp = np.vstack([ctx.V[patch.loop], patch.P])
+    ids = np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -(1 + patch.T - k))
+    return allp[patch.T], ids.astype(np.int64)
+
+
+def _check_patch(ctx, patch):
+    """Reason the patch cannot be used, or None."""
+    C, ids = _corners(ctx, patch)
+    if not np.isfinite(C).all():
+        return "non-finite patch positions"
+    hits = patch_vs_index(C, ids, ctx.index)
+    if hits:
+        return f"patch would cross the scan ({hits} triangle pairs)"
+    # the patch against itself
+    if len(C) > 1:
+        from scipy.spatial import cKDTree
+        c = C.mean(axis=1)
+        r = np.linalg.norm(C - c[:, None, :], axis=2).max(axis=1)
+        tree = cKDTree(c)
+        pairs = tree.query_pairs(2 * r.max(), output_type="ndarray")
+        if len(pairs):
+            h = pair_intersections(C[pairs[:, 0]], ids[pairs[:, 0]], C[pairs[:, 1]], ids[pairs[:, 1]])
+            if h.any():
+                return f"patch would cross itself ({int(h.sum())} triangle pairs)"
+    return None
+
+
+OPTIONS = ("faired", "harmonic", "flat")
+
+
+def _fill_one(ctx, hole_id, loop, order, smooth):
+    """Try the options in turn; returns (patch or None, reason, seconds, tried)."""
+    t0 = time.perf_counter()
+    reasons = []
+    plan = [("faired", dict(order=order, smooth=smooth))]
+    if order != 1:
+        plan.append(("harmonic", dict(order=1, smooth=smooth)))
+    plan.append(("flat", dict(order=1, smooth=0, refine=False, fair=False)))
+    for name, kw in plan:
+        try:
+            patch = build_patch(ctx, hole_id, loop, **kw)
+        except PatchError as exc:
+            reasons.append(f"{name}: {exc}")
+            if "duplicates an existing edge" in str(exc) or "chord" in str(exc):
+                break
+            continue
+        why = _check_patch(ctx, patch)
+        if why is None:
+            patch.option = name if name != "faired" else f"faired order {order}"
+            return patch, "", time.perf_counter() - t0, reasons
+        reasons.append(f"{name}: {why}")
+    return None, "; ".join(reasons), time.perf_counter() - t0, reasons
+
+
+_WORKER_CTX = None
+
+
+def _worker(args):
+    hole_id, loop, order, smooth = args
+    return _fill_one(_WORKER_CTX, hole_id, loop, order, smooth)
+
+
+def _edges_of(T):
+    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    return np.sort(E, axis=1)
+
+
+def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, method="fair",
+                jobs=1, progress=False):
+    """Fill the holes of a mesh.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    order : {1, 2, 3}
+        Fairing order: harmonic, bilaplacian (default), curvature-continuous.
+    smooth : int
+        Non-shrinking smoothing passes of each patch after fairing (for
+        ``method="seed"``: passes over the whole duplicate, default 10).
+    max_hole : int, optional
+        Loops with more edges stay open.
+    fill_borders : bool
+        Fill borders too.
+    method : {"fair", "seed"}
+    jobs : int
+        Processes building patches; the output is the same for any value.
+    progress : bool
+        Print progress to stderr.
+
+    Returns
+    -------
+    repaired : Mesh
+        Original vertices first and unchanged; new vertices and faces
+        flagged in ``vertex_filled`` / ``face_filled``.
+    report : dict
+        Table 1 fields (see :func:`shellrepair.report.table1_dict`) plus
+        per-hole details.
+    """
+    if order not in (1, 2, 3):
+        raise MeshError(f"order must be 1, 2 or 3, got {order}")
+    if method not in ("fair", "seed"):
+        raise MeshError(f"method must be 'fair' or 'seed', got {method!r}")
+    t0 = time.perf_counter()
+    V = np.asarray(mesh.V, np.float64)
+    F = np.asarray(mesh.F, np.int64)
+    topo = edge_topology(F, len(V))
+    scan = detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo)
+    holes = scan.holes
+    ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
+    results = {}
+    tasks = [(h.id, h.vertices, order, smooth) for h in holes]
+    if method == "seed":
+        patches = _seed_patches(ctx, holes, smooth or SEED_SMOOTH_PASSES, results)
+        outcomes = [(patches.get(h.id), results.get(h.id, ""), 0.0, []) for h in holes]
+    elif jobs > 1 and len(tasks) > 1:
+        global _WORKER_CTX
+        _ = ctx.index  # build before forking so workers share it
+        _WORKER_CTX = ctx
+        import multiprocessing as mp
+        with mp.get_context("fork").Pool(min(jobs, len(tasks))) as pool:
+            outcomes = []
+            for i, out in enumerate(pool.imap(_worker, tasks, chunksize=1)):
+                outcomes.append(out)
+                _progress(progress, i + 1, len(tasks))
+        _WORKER_CTX = None
+    else:
+        outcomes = []
+        for i, t in enumerate(tasks):
+            outcomes.append(_fill_one(ctx, *t))
+            _progress(progress, i + 1, len(tasks))
+    if progress and tasks:
+        print("", file=sys.stderr)
+
+    # sequential merge: patches against each other, in hole order
+    accepted = []
+    new_edges = set()
+    rows = []
+    for h, (patch, reason, secs, _) in zip(holes, outcomes):
+        row = {"id": h.id, "edges": h.edges, "status": "failed", "reason": reason,
+               "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
+        if patch is not None:
+            conflict = _conflicts(ctx, patch, accepted, new_edges)
+            if conflict:
+                row["reason"] = conflict
+            else:
+                accepted.append(patch)
+                k = len(patch.loop)
+                E = _edges_of(np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -1))
+                for a, b in E[(E >= 0).all(axis=1)].tolist():
+                    new_edges.add((a, b))
+                row.update(status="filled", reason=patch.option, new_vertices=int(len(patch.P)),
+                           new_faces=int(len(patch.T)), option=patch.option)
+        rows.append(row)
+    repaired = _merge(mesh, V, F, accepted)
+    # honest check of the result: boundary and non-manifold edges left
+    topo2 = edge_topology(repaired.F, len(repaired.V))
+    report = table1_dict(len(holes), rows, path=mesh.path, seconds=time.perf_counter() - t0,
+                         method=method, order=order, borders=len(scan.borders),
+                         extra={"vertices_before": int(len(V)), "faces_before": int(len(F)),
+                                "vertices_after": int(len(repaired.V)), "faces_after": int(len(repaired.F)),
+                                "open_chains": len(scan.open_chains),
+                                "boundary_edges_before": int(topo.n_boundary_edges),
+                                "boundary_edges_after": int(topo2.n_boundary_edges),
+                                "nonmanifold_edges_before": int(topo.nonmanifold_edges.shape[0]),
+                                "nonmanifold_edges_after": int(topo2.nonmanifold_edges.shape[0]),
+                                "smooth": smooth, "jobs": jobs,
+                                "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}
+                                                 for b in scan.borders]})
+    return repaired, report
+
+
+def _progress(on, i, n):
+    if on:
+        print(f"\rfilling holes: {i}/{n}", end="", file=sys.stderr, flush=True)
+
+
+def _conflicts(ctx, patch, accepted, new_edges):
+    k = len(patch.loop)
+    E = _edges_of(np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -1))
+    for a, b in E[(E >= 0).all(axis=1)].tolist():
+        if (a, b) in new_edges:
+            return "an earlier patch already created an edge this patch needs"
+    C, ids = _corners(ctx, patch)
+    lo, hi = C.reshape(-1, 3).min(axis=0), C.reshape(-1, 3).max(axis=0)
+    for other in accepted:
+        D, oid = _corners(ctx, other)
+        olo, ohi = D.reshape(-1, 3).min(axis=0), D.reshape(-1, 3).max(axis=0)
+        if np.any(hi < olo) or np.any(ohi < lo):
+            continue
+        oid = np.where(oid < 0, oid - 10 ** 12, oid)  # new vertices of different patches differ
+        from scipy.spatial import cKDTree
+        c1, c2 = C.mean(axis=1), D.mean(axis=1)
+        r1 = np.linalg.norm(C - c1[:, None], axis=2).max(axis=1)
+        r2 = np.linalg.norm(D - c2[:, None], axis=2).max(axis=1)
+        lists = cKDTree(c2).query_ball_point(c1, r1 + r2.max())
+        ai = np.repeat(np.arange(len(C)), [len(x) for x in lists])
+        if ai.size == 0:
+            continue
+        bi = np.concatenate([np.asarray(x, np.int64) for x in lists])
+        if pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
+            return f"patch would cross the patch of hole {other.hole_id}"
+    return None
+
+
+def _merge(mesh, V, F, patches):
+    """Append patches; originals unchanged, additions flagged."""
+    n = len(V)
+    newP, newF, newC = [], [], []
+    props = {k: [] for k in mesh.vertex_props}
+    base = n
+    for p in patches:
+        newP.append(p.P)
+        newF.append(p.global_faces(base))
+        if mesh.vertex_colors is not None:
+            newC.append(p.colors if p.colors is not None else
+                        np.zeros((len(p.P), mesh.vertex_colors.shape[1]), np.uint8))
+        for name in props:
+            arr = np.asarray(mesh.vertex_props[name])
+            props[name].append(p.props.get(name, np.zeros(len(p.P), arr.dtype)))
+        base += len(p.P)
+    q = base - n
+    V2 = np.vstack([V] + newP) if newP else V.copy()
+    F2 = np.vstack([F] + newF) if newF else F.copy()
+    out = Mesh(V=V2, F=F2.astype(np.int64), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
+               notes=list(mesh.notes))
+    if mesh.vertex_colors is not None:
+        out.vertex_colors = np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)
+    out.vertex_props = {k: np.concatenate([np.asarray(mesh.vertex_props[k])] + v) for k, v in props.items()}
+    vf = np.zeros(n + q, bool)
+    vf[n:] = True
+    if mesh.vertex_filled is not None:
+        vf[:n] = mesh.vertex_filled
+    ff = np.zeros(len(F2), bool)
+    ff[len(F):] = True
+    if mesh.face_filled is not None:
+        ff[:len(F)] = mesh.face_filled
+    out.vertex_filled, out.face_filled = vf, ff
+    return out
+
+
+def _seed_patches(ctx, holes, passes, results):
+    """The paper's method: close, smooth a duplicate of the whole mesh, take the filled region."""
+    built = []
+    for h in holes:
+        try:
+            p = build_patch(ctx, h.id, h.vertices, order=1, smooth=0, refine=True, fair=False)
+            built.append(p)
+        except PatchError as exc:
+            results[h.id] = f"seed: {exc}"
+    n = ctx.n
+    newP = [p.P for p in built]
+    base = n
+    Fs = [ctx.F]
+    for p in built:
+        Fs.append(p.global_faces(base))
+        base += len(p.P)
+    X = np.vstack([ctx.V] + newP) if newP else ctx.V.copy()
+    Fall = np.vstack(Fs)
+    if base > n:
+        origin = ctx.V.mean(axis=0)
+        X = X - origin
+        K = uniform_laplacian(Fall, len(X))
+        deg = K.diagonal()
+        W = (-K).tolil()
+        W.setdiag(0)
+        W = W.tocsr()
+        inv = 1.0 / np.maximum(deg, 1.0)
+        for _ in range(int(passes)):  # umbrella smoothing of the whole duplicate
+            X = X + 0.5 * ((W @ X) * inv[:, None] - X)
+        X = X + origin
+    out = {}
+    base = n
+    for p in built:
+        p.P = X[base:base + len(p.P)]
+        base += len(p.P)
+        why = _check_patch(ctx, p)
+        if why is None:
+            p.option = f"seed, {passes} smoothing passes"
+            out[p.hole_id] = p
+        else:
+            results[p.hole_id] = f"seed: {why}"
+    return out

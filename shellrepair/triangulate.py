@@ -1,0 +1,230 @@
+"""Triangulate a hole's boundary loop.
+
+Loops up to ``DP_MAX`` edges get Liepa's minimum-weight triangulation: the
+triangulation whose worst dihedral angle (between neighbouring new
+triangles, and between a new triangle and the scan's face across a loop
+edge) is smallest, ties broken by the smallest total area. Its dynamic
+program is O(k³) and runs vectorised over all splits of one interval length
+at a time.
+
+Longer loops are first cut by short chords between vertices far apart along
+the loop (each piece keeping at least a quarter of the vertices) until every
+piece is within ``DP_MAX``; each piece is then triangulated as above. This
+keeps thousands-of-edges loops fast (O(k²) for the cuts) and valid.
+
+No triangulation creates an edge the mesh already has: chords between loop
+vertices that are already joined by a mesh edge are forbidden.
+
+References
+----------
+P. Liepa, "Filling Holes in Meshes", Eurographics Symposium on Geometry
+Processing, 2003.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import MeshError
+
+__all__ = ["triangulate_loop", "DP_MAX"]
+
+#: Largest loop triangulated by one dynamic program.
+DP_MAX = 200
+#: Tolerance when comparing worst dihedral angles (radians) before areas.
+ANGLE_TIE = 1e-9
+
+
+def _normals(A, B, C):
+    n = np.cross(B - A, C - A)
+    ln = np.linalg.norm(n, axis=-1, keepdims=True)
+    return np.divide(n, ln, out=np.zeros_like(n), where=ln > 0), 0.5 * ln[..., 0]
+
+
+def _angle(n1, n2):
+    """Angle between unit normals; pi where either is degenerate (zero)."""
+    d = np.clip(np.sum(n1 * n2, axis=-1), -1.0, 1.0)
+    ang = np.arccos(d)
+    bad = (np.sum(n1 * n1, axis=-1) == 0) | (np.sum(n2 * n2, axis=-1) == 0)
+    return np.where(bad, np.pi, ang)
+
+
+def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto"):
+    """Triangulate a closed loop of points.
+
+    Parameters
+    ----------
+    P : (k,3) float64
+        Loop positions, in boundary half-edge order (the scan's faces lie to
+        the left).
+    edge_normals : (k,3) float64, optional
+        Unit normal of the scan's face across loop edge ``(i, i+1)``, for the
+        dihedral term at the rim. Zero rows mean unknown.
+    forbidden : set of (int, int), optional
+        Pairs ``(i, j)``, ``i < j``, of loop positions that must not be joined
+        (the mesh already has that edge).
+    axis : (3,) float64, "auto" or None
+        Viewing direction for the embedding constraint: when given, the
+        triangulation is first sought among those whose every triangle faces
+        along ``axis`` (positive area when projected on the plane normal to
+        it). Where the loop's projection is a simple polygon such a
+        triangulation exists and cannot cross itself. ``"auto"`` uses the
+        loop's own axis (minus its vector area, the way the patch faces);
+        None skips the constrained search. If no constrained triangulation
+        exists, the unconstrained one is returned.
+
+    Returns
+    -------
+    T : (k-2,3) int64
+        Triangles as indices into ``P``, oriented so that each loop edge
+        ``(i, i+1)`` appears reversed (consistent with the scan).
+
+    Raises
+    ------
+    MeshError
+        If every triangulation would create an existing edge.
+    """
+    P = np.asarray(P, np.float64)
+    k = len(P)
+    if k < 3:
+        raise MeshError(f"a loop needs at least 3 vertices, got {k}")
+    if edge_normals is None:
+        edge_normals = np.zeros((k, 3))
+    forbidden = set() if forbidden is None else set(forbidden)
+    idx = np.arange(k)
+    edge_normals = np.asarray(edge_normals, np.float64)
+    if isinstance(axis, str):
+        C = P - P.mean(axis=0)
+        va = -0.5 * np.cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
+        ln = np.linalg.norm(va)
+        axis = va / ln if ln > 0 else None
+    if axis is not None:
+        try:
+            return _triangulate(P, idx, edge_normals, forbidden, np.asarray(axis, np.float64))
+        except MeshError:
+            pass
+    return _triangulate(P, idx, edge_normals, forbidden, None)
+
+
+def _triangulate(P, idx, edge_normals, forbidden, axis):
+    """Triangulate the sub-loop ``idx`` (global positions into P)."""
+    k = len(idx)
+    if k <= DP_MAX:
+        return _dp(P, idx, edge_normals, forbidden, axis)
+    i, j = _best_chord(P, idx, forbidden)
+    a = idx[i:j + 1]                          # closes with chord idx[j] -> idx[i]
+    b = np.concatenate([idx[j:], idx[:i + 1]])  # closes with chord idx[i] -> idx[j]
+    Ta = _triangulate(P, a, edge_normals, forbidden, axis)
+    Tb = _triangulate(P, b, edge_normals, forbidden, axis)
+    return np.vstack([Ta, Tb])
+
+
+def _best_chord(P, idx, forbidden):
+    """Shortest chord between loop positions at least k/4 apart either way."""
+    k = len(idx)
+    Q = P[idx]
+    q = max(3, k // 4)
+    best = (np.inf, -1, -1)
+    for i in range(0, k - q):
+        j = np.arange(i + q, min(k, i + k - q + 1))
+        if j.size == 0:
+            continue
+        d = np.linalg.norm(Q[j] - Q[i], axis=1)
+        for t in np.argsort(d):
+            a, b = sorted((int(idx[i]), int(idx[j[t]])))
+            if (a, b) not in forbidden:
+                if d[t] < best[0]:
+                    best = (float(d[t]), i, int(j[t]))
+                break
+    if best[1] < 0:
+        raise MeshError("no chord splits this loop without duplicating an existing edge")
+    return best[1], best[2]
+
+
+def _dp(P, idx, edge_normals, forbidden, axis=None):
+    """Liepa's O(k³) dynamic program on the sub-loop ``idx``."""
+    k = len(idx)
+    if k == 3:
+        T = np.array([[idx[0], idx[2], idx[1]]], np.int64)
+        if _uses_forbidden(T, forbidden):
+            raise MeshError("the only triangle of this loop duplicates an existing edge")
+        if axis is not None and np.dot(np.cross(P[T[0, 1]] - P[T[0, 0]], P[T[0, 2]] - P[T[0, 0]]), axis) <= 0:
+            raise MeshError("the triangle faces against the loop's axis")
+        return T
+    Q = P[idx]
+    # rim normals: across sub-loop edge (i, i+1) is the scan face of global edge (idx[i], idx[i]+1)
+    glob_next = (idx + 1) % len(P)
+    rim = np.zeros((k, 3))
+    has_rim = np.zeros(k, bool)
+    nxt = np.roll(idx, -1)
+    rim_ok = glob_next == nxt
+    rim[rim_ok] = edge_normals[idx[rim_ok]]
+    has_rim[rim_ok] = True
+    # forbidden chords in local positions
+    forb = np.zeros((k, k), bool)
+    if forbidden:
+        pos = {int(g): t for t, g in enumerate(idx)}
+        for a, b in forbidden:
+            if a in pos and b in pos:
+                ia, ib = sorted((pos[a], pos[b]))
+                if ib - ia > 1 and not (ia == 0 and ib == k - 1):
+                    forb[ia, ib] = True
+    WA = np.full((k, k), np.inf)   # worst dihedral angle of the best triangulation of (i..j)
+    WS = np.full((k, k), np.inf)   # its area
+    O = np.full((k, k), -1, np.int64)
+    N = np.zeros((k, k, 3))        # normal of the triangle on chord (i, j)
+    for i in range(k - 1):
+        WA[i, i + 1] = 0.0
+        WS[i, i + 1] = 0.0
+        N[i, i + 1] = rim[i] if has_rim[i] else 0.0
+    for L in range(2, k):
+        i = np.arange(0, k - L)
+        j = i + L
+        m = i[:, None] + np.arange(1, L)[None, :]          # (r, L-1)
+        I = np.broadcast_to(i[:, None], m.shape)
+        J = np.broadcast_to(j[:, None], m.shape)
+        n, area = _normals(Q[I], Q[J], Q[m])             # triangle (i, j, m)
+        # dihedral with the triangles (or rim faces) on edges (i, m) and (m, j)
+        nim = N[I, m]
+        nmj = N[m, J]
+        a1 = np.where(np.sum(nim * nim, -1) > 0, _angle(n, nim), 0.0)
+        a2 = np.where(np.sum(nmj * nmj, -1) > 0, _angle(n, nmj), 0.0)
+        wa = np.maximum.reduce([a1, a2, WA[I, m], WA[m, J]])
+        if L == k - 1 and has_rim[k - 1]:  # the closing edge (k-1 -> 0) has a scan face across it
+            wa = np.maximum(wa, _angle(n, np.broadcast_to(rim[k - 1], n.shape)))
+        ws = area + WS[I, m] + WS[m, J]
+        bad = forb[I, m] | forb[m, J] | forb[I, J][:, :1]
+        if axis is not None:  # embedding constraint: every triangle faces along the axis
+            bad |= np.sum(np.cross(Q[J] - Q[I], Q[m] - Q[I]) * axis, axis=-1) <= 0
+        wa = np.where(bad, np.inf, wa)
+        best_a = wa.min(axis=1, keepdims=True)
+        ws_masked = np.where(wa <= best_a + ANGLE_TIE, ws, np.inf)
+        t = np.argmin(ws_masked, axis=1)
+        r = np.arange(len(i))
+        WA[i, j] = wa[r, t]
+        WS[i, j] = ws_masked[r, t]
+        O[i, j] = m[r, t]
+        N[i, j] = n[r, t]
+    if not np.isfinite(WA[0, k - 1]):
+        if axis is not None:
+            raise MeshError("no triangulation of this loop faces along its axis")
+        raise MeshError("every triangulation of this loop duplicates an existing edge")
+    tris = []
+    stack = [(0, k - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            continue
+        mm = int(O[a, b])
+        tris.append((idx[a], idx[b], idx[mm]))
+        stack.append((a, mm))
+        stack.append((mm, b))
+    return np.array(tris, np.int64)
+
+
+def _uses_forbidden(T, forbidden):
+    for t in T:
+        for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+            if (min(a, b), max(a, b)) in forbidden:
+                return True
+    return False

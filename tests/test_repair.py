@@ -1,0 +1,216 @@
+"""The shell: fill every hole, keep the scan, stay manifold, be accurate."""
+
+import json
+
+import numpy as np
+import pytest
+
+from shellrepair import Mesh, detect_holes, read_mesh, shapes, write_mesh
+from shellrepair.cli import main
+from shellrepair.repair import repair_mesh
+from shellrepair.topology import edge_topology, euler_characteristic
+
+from conftest import shared_scan
+
+
+def sample_filled(R, n_per_face=6, seed=0):
+    """Area-weighted random points on the faces flagged filled."""
+    rng = np.random.default_rng(seed)
+    T = R.V[R.F[R.face_filled]]
+    area = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    u = rng.random((len(T), n_per_face, 2))
+    flip = u.sum(axis=2) > 1
+    u[flip] = 1 - u[flip]
+    P = T[:, None, 0] + u[..., :1] * (T[:, None, 1] - T[:, None, 0]) + u[..., 1:] * (T[:, None, 2] - T[:, None, 0])
+    return P.reshape(-1, 3), np.repeat(area / n_per_face, n_per_face)
+
+
+def sphere_error(R, center=np.zeros(3), radius=1.0):
+    P, w = sample_filled(R)
+    d = np.abs(np.linalg.norm(P - center, axis=1) - radius)
+    return float(np.sqrt(np.sum(w * d ** 2) / np.sum(w))), float(d.max())
+
+
+def assert_shell_invariants(mesh, R, report):
+    n = len(mesh.V)
+    # originals untouched, bit for bit, and first
+    assert np.array_equal(R.V[:n].view(np.uint64), mesh.V.view(np.uint64))
+    assert np.array_equal(R.F[:len(mesh.F)], mesh.F)
+    assert R.face_filled.sum() == len(R.F) - len(mesh.F) and not R.face_filled[:len(mesh.F)].any()
+    assert R.vertex_filled.sum() == len(R.V) - n
+    topo = edge_topology(R.F, len(R.V))
+    assert topo.nonmanifold_edges.shape[0] == edge_topology(mesh.F, n).nonmanifold_edges.shape[0]
+    # consistent winding: no directed half-edge twice
+    he = topo.he[:, 0] * len(R.V) + topo.he[:, 1]
+    assert np.unique(he).size == he.size
+    # no hole-class loop left
+    after = detect_holes(R.V, R.F)
+    assert report["holes_after"] == report["holes_before"] - report["filled"]
+    assert len(after.holes) <= report["holes_after"]
+    assert report["boundary_edges_after"] == topo.n_boundary_edges
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_sphere_disc_hole_is_closed_and_accurate(order):
+    """Unit sphere, geodesic disc hole of radius 0.3; error of the filled
+    surface (area-weighted samples) to the true sphere, which includes the
+    flat triangles' own sag (about 2e-4 RMS at this density)."""
+    V, F = shapes.icosphere(5)
+    top = int(np.argmax(V[:, 2]))
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[top], radius=0.3)
+    mesh = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(mesh, order=order)
+    assert_shell_invariants(mesh, R, rep)
+    assert rep["holes_before"] == 1 and rep["holes_after"] == 0 and rep["interpolation_rate"] == 100.0
+    assert euler_characteristic(R.F) == 2
+    rms, mx = sphere_error(R)
+    bound = {1: (3e-2, 5e-2), 2: (1e-3, 3e-3), 3: (5e-4, 1.5e-3)}[order]
+    assert rms <= bound[0] and mx <= bound[1], (rms, mx)
+
+
+def test_higher_order_is_more_accurate_on_a_sphere():
+    V, F = shapes.icosphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.35, seed=4)
+    errs = [sphere_error(repair_mesh(Mesh(V=V2, F=F2), order=k)[0])[0] for k in (1, 2, 3)]
+    assert errs[0] > errs[1] > errs[2]
+
+
+def test_patch_density_matches_the_rim():
+    V, F = shapes.icosphere(5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=1, radius=0.5, seed=1)
+    R, rep = repair_mesh(Mesh(V=V2, F=F2))
+    rim = np.mean(np.linalg.norm(V2[F2[:, 0]] - V2[F2[:, 1]], axis=1))
+    T = R.F[R.face_filled]
+    patch = np.mean(np.linalg.norm(R.V[T[:, 0]] - R.V[T[:, 1]], axis=1))
+    assert 0.6 < patch / rim < 1.6
+
+
+def test_torus_with_holes_regains_its_euler_characteristic():
+    V, F = shapes.torus(nu=80, nv=30)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.15, seed=5)
+    mesh = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(mesh)
+    assert_shell_invariants(mesh, R, rep)
+    assert rep["holes_after"] == 0 and euler_characteristic(R.F) == 0
+
+
+def test_bumpy_sphere_many_small_holes():
+    V, F = shapes.bumpy_sphere(4, amplitude=0.02, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=12, radius=0.12, seed=7)
+    mesh = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(mesh)
+    assert_shell_invariants(mesh, R, rep)
+    assert rep["holes_before"] == 12 and rep["holes_after"] == 0
+    # distance of the new vertices to the true bumpy surface along their ray
+    P = R.V[R.vertex_filled]
+    u = P / np.linalg.norm(P, axis=1, keepdims=True)
+    r_true = 1 + 0.02 * shapes.bump_field(u, 5, 0)
+    assert np.sqrt(np.mean((np.linalg.norm(P, axis=1) - r_true) ** 2)) < 5e-3
+
+
+def test_output_is_deterministic_and_independent_of_jobs():
+    V, F = shapes.icosphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.25, seed=2)
+    mesh = Mesh(V=V2, F=F2)
+    R1, _ = repair_mesh(mesh)
+    R2, _ = repair_mesh(mesh)
+    R3, _ = repair_mesh(mesh, jobs=2)
+    for R in (R2, R3):
+        assert np.array_equal(R1.V, R.V) and np.array_equal(R1.F, R.F)
+
+
+def test_large_offset_and_scale_give_the_same_relative_result():
+    V, F = shapes.icosphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=3)
+    rms1, _ = sphere_error(repair_mesh(Mesh(V=V2, F=F2))[0])
+    c = np.array([1e6, -2e6, 5e5])
+    for scale, center in ((1e3, c), (1e-6, np.zeros(3))):
+        R, rep = repair_mesh(Mesh(V=V2 * scale + center, F=F2))
+        assert rep["holes_after"] == 0
+        rms, _ = sphere_error(R, center, scale)
+        # equal up to tie-breaks of the triangulation on this symmetric mesh
+        assert rms / scale == pytest.approx(rms1, rel=0.05)
+
+
+def test_vertex_colours_are_interpolated_from_the_rim():
+    V, F = shapes.icosphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=1, radius=0.3, seed=0)
+    col = np.clip((V2 + 1) * 127.5, 0, 255).astype(np.uint8)
+    mesh = Mesh(V=V2, F=F2, vertex_colors=col)
+    R, _ = repair_mesh(mesh)
+    new = R.vertex_colors[R.vertex_filled].astype(float)
+    rim = col[np.unique(detect_holes(V2, F2).loops[0].vertices)].astype(float)
+    assert len(new) > 0
+    assert (new >= rim.min(axis=0) - 1).all() and (new <= rim.max(axis=0) + 1).all()
+    assert np.array_equal(R.vertex_colors[:len(V2)], col)
+
+
+def test_borders_stay_open():
+    V, F = shapes.grid(20, 20)
+    c = np.array([0.5, 0.5, 0.0])
+    V2, F2, _ = shapes.remove_faces(V, F, np.linalg.norm(V[F].mean(axis=1) - c, axis=1) < 0.2)
+    mesh = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(mesh)
+    assert rep["holes_before"] == 1 and rep["filled"] == 1 and rep["borders"] == 1
+    after = detect_holes(R.V, R.F)
+    assert len(after.loops) == 1 and after.loops[0].edges == 4 * 19
+    # a flat hole in a flat sheet is filled flat
+    assert np.abs(R.V[R.vertex_filled][:, 2]).max() < 1e-9
+
+
+def test_seed_method_fills_and_says_so():
+    V, F = shapes.icosphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=1)
+    mesh = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(mesh, method="seed")
+    assert_shell_invariants(mesh, R, rep)
+    assert rep["method"] == "seed" and rep["holes_after"] == 0
+    assert all("seed" in h["reason"] for h in rep["holes"])
+    # the paper's smoothed copy sags more than the faired shell
+    assert sphere_error(R)[0] > sphere_error(repair_mesh(mesh)[0])[0]
+
+
+def test_real_bunny_is_closed():
+    m = read_mesh(shared_scan("real_bunny_zipper.ply"))
+    R, rep = repair_mesh(m)
+    assert_shell_invariants(m, R, rep)
+    assert rep["holes_before"] == 5 and rep["holes_after"] == 0
+    assert rep["boundary_edges_after"] == 0
+
+
+def test_real_range_scan_keeps_its_borders():
+    m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
+    R, rep = repair_mesh(m)
+    assert_shell_invariants(m, R, rep)
+    before = detect_holes(m.V, m.F)
+    assert rep["holes_after"] == 0
+    assert rep["boundary_edges_after"] == sum(b.edges for b in before.borders)
+
+
+def test_cli_repair_writes_mesh_with_flags_and_report(tmp_path, capsys):
+    V, F = shapes.icosphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=2)
+    src = tmp_path / "s.ply"
+    write_mesh(src, Mesh(V=V2, F=F2))
+    before = src.read_bytes()
+    out, rep = tmp_path / "o.ply", tmp_path / "r.json"
+    assert main(["repair", str(src), "-o", str(out), "--report", str(rep)]) == 0
+    assert "interpolation rate" in capsys.readouterr().out
+    d = json.loads(rep.read_text())
+    assert d["holes_before"] == 2 and d["holes_after"] == 0 and d["interpolation_rate"] == 100.0
+    for h in d["holes"]:
+        assert {"id", "edges", "status", "reason", "new_vertices", "new_faces", "seconds"} <= set(h)
+    R = read_mesh(out)
+    assert R.face_filled.sum() == sum(h["new_faces"] for h in d["holes"])
+    assert R.vertex_filled.sum() == sum(h["new_vertices"] for h in d["holes"])
+    assert src.read_bytes() == before
+
+
+def test_cli_repair_to_missing_folder_fails_cleanly(tmp_path, capsys):
+    V, F = shapes.icosphere(2)
+    src = tmp_path / "s.ply"
+    write_mesh(src, Mesh(V=V, F=F))
+    assert main(["repair", str(src), "-o", str(tmp_path / "no" / "o.ply")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.ply"]
