@@ -1,0 +1,309 @@
+"""One fill function per tool, all with the same signature.
+
+``fill(V, F) -> (V_out, F_out, info)``
+
+* ``V (n,3) float64``, ``F (m,3) int64``: the perforated mesh.
+* ``V_out, F_out``: what the tool returned, as arrays.
+* ``info``: a dict with ``seconds`` (the tool's fill call(s) only; building
+  the tool's mesh structure from arrays and back is ``convert_seconds``)
+  and anything the tool reported.
+
+A tool that is not installed raises :class:`ToolMissing` when called; any
+other exception is that tool failing on that case. The benchmark runs each
+call in a child process (:mod:`eval.worker`), so a crash or a hang is
+recorded too.
+
+Every tool is asked to fill *every* hole (the ground truths are closed, so
+every boundary loop is a hole):
+
+===================  ========================================================
+tool                 call
+===================  ========================================================
+ours-o1/o2/o3        ``shellrepair.repair.repair_mesh(mesh, order=k)``
+ours-seed            ``repair_mesh(mesh, method="seed")`` (the paper's method)
+pymeshlab            ``MeshSet.meshing_close_holes(maxholesize=<all boundary
+                     edges + 1>)``, other parameters at their defaults
+open3d               ``t.geometry.TriangleMesh.fill_holes(hole_size=10*diag)``
+meshlib-fillHole     ``mrmeshpy.fillHole(mesh, e)`` for every hole
+                     (``findHoleRepresentiveEdges``), default parameters
+meshlib-nicely       ``mrmeshpy.fillHoleNicely(mesh, e, settings)`` with
+                     subdivision to the mesh's mean edge length and curvature
+                     smoothing (``smoothCurvature=True``, the default)
+cgal                 ``Polygon_mesh_processing.triangulate_refine_and_fair_hole``
+                     on a ``Polyhedron_3``, one border halfedge per hole,
+                     default density and fairing continuity
+pymeshfix            ``MeshFix(V, F).fill_holes(0, refine=True)`` (fill all
+                     boundaries; not the full ``repair()``, which would also
+                     remove and move original faces)
+===================  ========================================================
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+__all__ = ["ToolMissing", "TOOLS", "PEERS", "OURS", "REFERENCE", "tool_available", "run_tool"]
+
+
+class ToolMissing(RuntimeError):
+    """The tool's Python package is not installed."""
+
+
+def _import(name):
+    import importlib
+
+    try:
+        return importlib.import_module(name)
+    except ImportError as exc:  # includes a broken shared library
+        raise ToolMissing(f"{name} is not installed ({exc})") from None
+
+
+def _mean_edge(V, F):
+    return float(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).mean())
+
+
+# --------------------------------------------------------------------------
+# ours
+# --------------------------------------------------------------------------
+def _ours(V, F, **kw):
+    try:
+        from shellrepair.repair import repair_mesh
+    except ImportError as exc:
+        raise ToolMissing(f"shellrepair.repair is not available ({exc})") from None
+    from shellrepair.io import Mesh
+
+    mesh = Mesh(V=np.array(V, np.float64), F=np.array(F, np.int64))
+    t0 = time.perf_counter()
+    repaired, report = repair_mesh(mesh, **kw)
+    dt = time.perf_counter() - t0
+    ff = getattr(repaired, "face_filled", None)
+    info = {"seconds": dt, "convert_seconds": 0.0,
+            "reported_holes_before": report.get("holes_before"),
+            "reported_holes_after": report.get("holes_after"),
+            "reported_rate": report.get("interpolation_rate"),
+            "face_filled": None if ff is None else int(np.count_nonzero(ff)),
+            "statuses": _count_statuses(report.get("holes", []))}
+    return np.asarray(repaired.V, np.float64), np.asarray(repaired.F, np.int64), info
+
+
+def _count_statuses(holes):
+    out = {}
+    for h in holes:
+        key = h.get("status", "?")
+        if key != "filled":
+            key = f"{key}: {h.get('reason', '')}"[:80]
+        out[key] = out.get(key, 0) + 1
+    return out
+
+
+def ours_o1(V, F):
+    return _ours(V, F, order=1)
+
+
+def ours_o2(V, F):
+    return _ours(V, F, order=2)
+
+
+def ours_o3(V, F):
+    return _ours(V, F, order=3)
+
+
+def ours_seed(V, F):
+    return _ours(V, F, method="seed")
+
+
+# --------------------------------------------------------------------------
+# peers
+# --------------------------------------------------------------------------
+def pymeshlab_close_holes(V, F):
+    ml = _import("pymeshlab")
+    from shellrepair.topology import edge_topology
+
+    t0 = time.perf_counter()
+    ms = ml.MeshSet()
+    ms.add_mesh(ml.Mesh(vertex_matrix=np.asarray(V, np.float64), face_matrix=np.asarray(F, np.int32)))
+    conv = time.perf_counter() - t0
+    maxhole = int(edge_topology(F, len(V)).n_boundary_edges) + 1
+    t0 = time.perf_counter()
+    ms.meshing_close_holes(maxholesize=maxhole)
+    dt = time.perf_counter() - t0
+    m = ms.current_mesh()
+    return (np.asarray(m.vertex_matrix(), np.float64), np.asarray(m.face_matrix(), np.int64),
+            {"seconds": dt, "convert_seconds": conv, "maxholesize": maxhole})
+
+
+def open3d_fill_holes(V, F):
+    o3d = _import("open3d")
+    t0 = time.perf_counter()
+    mesh = o3d.t.geometry.TriangleMesh()
+    mesh.vertex.positions = o3d.core.Tensor(np.ascontiguousarray(V, np.float64))
+    mesh.triangle.indices = o3d.core.Tensor(np.ascontiguousarray(F, np.int64))
+    conv = time.perf_counter() - t0
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    t0 = time.perf_counter()
+    out = mesh.fill_holes(hole_size=10.0 * diag)
+    dt = time.perf_counter() - t0
+    return (out.vertex.positions.numpy().astype(np.float64), out.triangle.indices.numpy().astype(np.int64),
+            {"seconds": dt, "convert_seconds": conv, "hole_size": 10.0 * diag})
+
+
+def _meshlib_mesh(V, F):
+    mm = _import("meshlib.mrmeshpy")
+    mn = _import("meshlib.mrmeshnumpy")
+    mesh = mn.meshFromFacesVerts(np.ascontiguousarray(F, np.int32), np.ascontiguousarray(V, np.float64))
+    return mm, mn, mesh
+
+
+def _meshlib_out(mn, mesh):
+    Vo = np.asarray(mn.getNumpyVerts(mesh), np.float64)
+    Fo = np.asarray(mn.getNumpyFaces(mesh.topology), np.int64)
+    return Vo, Fo
+
+
+def meshlib_fill_hole(V, F):
+    t0 = time.perf_counter()
+    mm, mn, mesh = _meshlib_mesh(V, F)
+    conv = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    edges = list(mesh.topology.findHoleRepresentiveEdges())
+    params = mm.FillHoleParams()
+    for e in edges:
+        mm.fillHole(mesh, e, params)
+    dt = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    Vo, Fo = _meshlib_out(mn, mesh)
+    return Vo, Fo, {"seconds": dt, "convert_seconds": conv + time.perf_counter() - t0, "holes": len(edges)}
+
+
+def meshlib_fill_hole_nicely(V, F):
+    t0 = time.perf_counter()
+    mm, mn, mesh = _meshlib_mesh(V, F)
+    conv = time.perf_counter() - t0
+    edge = _mean_edge(V, F)
+    t0 = time.perf_counter()
+    edges = list(mesh.topology.findHoleRepresentiveEdges())
+    settings = mm.FillHoleNicelySettings()
+    settings.triangulateOnly = False
+    settings.smoothCurvature = True
+    settings.subdivideSettings.maxEdgeLen = edge
+    settings.subdivideSettings.maxEdgeSplits = 1_000_000
+    for e in edges:
+        mm.fillHoleNicely(mesh, e, settings)
+    dt = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    Vo, Fo = _meshlib_out(mn, mesh)
+    return Vo, Fo, {"seconds": dt, "convert_seconds": conv + time.perf_counter() - t0, "holes": len(edges),
+                    "maxEdgeLen": edge}
+
+
+def cgal_refine_fair(V, F):
+    _import("CGAL")
+    PMP = _import("CGAL.CGAL_Polygon_mesh_processing")
+    Polyhedron_3 = _import("CGAL.CGAL_Polyhedron_3").Polyhedron_3
+    Point_3 = _import("CGAL.CGAL_Kernel").Point_3
+    t0 = time.perf_counter()
+    pts = PMP.Point_3_Vector()
+    pts.reserve(len(V))
+    for x, y, z in np.asarray(V, np.float64).tolist():
+        pts.append(Point_3(x, y, z))
+    polys = PMP.Polygon_Vector()
+    for f in np.asarray(F, np.int64).tolist():
+        iv = PMP.Int_Vector()
+        for i in f:
+            iv.append(i)
+        polys.append(iv)
+    P = Polyhedron_3()
+    PMP.polygon_soup_to_polygon_mesh(pts, polys, P)
+    for i, v in enumerate(P.vertices()):
+        v.set_id(i)
+    # one border halfedge per hole, found by walking each loop once
+    starts, seen = [], set()
+    for h in P.halfedges():
+        if not h.is_border():
+            continue
+        key = (h.opposite().vertex().id(), h.vertex().id())
+        if key in seen:
+            continue
+        starts.append(h)
+        g = h
+        for _ in range(len(V) + 1):
+            seen.add((g.opposite().vertex().id(), g.vertex().id()))
+            g = g.next()
+            if (g.opposite().vertex().id(), g.vertex().id()) == key:
+                break
+    conv = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    n_faces = 0
+    for h in starts:
+        fo, vo = [], []
+        PMP.triangulate_refine_and_fair_hole(P, h, fo, vo)
+        n_faces += len(fo)
+    dt = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    Vo = []
+    for i, v in enumerate(P.vertices()):
+        p = v.point()
+        Vo.append((p.x(), p.y(), p.z()))
+        v.set_id(i)
+    Fo = []
+    for f in P.facets():
+        h = f.halfedge()
+        Fo.append((h.vertex().id(), h.next().vertex().id(), h.next().next().vertex().id()))
+    conv += time.perf_counter() - t0
+    return (np.array(Vo, np.float64).reshape(-1, 3), np.array(Fo, np.int64).reshape(-1, 3),
+            {"seconds": dt, "convert_seconds": conv, "holes": len(starts), "patch_faces": n_faces})
+
+
+def pymeshfix_fill_holes(V, F):
+    pmf = _import("pymeshfix")
+    t0 = time.perf_counter()
+    mf = pmf.MeshFix(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int32))
+    conv = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    n = mf.fill_holes(0, True)
+    dt = time.perf_counter() - t0
+    return (np.asarray(mf.points, np.float64), np.asarray(mf.faces, np.int64),
+            {"seconds": dt, "convert_seconds": conv, "holes_filled": int(n) if n is not None else None})
+
+
+#: Tool name -> fill function, in the order of the tables.
+OURS = {"ours-o1": ours_o1, "ours-o2": ours_o2, "ours-o3": ours_o3, "ours-seed": ours_seed}
+PEERS = {
+    "pymeshlab": pymeshlab_close_holes,
+    "open3d": open3d_fill_holes,
+    "meshlib-fillHole": meshlib_fill_hole,
+    "meshlib-nicely": meshlib_fill_hole_nicely,
+    "cgal": cgal_refine_fair,
+    "pymeshfix": pymeshfix_fill_holes,
+}
+TOOLS = {**OURS, **PEERS}
+#: Ours at its default order: the reference of the ratio columns.
+REFERENCE = "ours-o2"
+
+_PACKAGES = {"pymeshlab": "pymeshlab", "open3d": "open3d", "meshlib-fillHole": "meshlib.mrmeshpy",
+             "meshlib-nicely": "meshlib.mrmeshpy", "cgal": "CGAL.CGAL_Polygon_mesh_processing",
+             "pymeshfix": "pymeshfix"}
+
+
+def tool_available(name):
+    """(available, reason) without running the tool."""
+    import importlib.util
+
+    if name in OURS:
+        ok = importlib.util.find_spec("shellrepair.repair") is not None
+        return ok, "" if ok else "shellrepair.repair not found"
+    pkg = _PACKAGES[name]
+    try:
+        ok = importlib.util.find_spec(pkg) is not None
+    except ModuleNotFoundError:
+        ok = False
+    return ok, "" if ok else f"{pkg.split('.')[0]} is not installed"
+
+
+def run_tool(name, V, F):
+    """Run one tool's fill on arrays (in this process)."""
+    if name not in TOOLS:
+        raise ValueError(f"unknown tool '{name}' (known: {', '.join(TOOLS)})")
+    return TOOLS[name](np.asarray(V, np.float64), np.asarray(F, np.int64))
