@@ -509,6 +509,9 @@ class MaterialShader:
             j, w = sh._axis_index(lm, L[0], L[1] - L[0], L.size)
             self._rho_tab = (1.0 - w)[None, :] * sl[:, j] + w[None, :] * sl[:, j + 1]  # (Nu, Nc)
             self._nu = table.u.size
+            # rho_bar(c) = 2 int_0^1 rho_dt(mu) mu dmu, mu = u^2 -> 4 int rho u^3 du
+            uu = table.u
+            self._rho_bar = 4.0 * np.trapezoid(self._rho_tab * (uu ** 3)[:, None], uu, axis=0)
         self._m0 = mat.m_exposed
         self._dm = mat.m_rust - mat.m_exposed
 
@@ -533,17 +536,20 @@ class MaterialShader:
         r1 = R[i + 1, j] + b * (R[i + 1, j + 1] - R[i + 1, j])
         return r0 + a * (r1 - r0)
 
-    def __call__(self, wi, wo, n, coverage):
+    def __call__(self, wi, wo, n, coverage, *, parts=False):
         """Evaluate the BRDF.
 
         Parameters
         ----------
         wi, wo, n : (..., 3) float arrays (broadcasting)
         coverage : (...) float array in [0, 1]
+        parts : bool, optional
+            Return the specular and diffuse parts separately.
 
         Returns
         -------
         f : (..., 3) float64 array
+            Or ``(f_spec, f_diffuse)`` when ``parts`` is true.
         """
         wi, wo, n = (np.asarray(a, dtype=np.float64) for a in (wi, wo, n))
         c = np.asarray(coverage, dtype=np.float64)
@@ -553,11 +559,54 @@ class MaterialShader:
         wo = np.broadcast_to(wo, shape + (3,)).reshape(P, 3)
         n = np.broadcast_to(n, shape + (3,)).reshape(P, 3)
         c = np.broadcast_to(c, shape).reshape(P)
-        out = np.empty((P, 3), dtype=np.float64)
+        spec = np.empty((P, 3), dtype=np.float64)
+        diff = np.zeros((P, 3), dtype=np.float64) if parts else None
         for s in range(0, P, self.chunk):
             sl = slice(s, s + self.chunk)
-            out[sl] = self._eval(wi[sl], wo[sl], n[sl], c[sl])
-        return out.reshape(shape + (3,))
+            fs, fd = self._eval(wi[sl], wo[sl], n[sl], c[sl])
+            if parts:
+                spec[sl] = fs
+                if fd is not None:
+                    diff[sl] = fd
+            else:
+                spec[sl] = fs if fd is None else fs + fd
+        if parts:
+            return spec.reshape(shape + (3,)), diff.reshape(shape + (3,))
+        return spec.reshape(shape + (3,))
+
+    def ambient(self, cos_o, coverage):
+        """Reflectance weights under a distant environment.
+
+        Parameters
+        ----------
+        cos_o : (P,) float array
+            Cosine of the view direction with the normal.
+        coverage : (P,) float array
+
+        Returns
+        -------
+        (w_spec, w_diffuse) : tuple of (P,3) float64 arrays
+            Multiply w_spec by the environment radiance in the mirror
+            direction and w_diffuse by the radiance around the normal.
+
+        Notes
+        -----
+        The dielectric lobe's directional albedo is exactly
+        ``1 - rho_dt(o)``; the diffuse albedo under uniform light is
+        ``rho_dt(o) R_KM rho_bar`` with ``rho_bar = 2 int rho_dt(mu) mu dmu``.
+        The conductor lobe is approximated by F(n.o) (roughness ignored).
+        """
+        no = np.clip(np.asarray(cos_o, dtype=np.float64), 0.0, 1.0)
+        c = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)
+        Fm = self._lut(self._F_metal, self._dF_metal, no)
+        if not self.corrodes:
+            return Fm, np.zeros_like(Fm)
+        rho_o = self._rho(np.sqrt(no), c)
+        rbar = np.interp(c, np.linspace(0.0, 1.0, self._nc), self._rho_bar)
+        R = self._lut(self._R_km, self._dR_km, c)
+        w_spec = (1.0 - c)[:, None] * Fm + (c * (1.0 - rho_o))[:, None]
+        w_diff = (c * rho_o * rbar)[:, None] * R
+        return w_spec, w_diff
 
     def _eval(self, wi, wo, n, c):
         c = np.clip(c, 0.0, 1.0)
@@ -581,14 +630,14 @@ class MaterialShader:
         DG4 = np.where(valid & (nh > sh.COS_EPS), 0.25 * D * g, 0.0)
         Fm = self._lut(self._F_metal, self._dF_metal, oh)  # (P, 3)
         if not self.corrodes:
-            return DG4[:, None] * Fm
+            return DG4[:, None] * Fm, None
         Ft = self._lut(self._F_top, self._dF_top, oh)  # (P,)
         spec = DG4[:, None] * ((1.0 - c)[:, None] * Fm + (c * Ft)[:, None])
         ui = np.sqrt(np.clip(ni, 0.0, 1.0))
         uo = np.sqrt(np.clip(no, 0.0, 1.0))
         diff = np.where(valid, c * self._rho(ui, c) * self._rho(uo, c) / np.pi, 0.0)
         R = self._lut(self._R_km, self._dR_km, c)
-        return spec + diff[:, None] * R
+        return spec, diff[:, None] * R
 
 
 # --------------------------------------------------------------------------

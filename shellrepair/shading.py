@@ -72,6 +72,7 @@ __all__ = [
     "km_mix",
     "dipole_rd",
     "dipole_tail_fraction",
+    "dipole_profile",
     "km_to_transport",
     "local_brdf",
 ]
@@ -1038,6 +1039,49 @@ def dipole_tail_fraction(r, sigma_a, sigma_s_prime, eta):
     tail = zr * np.exp(-s_tr * dr) / dr + zv * np.exp(-s_tr * dv) / dv
     total = np.exp(-s_tr * zr) + np.exp(-s_tr * zv)
     return np.clip(tail / np.maximum(total, _TINY), 0.0, 1.0)
+
+
+def dipole_profile(r, sigma_a, sigma_s_prime, eta):
+    """Radial diffuse reflectance profile R_d(r) of the dipole model.
+
+    Parameters
+    ----------
+    r : (...) float array
+        Distance from the point of entry (length unit of 1/sigma).
+    sigma_a, sigma_s_prime : (...) float arrays
+        Absorption and reduced scattering coefficients (1/length), > 0.
+    eta : (...) float array
+        Relative refractive index.
+
+    Returns
+    -------
+    Rd : (...) float64 array
+        Exitance per unit area per unit incident flux (1/length^2);
+        ``int Rd(r) 2 pi r dr = dipole_rd(alpha', eta)``.
+
+    Notes
+    -----
+    Jensen et al. 2001::
+
+        Rd(r) = alpha'/(4 pi) [z_r (1 + s d_r) e^{-s d_r} / d_r^3
+                               + z_v (1 + s d_v) e^{-s d_v} / d_v^3]
+
+    with s = sigma_tr = sqrt(3 sigma_a sigma_t'), z_r = 1/sigma_t',
+    z_v = z_r (1 + 4A/3), d = sqrt(r^2 + z^2).
+    """
+    sa = np.maximum(np.asarray(sigma_a, dtype=np.float64), _TINY)
+    ss = np.maximum(np.asarray(sigma_s_prime, dtype=np.float64), 0.0)
+    r = np.maximum(np.asarray(r, dtype=np.float64), 0.0)
+    st = sa + ss
+    alpha = ss / st
+    s_tr = np.sqrt(3.0 * sa * st)
+    zr = 1.0 / st
+    zv = zr * (1.0 + 4.0 / 3.0 * _dipole_A(eta))
+    dr = np.sqrt(r * r + zr * zr)
+    dv = np.sqrt(r * r + zv * zv)
+    pole_r = zr * (1.0 + s_tr * dr) * np.exp(-s_tr * dr) / dr**3  # real source
+    pole_v = zv * (1.0 + s_tr * dv) * np.exp(-s_tr * dv) / dv**3  # virtual source
+    return alpha / (4.0 * np.pi) * (pole_r + pole_v)
 
 
 def km_to_transport(K, S):
