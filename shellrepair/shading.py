@@ -870,6 +870,7 @@ def km_reflectance(K, S, X, Rg):
         R = num / den
         # q overflowed (S X beyond ~1e300 with K = 0): R -> R_inf
         R = np.where(np.isfinite(q) & np.isfinite(R), R, Ri)
+    R = np.where(X == 0.0, Rg, R)  # no layer: exactly the background
     R = np.where(np.isinf(X), Ri, R)  # infinitely thick: eq 6
     R = np.where(T > 0.0, R, Rg)  # empty layer
     return np.clip(R, 0.0, 1.0)
