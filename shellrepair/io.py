@@ -31,9 +31,15 @@ import numpy as np
 
 from .errors import MeshError
 
-__all__ = ["Mesh", "read_mesh", "write_mesh", "clean_faces", "atomic_write"]
+__all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path", "clean_faces",
+           "atomic_write", "atomic_write_many", "MAX_ABS_COORDINATE"]
 
 SUPPORTED = (".ply", ".obj", ".off", ".stl")
+
+#: Largest coordinate magnitude accepted. Squared lengths and cross
+#: products of larger values overflow float64 (max ~1.8e308); real scans in
+#: millimetres stay below 1e9.
+MAX_ABS_COORDINATE = 1e100
 
 _PLY_TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
@@ -93,7 +99,7 @@ class Mesh:
 # --------------------------------------------------------------------------
 # public entry points
 # --------------------------------------------------------------------------
-def read_mesh(path, *, clean=True):
+def read_mesh(path, *, clean=True, orient=True):
     """Read a triangle mesh from a PLY, OBJ, OFF or STL file.
 
     Parameters
@@ -104,10 +110,16 @@ def read_mesh(path, *, clean=True):
     clean : bool
         Drop faces that repeat a vertex and exact duplicate faces
         (see :func:`clean_faces`). Default True.
+    orient : bool
+        Flip faces so that every piece is wound consistently, closed pieces
+        outward (see :func:`shellrepair.clean.orient_faces`). Only the corner
+        order of some faces changes; vertices and face order never do.
+        Default True.
 
     Returns
     -------
     mesh : Mesh
+        ``mesh.notes`` says what loading changed or found.
 
     Raises
     ------
@@ -119,6 +131,8 @@ def read_mesh(path, *, clean=True):
         raise MeshError("is a directory, not a mesh file", path)
     if not path.exists():
         raise MeshError("no such file", path)
+    if not path.is_file():
+        raise MeshError("not a regular file", path)
     ext = path.suffix.lower()
     if ext not in SUPPORTED:
         raise MeshError(f"unknown extension '{path.suffix}' (expected one of {', '.join(SUPPORTED)})", path)
@@ -133,23 +147,70 @@ def read_mesh(path, *, clean=True):
         mesh = reader(data)
     except MeshError as exc:
         raise MeshError(exc.message, path) from None
-    except (ValueError, IndexError, UnicodeDecodeError, OverflowError) as exc:
-        raise MeshError(f"malformed {ext[1:].upper()} file ({exc})", path) from None
+    except (ValueError, IndexError, UnicodeDecodeError, OverflowError, MemoryError) as exc:
+        raise MeshError(f"malformed {ext[1:].upper()} file ({type(exc).__name__}: {exc})"[:300], path) from None
     mesh.path = str(path)
     try:
         _validate(mesh)
         if clean:
             F, kept, notes = clean_faces(mesh.F)
+            if F.shape[0] == 0:
+                raise MeshError(f"no usable faces: all {mesh.F.shape[0]} faces repeat a vertex")
             mesh.F = F
             if mesh.face_filled is not None:
                 mesh.face_filled = mesh.face_filled[kept]
             mesh.notes.extend(notes)
     except MeshError as exc:
         raise MeshError(exc.message, path) from None
+    if orient:
+        from .clean import orient_faces
+
+        res = orient_faces(mesh.F, mesh.V)
+        mesh.F = res.F
+        mesh.notes.extend(res.notes)
+    unused = mesh.n_vertices - int(np.unique(mesh.F).size)
+    if unused:
+        mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes)")
     zero = _zero_area_count(mesh.V, mesh.F)
     if zero:
         mesh.notes.append(f"{zero} zero-area faces kept")
     return mesh
+
+
+def mesh_bytes(path, mesh, *, binary=True):
+    """The bytes :func:`write_mesh` would write to ``path`` (format from its extension).
+
+    Raises
+    ------
+    MeshError
+        For an unknown extension.
+    """
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext not in SUPPORTED:
+        raise MeshError(f"unknown output extension '{path.suffix}' (expected one of {', '.join(SUPPORTED)})", path)
+    writer = {".ply": _ply_bytes, ".obj": _obj_bytes, ".off": _off_bytes, ".stl": _stl_bytes}[ext]
+    return writer(mesh, binary)
+
+
+def check_output_path(path, *, what="output"):
+    """Raise :class:`MeshError` unless ``path`` can be written as a new or replaced file.
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        Names the file in the message (``"output"``, ``"report"``).
+    """
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise MeshError(f"{what} folder does not exist", path)
+    if path.is_dir():
+        raise MeshError(f"{what} path is a directory", path)
+    if path.exists() and not path.is_file():
+        raise MeshError(f"{what} path exists and is not a regular file", path)
+    if not os.access(path.parent, os.W_OK):
+        raise MeshError(f"{what} folder is not writable", path)
 
 
 def write_mesh(path, mesh, *, binary=True):
@@ -169,30 +230,61 @@ def write_mesh(path, mesh, *, binary=True):
     into place, so a failure leaves no partial output.
     """
     path = Path(path)
-    ext = path.suffix.lower()
-    if ext not in SUPPORTED:
-        raise MeshError(f"unknown output extension '{path.suffix}' (expected one of {', '.join(SUPPORTED)})", path)
-    if not path.parent.exists() or not path.parent.is_dir():
-        raise MeshError("output folder does not exist", path)
-    writer = {".ply": _ply_bytes, ".obj": _obj_bytes, ".off": _off_bytes, ".stl": _stl_bytes}[ext]
-    payload = writer(mesh, binary)
+    payload = mesh_bytes(path, mesh, binary=binary)
+    check_output_path(path)
     atomic_write(path, payload)
 
 
 def atomic_write(path, payload):
     """Write ``payload`` (bytes or str) to ``path`` through a temp file + rename."""
-    path = Path(path)
-    if isinstance(payload, str):
-        payload = payload.encode("utf-8")
-    fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=str(path.parent))
+    atomic_write_many([(path, payload)])
+
+
+def atomic_write_many(items):
+    """Write several files, none of them partially.
+
+    Parameters
+    ----------
+    items : list of (path, payload)
+        ``payload`` is bytes or str (written as UTF-8).
+
+    Notes
+    -----
+    Every payload goes to a temporary file beside its target (same folder,
+    so the rename cannot cross file systems) and is flushed to disk; only
+    when all are written are they renamed into place, in order, so a
+    failure while writing (disk full, interrupted) leaves every target as
+    it was. Any failure removes the temporary files and raises
+    :class:`MeshError` naming the target.
+    """
+    tmps = []
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(payload)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        for path, payload in items:
+            path = Path(path)
+            if isinstance(payload, str):
+                payload = payload.encode("utf-8")
+            try:
+                fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=str(path.parent))
+            except OSError as exc:
+                raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
+            tmps.append((tmp, path))
+            try:
+                with os.fdopen(fd, "wb") as fh:
+                    fh.write(payload)
+                    fh.flush()
+                    os.fsync(fh.fileno())
+            except OSError as exc:
+                raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
+        for i, (tmp, path) in enumerate(tmps):
+            try:
+                os.replace(tmp, path)
+            except OSError as exc:
+                raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
+            tmps[i] = (None, path)
+    finally:
+        for tmp, _ in tmps:
+            if tmp is not None and os.path.exists(tmp):
+                os.unlink(tmp)
 
 
 def clean_faces(F):
@@ -239,6 +331,11 @@ def _validate(mesh):
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise MeshError(f"vertex {i} has a non-finite coordinate ({int(bad.sum())} such vertices)")
+    huge = (np.abs(V) > MAX_ABS_COORDINATE).any(axis=1)
+    if huge.any():
+        i = int(np.flatnonzero(huge)[0])
+        raise MeshError(f"vertex {i} has a coordinate beyond {MAX_ABS_COORDINATE:.0e} "
+                        f"({int(huge.sum())} such vertices)")
     if F.shape[0] == 0:
         raise MeshError("no faces: this is a point cloud, not a surface mesh")
     lo, hi = F.min(), F.max()
@@ -453,6 +550,11 @@ def _ply_binary_lists(data, pos, el, endian):
 def _ply_ascii_body(body, elements):
     text = body.decode("ascii", errors="replace")
     lines = [ln for ln in text.splitlines() if ln.strip()]
+    total = sum(el["count"] for el in elements)
+    if len(lines) != total:
+        announced = ", ".join(f"{el['count']} {el['name']}" for el in elements)
+        raise MeshError(f"header disagrees with body: header announces {announced} lines "
+                        f"({total}), body has {len(lines)}")
     tables = {}
     at = 0
     for el in elements:
@@ -480,10 +582,16 @@ def _ply_ascii_body(body, elements):
                 k = 0
                 for p in props:
                     if p[1] == "scalar":
+                        if k >= len(tok):
+                            raise MeshError(f"{name} {li}: missing value '{p[0]}'")
                         scal[p[0]].append(float(tok[k]))
                         k += 1
                     else:
+                        if k >= len(tok):
+                            raise MeshError(f"{name} {li}: missing list '{p[0]}'")
                         n = int(tok[k])
+                        if n < 0:
+                            raise MeshError(f"{name} {li}: negative list length {n}")
                         vals = tok[k + 1:k + 1 + n]
                         if len(vals) != n:
                             raise MeshError(f"{name} {li}: list announces {n} values, has {len(vals)}")
@@ -575,6 +683,7 @@ def _read_obj(data):
     text = data.decode("utf-8", errors="replace")
     verts, cols, polys = [], [], []
     for lineno, line in enumerate(text.splitlines(), 1):
+        line = line.split("#", 1)[0].strip()
         if not line or line[0] not in "vf":
             continue
         tok = line.split()
@@ -650,7 +759,12 @@ def _read_off(data):
     nv, nf = int(first[0]), int(first[1])
     if len(rest) < nv + nf:
         raise MeshError(f"header disagrees with body: {nv} vertices and {nf} faces announced, {len(rest)} lines found")
+    if nv < 0 or nf < 0:
+        raise MeshError(f"OFF counts line has a negative count ({nv} vertices, {nf} faces)")
     vrows = [r.split() for r in rest[:nv]]
+    for i, r in enumerate(vrows):
+        if len(r) < 3:
+            raise MeshError(f"vertex {i}: needs 3 coordinates, has {len(r)}")
     V = np.array([[float(x) for x in r[:3]] for r in vrows], dtype=np.float64).reshape(-1, 3)
     mesh = Mesh(V=V, F=np.zeros((0, 3), np.int64))
     if head.startswith("C") and all(len(r) >= 6 for r in vrows):
@@ -662,7 +776,7 @@ def _read_off(data):
     for i, r in enumerate(rest[nv:nv + nf]):
         tok = r.split()
         k = int(tok[0])
-        if len(tok) < 1 + k:
+        if k < 0 or len(tok) < 1 + k:
             raise MeshError(f"face {i}: announces {k} corners, has {len(tok) - 1}")
         polys.append([int(t) for t in tok[1:1 + k]])
     mesh.F = _polygons_to_triangles(polys, mesh.notes)
