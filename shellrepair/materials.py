@@ -509,11 +509,22 @@ class MaterialShader:
             j, w = sh._axis_index(lm, L[0], L[1] - L[0], L.size)
             self._rho_tab = (1.0 - w)[None, :] * sl[:, j] + w[None, :] * sl[:, j + 1]  # (Nu, Nc)
             self._nu = table.u.size
+            # bilinear cells packed as (cell, 4 corners): one gather per lookup
+            R4 = np.stack([self._rho_tab[:-1, :-1], self._rho_tab[:-1, 1:],
+                           self._rho_tab[1:, :-1], self._rho_tab[1:, 1:]], axis=-1)
+            self._rho4 = np.ascontiguousarray(R4.reshape(-1, 4))
             # rho_bar(c) = 2 int_0^1 rho_dt(mu) mu dmu, mu = u^2 -> 4 int rho u^3 du
             uu = table.u
             self._rho_bar = 4.0 * np.trapezoid(self._rho_tab * (uu ** 3)[:, None], uu, axis=0)
         self._m0 = mat.m_exposed
         self._dm = mat.m_rust - mat.m_exposed
+        # value and forward difference side by side: one gather per lookup
+        Ft = self._F_top if self.corrodes else np.zeros(self.n_lut)
+        dFt = self._dF_top if self.corrodes else np.zeros(self.n_lut)
+        self._Fpack = np.ascontiguousarray(
+            np.concatenate([self._F_metal, Ft[:, None], self._dF_metal, dFt[:, None]], axis=1))
+        if self.corrodes:
+            self._Rpack = np.ascontiguousarray(np.concatenate([self._R_km, self._dR_km], axis=1))
 
     def _lut(self, T, dT, x):
         f = x * (self.n_lut - 1)
@@ -524,6 +535,15 @@ class MaterialShader:
             return T[i] + w[:, None] * dT[i]
         return T[i] + w * dT[i]
 
+    def _packed(self, P, x, half):
+        """Linear interpolation in a (L, 2 half) [values | differences] table."""
+        f = x * (self.n_lut - 1)
+        i = f.astype(np.intp)
+        np.minimum(i, self.n_lut - 1, out=i)
+        w = (f - i)[:, None]
+        g = np.take(P, i, axis=0)
+        return g[:, :half] + w * g[:, half:]
+
     def _rho(self, u, c):
         fu = u * (self._nu - 1)
         i = np.minimum(fu.astype(np.intp), self._nu - 2)
@@ -531,9 +551,9 @@ class MaterialShader:
         fc = c * (self._nc - 1)
         j = np.minimum(fc.astype(np.intp), self._nc - 2)
         b = fc - j
-        R = self._rho_tab
-        r0 = R[i, j] + b * (R[i, j + 1] - R[i, j])
-        r1 = R[i + 1, j] + b * (R[i + 1, j + 1] - R[i + 1, j])
+        g = np.take(self._rho4, i * (self._nc - 1) + j, axis=0)
+        r0 = g[:, 0] + b * (g[:, 1] - g[:, 0])
+        r1 = g[:, 2] + b * (g[:, 3] - g[:, 2])
         return r0 + a * (r1 - r0)
 
     def __call__(self, wi, wo, n, coverage, *, parts=False):
@@ -628,15 +648,14 @@ class MaterialShader:
         # G / (4 ni no)  (eq 11 over the denominator of eq 8)
         g = np.minimum(1.0 / (nis * nos), 2.0 * nh / (np.maximum(oh, sh.COS_EPS) * np.maximum(nis, nos)))
         DG4 = np.where(valid & (nh > sh.COS_EPS), 0.25 * D * g, 0.0)
-        Fm = self._lut(self._F_metal, self._dF_metal, oh)  # (P, 3)
+        Fmt = self._packed(self._Fpack, oh, 4)  # conductor (3) and dielectric (1) Fresnel
         if not self.corrodes:
-            return DG4[:, None] * Fm, None
-        Ft = self._lut(self._F_top, self._dF_top, oh)  # (P,)
-        spec = DG4[:, None] * ((1.0 - c)[:, None] * Fm + (c * Ft)[:, None])
+            return DG4[:, None] * Fmt[:, :3], None
+        spec = DG4[:, None] * ((1.0 - c)[:, None] * Fmt[:, :3] + (c * Fmt[:, 3])[:, None])
         ui = np.sqrt(np.clip(ni, 0.0, 1.0))
         uo = np.sqrt(np.clip(no, 0.0, 1.0))
         diff = np.where(valid, c * self._rho(ui, c) * self._rho(uo, c) / np.pi, 0.0)
-        R = self._lut(self._R_km, self._dR_km, c)
+        R = self._packed(self._Rpack, c, 3)
         return spec, diff[:, None] * R
 
 
