@@ -70,8 +70,12 @@ def main(argv=None):
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
-        where = exc.filename or ""
-        print(f"error: {where}: {exc.strerror or exc}", file=sys.stderr)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print(f"error: {getattr(args, 'scan', None) or getattr(args, 'mesh', '')}: out of memory",
+              file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)
@@ -101,34 +105,59 @@ def _default_output(scan):
     return p.with_name(p.stem + ".repaired.ply")
 
 
+def _same_file(a, b):
+    """True when two paths name the same file (existing or not)."""
+    a, b = Path(a), Path(b)
+    try:
+        if a.exists() and b.exists():
+            return a.samefile(b)
+    except OSError:
+        pass
+    return a.resolve() == b.resolve()
+
+
 def _repair(args):
-    from .io import atomic_write, read_mesh, write_mesh
+    from .io import SUPPORTED, atomic_write_many, check_output_path, mesh_bytes, read_mesh
     from .repair import repair_mesh
     from .report import table1_text
 
     out = Path(args.output) if args.output else _default_output(args.scan)
-    if not out.parent.is_dir():
-        raise MeshError("output folder does not exist", out)
     report_path = Path(args.report) if args.report else out.with_name(
         (out.stem[:-9] if out.stem.endswith(".repaired") else out.stem) + ".report.json")
-    if not report_path.parent.is_dir():
-        raise MeshError("report folder does not exist", report_path)
+    # every check that needs no reading happens before the work
+    if out.suffix.lower() not in SUPPORTED:
+        raise MeshError(f"unknown output extension '{out.suffix}' (expected one of {', '.join(SUPPORTED)})", out)
+    check_output_path(out, what="output")
+    check_output_path(report_path, what="report")
+    for p, what in ((out, "output"), (report_path, "report")):
+        if _same_file(p, args.scan):
+            raise MeshError(f"{what} would overwrite the input scan", p)
+    if _same_file(out, report_path):
+        raise MeshError("the report and the output mesh are the same file", out)
     if args.jobs < 1:
-        raise MeshError("--jobs must be at least 1")
+        raise MeshError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.smooth < 0:
+        raise MeshError(f"--smooth must be 0 or more, got {args.smooth}")
+    if args.max_hole is not None and args.max_hole < 1:
+        raise MeshError(f"--max-hole must be at least 1, got {args.max_hole}")
     t0 = time.perf_counter()
     mesh = read_mesh(args.scan)
     repaired, report = repair_mesh(mesh, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                                    fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
                                    progress=sys.stderr.isatty())
-    write_mesh(out, repaired)
     report["file"] = str(args.scan)
     report["output"] = str(out)
+    report["notes"] = list(mesh.notes)
+    payload = mesh_bytes(out, repaired)
     report["seconds_total"] = round(time.perf_counter() - t0, 4)
-    atomic_write(report_path, json.dumps(report, indent=1) + "\n")
+    # mesh and report appear together or not at all
+    atomic_write_many([(out, payload), (report_path, json.dumps(report, indent=1) + "\n")])
     if args.json:
         print(json.dumps(report, indent=1))
     else:
         print(table1_text(report))
+        for n in mesh.notes:
+            print(f"  note: {n}")
         print(f"  wrote {out} and {report_path}")
     return 0
 
@@ -149,8 +178,10 @@ def _render(args):
         except (ValueError, AssertionError):
             raise MeshError(f"--view must be AZ,EL in degrees, got '{args.view}'") from None
     out = Path(args.output)
-    if not out.parent.is_dir():
-        raise MeshError("output folder does not exist", out)
+    from .io import check_output_path
+    check_output_path(out, what="output")
+    if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
+        raise MeshError("output would overwrite an input mesh", out)
     mesh = read_mesh(args.mesh)
     kw = dict(size=(w, h), material=args.material, view=view)
     img = rd.render_mesh(mesh.V, mesh.F, filled=mesh.face_filled, highlight_filled=args.highlight_filled,

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .clean import describe_open_chains
 from .errors import MeshError
 from .fair import fair_patch, harmonic_interpolate, taubin_smooth, uniform_laplacian
 from .holes import detect_holes
@@ -66,6 +67,8 @@ class Patch:
         New vertex positions.
     T : (t,3) int64
         Triangles: index i < k is ``loop[i]``, index k + j is new vertex j.
+    T0 : (k-2,3) int64
+        The loop's triangulation before refinement (loop positions).
     colors : (q,c) uint8 or None
     props : dict of name -> (q,) array
     option : str
@@ -79,6 +82,7 @@ class Patch:
     colors: np.ndarray | None = None
     props: dict = field(default_factory=dict)
     option: str = ""
+    T0: np.ndarray | None = None
 
     def global_faces(self, base):
         """Faces with new vertex j at index ``base + j``."""
@@ -182,7 +186,7 @@ def _submesh(ctx, loop, Pl, T, rings):
     return g, np.vstack([Fr, Tp]).astype(np.int64), nf
 
 
-def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True):
+def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=()):
     """Build one hole's patch (no checks against the scan).
 
     Parameters
@@ -194,6 +198,9 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True):
     smooth : int
         Taubin passes after fairing.
     refine, fair : bool
+    avoid : set of (int, int)
+        More loop-position pairs the triangulation must not join (chords
+        whose triangles crossed the scan in an earlier attempt).
 
     Returns
     -------
@@ -208,6 +215,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True):
     P = ctx.V[loop]
     origin = P.mean(axis=0)
     sigma, edge_normals, forbidden = _rim_data(ctx, loop)
+    forbidden = forbidden | set(avoid)
     scale = float(np.mean(sigma))
     if not np.isfinite(scale) or scale <= 0:
         scale = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))) or 1.0
@@ -216,6 +224,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True):
         T = triangulate_loop(Pl, edge_normals, forbidden)
     except MeshError as exc:
         raise PatchError(str(exc)) from None
+    T0 = T
     if refine:
         Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
     q = len(Pl) - k
@@ -245,7 +254,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True):
     if not np.isfinite(new_local).all():
         raise PatchError("the fairing solve did not converge (non-finite positions)")
     Pn = origin + scale * new_local
-    return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props)
+    return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props, T0=T0)
 
 
 def _corners(ctx, patch):
@@ -256,32 +265,54 @@ def _corners(ctx, patch):
 
 
 def _check_patch(ctx, patch):
-    """Reason the patch cannot be used, or None."""
+    """Why the patch cannot be used (or None), and the patch triangles at fault."""
     C, ids = _corners(ctx, patch)
     if not np.isfinite(C).all():
-        return "non-finite patch positions"
-    hits = patch_vs_index(C, ids, ctx.index)
-    if hits:
-        return f"patch would cross the scan ({hits} triangle pairs)"
+        return "non-finite patch positions", np.zeros(0, np.int64)
+    bad = patch_vs_index(C, ids, ctx.index, return_faces=True)
+    if bad.size:
+        return f"patch would cross the scan ({bad.size} triangles)", bad
     # the patch against itself
     if len(C) > 1:
-        from scipy.spatial import cKDTree
         c = C.mean(axis=1)
         r = np.linalg.norm(C - c[:, None, :], axis=2).max(axis=1)
-        tree = cKDTree(c)
-        pairs = tree.query_pairs(2 * r.max(), output_type="ndarray")
+        pairs = cKDTree(c).query_pairs(2 * r.max(), output_type="ndarray")
         if len(pairs):
             h = pair_intersections(C[pairs[:, 0]], ids[pairs[:, 0]], C[pairs[:, 1]], ids[pairs[:, 1]])
             if h.any():
-                return f"patch would cross itself ({int(h.sum())} triangle pairs)"
-    return None
+                return (f"patch would cross itself ({int(h.sum())} triangle pairs)",
+                        np.unique(pairs[h].ravel()))
+    return None, np.zeros(0, np.int64)
+
+
+def _chords_near(ctx, patch, bad):
+    """Chords of the unrefined triangulation nearest to the faulty triangles."""
+    k = len(patch.loop)
+    C, _ = _corners(ctx, patch)
+    P0 = ctx.V[patch.loop]
+    c0 = P0[patch.T0].mean(axis=1)
+    near = np.unique(cKDTree(c0).query(C[bad].mean(axis=1))[1])
+    out = set()
+    for t in patch.T0[near]:
+        for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+            a, b = int(min(a, b)), int(max(a, b))
+            if b - a > 1 and not (a == 0 and b == k - 1):
+                out.add((a, b))
+    return out
 
 
 OPTIONS = ("faired", "harmonic", "flat")
 
 
+#: Re-triangulations tried per option when a patch crosses the scan.
+AVOID_RETRIES = 3
+
+
 def _fill_one(ctx, hole_id, loop, order, smooth):
-    """Try the options in turn; returns (patch or None, reason, seconds, tried)."""
+    """Try the options in turn; returns (patch or None, reason, seconds, tried).
+
+    Each option is retried up to ``AVOID_RETRIES`` times with the chords
+    whose triangles crossed the scan forbidden."""
     t0 = time.perf_counter()
     reasons = []
     plan = [("faired", dict(order=order, smooth=smooth))]
@@ -289,18 +320,28 @@ def _fill_one(ctx, hole_id, loop, order, smooth):
         plan.append(("harmonic", dict(order=1, smooth=smooth)))
     plan.append(("flat", dict(order=1, smooth=0, refine=False, fair=False)))
     for name, kw in plan:
-        try:
-            patch = build_patch(ctx, hole_id, loop, **kw)
-        except PatchError as exc:
-            reasons.append(f"{name}: {exc}")
-            if "duplicates an existing edge" in str(exc) or "chord" in str(exc):
+        avoid = set()
+        for attempt in range(AVOID_RETRIES + 1):
+            try:
+                patch = build_patch(ctx, hole_id, loop, avoid=avoid, **kw)
+            except PatchError as exc:
+                reasons.append(f"{name}: {exc}")
+                if "duplicates an existing edge" in str(exc) or "chord" in str(exc):
+                    return None, "; ".join(reasons), time.perf_counter() - t0, reasons
                 break
-            continue
-        why = _check_patch(ctx, patch)
-        if why is None:
-            patch.option = name if name != "faired" else f"faired order {order}"
-            return patch, "", time.perf_counter() - t0, reasons
-        reasons.append(f"{name}: {why}")
+            why, bad = _check_patch(ctx, patch)
+            if why is None:
+                patch.option = name if name != "faired" else f"faired order {order}"
+                if avoid:
+                    patch.option += f", {len(avoid)} chords re-routed"
+                return patch, "", time.perf_counter() - t0, reasons
+            more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
+            if not more:
+                reasons.append(f"{name}: {why}")
+                break
+            avoid |= more
+        else:
+            reasons.append(f"{name}: {why}")
     return None, "; ".join(reasons), time.perf_counter() - t0, reasons
 
 
@@ -411,6 +452,7 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
                          extra={"vertices_before": int(len(V)), "faces_before": int(len(F)),
                                 "vertices_after": int(len(repaired.V)), "faces_after": int(len(repaired.F)),
                                 "open_chains": len(scan.open_chains),
+                                "open_chain_list": describe_open_chains(F, scan.open_chains, len(V), topo),
                                 "boundary_edges_before": int(topo.n_boundary_edges),
                                 "boundary_edges_after": int(topo2.n_boundary_edges),
                                 "nonmanifold_edges_before": int(topo.nonmanifold_edges.shape[0]),
@@ -440,7 +482,6 @@ def _conflicts(ctx, patch, accepted, new_edges):
         if np.any(hi < olo) or np.any(ohi < lo):
             continue
         oid = np.where(oid < 0, oid - 10 ** 12, oid)  # new vertices of different patches differ
-        from scipy.spatial import cKDTree
         c1, c2 = C.mean(axis=1), D.mean(axis=1)
         r1 = np.linalg.norm(C - c1[:, None], axis=2).max(axis=1)
         r2 = np.linalg.norm(D - c2[:, None], axis=2).max(axis=1)
