@@ -254,10 +254,13 @@ def atomic_write_many(items):
     so the rename cannot cross file systems) and is flushed to disk; only
     when all are written are they renamed into place, in order, so a
     failure while writing (disk full, interrupted) leaves every target as
-    it was. Any failure removes the temporary files and raises
-    :class:`MeshError` naming the target.
+    it was. If a rename fails, the targets this call created are removed
+    again (a target that existed before keeps its new content). Any
+    failure removes the temporary files and raises :class:`MeshError`
+    naming the target.
     """
     tmps = []
+    created = []  # targets that did not exist before and were already renamed into place
     try:
         for path, payload in items:
             path = Path(path)
@@ -276,11 +279,21 @@ def atomic_write_many(items):
             except OSError as exc:
                 raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
         for i, (tmp, path) in enumerate(tmps):
+            existed = path.exists()
             try:
                 os.replace(tmp, path)
             except OSError as exc:
                 raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
             tmps[i] = (None, path)
+            if not existed:
+                created.append(path)
+    except BaseException:
+        for path in created:  # a later target failed: take back the new files of this call
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+        raise
     finally:
         for tmp, _ in tmps:
             if tmp is not None and os.path.exists(tmp):
