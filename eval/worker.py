@@ -13,11 +13,18 @@ the tool's ``info``, the wall seconds of the whole call and the peak memory.
 * A Python exception in the tool is ``failed`` with its message.
 * A tool whose package is missing is ``missing``.
 
-Peak memory is the growth of the child's resident set during the call:
-the kernel's high-water mark (``VmHWM``) is reset before the call by
-writing ``5`` to ``/proc/self/clear_refs`` (Linux >= 4.0). Where that is not
-possible, ``ru_maxrss`` is used, which is the peak over the child's life,
-and ``memory_method`` says so.
+Peak memory is the growth of the child's resident set during the call
+above what was live before it (the input arrays): before the call the
+child collects garbage and hands freed heap pages back to the system
+(``malloc_trim``; children start with a fixed ``MALLOC_MMAP_THRESHOLD_`` so
+large arrays are mapped and unmapped, not kept in the heap), then resets
+the kernel's high-water mark (``VmHWM``) by writing ``5`` to
+``/proc/self/clear_refs`` (Linux >= 4.0). Where that is not possible,
+``ru_maxrss`` is used, which is the peak over the child's life, and
+``memory_method`` says so.
+
+Before serving, the child runs the tool once on a tiny perforated sphere,
+so one-time start-up is not charged to the first case.
 
 The child's stdout and stderr (C++ libraries print there) go to
 ``<tmp>/<tool>.log``, so the benchmark's own output stays readable.
@@ -35,6 +42,12 @@ import numpy as np
 
 __all__ = ["ToolRunner", "peak_memory_reset", "peak_memory_mb"]
 
+#: glibc's mmap threshold in the children (bytes): allocations above it are
+#: mapped and returned to the system when freed, so a case does not reuse
+#: the previous case's heap and hide its own peak.
+MMAP_ENV = "MALLOC_MMAP_THRESHOLD_"
+MMAP_THRESHOLD = 1 << 20
+
 
 def _status_kb(key):
     try:
@@ -47,8 +60,21 @@ def _status_kb(key):
     return None
 
 
+def _release_free_memory():
+    import gc
+
+    gc.collect()
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
+
+
 def peak_memory_reset():
     """Reset the high-water mark of resident memory; returns the method used."""
+    _release_free_memory()
     try:
         with open("/proc/self/clear_refs", "w") as fh:
             fh.write("5")
@@ -68,6 +94,19 @@ def peak_memory_mb(method, rss0_kb):
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def _warm_up(peers, tool):
+    """Run the tool once on a tiny perforated sphere, so one-time start-up
+    (library loading, thread pools) is not charged to the first case."""
+    from shellrepair import shapes
+
+    try:
+        V, F = shapes.icosphere(2)
+        V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=1, radius=0.4, seed=0)
+        peers.run_tool(tool, V2, F2)
+    except Exception:  # the real call will report it
+        pass
+
+
 def _serve(conn, tool, log_path):
     """Child main loop: receive (case_npz, out_npz), run, answer."""
     fd = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
@@ -75,6 +114,7 @@ def _serve(conn, tool, log_path):
     os.dup2(fd, 2)
     from eval import peers
 
+    _warm_up(peers, tool)
     while True:
         try:
             msg = conn.recv()
@@ -86,8 +126,8 @@ def _serve(conn, tool, log_path):
         try:
             data = np.load(case_npz)
             V, F = data["V"], data["F"]
-            rss0 = _status_kb("VmRSS") or 0
             method = peak_memory_reset()
+            rss0 = _status_kb("VmRSS") or 0
             t0 = time.perf_counter()
             Vo, Fo, info = peers.run_tool(tool, V, F)
             wall = time.perf_counter() - t0
@@ -127,7 +167,15 @@ class ToolRunner:
         parent, child = self._ctx.Pipe()
         log = str(self.tmp / f"{self.tool}.log")
         self.proc = self._ctx.Process(target=_serve, args=(child, self.tool, log), daemon=True)
-        self.proc.start()
+        old = os.environ.get(MMAP_ENV)
+        os.environ[MMAP_ENV] = str(MMAP_THRESHOLD)
+        try:
+            self.proc.start()
+        finally:
+            if old is None:
+                os.environ.pop(MMAP_ENV, None)
+            else:
+                os.environ[MMAP_ENV] = old
         child.close()
         self.conn = parent
 
