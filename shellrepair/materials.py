@@ -296,7 +296,7 @@ def vertex_normals(V, F):
     return N
 
 
-def rust_coverage_from_occlusion(V, F, *, n_dirs=24, radius=0.1, base=0.2, gain=1.6):
+def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=1.6, subset=None):
     """Rust coverage from an ambient-occlusion estimate.
 
     Parameters
@@ -310,6 +310,9 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=24, radius=0.1, base=0.2, gain=
         Rays longer than ``radius`` x bounding-box diagonal count as open sky.
     base, gain : float, optional
         ``c = clip(base + gain * occlusion, 0, 1)``.
+    subset : (k,) int array or None, optional
+        Only these vertices are estimated (e.g. those a render can see);
+        the others get ``base``.
 
     Returns
     -------
@@ -332,9 +335,12 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=24, radius=0.1, base=0.2, gain=
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
     dirs = _fibonacci_sphere(int(n_dirs))
-    occ = np.zeros(len(V))
-    wsum = np.zeros(len(V))
-    origin = V + (1e-4 * diag) * N
+    idx = np.arange(len(V)) if subset is None else np.unique(np.asarray(subset, dtype=np.int64))
+    out = np.full(len(V), float(np.clip(base, 0.0, 1.0)))
+    N = N[idx]
+    occ = np.zeros(len(idx))
+    wsum = np.zeros(len(idx))
+    origin = V[idx] + (1e-4 * diag) * N
     for d in dirs:
         w = N @ d
         up = w > 0.05
@@ -346,10 +352,11 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=24, radius=0.1, base=0.2, gain=
         occ[up] += w[up] * hit
         wsum[up] += w[up]
     occlusion = occ / np.maximum(wsum, 1e-12)
-    return np.clip(base + gain * occlusion, 0.0, 1.0)
+    out[idx] = np.clip(base + gain * occlusion, 0.0, 1.0)
+    return out
 
 
-def rust_coverage(V, F, vertex_colors=None):
+def rust_coverage(V, F, vertex_colors=None, *, subset=None):
     """Per-vertex rust coverage: from colours when informative, else occlusion.
 
     Parameters
@@ -357,6 +364,9 @@ def rust_coverage(V, F, vertex_colors=None):
     V : (n,3) numpy float array
     F : (m,3) numpy int array
     vertex_colors : (n,3) numpy uint8 array or None
+    subset : (k,) int array or None
+        Vertices that need the occlusion estimate (see
+        :func:`rust_coverage_from_occlusion`).
 
     Returns
     -------
@@ -371,7 +381,7 @@ def rust_coverage(V, F, vertex_colors=None):
         _, sat = _hue_sat(np.clip(rgb, 0.0, 1.0))
         if len(sat) and np.median(sat) >= _SAT_UNINFORMATIVE:
             return rust_coverage_from_colors(col), "colors"
-    return rust_coverage_from_occlusion(V, F), "occlusion"
+    return rust_coverage_from_occlusion(V, F, subset=subset), "occlusion"
 
 
 # --------------------------------------------------------------------------
@@ -629,34 +639,48 @@ class MaterialShader:
         return w_spec, w_diff
 
     def _eval(self, wi, wo, n, c):
+        # For unit wi, wo: |wi + wo|^2 = 2 (1 + wi.wo), o.h = sqrt((1 + wi.wo) / 2)
+        # and n.h = (n.i + n.o) / |wi + wo|: three dot products, no h array.
         c = np.clip(c, 0.0, 1.0)
         ni = np.einsum("ij,ij->i", n, wi)
         no = np.einsum("ij,ij->i", n, wo)
-        h = wi + wo
-        hl = np.sqrt(np.einsum("ij,ij->i", h, h))
-        valid = (ni > sh.COS_EPS) & (no > sh.COS_EPS) & (hl > sh.COS_EPS)
-        inv_hl = 1.0 / np.where(valid, hl, 1.0)
-        nh = np.clip(np.einsum("ij,ij->i", n, h) * inv_hl, 0.0, 1.0)
-        oh = np.clip(np.einsum("ij,ij->i", wo, h) * inv_hl, 0.0, 1.0)
+        io = np.einsum("ij,ij->i", wi, wo)
+        hl2 = np.maximum(2.0 + 2.0 * io, 0.0)
+        valid = (ni > sh.COS_EPS) & (no > sh.COS_EPS) & (hl2 > sh.COS_EPS * sh.COS_EPS)
         nis = np.where(valid, ni, 1.0)
         nos = np.where(valid, no, 1.0)
+        inv_hl = 1.0 / np.sqrt(np.where(valid, hl2, 1.0))
+        nh = np.minimum((nis + nos) * inv_hl, 1.0)
+        oh = np.minimum(0.5 * np.where(valid, hl2, 1.0) * inv_hl, 1.0)
         m = np.maximum(self._m0 + self._dm * c, sh.M_MIN)
         inv_m2 = 1.0 / (m * m)
-        # Beckmann D (eq 13, normalised); nh <= COS_EPS gives 0
-        nh2 = np.maximum(nh * nh, sh.COS_EPS)
+        # Beckmann D (eq 13, normalised)
+        nh2 = nh * nh
         D = np.exp((nh2 - 1.0) / nh2 * inv_m2) * inv_m2 / (np.pi * nh2 * nh2)
         # G / (4 ni no)  (eq 11 over the denominator of eq 8)
         g = np.minimum(1.0 / (nis * nos), 2.0 * nh / (np.maximum(oh, sh.COS_EPS) * np.maximum(nis, nos)))
-        DG4 = np.where(valid & (nh > sh.COS_EPS), 0.25 * D * g, 0.0)
+        DG4 = np.where(valid, 0.25 * D * g, 0.0)
         Fmt = self._packed(self._Fpack, oh, 4)  # conductor (3) and dielectric (1) Fresnel
         if not self.corrodes:
             return DG4[:, None] * Fmt[:, :3], None
         spec = DG4[:, None] * ((1.0 - c)[:, None] * Fmt[:, :3] + (c * Fmt[:, 3])[:, None])
-        ui = np.sqrt(np.clip(ni, 0.0, 1.0))
-        uo = np.sqrt(np.clip(no, 0.0, 1.0))
-        diff = np.where(valid, c * self._rho(ui, c) * self._rho(uo, c) / np.pi, 0.0)
+        fc = c * (self._nc - 1)
+        j = np.minimum(fc.astype(np.intp), self._nc - 2)
+        b = fc - j
+        rho = self._rho_cj(np.sqrt(nis), j, b) * self._rho_cj(np.sqrt(nos), j, b)
+        diff = np.where(valid, c * rho * (1.0 / np.pi), 0.0)
         R = self._packed(self._Rpack, c, 3)
         return spec, diff[:, None] * R
+
+    def _rho_cj(self, u, j, b):
+        """Bilinear rho_dt lookup with the coverage cell (j, b) precomputed."""
+        fu = u * (self._nu - 1)
+        i = np.minimum(fu.astype(np.intp), self._nu - 2)
+        a = fu - i
+        g = np.take(self._rho4, i * (self._nc - 1) + j, axis=0)
+        r0 = g[:, 0] + b * (g[:, 1] - g[:, 0])
+        r1 = g[:, 2] + b * (g[:, 3] - g[:, 2])
+        return r0 + a * (r1 - r0)
 
 
 # --------------------------------------------------------------------------

@@ -306,7 +306,10 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                               % (len(V), cov_v.shape))
         cov_src = "given"
     else:
-        cov_v, cov_src = mt.rust_coverage(V, F, vertex_colors)
+        # occlusion is only estimated where the camera sees the mesh
+        seen = F[np.unique(hit["primitive_ids"].numpy().reshape(H, W)[mask])].ravel() if np.any(mask) \
+            else np.zeros(0, np.int64)
+        cov_v, cov_src = mt.rust_coverage(V, F, vertex_colors, subset=seen)
     t2 = time.perf_counter()
 
     right, upv, back = cam.basis()
