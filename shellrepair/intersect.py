@@ -120,21 +120,47 @@ class TriangleIndex:
         r = np.linalg.norm(T - c[:, None, :], axis=2).max(axis=1)
         self.centroids = c
         self.radius = r
-        # a few huge triangles should not blow every query up: treat the top
-        # 0.1 % apart and add them to every candidate list
-        self.r_cut = float(np.quantile(r, 0.999)) if len(r) > 1000 else float(r.max(initial=0.0))
+        # a few huge triangles should not blow every query up: the query
+        # radius covers triangles up to r_cut; larger ones are tested apart
+        med = float(np.median(r)) if len(r) else 0.0
+        self.r_cut = float(r.max(initial=0.0))
+        if self.r_cut > 4 * med:
+            self.r_cut = 4 * med
         self.big = np.flatnonzero(r > self.r_cut)
         self.tree = cKDTree(c)
 
-    def candidates(self, C, R):
-        """Faces whose bounding sphere may meet spheres (C, R); list per query."""
-        out = self.tree.query_ball_point(C - self.origin, R + self.r_cut)
+    def candidate_pairs(self, C, R):
+        """Pairs (query i, face j) whose bounding spheres may meet.
+
+        Parameters
+        ----------
+        C : (t,3) float64
+            Query centres, in the index's shifted frame.
+        R : (t,) float64
+            Query radii.
+
+        Returns
+        -------
+        ai, bi : (p,) int64
+        """
+        lists = self.tree.query_ball_point(C, R + self.r_cut, return_sorted=False)
+        cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+        ai = np.repeat(np.arange(len(C)), cnt)
+        bi = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
         if self.big.size:
-            out = [np.union1d(np.asarray(o, np.int64), self.big) for o in out]
-        return out
+            cb, rb = self.centroids[self.big], self.radius[self.big]
+            step = max(1, 4_000_000 // self.big.size)
+            extra_a, extra_b = [ai], [bi]
+            for s in range(0, len(C), step):
+                d = np.linalg.norm(C[s:s + step, None, :] - cb[None], axis=2)
+                a2, b2 = np.nonzero(d <= R[s:s + step, None] + rb[None])
+                extra_a.append(a2 + s)
+                extra_b.append(self.big[b2])
+            ai, bi = np.concatenate(extra_a), np.concatenate(extra_b)
+        return ai, bi
 
 
-def patch_vs_index(Pt, Pid, index):
+def patch_vs_index(Pt, Pid, index, return_faces=False):
     """Count patch triangles crossing the indexed triangles.
 
     Parameters
@@ -145,32 +171,33 @@ def patch_vs_index(Pt, Pid, index):
         Corner ids in the index's numbering (new vertices: ids no indexed
         face uses, e.g. negative).
     index : TriangleIndex
+    return_faces : bool
+        Return the crossing patch triangles instead of the count.
 
     Returns
     -------
-    n_hits : int
+    n_hits : int, or (h,) int64 patch triangle indices
     """
+    none = np.zeros(0, np.int64) if return_faces else 0
     if len(Pt) == 0 or len(index.F) == 0:
-        return 0
+        return none
     Q = Pt - index.origin
     c = Q.mean(axis=1)
     r = np.linalg.norm(Q - c[:, None, :], axis=2).max(axis=1)
-    lists = index.candidates(c, r)
-    ai = np.repeat(np.arange(len(Pt)), [len(x) for x in lists])
+    ai, bi = index.candidate_pairs(c, r)
     if ai.size == 0:
-        return 0
-    bi = np.concatenate([np.asarray(x, np.int64) for x in lists])
+        return none
     T = index.V[index.F[bi]] - index.origin
     # bounding-box filter before the exact tests
     amin, amax = Q[ai].min(axis=1), Q[ai].max(axis=1)
     bmin, bmax = T.min(axis=1), T.max(axis=1)
     keep = np.all((amin <= bmax) & (bmin <= amax), axis=1)
     ai, bi, T = ai[keep], bi[keep], T[keep]
-    hits = 0
+    hit = np.zeros(len(ai), bool)
     for s in range(0, len(ai), 200_000):
         sl = slice(s, s + 200_000)
-        hits += int(pair_intersections(Q[ai[sl]], Pid[ai[sl]], T[sl], index.F[bi[sl]]).sum())
-    return hits
+        hit[sl] = pair_intersections(Q[ai[sl]], Pid[ai[sl]], T[sl], index.F[bi[sl]])
+    return np.unique(ai[hit]) if return_faces else int(hit.sum())
 
 
 def self_intersections(V, F):
@@ -181,10 +208,7 @@ def self_intersections(V, F):
         return 0
     index = TriangleIndex(V, F, origin=V.mean(axis=0))
     Q = V[F] - index.origin
-    c = index.centroids
-    lists = index.tree.query_ball_point(c, index.radius + index.r_cut)
-    ai = np.repeat(np.arange(len(F)), [len(x) for x in lists])
-    bi = np.concatenate([np.asarray(x, np.int64) for x in lists]) if ai.size else np.zeros(0, np.int64)
+    ai, bi = index.candidate_pairs(index.centroids, index.radius)
     m = ai != bi
     pairs = np.unique(np.column_stack([np.minimum(ai[m], bi[m]), np.maximum(ai[m], bi[m])]), axis=0)
     ai, bi = pairs[:, 0], pairs[:, 1]

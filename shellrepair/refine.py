@@ -80,13 +80,15 @@ def refine_patch(P, T, sigma, n_loop, forbidden=None, alpha=DENSITY_ALPHA, max_f
     return P, T
 
 
-def relax_edges(P, T, n_loop, forbidden=None, max_rounds=50):
+def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
     """Flip interior edges of a patch to the Delaunay criterion.
 
     An interior edge (two patch triangles) is flipped when the angles
     opposite to it sum to more than π, unless the new edge exists already,
     joins two loop vertices the scan already joins, or the flip would fold
-    the surface (a new triangle facing against the old pair).
+    the surface (a new triangle facing against the old pair). Each round
+    flips, vectorised, a set of edges no two of which share a triangle (each
+    the worst of its two triangles' edges).
 
     Parameters
     ----------
@@ -100,88 +102,69 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=50):
     -------
     T2 : (t,3) int64
     """
-    forbidden = forbidden or set()
-    tris = [list(map(int, t)) for t in T]
-    pts = [tuple(p) for p in np.asarray(P, np.float64).tolist()]
-    ef = {}
-    for fi, (a, b, c) in enumerate(tris):
-        for u, v in ((a, b), (b, c), (c, a)):
-            ef.setdefault((u, v) if u < v else (v, u), []).append(fi)
-    queue = [e for e, fs in ef.items() if len(fs) == 2]
+    P = np.asarray(P, np.float64)
+    T = np.array(T, np.int64)
+    n = len(P)
+    nt = len(T)
+    if nt < 2:
+        return T
+    forb = np.array([a * n + b for a, b in (forbidden or ())], np.int64)
     for _ in range(max_rounds):
-        flipped = 0
-        next_queue = []
-        for e in queue:
-            fs = ef.get(e)
-            if fs is None or len(fs) != 2:
-                continue
-            res = _try_flip(e, fs, tris, pts, ef, n_loop, forbidden)
-            if res:
-                flipped += 1
-                next_queue.extend(res)
-        if not flipped:
+        he = np.stack([T, np.roll(T, -1, axis=1)], axis=2).reshape(-1, 2)
+        opp = np.roll(T, -2, axis=1).reshape(-1)          # corner opposite to half-edge 3f+c
+        lo = np.minimum(he[:, 0], he[:, 1])
+        hi = np.maximum(he[:, 0], he[:, 1])
+        key = lo * n + hi
+        order = np.argsort(key, kind="stable")
+        ks = key[order]
+        pair = np.flatnonzero(ks[1:] == ks[:-1])
+        if pair.size == 0:
             break
-        queue = next_queue
-    return np.array(tris, np.int64).reshape(-1, 3)
+        h1, h2 = order[pair], order[pair + 1]
+        # orient: h1 is a -> b, h2 is b -> a
+        a, b = he[h1, 0], he[h1, 1]
+        c, d = opp[h1], opp[h2]
+        pa, pb, pc, pd = P[a], P[b], P[c], P[d]
+        excess = _angle(pa - pc, pb - pc) + _angle(pa - pd, pb - pd) - np.pi
+        ok = (excess > FLIP_EPS) & (c != d)
+        if not ok.any():
+            break
+        ncd = np.minimum(c, d) * n + np.maximum(c, d)
+        ok &= ~np.isin(ncd, ks)
+        if forb.size:
+            ok &= ~((c < n_loop) & (d < n_loop) & np.isin(ncd, forb))
+        nold = np.cross(pb - pa, pc - pa) + np.cross(pa - pb, pd - pb)
+        m1 = np.cross(pa - pc, pd - pc)
+        m2 = np.cross(pb - pd, pc - pd)
+        ok &= (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
+        cand = np.flatnonzero(ok)
+        if cand.size == 0:
+            break
+        f1, f2 = h1[cand] // 3, h2[cand] // 3
+        # independent set: an edge flips if it is the worst edge of both its faces
+        best = np.full(nt, -np.inf)
+        np.maximum.at(best, f1, excess[cand])
+        np.maximum.at(best, f2, excess[cand])
+        sel = (best[f1] == excess[cand]) & (best[f2] == excess[cand])
+        # ties: keep one candidate per face
+        cand, f1, f2 = cand[sel], f1[sel], f2[sel]
+        _, first1 = np.unique(f1, return_index=True)
+        keep = np.zeros(cand.size, bool)
+        keep[first1] = True
+        taken = np.zeros(nt, bool)
+        taken[f1[keep]] = True
+        keep &= ~taken[f2] | (f2 == f1)
+        _, firstn = np.unique(ncd[cand[keep]], return_index=True)
+        idx = np.flatnonzero(keep)[firstn]
+        cand, f1, f2 = cand[idx], f1[idx], f2[idx]
+        if cand.size == 0:
+            break
+        T[f1] = np.column_stack([c[cand], a[cand], d[cand]])
+        T[f2] = np.column_stack([d[cand], b[cand], c[cand]])
+    return T
 
 
-def _sub(p, q):
-    return (p[0] - q[0], p[1] - q[1], p[2] - q[2])
-
-
-def _cross(u, v):
-    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
-
-
-def _dot(u, v):
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-
-
-def _angle_at(c, a, b):
-    u, v = _sub(a, c), _sub(b, c)
-    cr = _cross(u, v)
-    return math.atan2(math.sqrt(_dot(cr, cr)), _dot(u, v))
-
-
-def _try_flip(e, fs, tris, pts, ef, n_loop, forbidden):
-    f1, f2 = fs
-    t1, t2 = tris[f1], tris[f2]
-    # orient: t1 contains a->b, t2 contains b->a
-    a, b = e
-    i1 = t1.index(a)
-    if t1[(i1 + 1) % 3] != b:
-        a, b = b, a
-        i1 = t1.index(a)
-    if t1[(i1 + 1) % 3] != b:
-        return None
-    c = t1[(i1 + 2) % 3]
-    i2 = t2.index(b)
-    if t2[(i2 + 1) % 3] != a:
-        return None
-    d = t2[(i2 + 2) % 3]
-    if c == d:
-        return None
-    pa, pb, pc, pd = pts[a], pts[b], pts[c], pts[d]
-    if _angle_at(pc, pa, pb) + _angle_at(pd, pa, pb) <= math.pi + FLIP_EPS:
-        return None
-    key = (c, d) if c < d else (d, c)
-    if key in ef:
-        return None
-    if c < n_loop and d < n_loop and key in forbidden:
-        return None
-    n1 = _cross(_sub(pb, pa), _sub(pc, pa))
-    n2 = _cross(_sub(pa, pb), _sub(pd, pb))
-    nold = (n1[0] + n2[0], n1[1] + n2[1], n1[2] + n2[2])
-    m1 = _cross(_sub(pa, pc), _sub(pd, pc))  # new (c, a, d)
-    m2 = _cross(_sub(pb, pd), _sub(pc, pd))  # new (d, b, c)
-    if _dot(m1, nold) <= 0 or _dot(m2, nold) <= 0:
-        return None
-    tris[f1] = [c, a, d]
-    tris[f2] = [d, b, c]
-    del ef[(a, b) if a < b else (b, a)]
-    ef[key] = [f1, f2]
-    ad = (a, d) if a < d else (d, a)
-    bc = (b, c) if b < c else (c, b)
-    ef[ad] = [f1 if f == f2 else f for f in ef[ad]]
-    ef[bc] = [f2 if f == f1 else f for f in ef[bc]]
-    return [(a, c) if a < c else (c, a), ad, bc, (b, d) if b < d else (d, b)]
+def _angle(u, v):
+    """Angle between row vectors (atan2 form, accurate near 0 and π)."""
+    cr = np.linalg.norm(np.cross(u, v), axis=1)
+    return np.arctan2(cr, np.sum(u * v, axis=1))

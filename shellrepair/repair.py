@@ -32,6 +32,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .clean import describe_open_chains
 from .errors import MeshError
@@ -305,22 +306,23 @@ OPTIONS = ("faired", "harmonic", "flat")
 
 
 #: Re-triangulations tried per option when a patch crosses the scan.
-AVOID_RETRIES = 3
+AVOID_RETRIES = 6
 
 
 def _fill_one(ctx, hole_id, loop, order, smooth):
     """Try the options in turn; returns (patch or None, reason, seconds, tried).
 
     Each option is retried up to ``AVOID_RETRIES`` times with the chords
-    whose triangles crossed the scan forbidden."""
+    whose triangles crossed the scan forbidden; what is learnt carries over
+    to the next option."""
     t0 = time.perf_counter()
     reasons = []
     plan = [("faired", dict(order=order, smooth=smooth))]
     if order != 1:
         plan.append(("harmonic", dict(order=1, smooth=smooth)))
     plan.append(("flat", dict(order=1, smooth=0, refine=False, fair=False)))
+    avoid = set()
     for name, kw in plan:
-        avoid = set()
         for attempt in range(AVOID_RETRIES + 1):
             try:
                 patch = build_patch(ctx, hole_id, loop, avoid=avoid, **kw)
@@ -566,7 +568,7 @@ def _seed_patches(ctx, holes, passes, results):
     for p in built:
         p.P = X[base:base + len(p.P)]
         base += len(p.P)
-        why = _check_patch(ctx, p)
+        why, _ = _check_patch(ctx, p)
         if why is None:
             p.option = f"seed, {passes} smoothing passes"
             out[p.hole_id] = p
