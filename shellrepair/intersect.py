@@ -15,6 +15,8 @@ costs O(t log m) for a patch of t triangles.
 from __future__ import annotations
 
 import numpy as np
+
+from .geometry import cross
 from scipy.spatial import cKDTree
 
 __all__ = ["TriangleIndex", "pair_intersections", "self_intersections"]
@@ -32,14 +34,14 @@ def _seg_tri(p0, p1, a, b, c, tol=TOUCH_TOL):
     d = p1 - p0
     e1 = b - a
     e2 = c - a
-    h = np.cross(d, e2)
+    h = cross(d, e2)
     det = np.sum(e1 * h, axis=-1)
     scale = np.linalg.norm(d, axis=-1) * np.linalg.norm(e1, axis=-1) * np.linalg.norm(e2, axis=-1)
     ok = np.abs(det) > 1e-12 * np.maximum(scale, 1e-300)
     f = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
     s = p0 - a
     u = f * np.sum(s * h, axis=-1)
-    q = np.cross(s, e1)
+    q = cross(s, e1)
     v = f * np.sum(d * q, axis=-1)
     t = f * np.sum(e2 * q, axis=-1)
     return ok & (u > tol) & (v > tol) & (u + v < 1 - tol) & (t > tol) & (t < 1 - tol)
@@ -91,8 +93,8 @@ def pair_intersections(A, Aid, B, Bid):
     # a shared edge: folded onto each other
     t = np.flatnonzero(ns == 2)
     if t.size:
-        na = np.cross(A[t, 1] - A[t, 0], A[t, 2] - A[t, 0])
-        nb = np.cross(B[t, 1] - B[t, 0], B[t, 2] - B[t, 0])
+        na = cross(A[t, 1] - A[t, 0], A[t, 2] - A[t, 0])
+        nb = cross(B[t, 1] - B[t, 0], B[t, 2] - B[t, 0])
         den = np.linalg.norm(na, axis=1) * np.linalg.norm(nb, axis=1)
         cos = np.sum(na * nb, axis=1) / np.maximum(den, 1e-300)
         hit[t] = (cos < -1 + FOLD_TOL) | (den == 0)

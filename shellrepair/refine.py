@@ -20,6 +20,8 @@ import math
 
 import numpy as np
 
+from .geometry import cross
+
 __all__ = ["refine_patch", "relax_edges", "DENSITY_ALPHA"]
 
 #: Liepa's density factor α.
@@ -133,9 +135,9 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
         ok &= ~np.isin(ncd, ks)
         if forb.size:
             ok &= ~((c < n_loop) & (d < n_loop) & np.isin(ncd, forb))
-        nold = np.cross(pb - pa, pc - pa) + np.cross(pa - pb, pd - pb)
-        m1 = np.cross(pa - pc, pd - pc)
-        m2 = np.cross(pb - pd, pc - pd)
+        nold = cross(pb - pa, pc - pa) + cross(pa - pb, pd - pb)
+        m1 = cross(pa - pc, pd - pc)
+        m2 = cross(pb - pd, pc - pd)
         ok &= (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
         cand = np.flatnonzero(ok)
         if cand.size == 0:
@@ -166,5 +168,5 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
 
 def _angle(u, v):
     """Angle between row vectors (atan2 form, accurate near 0 and π)."""
-    cr = np.linalg.norm(np.cross(u, v), axis=1)
+    cr = np.linalg.norm(cross(u, v), axis=1)
     return np.arctan2(cr, np.sum(u * v, axis=1))

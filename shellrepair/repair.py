@@ -427,25 +427,21 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         print("", file=sys.stderr)
 
     # sequential merge: patches against each other, in hole order
-    accepted = []
-    new_edges = set()
+    acc = _Accepted()
     rows = []
     for h, (patch, reason, secs, _) in zip(holes, outcomes):
         row = {"id": h.id, "edges": h.edges, "status": "failed", "reason": reason,
                "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
         if patch is not None:
-            conflict = _conflicts(ctx, patch, accepted, new_edges)
+            conflict, corners = acc.conflict(ctx, patch)
             if conflict:
                 row["reason"] = conflict
             else:
-                accepted.append(patch)
-                k = len(patch.loop)
-                E = _edges_of(np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -1))
-                for a, b in E[(E >= 0).all(axis=1)].tolist():
-                    new_edges.add((a, b))
+                acc.add(patch, *corners)
                 row.update(status="filled", reason=patch.option, new_vertices=int(len(patch.P)),
                            new_faces=int(len(patch.T)), option=patch.option)
         rows.append(row)
+    accepted = [it[0] for it in acc.items]
     repaired = _merge(mesh, V, F, accepted)
     # honest check of the result: boundary and non-manifold edges left
     topo2 = edge_topology(repaired.F, len(repaired.V))
@@ -470,31 +466,54 @@ def _progress(on, i, n):
         print(f"\rfilling holes: {i}/{n}", end="", file=sys.stderr, flush=True)
 
 
-def _conflicts(ctx, patch, accepted, new_edges):
+def _scan_edges(patch):
+    """Edges the patch creates between scan vertices, as (a, b) with a < b."""
     k = len(patch.loop)
     E = _edges_of(np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -1))
-    for a, b in E[(E >= 0).all(axis=1)].tolist():
-        if (a, b) in new_edges:
-            return "an earlier patch already created an edge this patch needs"
-    C, ids = _corners(ctx, patch)
-    lo, hi = C.reshape(-1, 3).min(axis=0), C.reshape(-1, 3).max(axis=0)
-    for other in accepted:
-        D, oid = _corners(ctx, other)
-        olo, ohi = D.reshape(-1, 3).min(axis=0), D.reshape(-1, 3).max(axis=0)
-        if np.any(hi < olo) or np.any(ohi < lo):
-            continue
-        oid = np.where(oid < 0, oid - 10 ** 12, oid)  # new vertices of different patches differ
-        c1, c2 = C.mean(axis=1), D.mean(axis=1)
-        r1 = np.linalg.norm(C - c1[:, None], axis=2).max(axis=1)
-        r2 = np.linalg.norm(D - c2[:, None], axis=2).max(axis=1)
-        lists = cKDTree(c2).query_ball_point(c1, r1 + r2.max())
-        ai = np.repeat(np.arange(len(C)), [len(x) for x in lists])
-        if ai.size == 0:
-            continue
-        bi = np.concatenate([np.asarray(x, np.int64) for x in lists])
-        if pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
-            return f"patch would cross the patch of hole {other.hole_id}"
-    return None
+    return [tuple(e) for e in E[(E >= 0).all(axis=1)].tolist()]
+
+
+class _Accepted:
+    """Patches accepted so far, with their corners and boxes cached."""
+
+    def __init__(self):
+        self.items = []
+        self.lo = np.zeros((0, 3))
+        self.hi = np.zeros((0, 3))
+        self.edges = set()
+
+    def add(self, patch, C, ids):
+        oid = np.where(ids < 0, ids - 10 ** 12 * (len(self.items) + 1), ids)  # new vertices differ per patch
+        c = C.mean(axis=1)
+        r = np.linalg.norm(C - c[:, None], axis=2).max(axis=1)
+        self.items.append((patch, C, oid, c, r))
+        P = C.reshape(-1, 3)
+        self.lo = np.vstack([self.lo, P.min(axis=0)])
+        self.hi = np.vstack([self.hi, P.max(axis=0)])
+        self.edges.update(_scan_edges(patch))
+
+    def conflict(self, ctx, patch):
+        """Why the patch clashes with an accepted one, or None."""
+        if any(e in self.edges for e in _scan_edges(patch)):
+            return "an earlier patch already created an edge this patch needs", None
+        C, ids = _corners(ctx, patch)
+        if self.items:
+            P = C.reshape(-1, 3)
+            lo, hi = P.min(axis=0), P.max(axis=0)
+            near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
+            c1 = C.mean(axis=1)
+            r1 = np.linalg.norm(C - c1[:, None], axis=2).max(axis=1)
+            for j in near:
+                other, D, oid, c2, r2 = self.items[j]
+                lists = cKDTree(c2).query_ball_point(c1, r1 + r2.max())
+                cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+                if cnt.sum() == 0:
+                    continue
+                ai = np.repeat(np.arange(len(C)), cnt)
+                bi = np.fromiter((b for x in lists for b in x), np.int64, int(cnt.sum()))
+                if pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
+                    return f"patch would cross the patch of hole {other.hole_id}", None
+        return None, (C, ids)
 
 
 def _merge(mesh, V, F, patches):

@@ -25,28 +25,30 @@ from __future__ import annotations
 
 import numpy as np
 
+from .geometry import cross
+
 from .errors import MeshError
 
 __all__ = ["triangulate_loop", "DP_MAX"]
 
 #: Largest loop triangulated by one dynamic program.
 DP_MAX = 200
-#: Tolerance when comparing worst dihedral angles (radians) before areas.
-ANGLE_TIE = 1e-9
+#: Tolerance when comparing worst dihedral costs (1 − cos of the angle) before areas.
+ANGLE_TIE = 1e-12
 
 
 def _normals(A, B, C):
-    n = np.cross(B - A, C - A)
+    n = cross(B - A, C - A)
     ln = np.linalg.norm(n, axis=-1, keepdims=True)
     return np.divide(n, ln, out=np.zeros_like(n), where=ln > 0), 0.5 * ln[..., 0]
 
 
 def _angle(n1, n2):
-    """Angle between unit normals; pi where either is degenerate (zero)."""
-    d = np.clip(np.sum(n1 * n2, axis=-1), -1.0, 1.0)
-    ang = np.arccos(d)
-    bad = (np.sum(n1 * n1, axis=-1) == 0) | (np.sum(n2 * n2, axis=-1) == 0)
-    return np.where(bad, np.pi, ang)
+    """Dihedral cost between unit normals: 1 − cos, monotone in the angle
+    (0 for a flat continuation, 2 for a fold); 2 where either is zero."""
+    d = n1[..., 0] * n2[..., 0] + n1[..., 1] * n2[..., 1] + n1[..., 2] * n2[..., 2]
+    bad = (np.abs(n1).sum(axis=-1) == 0) | (np.abs(n2).sum(axis=-1) == 0)
+    return np.where(bad, 2.0, 1.0 - np.clip(d, -1.0, 1.0))
 
 
 def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto"):
@@ -95,7 +97,7 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto"):
     edge_normals = np.asarray(edge_normals, np.float64)
     if isinstance(axis, str):
         C = P - P.mean(axis=0)
-        va = -0.5 * np.cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
+        va = -0.5 * cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
         ln = np.linalg.norm(va)
         axis = va / ln if ln > 0 else None
     if axis is not None:
@@ -148,7 +150,7 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
         T = np.array([[idx[0], idx[2], idx[1]]], np.int64)
         if _uses_forbidden(T, forbidden):
             raise MeshError("the only triangle of this loop duplicates an existing edge")
-        if axis is not None and np.dot(np.cross(P[T[0, 1]] - P[T[0, 0]], P[T[0, 2]] - P[T[0, 0]]), axis) <= 0:
+        if axis is not None and np.dot(cross(P[T[0, 1]] - P[T[0, 0]], P[T[0, 2]] - P[T[0, 0]]), axis) <= 0:
             raise MeshError("the triangle faces against the loop's axis")
         return T
     Q = P[idx]
@@ -187,15 +189,15 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
         # dihedral with the triangles (or rim faces) on edges (i, m) and (m, j)
         nim = N[I, m]
         nmj = N[m, J]
-        a1 = np.where(np.sum(nim * nim, -1) > 0, _angle(n, nim), 0.0)
-        a2 = np.where(np.sum(nmj * nmj, -1) > 0, _angle(n, nmj), 0.0)
+        a1 = np.where(np.abs(nim).sum(-1) > 0, _angle(n, nim), 0.0)
+        a2 = np.where(np.abs(nmj).sum(-1) > 0, _angle(n, nmj), 0.0)
         wa = np.maximum.reduce([a1, a2, WA[I, m], WA[m, J]])
         if L == k - 1 and has_rim[k - 1]:  # the closing edge (k-1 -> 0) has a scan face across it
             wa = np.maximum(wa, _angle(n, np.broadcast_to(rim[k - 1], n.shape)))
         ws = area + WS[I, m] + WS[m, J]
         bad = forb[I, m] | forb[m, J] | forb[I, J][:, :1]
         if axis is not None:  # embedding constraint: every triangle faces along the axis
-            bad |= np.sum(np.cross(Q[J] - Q[I], Q[m] - Q[I]) * axis, axis=-1) <= 0
+            bad |= np.sum(cross(Q[J] - Q[I], Q[m] - Q[I]) * axis, axis=-1) <= 0
         wa = np.where(bad, np.inf, wa)
         best_a = wa.min(axis=1, keepdims=True)
         ws_masked = np.where(wa <= best_a + ANGLE_TIE, ws, np.inf)
