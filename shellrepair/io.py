@@ -8,15 +8,24 @@ What loading guarantees
 * Vertex colours (PLY ``red green blue [alpha]``, OBJ ``v x y z r g b``,
   OFF ``COFF``) are kept as ``uint8``.
 * Polygons with more than three corners are split into a fan of triangles.
-* Faces that repeat a vertex (``[a, a, b]``) and exact duplicate faces are
-  dropped; zero-area faces with three distinct corners are kept and counted.
+* Faces that repeat a vertex (``[a, a, b]``) and duplicate faces (the same
+  three vertices, in any order) are dropped; zero-area faces with three
+  distinct corners are kept and counted; unreferenced vertices are kept
+  (vertex order never changes) and counted.
+* Each piece is wound consistently (:func:`shellrepair.clean.orient_faces`):
+  some faces get corners 1 and 2 swapped, nothing else changes; closed
+  pieces face outward; non-orientable pieces are reported.
+* ``mesh.notes`` lists each of these changes in one line.
 * STL's per-triangle vertices are welded on exact coordinates.
 * Anything that cannot be read raises :class:`~shellrepair.errors.MeshError`
   naming the file and what is wrong; NaN/inf coordinates, out-of-range or
-  negative indices, a file with no faces, truncated or inconsistent files.
+  negative indices, a file with no faces, truncated or inconsistent files,
+  directories, unreadable or non-regular files (a FIFO would block).
 
-Writing always goes to a temporary file in the target folder that is renamed
-into place, so a failed write never leaves a partial file behind.
+Writing always goes to a temporary file in the target folder that is
+flushed to disk and renamed into place, so a failed write never leaves a
+partial file behind; :func:`atomic_write_many` does this for a mesh and its
+report together.
 """
 
 from __future__ import annotations
@@ -367,24 +376,114 @@ def _zero_area_count(V, F):
     return int((np.linalg.norm(np.cross(e1, e2), axis=1) == 0).sum())
 
 
-def _polygons_to_triangles(polys, notes):
-    """Fan-triangulate a list of index lists; returns (m,3) int64."""
+def _polygons_to_triangles(polys, notes, V=None):
+    """Split polygons into triangles that stay inside them; returns (m,3) int64.
+
+    Parameters
+    ----------
+    polys : list of lists of int
+        Corner indices, in the polygon's winding.
+    notes : list of str
+        Gets one line per kind of change.
+    V : (n,3) float64 array, optional
+        Vertex positions. Without them (or with an index out of range,
+        which validation reports later) polygons are fanned from corner 0.
+
+    Notes
+    -----
+    A quad is split along 0-2 unless that diagonal lies outside it (corners
+    1 and 3 on the same side), then along 1-3. Larger polygons are ear
+    clipped in the plane of their Newell normal, which keeps every triangle
+    inside a non-convex outline; a polygon with no ear (self-crossing) is
+    fanned. All triangles keep the polygon's winding.
+    """
     tris = []
+    quads = []
     n_poly = 0
     n_small = 0
+    n = -1 if V is None else len(V)
     for p in polys:
-        if len(p) < 3:
+        k = len(p)
+        if k < 3:
             n_small += 1
             continue
-        if len(p) > 3:
-            n_poly += 1
-        for j in range(1, len(p) - 1):
+        if k == 3:
+            tris.append(tuple(p))
+            continue
+        n_poly += 1
+        if n > 0 and min(p) >= 0 and max(p) < n:
+            if k == 4:
+                quads.append((len(tris), p))
+                tris.append(None)
+                tris.append(None)
+                continue
+            tris.extend(_ear_clip(V, p))
+            continue
+        for j in range(1, k - 1):
             tris.append((p[0], p[j], p[j + 1]))
+    if quads:
+        at = np.array([q[0] for q in quads], np.int64)
+        Q = np.array([q[1] for q in quads], np.int64)
+        P = V[Q]
+        n1 = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])  # triangle 0-1-2
+        n2 = np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 0])  # triangle 0-2-3
+        use13 = np.einsum("ij,ij->i", n1, n2) < 0  # 1 and 3 on the same side of 0-2: 0-2 lies outside
+        A = np.where(use13[:, None], Q[:, [1, 2, 3]], Q[:, [0, 1, 2]])
+        B = np.where(use13[:, None], Q[:, [1, 3, 0]], Q[:, [0, 2, 3]])
+        for i, a, b in zip(at.tolist(), A.tolist(), B.tolist()):
+            tris[i] = tuple(a)
+            tris[i + 1] = tuple(b)
     if n_poly:
         notes.append(f"{n_poly} polygons with more than 3 corners split into triangles")
     if n_small:
         notes.append(f"{n_small} faces with fewer than 3 corners dropped")
     return np.array(tris, dtype=np.int64).reshape(-1, 3)
+
+
+def _ear_clip(V, poly):
+    """Ear clipping of one polygon in the plane of its Newell normal."""
+    idx = list(poly)
+    P = np.asarray(V, np.float64)[idx]
+    P = P - P.mean(axis=0)
+    nrm = np.sum(np.cross(P, np.roll(P, -1, axis=0)), axis=0)  # Newell normal (twice the vector area)
+    ln = np.linalg.norm(nrm)
+    if not np.isfinite(ln) or ln == 0:
+        return [(idx[0], idx[j], idx[j + 1]) for j in range(1, len(idx) - 1)]
+    nrm = nrm / ln
+    t = np.array([1.0, 0.0, 0.0]) if abs(nrm[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(nrm, t)
+    u /= np.linalg.norm(u)
+    w = np.cross(nrm, u)
+    xy = np.column_stack([P @ u, P @ w])  # counter-clockwise seen along nrm
+
+    def cross2(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    rest = list(range(len(idx)))
+    out = []
+    while len(rest) > 3:
+        for j in range(len(rest)):
+            i0, i1, i2 = rest[j - 1], rest[j], rest[(j + 1) % len(rest)]
+            a, b, c = xy[i0], xy[i1], xy[i2]
+            if cross2(a, b, c) <= 0:
+                continue  # reflex or flat corner: not an ear
+            inside = False
+            for r in rest:
+                if r in (i0, i1, i2):
+                    continue
+                q = xy[r]
+                if cross2(a, b, q) >= 0 and cross2(b, c, q) >= 0 and cross2(c, a, q) >= 0:
+                    inside = True
+                    break
+            if not inside:
+                out.append((idx[i0], idx[i1], idx[i2]))
+                del rest[j]
+                break
+        else:  # no ear: a self-crossing outline; fan what is left
+            out.extend((idx[rest[0]], idx[rest[j]], idx[rest[j + 1]]) for j in range(1, len(rest) - 1))
+            return out
+    out.append(tuple(idx[r] for r in rest))
+    return out
 
 
 # --------------------------------------------------------------------------
@@ -471,7 +570,7 @@ def _read_ply(data):
     if F is None:
         raise MeshError("PLY face element has no vertex index list")
     if "__polys__" in face:
-        F = _polygons_to_triangles(face["__polys__"], mesh.notes)
+        F = _polygons_to_triangles(face["__polys__"], mesh.notes, V)
     else:
         F = F.astype(np.int64)
     mesh.F = F
@@ -726,12 +825,13 @@ def _read_obj(data):
     if not verts:
         raise MeshError("no vertices")
     mesh = Mesh(V=np.array(verts, dtype=np.float64), F=np.zeros((0, 3), np.int64))
+    V = mesh.V
     if cols and len(cols) == len(verts):
         c = np.array(cols, dtype=np.float64)
         if c.max() <= 1.0:
             c = c * 255.0
         mesh.vertex_colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
-    mesh.F = _polygons_to_triangles(polys, mesh.notes)
+    mesh.F = _polygons_to_triangles(polys, mesh.notes, V)
     return mesh
 
 
@@ -792,7 +892,7 @@ def _read_off(data):
         if k < 0 or len(tok) < 1 + k:
             raise MeshError(f"face {i}: announces {k} corners, has {len(tok) - 1}")
         polys.append([int(t) for t in tok[1:1 + k]])
-    mesh.F = _polygons_to_triangles(polys, mesh.notes)
+    mesh.F = _polygons_to_triangles(polys, mesh.notes, V)
     return mesh
 
 

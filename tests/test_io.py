@@ -125,3 +125,27 @@ def test_directory_is_not_a_mesh(tmp_path):
     d.mkdir()
     with pytest.raises(MeshError, match="directory"):
         read_mesh(d)
+
+
+@pytest.mark.parametrize("name,outline", [
+    # a chevron: corner 1 is reflex, so the fan's diagonal 0-2 would lie outside
+    ("chevron", [(0, 0), (1, 0.4), (2, 0), (1, 2)]),
+    # an L: corner 0 sits at the reflex corner's far side, a fan from it leaves the outline
+    ("L", [(2, 1), (1, 1), (1, 2), (0, 2), (0, 0), (2, 0)]),
+    ("comb", [(0, 0), (4, 0), (4, 2), (3, 2), (3, 0.5), (2, 0.5), (2, 2), (1, 2), (1, 0.5), (0.5, 0.5), (0.5, 2), (0, 2)]),
+])
+def test_non_convex_polygons_are_split_inside_their_outline(tmp_path, name, outline):
+    """Every triangle keeps the polygon's winding (+z) and the areas add up
+    to the polygon's: no triangle leaves the outline or overlaps another."""
+    P = np.array(outline, float)
+    area = 0.5 * np.sum(P[:, 0] * np.roll(P[:, 1], -1) - np.roll(P[:, 0], -1) * P[:, 1])
+    p = tmp_path / f"{name}.obj"
+    p.write_text("".join(f"v {x} {y} 0\n" for x, y in outline)
+                 + "f " + " ".join(str(i + 1) for i in range(len(outline))) + "\n")
+    m = read_mesh(p)
+    assert len(m.F) == len(outline) - 2
+    T = m.V[m.F]
+    nz = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])[:, 2]
+    assert (nz > 0).all()
+    assert np.isclose(0.5 * nz.sum(), area)
+    assert m.notes == ["1 polygons with more than 3 corners split into triangles"]
