@@ -3,6 +3,7 @@
     shellrepair holes SCAN [--json] [--max-hole N] [--fill-borders]
     shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3] [--smooth N]
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
+                       [--bridge auto|never|always]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
 
 Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
@@ -42,6 +43,8 @@ def _parser():
     r.add_argument("--method", choices=("fair", "seed"), default="fair",
                    help="fair: local faired shells (default); seed: the paper's smoothed-copy method")
     r.add_argument("--jobs", type=int, default=1, help="fill holes on N cores (same output for any N)")
+    r.add_argument("--bridge", choices=("auto", "never", "always"), default="auto",
+                   help="two facing loops bounding a missing band: tube or caps (default auto: lower energy)")
     r.add_argument("--json", action="store_true", help="print the JSON report instead of the table")
     _hole_options(r)
 
@@ -144,7 +147,7 @@ def _repair(args):
     mesh = read_mesh(args.scan)
     repaired, report = repair_mesh(mesh, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                                    fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
-                                   progress=sys.stderr.isatty())
+                                   progress=sys.stderr.isatty(), bridge=args.bridge)
     report["file"] = str(args.scan)
     report["output"] = str(out)
     report["notes"] = list(mesh.notes)
@@ -184,13 +187,15 @@ def _render(args):
         raise MeshError("output would overwrite an input mesh", out)
     mesh = read_mesh(args.mesh)
     kw = dict(size=(w, h), material=args.material, view=view)
-    img = rd.render_mesh(mesh.V, mesh.F, filled=mesh.face_filled, highlight_filled=args.highlight_filled,
-                         vertex_colors=mesh.vertex_colors, **kw)
-    if args.before:
+    if args.before:  # one camera for both panels
         before = read_mesh(args.before)
-        left = rd.render_mesh(before.V, before.F, vertex_colors=before.vertex_colors, **kw)
-        import numpy as np
-        img = np.concatenate([left, img], axis=1)
+        img = rd.render_side_by_side(before.V, before.F, mesh.V, mesh.F, filled=mesh.face_filled,
+                                     highlight_filled=args.highlight_filled,
+                                     vertex_colors_before=before.vertex_colors,
+                                     vertex_colors_after=mesh.vertex_colors, **kw)
+    else:
+        img = rd.render_mesh(mesh.V, mesh.F, filled=mesh.face_filled, highlight_filled=args.highlight_filled,
+                             vertex_colors=mesh.vertex_colors, **kw)
     rd.save_png(out, img)
     print(f"wrote {out}")
     return 0

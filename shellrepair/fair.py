@@ -195,3 +195,55 @@ def harmonic_interpolate(K, values_fixed, n_fixed):
     out = spla.splu(Kuu).solve(np.asarray(rhs, np.float64))
     lo, hi = values_fixed.min(axis=0), values_fixed.max(axis=0)
     return np.clip(out, lo, hi)  # the maximum principle, against round-off and negative cotangents
+
+
+def thin_plate_energy(X, F, rows):
+    """Discrete thin-plate energy Σ |(K X)_v|² / M_v over the given vertices.
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+    rows : (r,) int64
+        Vertices whose complete neighbourhoods are in ``F`` (the patch and
+        its rim).
+
+    Returns
+    -------
+    E : float
+        Dimensionless (∫ (2H)² dA for a smooth surface): the same for a
+        scaled copy, so tubes and caps of different sizes compare.
+    """
+    K, M = _cotan_operators(np.asarray(X, np.float64), np.asarray(F, np.int64))
+    KX = np.asarray(K[rows] @ X)
+    m = np.maximum(M[rows], 1e-300)
+    return float(np.sum(np.sum(KX * KX, axis=1) / m))
+
+
+def curvature_variation_energy(X, F, S):
+    """Dirichlet energy of the mean-curvature normal over vertex set ``S``.
+
+    Σ over edges (i, j) inside S of w_ij |Hn_i − Hn_j|², Hn = M⁻¹ K X: the
+    energy that order-3 fairing minimises (∫ |∇(2H n)|² dA), measured where
+    every vertex of S has its complete neighbourhood in ``F``.
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+    S : (s,) int64
+
+    Returns
+    -------
+    E : float
+        In units of 1/length²: compare options at the same scale.
+    """
+    X = np.asarray(X, np.float64)
+    K, M = _cotan_operators(X, np.asarray(F, np.int64))
+    Hn = np.asarray(K @ X) / np.maximum(M, 1e-300)[:, None]
+    inS = np.zeros(len(X), bool)
+    inS[np.asarray(S, np.int64)] = True
+    C = sp.triu(-K, k=1).tocoo()
+    keep = inS[C.row] & inS[C.col]
+    d = Hn[C.row[keep]] - Hn[C.col[keep]]
+    return float(np.sum(C.data[keep] * np.sum(d * d, axis=1)))

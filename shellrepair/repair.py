@@ -36,7 +36,8 @@ from scipy.spatial import cKDTree
 
 from .clean import describe_open_chains
 from .errors import MeshError
-from .fair import fair_patch, harmonic_interpolate, taubin_smooth, uniform_laplacian
+from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth,
+                   thin_plate_energy, uniform_laplacian)
 from .holes import detect_holes
 from .intersect import TriangleIndex, pair_intersections, patch_vs_index
 from .io import Mesh
@@ -84,6 +85,7 @@ class Patch:
     props: dict = field(default_factory=dict)
     option: str = ""
     T0: np.ndarray | None = None
+    energy: float | None = None
 
     def global_faces(self, base):
         """Faces with new vertex j at index ``base + j``."""
@@ -184,10 +186,11 @@ def _submesh(ctx, loop, Pl, T, rings):
     loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
     nf = len(g)
     Tp = np.where(T < k, loc_loop[np.minimum(T, k - 1)], nf + T - k)
-    return g, np.vstack([Fr, Tp]).astype(np.int64), nf
+    return g, np.vstack([Fr, Tp]).astype(np.int64), nf, loc_loop
 
 
-def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=()):
+def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
+                energy=False):
     """Build one hole's patch (no checks against the scan).
 
     Parameters
@@ -202,6 +205,12 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     avoid : set of (int, int)
         More loop-position pairs the triangulation must not join (chords
         whose triangles crossed the scan in an earlier attempt).
+    initial : (t,3) int64, optional
+        A first triangulation over the loop positions to use instead of
+        triangulating ``loop`` (a tube between two loops given as one
+        concatenated ``loop``).
+    energy : bool
+        Also measure the faired patch's thin-plate energy (``patch.energy``).
 
     Returns
     -------
@@ -221,10 +230,13 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     if not np.isfinite(scale) or scale <= 0:
         scale = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))) or 1.0
     Pl = (P - origin) / scale
-    try:
-        T = triangulate_loop(Pl, edge_normals, forbidden)
-    except MeshError as exc:
-        raise PatchError(str(exc)) from None
+    if initial is not None:
+        T = np.asarray(initial, np.int64)
+    else:
+        try:
+            T = triangulate_loop(Pl, edge_normals, forbidden)
+        except MeshError as exc:
+            raise PatchError(str(exc)) from None
     T0 = T
     if refine:
         Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
@@ -232,13 +244,20 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     colors = None
     props = {}
     new_local = Pl[k:]
+    patch_energy = None
     if q > 0 and (fair or smooth or ctx.colors is not None or ctx.props):
-        g, Fs, nf = _submesh(ctx, loop, Pl, T, rings=max(order, 1))
+        g, Fs, nf, loc_loop = _submesh(ctx, loop, Pl, T, rings=max(order, 1))
         X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
         K = None
         if fair:
             Xu, K = fair_patch(X, Fs, nf, order=order)
             X[nf:] = Xu
+            if energy:
+                # vertices with complete neighbourhoods: patch, loop and ring 1
+                ring1 = np.searchsorted(g, np.unique(ctx.F[ctx.faces_of(loop)]))
+                S = np.unique(np.concatenate([ring1, np.arange(nf, len(X))]))
+                patch_energy = (thin_plate_energy(X, Fs, np.concatenate([loc_loop, np.arange(nf, len(X))])),
+                                curvature_variation_energy(X, Fs, S) / scale ** 2)
         if smooth:
             X[nf:] = taubin_smooth(X, Fs, nf, smooth)
         new_local = X[nf:]
@@ -255,7 +274,8 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     if not np.isfinite(new_local).all():
         raise PatchError("the fairing solve did not converge (non-finite positions)")
     Pn = origin + scale * new_local
-    return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props, T0=T0)
+    return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props, T0=T0,
+                 energy=patch_energy)
 
 
 def _corners(ctx, patch):
@@ -309,7 +329,7 @@ OPTIONS = ("faired", "harmonic", "flat")
 AVOID_RETRIES = 6
 
 
-def _fill_one(ctx, hole_id, loop, order, smooth):
+def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
     """Try the options in turn; returns (patch or None, reason, seconds, tried).
 
     Each option is retried up to ``AVOID_RETRIES`` times with the chords
@@ -325,7 +345,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth):
     for name, kw in plan:
         for attempt in range(AVOID_RETRIES + 1):
             try:
-                patch = build_patch(ctx, hole_id, loop, avoid=avoid, **kw)
+                patch = build_patch(ctx, hole_id, loop, avoid=avoid, energy=energy, **kw)
             except PatchError as exc:
                 reasons.append(f"{name}: {exc}")
                 if "duplicates an existing edge" in str(exc) or "chord" in str(exc):
@@ -347,12 +367,90 @@ def _fill_one(ctx, hole_id, loop, order, smooth):
     return None, "; ".join(reasons), time.perf_counter() - t0, reasons
 
 
+#: Which energy decides tube against caps: 0 thin plate ∫(2H)², 1 curvature
+#: variation ∫|∇(2Hn)|². The thin-plate energy of a thin torus's inner band is
+#: higher than that of two flat caps, so it picks caps where the band is
+#: missing; the curvature variation measures how well each option continues
+#: the surrounding surface's curvature and picks the tube (tested on tori of
+#: tube radius 0.2–0.5 and cut angles 70–150°).
+ENERGY = 1
+
+
+def _fill_pair(ctx, A, B, order, smooth, mode):
+    """A band between loops A and B: a tube, or a cap on each.
+
+    Returns (outcomes, record): outcomes as for :func:`_fill_one` per loop
+    (the tube patch is given with A, B refers to it), record for the report.
+    """
+    from .bridge import tube_triangles
+
+    t0 = time.perf_counter()
+    loop = np.concatenate([A.vertices, B.vertices])
+    T = tube_triangles(ctx.V[A.vertices], ctx.V[B.vertices])
+    tube, why_tube = None, ""
+    for o in ((order, 1) if order != 1 else (1,)):
+        try:
+            p = build_patch(ctx, A.id, loop, order=o, smooth=smooth, initial=T, energy=True)
+        except PatchError as exc:
+            why_tube = str(exc)
+            continue
+        why, _ = _check_patch(ctx, p)
+        if why is None:
+            tube = p
+            tube.option = f"tube to loop {B.id}, faired order {o}"
+            break
+        why_tube = why
+    caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+    e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
+    e_caps = sum(c[0].energy[ENERGY] if c[0] is not None and c[0].energy is not None else np.inf for c in caps)
+    record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
+              "tube_energy": None if not np.isfinite(e_tube) else round(float(e_tube), 6),
+              "caps_energy": None if not np.isfinite(e_caps) else round(float(e_caps), 6)}
+    use_tube = tube is not None and (mode == "always" or e_tube < e_caps)
+    secs = time.perf_counter() - t0
+    if use_tube:
+        record["chosen"] = "tube"
+        record["reason"] = ("--bridge always" if mode == "always" else
+                            f"tube energy {e_tube:.4g} < caps energy {e_caps:.4g}")
+        tube.hole_id = A.id
+        return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
+    record["chosen"] = "caps"
+    record["reason"] = (f"tube failed: {why_tube}" if tube is None else
+                        f"caps energy {e_caps:.4g} <= tube energy {e_tube:.4g}")
+    out = []
+    for L, c in zip((A, B), caps):
+        if L.kind != "hole":
+            out.append((None, "border", secs, []))
+        else:
+            out.append(c)
+    return out, record
+
+
 _WORKER_CTX = None
 
 
-def _worker(args):
-    hole_id, loop, order, smooth = args
-    return _fill_one(_WORKER_CTX, hole_id, loop, order, smooth)
+def _run_unit(ctx, unit):
+    kind, args = unit
+    if kind == "one":
+        return [_fill_one(ctx, *args)], None
+    return _fill_pair(ctx, *args)
+
+
+def _worker(unit):
+    return _run_unit(_WORKER_CTX, unit)
+
+
+def _find_bands(ctx, scan):
+    """Candidate band pairs among all loops (holes and borders)."""
+    from .bridge import band_pairs, continuation_direction
+
+    loops = scan.loops
+    dirs = []
+    for L in loops:
+        ring = ctx.F[ctx.faces_of(L.vertices)]
+        dirs.append((ctx.V[L.vertices].mean(axis=0), continuation_direction(ctx.V, ring, L.vertices)))
+    pairs = band_pairs(loops, dirs)
+    return [(loops[i], loops[j], sc) for i, j, sc in pairs]
 
 
 def _edges_of(T):
@@ -361,7 +459,7 @@ def _edges_of(T):
 
 
 def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, method="fair",
-                jobs=1, progress=False):
+                jobs=1, progress=False, bridge="auto"):
     """Fill the holes of a mesh.
 
     Parameters
@@ -381,6 +479,11 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         Processes building patches; the output is the same for any value.
     progress : bool
         Print progress to stderr.
+    bridge : {"auto", "never", "always"}
+        Missing bands between two facing loops: ``auto`` builds the tube
+        and the two caps and keeps the one with the lower thin-plate
+        energy; ``always`` keeps a valid tube; ``never`` caps every loop
+        (see :mod:`shellrepair.bridge`).
 
     Returns
     -------
@@ -395,6 +498,8 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         raise MeshError(f"order must be 1, 2 or 3, got {order}")
     if method not in ("fair", "seed"):
         raise MeshError(f"method must be 'fair' or 'seed', got {method!r}")
+    if bridge not in ("auto", "never", "always"):
+        raise MeshError(f"bridge must be 'auto', 'never' or 'always', got {bridge!r}")
     t0 = time.perf_counter()
     V = np.asarray(mesh.V, np.float64)
     F = np.asarray(mesh.F, np.int64)
@@ -403,44 +508,68 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     holes = scan.holes
     ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
     results = {}
-    tasks = [(h.id, h.vertices, order, smooth) for h in holes]
+    pairs = []
+    if bridge != "never" and method == "fair":
+        pairs = _find_bands(ctx, scan)
+    paired = {L.id for A, B, _ in pairs for L in (A, B)}
+    units = [("pair", (A, B, order, smooth, bridge)) for A, B, _ in pairs]
+    units += [("one", (h.id, h.vertices, order, smooth)) for h in holes if h.id not in paired]
+    units.sort(key=lambda u: u[1][0].id if u[0] == "pair" else u[1][0])
     if method == "seed":
         patches = _seed_patches(ctx, holes, smooth or SEED_SMOOTH_PASSES, results)
-        outcomes = [(patches.get(h.id), results.get(h.id, ""), 0.0, []) for h in holes]
-    elif jobs > 1 and len(tasks) > 1:
+        unit_out = [([(patches.get(h.id), results.get(h.id, ""), 0.0, [])], None) for h in holes]
+        units = [("one", (h.id, h.vertices, order, smooth)) for h in holes]
+    elif jobs > 1 and len(units) > 1:
         global _WORKER_CTX
         _ = ctx.index  # build before forking so workers share it
         _WORKER_CTX = ctx
         import multiprocessing as mp
-        with mp.get_context("fork").Pool(min(jobs, len(tasks))) as pool:
-            outcomes = []
-            for i, out in enumerate(pool.imap(_worker, tasks, chunksize=1)):
-                outcomes.append(out)
-                _progress(progress, i + 1, len(tasks))
+        with mp.get_context("fork").Pool(min(jobs, len(units))) as pool:
+            unit_out = []
+            for i, out in enumerate(pool.imap(_worker, units, chunksize=1)):
+                unit_out.append(out)
+                _progress(progress, i + 1, len(units))
         _WORKER_CTX = None
     else:
-        outcomes = []
-        for i, t in enumerate(tasks):
-            outcomes.append(_fill_one(ctx, *t))
-            _progress(progress, i + 1, len(tasks))
-    if progress and tasks:
+        unit_out = []
+        for i, u in enumerate(units):
+            unit_out.append(_run_unit(ctx, u))
+            _progress(progress, i + 1, len(units))
+    if progress and units:
         print("", file=sys.stderr)
 
     # sequential merge: patches against each other, in hole order
     acc = _Accepted()
-    rows = []
-    for h, (patch, reason, secs, _) in zip(holes, outcomes):
-        row = {"id": h.id, "edges": h.edges, "status": "failed", "reason": reason,
-               "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
-        if patch is not None:
-            conflict, corners = acc.conflict(ctx, patch)
-            if conflict:
-                row["reason"] = conflict
-            else:
-                acc.add(patch, *corners)
-                row.update(status="filled", reason=patch.option, new_vertices=int(len(patch.P)),
-                           new_faces=int(len(patch.T)), option=patch.option)
-        rows.append(row)
+    rows = {}
+    bridges = []
+    for u, (outs, record) in zip(units, unit_out):
+        loops = [u[1][0], u[1][1]] if u[0] == "pair" else [scan.loops[u[1][0]]]
+        tube_rejected = None
+        tube_ok = False
+        for L, (patch, reason, secs, _) in zip(loops, outs):
+            row = {"id": L.id, "edges": L.edges, "status": "failed", "reason": reason,
+                   "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
+            if patch is not None:
+                conflict, corners = acc.conflict(ctx, patch)
+                if conflict:
+                    row["reason"] = conflict
+                    if record is not None and record.get("chosen") == "tube":
+                        tube_rejected = conflict
+                else:
+                    acc.add(patch, *corners)
+                    tube_ok = True
+                    row.update(status="filled", reason=patch.option, new_vertices=int(len(patch.P)),
+                               new_faces=int(len(patch.T)), option=patch.option)
+            elif record is not None and record.get("chosen") == "tube":
+                if tube_ok:
+                    row.update(status="filled", option="tube", new_vertices=0, new_faces=0)
+                else:
+                    row["reason"] = tube_rejected or row["reason"]
+            if L.kind == "hole":
+                rows[L.id] = row
+        if record is not None:
+            bridges.append(record)
+    rows = [rows[h.id] for h in holes if h.id in rows]
     accepted = [it[0] for it in acc.items]
     repaired = _merge(mesh, V, F, accepted)
     # honest check of the result: boundary and non-manifold edges left
@@ -455,10 +584,17 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
                                 "boundary_edges_after": int(topo2.n_boundary_edges),
                                 "nonmanifold_edges_before": int(topo.nonmanifold_edges.shape[0]),
                                 "nonmanifold_edges_after": int(topo2.nonmanifold_edges.shape[0]),
-                                "smooth": smooth, "jobs": jobs,
+                                "smooth": smooth, "jobs": jobs, "bridge": bridge,
+                                "bridges": bridges,
+                                "euler_before": int(scan.euler),
+                                "euler_after": _euler(repaired.F, topo2),
                                 "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}
                                                  for b in scan.borders]})
     return repaired, report
+
+
+def _euler(F, topo):
+    return int(np.unique(F).size - topo.edges.shape[0] + F.shape[0])
 
 
 def _progress(on, i, n):
