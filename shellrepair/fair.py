@@ -94,7 +94,7 @@ def _solve(Q, fixed, unknown, X):
     return spla.splu(Quu).solve(rhs)
 
 
-def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS):
+def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     """Fair the free vertices of a local submesh.
 
     Parameters
@@ -108,6 +108,9 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS):
     order : {1, 2, 3}
     rounds : int
         Cotangent re-evaluations after the uniform first solve.
+    pinned : array of int, optional
+        Free vertices (indices counted from ``n_fixed``) held at their
+        current positions as well.
 
     Returns
     -------
@@ -120,8 +123,14 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS):
     n = len(X)
     if n == n_fixed:
         return X[n_fixed:], uniform_laplacian(F, n)
-    fixed = np.arange(n_fixed)
-    unknown = np.arange(n_fixed, n)
+    pin = np.zeros(n, bool)
+    pin[:n_fixed] = True
+    if pinned is not None and len(pinned):
+        pin[n_fixed + np.asarray(pinned, np.int64)] = True
+    fixed = np.flatnonzero(pin)
+    unknown = np.flatnonzero(~pin)
+    if unknown.size == 0:
+        return X[n_fixed:], uniform_laplacian(F, n)
     K = uniform_laplacian(F, n)
     X[unknown] = _solve(_energy(K, np.ones(n), order), fixed, unknown, X)
     for _ in range(int(rounds)):
@@ -138,7 +147,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS):
             break
         X[unknown] = Xn
         K = Kc
-    return X[unknown], K
+    return X[n_fixed:], K
 
 
 def taubin_smooth(X, F, n_fixed, passes, lam=TAUBIN_LAMBDA, mu=TAUBIN_MU):

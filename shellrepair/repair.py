@@ -190,7 +190,7 @@ def _submesh(ctx, loop, Pl, T, rings):
 
 
 def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
-                energy=False):
+                energy=False, pinned=None):
     """Build one hole's patch (no checks against the scan).
 
     Parameters
@@ -210,7 +210,11 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
         triangulating ``loop`` (a tube between two loops given as one
         concatenated ``loop``).
     energy : bool
-        Also measure the faired patch's thin-plate energy (``patch.energy``).
+        Also measure the faired patch's energies (``patch.energy``: thin
+        plate, curvature variation).
+    pinned : array of int, optional
+        New vertices (0-based among the new ones) kept where refinement put
+        them, on the flat triangulation, instead of being faired.
 
     Returns
     -------
@@ -250,7 +254,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
         X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
         K = None
         if fair:
-            Xu, K = fair_patch(X, Fs, nf, order=order)
+            Xu, K = fair_patch(X, Fs, nf, order=order, pinned=pinned)
             X[nf:] = Xu
             if energy:
                 # vertices with complete neighbourhoods: patch, loop and ring 1
@@ -259,7 +263,10 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
                 patch_energy = (thin_plate_energy(X, Fs, np.concatenate([loc_loop, np.arange(nf, len(X))])),
                                 curvature_variation_energy(X, Fs, S) / scale ** 2)
         if smooth:
-            X[nf:] = taubin_smooth(X, Fs, nf, smooth)
+            Xs = taubin_smooth(X, Fs, nf, smooth)
+            if pinned is not None and len(pinned):
+                Xs[pinned] = X[nf:][pinned]
+            X[nf:] = Xs
         new_local = X[nf:]
         if ctx.colors is not None or ctx.props:
             if K is None:
@@ -322,48 +329,104 @@ def _chords_near(ctx, patch, bad):
     return out
 
 
-OPTIONS = ("faired", "harmonic", "flat")
+#: Rounds of re-triangulation when the flat triangulation crosses the scan.
+FLAT_RETRIES = 12
+#: Rounds of re-triangulation when the faired patch crosses the scan.
+FAIRED_RETRIES = 3
+#: Rounds of growing the region held on the flat triangulation around a crossing.
+PIN_ROUNDS = 3
 
 
-#: Re-triangulations tried per option when a patch crosses the scan.
-AVOID_RETRIES = 6
+def _pin_region(patch, bad, pinned):
+    """New vertices of the faulty triangles and two rings around them
+    (grown by two more rings each call), 0-based among the new vertices."""
+    k = len(patch.loop)
+    T = patch.T
+    mark = np.zeros(k + len(patch.P), bool)
+    if pinned is not None:
+        mark[k + np.asarray(pinned)] = True
+    mark[T[bad].ravel()] = True
+    for _ in range(2):
+        mark[T[mark[T].any(axis=1)].ravel()] = True
+    return np.flatnonzero(mark[k:])
 
 
 def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
-    """Try the options in turn; returns (patch or None, reason, seconds, tried).
+    """Fill one hole, trying the options in turn.
 
-    Each option is retried up to ``AVOID_RETRIES`` times with the chords
-    whose triangles crossed the scan forbidden; what is learnt carries over
-    to the next option."""
+    1. Triangulate the loop and check the flat triangulation against the
+       scan; where it crosses (a peninsula of scan next to the rim), forbid
+       the chords near the crossing and triangulate again.
+    2. Refine and fair that triangulation (order ``order``, then harmonic);
+       if the faired patch crosses the scan, re-route the chords near the
+       crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
+    3. Otherwise keep the checked flat triangulation, if there is one.
+
+    Returns (patch or None, reason, seconds, reasons tried).
+    """
     t0 = time.perf_counter()
     reasons = []
-    plan = [("faired", dict(order=order, smooth=smooth))]
-    if order != 1:
-        plan.append(("harmonic", dict(order=1, smooth=smooth)))
-    plan.append(("flat", dict(order=1, smooth=0, refine=False, fair=False)))
     avoid = set()
-    for name, kw in plan:
-        for attempt in range(AVOID_RETRIES + 1):
-            try:
-                patch = build_patch(ctx, hole_id, loop, avoid=avoid, energy=energy, **kw)
-            except PatchError as exc:
-                reasons.append(f"{name}: {exc}")
-                if "duplicates an existing edge" in str(exc) or "chord" in str(exc):
-                    return None, "; ".join(reasons), time.perf_counter() - t0, reasons
-                break
-            why, bad = _check_patch(ctx, patch)
-            if why is None:
-                patch.option = name if name != "faired" else f"faired order {order}"
-                if avoid:
-                    patch.option += f", {len(avoid)} chords re-routed"
-                return patch, "", time.perf_counter() - t0, reasons
-            more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
+    flat_ok = None
+    options = [("faired", order)] + ([("harmonic", 1)] if order != 1 else [])
+    faired_rounds = 0
+    for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 1):
+        try:
+            flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid)
+        except PatchError as exc:
+            reasons.append(f"triangulation: {exc}")
+            break
+        why, bad = _check_patch(ctx, flat)
+        if why is not None:
+            more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
             if not more:
-                reasons.append(f"{name}: {why}")
+                reasons.append(f"flat: {why}")
                 break
             avoid |= more
-        else:
+            continue
+        flat_ok = flat
+        retry = False
+        for name, o in options:
+            try:
+                patch = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
+                                    energy=energy)
+            except PatchError as exc:
+                reasons.append(f"{name}: {exc}")
+                continue
+            why, bad = _check_patch(ctx, patch)
+            pinned = None
+            for _grow in range(PIN_ROUNDS if why is not None and bad.size else 0):
+                # hold the new vertices around the crossing on the flat triangulation
+                pinned = _pin_region(patch, bad, pinned)
+                try:
+                    pp = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
+                                     energy=energy, pinned=pinned)
+                except PatchError:
+                    break
+                w2, b2 = _check_patch(ctx, pp)
+                if w2 is None:
+                    patch, why = pp, None
+                    break
+                bad = np.union1d(bad, b2) if len(pp.T) == len(patch.T) else bad
+            if why is None:
+                patch.option = name if name != "faired" else f"faired order {o}"
+                if avoid:
+                    patch.option += f", {len(avoid)} chords re-routed"
+                if pinned is not None:
+                    patch.option += f", {len(pinned)} vertices held on the flat triangulation"
+                return patch, "", time.perf_counter() - t0, reasons
+            more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
+            if name == "faired" and more and faired_rounds < FAIRED_RETRIES:
+                faired_rounds += 1
+                avoid |= more
+                retry = True
+                break
             reasons.append(f"{name}: {why}")
+        if not retry:
+            break
+    if flat_ok is not None:
+        flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
+        return flat_ok, "", time.perf_counter() - t0, reasons
     return None, "; ".join(reasons), time.perf_counter() - t0, reasons
 
 
@@ -415,8 +478,12 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         tube.hole_id = A.id
         return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
     record["chosen"] = "caps"
-    record["reason"] = (f"tube failed: {why_tube}" if tube is None else
-                        f"caps energy {e_caps:.4g} <= tube energy {e_tube:.4g}")
+    if tube is None:
+        record["reason"] = f"tube failed: {why_tube}"
+    elif not np.isfinite(e_tube):
+        record["reason"] = "no faired tube energy to compare (tube without interior vertices)"
+    else:
+        record["reason"] = f"caps energy {e_caps:.4g} <= tube energy {e_tube:.4g}"
     out = []
     for L, c in zip((A, B), caps):
         if L.kind != "hole":
