@@ -374,7 +374,10 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
         try:
             flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid)
         except PatchError as exc:
-            reasons.append(f"triangulation: {exc}")
+            if avoid:
+                reasons.append(f"no triangulation avoids crossing the scan ({len(avoid)} chords re-routed)")
+            else:
+                reasons.append(f"triangulation: {exc}")
             break
         why, bad = _check_patch(ctx, flat)
         if why is not None:
@@ -424,6 +427,8 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
             reasons.append(f"{name}: {why}")
         if not retry:
             break
+    else:
+        reasons.append(f"the triangulation still crosses the scan after re-routing {len(avoid)} chords")
     if flat_ok is not None:
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
         return flat_ok, "", time.perf_counter() - t0, reasons
