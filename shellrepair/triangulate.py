@@ -51,7 +51,7 @@ def _angle(n1, n2):
     return np.where(bad, 2.0, 1.0 - np.clip(d, -1.0, 1.0))
 
 
-def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto"):
+def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=True):
     """Triangulate a closed loop of points.
 
     Parameters
@@ -74,6 +74,13 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto"):
         loop's own axis (minus its vector area, the way the patch faces);
         None skips the constrained search. If no constrained triangulation
         exists, the unconstrained one is returned.
+    fast : bool
+        First try the Delaunay triangulation of the loop projected along the
+        axis, accepted only when it triangulates the loop exactly (every loop
+        edge, k − 2 triangles, all facing along the axis, no forbidden
+        chord). The refinement and fairing that follow decide the shape, so
+        the O(k log k) triangulation serves where it is valid; the dynamic
+        program handles the rest.
 
     Returns
     -------
@@ -100,12 +107,64 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto"):
         va = -0.5 * cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
         ln = np.linalg.norm(va)
         axis = va / ln if ln > 0 else None
+    if axis is not None and fast:
+        T = _delaunay_in_projection(P, axis, forbidden)
+        if T is not None:
+            return T
     if axis is not None:
         try:
             return _triangulate(P, idx, edge_normals, forbidden, np.asarray(axis, np.float64))
         except MeshError:
             pass
     return _triangulate(P, idx, edge_normals, forbidden, None)
+
+
+def _delaunay_in_projection(P, axis, forbidden):
+    """The Delaunay triangulation of the loop projected along ``axis``, when
+    it is a triangulation of the loop: every loop edge present, k − 2
+    triangles inside the outline, all facing along ``axis``, no forbidden
+    chord. None otherwise (non-convex outlines whose edges are not Delaunay,
+    outlines that overlap themselves)."""
+    from scipy.spatial import Delaunay, QhullError
+
+    k = len(P)
+    a = axis / np.linalg.norm(axis)
+    t = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = cross(a, t)
+    u /= np.linalg.norm(u)
+    v = cross(a, u)
+    C = P - P.mean(axis=0)
+    Q = np.column_stack([C @ u, C @ v])
+    try:
+        tri = Delaunay(Q)
+    except (QhullError, ValueError):
+        return None
+    S = tri.simplices.astype(np.int64)
+    if len(S) < k - 2 or tri.coplanar.size:
+        return None
+    # keep triangles whose centroid is inside the outline (even-odd rule)
+    from skimage.measure import points_in_poly
+    inside = points_in_poly(Q[S].mean(axis=1), Q)
+    S = S[inside]
+    if len(S) != k - 2:
+        return None
+    # orient each along the axis (our convention: normal along the axis)
+    n = cross(P[S[:, 1]] - P[S[:, 0]], P[S[:, 2]] - P[S[:, 0]]) @ a
+    S = np.where((n < 0)[:, None], S[:, [0, 2, 1]], S)
+    n = np.abs(n)
+    if (n <= 1e-12 * np.max(n)).any():
+        return None
+    # every loop edge exactly once, reversed (i+1 -> i)
+    he = np.concatenate([S[:, [0, 1]], S[:, [1, 2]], S[:, [2, 0]]])
+    want = np.column_stack([(np.arange(k) + 1) % k, np.arange(k)])
+    key = he[:, 0] * k + he[:, 1]
+    if not np.isin(want[:, 0] * k + want[:, 1], key).all():
+        return None
+    if forbidden:
+        und = {(int(min(x, y)), int(max(x, y))) for x, y in he.tolist()}
+        if und & set(forbidden):
+            return None
+    return S
 
 
 def _triangulate(P, idx, edge_normals, forbidden, axis):
