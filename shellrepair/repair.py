@@ -670,8 +670,10 @@ def _euler(F, topo):
 
 
 def _progress(on, i, n):
-    if on:
-        print(f"\rfilling holes: {i}/{n}", end="", file=sys.stderr, flush=True)
+    if on:  # a throttled bar on stderr when it is a terminal (shellrepair.progress)
+        from .progress import step
+
+        step("filling holes", i, n)
 
 
 def _scan_edges(patch):

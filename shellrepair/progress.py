@@ -1,0 +1,177 @@
+"""A tiny progress bar for long work, drawn on stderr only when it is a terminal.
+
+    with Progress("filling holes", total=len(units)) as bar:
+        for u in units:
+            ...
+            bar.update()
+
+draws, at most every ``min_interval`` seconds and once at the end::
+
+    filling holes [##########..........]  120/240  50%  12.3 s
+
+When stderr is not a terminal (a pipe, a log file, a test), nothing is
+written at all, so logs and captured output stay clean. No dependency.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+__all__ = ["Progress", "progress_enabled"]
+
+#: Seconds between two redraws; updates in between only count.
+MIN_INTERVAL = 0.1
+#: Characters of the bar itself.
+BAR_WIDTH = 24
+
+
+def progress_enabled(stream=None):
+    """True when ``stream`` (default ``sys.stderr``) is an interactive terminal."""
+    stream = sys.stderr if stream is None else stream
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # closed or replaced stream
+        return False
+
+
+class Progress:
+    """Count/total progress of one long step, with a label and elapsed time.
+
+    Parameters
+    ----------
+    label : str
+        What is being done ("filling holes", "scans").
+    total : int
+        How many items; 0 or less draws a count without a bar.
+    enabled : bool, optional
+        Draw at all; default: stderr is a terminal (:func:`progress_enabled`).
+    stream : file, optional
+        Where to draw; default ``sys.stderr``.
+    min_interval : float
+        Seconds between redraws (throttling).
+    clock : callable
+        Time source, ``time.monotonic`` by default (tests pass their own).
+    """
+
+    def __init__(self, label, total, *, enabled=None, stream=None, min_interval=MIN_INTERVAL,
+                 clock=time.monotonic):
+        self.label = str(label)
+        self.total = int(total)
+        self.stream = sys.stderr if stream is None else stream
+        self.enabled = progress_enabled(self.stream) if enabled is None else bool(enabled)
+        self.min_interval = float(min_interval)
+        self.clock = clock
+        self.count = 0
+        self.t0 = clock()
+        self._last = None
+        self._width = 0
+        self.draws = 0
+
+    def update(self, n=1, *, note=""):
+        """Count ``n`` more items done; redraw if enough time has passed."""
+        self.count += int(n)
+        if not self.enabled:
+            return
+        now = self.clock()
+        done = self.total > 0 and self.count >= self.total
+        if self._last is not None and now - self._last < self.min_interval and not done:
+            return
+        self._draw(now, note)
+
+    def set(self, count, *, note=""):
+        """Set the count to ``count`` (for callers that know i/n)."""
+        self.update(int(count) - self.count, note=note)
+
+    def line(self, now=None, note=""):
+        """The text of the bar (without the carriage return)."""
+        now = self.clock() if now is None else now
+        el = now - self.t0
+        if self.total > 0:
+            f = min(max(self.count / self.total, 0.0), 1.0)
+            fill = int(round(f * BAR_WIDTH))
+            bar = "#" * fill + "." * (BAR_WIDTH - fill)
+            w = len(str(self.total))
+            s = f"{self.label} [{bar}] {self.count:>{w}}/{self.total} {100 * f:3.0f}%  {el:.1f} s"
+        else:
+            s = f"{self.label}: {self.count}  {el:.1f} s"
+        return s + (f"  {note}" if note else "")
+
+    def _draw(self, now, note=""):
+        s = self.line(now, note)
+        pad = max(0, self._width - len(s))  # wipe the rest of a longer previous line
+        try:
+            self.stream.write("\r" + s + " " * pad)
+            self.stream.flush()
+        except (OSError, ValueError):
+            self.enabled = False
+            return
+        self._width = len(s)
+        self._last = now
+        self.draws += 1
+
+    def close(self):
+        """Draw the final state and end the line (only if anything was drawn)."""
+        if not self.enabled:
+            return
+        if self._last is None or self.draws == 0 or self._last != self.clock():
+            self._draw(self.clock())
+        try:
+            self.stream.write("\n")
+            self.stream.flush()
+        except (OSError, ValueError):
+            pass
+        self.enabled = False
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+# --------------------------------------------------------------------------
+# the hook repair_mesh calls once per filled unit, and a label prefix
+# --------------------------------------------------------------------------
+_prefix = []
+_current = None
+
+
+class prefix:
+    """Context manager: prefix every bar's label while inside (``batch``
+    puts the scan being repaired in front of ``filling holes``)."""
+
+    def __init__(self, text):
+        self.text = str(text)
+
+    def __enter__(self):
+        _prefix.append(self.text)
+        return self
+
+    def __exit__(self, *exc):
+        _prefix.pop()
+        return False
+
+
+def full_label(label):
+    """``label`` behind the active prefixes."""
+    return ": ".join(_prefix + [label]) if _prefix else label
+
+
+def step(label, i, n, *, stream=None):
+    """Report item ``i`` of ``n`` of a loop that calls this once per item.
+
+    A new bar starts when ``i <= 1`` or the label or total changes; at
+    ``i == n`` the final state is drawn and the bar is dropped. The line is
+    not ended here: the caller ends it (``repair_mesh`` prints the newline
+    after its loop). Silent unless stderr is a terminal.
+    """
+    global _current
+    lab = full_label(label)
+    b = _current
+    if b is None or i <= 1 or b.total != n or b.label != lab:
+        b = _current = Progress(lab, n, stream=stream)
+    b.set(i)
+    if n > 0 and i >= n:
+        _current = None
