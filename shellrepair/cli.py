@@ -4,10 +4,13 @@
     shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3] [--smooth N]
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
                        [--bridge auto|never|always]
+    shellrepair batch DIR -o OUTDIR [--jobs N] [--order 1|2|3] [--max-hole N] [--fill-borders]
+                      [--bridge auto|never|always] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
 
 Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
-exit status 2; no traceback, no output file.
+exit status 2; no traceback, no output file. ``batch`` goes on past a bad
+scan, lists it in the summary and exits 2 at the end.
 """
 
 from __future__ import annotations
@@ -37,16 +40,24 @@ def _parser():
     r.add_argument("scan")
     r.add_argument("-o", "--output", help="output mesh (default: SCAN.repaired.ply)")
     r.add_argument("--report", help="JSON report (default: beside the output, .report.json)")
-    r.add_argument("--order", type=int, choices=(1, 2, 3), default=2,
-                   help="fairing order: 1 harmonic, 2 bilaplacian (default), 3 curvature-continuous")
-    r.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch")
-    r.add_argument("--method", choices=("fair", "seed"), default="fair",
-                   help="fair: local faired shells (default); seed: the paper's smoothed-copy method")
-    r.add_argument("--jobs", type=int, default=1, help="fill holes on N cores (same output for any N)")
-    r.add_argument("--bridge", choices=("auto", "never", "always"), default="auto",
-                   help="two facing loops bounding a missing band: tube or caps (default auto: lower energy)")
+    _repair_options(r)
     r.add_argument("--json", action="store_true", help="print the JSON report instead of the table")
     _hole_options(r)
+
+    b = sub.add_parser(
+        "batch", help="repair every scan of a folder; a report per scan and a summary table",
+        description="Repair every *.ply, *.obj, *.off and *.stl file directly in DIR (sorted by name). "
+                    "Writes OUTDIR/<stem>.repaired.ply and OUTDIR/<stem>.report.json per scan and "
+                    "OUTDIR/summary.json, and prints a table: holes before / after and rate per scan. "
+                    "A scan that fails is reported (status error, one line) and the others go on.",
+        epilog="exit status: 0 when every scan was repaired, 2 when any scan failed (or DIR / OUTDIR "
+               "cannot be used).")
+    b.add_argument("dir", metavar="DIR", help="folder of scans (not searched recursively)")
+    b.add_argument("-o", "--outdir", metavar="OUTDIR", required=True,
+                   help="output folder, created if missing (its parent must exist)")
+    _repair_options(b)
+    b.add_argument("--json", action="store_true", help="print the JSON summary instead of the table")
+    _hole_options(b)
 
     v = sub.add_parser("render", help="render a mesh with the aged-metal shading")
     v.add_argument("mesh")
@@ -59,6 +70,17 @@ def _parser():
     return p
 
 
+def _repair_options(p):
+    p.add_argument("--order", type=int, choices=(1, 2, 3), default=2,
+                   help="fairing order: 1 harmonic, 2 bilaplacian (default), 3 curvature-continuous")
+    p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch")
+    p.add_argument("--method", choices=("fair", "seed"), default="fair",
+                   help="fair: local faired shells (default); seed: the paper's smoothed-copy method")
+    p.add_argument("--jobs", type=int, default=1, help="fill holes on N cores (same output for any N)")
+    p.add_argument("--bridge", choices=("auto", "never", "always"), default="auto",
+                   help="two facing loops bounding a missing band: tube or caps (default auto: lower energy)")
+
+
 def _hole_options(p):
     p.add_argument("--max-hole", type=int, default=None, help="loops with more edges than N are left open")
     p.add_argument("--fill-borders", action="store_true", help="treat borders (outer edges) as holes too")
@@ -68,7 +90,7 @@ def main(argv=None):
     """Run the command line; returns the exit status."""
     args = _parser().parse_args(argv)
     try:
-        return {"holes": _holes, "repair": _repair, "render": _render}[args.cmd](args)
+        return {"holes": _holes, "repair": _repair, "batch": _batch, "render": _render}[args.cmd](args)
     except MeshError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -77,7 +99,8 @@ def main(argv=None):
         print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
     except MemoryError:
-        print(f"error: {getattr(args, 'scan', None) or getattr(args, 'mesh', '')}: out of memory",
+        print(f"error: {getattr(args, 'scan', None) or getattr(args, 'mesh', None) or getattr(args, 'dir', '')}: "
+              "out of memory",
               file=sys.stderr)
         return 2
     except KeyboardInterrupt:
@@ -163,6 +186,31 @@ def _repair(args):
             print(f"  note: {n}")
         print(f"  wrote {out} and {report_path}")
     return 0
+
+
+def _batch(args):
+    from .batch import repair_folder, summary_table
+
+    def line(row):  # one line per finished scan, unless the JSON is wanted
+        if not args.json:
+            what = (f"{row['holes_before']} -> {row['holes_after']} holes" if row["status"] == "ok"
+                    else f"error: {row['error']}")
+            print(f"{row['file']}: {what} ({row['seconds']:.1f} s)", flush=True)
+
+    summary = repair_folder(args.dir, args.outdir, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
+                            fill_borders=args.fill_borders, method=args.method, bridge=args.bridge,
+                            jobs=args.jobs, on_scan=line)
+    if args.json:
+        print(json.dumps(summary, indent=1))
+    else:
+        print()
+        print(summary_table(summary, errors=False))  # the errors go to stderr below
+        print(f"  wrote {summary['n_ok']} repaired scans with their reports, and "
+              f"{Path(summary['outdir']) / 'summary.json'}")
+    for r in summary["scans"]:
+        if r["status"] != "ok":  # also on stderr, one line each, as for a single scan
+            print(f"error: {Path(args.dir) / r['file']}: {r['error']}", file=sys.stderr)
+    return 0 if summary["n_failed"] == 0 else 2
 
 
 def _render(args):

@@ -22,6 +22,8 @@ __all__ = ["Progress", "progress_enabled"]
 
 #: Seconds between two redraws; updates in between only count.
 MIN_INTERVAL = 0.1
+#: ANSI "erase to end of line": wipes what a longer earlier line left.
+CLEAR_EOL = "\x1b[K"
 #: Characters of the bar itself.
 BAR_WIDTH = 24
 
@@ -65,7 +67,6 @@ class Progress:
         self.count = 0
         self.t0 = clock()
         self._last = None
-        self._width = 0
         self.draws = 0
 
     def update(self, n=1, *, note=""):
@@ -99,14 +100,12 @@ class Progress:
 
     def _draw(self, now, note=""):
         s = self.line(now, note)
-        pad = max(0, self._width - len(s))  # wipe the rest of a longer previous line
-        try:
-            self.stream.write("\r" + s + " " * pad)
+        try:  # carriage return, the line, then clear what a longer earlier line left (ANSI EL)
+            self.stream.write("\r" + s + CLEAR_EOL)
             self.stream.flush()
         except (OSError, ValueError):
             self.enabled = False
             return
-        self._width = len(s)
         self._last = now
         self.draws += 1
 
