@@ -1,0 +1,205 @@
+"""Batch repair of a folder, parallel filling that does not change the output,
+and the progress bar that only a terminal sees."""
+
+import io
+import json
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from shellrepair import shapes
+from shellrepair.batch import list_scans, repair_folder, summary_table
+from shellrepair.cli import main
+from shellrepair.io import Mesh, read_mesh, write_mesh
+from shellrepair.progress import Progress, prefix, step
+from shellrepair.topology import edge_topology
+
+
+def ball_perforate(V, F, n_holes, radius, seed=0):
+    """Remove the faces whose centroid lies within ``radius`` of one of
+    ``n_holes`` seeded points of the surface (the scale benchmark's cut)."""
+    rng = np.random.default_rng(seed)
+    centres = V[rng.choice(len(V), n_holes, replace=False)]
+    d, _ = cKDTree(centres).query(V[F].mean(axis=1))
+    V2, F2, _ = shapes.remove_faces(V, F, d < radius)
+    return V2, F2
+
+
+@pytest.fixture
+def many_holes():
+    """A bumpy sphere (5120 faces) with ~24 small holes."""
+    V, F = shapes.bumpy_sphere(4, amplitude=0.03, frequency=6)
+    return ball_perforate(V, F, n_holes=24, radius=0.09, seed=3)
+
+
+def _write_scans(folder, meshes):
+    folder.mkdir()
+    for name, (V, F) in meshes.items():
+        write_mesh(folder / name, Mesh(V=V, F=F))
+
+
+def test_jobs_do_not_change_the_output(tmp_path, many_holes):
+    V, F = many_holes
+    holes = len(edge_topology(F, len(V)).boundary_he)
+    assert holes > 0
+    _write_scans(tmp_path / "in", {"statue.ply": many_holes})
+    for jobs in (1, 2):
+        assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / f"out{jobs}"), "--jobs", str(jobs)]) == 0
+    one = (tmp_path / "out1" / "statue.repaired.ply").read_bytes()
+    two = (tmp_path / "out2" / "statue.repaired.ply").read_bytes()
+    assert one == two  # byte for byte
+    r1 = json.loads((tmp_path / "out1" / "statue.report.json").read_text())
+    r2 = json.loads((tmp_path / "out2" / "statue.report.json").read_text())
+    assert r1["holes_before"] >= 20
+    assert r1["holes_after"] == 0 and r1["boundary_edges_after"] == 0
+    assert [(h["id"], h["status"], h["new_faces"]) for h in r1["holes"]] == \
+        [(h["id"], h["status"], h["new_faces"]) for h in r2["holes"]]
+    assert r2["jobs"] == 2
+    # the repaired scan keeps the original vertices bit for bit, first
+    out = read_mesh(tmp_path / "out2" / "statue.repaired.ply")
+    assert np.array_equal(out.V[:len(V)], read_mesh(tmp_path / "in" / "statue.ply").V)
+    assert edge_topology(out.F, len(out.V)).n_boundary_edges == 0
+
+
+def test_batch_goes_on_past_a_bad_scan(tmp_path, capsys, many_holes):
+    V, F = shapes.icosphere(3)
+    V2, F2 = ball_perforate(V, F, n_holes=3, radius=0.15, seed=1)
+    _write_scans(tmp_path / "in", {"a.ply": (V2, F2), "c.obj": many_holes})
+    (tmp_path / "in" / "b.off").write_text("OFF\n3 1 0\n0 0 0\n")  # truncated
+    (tmp_path / "in" / "notes.txt").write_text("not a scan")
+    outdir = tmp_path / "new_out"  # created by the batch
+    assert main(["batch", str(tmp_path / "in"), "-o", str(outdir)]) == 2
+    cap = capsys.readouterr()
+    err_lines = [ln for ln in cap.err.splitlines() if ln]
+    assert len(err_lines) == 1 and err_lines[0].startswith("error: ") and "b.off" in err_lines[0]
+    assert "Traceback" not in cap.err
+    for stem in ("a", "c"):  # the scans after and before the bad one were repaired
+        assert (outdir / f"{stem}.repaired.ply").is_file()
+        assert json.loads((outdir / f"{stem}.report.json").read_text())["holes_after"] == 0
+    assert not list(outdir.glob("b.*"))  # nothing written for the bad scan
+    s = json.loads((outdir / "summary.json").read_text())
+    assert [r["file"] for r in s["scans"]] == ["a.ply", "b.off", "c.obj"]  # sorted, .txt ignored
+    assert [r["status"] for r in s["scans"]] == ["ok", "error", "ok"]
+    bad = s["scans"][1]
+    assert "header disagrees" in bad["error"] and "\n" not in bad["error"]
+    assert s["complete"] and s["n_ok"] == 2 and s["n_failed"] == 1
+    assert s["holes_before"] == sum(r["holes_before"] for r in s["scans"] if r["status"] == "ok")
+    assert s["holes_after"] == 0 and s["rate"] == 100.0
+    # the printed table has a row per scan and the totals
+    for name in ("a.ply", "b.off", "c.obj", "total"):
+        assert any(ln.startswith(name) for ln in cap.out.splitlines())
+
+
+def test_all_good_exits_0_and_json_summary(tmp_path, capsys):
+    V, F = shapes.icosphere(3)
+    _write_scans(tmp_path / "in", {"x.ply": ball_perforate(V, F, 2, 0.15, seed=2)})
+    assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["n_failed"] == 0 and s["scans"][0]["holes_before"] == 2 and s["scans"][0]["holes_after"] == 0
+
+
+def test_same_stem_gets_distinct_outputs(tmp_path):
+    V, F = shapes.icosphere(2)
+    V2, F2 = ball_perforate(V, F, 1, 0.3, seed=0)
+    _write_scans(tmp_path / "in", {"bust.ply": (V2, F2), "bust.obj": (V2, F2)})
+    s = repair_folder(tmp_path / "in", tmp_path / "out", progress=False)
+    assert s["n_ok"] == 2
+    assert (tmp_path / "out" / "bust.ply.repaired.ply").is_file()
+    assert (tmp_path / "out" / "bust.obj.repaired.ply").is_file()
+
+
+def test_output_into_the_scan_folder_is_not_rescanned(tmp_path):
+    V, F = shapes.icosphere(2)
+    _write_scans(tmp_path / "in", {"s.ply": ball_perforate(V, F, 1, 0.3, seed=0)})
+    repair_folder(tmp_path / "in", tmp_path / "in", progress=False)
+    s = repair_folder(tmp_path / "in", tmp_path / "in", progress=False)
+    assert [r["file"] for r in s["scans"]] == ["s.ply"]
+    assert [p.name for p in list_scans(tmp_path / "in")] == ["s.ply", "s.repaired.ply"]
+
+
+@pytest.mark.parametrize("make, what", [
+    (lambda p: None, "no such directory"),
+    (lambda p: p.mkdir(), "no scans"),
+])
+def test_unusable_folder_is_one_line_exit_2(tmp_path, capsys, make, what):
+    make(tmp_path / "scans")
+    assert main(["batch", str(tmp_path / "scans"), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and what in err and "\n" not in err
+
+
+def test_outdir_parent_must_exist(tmp_path, capsys):
+    V, F = shapes.icosphere(2)
+    _write_scans(tmp_path / "in", {"s.ply": (V, F)})
+    assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "no" / "such" / "out")]) == 2
+    assert "parent does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "no").exists()
+
+
+def test_summary_table_lines_up():
+    s = {"scans": [{"file": "a.ply", "status": "ok", "error": None, "vertices": 1000, "faces": 2000,
+                    "holes_before": 5, "holes_after": 1, "rate": 80.0, "seconds": 1.25},
+                   {"file": "bad.stl", "status": "error", "error": "not an STL file", "vertices": None,
+                    "faces": None, "holes_before": None, "holes_after": None, "rate": None, "seconds": 0.0}],
+         "holes_before": 5, "holes_after": 1, "rate": 80.0, "seconds": 1.3, "n_ok": 1, "n_failed": 1}
+    lines = summary_table(s).splitlines()
+    assert lines[2].split() == ["a.ply", "1,000", "2,000", "5", "1", "80.0", "1.2", "ok"] or \
+        lines[2].split() == ["a.ply", "1,000", "2,000", "5", "1", "80.0", "1.3", "ok"]
+    assert lines[3].split()[-1] == "error"
+    assert lines[-1] == "error: bad.stl: not an STL file"
+    assert "error:" not in summary_table(s, errors=False)
+
+
+# --------------------------------------------------------------------------
+# progress
+# --------------------------------------------------------------------------
+class _Tty(io.StringIO):
+    def isatty(self):
+        return True
+
+
+class _Clock:
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        return self.t
+
+
+def test_progress_is_silent_when_not_a_terminal():
+    s = io.StringIO()
+    b = Progress("filling holes", 10, stream=s)
+    for _ in range(10):
+        b.update()
+    b.close()
+    assert s.getvalue() == "" and b.count == 10
+
+
+def test_progress_draws_throttled_with_label_count_and_time():
+    s, clock = _Tty(), _Clock()
+    b = Progress("filling holes", 1000, stream=s, clock=clock, min_interval=0.1)
+    for i in range(999):
+        clock.t = i * 0.001  # 999 updates within 1 s: about 10 redraws, not 999
+        b.update()
+    assert 9 <= b.draws <= 11
+    clock.t = 1.5
+    b.update()  # the last item is always drawn
+    b.close()
+    last = s.getvalue().rstrip("\n").split("\r")[-1]
+    assert last.startswith("filling holes [") and "1000/1000" in last and "100%" in last and "1.5 s" in last
+    assert s.getvalue().endswith("\n")
+
+
+def test_step_hook_uses_prefix_and_restarts_per_loop(monkeypatch):
+    s = _Tty()
+    monkeypatch.setattr("sys.stderr", s)
+    with prefix("2/3 bust.ply"):
+        for i in range(1, 4):
+            step("filling holes", i, 3)
+    out = s.getvalue()
+    assert "2/3 bust.ply: filling holes [" in out and "3/3" in out
+    s.truncate(0)
+    s.seek(0)
+    step("filling holes", 1, 5)  # a new loop starts a new bar, without the prefix
+    assert s.getvalue().split("\r")[-1].startswith("filling holes [") and "1/5" in s.getvalue()
