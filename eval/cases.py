@@ -33,7 +33,8 @@ Perforations
 
 After removing faces, pieces cut off from the main surface are removed too
 (``keep_largest``), as a scan's islands would be cleaned; their faces count
-as removed.
+as removed. Pieces are joined across edges, so faces hanging on by a single
+vertex between two holes are removed with the islands.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from shellrepair import shapes
 from shellrepair.holes import boundary_loops
-from shellrepair.topology import face_areas, face_components
+from shellrepair.topology import edge_topology, face_areas, face_pieces
 
 __all__ = ["Case", "SHARED_DATA", "ground_truth", "make_case", "disc_mask", "occlusion_mask",
            "scanner_positions", "occlusion_scanner", "tiny_holes_mask", "pinch_mask", "slit_mask", "band_mask",
@@ -203,13 +204,19 @@ def _pick_centers(A, n, sep, rng, candidates=None, max_tries=None):
 
 
 def keep_largest(F, remove):
-    """Also remove every face outside the largest piece that remains."""
+    """Also remove every face outside the largest piece that remains.
+
+    Pieces are faces joined across edges: a face left hanging on by one
+    vertex (debris between two holes) is cut off like an island, as a scan's
+    clean-up would remove it. Every tool gets the same cleaned input.
+    """
     remove = np.asarray(remove, bool).copy()
     keep = np.flatnonzero(~remove)
     if keep.size == 0:
         return remove
     n = int(F.max()) + 1
-    nc, _, fc = face_components(F[keep], n)
+    Fk = F[keep]
+    nc, fc = face_pieces(edge_topology(Fk, n), len(Fk))
     if nc > 1:
         big = np.argmax(np.bincount(fc))
         remove[keep[fc != big]] = True

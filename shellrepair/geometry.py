@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["cross", "dot"]
+__all__ = ["cross", "dot", "uniq"]
 
 
 def cross(a, b):
@@ -19,3 +19,14 @@ def cross(a, b):
 def dot(a, b):
     """Row-wise dot product of (..., 3) arrays."""
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
+def uniq(a):
+    """Sorted unique values of an int array (cheaper than np.unique on small arrays)."""
+    a = np.sort(np.asarray(a).ravel())
+    if a.size == 0:
+        return a
+    keep = np.empty(a.size, bool)
+    keep[0] = True
+    np.not_equal(a[1:], a[:-1], out=keep[1:])
+    return a[keep]

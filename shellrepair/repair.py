@@ -36,6 +36,7 @@ from scipy.spatial import cKDTree
 
 from .clean import describe_open_chains
 from .errors import MeshError
+from .geometry import cross, uniq
 from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth,
                    thin_plate_energy, uniform_laplacian)
 from .holes import detect_holes
@@ -122,17 +123,17 @@ class _Context:
         if cnt.sum() == 0:
             return np.zeros(0, np.int64)
         idx = np.repeat(s - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(cnt.sum())
-        return np.unique(self.vf_order[idx] // 3)
+        return uniq(self.vf_order[idx] // 3)
 
     def ring_faces(self, verts, rings):
         faces = np.zeros(0, np.int64)
-        front = np.unique(verts)
-        seen = set(front.tolist())
+        front = uniq(verts)
+        seen = front
         for _ in range(max(1, int(rings))):
-            faces = np.union1d(faces, self.faces_of(front))
-            vs = np.unique(self.F[faces])
-            front = np.array([v for v in vs.tolist() if v not in seen], np.int64)
-            seen.update(front.tolist())
+            faces = uniq(np.concatenate([faces, self.faces_of(front)]))
+            vs = uniq(self.F[faces])
+            front = vs[~np.isin(vs, seen, assume_unique=True)]
+            seen = vs
             if front.size == 0:
                 break
         return faces
@@ -180,7 +181,7 @@ def _submesh(ctx, loop, Pl, T, rings):
     the fixed vertices)."""
     k = len(loop)
     rf = ctx.ring_faces(loop, rings)
-    g = np.unique(ctx.F[rf])
+    g = uniq(ctx.F[rf])
     remap = {int(v): i for i, v in enumerate(g.tolist())}
     Fr = np.searchsorted(g, ctx.F[rf])
     loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
@@ -337,6 +338,59 @@ FAIRED_RETRIES = 3
 PIN_ROUNDS = 3
 
 
+#: How each option is named in the report.
+OPTION_NAMES = {"faired": "faired order {order}", "harmonic": "harmonic (order 1)",
+                "flat cap": "flat cap: a planar opening the scan meets edge-on (order 1)"}
+#: A loop at most this planar (RMS distance to its plane over its diameter) ...
+EDGE_ON_PLANARITY = 0.02
+#: ... whose surrounding faces (``EDGE_ON_RINGS`` rings) have normals with a
+#: mean |cos| to its axis of at most this is an opening the scan meets
+#: edge-on: a statue's base, a foot's sole, the cut of a bust or a pipe's
+#: end. The walls stand across the opening's plane; a faired patch would
+#: continue them into a dome, while the surface they bound is flat.
+EDGE_ON_COS = 0.35
+EDGE_ON_RINGS = 6
+
+
+def _meets_edge_on(ctx, loop):
+    """Is the loop a planar opening whose surrounding walls stand across its plane?"""
+    from .holes import loop_stats
+
+    st = loop_stats(ctx.V, loop)
+    if st["planarity"] > EDGE_ON_PLANARITY:
+        return False
+    T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
+    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    a = 0.5 * np.linalg.norm(n, axis=1)
+    if a.sum() <= 0:
+        return False
+    cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
+    return float(np.sum(a * cosines) / a.sum()) <= EDGE_ON_COS
+
+
+def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth):
+    """A flat cap that crosses slanting rim faces: let the cap bend (order
+    2) only near the crossing, the rest held flat; grow that region up to
+    ``PIN_ROUNDS`` times."""
+    free = None
+    n_new = len(patch.P)
+    for _ in range(PIN_ROUNDS):
+        free = _pin_region(patch, bad, free)
+        pinned = np.setdiff1d(np.arange(n_new), free)
+        try:
+            p = build_patch(ctx, hole_id, loop, order=2, smooth=smooth, initial=T0, pinned=pinned)
+        except PatchError:
+            return None
+        why, b2 = _check_patch(ctx, p)
+        if why is None:
+            p.option = (f"flat cap: a planar opening the scan meets edge-on, bent (order 2) along "
+                        f"{len(free)} vertices where rim faces slant across it")
+            return p
+        if len(p.T) == len(patch.T):
+            bad = np.union1d(bad, b2)
+    return None
+
+
 def _pin_region(patch, bad, pinned):
     """New vertices of the faulty triangles and two rings around them
     (grown by two more rings each call), 0-based among the new vertices."""
@@ -354,7 +408,8 @@ def _pin_region(patch, bad, pinned):
 def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
     """Fill one hole, trying the options in turn.
 
-    1. Triangulate the loop and check the flat triangulation against the
+    0. Triangulate, refine and fair; done if the patch crosses nothing.
+    1. Otherwise check the flat triangulation against the
        scan; where it crosses (a peninsula of scan next to the rim), forbid
        the chords near the crossing and triangulate again.
     2. Refine and fair that triangulation (order ``order``, then harmonic);
@@ -369,7 +424,10 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
     avoid = set()
     flat_ok = None
     options = [("faired", order)] + ([("harmonic", 1)] if order != 1 else [])
+    if order != 1 and _meets_edge_on(ctx, loop):
+        options = [("flat cap", 1)] + options
     faired_rounds = 0
+    first = True
     for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 1):
         try:
             flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid)
@@ -379,6 +437,23 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
             else:
                 reasons.append(f"triangulation: {exc}")
             break
+        if first:  # the common case: the first option on the first triangulation is fine
+            first = False
+            name0, order0 = options[0]
+            try:
+                patch = build_patch(ctx, hole_id, loop, order=order0, smooth=smooth, initial=flat.T0,
+                                    energy=energy)
+                why0, bad0 = _check_patch(ctx, patch)
+                if why0 is None:
+                    patch.option = OPTION_NAMES[name0].format(order=order0)
+                    return patch, "", time.perf_counter() - t0, reasons
+                if name0 == "flat cap" and bad0.size:
+                    rolled = _roll_rim(ctx, hole_id, loop, flat.T0, patch, bad0, smooth)
+                    if rolled is not None:
+                        return rolled, "", time.perf_counter() - t0, reasons
+                    reasons.append(f"flat cap: {why0}")
+            except PatchError:
+                pass
         why, bad = _check_patch(ctx, flat)
         if why is not None:
             more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
@@ -412,7 +487,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
                     break
                 bad = np.union1d(bad, b2) if len(pp.T) == len(patch.T) else bad
             if why is None:
-                patch.option = name if name != "faired" else f"faired order {o}"
+                patch.option = OPTION_NAMES[name].format(order=o)
                 if avoid:
                     patch.option += f", {len(avoid)} chords re-routed"
                 if pinned is not None:
@@ -666,7 +741,8 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
 
 
 def _euler(F, topo):
-    return int(np.unique(F).size - topo.edges.shape[0] + F.shape[0])
+    used = np.count_nonzero(np.bincount(F.ravel()))
+    return int(used - topo.edges.shape[0] + F.shape[0])
 
 
 def _progress(on, i, n):
