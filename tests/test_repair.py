@@ -214,3 +214,33 @@ def test_cli_repair_to_missing_folder_fails_cleanly(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.ply"]
+
+
+def _cup(nu=48, nh=40):
+    """A cylinder closed at the bottom by a fan, open at the top (z = 1)."""
+    V, F = shapes.cylinder(0.5, 2.0, nu, nh)
+    bottom = np.arange(nu) * (nh + 1)               # the z = -1 ring, in loop order
+    c = len(V)
+    V = np.vstack([V, [[0.0, 0.0, -1.0]]])
+    fan = np.column_stack([np.roll(bottom, -1), bottom, np.full(nu, c)])
+    return V, np.vstack([F, fan])
+
+
+def test_a_planar_opening_met_edge_on_gets_a_flat_cap():
+    V, F = _cup()
+    scan = detect_holes(V, F, fill_borders=True)
+    assert len(scan.loops) == 1 and scan.loops[0].planarity < 1e-12
+    R, rep = repair_mesh(Mesh(V=V, F=F), fill_borders=True)
+    assert rep["holes_after"] == 0 and rep["boundary_edges_after"] == 0
+    assert rep["holes"][0]["option"].startswith("flat cap")
+    assert np.abs(R.V[R.vertex_filled][:, 2] - 1.0).max() < 1e-9     # in the opening's plane
+
+
+def test_a_cap_hole_on_a_sphere_is_faired_not_flattened():
+    V, F = shapes.icosphere(4)
+    top = int(np.argmax(V[:, 2]))
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[top], radius=1.2)   # about 30 % of the sphere
+    R, rep = repair_mesh(Mesh(V=V2, F=F2))
+    assert rep["holes"][0]["option"] == "faired order 2"
+    assert R.V[R.vertex_filled][:, 2].max() > 0.8          # a dome towards the pole (z = 1), the rim is at z ≈ 0.36
+    assert sphere_error(R)[0] < 0.1
