@@ -244,6 +244,13 @@ def write_mesh(path, mesh, *, binary=True):
     atomic_write(path, payload)
 
 
+def new_file_mode():
+    """Permissions of a newly created file under the current umask (0o666 & ~umask)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def atomic_write(path, payload):
     """Write ``payload`` (bytes or str) to ``path`` through a temp file + rename."""
     atomic_write_many([(path, payload)])
@@ -281,6 +288,7 @@ def atomic_write_many(items):
                 raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
             tmps.append((tmp, path))
             try:
+                os.fchmod(fd, new_file_mode())  # as a plain open() would, not mkstemp's 0600
                 with os.fdopen(fd, "wb") as fh:
                     fh.write(payload)
                     fh.flush()

@@ -452,6 +452,8 @@ def save_png(path, image):
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".png")
     try:
+        from .io import new_file_mode
+        os.fchmod(fd, new_file_mode())  # as a plain open() would, not mkstemp's 0600
         with os.fdopen(fd, "wb") as fh:
             Image.fromarray(img, "RGB").save(fh, format="PNG")
         os.replace(tmp, path)

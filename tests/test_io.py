@@ -149,3 +149,14 @@ def test_non_convex_polygons_are_split_inside_their_outline(tmp_path, name, outl
     assert (nz > 0).all()
     assert np.isclose(0.5 * nz.sum(), area)
     assert m.notes == ["1 polygons with more than 3 corners split into triangles"]
+
+
+def test_written_files_get_ordinary_permissions(tmp_path):
+    import os
+    old = os.umask(0o022)
+    try:
+        p = tmp_path / "a.ply"
+        write_mesh(p, _mesh())
+        assert (p.stat().st_mode & 0o777) == 0o644
+    finally:
+        os.umask(old)
