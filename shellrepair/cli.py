@@ -234,6 +234,8 @@ def _render(args):
     if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
         raise MeshError("output would overwrite an input mesh", out)
     mesh = read_mesh(args.mesh)
+    if view is None and args.highlight_filled and mesh.face_filled is not None and mesh.face_filled.any():
+        view = rd.view_towards(mesh.V, mesh.F, mesh.face_filled)  # face the filled region
     kw = dict(size=(w, h), material=args.material, view=view)
     if args.before:  # one camera for both panels
         before = read_mesh(args.before)

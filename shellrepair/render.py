@@ -170,6 +170,45 @@ def frame_camera(V, size=(1024, 768), view=None, *, fov_y_deg=30.0, up=(0.0, 1.0
     return Camera(center + dist * direction, center, up, float(fov_y_deg), W, H)
 
 
+def view_towards(V, F, mask, *, up=(0.0, 1.0, 0.0), max_elevation=75.0):
+    """(azimuth, elevation) of a camera that looks at the faces ``mask``.
+
+    The camera sits on the side the faces face: along their area-weighted
+    mean normal, in the frame of :func:`frame_camera`. The elevation is
+    clamped to ±``max_elevation`` degrees, away from the up axis.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    mask : (m,) bool array
+        The faces to show (e.g. the filled ones).
+
+    Returns
+    -------
+    view : (float, float) or None
+        None when no face is selected or their normals cancel out.
+    """
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)[np.asarray(mask, bool)]
+    if len(F) == 0:
+        return None
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]).sum(axis=0)
+    ln = np.linalg.norm(n)
+    if not np.isfinite(ln) or ln == 0.0:
+        return None
+    n /= ln
+    up = np.asarray(up, dtype=np.float64)
+    up = up / np.linalg.norm(up)
+    ref = np.array([0.0, 0.0, 1.0]) if abs(up[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    a = ref - up * (ref @ up)
+    a /= np.linalg.norm(a)
+    b = np.cross(up, a)
+    el = float(np.degrees(np.arcsin(np.clip(n @ up, -1.0, 1.0))))
+    az = float(np.degrees(np.arctan2(n @ b, n @ a)))
+    return az, float(np.clip(el, -max_elevation, max_elevation))
+
+
 def _validate(V, F):
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F)

@@ -175,3 +175,20 @@ def test_model_choice_reported(sphere):
     info = {}
     rd.render_mesh(V * 1e-3, F, size=SIZE, info=info)  # a 0.1 mm sphere: um pixels
     assert info["model"].model == "dipole" and info["model"].error_estimate > 0.01
+
+
+def test_view_towards_faces_the_selected_faces():
+    from shellrepair.render import frame_camera, view_towards
+    from shellrepair import shapes
+
+    V, F = shapes.icosphere(3)
+    C = V[F].mean(axis=1)
+    for target in ([1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.3, -1.0]):
+        t = np.asarray(target) / np.linalg.norm(target)
+        mask = C @ t > 0.9
+        cam = frame_camera(V, view=view_towards(V, F, mask))
+        d = (np.asarray(cam.eye) - np.asarray(cam.target))
+        d /= np.linalg.norm(d)
+        # within the elevation clamp of 75 degrees, the camera looks at the patch
+        assert d @ t > np.cos(np.radians(16))
+    assert view_towards(V, F, np.zeros(len(F), bool)) is None
