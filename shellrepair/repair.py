@@ -1,32 +1,45 @@
 """Fill every hole of a scan with a faired shell patch and merge it.
 
-Per hole (a loop classed ``hole`` by :mod:`shellrepair.holes`):
+Per hole (a loop classed ``hole`` by :mod:`shellrepair.holes`), touching
+only the patch and a few rings of scan around it:
 
-1. triangulate the loop (:mod:`~shellrepair.triangulate`, Liepa's
-   minimum-weight triangulation);
+1. triangulate the loop (:mod:`~shellrepair.triangulate`);
 2. refine it to the density of the rim (:mod:`~shellrepair.refine`);
-3. fair it, Δᵏx = 0 with ``order`` rings of the scan fixed
+3. fair it, Δᵏx = 0 with the scan around it fixed
    (:mod:`~shellrepair.fair`), optionally smooth it (Taubin, non-shrinking);
-4. check it: no patch triangle may cross the scan, itself or an earlier
-   patch, and no patch may create an edge the mesh has. A patch that fails
-   is rebuilt with the next option (harmonic order, then the plain
-   triangulation); if every option fails, the hole stays open and the
-   report says why.
+   a planar opening that the scan meets edge-on (a base, a sole) gets a flat
+   cap instead, bent only where rim faces slant across it;
+4. check it (:mod:`~shellrepair.intersect`): no patch triangle may cross the
+   scan, itself or an earlier patch, and no patch may create an edge the
+   mesh has. A patch that crosses is rebuilt: chords near the crossing are
+   re-routed, vertices near it are held on the flat triangulation, then the
+   harmonic patch and the checked flat triangulation are tried. If nothing
+   works the hole stays open and the report says why.
+
+Two loops facing each other across a missing band are first offered a tube
+(:mod:`~shellrepair.bridge`); the tube or the two caps are kept by their
+curvature-variation energy.
 
 Then every accepted patch is appended: original vertices keep their index
 and exact values, new vertices and faces come after them and are flagged
 ``filled``; vertex colours (and other vertex properties) are interpolated
-harmonically from the rim.
+harmonically from the rim. Holes are filled one by one or by ``jobs``
+processes; the checks between patches and the merge run afterwards in hole
+order, so the output does not depend on ``jobs``.
 
 ``method="seed"`` is the paper's simple shape model for comparison: close
 each hole with the same triangulation, smooth a duplicate of the whole
 mesh ``smooth`` times (10 by default) with the umbrella operator, and take
 the filled region's vertices from the smoothed duplicate.
+
+References
+----------
+P. Liepa, "Filling Holes in Meshes", SGP 2003. M. Botsch, L. Kobbelt, "An
+intuitive framework for real-time freeform modeling", SIGGRAPH 2004.
 """
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 from dataclasses import dataclass, field
