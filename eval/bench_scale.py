@@ -461,6 +461,8 @@ def compare_peers(case_dir, tools, timeout, *, n_samples=20000, log=print):
     for r in rows:
         if ref and r["status"] == "ok" and r is not ref:
             r["seconds_x_ours"] = r["seconds"] / ref["seconds"] if ref["seconds"] > 0 else None
+            both = lambda q: q["seconds"] + (q.get("convert_seconds") or 0.0)  # noqa: E731
+            r["total_x_ours"] = both(r) / both(ref) if both(ref) > 0 else None
             r["rms_x_ours"] = (r["rms_permille"] / ref["rms_permille"]
                                if r.get("rms_permille") is not None and ref.get("rms_permille") else None)
     return rows
@@ -523,15 +525,16 @@ def markdown(result):
               "Seconds: the fill call(s) only (conversion to and from each tool's mesh structure apart); "
               "ours includes its hole detection. RMS and max: distance of the added surface to the "
               "unperforated mesh, ‰ of the bounding-box diagonal.", "",
-              "| tool | status | fill s | convert s | × ours (time) | peak +MB | holes after | RMS ‰ | × ours (RMS) "
-              "| max ‰ | self-int. added | watertight |",
-              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+              "| tool | status | fill s | × ours (time) | convert s | fill+convert × ours | peak +MB | holes after "
+              "| faces added | RMS ‰ | × ours (RMS) | max ‰ | self-int. added | watertight |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
         for r in result["peers"]:
             if r["status"] != "ok":
-                L.append(f"| {r['tool']} | {r['status']}: {r.get('error', '')} | | | | | | | | | | |")
+                L.append(f"| {r['tool']} | {r['status']}: {r.get('error', '')} | | | | | | | | | | | | |")
                 continue
-            L.append(f"| {r['tool']} | ok | {_f(r['seconds'], 2)} | {_f(r.get('convert_seconds'), 1)} | "
-                     f"{_f(r.get('seconds_x_ours'), 2)} | {_f(r.get('peak_mb'), 0)} | {r.get('holes_after')} | "
+            L.append(f"| {r['tool']} | ok | {_f(r['seconds'], 2)} | {_f(r.get('seconds_x_ours'), 2)} | "
+                     f"{_f(r.get('convert_seconds'), 1)} | {_f(r.get('total_x_ours'), 2)} | "
+                     f"{_f(r.get('peak_mb'), 0)} | {r.get('holes_after')} | {_f(r.get('faces_added'))} | "
                      f"{_f(r.get('rms_permille'), 4)} | {_f(r.get('rms_x_ours'), 2)} | {_f(r.get('max_permille'), 3)} | "
                      f"{r.get('self_intersections_added')} | {_f(r.get('watertight'))} |")
         v = result.get("targets")
