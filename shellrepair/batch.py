@@ -215,7 +215,7 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
             report_path = outdir / f"{name}.report.json"
             row = {"file": scan.name, "status": "ok", "error": None, "vertices": None, "faces": None,
                    "holes_before": None, "holes_after": None, "rate": None, "seconds": None}
-            bar.update(0, note=scan.name)
+            bar.update(0, note=f"reading {scan.name}", force=True)
             t0 = time.perf_counter()
             try:
                 with prefix(f"{i + 1}/{len(scans)} {scan.name}"):
@@ -224,9 +224,10 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
                 row.update(status="error", error=_message(exc))
             row["seconds"] = round(time.perf_counter() - t0, 3)
             rows.append(row)
-            bar.update(1, note=f"{scan.name} {row['status']}")
             if on_scan is not None:
+                bar.clear()  # the caller's line starts at column 0, the bar follows it
                 on_scan(row)
+            bar.update(1, note=f"{scan.name} {row['status']}", force=True)
             summary.update(_totals(rows), seconds=round(time.perf_counter() - t_all, 3))
             atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
     finally:

@@ -69,16 +69,28 @@ class Progress:
         self._last = None
         self.draws = 0
 
-    def update(self, n=1, *, note=""):
-        """Count ``n`` more items done; redraw if enough time has passed."""
+    def update(self, n=1, *, note="", force=False):
+        """Count ``n`` more items done; redraw if enough time has passed
+        (or ``force``, or the last item is done)."""
         self.count += int(n)
         if not self.enabled:
             return
         now = self.clock()
         done = self.total > 0 and self.count >= self.total
-        if self._last is not None and now - self._last < self.min_interval and not done:
+        if self._last is not None and now - self._last < self.min_interval and not (done or force):
             return
         self._draw(now, note)
+
+    def clear(self):
+        """Wipe the bar's line, so that other output can start at column 0;
+        the next update draws it again."""
+        if not self.enabled or self._last is None:
+            return
+        try:
+            self.stream.write("\r" + CLEAR_EOL)
+            self.stream.flush()
+        except (OSError, ValueError):
+            self.enabled = False
 
     def set(self, count, *, note=""):
         """Set the count to ``count`` (for callers that know i/n)."""
