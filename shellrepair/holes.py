@@ -329,9 +329,13 @@ def _inside_fraction(V, loop, axis, center, cent, w):
     poly = np.column_stack([P @ u, P @ v])
     X = cent - center
     pts = np.column_stack([X @ u, X @ v])
-    inside = points_in_poly(pts, poly)
+    lo, hi = poly.min(axis=0), poly.max(axis=0)
+    box = np.flatnonzero(np.all((pts >= lo) & (pts <= hi), axis=1))  # only these can be inside
     tot = w.sum()
-    return float(w[inside].sum() / tot) if tot > 0 else 0.0
+    if box.size == 0 or tot <= 0:
+        return 0.0
+    inside = points_in_poly(pts[box], poly)
+    return float(w[box[inside]].sum() / tot)
 
 
 def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTER_FRACTION, topo=None):
