@@ -203,3 +203,18 @@ def test_step_hook_uses_prefix_and_restarts_per_loop(monkeypatch):
     s.seek(0)
     step("filling holes", 1, 5)  # a new loop starts a new bar, without the prefix
     assert s.getvalue().split("\r")[-1].startswith("filling holes [") and "1/5" in s.getvalue()
+
+
+def test_batch_bars_on_a_terminal_leave_each_scan_on_its_own_line(tmp_path, monkeypatch, capsys):
+    V, F = shapes.icosphere(2)
+    _write_scans(tmp_path / "in", {"p.ply": ball_perforate(V, F, 1, 0.3, seed=0),
+                                   "q.ply": ball_perforate(V, F, 2, 0.25, seed=1)})
+    tty = _Tty()
+    monkeypatch.setattr("sys.stderr", tty)
+    lines = []
+    repair_folder(tmp_path / "in", tmp_path / "out", progress=True, on_scan=lambda r: lines.append(tty.tell()))
+    drawn = tty.getvalue()
+    assert "1/2 p.ply: filling holes [" in drawn and "2/2 q.ply: filling holes [" in drawn
+    assert drawn.rstrip("\n").split("\r")[-1].startswith("scans [") and "2/2 100%" in drawn
+    # before each per-scan line the bar's line is wiped (carriage return, erase to end of line)
+    assert all(drawn[:at].endswith("\r\x1b[K") for at in lines)
