@@ -20,6 +20,7 @@ every boundary loop is a hole):
 tool                 call
 ===================  ========================================================
 ours-o1/o2/o3        ``shellrepair.repair.repair_mesh(mesh, order=k)``
+ours-auto            ``repair_mesh(mesh, order="auto")`` (order 3 where it stays close to 2)
 ours-seed            ``repair_mesh(mesh, method="seed")`` (the paper's method)
 pymeshlab            ``MeshSet.meshing_close_holes(maxholesize=<all boundary
                      edges + 1>)``, other parameters at their defaults
@@ -108,6 +109,10 @@ def ours_o2(V, F):
 
 def ours_o3(V, F):
     return _ours(V, F, order=3)
+
+
+def ours_auto(V, F):
+    return _ours(V, F, order="auto")
 
 
 def ours_seed(V, F):
@@ -269,7 +274,8 @@ def pymeshfix_fill_holes(V, F):
 
 
 #: Tool name -> fill function, in the order of the tables.
-OURS = {"ours-o1": ours_o1, "ours-o2": ours_o2, "ours-o3": ours_o3, "ours-seed": ours_seed}
+OURS = {"ours-o1": ours_o1, "ours-o2": ours_o2, "ours-o3": ours_o3, "ours-auto": ours_auto,
+        "ours-seed": ours_seed}
 PEERS = {
     "pymeshlab": pymeshlab_close_holes,
     "open3d": open3d_fill_holes,

@@ -70,9 +70,18 @@ def _parser():
     return p
 
 
+def _order(text):
+    if text == "auto":
+        return text
+    if text in ("1", "2", "3"):
+        return int(text)
+    raise argparse.ArgumentTypeError(f"must be 1, 2, 3 or auto, not {text!r}")
+
+
 def _repair_options(p):
-    p.add_argument("--order", type=int, choices=(1, 2, 3), default=2,
-                   help="fairing order: 1 harmonic, 2 bilaplacian (default), 3 curvature-continuous")
+    p.add_argument("--order", type=_order, default=2, metavar="{1,2,3,auto}",
+                   help="fairing order: 1 harmonic, 2 bilaplacian (default), 3 curvature-continuous, "
+                        "auto: 3 where it stays close to 2, else 2")
     p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch")
     p.add_argument("--method", choices=("fair", "seed"), default="fair",
                    help="fair: local faired shells (default); seed: the paper's smoothed-copy method")

@@ -99,7 +99,8 @@ class Patch:
     props: dict = field(default_factory=dict)
     option: str = ""
     T0: np.ndarray | None = None
-    energy: float | None = None
+    energy: tuple | None = None
+    order: int | None = None
 
     def global_faces(self, base):
         """Faces with new vertex j at index ``base + j``."""
@@ -296,7 +297,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
         raise PatchError("the fairing solve did not converge (non-finite positions)")
     Pn = origin + scale * new_local
     return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props, T0=T0,
-                 energy=patch_energy)
+                 energy=patch_energy, order=order if fair else None)
 
 
 def _corners(ctx, patch):
@@ -418,7 +419,38 @@ def _pin_region(patch, bad, pinned):
     return np.flatnonzero(mark[k:])
 
 
+#: ``order="auto"``: order 3 is kept where it moves the order-2 patch by at
+#: most this fraction of the hole's diameter (RMS). Where curvature
+#: extrapolates stably (smooth and finely relieved surfaces) the two agree
+#: closely and order 3 is the better guess; where order 3 departs far from
+#: order 2 (jagged rims, large holes in complex shapes) it is extrapolating
+#: noise. Chosen on the benchmark suite (see BENCHMARKS.md).
+AUTO_TAU = 0.035
+
+
 def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
+    """Fill one hole; ``order="auto"`` picks 2 or 3 (see ``AUTO_TAU``)."""
+    if order != "auto":
+        return _fill_one_order(ctx, hole_id, loop, order, smooth, energy)
+    t0 = time.perf_counter()
+    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy)
+    if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
+        return patch, reason, time.perf_counter() - t0, reasons
+    diameter = float(np.linalg.norm(ctx.V[loop].max(axis=0) - ctx.V[loop].min(axis=0)))
+    try:
+        p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy)
+    except PatchError:
+        return patch, reason, time.perf_counter() - t0, reasons
+    if len(p3.P) == len(patch.P):
+        rel = float(np.sqrt(np.mean(np.sum((p3.P - patch.P) ** 2, axis=1)))) / max(diameter, 1e-300)
+        if rel <= AUTO_TAU and _check_patch(ctx, p3)[0] is None:
+            p3.option = patch.option.replace("order 2", "order 3") + f" (auto: {100 * rel:.1f}% of the diameter from order 2)"
+            return p3, reason, time.perf_counter() - t0, reasons
+        patch.option += f" (auto: order 3 would move it {100 * rel:.1f}% of the diameter)"
+    return patch, reason, time.perf_counter() - t0, reasons
+
+
+def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
     """Fill one hole, trying the options in turn.
 
     0. Triangulate, refine and fair; done if the patch crosses nothing.
@@ -543,6 +575,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     t0 = time.perf_counter()
     loop = np.concatenate([A.vertices, B.vertices])
     T = tube_triangles(ctx.V[A.vertices], ctx.V[B.vertices])
+    order = 2 if order == "auto" else order
     tube, why_tube = None, ""
     for o in ((order, 1) if order != 1 else (1,)):
         try:
@@ -654,8 +687,8 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         Table 1 fields (see :func:`shellrepair.report.table1_dict`) plus
         per-hole details.
     """
-    if order not in (1, 2, 3):
-        raise MeshError(f"order must be 1, 2 or 3, got {order}")
+    if order not in (1, 2, 3, "auto"):
+        raise MeshError(f"order must be 1, 2, 3 or 'auto', got {order!r}")
     if method not in ("fair", "seed"):
         raise MeshError(f"method must be 'fair' or 'seed', got {method!r}")
     if bridge not in ("auto", "never", "always"):

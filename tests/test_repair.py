@@ -244,3 +244,29 @@ def test_a_cap_hole_on_a_sphere_is_faired_not_flattened():
     assert rep["holes"][0]["option"] == "faired order 2"
     assert R.V[R.vertex_filled][:, 2].max() > 0.8          # a dome towards the pole (z = 1), the rim is at z ≈ 0.36
     assert sphere_error(R)[0] < 0.1
+
+
+def test_auto_order_takes_order_3_on_a_smooth_sphere_and_says_so():
+    V, F = shapes.icosphere(5)
+    top = int(np.argmax(V[:, 2]))
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[top], radius=0.6)
+    mesh = Mesh(V=V2, F=F2)
+    R2, _ = repair_mesh(mesh, order=2)
+    Ra, rep = repair_mesh(mesh, order="auto")
+    assert "order 3" in rep["holes"][0]["option"] and "auto" in rep["holes"][0]["option"]
+    assert sphere_error(Ra)[0] < 0.5 * sphere_error(R2)[0]
+
+
+def test_auto_order_keeps_order_2_where_order_3_departs_from_it():
+    # slivers along the rim make the rim's curvature noise: order 3 would amplify it
+    V, F = shapes.icosphere(4)
+    top = int(np.argmax(V[:, 2]))
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[top], radius=0.5)
+    rng = np.random.default_rng(0)
+    scan = detect_holes(V2, F2)
+    rim = scan.loops[0].vertices
+    V3 = V2.copy()
+    V3[rim] += 0.02 * rng.standard_normal((len(rim), 3))   # a jagged rim
+    R, rep = repair_mesh(Mesh(V=V3, F=F2), order="auto")
+    opt = rep["holes"][0]["option"]
+    assert opt.startswith("faired order 2") and "auto: order 3 would move it" in opt
