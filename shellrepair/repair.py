@@ -57,7 +57,7 @@ from .intersect import TriangleIndex, pair_intersections, patch_vs_index
 from .io import Mesh
 from .refine import refine_patch
 from .report import table1_dict
-from .topology import edge_topology
+from .topology import edge_count_delta, edge_topology
 from .triangulate import triangulate_loop
 
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
@@ -765,8 +765,10 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     rows = [rows[h.id] for h in holes if h.id in rows]
     accepted = [it[0] for it in acc.items]
     repaired = _merge(mesh, V, F, accepted)
-    # honest check of the result: boundary and non-manifold edges left
-    topo2 = edge_topology(repaired.F, len(repaired.V))
+    # check the result: boundary and non-manifold edges left, counted on the
+    # edges the appended faces touch (the rest of the mesh did not change)
+    delta = edge_count_delta(topo, repaired.F[len(F):], len(repaired.V))
+    n_new_v, n_new_f = len(repaired.V) - len(V), len(repaired.F) - len(F)
     report = table1_dict(len(holes), rows, path=mesh.path, seconds=time.perf_counter() - t0,
                          method=method, order=order, borders=len(scan.borders),
                          extra={"vertices_before": int(len(V)), "faces_before": int(len(F)),
@@ -774,21 +776,17 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
                                 "open_chains": len(scan.open_chains),
                                 "open_chain_list": describe_open_chains(F, scan.open_chains, len(V), topo),
                                 "boundary_edges_before": int(topo.n_boundary_edges),
-                                "boundary_edges_after": int(topo2.n_boundary_edges),
+                                "boundary_edges_after": int(topo.n_boundary_edges + delta["boundary_edges"]),
                                 "nonmanifold_edges_before": int(topo.nonmanifold_edges.shape[0]),
-                                "nonmanifold_edges_after": int(topo2.nonmanifold_edges.shape[0]),
+                                "nonmanifold_edges_after": int(topo.nonmanifold_edges.shape[0]
+                                                               + delta["nonmanifold_edges"]),
                                 "smooth": smooth, "jobs": jobs, "bridge": bridge,
                                 "bridges": bridges,
                                 "euler_before": int(scan.euler),
-                                "euler_after": _euler(repaired.F, topo2),
+                                "euler_after": int(scan.euler + n_new_v - delta["edges"] + n_new_f),
                                 "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}
                                                  for b in scan.borders]})
     return repaired, report
-
-
-def _euler(F, topo):
-    used = np.count_nonzero(np.bincount(F.ravel()))
-    return int(used - topo.edges.shape[0] + F.shape[0])
 
 
 def _progress(on, i, n):

@@ -12,7 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["EdgeTopology", "edge_topology", "face_components", "face_pieces", "face_areas",
+__all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components", "face_pieces", "face_areas",
            "vertex_ring_faces", "euler_characteristic"]
 
 
@@ -68,12 +68,62 @@ def edge_topology(F, n_vertices=None):
     lo = np.minimum(he[:, 0], he[:, 1])
     hi = np.maximum(he[:, 0], he[:, 1])
     key = lo * np.int64(max(n, 1)) + hi
-    ukey, edge_of_he, count = np.unique(key, return_inverse=True, return_counts=True)
+    # one (unstable) argsort gives the unique edges, their counts and the inverse,
+    # about twice as fast as np.unique(..., return_inverse=True, return_counts=True)
+    order = np.argsort(key)
+    ks = key[order]
+    first = np.empty(ks.size, bool)
+    first[:1] = True
+    np.not_equal(ks[1:], ks[:-1], out=first[1:])
+    ukey = ks[first]
+    starts = np.flatnonzero(first)
+    count = np.diff(np.append(starts, ks.size))
+    edge_of_he = np.empty(ks.size, np.int64)
+    edge_of_he[order] = np.cumsum(first) - 1
     edges = np.column_stack([ukey // max(n, 1), ukey % max(n, 1)]).astype(np.int64)
     boundary_he = np.flatnonzero(count[edge_of_he] == 1)
     return EdgeTopology(he=he, edge_of_he=edge_of_he.astype(np.int64), edges=edges,
                         edge_count=count.astype(np.int64), boundary_he=boundary_he,
                         nonmanifold_edges=edges[count > 2])
+
+
+def edge_count_delta(topo, F_new, n_vertices):
+    """How appending faces changes the boundary, non-manifold and edge counts.
+
+    Only the edges the new faces use are looked at, so checking a repair
+    costs O(p log e) for p new faces instead of rebuilding the topology.
+
+    Parameters
+    ----------
+    topo : EdgeTopology
+        Of the mesh before (its ``edges`` sorted, as built).
+    F_new : (p,3) int64
+        Faces appended.
+    n_vertices : int
+        Vertex count after appending (new vertices have the highest ids).
+
+    Returns
+    -------
+    d : dict
+        ``boundary_edges``, ``nonmanifold_edges``, ``edges``: the changes
+        (after − before).
+    """
+    F_new = np.asarray(F_new, np.int64)
+    if len(F_new) == 0:
+        return {"boundary_edges": 0, "nonmanifold_edges": 0, "edges": 0}
+    n = int(n_vertices)
+    he = np.stack([F_new, np.roll(F_new, -1, axis=1)], axis=2).reshape(-1, 2)
+    key = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
+    ukey, add = np.unique(key, return_counts=True)
+    old_keys = topo.edges[:, 0] * n + topo.edges[:, 1]   # sorted: edges are in key order
+    pos = np.searchsorted(old_keys, ukey)
+    pos_c = np.minimum(pos, max(len(old_keys) - 1, 0))
+    found = (pos < len(old_keys)) & (old_keys[pos_c] == ukey) if len(old_keys) else np.zeros(len(ukey), bool)
+    c0 = np.where(found, topo.edge_count[pos_c] if len(old_keys) else 0, 0)
+    c1 = c0 + add
+    return {"boundary_edges": int(np.sum(c1 == 1) - np.sum(c0 == 1)),
+            "nonmanifold_edges": int(np.sum(c1 > 2) - np.sum(c0 > 2)),
+            "edges": int(np.sum(~found))}
 
 
 def face_components(F, n_vertices):

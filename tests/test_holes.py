@@ -135,3 +135,22 @@ def test_real_range_scan_outer_edges_are_borders():
     big = max(scan.loops, key=lambda x: x.edges)
     holes_big = sorted((lp.edges for lp in scan.holes if lp.component == big.component), reverse=True)
     assert holes_big[0] > 300 and 59 in holes_big and 48 in holes_big
+
+
+def test_edge_count_delta_matches_a_full_recount():
+    from shellrepair.topology import edge_count_delta, euler_characteristic
+    V, F = shapes.icosphere(3)
+    V2, F2, removed, kept = shapes.perforate_discs(V, F, n_holes=3, radius=0.3, seed=4)
+    topo = edge_topology(F2, len(V2))
+    # append part of the removed faces back (in the perforated numbering where possible) plus a fin
+    remap = -np.ones(len(V), np.int64)
+    remap[kept] = np.arange(len(kept))
+    back = remap[F[removed]]
+    back = back[(back >= 0).all(axis=1)][:5]
+    fin = np.array([[F2[0, 0], F2[0, 1], len(V2)]])            # a third face on an existing edge
+    new = np.vstack([back, fin])
+    d = edge_count_delta(topo, new, len(V2) + 1)
+    full = edge_topology(np.vstack([F2, new]), len(V2) + 1)
+    assert topo.n_boundary_edges + d["boundary_edges"] == full.n_boundary_edges
+    assert topo.nonmanifold_edges.shape[0] + d["nonmanifold_edges"] == full.nonmanifold_edges.shape[0] == 1
+    assert topo.edges.shape[0] + d["edges"] == full.edges.shape[0]
