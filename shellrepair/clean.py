@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
+from .geometry import cross, dot
 from .topology import edge_topology
 
 __all__ = ["OrientResult", "orient_faces", "describe_open_chains"]
@@ -137,6 +138,11 @@ def orient_faces(F, V=None):
     first = np.full(n_pieces, m, np.int64)
     np.minimum.at(first, piece, np.arange(m))
 
+    if not differ.any():  # already consistent (the usual case): no search needed
+        flip = np.zeros(m, bool)
+        nonorientable_pieces = np.zeros(0, np.int64)
+        return _finish(F, V, topo, f, g, piece, first, n_pieces, flip, nonorientable_pieces)
+
     # spanning forest from a virtual root (node m) joined to each piece's first face
     rows = np.concatenate([f, g, np.full(n_pieces, m)])
     cols = np.concatenate([g, f, first])
@@ -166,7 +172,11 @@ def orient_faces(F, V=None):
     # consistency check per piece: both faces of a manifold edge, after flipping
     bad = differ ^ (flip[f] ^ flip[g])
     nonorientable_pieces = np.unique(piece[f[bad]])
+    return _finish(F, V, topo, f, g, piece, first, n_pieces, flip, nonorientable_pieces)
 
+
+def _finish(F, V, topo, f, g, piece, first, n_pieces, flip, nonorientable_pieces):
+    """Choose each piece's overall winding and apply the flips."""
     # choose each piece's overall winding
     count = np.bincount(piece, minlength=n_pieces)
     n_flip = np.bincount(piece, weights=flip.astype(np.float64), minlength=n_pieces)
@@ -212,7 +222,7 @@ def _signed_volumes(V, F, flip, piece, n_pieces):
     C = T.mean(axis=1)
     cen = np.column_stack([np.bincount(piece, weights=C[:, j], minlength=n_pieces) for j in range(3)])
     T -= (cen / cnt[:, None])[piece][:, None, :]
-    det = np.einsum("ij,ij->i", T[:, 0], np.cross(T[:, 1], T[:, 2])) / 6.0
+    det = dot(T[:, 0], cross(T[:, 1], T[:, 2])) / 6.0
     det[flip] = -det[flip]  # swapping two corners negates the triple product
     return np.bincount(piece, weights=det, minlength=n_pieces)
 

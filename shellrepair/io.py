@@ -339,8 +339,13 @@ def clean_faces(F):
     n_degen = int((~ok).sum())
     idx = np.flatnonzero(ok)
     S = np.sort(F[idx], axis=1)
-    _, first = np.unique(S, axis=0, return_index=True)
-    first.sort()
+    # rows in lexicographic order (stable: the first face of a group of
+    # duplicates comes first), cheaper than np.unique(axis=0)
+    order = np.lexsort((S[:, 2], S[:, 1], S[:, 0]))
+    Ss = S[order]
+    lead = np.ones(len(Ss), bool)
+    lead[1:] = (Ss[1:] != Ss[:-1]).any(axis=1)
+    first = np.sort(order[lead])
     n_dup = len(idx) - len(first)
     kept = idx[first]
     if n_degen:
