@@ -111,15 +111,22 @@ class TriangleIndex:
     F : (m,3) int64
     origin : (3,) float64, optional
         Subtracted from coordinates (large offsets).
+    region : list of (lo (3,), hi (3,)) boxes, optional
+        Index only the faces near these boxes (the holes): queries whose
+        reach leaves the covered cells fall back to a tree over all faces,
+        built on first need. Without it every face is indexed.
     """
 
-    def __init__(self, V, F, origin=None):
+    #: Cells per box side at most; a region needing more indexes everything.
+    MAX_CELLS = 200_000
+
+    def __init__(self, V, F, origin=None, region=None):
         self.V = np.asarray(V, np.float64)
         self.F = np.asarray(F, np.int64)
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
         T = self.V[self.F] - self.origin
         c = T.mean(axis=1)
-        r = np.linalg.norm(T - c[:, None, :], axis=2).max(axis=1)
+        r = np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
         self.centroids = c
         self.radius = r
         # a few huge triangles should not blow every query up: the query
@@ -129,7 +136,56 @@ class TriangleIndex:
         if self.r_cut > 4 * med:
             self.r_cut = 4 * med
         self.big = np.flatnonzero(r > self.r_cut)
-        self.tree = cKDTree(c)
+        self._full = None
+        self.cells = None
+        self.ids = None
+        if region:
+            self._build_region(region)
+        if self.cells is None:
+            self.ids = np.arange(len(self.F))
+            self.tree = cKDTree(c)
+            self._full = self.tree
+
+    def _cell_keys(self, lo, hi):
+        """Keys of the grid cells a box overlaps (None when too many)."""
+        a = np.floor((lo - self.origin - self.grid0) / self.h).astype(np.int64)
+        b = np.floor((hi - self.origin - self.grid0) / self.h).astype(np.int64)
+        a, b = np.maximum(a, 0), np.minimum(b, self.dims - 1)
+        if np.any(b < a):
+            return np.zeros(0, np.int64)
+        size = np.prod(b - a + 1)
+        if size > self.MAX_CELLS:
+            return None
+        g = np.meshgrid(*[np.arange(a[k], b[k] + 1) for k in range(3)], indexing="ij")
+        return (g[0].ravel() * self.dims[1] + g[1].ravel()) * self.dims[2] + g[2].ravel()
+
+    def _build_region(self, region):
+        ext = np.array([np.max(hi - lo) for lo, hi in region])
+        self.h = max(float(np.median(ext)), 4 * self.r_cut, 1e-300)
+        self.grid0 = self.centroids.min(axis=0) - self.h
+        self.dims = np.floor((self.centroids.max(axis=0) + self.h - self.grid0) / self.h).astype(np.int64) + 2
+        if np.prod(self.dims.astype(float)) > 2.0 ** 62:
+            return
+        keys = []
+        for lo, hi in region:
+            k = self._cell_keys(lo - self.r_cut, hi + self.r_cut)
+            if k is None:
+                return
+            keys.append(k)
+        cells = np.unique(np.concatenate(keys)) if keys else np.zeros(0, np.int64)
+        q = np.floor((self.centroids - self.grid0) / self.h).astype(np.int64)
+        fk = (q[:, 0] * self.dims[1] + q[:, 1]) * self.dims[2] + q[:, 2]
+        self.ids = np.flatnonzero(np.isin(fk, cells))
+        self.cells = cells
+        self.tree = cKDTree(self.centroids[self.ids]) if self.ids.size else None
+
+    def _covers(self, C, R):
+        if self.cells is None:
+            return True
+        lo = (C - R[:, None]).min(axis=0) - self.r_cut + self.origin
+        hi = (C + R[:, None]).max(axis=0) + self.r_cut + self.origin
+        k = self._cell_keys(lo, hi)
+        return k is not None and bool(np.isin(k, self.cells, assume_unique=False).all())
 
     def candidate_pairs(self, C, R):
         """Pairs (query i, face j) whose bounding spheres may meet.
@@ -145,10 +201,21 @@ class TriangleIndex:
         -------
         ai, bi : (p,) int64
         """
-        lists = self.tree.query_ball_point(C, R + self.r_cut, return_sorted=False)
+        if self._covers(C, R):
+            tree, ids = self.tree, self.ids
+        else:  # the query leaves the indexed region: use every face
+            if self._full is None:
+                self._full = cKDTree(self.centroids)
+            tree, ids = self._full, None
+        if tree is None:
+            lists = [[] for _ in range(len(C))]
+        else:
+            lists = tree.query_ball_point(C, R + self.r_cut, return_sorted=False)
         cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
         ai = np.repeat(np.arange(len(C)), cnt)
         bi = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
+        if ids is not None:
+            bi = ids[bi]
         if self.big.size:
             cb, rb = self.centroids[self.big], self.radius[self.big]
             step = max(1, 4_000_000 // self.big.size)

@@ -123,11 +123,12 @@ class _Context:
         self.vf_order = np.argsort(flat, kind="stable")
         self.vf_start = np.searchsorted(flat[self.vf_order], np.arange(self.n + 1))
         self._index = None
+        self.region = None  # boxes around the holes: the index covers the faces near them
 
     @property
     def index(self):
         if self._index is None:
-            self._index = TriangleIndex(self.V, self.F, origin=self.V.mean(axis=0))
+            self._index = TriangleIndex(self.V, self.F, origin=self.V.mean(axis=0), region=self.region)
         return self._index
 
     def faces_of(self, verts):
@@ -700,6 +701,7 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     scan = detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo)
     holes = scan.holes
     ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
+    ctx.region = _hole_boxes(V, scan.loops)
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
@@ -787,6 +789,17 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
                                 "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}
                                                  for b in scan.borders]})
     return repaired, report
+
+
+def _hole_boxes(V, loops):
+    """Boxes where patches can reach: each loop's box grown by its size."""
+    boxes = []
+    for L in loops:
+        P = V[L.vertices]
+        lo, hi = P.min(axis=0), P.max(axis=0)
+        grow = float(np.max(hi - lo))
+        boxes.append((lo - grow, hi + grow))
+    return boxes
 
 
 def _progress(on, i, n):
