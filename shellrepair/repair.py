@@ -730,7 +730,7 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         for i, u in enumerate(units):
             unit_out.append(_run_unit(ctx, u))
             _progress(progress, i + 1, len(units))
-    if progress and units:
+    if progress and units and sys.stderr.isatty():  # end the bar's line
         print("", file=sys.stderr)
 
     # sequential merge: patches against each other, in hole order
