@@ -38,6 +38,7 @@ batch:
 	$(PY) -m shellrepair.cli batch $(DIR) -o $(OUTDIR) --jobs $(JOBS)
 
 render:
+	test -f $(OUT) || $(MAKE) repair SCAN=$(SCAN)
 	$(PY) -m shellrepair.cli render $(OUT) --before $(SCAN) --highlight-filled -o $(basename $(SCAN)).before_after.png
 
 bench:
