@@ -278,25 +278,31 @@ def markdown(result):
             f"| {s['watertight_cases']} | {s['self_intersections_added']} | {_fmt(s['total_seconds'], 1)} "
             f"| {_sig(s['geomean_seconds_x_ours'])} | {_sig(s['median_rms_x_ours'])} | {_fmt(s['median_peak_mb'], 0)} "
             f"| {', '.join(f'{k} {v}' for k, v in s['not_ok'].items()) or '–'} |")
-    lines += ["", "## Ours (order 2) against the best peer, per case", "",
-              "Best peer: lowest RMS among peers that filled every hole (among all peers if none did).", "",
-              "| case | ours-o2 RMS ‰ | holes after | best peer | its RMS ‰ | holes after | ours / best | verdict |",
-              "|---|---|---|---|---|---|---|---|"]
-    for c in result["cases"]:
-        ours = next((r for r in rows if r["case"] == c["name"] and r["tool"] == peers.REFERENCE), None)
-        bp = best_peer(rows, c["name"])
-        o = ours.get("rms_permille") if ours and ours.get("status") == "ok" else None
-        b = bp["rms_permille"] if bp else None
-        ratio = o / b if (o is not None and b) else None
-        verdict = "–" if ratio is None else ("better" if ratio < 0.95 else ("worse" if ratio > 1.05 else "same"))
-        if ours and ours.get("status") != "ok":
-            verdict = ours["status"]
-        elif ours and bp and (ours.get("holes_after") or 0) > (bp.get("holes_after") or 0):
-            verdict += (f" RMS, but {ours['holes_after'] - (bp.get('holes_after') or 0)} more holes left open "
-                        "(RMS is over the holes each tool filled)")
-        lines.append(f"| {c['name']} | {_sig(o)} | {_fmt(ours.get('holes_after') if ours else None)} "
-                     f"| {bp['tool'] if bp else '–'} | {_sig(b)} | {_fmt(bp.get('holes_after') if bp else None)} "
-                     f"| {_sig(ratio)} | {verdict} |")
+    for tool, title in ((peers.REFERENCE, "Ours (order 2, the default)"), ("ours-auto", "Ours (--order auto)")):
+        if not any(r["tool"] == tool for r in rows):
+            continue
+        lines += ["", f"## {title} against the best peer, per case", "",
+                  "Best peer: lowest RMS among peers that filled every hole (among all peers if none did).", "",
+                  f"| case | {tool} RMS ‰ | holes after | best peer | its RMS ‰ | holes after | ours / best | verdict |",
+                  "|---|---|---|---|---|---|---|---|"]
+        tally = {}
+        for c in result["cases"]:
+            ours = next((r for r in rows if r["case"] == c["name"] and r["tool"] == tool), None)
+            bp = best_peer(rows, c["name"])
+            o = ours.get("rms_permille") if ours and ours.get("status") == "ok" else None
+            b = bp["rms_permille"] if bp else None
+            ratio = o / b if (o is not None and b) else None
+            verdict = "–" if ratio is None else ("better" if ratio < 0.95 else ("worse" if ratio > 1.05 else "same"))
+            if ours and ours.get("status") != "ok":
+                verdict = ours["status"]
+            elif ours and bp and (ours.get("holes_after") or 0) > (bp.get("holes_after") or 0):
+                verdict += (f" RMS, but {ours['holes_after'] - (bp.get('holes_after') or 0)} more holes left open "
+                            "(RMS is over the holes each tool filled)")
+            tally[verdict.split(" ")[0]] = tally.get(verdict.split(" ")[0], 0) + 1
+            lines.append(f"| {c['name']} | {_sig(o)} | {_fmt(ours.get('holes_after') if ours else None)} "
+                         f"| {bp['tool'] if bp else '–'} | {_sig(b)} | {_fmt(bp.get('holes_after') if bp else None)} "
+                         f"| {_sig(ratio)} | {verdict} |")
+        lines += ["", "Tally: " + ", ".join(f"{k} {v}" for k, v in sorted(tally.items())) + "."]
     lines += ["", "## Every case and tool", ""]
     head = ("| tool | status | holes | rate % | RMS ‰ | max ‰ | mean ‰ | bias ‰ | normal dev ° | flipped % "
             "| watertight | manifold | self-int. | edge ratio | area ratio | orig. exact % | s | MB "
