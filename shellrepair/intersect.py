@@ -117,13 +117,23 @@ class TriangleIndex:
         built on first need. Without it every face is indexed.
     """
 
-    #: Cells per box side at most; a region needing more indexes everything.
+    #: Cells a box may cover at most; a region needing more indexes everything.
     MAX_CELLS = 200_000
 
     def __init__(self, V, F, origin=None, region=None):
         self.V = np.asarray(V, np.float64)
         self.F = np.asarray(F, np.int64)
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
+        self._full = None
+        self.cells = None
+        if not (region and self._build_region(region)):
+            self._index_all()
+            self.ids = None
+            self.tree = self._full
+            self.cells = None
+
+    def _index_all(self):
+        """Centroids, radii and a tree over every face (also the fallback)."""
         T = self.V[self.F] - self.origin
         c = T.mean(axis=1)
         r = np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
@@ -132,19 +142,13 @@ class TriangleIndex:
         # a few huge triangles should not blow every query up: the query
         # radius covers triangles up to r_cut; larger ones are tested apart
         med = float(np.median(r)) if len(r) else 0.0
-        self.r_cut = float(r.max(initial=0.0))
-        if self.r_cut > 4 * med:
-            self.r_cut = 4 * med
-        self.big = np.flatnonzero(r > self.r_cut)
-        self._full = None
-        self.cells = None
-        self.ids = None
-        if region:
-            self._build_region(region)
+        r_cut = float(r.max(initial=0.0))
+        if r_cut > 4 * med:
+            r_cut = 4 * med
         if self.cells is None:
-            self.ids = np.arange(len(self.F))
-            self.tree = cKDTree(c)
-            self._full = self.tree
+            self.r_cut = r_cut
+        self.big = np.flatnonzero(r > self.r_cut)
+        self._full = cKDTree(c)
 
     def _cell_keys(self, lo, hi):
         """Keys of the grid cells a box overlaps (None when too many)."""
@@ -160,32 +164,56 @@ class TriangleIndex:
         return (g[0].ravel() * self.dims[1] + g[1].ravel()) * self.dims[2] + g[2].ravel()
 
     def _build_region(self, region):
+        """Index only the faces with a vertex in the cells around ``region``.
+
+        Every face is then at most ``r_cut`` (the longest edge of the mesh)
+        from its own vertices, so a face that can touch a query box grown by
+        ``2 r_cut`` has a vertex in the cells that box covers. Returns False
+        (index everything) where the mesh has a few very long edges or the
+        grid would be too large.
+        """
+        V, F = self.V, self.F
+        longest = np.zeros(len(F))
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            np.maximum(longest, np.linalg.norm(V[F[:, a]] - V[F[:, b]], axis=1), out=longest)
+        med = float(np.median(longest[:: max(1, len(F) // 100_000)])) if len(F) else 0.0
+        lmax = float(longest.max(initial=0.0))
+        if lmax > 8 * med:  # a few huge triangles: the plain index handles them apart
+            return False
+        self.r_cut = lmax
         ext = np.array([np.max(hi - lo) for lo, hi in region])
-        self.h = max(float(np.median(ext)), 4 * self.r_cut, 1e-300)
-        self.grid0 = self.centroids.min(axis=0) - self.h
-        self.dims = np.floor((self.centroids.max(axis=0) + self.h - self.grid0) / self.h).astype(np.int64) + 2
+        self.h = max(float(np.median(ext)) / 4, 2 * self.r_cut, 1e-300)
+        P = V - self.origin
+        self.grid0 = P.min(axis=0) - self.h
+        self.dims = np.floor((P.max(axis=0) + self.h - self.grid0) / self.h).astype(np.int64) + 2
         if np.prod(self.dims.astype(float)) > 2.0 ** 62:
-            return
+            return False
         keys = []
         for lo, hi in region:
-            k = self._cell_keys(lo - self.r_cut, hi + self.r_cut)
+            k = self._cell_keys(lo - 2 * self.r_cut, hi + 2 * self.r_cut)
             if k is None:
-                return
+                return False
             keys.append(k)
         cells = np.unique(np.concatenate(keys)) if keys else np.zeros(0, np.int64)
-        q = np.floor((self.centroids - self.grid0) / self.h).astype(np.int64)
-        fk = (q[:, 0] * self.dims[1] + q[:, 1]) * self.dims[2] + q[:, 2]
-        self.ids = np.flatnonzero(np.isin(fk, cells))
+        q = np.floor((P - self.grid0) / self.h).astype(np.int64)
+        vk = (q[:, 0] * self.dims[1] + q[:, 1]) * self.dims[2] + q[:, 2]
+        vmark = np.isin(vk, cells)
+        self.ids = np.flatnonzero(vmark[F].any(axis=1))
+        T = V[F[self.ids]] - self.origin
+        c = T.mean(axis=1)
+        self.centroids_local = c
+        self.big = np.zeros(0, np.int64)
         self.cells = cells
-        self.tree = cKDTree(self.centroids[self.ids]) if self.ids.size else None
+        self.tree = cKDTree(c) if self.ids.size else None
+        return True
 
     def _covers(self, C, R):
         if self.cells is None:
             return True
-        lo = (C - R[:, None]).min(axis=0) - self.r_cut + self.origin
-        hi = (C + R[:, None]).max(axis=0) + self.r_cut + self.origin
+        lo = (C - R[:, None]).min(axis=0) - 2 * self.r_cut + self.origin
+        hi = (C + R[:, None]).max(axis=0) + 2 * self.r_cut + self.origin
         k = self._cell_keys(lo, hi)
-        return k is not None and bool(np.isin(k, self.cells, assume_unique=False).all())
+        return k is not None and bool(np.isin(k, self.cells).all())
 
     def candidate_pairs(self, C, R):
         """Pairs (query i, face j) whose bounding spheres may meet.
@@ -205,7 +233,7 @@ class TriangleIndex:
             tree, ids = self.tree, self.ids
         else:  # the query leaves the indexed region: use every face
             if self._full is None:
-                self._full = cKDTree(self.centroids)
+                self._index_all()
             tree, ids = self._full, None
         if tree is None:
             lists = [[] for _ in range(len(C))]
@@ -216,7 +244,7 @@ class TriangleIndex:
         bi = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
         if ids is not None:
             bi = ids[bi]
-        if self.big.size:
+        if self.big.size and ids is None:
             cb, rb = self.centroids[self.big], self.radius[self.big]
             step = max(1, 4_000_000 // self.big.size)
             extra_a, extra_b = [ai], [bi]

@@ -792,12 +792,13 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
 
 
 def _hole_boxes(V, loops):
-    """Boxes where patches can reach: each loop's box grown by its size."""
+    """Boxes where patches usually stay: each loop's box grown by half its
+    size (a patch reaching further is checked against every face)."""
     boxes = []
     for L in loops:
         P = V[L.vertices]
         lo, hi = P.min(axis=0), P.max(axis=0)
-        grow = float(np.max(hi - lo))
+        grow = 0.5 * float(np.max(hi - lo))
         boxes.append((lo - grow, hi + grow))
     return boxes
 
