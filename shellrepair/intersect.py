@@ -213,7 +213,10 @@ class TriangleIndex:
         lo = (C - R[:, None]).min(axis=0) - 2 * self.r_cut + self.origin
         hi = (C + R[:, None]).max(axis=0) + 2 * self.r_cut + self.origin
         k = self._cell_keys(lo, hi)
-        return k is not None and bool(np.isin(k, self.cells).all())
+        if k is None:
+            return False
+        pos = np.minimum(np.searchsorted(self.cells, k), len(self.cells) - 1)  # cells: sorted, unique
+        return bool(len(self.cells) and (self.cells[pos] == k).all())
 
     def candidate_pairs(self, C, R):
         """Pairs (query i, face j) whose bounding spheres may meet.
