@@ -221,28 +221,12 @@ def build_cases(names, tmp, *, truth=False, log=print):
 # --------------------------------------------------------------------------
 # one step, in a child process
 # --------------------------------------------------------------------------
-def _status_kb(key):
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith(key + ":"):
-                    return int(line.split()[1])
-    except OSError:
-        return None
-    return None
+from eval.worker import _release_free_memory, _status_kb  # noqa: E402
 
 
 def _reset_peak():
     """Hand freed heap back and reset VmHWM; True when the reset worked."""
-    import gc
-
-    gc.collect()
-    try:
-        import ctypes
-
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        pass
+    _release_free_memory()
     try:
         with open("/proc/self/clear_refs", "w") as fh:
             fh.write("5")
