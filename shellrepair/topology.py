@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 __all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components", "face_pieces", "face_areas",
-           "vertex_ring_faces", "euler_characteristic"]
+           "euler_characteristic"]
 
 
 @dataclass
@@ -188,37 +188,6 @@ def face_areas(V, F):
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
     return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
-
-
-def vertex_ring_faces(F, seed_vertices, rings, n_vertices):
-    """Faces within ``rings`` vertex-rings of a set of vertices.
-
-    Parameters
-    ----------
-    F : (m,3) int64 array
-    seed_vertices : array of int
-    rings : int
-        1 gives the faces touching a seed vertex; 2 adds the faces touching
-        those faces' vertices, and so on.
-    n_vertices : int
-
-    Returns
-    -------
-    faces : (k,) int64
-        Sorted face indices.
-
-    Notes
-    -----
-    This is the O(m) vectorised version, for one-off use. The repair builds a
-    vertex-to-face CSR once and grows rings locally (``shell.local_rings``).
-    """
-    mark = np.zeros(int(n_vertices), bool)
-    mark[np.asarray(seed_vertices, np.int64)] = True
-    faces = np.zeros(0, np.int64)
-    for _ in range(int(rings)):
-        faces = np.flatnonzero(mark[F].any(axis=1))
-        mark[F[faces].ravel()] = True
-    return faces
 
 
 def euler_characteristic(F, n_vertices=None):
