@@ -12,6 +12,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from .geometry import cross
+
 __all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components", "face_pieces", "face_areas",
            "euler_characteristic"]
 
@@ -35,6 +37,8 @@ class EdgeTopology:
         Half-edge ids whose undirected edge has exactly one face.
     nonmanifold_edges : (k,2) int64
         Edges used by three or more faces.
+    he_order : (3m,) int64
+        Half-edge ids ordered by their undirected edge.
     """
 
     he: np.ndarray
@@ -43,6 +47,7 @@ class EdgeTopology:
     edge_count: np.ndarray
     boundary_he: np.ndarray
     nonmanifold_edges: np.ndarray
+    he_order: np.ndarray | None = None
 
     @property
     def n_boundary_edges(self):
@@ -84,7 +89,7 @@ def edge_topology(F, n_vertices=None):
     boundary_he = np.flatnonzero(count[edge_of_he] == 1)
     return EdgeTopology(he=he, edge_of_he=edge_of_he.astype(np.int64), edges=edges,
                         edge_count=count.astype(np.int64), boundary_he=boundary_he,
-                        nonmanifold_edges=edges[count > 2])
+                        nonmanifold_edges=edges[count > 2], he_order=order)
 
 
 def edge_count_delta(topo, F_new, n_vertices):
@@ -174,7 +179,7 @@ def face_pieces(topo, n_faces):
     n_pieces : int
     face_piece : (m,) int64
     """
-    order = np.argsort(topo.edge_of_he, kind="stable")
+    order = topo.he_order  # half-edges grouped by edge, from edge_topology
     e = topo.edge_of_he[order]
     f = order // 3
     same = np.flatnonzero(e[1:] == e[:-1])
@@ -187,7 +192,7 @@ def face_areas(V, F):
     """Triangle areas, (m,) float64."""
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
-    return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    return 0.5 * np.sqrt(np.sum(cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]) ** 2, axis=1))
 
 
 def euler_characteristic(F, n_vertices=None):
