@@ -161,6 +161,16 @@ def table1_text(d, *, limit=30):
              f"  filled {d['filled']}, skipped {d['skipped']}, failed {d['failed']}; "
              f"{d['borders']} borders left open"
              + ("" if d.get("seconds") is None else f"; {d['seconds']:.2f} s")]
+    kinds = {}
+    for h in d["holes"]:
+        if h["status"] == "filled" and h.get("option"):
+            k = h["option"].split(",")[0].split(":")[0].split(" (")[0]
+            kinds[k] = kinds.get(k, 0) + 1
+    if kinds:
+        lines.append("  filled by: " + ", ".join(f"{k} ×{v}" for k, v in sorted(kinds.items(), key=lambda t: -t[1])))
+    for b in d.get("bridges") or []:
+        if b["chosen"] == "tube" or "hole" in b.get("kinds", ()):  # borders that stay open need no line
+            lines.append(f"  loops {b['loops'][0]} and {b['loops'][1]}: {b['chosen']} ({b['reason']})")
     open_rows = [h for h in d["holes"] if h["status"] != "filled"]
     if open_rows:
         lines.append("  left open:")

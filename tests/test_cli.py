@@ -41,3 +41,12 @@ def test_bad_file_is_one_line_and_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"error: {p}: ")
     assert "Traceback" not in err
+
+
+def test_repair_table_says_how_holes_were_filled(tmp_path, capsys):
+    V, F = shapes.icosphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=2)
+    p = tmp_path / "s.ply"
+    write_mesh(p, Mesh(V=V2, F=F2))
+    assert main(["repair", str(p), "-o", str(tmp_path / "o.ply")]) == 0
+    assert "filled by: faired order 2 ×2" in capsys.readouterr().out
