@@ -697,8 +697,11 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     t0 = time.perf_counter()
     V = np.asarray(mesh.V, np.float64)
     F = np.asarray(mesh.F, np.int64)
+    _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
     topo = edge_topology(F, len(V))
+    _progress(progress, 1, 2, "finding holes")
     scan = detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo)
+    _progress(progress, 2, 2, "finding holes")
     holes = scan.holes
     ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
     ctx.region = _hole_boxes(V, scan.loops)
@@ -803,11 +806,11 @@ def _hole_boxes(V, loops):
     return boxes
 
 
-def _progress(on, i, n):
+def _progress(on, i, n, label="filling holes"):
     if on:  # a throttled bar on stderr when it is a terminal (shellrepair.progress)
         from .progress import step
 
-        step("filling holes", i, n)
+        step(label, i, n)
 
 
 def _scan_edges(patch):
