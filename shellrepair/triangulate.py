@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cross
+from .geometry import cross, dot
 
 from .errors import MeshError
 
@@ -234,29 +234,35 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
     WS = np.full((k, k), np.inf)   # its area
     O = np.full((k, k), -1, np.int64)
     N = np.zeros((k, k, 3))        # normal of the triangle on chord (i, j)
+    HN = np.zeros((k, k), bool)    # N[i, j] is a real normal (not zero)
     for i in range(k - 1):
         WA[i, i + 1] = 0.0
         WS[i, i + 1] = 0.0
         N[i, i + 1] = rim[i] if has_rim[i] else 0.0
+        HN[i, i + 1] = bool(has_rim[i] and np.any(rim[i] != 0))
     for L in range(2, k):
         i = np.arange(0, k - L)
         j = i + L
         m = i[:, None] + np.arange(1, L)[None, :]          # (r, L-1)
         I = np.broadcast_to(i[:, None], m.shape)
         J = np.broadcast_to(j[:, None], m.shape)
-        n, area = _normals(Q[I], Q[J], Q[m])             # triangle (i, j, m)
-        # dihedral with the triangles (or rim faces) on edges (i, m) and (m, j)
-        nim = N[I, m]
-        nmj = N[m, J]
-        a1 = np.where(np.abs(nim).sum(-1) > 0, _angle(n, nim), 0.0)
-        a2 = np.where(np.abs(nmj).sum(-1) > 0, _angle(n, nmj), 0.0)
-        wa = np.maximum.reduce([a1, a2, WA[I, m], WA[m, J]])
+        QI = Q[I]
+        raw = cross(Q[J] - QI, Q[m] - QI)                  # triangle (i, j, m), unnormalised normal
+        ln = np.sqrt(dot(raw, raw))
+        nz = ln > 0
+        n = raw / np.where(nz, ln, 1.0)[..., None]
+        area = 0.5 * ln
+        # dihedral cost (1 - cos) with the triangles (or rim faces) on edges (i, m) and (m, j);
+        # 2 (a fold) for a degenerate candidate, 0 where there is no neighbour yet
+        a1 = np.where(HN[I, m], np.where(nz, 1.0 - np.clip(dot(n, N[I, m]), -1.0, 1.0), 2.0), 0.0)
+        a2 = np.where(HN[m, J], np.where(nz, 1.0 - np.clip(dot(n, N[m, J]), -1.0, 1.0), 2.0), 0.0)
+        wa = np.maximum(np.maximum(a1, a2), np.maximum(WA[I, m], WA[m, J]))
         if L == k - 1 and has_rim[k - 1]:  # the closing edge (k-1 -> 0) has a scan face across it
             wa = np.maximum(wa, _angle(n, np.broadcast_to(rim[k - 1], n.shape)))
         ws = area + WS[I, m] + WS[m, J]
         bad = forb[I, m] | forb[m, J] | forb[I, J][:, :1]
         if axis is not None:  # embedding constraint: every triangle faces along the axis
-            bad |= np.sum(cross(Q[J] - Q[I], Q[m] - Q[I]) * axis, axis=-1) <= 0
+            bad |= raw @ axis <= 0
         wa = np.where(bad, np.inf, wa)
         best_a = wa.min(axis=1, keepdims=True)
         ws_masked = np.where(wa <= best_a + ANGLE_TIE, ws, np.inf)
@@ -266,6 +272,7 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
         WS[i, j] = ws_masked[r, t]
         O[i, j] = m[r, t]
         N[i, j] = n[r, t]
+        HN[i, j] = nz[r, t]
     if not np.isfinite(WA[0, k - 1]):
         if axis is not None:
             raise MeshError("no triangulation of this loop faces along its axis")
