@@ -39,7 +39,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "harmonic_interpolate"]
+__all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
 
 #: Rounds of cotangent re-evaluation after the uniform first solve.
 COTAN_ROUNDS = 2
@@ -165,6 +165,27 @@ def taubin_smooth(X, F, n_fixed, passes, lam=TAUBIN_LAMBDA, mu=TAUBIN_MU):
     -------
     Xu : (n - n_fixed, 3) float64
     """
+    return umbrella_smooth(X, F, passes, (lam, mu), n_fixed)[n_fixed:]
+
+
+def umbrella_smooth(X, F, passes, factors, n_fixed=0):
+    """Repeated umbrella steps x ← x + f (mean of neighbours − x).
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+    passes : int
+    factors : sequence of float
+        The step factors of one pass, in order (``(λ, μ)`` for Taubin,
+        ``(0.5,)`` for the plain Laplacian smoothing of the seed method).
+    n_fixed : int
+        The first ``n_fixed`` vertices do not move.
+
+    Returns
+    -------
+    X2 : (n,3) float64
+    """
     X = np.array(X, np.float64)
     n = len(X)
     K = uniform_laplacian(F, n)
@@ -173,10 +194,10 @@ def taubin_smooth(X, F, n_fixed, passes, lam=TAUBIN_LAMBDA, mu=TAUBIN_MU):
     inv = 1.0 / np.maximum(deg, 1.0)
     free = np.arange(n_fixed, n)
     for _ in range(int(passes)):
-        for f in (lam, mu):
+        for f in factors:
             D = (W @ X) * inv[:, None] - X
             X[free] += f * D[free]
-    return X[n_fixed:]
+    return X
 
 
 def harmonic_interpolate(K, values_fixed, n_fixed):

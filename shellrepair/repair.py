@@ -51,7 +51,7 @@ from .clean import describe_open_chains
 from .errors import MeshError
 from .geometry import cross, uniq
 from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth,
-                   thin_plate_energy, uniform_laplacian)
+                   thin_plate_energy, umbrella_smooth, uniform_laplacian)
 from .holes import detect_holes
 from .intersect import TriangleIndex, pair_intersections, patch_vs_index
 from .io import Mesh
@@ -919,16 +919,7 @@ def _seed_patches(ctx, holes, passes, results):
     Fall = np.vstack(Fs)
     if base > n:
         origin = ctx.V.mean(axis=0)
-        X = X - origin
-        K = uniform_laplacian(Fall, len(X))
-        deg = K.diagonal()
-        W = (-K).tolil()
-        W.setdiag(0)
-        W = W.tocsr()
-        inv = 1.0 / np.maximum(deg, 1.0)
-        for _ in range(int(passes)):  # umbrella smoothing of the whole duplicate
-            X = X + 0.5 * ((W @ X) * inv[:, None] - X)
-        X = X + origin
+        X = umbrella_smooth(X - origin, Fall, passes, (0.5,)) + origin  # the whole duplicate
     out = {}
     base = n
     for p in built:
