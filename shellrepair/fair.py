@@ -52,10 +52,16 @@ TAUBIN_MU = -0.53
 
 def uniform_laplacian(F, n):
     """K = D − A of the edge graph (positive semidefinite), CSC."""
-    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    A = sp.csr_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
-    A = ((A + A.T) > 0).astype(np.float64)
-    return (sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A).tocsc()
+    F = np.asarray(F, np.int64)
+    i = np.concatenate([F[:, 0], F[:, 1], F[:, 2], F[:, 1], F[:, 2], F[:, 0]])
+    j = np.concatenate([F[:, 1], F[:, 2], F[:, 0], F[:, 0], F[:, 1], F[:, 2]])
+    A = sp.csc_matrix((np.ones(i.size), (i, j)), shape=(n, n))  # duplicates summed
+    A.data[:] = 1.0
+    deg = np.diff(A.indptr).astype(np.float64)  # A is symmetric: column counts are row counts
+    d = np.arange(n)
+    return sp.csc_matrix((np.concatenate([deg, -A.data]),
+                          (np.concatenate([d, A.indices]),
+                           np.concatenate([d, np.repeat(d, np.diff(A.indptr))]))), shape=(n, n))
 
 
 def _cotan_operators(X, F):
@@ -67,8 +73,12 @@ def _cotan_operators(X, F):
 
 
 def _energy(K, Minv, order):
+    """Q of the module docstring; ``Minv`` None for unit masses."""
     if order == 1:
         return K
+    if Minv is None:  # K symmetric: its powers are too
+        Q = K @ K
+        return (Q @ K if order == 3 else Q).tocsc()
     Dm = sp.diags(Minv)
     Q = K @ Dm @ K
     if order == 3:
@@ -131,8 +141,10 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     unknown = np.flatnonzero(~pin)
     if unknown.size == 0:
         return X[n_fixed:], uniform_laplacian(F, n)
+    import igl
+
     K = uniform_laplacian(F, n)
-    X[unknown] = _solve(_energy(K, np.ones(n), order), fixed, unknown, X)
+    X[unknown] = _solve(_energy(K, None, order), fixed, unknown, X)
     for _ in range(int(rounds)):
         e = X[F]
         area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
@@ -141,8 +153,17 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
         Kc, Mc = _cotan_operators(X, F)
         if not (np.isfinite(Kc.data).all() and np.isfinite(Mc).all()):
             break
-        Minv = 1.0 / np.maximum(Mc, DEGENERATE_AREA + 1e-3 * np.median(Mc))
-        Xn = _solve(_energy(Kc, Minv, order), fixed, unknown, X)
+        floor = DEGENERATE_AREA + 1e-3 * np.median(Mc)
+        Xn = None
+        if Mc.min() > floor:
+            # no mass clamped: libigl's k-harmonic solve is this round's
+            # energy (the same Q = K (M⁻¹K)^(k−1)) in one call
+            try:
+                Xn = igl.harmonic(X, F, fixed, np.ascontiguousarray(X[fixed]), int(order))[unknown]
+            except Exception:
+                Xn = None
+        if Xn is None or not np.isfinite(Xn).all():
+            Xn = _solve(_energy(Kc, 1.0 / np.maximum(Mc, floor), order), fixed, unknown, X)
         if not np.isfinite(Xn).all():
             break
         X[unknown] = Xn

@@ -8,8 +8,11 @@ share an edge intersect only when folded flat onto each other. Touching at
 shared vertices and edges is not an intersection. Coplanar overlaps without
 a fold are not detected (they do not arise from faired patches).
 
-Candidate pairs come from a k-d tree of triangle centroids, so a check
-costs O(t log m) for a patch of t triangles.
+Candidate pairs for a patch come from the scan faces near its box
+(:class:`NearFaces`: vertices sorted along x, vertex-to-face lists), so a
+check costs about its own size, not the scan's; :class:`TriangleIndex`
+(a k-d tree over every triangle) serves whole-mesh self-intersection
+counts.
 """
 
 from __future__ import annotations
@@ -19,11 +22,16 @@ import numpy as np
 from .geometry import cross
 from scipy.spatial import cKDTree
 
-__all__ = ["TriangleIndex", "pair_intersections", "self_intersections"]
+__all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "self_intersections", "embeds_by_projection"]
 
 #: Barycentric / segment-parameter tolerance: hits this close to an edge or
 #: endpoint count as touching, not crossing.
 TOUCH_TOL = 1e-7
+#: Largest loop whose projected outline :func:`embeds_by_projection` tests
+#: for simplicity (O(k²) segment pairs).
+PROJECTION_MAX_LOOP = 600
+#: Smallest projected area, relative to the largest, counted as positive.
+PROJECTION_AREA_TOL = 1e-9
 #: Normals of two triangles sharing an edge with a dot product below
 #: ``-1 + FOLD_TOL`` are folded onto each other.
 FOLD_TOL = 1e-6
@@ -103,7 +111,7 @@ def pair_intersections(A, Aid, B, Bid):
 
 
 class TriangleIndex:
-    """A k-d tree over triangle centroids for candidate-pair queries.
+    """A k-d tree over the centroids of every triangle of a mesh.
 
     Parameters
     ----------
@@ -111,29 +119,12 @@ class TriangleIndex:
     F : (m,3) int64
     origin : (3,) float64, optional
         Subtracted from coordinates (large offsets).
-    region : list of (lo (3,), hi (3,)) boxes, optional
-        Index only the faces near these boxes (the holes): queries whose
-        reach leaves the covered cells fall back to a tree over all faces,
-        built on first need. Without it every face is indexed.
     """
 
-    #: Cells a box may cover at most; a region needing more indexes everything.
-    MAX_CELLS = 200_000
-
-    def __init__(self, V, F, origin=None, region=None):
+    def __init__(self, V, F, origin=None):
         self.V = np.asarray(V, np.float64)
         self.F = np.asarray(F, np.int64)
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
-        self._full = None
-        self.cells = None
-        if not (region and self._build_region(region)):
-            self._index_all()
-            self.ids = None
-            self.tree = self._full
-            self.cells = None
-
-    def _index_all(self):
-        """Centroids, radii and a tree over every face (also the fallback)."""
         T = self.V[self.F] - self.origin
         c = T.mean(axis=1)
         r = np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
@@ -142,81 +133,9 @@ class TriangleIndex:
         # a few huge triangles should not blow every query up: the query
         # radius covers triangles up to r_cut; larger ones are tested apart
         med = float(np.median(r)) if len(r) else 0.0
-        r_cut = float(r.max(initial=0.0))
-        if r_cut > 4 * med:
-            r_cut = 4 * med
-        if self.cells is None:
-            self.r_cut = r_cut
+        self.r_cut = min(float(r.max(initial=0.0)), 4 * med)
         self.big = np.flatnonzero(r > self.r_cut)
-        self._full = cKDTree(c)
-
-    def _cell_keys(self, lo, hi):
-        """Keys of the grid cells a box overlaps (None when too many)."""
-        a = np.floor((lo - self.origin - self.grid0) / self.h).astype(np.int64)
-        b = np.floor((hi - self.origin - self.grid0) / self.h).astype(np.int64)
-        a, b = np.maximum(a, 0), np.minimum(b, self.dims - 1)
-        if np.any(b < a):
-            return np.zeros(0, np.int64)
-        size = np.prod(b - a + 1)
-        if size > self.MAX_CELLS:
-            return None
-        g = np.meshgrid(*[np.arange(a[k], b[k] + 1) for k in range(3)], indexing="ij")
-        return (g[0].ravel() * self.dims[1] + g[1].ravel()) * self.dims[2] + g[2].ravel()
-
-    def _build_region(self, region):
-        """Index only the faces with a vertex in the cells around ``region``.
-
-        Every face is then at most ``r_cut`` (the longest edge of the mesh)
-        from its own vertices, so a face that can touch a query box grown by
-        ``2 r_cut`` has a vertex in the cells that box covers. Returns False
-        (index everything) where the mesh has a few very long edges or the
-        grid would be too large.
-        """
-        V, F = self.V, self.F
-        longest = np.zeros(len(F))
-        for a, b in ((0, 1), (1, 2), (2, 0)):
-            np.maximum(longest, np.linalg.norm(V[F[:, a]] - V[F[:, b]], axis=1), out=longest)
-        med = float(np.median(longest[:: max(1, len(F) // 100_000)])) if len(F) else 0.0
-        lmax = float(longest.max(initial=0.0))
-        if lmax > 8 * med:  # a few huge triangles: the plain index handles them apart
-            return False
-        self.r_cut = lmax
-        ext = np.array([np.max(hi - lo) for lo, hi in region])
-        self.h = max(float(np.median(ext)) / 4, 2 * self.r_cut, 1e-300)
-        P = V - self.origin
-        self.grid0 = P.min(axis=0) - self.h
-        self.dims = np.floor((P.max(axis=0) + self.h - self.grid0) / self.h).astype(np.int64) + 2
-        if np.prod(self.dims.astype(float)) > 2.0 ** 62:
-            return False
-        keys = []
-        for lo, hi in region:
-            k = self._cell_keys(lo - 2 * self.r_cut, hi + 2 * self.r_cut)
-            if k is None:
-                return False
-            keys.append(k)
-        cells = np.unique(np.concatenate(keys)) if keys else np.zeros(0, np.int64)
-        q = np.floor((P - self.grid0) / self.h).astype(np.int64)
-        vk = (q[:, 0] * self.dims[1] + q[:, 1]) * self.dims[2] + q[:, 2]
-        vmark = np.isin(vk, cells)
-        self.ids = np.flatnonzero(vmark[F].any(axis=1))
-        T = V[F[self.ids]] - self.origin
-        c = T.mean(axis=1)
-        self.centroids_local = c
-        self.big = np.zeros(0, np.int64)
-        self.cells = cells
-        self.tree = cKDTree(c) if self.ids.size else None
-        return True
-
-    def _covers(self, C, R):
-        if self.cells is None:
-            return True
-        lo = (C - R[:, None]).min(axis=0) - 2 * self.r_cut + self.origin
-        hi = (C + R[:, None]).max(axis=0) + 2 * self.r_cut + self.origin
-        k = self._cell_keys(lo, hi)
-        if k is None:
-            return False
-        pos = np.minimum(np.searchsorted(self.cells, k), len(self.cells) - 1)  # cells: sorted, unique
-        return bool(len(self.cells) and (self.cells[pos] == k).all())
+        self.tree = cKDTree(c)
 
     def candidate_pairs(self, C, R):
         """Pairs (query i, face j) whose bounding spheres may meet.
@@ -232,22 +151,11 @@ class TriangleIndex:
         -------
         ai, bi : (p,) int64
         """
-        if self._covers(C, R):
-            tree, ids = self.tree, self.ids
-        else:  # the query leaves the indexed region: use every face
-            if self._full is None:
-                self._index_all()
-            tree, ids = self._full, None
-        if tree is None:
-            lists = [[] for _ in range(len(C))]
-        else:
-            lists = tree.query_ball_point(C, R + self.r_cut, return_sorted=False)
+        lists = self.tree.query_ball_point(C, R + self.r_cut, return_sorted=False)
         cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
         ai = np.repeat(np.arange(len(C)), cnt)
         bi = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
-        if ids is not None:
-            bi = ids[bi]
-        if self.big.size and ids is None:
+        if self.big.size:
             cb, rb = self.centroids[self.big], self.radius[self.big]
             step = max(1, 4_000_000 // self.big.size)
             extra_a, extra_b = [ai], [bi]
@@ -257,7 +165,132 @@ class TriangleIndex:
                 extra_a.append(a2 + s)
                 extra_b.append(self.big[b2])
             ai, bi = np.concatenate(extra_a), np.concatenate(extra_b)
+            key = np.unique(ai * len(self.F) + bi)
+            ai, bi = key // len(self.F), key % len(self.F)
         return ai, bi
+
+
+class NearFaces:
+    """The faces near a query, found without indexing the whole mesh.
+
+    Vertices are bucketed once in columns of a grid in x and y (one sort
+    by column); a query box takes the columns it spans, keeps the vertices
+    inside it, and the faces using them (vertex-to-face lists). A face that meets the box has every
+    vertex within its longest edge of it, so the box is grown by the
+    longest edge first; the few triangles much longer than the rest are
+    kept apart and tested against every query, so that they do not grow
+    every box. Building costs two sorts; a query costs its slab, so the
+    check of a small hole in a large scan stays small.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+    origin : (3,) float64, optional
+        Queries come in coordinates minus ``origin``.
+    vf : (order, start), optional
+        Vertex-to-face lists: ``order`` sorts ``F.ravel()`` by vertex,
+        ``start[v]:start[v+1]`` are vertex v's entries (built if not given).
+    """
+
+    #: Triangles whose longest edge exceeds this many times the median are "big".
+    BIG = 8.0
+    #: Query triangles × near faces up to which pairs are found by brute force.
+    BRUTE = 2_000_000
+
+    def __init__(self, V, F, origin=None, vf=None):
+        self.V = np.asarray(V, np.float64)
+        self.F = np.asarray(F, np.int64)
+        self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
+        V, F = self.V, self.F
+        longest = np.zeros(len(F))  # squared
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            d = V[F[:, a]] - V[F[:, b]]
+            np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
+        del d
+        med = float(np.median(longest[:: max(1, len(F) // 100_000)])) if len(F) else 0.0
+        big = longest > self.BIG ** 2 * med if med > 0 else np.zeros(len(F), bool)
+        self.big = np.flatnonzero(big)
+        self.grow = float(np.sqrt(longest[~big].max(initial=0.0)))
+        del longest
+        lo = V[:, :2].min(axis=0) if len(V) else np.zeros(2)
+        span = float(np.ptp(V[:, :2], axis=0).max()) if len(V) else 0.0
+        # columns of about four longest edges, at most ~4096 a side
+        self.h = max(4 * self.grow, span / 4096, 1e-300)
+        self.lo2 = lo
+        ij = np.floor((V[:, :2] - lo) / self.h).astype(np.int64)
+        self.ny = int(ij[:, 1].max(initial=0)) + 1
+        key = ij[:, 0] * self.ny + ij[:, 1]
+        self.vorder = np.argsort(key, kind="stable")
+        self.vkey = key[self.vorder]
+        del ij, key
+        if vf is None:
+            flat = F.ravel()
+            order = np.argsort(flat, kind="stable")
+            vf = (order, np.searchsorted(flat[order], np.arange(len(V) + 1)))
+        self.vf_order, self.vf_start = vf
+
+    def faces_near(self, lo, hi):
+        """Faces that may meet the box ``[lo, hi]`` (absolute coordinates)."""
+        lo = np.asarray(lo, np.float64) - self.grow
+        hi = np.asarray(hi, np.float64) + self.grow
+        c0 = np.maximum(np.floor((lo[:2] - self.lo2) / self.h), 0).astype(np.int64)
+        c1 = np.floor((hi[:2] - self.lo2) / self.h).astype(np.int64)
+        c1[1] = min(c1[1], self.ny - 1)
+        if np.any(c1 < c0):
+            vs = np.zeros(0, np.int64)
+        else:
+            rows = np.arange(c0[0], c1[0] + 1)
+            a = np.searchsorted(self.vkey, rows * self.ny + c0[1], side="left")
+            b = np.searchsorted(self.vkey, rows * self.ny + c1[1], side="right")
+            n = b - a
+            idx = np.repeat(a - np.concatenate([[0], np.cumsum(n)[:-1]]), n) + np.arange(n.sum())
+            vs = self.vorder[idx]
+            P = self.V[vs]
+            vs = vs[np.all((P >= lo) & (P <= hi), axis=1)]
+        s, e = self.vf_start[vs], self.vf_start[vs + 1]
+        cnt = e - s
+        idx = np.repeat(s - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(cnt.sum())
+        faces = np.unique(np.concatenate([self.vf_order[idx] // 3, self.big]))
+        return faces
+
+    def candidate_pairs(self, C, R):
+        """Pairs (query i, face j) whose bounding spheres meet.
+
+        Parameters
+        ----------
+        C : (t,3) float64
+            Query centres, minus ``origin``.
+        R : (t,) float64
+            Query radii.
+
+        Returns
+        -------
+        ai, bi : (p,) int64
+        """
+        C = np.asarray(C, np.float64)
+        R = np.asarray(R, np.float64)
+        none = np.zeros(0, np.int64)
+        if len(C) == 0 or len(self.F) == 0:
+            return none, none
+        lo = (C - R[:, None]).min(axis=0) + self.origin
+        hi = (C + R[:, None]).max(axis=0) + self.origin
+        f = self.faces_near(lo, hi)
+        if f.size == 0:
+            return none, none
+        T = self.V[self.F[f]] - self.origin
+        c = T.mean(axis=1)
+        r = np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
+        if len(C) * len(f) <= self.BRUTE:
+            d2 = np.sum((C[:, None, :] - c[None]) ** 2, axis=2)
+            ai, bj = np.nonzero(d2 <= (R[:, None] + r[None]) ** 2)
+            return ai.astype(np.int64), f[bj]
+        lists = cKDTree(c).query_ball_point(C, R + r.max(), return_sorted=False)
+        cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+        ai = np.repeat(np.arange(len(C)), cnt)
+        bj = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
+        keep = np.sum((C[ai] - c[bj]) ** 2, axis=1) <= (R[ai] + r[bj]) ** 2
+        return ai[keep], f[bj[keep]]
 
 
 def patch_vs_index(Pt, Pid, index, return_faces=False):
@@ -321,3 +354,94 @@ def self_intersections(V, F):
         sl = slice(s, s + 200_000)
         hits += int(pair_intersections(Q[ai[sl]], F[ai[sl]], Q[bi[sl]], F[bi[sl]]).sum())
     return hits
+
+
+def _outline_is_simple(Q):
+    """Is the closed 2-D polygon ``Q`` (k,2) simple (no two non-adjacent
+    edges meet, not even touching)?"""
+    k = len(Q)
+    if k < 3:
+        return False
+    A, B = Q, np.roll(Q, -1, axis=0)
+    i, j = np.triu_indices(k, 2)
+    keep = ~((i == 0) & (j == k - 1))  # edges k−1 and 0 are adjacent
+    i, j = i[keep], j[keep]
+    if i.size == 0:
+        return True
+    span = float(np.ptp(Q, axis=0).max()) or 1.0
+    eps = 1e-12 * span * span
+
+    def orient(p, q, r):
+        return (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
+
+    a, b, c, d = A[i], B[i], A[j], B[j]
+    o1, o2 = orient(a, b, c), orient(a, b, d)
+    o3, o4 = orient(c, d, a), orient(c, d, b)
+    # separated when both ends of one edge lie strictly on one side of the other
+    apart = ((o1 > eps) & (o2 > eps)) | ((o1 < -eps) & (o2 < -eps)) \
+        | ((o3 > eps) & (o4 > eps)) | ((o3 < -eps) & (o4 < -eps))
+    # collinear-ish pairs: separated when their boxes do not overlap
+    lo1, hi1 = np.minimum(a, b), np.maximum(a, b)
+    lo2, hi2 = np.minimum(c, d), np.maximum(c, d)
+    boxes_apart = np.any((hi1 < lo2) | (hi2 < lo1), axis=1)
+    return bool(np.all(apart | boxes_apart))
+
+
+def embeds_by_projection(P, T, n_loop, axis=None):
+    """A cheap proof that a disc-shaped patch does not cross itself.
+
+    The patch's loop (its first ``n_loop`` vertices, in order) is projected
+    on the plane normal to ``axis``; if that outline is a simple polygon and
+    every patch triangle keeps a positive area there (the same turning
+    sense as the outline), the projection maps the patch one-to-one onto
+    the polygon: an orientation-preserving piecewise-linear map of a disc
+    covers each point as often as its boundary winds around it, once
+    inside a simple outline. Two patch triangles that met in space would
+    overlap in the projection, so none do. When the test fails the patch
+    may still be fine; check it pair by pair.
+
+    Parameters
+    ----------
+    P : (p,3) float64
+        Patch vertices, loop first.
+    T : (t,3) int64
+        Patch triangles, a disc whose boundary is the loop.
+    n_loop : int
+    axis : (3,) float64, optional
+        Default: the loop's vector-area direction.
+
+    Returns
+    -------
+    ok : bool
+        True only when the certificate holds.
+    """
+    P = np.asarray(P, np.float64)
+    T = np.asarray(T, np.int64)
+    k = int(n_loop)
+    if k < 3 or k > PROJECTION_MAX_LOOP or len(T) == 0 or not np.isfinite(P).all():
+        return False
+    C = P - P[:k].mean(axis=0)
+    if axis is None:
+        axis = 0.5 * cross(C[:k], np.roll(C[:k], -1, axis=0)).sum(axis=0)
+    axis = np.asarray(axis, np.float64)
+    ln = np.linalg.norm(axis)
+    if not ln > 0:
+        return False
+    a = axis / ln
+    t = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(a, t)
+    u /= np.linalg.norm(u)
+    v = np.cross(a, u)
+    Q = np.column_stack([C @ u, C @ v])
+    q = Q[:k]
+    outline = 0.5 * float(np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1]))
+    if outline == 0.0:
+        return False
+    e1, e2 = Q[T[:, 1]] - Q[T[:, 0]], Q[T[:, 2]] - Q[T[:, 0]]
+    areas = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) * np.sign(outline)
+    # the patch must turn the other way round from its loop: loop edges appear
+    # reversed in the patch triangles, so the two signs are opposite
+    areas = -areas
+    if not (areas > PROJECTION_AREA_TOL * np.abs(areas).max()).all():
+        return False
+    return _outline_is_simple(q)

@@ -53,7 +53,7 @@ from .geometry import cross, uniq
 from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth,
                    thin_plate_energy, umbrella_smooth, uniform_laplacian)
 from .holes import detect_holes
-from .intersect import TriangleIndex, pair_intersections, patch_vs_index
+from .intersect import NearFaces, embeds_by_projection, pair_intersections, patch_vs_index
 from .io import Mesh
 from .refine import refine_patch
 from .report import table1_dict
@@ -89,6 +89,9 @@ class Patch:
     props : dict of name -> (q,) array
     option : str
         Which option was accepted.
+    disc : bool
+        The triangles form one disc bounded by ``loop`` (k − 2 triangles
+        before refinement); False for a tube between two loops.
     """
 
     hole_id: int
@@ -101,6 +104,7 @@ class Patch:
     T0: np.ndarray | None = None
     energy: tuple | None = None
     order: int | None = None
+    disc: bool = False
 
     def global_faces(self, base):
         """Faces with new vertex j at index ``base + j``."""
@@ -123,12 +127,11 @@ class _Context:
         self.vf_order = np.argsort(flat, kind="stable")
         self.vf_start = np.searchsorted(flat[self.vf_order], np.arange(self.n + 1))
         self._index = None
-        self.region = None  # boxes around the holes: the index covers the faces near them
 
     @property
     def index(self):
         if self._index is None:
-            self._index = TriangleIndex(self.V, self.F, origin=self.V.mean(axis=0), region=self.region)
+            self._index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=(self.vf_order, self.vf_start))
         return self._index
 
     def faces_of(self, verts):
@@ -297,7 +300,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     if not np.isfinite(new_local).all():
         raise PatchError("the fairing solve did not converge (non-finite positions)")
     Pn = origin + scale * new_local
-    return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props, T0=T0,
+    return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props, T0=T0, disc=len(T0) == k - 2,
                  energy=patch_energy, order=order if fair else None)
 
 
@@ -316,8 +319,10 @@ def _check_patch(ctx, patch):
     bad = patch_vs_index(C, ids, ctx.index, return_faces=True)
     if bad.size:
         return f"patch would cross the scan ({bad.size} triangles)", bad
-    # the patch against itself
-    if len(C) > 1:
+    # the patch against itself: a disc that projects one-to-one cannot
+    # cross itself; otherwise test its triangles pair by pair
+    if len(C) > 1 and not (patch.disc and embeds_by_projection(
+            np.vstack([ctx.V[patch.loop], patch.P]), patch.T, len(patch.loop))):
         c = C.mean(axis=1)
         r = np.linalg.norm(C - c[:, None, :], axis=2).max(axis=1)
         pairs = cKDTree(c).query_pairs(2 * r.max(), output_type="ndarray")
@@ -704,7 +709,6 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     _progress(progress, 2, 2, "finding holes")
     holes = scan.holes
     ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
-    ctx.region = _hole_boxes(V, scan.loops)
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
@@ -792,18 +796,6 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
                                 "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}
                                                  for b in scan.borders]})
     return repaired, report
-
-
-def _hole_boxes(V, loops):
-    """Boxes where patches usually stay: each loop's box grown by half its
-    size (a patch reaching further is checked against every face)."""
-    boxes = []
-    for L in loops:
-        P = V[L.vertices]
-        lo, hi = P.min(axis=0), P.max(axis=0)
-        grow = 0.5 * float(np.max(hi - lo))
-        boxes.append((lo - grow, hi + grow))
-    return boxes
 
 
 def _progress(on, i, n, label="filling holes"):

@@ -3,7 +3,8 @@
 import numpy as np
 
 from shellrepair import shapes
-from shellrepair.intersect import TriangleIndex, pair_intersections, patch_vs_index, self_intersections
+from shellrepair.intersect import (NearFaces, TriangleIndex, embeds_by_projection, pair_intersections, patch_vs_index,
+                                   self_intersections)
 
 
 def tri(*p):
@@ -36,15 +37,78 @@ def test_closed_sphere_has_no_self_intersections_and_a_dent_through_it_has():
     assert self_intersections(V2, F) > 0
 
 
-def test_local_index_falls_back_to_every_face_outside_its_region():
+def test_near_faces_finds_what_the_whole_mesh_index_finds_and_looks_only_nearby():
     V, F = shapes.grid(60, 60)   # a flat sheet in z = 0 on [0, 1]^2
-    corner = [(np.array([0.0, 0.0, -0.1]), np.array([0.1, 0.1, 0.1]))]
     full = TriangleIndex(V, F)
-    local = TriangleIndex(V, F, region=corner)
-    assert local.ids.size < len(F) / 10                       # only the corner is indexed
-    probe = tri([0.7, 0.7, -0.5], [0.72, 0.7, 0.5], [0.7, 0.72, 0.5])   # pierces the sheet far from the corner
+    near = NearFaces(V, F)
+    assert near.faces_near([0.0, 0.0, -0.1], [0.1, 0.1, 0.1]).size < len(F) / 10
+    rng = np.random.default_rng(3)
     ids = np.array([[-1, -2, -3]])
-    assert patch_vs_index(probe, ids, full) > 0
-    assert patch_vs_index(probe, ids, local) == patch_vs_index(probe, ids, full)
-    inside = probe - [0.65, 0.65, 0.0]                          # the same probe in the corner
-    assert patch_vs_index(inside, ids, local) == patch_vs_index(inside, ids, full) > 0
+    hits = 0
+    for _ in range(40):
+        c = np.append(rng.uniform(0, 1, 2), rng.uniform(-0.05, 0.05))
+        probe = c + rng.normal(scale=0.03, size=(1, 3, 3))
+        n = patch_vs_index(probe, ids, near)
+        assert n == patch_vs_index(probe, ids, full)
+        hits += n
+    assert hits > 0   # some probes pierce the sheet
+
+
+def test_near_faces_keeps_a_long_triangle_reaching_in_from_far_away():
+    V, F = shapes.grid(30, 30)
+    # one sliver from far outside the sheet whose tip passes under the middle
+    V = np.vstack([V, [[5.0, 0.5, -0.01], [5.0, 0.52, -0.01], [0.5, 0.51, -0.01]]])
+    F = np.vstack([F, [[len(V) - 3, len(V) - 2, len(V) - 1]]])
+    near = NearFaces(V, F)
+    assert len(F) - 1 in near.faces_near([0.45, 0.45, -0.1], [0.55, 0.55, 0.1])
+    probe = np.array([[[0.7, 0.505, -0.05], [0.7, 0.515, 0.05], [0.72, 0.51, 0.05]]])
+    assert patch_vs_index(probe, np.array([[-1, -2, -3]]), near, return_faces=True).size == 1
+
+
+def test_projection_certificate_accepts_a_dome_and_refuses_a_fold():
+    k = 24
+    t = np.linspace(0, 2 * np.pi, k, endpoint=False)
+    loop = np.column_stack([np.cos(t), np.sin(t), np.zeros(k)])
+    inner = np.column_stack([0.5 * np.cos(t), 0.5 * np.sin(t), np.full(k, 0.3)])
+    P = np.vstack([loop, inner, [[0, 0, 0.4]]])
+    T = []
+    for i in range(k):
+        j = (i + 1) % k
+        # loop edges appear reversed (i+1 -> i) in the patch, as in a repair
+        T += [[j, i, k + i], [j, k + i, k + j], [k + j, k + i, 2 * k]]
+    T = np.array(T)
+    assert embeds_by_projection(P, T, k)                 # a dome over a circle
+    bad = P.copy()
+    bad[2 * k] = [0.9, 0.0, 0.4]                         # the apex pulled over the rim: triangles flip
+    assert not embeds_by_projection(bad, T, k)
+    assert not embeds_by_projection(P, T[:, ::-1], k)    # wound the wrong way round
+    eight = P.copy()
+    eight[:k // 2, 1] *= -1                              # a loop whose outline crosses itself
+    assert not embeds_by_projection(eight, T, k)
+
+
+def test_projection_certificate_never_covers_a_patch_that_crosses_itself():
+    k = 24
+    t = np.linspace(0, 2 * np.pi, k, endpoint=False)
+    rings = [np.column_stack([r * np.cos(t + 0.1 * r), r * np.sin(t + 0.1 * r), np.full(k, 1 - r * r)])
+             for r in (1.0, 0.7, 0.4)]
+    P0 = np.vstack(rings + [[[0, 0, 1.0]]])
+    T = []
+    for ring in range(2):
+        a, b = ring * k, (ring + 1) * k
+        for i in range(k):
+            j = (i + 1) % k
+            T += [[a + j, a + i, b + i], [a + j, b + i, b + j]]
+    T += [[2 * k + (i + 1) % k, 2 * k + i, 3 * k] for i in range(k)]
+    T = np.array(T)
+    rng = np.random.default_rng(11)
+    certified = crossing = 0
+    for trial in range(150):
+        P = P0.copy()
+        P[k:] += rng.normal(scale=0.01 * (1 + trial // 15), size=(len(P) - k, 3))
+        ok = embeds_by_projection(P, T, k)
+        n = self_intersections(P, T)
+        assert not (ok and n > 0)
+        certified += ok
+        crossing += n > 0
+    assert certified > 20 and crossing > 5   # both kinds were drawn
