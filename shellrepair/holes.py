@@ -37,7 +37,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .topology import edge_topology, face_areas, face_components, face_pieces
+from .topology import components_of_pieces, edge_topology, face_areas, face_pieces
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats", "OUTER_FRACTION"]
 
@@ -363,8 +363,8 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
     if topo is None:
         topo = edge_topology(F, n)
     loops, chains = boundary_loops(F, n, topo)
-    n_comp, vcomp, fcomp = face_components(F, n)
     n_piece, fpiece = face_pieces(topo, len(F))
+    n_comp, vcomp, fcomp = components_of_pieces(F, n, fpiece, n_piece)
     A = face_areas(V, F)
     piece_area = np.bincount(fpiece, weights=A, minlength=n_piece)
     bhe = topo.boundary_he

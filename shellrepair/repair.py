@@ -55,9 +55,9 @@ from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate,
 from .holes import detect_holes
 from .intersect import NearFaces, embeds_by_projection, pair_intersections, patch_vs_index
 from .io import Mesh
-from .refine import refine_patch
+from .refine import refine_patch, refine_patches
 from .report import table1_dict
-from .topology import edge_count_delta, edge_topology
+from .topology import edge_count_delta, edge_topology, vertex_faces
 from .triangulate import triangulate_loop
 
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
@@ -123,10 +123,12 @@ class _Context:
         self.colors = mesh.vertex_colors
         self.props = {k: v for k, v in mesh.vertex_props.items()
                       if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
-        flat = self.F.ravel()
-        self.vf_order = np.argsort(flat, kind="stable")
-        self.vf_start = np.searchsorted(flat[self.vf_order], np.arange(self.n + 1))
+        self.vf_order, self.vf_start = vertex_faces(self.F, self.n)
+        self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
+        self._fmark = np.zeros(len(self.F), bool)
+        self.planarity = {}  # loop id -> planarity measured by detect_holes
         self._index = None
+        self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
 
     @property
     def index(self):
@@ -144,17 +146,29 @@ class _Context:
         return uniq(self.vf_order[idx] // 3)
 
     def ring_faces(self, verts, rings):
-        faces = np.zeros(0, np.int64)
+        """Faces within ``rings`` rings of ``verts`` (sorted)."""
+        vm, fm = self._vmark, self._fmark
         front = uniq(verts)
-        seen = front
-        for _ in range(max(1, int(rings))):
-            faces = uniq(np.concatenate([faces, self.faces_of(front)]))
-            vs = uniq(self.F[faces])
-            front = vs[~np.isin(vs, seen, assume_unique=True)]
-            seen = vs
-            if front.size == 0:
-                break
-        return faces
+        vm[front] = True
+        marked_v, found = [front], []
+        try:
+            for _ in range(max(1, int(rings))):
+                f = self.faces_of(front)
+                f = f[~fm[f]]
+                fm[f] = True
+                found.append(f)
+                vs = uniq(self.F[f])
+                front = vs[~vm[vs]]
+                vm[front] = True
+                marked_v.append(front)
+                if front.size == 0:
+                    break
+        finally:
+            for a in marked_v:
+                vm[a] = False
+            for a in found:
+                fm[a] = False
+        return np.sort(np.concatenate(found)) if found else np.zeros(0, np.int64)
 
 
 def _rim_data(ctx, loop):
@@ -208,6 +222,58 @@ def _submesh(ctx, loop, Pl, T, rings):
     return g, np.vstack([Fr, Tp]).astype(np.int64), nf, loc_loop
 
 
+def _local_frame(ctx, loop, sigma):
+    """Origin, scale and scaled loop positions of a hole's local frame:
+    centred on the loop, in units of its mean rim edge."""
+    P = ctx.V[loop]
+    origin = P.mean(axis=0)
+    scale = float(np.mean(sigma))
+    if not np.isfinite(scale) or scale <= 0:
+        scale = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))) or 1.0
+    return origin, scale, (P - origin) / scale
+
+
+@dataclass
+class _Pre:
+    """A hole's first attempt up to refinement, done in a batch."""
+
+    loop: np.ndarray
+    rim: tuple
+    T0: np.ndarray | None = None
+    refined: tuple | None = None
+
+
+#: Holes whose first triangulation is refined together (see ``refine_patches``).
+BATCH = 24
+#: Loops longer than this are refined on their own.
+BATCH_MAX_LOOP = 400
+
+
+def _prefill(ctx, units):
+    """Rim data, triangulation and refinement of the single holes among
+    ``units``, the refinement as one batch (results identical to doing it
+    hole by hole); stored in ``ctx.pre`` for :func:`build_patch`."""
+    items, ids = [], []
+    for kind, args in units:
+        if kind != "one":
+            continue
+        hole_id, loop = args[0], np.asarray(args[1], np.int64)
+        rim = _rim_data(ctx, loop)
+        pre = _Pre(loop=loop, rim=rim)
+        ctx.pre[hole_id] = pre
+        sigma, edge_normals, forbidden = rim
+        _, scale, Pl = _local_frame(ctx, loop, sigma)
+        try:
+            pre.T0 = triangulate_loop(Pl, edge_normals, forbidden)
+        except MeshError:
+            continue  # build_patch meets the same error and reports it
+        if len(loop) <= BATCH_MAX_LOOP:
+            items.append((Pl, pre.T0, sigma / scale, len(loop), forbidden))
+            ids.append(hole_id)
+    for hole_id, refined in zip(ids, refine_patches(items)):
+        ctx.pre[hole_id].refined = refined
+
+
 def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
                 energy=False, pinned=None):
     """Build one hole's patch (no checks against the scan).
@@ -245,16 +311,17 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     """
     loop = np.asarray(loop, np.int64)
     k = len(loop)
-    P = ctx.V[loop]
-    origin = P.mean(axis=0)
-    sigma, edge_normals, forbidden = _rim_data(ctx, loop)
+    pre = ctx.pre.get(hole_id)
+    if pre is not None and not np.array_equal(pre.loop, loop):
+        pre = None
+    sigma, edge_normals, forbidden = pre.rim if pre is not None else _rim_data(ctx, loop)
+    origin, scale, Pl = _local_frame(ctx, loop, sigma)
     forbidden = forbidden | set(avoid)
-    scale = float(np.mean(sigma))
-    if not np.isfinite(scale) or scale <= 0:
-        scale = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))) or 1.0
-    Pl = (P - origin) / scale
+    fresh = pre is not None and not avoid  # the batch's first attempt applies
     if initial is not None:
         T = np.asarray(initial, np.int64)
+    elif fresh and pre.T0 is not None:
+        T = pre.T0
     else:
         try:
             T = triangulate_loop(Pl, edge_normals, forbidden)
@@ -262,7 +329,10 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
             raise PatchError(str(exc)) from None
     T0 = T
     if refine:
-        Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
+        if fresh and pre.refined is not None and np.array_equal(T, pre.T0):
+            Pl, T = pre.refined
+        else:
+            Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
     q = len(Pl) - k
     colors = None
     props = {}
@@ -372,10 +442,12 @@ EDGE_ON_COS = 0.35
 EDGE_ON_RINGS = 6
 
 
-def _meets_edge_on(ctx, loop):
+def _meets_edge_on(ctx, loop, hole_id=None):
     """Is the loop a planar opening whose surrounding walls stand across its plane?"""
     from .holes import loop_stats
 
+    if ctx.planarity.get(hole_id, 0.0) > EDGE_ON_PLANARITY:  # measured already: not planar
+        return False
     st = loop_stats(ctx.V, loop)
     if st["planarity"] > EDGE_ON_PLANARITY:
         return False
@@ -475,7 +547,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
     avoid = set()
     flat_ok = None
     options = [("faired", order)] + ([("harmonic", 1)] if order != 1 else [])
-    if order != 1 and _meets_edge_on(ctx, loop):
+    if order != 1 and _meets_edge_on(ctx, loop, hole_id):
         options = [("flat cap", 1)] + options
     faired_rounds = 0
     first = True
@@ -635,8 +707,17 @@ def _run_unit(ctx, unit):
     return _fill_pair(ctx, *args)
 
 
-def _worker(unit):
-    return _run_unit(_WORKER_CTX, unit)
+def _run_chunk(ctx, chunk):
+    """Fill a run of consecutive units (their first attempts batched)."""
+    try:
+        _prefill(ctx, chunk)
+        return [_run_unit(ctx, u) for u in chunk]
+    finally:
+        ctx.pre = {}
+
+
+def _worker(chunk):
+    return _run_chunk(_WORKER_CTX, chunk)
 
 
 def _find_bands(ctx, scan):
@@ -709,6 +790,7 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     _progress(progress, 2, 2, "finding holes")
     holes = scan.holes
     ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
+    ctx.planarity = {L.id: L.planarity for L in scan.loops}
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
@@ -721,22 +803,24 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         patches = _seed_patches(ctx, holes, smooth or SEED_SMOOTH_PASSES, results)
         unit_out = [([(patches.get(h.id), results.get(h.id, ""), 0.0, [])], None) for h in holes]
         units = [("one", (h.id, h.vertices, order, smooth)) for h in holes]
-    elif jobs > 1 and len(units) > 1:
-        global _WORKER_CTX
-        _ = ctx.index  # build before forking so workers share it
-        _WORKER_CTX = ctx
-        import multiprocessing as mp
-        with mp.get_context("fork").Pool(min(jobs, len(units))) as pool:
-            unit_out = []
-            for i, out in enumerate(pool.imap(_worker, units, chunksize=1)):
-                unit_out.append(out)
-                _progress(progress, i + 1, len(units))
-        _WORKER_CTX = None
     else:
+        # fixed runs of units, whatever ``jobs`` is, so the output is too
+        chunks = [units[i:i + BATCH] for i in range(0, len(units), BATCH)]
         unit_out = []
-        for i, u in enumerate(units):
-            unit_out.append(_run_unit(ctx, u))
-            _progress(progress, i + 1, len(units))
+        if jobs > 1 and len(chunks) > 1:
+            global _WORKER_CTX
+            _ = ctx.index  # build before forking so workers share it
+            _WORKER_CTX = ctx
+            import multiprocessing as mp
+            with mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
+                for out in pool.imap(_worker, chunks, chunksize=1):
+                    unit_out.extend(out)
+                    _progress(progress, len(unit_out), len(units))
+            _WORKER_CTX = None
+        else:
+            for chunk in chunks:
+                unit_out.extend(_run_chunk(ctx, chunk))
+                _progress(progress, len(unit_out), len(units))
     if progress and units and sys.stderr.isatty():  # end the bar's line
         print("", file=sys.stderr)
 

@@ -15,7 +15,7 @@ from scipy.sparse.csgraph import connected_components
 from .geometry import cross
 
 __all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components", "face_pieces", "face_areas",
-           "euler_characteristic"]
+           "euler_characteristic", "vertex_faces", "components_of_pieces"]
 
 
 @dataclass
@@ -164,6 +164,74 @@ def face_components(F, n_vertices):
     remap[order] = np.arange(order.size)
     vertex_comp = np.where(used, remap[lab], -1)
     return int(order.size), vertex_comp, remap[face_lab]
+
+
+def components_of_pieces(F, n_vertices, face_piece, n_pieces):
+    """:func:`face_components` from the pieces: pieces that share a vertex
+    are joined, on a graph of pieces rather than of all vertices.
+
+    Parameters
+    ----------
+    F : (m,3) int64 array
+    n_vertices : int
+    face_piece : (m,) int64
+        From :func:`face_pieces`.
+    n_pieces : int
+
+    Returns
+    -------
+    As :func:`face_components` (same labels).
+    """
+    F = np.asarray(F, np.int64)
+    n = int(n_vertices)
+    m = len(F)
+    flat = F.ravel()
+    corner_piece = np.repeat(np.asarray(face_piece, np.int64), 3)
+    some_piece = np.full(n, -1, np.int64)
+    some_piece[flat] = corner_piece          # one piece per vertex (any)
+    other = some_piece[flat]
+    cross_ = np.flatnonzero(corner_piece != other)   # corners where two pieces meet
+    if cross_.size:
+        A = sp.csr_matrix((np.ones(cross_.size, np.int8), (corner_piece[cross_], other[cross_])),
+                          shape=(n_pieces, n_pieces))
+        _, lab = connected_components(A, directed=False)
+    else:
+        lab = np.arange(n_pieces)
+    face_lab = lab[face_piece]
+    # number components in order of their first face
+    first = np.full(int(lab.max(initial=-1)) + 1, m, np.int64)
+    np.minimum.at(first, face_lab, np.arange(m))
+    have = np.flatnonzero(first < m)
+    order = have[np.argsort(first[have], kind="stable")]
+    remap = np.full(first.size, -1, np.int64)
+    remap[order] = np.arange(order.size)
+    face_comp = remap[face_lab]
+    vertex_comp = np.full(n, -1, np.int64)
+    vertex_comp[flat] = np.repeat(face_comp, 3)
+    return int(order.size), vertex_comp, face_comp
+
+
+def vertex_faces(F, n_vertices):
+    """Vertex-to-face lists.
+
+    Parameters
+    ----------
+    F : (m,3) int64 array
+    n_vertices : int
+
+    Returns
+    -------
+    order : (3m,) int64
+        Positions in ``F.ravel()`` grouped by vertex (in order within a
+        vertex); ``order // 3`` are the faces.
+    start : (n+1,) int64
+        Vertex v's entries are ``order[start[v]:start[v+1]]``.
+    """
+    flat = np.asarray(F, np.int64).ravel()
+    n = int(n_vertices)
+    # a counting sort by vertex: SciPy's COO -> CSR conversion, stable within a row
+    A = sp.csr_matrix((np.ones(flat.size, np.int8), (flat, np.arange(flat.size))), shape=(n, flat.size))
+    return A.indices.astype(np.int64), A.indptr.astype(np.int64)
 
 
 def face_pieces(topo, n_faces):
