@@ -27,6 +27,9 @@ time is recorded as such and the rest go on:
 * ``detect``: :func:`shellrepair.holes.detect_holes` on the arrays;
 * ``fill-j1``, ``fill-j2``: :func:`shellrepair.repair.repair_mesh` with
   ``jobs`` 1 and 2 (includes its own detection, setup and merge);
+* ``fill-j1-hp``: ``fill-j1`` with NumPy's default huge-page advice left
+  on (every other step turns it off, as the command line does: see
+  :func:`shellrepair.cli.quiet_hugepages`);
 * ``write``: :func:`shellrepair.io.write_mesh` of the repaired mesh (binary PLY).
 
 Per step: ``seconds`` is the wall time of the call alone (not the
@@ -245,10 +248,16 @@ def run_child(step, case_dir, out_json, profile=None):
     """Body of ``--child``: load the step's input, run it, write the result JSON."""
     import resource
 
+    from shellrepair.cli import quiet_hugepages
     from shellrepair.io import Mesh
 
-    d = Path(case_dir)
     res = {"step": step}
+    if step.endswith("-hp"):  # NumPy's default: large arrays advised for huge pages
+        step = step[:-3]
+    else:
+        quiet_hugepages()  # as the command line does
+
+    d = Path(case_dir)
     if step == "read":
         pass
     elif step == "detect":
@@ -559,7 +568,7 @@ def targets(result):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", default=",".join(SIZES), help=f"cases, comma-separated from {', '.join(SIZES)}")
-    ap.add_argument("--steps", default="read,detect,fill-j1,fill-j2,write")
+    ap.add_argument("--steps", default="read,detect,fill-j1,fill-j2,fill-j1-hp,write")
     ap.add_argument("--timeout", type=float, default=STEP_TIMEOUT, help="seconds per step")
     ap.add_argument("--peer-timeout", type=float, default=PEER_TIMEOUT)
     ap.add_argument("--no-peers", action="store_true")

@@ -16,12 +16,20 @@ the tool's ``info``, the wall seconds of the whole call and the peak memory.
 Peak memory is the growth of the child's resident set during the call
 above what was live before it (the input arrays): before the call the
 child collects garbage and hands freed heap pages back to the system
-(``malloc_trim``; children start with a fixed ``MALLOC_MMAP_THRESHOLD_`` so
-large arrays are mapped and unmapped, not kept in the heap), then resets
+(``malloc_trim``, which also releases free pages inside the heap, so
+memory reused from an earlier case counts again when touched), then resets
 the kernel's high-water mark (``VmHWM``) by writing ``5`` to
 ``/proc/self/clear_refs`` (Linux >= 4.0). Where that is not possible,
 ``ru_maxrss`` is used, which is the peak over the child's life, and
 ``memory_method`` says so.
+
+Children run with the allocator's and NumPy's settings as a user's
+process has them, except that NumPy's huge-page advice is off in every
+child, as the command line turns it off (see
+:func:`shellrepair.cli.quiet_hugepages`). (An earlier version forced
+glibc's mmap threshold to 1 MB in the children, so every large temporary
+array was mapped afresh: that cost NumPy-heavy tools about a third of
+their time and C++ tools little, so it is gone.)
 
 Before serving, the child runs the tool once on a tiny perforated sphere,
 so one-time start-up is not charged to the first case.
@@ -42,11 +50,6 @@ import numpy as np
 
 __all__ = ["ToolRunner", "peak_memory_reset", "peak_memory_mb"]
 
-#: glibc's mmap threshold in the children (bytes): allocations above it are
-#: mapped and returned to the system when freed, so a case does not reuse
-#: the previous case's heap and hide its own peak.
-MMAP_ENV = "MALLOC_MMAP_THRESHOLD_"
-MMAP_THRESHOLD = 1 << 20
 
 
 def _status_kb(key):
@@ -113,6 +116,9 @@ def _serve(conn, tool, log_path):
     os.dup2(fd, 1)
     os.dup2(fd, 2)
     from eval import peers
+    from shellrepair.cli import quiet_hugepages
+
+    quiet_hugepages()  # as the command line does; the same for every tool's child
 
     _warm_up(peers, tool)
     while True:
@@ -167,15 +173,7 @@ class ToolRunner:
         parent, child = self._ctx.Pipe()
         log = str(self.tmp / f"{self.tool}.log")
         self.proc = self._ctx.Process(target=_serve, args=(child, self.tool, log), daemon=True)
-        old = os.environ.get(MMAP_ENV)
-        os.environ[MMAP_ENV] = str(MMAP_THRESHOLD)
-        try:
-            self.proc.start()
-        finally:
-            if old is None:
-                os.environ.pop(MMAP_ENV, None)
-            else:
-                os.environ[MMAP_ENV] = old
+        self.proc.start()
         child.close()
         self.conn = parent
 

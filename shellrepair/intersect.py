@@ -191,6 +191,9 @@ class NearFaces:
     vf : (order, start), optional
         Vertex-to-face lists: ``order`` sorts ``F.ravel()`` by vertex,
         ``start[v]:start[v+1]`` are vertex v's entries (built if not given).
+    topo : EdgeTopology, optional
+        The mesh's edges (:func:`shellrepair.topology.edge_topology`): edge
+        lengths are then measured once per edge, not once per face corner.
     """
 
     #: Triangles whose longest edge exceeds this many times the median are "big".
@@ -198,21 +201,29 @@ class NearFaces:
     #: Query triangles × near faces up to which pairs are found by brute force.
     BRUTE = 2_000_000
 
-    def __init__(self, V, F, origin=None, vf=None):
+    def __init__(self, V, F, origin=None, vf=None, topo=None):
         self.V = np.asarray(V, np.float64)
         self.F = np.asarray(F, np.int64)
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
         V, F = self.V, self.F
-        longest = np.zeros(len(F))  # squared
-        for a, b in ((0, 1), (1, 2), (2, 0)):
-            d = V[F[:, a]] - V[F[:, b]]
-            np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
-        del d
-        med = float(np.median(longest[:: max(1, len(F) // 100_000)])) if len(F) else 0.0
-        big = longest > self.BIG ** 2 * med if med > 0 else np.zeros(len(F), bool)
-        self.big = np.flatnonzero(big)
-        self.grow = float(np.sqrt(longest[~big].max(initial=0.0)))
-        del longest
+        if topo is not None and len(topo.edges):
+            d = V[topo.edges[:, 0]] - V[topo.edges[:, 1]]
+            L2 = np.einsum("ij,ij->i", d, d)   # squared, per edge
+            del d
+            med = float(np.median(L2[:: max(1, len(L2) // 300_000)]))
+            big_edge = L2 > self.BIG ** 2 * med if med > 0 else np.zeros(len(L2), bool)
+            self.big = np.unique(np.flatnonzero(big_edge[topo.edge_of_he]) // 3)
+            self.grow = float(np.sqrt(L2[~big_edge].max(initial=0.0)))  # bounds every other face
+        else:
+            longest = np.zeros(len(F))  # squared, per face
+            for a, b in ((0, 1), (1, 2), (2, 0)):
+                d = V[F[:, a]] - V[F[:, b]]
+                np.maximum(longest, np.einsum("ij,ij->i", d, d), out=longest)
+            med = float(np.median(longest[:: max(1, len(F) // 100_000)])) if len(F) else 0.0
+            big = longest > self.BIG ** 2 * med if med > 0 else np.zeros(len(F), bool)
+            self.big = np.flatnonzero(big)
+            self.grow = float(np.sqrt(longest[~big].max(initial=0.0)))
+            del longest
         lo = V[:, :2].min(axis=0) if len(V) else np.zeros(2)
         span = float(np.ptp(V[:, :2], axis=0).max()) if len(V) else 0.0
         # columns of about four longest edges, at most ~4096 a side
@@ -282,8 +293,12 @@ class NearFaces:
         c = T.mean(axis=1)
         r = np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
         if len(C) * len(f) <= self.BRUTE:
-            d2 = np.sum((C[:, None, :] - c[None]) ** 2, axis=2)
-            ai, bj = np.nonzero(d2 <= (R[:, None] + r[None]) ** 2)
+            # |C − c|² by one product; the slack covers its round-off (a
+            # superset of pairs is fine: they are tested exactly after)
+            nC, nc = np.einsum("ij,ij->i", C, C), np.einsum("ij,ij->i", c, c)
+            d2 = nC[:, None] + nc[None, :] - 2.0 * (C @ c.T)
+            reach = (R[:, None] + r[None, :]) ** 2 + 1e-9 * (nC[:, None] + nc[None, :])
+            ai, bj = np.nonzero(d2 <= reach)
             return ai.astype(np.int64), f[bj]
         lists = cKDTree(c).query_ball_point(C, R + r.max(), return_sorted=False)
         cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))

@@ -127,13 +127,15 @@ class _Context:
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
         self.planarity = {}  # loop id -> planarity measured by detect_holes
+        self.topo = None     # the mesh's EdgeTopology, when the caller has it
         self._index = None
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
 
     @property
     def index(self):
         if self._index is None:
-            self._index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=(self.vf_order, self.vf_start))
+            self._index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=(self.vf_order, self.vf_start),
+                                    topo=self.topo)
         return self._index
 
     def faces_of(self, verts):
@@ -791,6 +793,7 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     holes = scan.holes
     ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
+    ctx.topo = topo
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
