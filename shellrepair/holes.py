@@ -315,27 +315,36 @@ def _diameter(Q, chunk=2048):
     return float(np.sqrt(best))
 
 
-def _inside_fraction(V, loop, axis, center, cent, w):
+def _inside_fractions(V, loops, axes, centers, cent, w, chunk=64):
     """Area fraction of sample points (face centroids ``cent`` with areas
-    ``w``) that fall inside the loop's outline seen along ``axis``."""
+    ``w``) inside each loop's outline seen along its axis; the projections
+    of the samples are made for ``chunk`` loops at a time, by one product."""
     from skimage.measure import points_in_poly
 
-    a = axis / np.linalg.norm(axis)
-    t = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(a, t)
-    u /= np.linalg.norm(u)
-    v = np.cross(a, u)
-    P = V[loop] - center
-    poly = np.column_stack([P @ u, P @ v])
-    X = cent - center
-    pts = np.column_stack([X @ u, X @ v])
-    lo, hi = poly.min(axis=0), poly.max(axis=0)
-    box = np.flatnonzero(np.all((pts >= lo) & (pts <= hi), axis=1))  # only these can be inside
-    tot = w.sum()
-    if box.size == 0 or tot <= 0:
-        return 0.0
-    inside = points_in_poly(pts[box], poly)
-    return float(w[box[inside]].sum() / tot)
+    out = np.zeros(len(loops))
+    tot = float(w.sum())
+    if not len(loops) or tot <= 0:
+        return out
+    a = np.asarray(axes, np.float64)
+    a = a / np.linalg.norm(a, axis=1, keepdims=True)
+    t = np.where((np.abs(a[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    U = np.cross(a, t)
+    U /= np.linalg.norm(U, axis=1, keepdims=True)
+    W = np.cross(a, U)
+    C = np.asarray(centers, np.float64)
+    for s in range(0, len(loops), chunk):
+        sl = slice(s, s + chunk)
+        PU = U[sl] @ cent.T - np.sum(U[sl] * C[sl], axis=1)[:, None]   # (c, N)
+        PW = W[sl] @ cent.T - np.sum(W[sl] * C[sl], axis=1)[:, None]
+        for j, i in enumerate(range(s, min(s + chunk, len(loops)))):
+            P = V[loops[i]] - C[i]
+            poly = np.column_stack([P @ U[i], P @ W[i]])
+            lo, hi = poly.min(axis=0), poly.max(axis=0)
+            box = np.flatnonzero((PU[j] >= lo[0]) & (PU[j] <= hi[0]) & (PW[j] >= lo[1]) & (PW[j] <= hi[1]))
+            if box.size:  # only these can be inside
+                inside = points_in_poly(np.column_stack([PU[j, box], PW[j, box]]), poly)
+                out[i] = float(w[box[inside]].sum() / tot)
+    return out
 
 
 def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTER_FRACTION, topo=None):
@@ -374,22 +383,32 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
                     n_boundary_edges=topo.n_boundary_edges,
                     n_nonmanifold_edges=int(topo.nonmanifold_edges.shape[0]),
                     euler=int(nv_used - topo.edges.shape[0] + F.shape[0]))
-    samples = {}
+    stats, pieces = [], []
     for i, lp in enumerate(loops):
         st = loop_stats(V, lp)
         comp = int(vcomp[lp[0]])
         piece = int(fpiece[he_face[(int(lp[0]), int(lp[1]))]])
-        L = Loop(id=i, vertices=lp, edges=int(lp.size), perimeter=st["perimeter"],
-                 mean_edge=st["mean_edge"], area=st["area"], diameter=st["diameter"],
-                 planarity=st["planarity"], component=comp, piece_area=float(piece_area[piece]))
-        if piece not in samples:
-            fidx = np.flatnonzero(fpiece == piece)
-            if fidx.size > OUTER_SAMPLES:
-                rng = np.random.default_rng(piece)
-                fidx = np.sort(rng.choice(fidx, OUTER_SAMPLES, replace=False))
-            samples[piece] = (V[F[fidx]].mean(axis=1), A[fidx])
-        cent, w = samples[piece]
-        L.inside_fraction = _inside_fraction(V, lp, st["axis"], st["center"], cent, w)
+        stats.append(st)
+        pieces.append(piece)
+        scan.loops.append(Loop(id=i, vertices=lp, edges=int(lp.size), perimeter=st["perimeter"],
+                               mean_edge=st["mean_edge"], area=st["area"], diameter=st["diameter"],
+                               planarity=st["planarity"], component=comp, piece_area=float(piece_area[piece])))
+    # rule 2 needs each loop's piece seen along its axis: sample the piece once
+    wanted = sorted(set(pieces))
+    if len(wanted) > 4:  # many pieces (debris): group the faces by piece once
+        by_piece = np.argsort(fpiece, kind="stable")
+        bounds = np.searchsorted(fpiece[by_piece], np.arange(n_piece + 1))
+    for piece in wanted:
+        idx = [i for i, p in enumerate(pieces) if p == piece]
+        fidx = by_piece[bounds[piece]:bounds[piece + 1]] if len(wanted) > 4 else np.flatnonzero(fpiece == piece)
+        if fidx.size > OUTER_SAMPLES:
+            rng = np.random.default_rng(piece)
+            fidx = np.sort(rng.choice(fidx, OUTER_SAMPLES, replace=False))
+        frac = _inside_fractions(V, [loops[i] for i in idx], [stats[i]["axis"] for i in idx],
+                                 [stats[i]["center"] for i in idx], V[F[fidx]].mean(axis=1), A[fidx])
+        for i, f in zip(idx, frac):
+            scan.loops[i].inside_fraction = float(f)
+    for L in scan.loops:
         if max_hole is not None and L.edges > int(max_hole):
             L.kind, L.reason = "border", f"larger than --max-hole {int(max_hole)} edges"
         elif fill_borders:
@@ -403,5 +422,4 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
             L.reason = "filling would invent more surface than its piece has"
         else:
             L.kind, L.reason = "hole", "closed by the surrounding surface"
-        scan.loops.append(L)
     return scan

@@ -243,6 +243,7 @@ class _Pre:
     rim: tuple
     T0: np.ndarray | None = None
     refined: tuple | None = None
+    edge_on: bool | None = None     # _meets_edge_on, when the unit's order asked for it
 
 
 #: Holes whose first triangulation is refined together (see ``refine_patches``).
@@ -259,10 +260,12 @@ def _prefill(ctx, units):
     for kind, args in units:
         if kind != "one":
             continue
-        hole_id, loop = args[0], np.asarray(args[1], np.int64)
+        hole_id, loop, order = args[0], np.asarray(args[1], np.int64), args[2]
         rim = _rim_data(ctx, loop)
         pre = _Pre(loop=loop, rim=rim)
         ctx.pre[hole_id] = pre
+        if order != 1:
+            pre.edge_on = _meets_edge_on(ctx, loop, hole_id)
         sigma, edge_normals, forbidden = rim
         _, scale, Pl = _local_frame(ctx, loop, sigma)
         try:
@@ -549,7 +552,10 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
     avoid = set()
     flat_ok = None
     options = [("faired", order)] + ([("harmonic", 1)] if order != 1 else [])
-    if order != 1 and _meets_edge_on(ctx, loop, hole_id):
+    pre = ctx.pre.get(hole_id)
+    edge_on = pre.edge_on if pre is not None and pre.edge_on is not None and np.array_equal(pre.loop, loop) \
+        else (order != 1 and _meets_edge_on(ctx, loop, hole_id))
+    if order != 1 and edge_on:
         options = [("flat cap", 1)] + options
     faired_rounds = 0
     first = True
