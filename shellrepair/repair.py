@@ -732,11 +732,29 @@ def _find_bands(ctx, scan):
     """Candidate band pairs among all loops (holes and borders)."""
     from .bridge import band_pairs, continuation_direction
 
+    from .bridge import MAX_GAP, MAX_SIZE_RATIO
+
     loops = scan.loops
+    if len(loops) < 2:
+        return []
+    centres = np.array([ctx.V[L.vertices].mean(axis=0) for L in loops])
+    diam = np.array([L.diameter for L in loops])
+    per = np.array([L.perimeter for L in loops])
+    # only loops with a partner close and alike enough can pair (band_pairs'
+    # gap and size rules): measure the continuation direction of those alone
+    near = np.zeros(len(loops), bool)
+    for s in range(0, len(loops), 1024):
+        d = np.linalg.norm(centres[s:s + 1024, None] - centres[None], axis=2)
+        ok = (d > 0) & (d <= MAX_GAP * np.maximum(diam[s:s + 1024, None], diam[None])) \
+            & (np.maximum(per[s:s + 1024, None], per[None]) <= MAX_SIZE_RATIO * np.minimum(per[s:s + 1024, None], per[None]))
+        near[s:s + 1024] = ok.any(axis=1)
     dirs = []
-    for L in loops:
-        ring = ctx.F[ctx.faces_of(L.vertices)]
-        dirs.append((ctx.V[L.vertices].mean(axis=0), continuation_direction(ctx.V, ring, L.vertices)))
+    for L, c, cand in zip(loops, centres, near):
+        if cand:
+            ring = ctx.F[ctx.faces_of(L.vertices)]
+            dirs.append((c, continuation_direction(ctx.V, ring, L.vertices)))
+        else:
+            dirs.append((c, np.zeros(3)))
     pairs = band_pairs(loops, dirs)
     return [(loops[i], loops[j], sc) for i, j, sc in pairs]
 
