@@ -58,6 +58,9 @@ class OrientResult:
         consistently.
     notes : list of str
         One line per thing done, for the load report.
+    topo : EdgeTopology or None
+        The edge topology of the returned ``F`` when no face was flipped
+        (it was built for the input), for callers to reuse; else None.
     """
 
     F: np.ndarray
@@ -65,6 +68,7 @@ class OrientResult:
     n_pieces: int
     nonorientable: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    topo: object = None
 
     @property
     def n_flipped(self):
@@ -82,11 +86,8 @@ def _manifold_face_pairs(F, topo):
         True when both faces use the edge in the same direction, so exactly
         one of them must be flipped.
     """
-    e = topo.edge_of_he
-    manifold = topo.edge_count[e] == 2
-    he_ids = np.flatnonzero(manifold)
-    order = np.argsort(e[he_ids], kind="stable")
-    he_ids = he_ids[order]
+    he_ids = topo.he_order  # half-edges grouped by edge
+    he_ids = he_ids[topo.edge_count[topo.edge_of_he[he_ids]] == 2]
     h1, h2 = he_ids[0::2], he_ids[1::2]  # the two half-edges of each manifold edge
     differ = topo.he[h1, 0] == topo.he[h2, 0]
     return h1 // 3, h2 // 3, differ
@@ -201,7 +202,8 @@ def _finish(F, V, topo, f, g, piece, first, n_pieces, flip, nonorientable_pieces
     out = F.copy()
     out[flip, 1], out[flip, 2] = F[flip, 2], F[flip, 1]
     res = OrientResult(F=out, flipped=flip, n_pieces=int(n_pieces),
-                       nonorientable=[int(first[p]) for p in nonorientable_pieces])
+                       nonorientable=[int(first[p]) for p in nonorientable_pieces],
+                       topo=None if flip.any() else topo)
     if res.n_flipped:
         res.notes.append(f"{res.n_flipped} faces flipped for consistent orientation")
     if res.nonorientable:

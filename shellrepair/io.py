@@ -95,6 +95,14 @@ class Mesh:
     vertex_dtype: str = "f8"
     path: str | None = None
     notes: list = field(default_factory=list)
+    _topology: tuple | None = field(default=None, repr=False, compare=False)
+
+    def cached_topology(self):
+        """The edge topology ``read_mesh`` built for ``F``, or None (when it
+        built none, or ``F`` has been replaced since)."""
+        if self._topology is None or self._topology[0] is not self.F:
+            return None
+        return self._topology[1]
 
     @property
     def n_vertices(self):
@@ -177,7 +185,9 @@ def read_mesh(path, *, clean=True, orient=True):
         res = orient_faces(mesh.F, mesh.V)
         mesh.F = res.F
         mesh.notes.extend(res.notes)
-    unused = mesh.n_vertices - int(np.unique(mesh.F).size)
+        if res.topo is not None:  # built for these faces: a repair reuses it
+            mesh._topology = (mesh.F, res.topo)
+    unused = mesh.n_vertices - _used_vertex_count(mesh.F, mesh.n_vertices)
     if unused:
         mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes)")
     zero = _zero_area_count(mesh.V, mesh.F)
@@ -381,12 +391,18 @@ def _validate(mesh):
                         f"out of range 0..{V.shape[0] - 1}")
 
 
+def _used_vertex_count(F, n):
+    used = np.zeros(int(n), bool)
+    used[np.asarray(F).ravel()] = True
+    return int(used.sum())
+
+
 def _zero_area_count(V, F):
     if len(F) == 0:
         return 0
-    e1 = V[F[:, 1]] - V[F[:, 0]]
-    e2 = V[F[:, 2]] - V[F[:, 0]]
-    return int((np.linalg.norm(np.cross(e1, e2), axis=1) == 0).sum())
+    T = V[F]  # one gather
+    c = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    return int(np.count_nonzero(~c.any(axis=1)))
 
 
 def _polygons_to_triangles(polys, notes, V=None):

@@ -810,7 +810,9 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     V = np.asarray(mesh.V, np.float64)
     F = np.asarray(mesh.F, np.int64)
     _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
-    topo = edge_topology(F, len(V))
+    topo = mesh.cached_topology() if hasattr(mesh, "cached_topology") else None
+    if topo is None or topo.he.shape[0] != 3 * len(F):
+        topo = edge_topology(F, len(V))
     _progress(progress, 1, 2, "finding holes")
     scan = detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo)
     _progress(progress, 2, 2, "finding holes")
