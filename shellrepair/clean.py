@@ -86,9 +86,11 @@ def _manifold_face_pairs(F, topo):
         True when both faces use the edge in the same direction, so exactly
         one of them must be flipped.
     """
-    he_ids = topo.he_order  # half-edges grouped by edge
-    he_ids = he_ids[topo.edge_count[topo.edge_of_he[he_ids]] == 2]
-    h1, h2 = he_ids[0::2], he_ids[1::2]  # the two half-edges of each manifold edge
+    # he_order groups the half-edges by edge, in edge order: a manifold
+    # edge's two half-edges are the two entries of its group
+    start = np.cumsum(topo.edge_count) - topo.edge_count
+    two = start[topo.edge_count == 2]
+    h1, h2 = topo.he_order[two], topo.he_order[two + 1]
     differ = topo.he[h1, 0] == topo.he[h2, 0]
     return h1 // 3, h2 // 3, differ
 
