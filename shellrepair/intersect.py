@@ -199,7 +199,7 @@ class NearFaces:
     #: Triangles whose longest edge exceeds this many times the median are "big".
     BIG = 8.0
     #: Query triangles × near faces up to which pairs are found by brute force.
-    BRUTE = 2_000_000
+    BRUTE = 50000
 
     def __init__(self, V, F, origin=None, vf=None, topo=None):
         self.V = np.asarray(V, np.float64)

@@ -41,7 +41,9 @@ def test_closed_sphere_has_no_self_intersections_and_a_dent_through_it_has():
 def test_near_faces_finds_what_the_whole_mesh_index_finds_and_looks_only_nearby():
     V, F = shapes.grid(60, 60)   # a flat sheet in z = 0 on [0, 1]^2
     full = TriangleIndex(V, F)
-    nears = (NearFaces(V, F), NearFaces(V, F, topo=edge_topology(F, len(V))))
+    tree = NearFaces(V, F)
+    tree.BRUTE = 0   # pairs through its k-d tree path, not the brute-force product
+    nears = (NearFaces(V, F), NearFaces(V, F, topo=edge_topology(F, len(V))), tree)
     for near in nears:
         assert near.faces_near([0.0, 0.0, -0.1], [0.1, 0.1, 0.1]).size < len(F) / 10
     rng = np.random.default_rng(3)
@@ -49,7 +51,8 @@ def test_near_faces_finds_what_the_whole_mesh_index_finds_and_looks_only_nearby(
     hits = 0
     for _ in range(40):
         c = np.append(rng.uniform(0, 1, 2), rng.uniform(-0.05, 0.05))
-        probe = c + rng.normal(scale=0.03, size=(1, 3, 3))
+        probe = c + rng.normal(scale=0.03, size=(3, 3, 3))
+        ids = -1 - np.arange(9).reshape(3, 3)
         n = patch_vs_index(probe, ids, full)
         assert all(patch_vs_index(probe, ids, near) == n for near in nears)
         hits += n
