@@ -23,9 +23,19 @@ curvature-variation energy.
 Then every accepted patch is appended: original vertices keep their index
 and exact values, new vertices and faces come after them and are flagged
 ``filled``; vertex colours (and other vertex properties) are interpolated
-harmonically from the rim. Holes are filled one by one or by ``jobs``
-processes; the checks between patches and the merge run afterwards in hole
-order, so the output does not depend on ``jobs``.
+harmonically from the rim. Holes are filled in runs of ``BATCH``
+consecutive holes, one run at a time or by ``jobs`` processes; within a run
+the first attempt's rim data, triangulation and refinement are done for all
+its holes at once (the refinement as one disjoint union, with the same
+result as hole by hole). The checks between patches and the merge run
+afterwards in hole order, so the output does not depend on ``jobs``.
+
+Whole-mesh structures (edges, vertex-to-face lists, the faces near a box)
+are built once, vectorised; a patch is checked against the scan faces near
+its own box only (:class:`~shellrepair.intersect.NearFaces`), and against
+itself by a projection certificate where one holds
+(:func:`~shellrepair.intersect.embeds_by_projection`), pair by pair
+otherwise.
 
 ``method="seed"`` is the paper's simple shape model for comparison: close
 each hole with the same triangulation, smooth a duplicate of the whole
@@ -730,9 +740,7 @@ def _worker(chunk):
 
 def _find_bands(ctx, scan):
     """Candidate band pairs among all loops (holes and borders)."""
-    from .bridge import band_pairs, continuation_direction
-
-    from .bridge import MAX_GAP, MAX_SIZE_RATIO
+    from .bridge import MAX_GAP, MAX_SIZE_RATIO, band_pairs, continuation_direction
 
     loops = scan.loops
     if len(loops) < 2:
@@ -744,10 +752,11 @@ def _find_bands(ctx, scan):
     # gap and size rules): measure the continuation direction of those alone
     near = np.zeros(len(loops), bool)
     for s in range(0, len(loops), 1024):
-        d = np.linalg.norm(centres[s:s + 1024, None] - centres[None], axis=2)
-        ok = (d > 0) & (d <= MAX_GAP * np.maximum(diam[s:s + 1024, None], diam[None])) \
-            & (np.maximum(per[s:s + 1024, None], per[None]) <= MAX_SIZE_RATIO * np.minimum(per[s:s + 1024, None], per[None]))
-        near[s:s + 1024] = ok.any(axis=1)
+        sl = slice(s, s + 1024)
+        d = np.linalg.norm(centres[sl, None] - centres[None], axis=2)
+        close = (d > 0) & (d <= MAX_GAP * np.maximum(diam[sl, None], diam[None]))
+        alike = np.maximum(per[sl, None], per[None]) <= MAX_SIZE_RATIO * np.minimum(per[sl, None], per[None])
+        near[sl] = (close & alike).any(axis=1)
     dirs = []
     for L, c, cand in zip(loops, centres, near):
         if cand:
