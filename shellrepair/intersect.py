@@ -207,9 +207,11 @@ class NearFaces:
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
         V, F = self.V, self.F
         if topo is not None and len(topo.edges):
-            d = V[topo.edges[:, 0]] - V[topo.edges[:, 1]]
-            L2 = np.einsum("ij,ij->i", d, d)   # squared, per edge
-            del d
+            E = topo.edges
+            L2 = np.empty(len(E))   # squared, per edge; in chunks that stay in cache
+            for s in range(0, len(E), 1 << 16):
+                d = V[E[s:s + (1 << 16), 0]] - V[E[s:s + (1 << 16), 1]]
+                L2[s:s + (1 << 16)] = np.einsum("ij,ij->i", d, d)
             med = float(np.median(L2[:: max(1, len(L2) // 300_000)]))
             big_edge = L2 > self.BIG ** 2 * med if med > 0 else np.zeros(len(L2), bool)
             self.big = np.unique(np.flatnonzero(big_edge[topo.edge_of_he]) // 3)

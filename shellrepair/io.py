@@ -400,9 +400,12 @@ def _used_vertex_count(F, n):
 def _zero_area_count(V, F):
     if len(F) == 0:
         return 0
-    T = V[F]  # one gather
-    c = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
-    return int(np.count_nonzero(~c.any(axis=1)))
+    zero = 0
+    for s in range(0, len(F), 1 << 16):  # chunks: temporaries that stay in cache
+        T = V[F[s:s + (1 << 16)]]
+        c = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+        zero += int(np.count_nonzero(~c.any(axis=1)))
+    return zero
 
 
 def _polygons_to_triangles(polys, notes, V=None):
