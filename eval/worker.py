@@ -28,8 +28,9 @@ process has them, except that NumPy's huge-page advice is off in every
 child, as the command line turns it off (see
 :func:`shellrepair.cli.quiet_hugepages`). (An earlier version forced
 glibc's mmap threshold to 1 MB in the children, so every large temporary
-array was mapped afresh: that cost NumPy-heavy tools about a third of
-their time and C++ tools little, so it is gone.)
+array was mapped afresh: on a 1M-face case that cost our fill and
+MeshLib's alike about a quarter of their time, which no user pays, so it
+is gone.)
 
 Before serving, the child runs the tool once on a tiny perforated sphere,
 so one-time start-up is not charged to the first case.

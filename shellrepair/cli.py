@@ -31,9 +31,9 @@ def quiet_hugepages():
 
     Where transparent huge pages are in ``madvise`` mode (Ubuntu's default,
     and the machine our benchmarks run on) the first touch of each advised
-    array can wait for the kernel to compact memory. Measured here: filling
-    a fresh 400 MB array took 0.68–1.04 s advised and 0.14 s not, and a
-    1M-face repair lost about 0.45 s of 2.6 s to it. The command line
+    array can wait for the kernel to compact memory (BENCHMARKS.md, the
+    ``fill-j1-hp`` rows of the scale benchmark: a fifth to a quarter of a
+    large repair's time on our machine). The command line
     turns the advice off for its own process; a script can set
     ``NUMPY_MADVISE_HUGEPAGE=0`` before importing NumPy. Harmless where
     the private NumPy switch is missing.
