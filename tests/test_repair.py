@@ -119,6 +119,26 @@ def test_output_is_deterministic_and_independent_of_jobs():
         assert np.array_equal(R1.V, R.V) and np.array_equal(R1.F, R.F)
 
 
+def test_batches_and_jobs_do_not_change_the_output(monkeypatch):
+    """Holes go in runs of ``BATCH`` whose first attempts are computed
+    together; the runs are shared among ``jobs`` processes. Neither the run
+    length nor the number of processes may change a single bit."""
+    import shellrepair.repair as repair
+
+    V, F = shapes.bumpy_sphere(4, amplitude=0.02, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=30, radius=0.09, seed=5)
+    mesh = Mesh(V=V2, F=F2)
+    R1, rep1 = repair_mesh(mesh)
+    assert rep1["holes_before"] > repair.BATCH and rep1["holes_after"] == 0
+    outs = [repair_mesh(mesh, jobs=2)[0]]
+    for batch in (1, 7):
+        monkeypatch.setattr(repair, "BATCH", batch)
+        outs += [repair_mesh(mesh)[0], repair_mesh(mesh, jobs=2)[0]]
+    for R in outs:
+        assert np.array_equal(R1.V, R.V) and np.array_equal(R1.F, R.F)
+        assert np.array_equal(R1.face_filled, R.face_filled)
+
+
 def test_large_offset_and_scale_give_the_same_relative_result():
     V, F = shapes.icosphere(4)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=3)
