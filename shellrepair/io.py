@@ -99,7 +99,9 @@ class Mesh:
 
     def cached_topology(self):
         """The edge topology ``read_mesh`` built for ``F``, or None (when it
-        built none, or ``F`` has been replaced since)."""
+        built none, or ``F`` has been replaced since). Editing ``F`` in
+        place is not noticed: assign a new array instead (or set
+        ``mesh._topology = None``)."""
         if self._topology is None or self._topology[0] is not self.F:
             return None
         return self._topology[1]
