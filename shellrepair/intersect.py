@@ -175,12 +175,13 @@ class NearFaces:
 
     Vertices are bucketed once in columns of a grid in x and y (one sort
     by column); a query box takes the columns it spans, keeps the vertices
-    inside it, and the faces using them (vertex-to-face lists). A face that meets the box has every
-    vertex within its longest edge of it, so the box is grown by the
-    longest edge first; the few triangles much longer than the rest are
+    inside it, and the faces using them (vertex-to-face lists). A face that
+    meets the box has every vertex within its longest edge of it, so the
+    box is grown by the longest edge first; the few triangles much longer than the rest are
     kept apart and tested against every query, so that they do not grow
-    every box. Building costs two sorts; a query costs its slab, so the
-    check of a small hole in a large scan stays small.
+    every box (so a scan with very many such triangles makes every query
+    pay for them). Building costs two sorts; a query costs the columns its
+    box spans, so the check of a small hole in a large scan stays small.
 
     Parameters
     ----------
