@@ -180,68 +180,129 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
 
 
 def _relax(P, T, is_loop, forb, max_rounds=100):
-    """Body of :func:`relax_edges` (``forb`` (f,2) forbidden chords)."""
+    """Body of :func:`relax_edges` (``forb`` (f,2) forbidden chords).
+
+    One sort pairs the half-edges; flips then update the pairing (twins)
+    in place, and each round looks only at the edges that may have become
+    candidates: those of the faces the last round changed, and the
+    candidates it left unflipped. Every other edge keeps both its faces
+    and so its verdict; the round's choice is the one a full pass would
+    make (candidates in edge-key order, as a full pass lists them)."""
     n = len(P)
     nt = len(T)
     if nt < 2:
         return T
     forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
+    nxt = np.array([1, 2, 0])
+    # pair the half-edges once: half-edge 3f+c runs T[f,c] -> T[f,(c+1)%3]
+    src = T.ravel()
+    dst = T[:, [1, 2, 0]].ravel()
+    key = np.minimum(src, dst) * n + np.maximum(src, dst)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    pair = np.flatnonzero(ks[1:] == ks[:-1])
+    twin = np.full(3 * nt, -1, np.int64)
+    twin[order[pair]] = order[pair + 1]
+    twin[order[pair + 1]] = order[pair]
+    edge_keys = ks                       # every edge's key (sorted, repeated)
+    changed_keys = {}                    # key -> present, for edges flips made or removed
+    active = order[pair]                 # canonical half-edge (the smaller id) of each interior edge
     for _ in range(max_rounds):
-        he = np.stack([T, np.roll(T, -1, axis=1)], axis=2).reshape(-1, 2)
-        opp = np.roll(T, -2, axis=1).reshape(-1)          # corner opposite to half-edge 3f+c
-        lo = np.minimum(he[:, 0], he[:, 1])
-        hi = np.maximum(he[:, 0], he[:, 1])
-        key = lo * n + hi
-        order = np.argsort(key, kind="stable")
-        ks = key[order]
-        pair = np.flatnonzero(ks[1:] == ks[:-1])
-        if pair.size == 0:
+        if active.size == 0:
             break
-        h1, h2 = order[pair], order[pair + 1]
-        # orient: h1 is a -> b, h2 is b -> a
-        a, b = he[h1, 0], he[h1, 1]
-        c, d = opp[h1], opp[h2]
+        h1 = active
+        h2 = twin[h1]
+        f1, i1 = h1 // 3, h1 % 3
+        f2, i2 = h2 // 3, h2 % 3
+        a, b = T[f1, i1], T[f1, nxt[i1]]
+        c, d = T[f1, nxt[nxt[i1]]], T[f2, nxt[nxt[i2]]]
+        kab = np.minimum(a, b) * n + np.maximum(a, b)
+        srt = np.argsort(kab, kind="stable")  # a full pass lists edges by key
+        h1, h2, f1, f2, i1, i2, a, b, c, d = (x[srt] for x in (h1, h2, f1, f2, i1, i2, a, b, c, d))
         pa, pb, pc, pd = P[a], P[b], P[c], P[d]
         excess = _angle(pa - pc, pb - pc) + _angle(pa - pd, pb - pd) - np.pi
-        cand = np.flatnonzero((excess > FLIP_EPS) & (c != d))
-        if cand.size == 0:
+        geo = np.flatnonzero((excess > FLIP_EPS) & (c != d))
+        if geo.size == 0:
             break
-        cc, dd = c[cand], d[cand]
+        cc, dd = c[geo], d[geo]
         ncd_c = np.minimum(cc, dd) * n + np.maximum(cc, dd)
-        ok = ~_in_sorted(ncd_c, ks)                     # the new edge must not exist
+        exists = _in_sorted(ncd_c, edge_keys)
+        if changed_keys:
+            for j, k in enumerate(ncd_c.tolist()):
+                if k in changed_keys:
+                    exists[j] = changed_keys[k]
+        ok = ~exists                                     # the new edge must not exist
         if forb.size:
             ok &= ~(is_loop[cc] & is_loop[dd] & _in_sorted(ncd_c, forb))
-        qa, qb, qc, qd = pa[cand], pb[cand], pc[cand], pd[cand]
+        qa, qb, qc, qd = pa[geo], pb[geo], pc[geo], pd[geo]
         nold = cross(qb - qa, qc - qa) + cross(qa - qb, qd - qb)
         m1 = cross(qa - qc, qd - qc)
         m2 = cross(qb - qd, qc - qd)
         ok &= (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
-        cand = cand[ok]
+        cand = geo[ok]
         if cand.size == 0:
             break
         ncd = np.zeros(len(c), np.int64)
         ncd[cand] = ncd_c[ok]
-        f1, f2 = h1[cand] // 3, h2[cand] // 3
+        g1, g2 = f1[cand], f2[cand]
         # independent set: an edge flips if it is the worst edge of both its faces
         best = np.full(nt, -np.inf)
-        np.maximum.at(best, f1, excess[cand])
-        np.maximum.at(best, f2, excess[cand])
-        sel = (best[f1] == excess[cand]) & (best[f2] == excess[cand])
+        np.maximum.at(best, g1, excess[cand])
+        np.maximum.at(best, g2, excess[cand])
+        sel = (best[g1] == excess[cand]) & (best[g2] == excess[cand])
         # ties: keep one candidate per face
-        cand, f1, f2 = cand[sel], f1[sel], f2[sel]
-        _, first1 = np.unique(f1, return_index=True)
+        cand, g1, g2 = cand[sel], g1[sel], g2[sel]
+        _, first1 = np.unique(g1, return_index=True)
         keep = np.zeros(cand.size, bool)
         keep[first1] = True
         taken = np.zeros(nt, bool)
-        taken[f1[keep]] = True
-        keep &= ~taken[f2] | (f2 == f1)
+        taken[g1[keep]] = True
+        keep &= ~taken[g2] | (g2 == g1)
         _, firstn = np.unique(ncd[cand[keep]], return_index=True)
         idx = np.flatnonzero(keep)[firstn]
-        cand, f1, f2 = cand[idx], f1[idx], f2[idx]
+        cand = cand[idx]
         if cand.size == 0:
             break
-        T[f1] = np.column_stack([c[cand], a[cand], d[cand]])
-        T[f2] = np.column_stack([d[cand], b[cand], c[cand]])
+        # flip: f1 = (a,b,c) -> (c,a,d), f2 = (b,a,d) -> (d,b,c)
+        F1, F2, I1, I2 = f1[cand], f2[cand], i1[cand], i2[cand]
+        A, B, C, D = a[cand], b[cand], c[cand], d[cand]
+        # the four outer half-edges, old slot -> new slot
+        old = np.stack([3 * F1 + nxt[nxt[I1]],   # c->a  -> new f1 slot 0
+                        3 * F2 + nxt[I2],        # a->d  -> new f1 slot 1
+                        3 * F2 + nxt[nxt[I2]],   # d->b  -> new f2 slot 0
+                        3 * F1 + nxt[I1]])       # b->c  -> new f2 slot 1
+        new = np.stack([3 * F1, 3 * F1 + 1, 3 * F2, 3 * F2 + 1])
+        outer = twin[old]                        # their twins, in old numbering
+        old_s = old.ravel()
+        by = np.argsort(old_s)
+        old_s, new_s = old_s[by], new.ravel()[by]
+
+        def remap(h):                            # a slot's id after the flips
+            pos = np.minimum(np.searchsorted(old_s, h), old_s.size - 1)
+            return np.where(old_s[pos] == h, new_s[pos], h)
+        T[F1] = np.column_stack([C, A, D])
+        T[F2] = np.column_stack([D, B, C])
+        twin[3 * F1 + 2] = 3 * F2 + 2            # the new diagonal d->c / c->d
+        twin[3 * F2 + 2] = 3 * F1 + 2
+        o = outer.ravel()
+        nw = new.ravel()
+        has = o >= 0
+        twin[nw] = np.where(has, remap(np.maximum(o, 0)), -1)
+        twin[remap(o[has])] = nw[has]
+        for k in ncd[cand].tolist():
+            changed_keys[k] = True
+        for k in (np.minimum(A, B) * n + np.maximum(A, B)).tolist():
+            changed_keys[k] = False
+        # next round: the edges of the changed faces and the unflipped candidates
+        flipped = np.zeros(len(h1), bool)
+        flipped[cand] = True
+        stay = h1[geo[~flipped[geo]]]
+        stay = stay[~np.isin(stay // 3, np.concatenate([F1, F2]))]   # slots of changed faces mean other edges now
+        stay = np.minimum(stay, twin[stay])                          # canonical again if the twin moved
+        touched = np.concatenate([3 * F1[:, None] + np.arange(3), 3 * F2[:, None] + np.arange(3)]).ravel()
+        tw = twin[touched]
+        touched = np.minimum(touched[tw >= 0], tw[tw >= 0])
+        active = np.unique(np.concatenate([stay, touched]))
     return T
 
 

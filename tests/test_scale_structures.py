@@ -4,7 +4,8 @@ what their straightforward versions give."""
 import numpy as np
 
 from shellrepair import shapes
-from shellrepair.refine import refine_patch, refine_patches
+from shellrepair.geometry import cross
+from shellrepair.refine import FLIP_EPS, _angle, _in_sorted, _relax, refine_patch, refine_patches
 from shellrepair.repair import _rim_data, _local_frame, _Context
 from shellrepair.io import Mesh
 from shellrepair.holes import detect_holes
@@ -87,3 +88,105 @@ def test_batched_refinement_equals_refining_each_patch_alone():
         P1, T1 = refine_patch(*item)
         assert len(T1) > 2 * len(item[1])          # refinement did split
         assert np.array_equal(P1, P2) and np.array_equal(T1, T2)
+
+
+def _relax_full_pass(P, T, is_loop, forb, max_rounds=100):
+    """The plain version: every round re-pairs all half-edges by a sort and
+    judges every interior edge (the specification of ``refine._relax``)."""
+    n = len(P)
+    nt = len(T)
+    if nt < 2:
+        return T
+    forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
+    for _ in range(max_rounds):
+        he = np.stack([T, np.roll(T, -1, axis=1)], axis=2).reshape(-1, 2)
+        opp = np.roll(T, -2, axis=1).reshape(-1)          # corner opposite to half-edge 3f+c
+        lo = np.minimum(he[:, 0], he[:, 1])
+        hi = np.maximum(he[:, 0], he[:, 1])
+        key = lo * n + hi
+        order = np.argsort(key, kind="stable")
+        ks = key[order]
+        pair = np.flatnonzero(ks[1:] == ks[:-1])
+        if pair.size == 0:
+            break
+        h1, h2 = order[pair], order[pair + 1]
+        # orient: h1 is a -> b, h2 is b -> a
+        a, b = he[h1, 0], he[h1, 1]
+        c, d = opp[h1], opp[h2]
+        pa, pb, pc, pd = P[a], P[b], P[c], P[d]
+        excess = _angle(pa - pc, pb - pc) + _angle(pa - pd, pb - pd) - np.pi
+        cand = np.flatnonzero((excess > FLIP_EPS) & (c != d))
+        if cand.size == 0:
+            break
+        cc, dd = c[cand], d[cand]
+        ncd_c = np.minimum(cc, dd) * n + np.maximum(cc, dd)
+        ok = ~_in_sorted(ncd_c, ks)                     # the new edge must not exist
+        if forb.size:
+            ok &= ~(is_loop[cc] & is_loop[dd] & _in_sorted(ncd_c, forb))
+        qa, qb, qc, qd = pa[cand], pb[cand], pc[cand], pd[cand]
+        nold = cross(qb - qa, qc - qa) + cross(qa - qb, qd - qb)
+        m1 = cross(qa - qc, qd - qc)
+        m2 = cross(qb - qd, qc - qd)
+        ok &= (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
+        cand = cand[ok]
+        if cand.size == 0:
+            break
+        ncd = np.zeros(len(c), np.int64)
+        ncd[cand] = ncd_c[ok]
+        f1, f2 = h1[cand] // 3, h2[cand] // 3
+        # independent set: an edge flips if it is the worst edge of both its faces
+        best = np.full(nt, -np.inf)
+        np.maximum.at(best, f1, excess[cand])
+        np.maximum.at(best, f2, excess[cand])
+        sel = (best[f1] == excess[cand]) & (best[f2] == excess[cand])
+        # ties: keep one candidate per face
+        cand, f1, f2 = cand[sel], f1[sel], f2[sel]
+        _, first1 = np.unique(f1, return_index=True)
+        keep = np.zeros(cand.size, bool)
+        keep[first1] = True
+        taken = np.zeros(nt, bool)
+        taken[f1[keep]] = True
+        keep &= ~taken[f2] | (f2 == f1)
+        _, firstn = np.unique(ncd[cand[keep]], return_index=True)
+        idx = np.flatnonzero(keep)[firstn]
+        cand, f1, f2 = cand[idx], f1[idx], f2[idx]
+        if cand.size == 0:
+            break
+        T[f1] = np.column_stack([c[cand], a[cand], d[cand]])
+        T[f2] = np.column_stack([d[cand], b[cand], c[cand]])
+    return T
+
+
+def test_incremental_relaxation_flips_exactly_as_a_full_pass_each_round():
+    """The relaxation pairs half-edges once and updates the pairing as it
+    flips; it must end with the very triangulation a full pass per round
+    gives, on patches that need many rounds of flips."""
+    rng = np.random.default_rng(4)
+    for trial in range(12):
+        k = 40
+        t = np.linspace(0, 2 * np.pi, k, endpoint=False)
+        loop = np.column_stack([np.cos(t), np.sin(t), np.zeros(k)])
+        inner = rng.uniform(-0.7, 0.7, size=(60, 2))
+        P = np.vstack([loop, np.column_stack([inner, 0.2 * rng.normal(size=60)])])
+        # a bad triangulation to start from: a fan from loop vertex 0, then
+        # every inner point split into the triangle around it
+        T = np.array([[0, i + 1, i] for i in range(1, k - 1)])[:, [0, 2, 1]]
+        for j in range(k, len(P)):
+            # the triangle containing the point in the plane (or the nearest one)
+            A, B, C = P[T[:, 0], :2], P[T[:, 1], :2], P[T[:, 2], :2]
+            q = P[j, :2]
+            def side(u, v):
+                return (v[:, 0] - u[:, 0]) * (q[1] - u[:, 1]) - (v[:, 1] - u[:, 1]) * (q[0] - u[:, 0])
+            s1, s2, s3 = side(A, B), side(B, C), side(C, A)
+            inside = ((s1 <= 0) & (s2 <= 0) & (s3 <= 0)) | ((s1 >= 0) & (s2 >= 0) & (s3 >= 0))
+            f = int(np.flatnonzero(inside)[0]) if inside.any() else int(np.argmin(np.abs(s1) + np.abs(s2) + np.abs(s3)))
+            a, b, c = T[f]
+            T = np.vstack([np.delete(T, f, axis=0), [[a, b, j], [b, c, j], [c, a, j]]])
+        is_loop = np.arange(len(P)) < k
+        forb = np.array([[0, k // 2], [3, 20]]) if trial % 2 else np.zeros((0, 2), np.int64)
+        for rounds in (1, 2, 4, 100):                # round by round, and to the end
+            want = _relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=rounds)
+            got = _relax(P, T.copy(), is_loop, forb, max_rounds=rounds)
+            assert np.array_equal(got, want)
+        assert not np.array_equal(_relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=4),
+                                  _relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=2))  # many rounds
