@@ -227,10 +227,14 @@ def _relax(P, T, is_loop, forb, max_rounds=100):
         cc, dd = c[geo], d[geo]
         ncd_c = np.minimum(cc, dd) * n + np.maximum(cc, dd)
         exists = _in_sorted(ncd_c, edge_keys)
-        if changed_keys:
-            for j, k in enumerate(ncd_c.tolist()):
-                if k in changed_keys:
-                    exists[j] = changed_keys[k]
+        if changed_keys:  # edges flips have made or removed since the pairing
+            ck = np.fromiter(changed_keys.keys(), np.int64, len(changed_keys))
+            cv = np.fromiter(changed_keys.values(), bool, len(changed_keys))
+            by = np.argsort(ck)
+            ck, cv = ck[by], cv[by]
+            pos = np.minimum(np.searchsorted(ck, ncd_c), ck.size - 1)
+            hit = ck[pos] == ncd_c
+            exists[hit] = cv[pos[hit]]
         ok = ~exists                                     # the new edge must not exist
         if forb.size:
             ok &= ~(is_loop[cc] & is_loop[dd] & _in_sorted(ncd_c, forb))
