@@ -42,7 +42,7 @@ render:
 	$(PY) -m shellrepair.cli render $(OUT) --before $(SCAN) --highlight-filled -o $(basename $(SCAN)).before_after.png
 
 # accuracy and speed against the peers on the 19 cases, then the scale
-# benchmark (about 8 minutes in all)
+# benchmark (about 7 minutes in all)
 bench:
 	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the benchmark records them as missing"
 	$(PY) eval/bench.py

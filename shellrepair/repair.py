@@ -725,11 +725,17 @@ def _run_unit(ctx, unit):
     return _fill_pair(ctx, *args)
 
 
-def _run_chunk(ctx, chunk):
-    """Fill a run of consecutive units (their first attempts batched)."""
+def _run_chunk(ctx, chunk, on_unit=None):
+    """Fill a run of consecutive units (their first attempts batched);
+    ``on_unit()`` is called after each."""
     try:
         _prefill(ctx, chunk)
-        return [_run_unit(ctx, u) for u in chunk]
+        out = []
+        for u in chunk:
+            out.append(_run_unit(ctx, u))
+            if on_unit is not None:
+                on_unit()
+        return out
     finally:
         ctx.pre = {}
 
@@ -856,9 +862,14 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
                     _progress(progress, len(unit_out), len(units))
             _WORKER_CTX = None
         else:
+            done = [0]
+
+            def tick():  # the bar moves hole by hole
+                done[0] += 1
+                _progress(progress, done[0], len(units))
+
             for chunk in chunks:
-                unit_out.extend(_run_chunk(ctx, chunk))
-                _progress(progress, len(unit_out), len(units))
+                unit_out.extend(_run_chunk(ctx, chunk, tick))
     if progress and units and sys.stderr.isatty():  # end the bar's line
         print("", file=sys.stderr)
 

@@ -290,3 +290,16 @@ def test_auto_order_keeps_order_2_where_order_3_departs_from_it():
     R, rep = repair_mesh(Mesh(V=V3, F=F2), order="auto")
     opt = rep["holes"][0]["option"]
     assert opt.startswith("faired order 2") and "auto: order 3 would move it" in opt
+
+
+def test_progress_moves_hole_by_hole_through_batched_runs(monkeypatch):
+    import shellrepair.repair as repair
+
+    calls = []
+    monkeypatch.setattr(repair, "_progress", lambda on, i, n, label="filling holes": calls.append((label, i, n)))
+    V, F = shapes.icosphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=30, radius=0.09, seed=5)
+    _, rep = repair_mesh(Mesh(V=V2, F=F2), progress=True)
+    n = rep["holes_before"]
+    assert n > repair.BATCH
+    assert [i for label, i, m in calls if label == "filling holes"] == list(range(1, n + 1))
