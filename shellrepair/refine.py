@@ -124,23 +124,36 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
     """Body of :func:`refine_patch` (``is_loop`` marks loop vertices,
     ``forb`` (f,2) the forbidden chords; ``owner`` a label per vertex that
     new vertices inherit from the triangle they split). Also returns
-    whether the face cap stopped it."""
-    T = _relax(P, T, is_loop, forb)
+    whether the face cap stopped it.
+
+    Work per round follows what changed: a triangle that failed the split
+    test and has not changed since fails it again, and after a relaxation
+    that ran to the end only edges of new triangles can need a flip, so
+    both the test and the next relaxation's first round look at the
+    triangles the last round made or changed (the result is the one
+    testing every triangle every round gives)."""
+    T, changed, settled = _relax(P, T, is_loop, forb)
     capped = False
+    test = np.ones(len(T), bool)          # triangles whose split verdict may have changed
     for _ in range(64):
-        C = P[T].mean(axis=1)
-        sc = s[T].mean(axis=1)
-        d = np.linalg.norm(C[:, None, :] - P[T], axis=2) * alpha  # (t,3)
-        split = np.all((d > sc[:, None]) & (d > s[T]), axis=1)
-        if not split.any():
+        rows = np.flatnonzero(test)
+        Tr = T[rows]
+        C = P[Tr].mean(axis=1)
+        sc = s[Tr].mean(axis=1)
+        d = np.linalg.norm(C[:, None, :] - P[Tr], axis=2) * alpha  # (r,3)
+        split_r = np.all((d > sc[:, None]) & (d > s[Tr]), axis=1)
+        if not split_r.any():
             break
+        split = np.zeros(len(T), bool)
+        split[rows[split_r]] = True
+        Cs, scs = C[split_r], sc[split_r]   # in row order, as rows is sorted
         if len(T) + 2 * int(split.sum()) > max_faces:
             capped = True
             break
         ids = np.flatnonzero(split)
         new = len(P) + np.arange(ids.size)
-        P = np.vstack([P, C[ids]])
-        s = np.concatenate([s, sc[ids]])
+        P = np.vstack([P, Cs])
+        s = np.concatenate([s, scs])
         is_loop = np.concatenate([is_loop, np.zeros(ids.size, bool)])
         if owner is not None:
             owner = np.concatenate([owner, owner[T[ids, 0]]])
@@ -149,7 +162,9 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
         keep[ids] = False
         T = np.vstack([T[keep], np.column_stack([a, b, new]), np.column_stack([b, c, new]),
                        np.column_stack([c, a, new])])
-        T = _relax(P, T, is_loop, forb)
+        fresh = np.concatenate([np.zeros(int(keep.sum()), bool), np.ones(3 * ids.size, bool)])
+        T, changed, settled = _relax(P, T, is_loop, forb, dirty=fresh if settled else None)
+        test = fresh | changed
     return P, T, owner, capped
 
 
@@ -176,11 +191,17 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
     T2 : (t,3) int64
     """
     P = np.asarray(P, np.float64)
-    return _relax(P, np.array(T, np.int64), np.arange(len(P)) < n_loop, _forbidden_pairs(forbidden), max_rounds)
+    return _relax(P, np.array(T, np.int64), np.arange(len(P)) < n_loop, _forbidden_pairs(forbidden), max_rounds)[0]
 
 
-def _relax(P, T, is_loop, forb, max_rounds=100):
+def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
     """Body of :func:`relax_edges` (``forb`` (f,2) forbidden chords).
+
+    Returns ``(T, changed, settled)``: the triangles, which of them flips
+    changed, and whether it stopped because nothing was left to flip (not
+    at ``max_rounds``). With ``dirty`` (a mask of triangles), the first
+    round looks only at their edges: for a triangulation that was settled
+    before those triangles were made, no other edge can flip.
 
     One sort pairs the half-edges; flips then update the pairing (twins)
     in place, and each round looks only at the edges that may have become
@@ -190,8 +211,9 @@ def _relax(P, T, is_loop, forb, max_rounds=100):
     make (candidates in edge-key order, as a full pass lists them)."""
     n = len(P)
     nt = len(T)
+    changed = np.zeros(nt, bool)
     if nt < 2:
-        return T
+        return T, changed, True
     forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
     nxt = np.array([1, 2, 0])
     # pair the half-edges once: half-edge 3f+c runs T[f,c] -> T[f,(c+1)%3]
@@ -207,8 +229,12 @@ def _relax(P, T, is_loop, forb, max_rounds=100):
     edge_keys = ks                       # every edge's key (sorted, repeated)
     changed_keys = {}                    # key -> present, for edges flips made or removed
     active = order[pair]                 # canonical half-edge (the smaller id) of each interior edge
+    if dirty is not None:                # only edges of the dirty triangles
+        active = active[dirty[active // 3] | dirty[twin[active] // 3]]
+    settled = False
     for _ in range(max_rounds):
         if active.size == 0:
+            settled = True
             break
         h1 = active
         h2 = twin[h1]
@@ -223,6 +249,7 @@ def _relax(P, T, is_loop, forb, max_rounds=100):
         excess = _angle(pa - pc, pb - pc) + _angle(pa - pd, pb - pd) - np.pi
         geo = np.flatnonzero((excess > FLIP_EPS) & (c != d))
         if geo.size == 0:
+            settled = True
             break
         cc, dd = c[geo], d[geo]
         ncd_c = np.minimum(cc, dd) * n + np.maximum(cc, dd)
@@ -245,6 +272,7 @@ def _relax(P, T, is_loop, forb, max_rounds=100):
         ok &= (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
         cand = geo[ok]
         if cand.size == 0:
+            settled = True
             break
         ncd = np.zeros(len(c), np.int64)
         ncd[cand] = ncd_c[ok]
@@ -266,6 +294,7 @@ def _relax(P, T, is_loop, forb, max_rounds=100):
         idx = np.flatnonzero(keep)[firstn]
         cand = cand[idx]
         if cand.size == 0:
+            settled = True
             break
         # flip: f1 = (a,b,c) -> (c,a,d), f2 = (b,a,d) -> (d,b,c)
         F1, F2, I1, I2 = f1[cand], f2[cand], i1[cand], i2[cand]
@@ -286,6 +315,8 @@ def _relax(P, T, is_loop, forb, max_rounds=100):
             return np.where(old_s[pos] == h, new_s[pos], h)
         T[F1] = np.column_stack([C, A, D])
         T[F2] = np.column_stack([D, B, C])
+        changed[F1] = True
+        changed[F2] = True
         twin[3 * F1 + 2] = 3 * F2 + 2            # the new diagonal d->c / c->d
         twin[3 * F2 + 2] = 3 * F1 + 2
         o = outer.ravel()
@@ -307,7 +338,7 @@ def _relax(P, T, is_loop, forb, max_rounds=100):
         tw = twin[touched]
         touched = np.minimum(touched[tw >= 0], tw[tw >= 0])
         active = np.unique(np.concatenate([stay, touched]))
-    return T
+    return T, changed, settled
 
 
 def _in_sorted(x, sorted_keys):

@@ -186,7 +186,54 @@ def test_incremental_relaxation_flips_exactly_as_a_full_pass_each_round():
         forb = np.array([[0, k // 2], [3, 20]]) if trial % 2 else np.zeros((0, 2), np.int64)
         for rounds in (1, 2, 4, 100):                # round by round, and to the end
             want = _relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=rounds)
-            got = _relax(P, T.copy(), is_loop, forb, max_rounds=rounds)
+            got = _relax(P, T.copy(), is_loop, forb, max_rounds=rounds)[0]
             assert np.array_equal(got, want)
         assert not np.array_equal(_relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=4),
                                   _relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=2))  # many rounds
+
+
+def _refine_plain(P, T, sigma, n_loop, forbidden, alpha=np.sqrt(2.0)):
+    """Liepa's refinement the plain way: every round tests every triangle
+    and relaxes every edge to the end (the specification of refine_patch)."""
+    P = np.array(P, np.float64)
+    T = np.array(T, np.int64)
+    s = np.asarray(sigma, np.float64).copy()
+    is_loop = np.ones(len(P), bool)
+    forb = np.array(sorted(forbidden or ()), np.int64).reshape(-1, 2)
+    T = _relax_full_pass(P, T, is_loop, forb)
+    for _ in range(64):
+        C = P[T].mean(axis=1)
+        sc = s[T].mean(axis=1)
+        d = np.linalg.norm(C[:, None, :] - P[T], axis=2) * alpha
+        split = np.all((d > sc[:, None]) & (d > s[T]), axis=1)
+        if not split.any():
+            break
+        ids = np.flatnonzero(split)
+        new = len(P) + np.arange(ids.size)
+        P = np.vstack([P, C[ids]])
+        s = np.concatenate([s, sc[ids]])
+        is_loop = np.concatenate([is_loop, np.zeros(ids.size, bool)])
+        a, b, c = T[ids, 0], T[ids, 1], T[ids, 2]
+        keep = np.ones(len(T), bool)
+        keep[ids] = False
+        T = np.vstack([T[keep], np.column_stack([a, b, new]), np.column_stack([b, c, new]),
+                       np.column_stack([c, a, new])])
+        T = _relax_full_pass(P, T, is_loop, forb)
+    return P, T
+
+
+def test_refinement_that_tests_only_what_changed_equals_the_plain_one():
+    V, F = shapes.bumpy_sphere(4, amplitude=0.05, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[0, 60, 150, 230], radius=0.45)
+    scan = detect_holes(V2, F2)
+    ctx = _Context(Mesh(V=V2, F=F2))
+    sizes = []
+    for L in scan.holes:
+        sigma, normals, forbidden = _rim_data(ctx, L.vertices)
+        _, scale, Pl = _local_frame(ctx, L.vertices, sigma)
+        T0 = triangulate_loop(Pl, normals, forbidden)
+        want = _refine_plain(Pl, T0, sigma / scale, len(Pl), forbidden)
+        got = refine_patch(Pl, T0, sigma / scale, len(Pl), forbidden)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+        sizes.append(len(got[1]))
+    assert len(sizes) >= 3 and max(sizes) > 300   # holes large enough for many split rounds
