@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["cross", "dot", "uniq"]
+__all__ = ["cross", "dot", "uniq", "plane_frame", "bounding_spheres", "concat_ranges"]
 
 
 def cross(a, b):
@@ -30,3 +30,33 @@ def uniq(a):
     keep[0] = True
     np.not_equal(a[1:], a[:-1], out=keep[1:])
     return a[keep]
+
+
+def plane_frame(axis):
+    """Two unit vectors (u, v) spanning the plane normal to ``axis``.
+
+    ``axis`` is (3,) or (k,3) (any length, not zero); ``u`` is built from the
+    coordinate axis least aligned with it, so (u, v, axis) is right-handed.
+    """
+    a = np.asarray(axis, np.float64)
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    t = np.where((np.abs(a[..., :1]) < 0.9), [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    u = cross(a, t)
+    u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    return u, cross(a, u)
+
+
+def bounding_spheres(T):
+    """Centroid and radius (farthest corner) of each triangle of T (t,3,3)."""
+    c = T.mean(axis=1)
+    return c, np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
+
+
+def concat_ranges(start, count):
+    """The indices ``start[i] .. start[i] + count[i] - 1``, all ranges in order."""
+    start = np.asarray(start, np.int64)
+    count = np.asarray(count, np.int64)
+    total = int(count.sum())
+    if total == 0:
+        return np.zeros(0, np.int64)
+    return np.repeat(start - np.concatenate([[0], np.cumsum(count)[:-1]]), count) + np.arange(total)

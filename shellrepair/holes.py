@@ -37,6 +37,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from .geometry import plane_frame
 from .topology import components_of_pieces, edge_topology, face_areas, face_pieces
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats", "OUTER_FRACTION"]
@@ -325,12 +326,7 @@ def _inside_fractions(V, loops, axes, centers, cent, w, chunk=64):
     tot = float(w.sum())
     if not len(loops) or tot <= 0:
         return out
-    a = np.asarray(axes, np.float64)
-    a = a / np.linalg.norm(a, axis=1, keepdims=True)
-    t = np.where((np.abs(a[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    U = np.cross(a, t)
-    U /= np.linalg.norm(U, axis=1, keepdims=True)
-    W = np.cross(a, U)
+    U, W = plane_frame(np.asarray(axes, np.float64))
     C = np.asarray(centers, np.float64)
     for s in range(0, len(loops), chunk):
         sl = slice(s, s + chunk)

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cross
+from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
+from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
 __all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "self_intersections", "embeds_by_projection"]
@@ -125,9 +126,7 @@ class TriangleIndex:
         self.V = np.asarray(V, np.float64)
         self.F = np.asarray(F, np.int64)
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
-        T = self.V[self.F] - self.origin
-        c = T.mean(axis=1)
-        r = np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
+        c, r = bounding_spheres(self.V[self.F] - self.origin)
         self.centroids = c
         self.radius = r
         # a few huge triangles should not blow every query up: the query
@@ -238,11 +237,7 @@ class NearFaces:
         self.vorder = np.argsort(key, kind="stable")
         self.vkey = key[self.vorder]
         del ij, key
-        if vf is None:
-            flat = F.ravel()
-            order = np.argsort(flat, kind="stable")
-            vf = (order, np.searchsorted(flat[order], np.arange(len(V) + 1)))
-        self.vf_order, self.vf_start = vf
+        self.vf_order, self.vf_start = vertex_faces(F, len(V)) if vf is None else vf
 
     def faces_near(self, lo, hi):
         """Faces that may meet the box ``[lo, hi]`` (absolute coordinates)."""
@@ -257,16 +252,12 @@ class NearFaces:
             rows = np.arange(c0[0], c1[0] + 1)
             a = np.searchsorted(self.vkey, rows * self.ny + c0[1], side="left")
             b = np.searchsorted(self.vkey, rows * self.ny + c1[1], side="right")
-            n = b - a
-            idx = np.repeat(a - np.concatenate([[0], np.cumsum(n)[:-1]]), n) + np.arange(n.sum())
-            vs = self.vorder[idx]
+            vs = self.vorder[concat_ranges(a, b - a)]
             P = self.V[vs]
             vs = vs[np.all((P >= lo) & (P <= hi), axis=1)]
-        s, e = self.vf_start[vs], self.vf_start[vs + 1]
-        cnt = e - s
-        idx = np.repeat(s - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(cnt.sum())
-        faces = np.unique(np.concatenate([self.vf_order[idx] // 3, self.big]))
-        return faces
+        s = self.vf_start[vs]
+        faces = self.vf_order[concat_ranges(s, self.vf_start[vs + 1] - s)] // 3
+        return np.unique(np.concatenate([faces, self.big]))
 
     def candidate_pairs(self, C, R):
         """Pairs (query i, face j) whose bounding spheres meet.
@@ -292,9 +283,7 @@ class NearFaces:
         f = self.faces_near(lo, hi)
         if f.size == 0:
             return none, none
-        T = self.V[self.F[f]] - self.origin
-        c = T.mean(axis=1)
-        r = np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
+        c, r = bounding_spheres(self.V[self.F[f]] - self.origin)
         if len(C) * len(f) <= self.BRUTE:
             # |C − c|² by one product; the slack covers its round-off (a
             # superset of pairs is fine: they are tested exactly after)
@@ -333,9 +322,7 @@ def patch_vs_index(Pt, Pid, index, return_faces=False):
     if len(Pt) == 0 or len(index.F) == 0:
         return none
     Q = Pt - index.origin
-    c = Q.mean(axis=1)
-    r = np.linalg.norm(Q - c[:, None, :], axis=2).max(axis=1)
-    ai, bi = index.candidate_pairs(c, r)
+    ai, bi = index.candidate_pairs(*bounding_spheres(Q))
     if ai.size == 0:
         return none
     T = index.V[index.F[bi]] - index.origin
@@ -442,14 +429,9 @@ def embeds_by_projection(P, T, n_loop, axis=None):
     if axis is None:
         axis = 0.5 * cross(C[:k], np.roll(C[:k], -1, axis=0)).sum(axis=0)
     axis = np.asarray(axis, np.float64)
-    ln = np.linalg.norm(axis)
-    if not ln > 0:
+    if not np.linalg.norm(axis) > 0:
         return False
-    a = axis / ln
-    t = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(a, t)
-    u /= np.linalg.norm(u)
-    v = np.cross(a, u)
+    u, v = plane_frame(axis)
     Q = np.column_stack([C @ u, C @ v])
     q = Q[:k]
     outline = 0.5 * float(np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1]))

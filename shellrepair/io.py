@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MeshError
+from .topology import face_areas
 
 __all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path", "clean_faces",
            "atomic_write", "atomic_write_many", "MAX_ABS_COORDINATE"]
@@ -402,12 +403,7 @@ def _used_vertex_count(F, n):
 def _zero_area_count(V, F):
     if len(F) == 0:
         return 0
-    zero = 0
-    for s in range(0, len(F), 1 << 16):  # chunks: temporaries that stay in cache
-        T = V[F[s:s + (1 << 16)]]
-        c = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
-        zero += int(np.count_nonzero(~c.any(axis=1)))
-    return zero
+    return int(np.count_nonzero(face_areas(V, F) == 0))
 
 
 def _polygons_to_triangles(polys, notes, V=None):

@@ -59,7 +59,7 @@ from scipy.spatial import cKDTree
 
 from .clean import describe_open_chains
 from .errors import MeshError
-from .geometry import cross, uniq
+from .geometry import bounding_spheres, concat_ranges, cross, uniq
 from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth,
                    thin_plate_energy, umbrella_smooth, uniform_laplacian)
 from .holes import detect_holes
@@ -150,12 +150,8 @@ class _Context:
 
     def faces_of(self, verts):
         verts = np.asarray(verts, np.int64)
-        s, e = self.vf_start[verts], self.vf_start[verts + 1]
-        cnt = e - s
-        if cnt.sum() == 0:
-            return np.zeros(0, np.int64)
-        idx = np.repeat(s - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt) + np.arange(cnt.sum())
-        return uniq(self.vf_order[idx] // 3)
+        s = self.vf_start[verts]
+        return uniq(self.vf_order[concat_ranges(s, self.vf_start[verts + 1] - s)] // 3)
 
     def ring_faces(self, verts, rings):
         """Faces within ``rings`` rings of ``verts`` (sorted)."""
@@ -408,8 +404,7 @@ def _check_patch(ctx, patch):
     # cross itself; otherwise test its triangles pair by pair
     if len(C) > 1 and not (patch.disc and embeds_by_projection(
             np.vstack([ctx.V[patch.loop], patch.P]), patch.T, len(patch.loop))):
-        c = C.mean(axis=1)
-        r = np.linalg.norm(C - c[:, None, :], axis=2).max(axis=1)
+        c, r = bounding_spheres(C)
         pairs = cKDTree(c).query_pairs(2 * r.max(), output_type="ndarray")
         if len(pairs):
             h = pair_intersections(C[pairs[:, 0]], ids[pairs[:, 0]], C[pairs[:, 1]], ids[pairs[:, 1]])
@@ -956,8 +951,7 @@ class _Accepted:
 
     def add(self, patch, C, ids):
         oid = np.where(ids < 0, ids - 10 ** 12 * (len(self.items) + 1), ids)  # new vertices differ per patch
-        c = C.mean(axis=1)
-        r = np.linalg.norm(C - c[:, None], axis=2).max(axis=1)
+        c, r = bounding_spheres(C)
         self.items.append((patch, C, oid, c, r))
         P = C.reshape(-1, 3)
         self.lo = np.vstack([self.lo, P.min(axis=0)])
@@ -973,8 +967,7 @@ class _Accepted:
             P = C.reshape(-1, 3)
             lo, hi = P.min(axis=0), P.max(axis=0)
             near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
-            c1 = C.mean(axis=1)
-            r1 = np.linalg.norm(C - c1[:, None], axis=2).max(axis=1)
+            c1, r1 = bounding_spheres(C)
             for j in near:
                 other, D, oid, c2, r2 = self.items[j]
                 lists = cKDTree(c2).query_ball_point(c1, r1 + r2.max())

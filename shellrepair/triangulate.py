@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cross, dot
+from .geometry import cross, dot, plane_frame
 
 from .errors import MeshError
 
@@ -129,10 +129,7 @@ def _delaunay_in_projection(P, axis, forbidden):
 
     k = len(P)
     a = axis / np.linalg.norm(axis)
-    t = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = cross(a, t)
-    u /= np.linalg.norm(u)
-    v = cross(a, u)
+    u, v = plane_frame(a)
     C = P - P.mean(axis=0)
     Q = np.column_stack([C @ u, C @ v])
     try:
