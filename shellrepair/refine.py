@@ -265,34 +265,14 @@ def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
         ok = ~exists                                     # the new edge must not exist
         if forb.size:
             ok &= ~(is_loop[cc] & is_loop[dd] & _in_sorted(ncd_c, forb))
-        qa, qb, qc, qd = pa[geo], pb[geo], pc[geo], pd[geo]
-        nold = cross(qb - qa, qc - qa) + cross(qa - qb, qd - qb)
-        m1 = cross(qa - qc, qd - qc)
-        m2 = cross(qb - qd, qc - qd)
-        ok &= (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
+        ok &= _unfolded(pa[geo], pb[geo], pc[geo], pd[geo])
         cand = geo[ok]
         if cand.size == 0:
             settled = True
             break
         ncd = np.zeros(len(c), np.int64)
         ncd[cand] = ncd_c[ok]
-        g1, g2 = f1[cand], f2[cand]
-        # independent set: an edge flips if it is the worst edge of both its faces
-        best = np.full(nt, -np.inf)
-        np.maximum.at(best, g1, excess[cand])
-        np.maximum.at(best, g2, excess[cand])
-        sel = (best[g1] == excess[cand]) & (best[g2] == excess[cand])
-        # ties: keep one candidate per face
-        cand, g1, g2 = cand[sel], g1[sel], g2[sel]
-        _, first1 = np.unique(g1, return_index=True)
-        keep = np.zeros(cand.size, bool)
-        keep[first1] = True
-        taken = np.zeros(nt, bool)
-        taken[g1[keep]] = True
-        keep &= ~taken[g2] | (g2 == g1)
-        _, firstn = np.unique(ncd[cand[keep]], return_index=True)
-        idx = np.flatnonzero(keep)[firstn]
-        cand = cand[idx]
+        cand = _independent_flips(cand, f1[cand], f2[cand], excess[cand], ncd[cand], nt)
         if cand.size == 0:
             settled = True
             break
@@ -339,6 +319,38 @@ def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
         touched = np.minimum(touched[tw >= 0], tw[tw >= 0])
         active = np.unique(np.concatenate([stay, touched]))
     return T, changed, settled
+
+
+def _unfolded(pa, pb, pc, pd):
+    """Would flipping edge a-b of triangles (a,b,c), (b,a,d) to c-d keep both
+    new triangles facing the way the old pair faced (no fold)?"""
+    nold = cross(pb - pa, pc - pa) + cross(pa - pb, pd - pb)
+    m1 = cross(pa - pc, pd - pc)
+    m2 = cross(pb - pd, pc - pd)
+    return (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
+
+
+def _independent_flips(cand, g1, g2, excess, ncd, nt):
+    """The candidate flips of one round that can be made together.
+
+    An edge flips if it is the worst (largest ``excess``) edge of both its
+    faces ``g1``, ``g2``; of ties, the first in ``cand``'s order keeps each
+    face, and of edges that would make the same new edge (key ``ncd``) the
+    first. Returns the chosen entries of ``cand``.
+    """
+    best = np.full(nt, -np.inf)
+    np.maximum.at(best, g1, excess)
+    np.maximum.at(best, g2, excess)
+    sel = (best[g1] == excess) & (best[g2] == excess)
+    cand, g1, g2, ncd = cand[sel], g1[sel], g2[sel], ncd[sel]
+    _, first1 = np.unique(g1, return_index=True)
+    keep = np.zeros(cand.size, bool)
+    keep[first1] = True
+    taken = np.zeros(nt, bool)
+    taken[g1[keep]] = True
+    keep &= ~taken[g2] | (g2 == g1)
+    _, firstn = np.unique(ncd[keep], return_index=True)
+    return cand[np.flatnonzero(keep)[firstn]]
 
 
 def _in_sorted(x, sorted_keys):

@@ -148,6 +148,11 @@ class _Context:
                                     topo=self.topo)
         return self._index
 
+    def pre_for(self, hole_id, loop):
+        """The batch's first-attempt work for this hole and loop, or None."""
+        pre = self.pre.get(hole_id)
+        return pre if pre is not None and np.array_equal(pre.loop, loop) else None
+
     def faces_of(self, verts):
         verts = np.asarray(verts, np.int64)
         s = self.vf_start[verts]
@@ -322,9 +327,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     """
     loop = np.asarray(loop, np.int64)
     k = len(loop)
-    pre = ctx.pre.get(hole_id)
-    if pre is not None and not np.array_equal(pre.loop, loop):
-        pre = None
+    pre = ctx.pre_for(hole_id, loop)
     sigma, edge_normals, forbidden = pre.rim if pre is not None else _rim_data(ctx, loop)
     origin, scale, Pl = _local_frame(ctx, loop, sigma)
     forbidden = forbidden | set(avoid)
@@ -557,8 +560,8 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
     avoid = set()
     flat_ok = None
     options = [("faired", order)] + ([("harmonic", 1)] if order != 1 else [])
-    pre = ctx.pre.get(hole_id)
-    edge_on = pre.edge_on if pre is not None and pre.edge_on is not None and np.array_equal(pre.loop, loop) \
+    pre = ctx.pre_for(hole_id, loop)
+    edge_on = pre.edge_on if pre is not None and pre.edge_on is not None \
         else (order != 1 and _meets_edge_on(ctx, loop, hole_id))
     if order != 1 and edge_on:
         options = [("flat cap", 1)] + options

@@ -4,8 +4,8 @@ what their straightforward versions give."""
 import numpy as np
 
 from shellrepair import shapes
-from shellrepair.geometry import cross
-from shellrepair.refine import FLIP_EPS, _angle, _in_sorted, _relax, refine_patch, refine_patches
+from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, _independent_flips, _relax, _unfolded, refine_patch,
+                                refine_patches)
 from shellrepair.repair import _rim_data, _local_frame, _Context
 from shellrepair.io import Mesh
 from shellrepair.holes import detect_holes
@@ -71,17 +71,23 @@ def test_ring_faces_are_the_faces_within_k_edges():
     assert not ctx._vmark.any() and not ctx._fmark.any()   # scratch marks are left clean
 
 
-def test_batched_refinement_equals_refining_each_patch_alone():
+def _first_triangulations(centers, radius):
+    """refine_patch's inputs for each hole of a perforated bumpy sphere:
+    (loop positions, triangulation, sigma, loop size, forbidden chords), as
+    a repair makes them."""
     V, F = shapes.bumpy_sphere(4, amplitude=0.05, frequency=5)
-    centers = [0, 40, 90, 130, 200, 260]
-    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=centers, radius=0.25)
-    scan = detect_holes(V2, F2)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=centers, radius=radius)
     ctx = _Context(Mesh(V=V2, F=F2))
     items = []
-    for L in scan.holes:
+    for L in detect_holes(V2, F2).holes:
         sigma, normals, forbidden = _rim_data(ctx, L.vertices)
         _, scale, Pl = _local_frame(ctx, L.vertices, sigma)
         items.append((Pl, triangulate_loop(Pl, normals, forbidden), sigma / scale, len(L.vertices), forbidden))
+    return items
+
+
+def test_batched_refinement_equals_refining_each_patch_alone():
+    items = _first_triangulations([0, 40, 90, 130, 200, 260], 0.25)
     assert len(items) >= 4
     together = refine_patches(items)
     for item, (P2, T2) in zip(items, together):
@@ -123,33 +129,14 @@ def _relax_full_pass(P, T, is_loop, forb, max_rounds=100):
         ok = ~_in_sorted(ncd_c, ks)                     # the new edge must not exist
         if forb.size:
             ok &= ~(is_loop[cc] & is_loop[dd] & _in_sorted(ncd_c, forb))
-        qa, qb, qc, qd = pa[cand], pb[cand], pc[cand], pd[cand]
-        nold = cross(qb - qa, qc - qa) + cross(qa - qb, qd - qb)
-        m1 = cross(qa - qc, qd - qc)
-        m2 = cross(qb - qd, qc - qd)
-        ok &= (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
-        cand = cand[ok]
+        ok &= _unfolded(pa[cand], pb[cand], pc[cand], pd[cand])
+        ncd_c, cand = ncd_c[ok], cand[ok]
         if cand.size == 0:
             break
-        ncd = np.zeros(len(c), np.int64)
-        ncd[cand] = ncd_c[ok]
+        # the same choice of flips as refine makes (what differs is how the
+        # candidates are found: all edges, re-paired by a sort, every round)
+        cand = _independent_flips(cand, h1[cand] // 3, h2[cand] // 3, excess[cand], ncd_c, nt)
         f1, f2 = h1[cand] // 3, h2[cand] // 3
-        # independent set: an edge flips if it is the worst edge of both its faces
-        best = np.full(nt, -np.inf)
-        np.maximum.at(best, f1, excess[cand])
-        np.maximum.at(best, f2, excess[cand])
-        sel = (best[f1] == excess[cand]) & (best[f2] == excess[cand])
-        # ties: keep one candidate per face
-        cand, f1, f2 = cand[sel], f1[sel], f2[sel]
-        _, first1 = np.unique(f1, return_index=True)
-        keep = np.zeros(cand.size, bool)
-        keep[first1] = True
-        taken = np.zeros(nt, bool)
-        taken[f1[keep]] = True
-        keep &= ~taken[f2] | (f2 == f1)
-        _, firstn = np.unique(ncd[cand[keep]], return_index=True)
-        idx = np.flatnonzero(keep)[firstn]
-        cand, f1, f2 = cand[idx], f1[idx], f2[idx]
         if cand.size == 0:
             break
         T[f1] = np.column_stack([c[cand], a[cand], d[cand]])
@@ -223,17 +210,10 @@ def _refine_plain(P, T, sigma, n_loop, forbidden, alpha=np.sqrt(2.0)):
 
 
 def test_refinement_that_tests_only_what_changed_equals_the_plain_one():
-    V, F = shapes.bumpy_sphere(4, amplitude=0.05, frequency=5)
-    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[0, 60, 150, 230], radius=0.45)
-    scan = detect_holes(V2, F2)
-    ctx = _Context(Mesh(V=V2, F=F2))
     sizes = []
-    for L in scan.holes:
-        sigma, normals, forbidden = _rim_data(ctx, L.vertices)
-        _, scale, Pl = _local_frame(ctx, L.vertices, sigma)
-        T0 = triangulate_loop(Pl, normals, forbidden)
-        want = _refine_plain(Pl, T0, sigma / scale, len(Pl), forbidden)
-        got = refine_patch(Pl, T0, sigma / scale, len(Pl), forbidden)
+    for item in _first_triangulations([0, 60, 150, 230], 0.45):
+        want = _refine_plain(*item)
+        got = refine_patch(*item)
         assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
         sizes.append(len(got[1]))
     assert len(sizes) >= 3 and max(sizes) > 300   # holes large enough for many split rounds
