@@ -390,13 +390,16 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
                                mean_edge=st["mean_edge"], area=st["area"], diameter=st["diameter"],
                                planarity=st["planarity"], component=comp, piece_area=float(piece_area[piece])))
     # rule 2 needs each loop's piece seen along its axis: sample the piece once
-    wanted = sorted(set(pieces))
-    if len(wanted) > 4:  # many pieces (debris): group the faces by piece once
+    loops_of = {}
+    for i, p in enumerate(pieces):
+        loops_of.setdefault(p, []).append(i)
+    by_piece = None
+    if len(loops_of) > 4:  # many pieces (debris): group the faces by piece once
         by_piece = np.argsort(fpiece, kind="stable")
         bounds = np.searchsorted(fpiece[by_piece], np.arange(n_piece + 1))
-    for piece in wanted:
-        idx = [i for i, p in enumerate(pieces) if p == piece]
-        fidx = by_piece[bounds[piece]:bounds[piece + 1]] if len(wanted) > 4 else np.flatnonzero(fpiece == piece)
+    for piece in sorted(loops_of):
+        idx = loops_of[piece]
+        fidx = np.flatnonzero(fpiece == piece) if by_piece is None else by_piece[bounds[piece]:bounds[piece + 1]]
         if fidx.size > OUTER_SAMPLES:
             rng = np.random.default_rng(piece)
             fidx = np.sort(rng.choice(fidx, OUTER_SAMPLES, replace=False))
