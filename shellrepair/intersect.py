@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
+from .geometry import bounding_spheres, concat_ranges, cross, dot, plane_frame
 from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
@@ -56,6 +56,40 @@ def _seg_tri(p0, p1, a, b, c, tol=TOUCH_TOL):
     return ok & (u > tol) & (v > tol) & (u + v < 1 - tol) & (t > tol) & (t < 1 - tol)
 
 
+#: Corners closer to the other triangle's plane than this, relative to the
+#: plane normal's length times the corner's distance from the plane's
+#: anchor, count as on the plane (:func:`_one_side`).
+SIDE_TOL = 1e-10
+
+
+def _one_side(A, B, skip):
+    """Do the corners of B (other than the ``skip`` ones) lie strictly on one
+    side of A's plane?
+
+    Such a pair cannot intersect: no edge of B reaches A's plane, and A lies
+    in a plane that B meets at most in a shared corner. The margin
+    (``SIDE_TOL``) is far above the round-off of the signed distances, so
+    a pair on one side here is one the exact tests reject too.
+
+    Parameters
+    ----------
+    A, B : (p,3,3) float64
+    skip : (p,3) bool
+        Corners of B shared with A (on A's plane by construction).
+
+    Returns
+    -------
+    apart : (p,) bool
+    """
+    n = cross(A[:, 1] - A[:, 0], A[:, 2] - A[:, 0])
+    r = B - A[:, :1]
+    d = dot(r, n[:, None, :])
+    tol = SIDE_TOL * np.sqrt(dot(n, n))[:, None] * np.sqrt(dot(r, r))
+    pos = (d > tol) | skip
+    neg = (d < -tol) | skip
+    return pos.all(axis=1) | neg.all(axis=1)
+
+
 def pair_intersections(A, Aid, B, Bid):
     """Which triangle pairs intersect.
 
@@ -78,6 +112,13 @@ def pair_intersections(A, Aid, B, Bid):
     sa = eq.any(axis=2)  # corner of A shared
     sb = eq.any(axis=1)
     ns = sa.sum(axis=1)
+    # pairs sharing at most a corner with one triangle wholly on one side
+    # of the other's plane cannot meet (most candidate pairs): skip them
+    near = np.flatnonzero(ns <= 1)
+    if near.size:
+        apart = _one_side(A[near], B[near], sb[near]) | _one_side(B[near], A[near], sa[near])
+        ns = ns.copy()
+        ns[near[apart]] = -1
     # no shared vertex: all six edge/triangle tests
     z = np.flatnonzero(ns == 0)
     if z.size:

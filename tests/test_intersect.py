@@ -4,8 +4,8 @@ import numpy as np
 
 from shellrepair import shapes
 from shellrepair.topology import edge_topology
-from shellrepair.intersect import (NearFaces, TriangleIndex, embeds_by_projection, pair_intersections, patch_vs_index,
-                                   self_intersections)
+from shellrepair.intersect import (NearFaces, TriangleIndex, _one_side, _seg_tri, embeds_by_projection,
+                                   pair_intersections, patch_vs_index, self_intersections)
 
 
 def tri(*p):
@@ -28,6 +28,43 @@ def test_crossing_touching_and_apart():
     # sharing a vertex, the opposite edge piercing the other triangle
     G = tri([0, 0, 0], [1, 0.5, -1], [0.5, 1, 1])
     assert pair_intersections(A, ids(0, 1, 2), G, ids(0, 8, 9))[0]
+
+
+def test_pairs_set_aside_by_the_plane_test_are_never_crossing_ones():
+    # pairs sharing no corner, with B's corners drawn at every scale of
+    # distance from A's plane (down to round-off) and either side of it
+    rng = np.random.default_rng(3)
+    n = 60000
+    A = rng.normal(size=(n, 3, 3))
+    B = rng.normal(size=(n, 3, 3)) * 0.7
+    nA = np.cross(A[:, 1] - A[:, 0], A[:, 2] - A[:, 0])
+    nA /= np.linalg.norm(nA, axis=1)[:, None]
+    off = np.einsum("pij,pj->pi", B - A[:, :1], nA)
+    squeeze = 10.0 ** rng.uniform(-16, 0, size=(n, 1))
+    B -= ((1 - squeeze) * off)[:, :, None] * nA[:, None, :]
+    skip = np.zeros((n, 3), bool)
+    apart = _one_side(A, B, skip) | _one_side(B, A, skip)
+    exact = np.zeros(n, bool)
+    for i in range(3):
+        j = (i + 1) % 3
+        exact |= _seg_tri(A[:, i], A[:, j], B[:, 0], B[:, 1], B[:, 2])
+        exact |= _seg_tri(B[:, i], B[:, j], A[:, 0], A[:, 1], A[:, 2])
+    assert exact.sum() > 1000 and apart.sum() > 10000   # both kinds are there
+    assert not (apart & exact).any()
+    ids_a = np.arange(3 * n).reshape(n, 3)
+    assert np.array_equal(pair_intersections(A, ids_a, B, ids_a + 3 * n), exact)
+    # one shared corner: the opposite edges decide
+    B[:, 0] = A[:, 0]
+    ida, idb = ids_a, ids_a + 3 * n
+    idb[:, 0] = ida[:, 0]
+    exact = (_seg_tri(A[:, 1], A[:, 2], B[:, 0], B[:, 1], B[:, 2])
+             | _seg_tri(B[:, 1], B[:, 2], A[:, 0], A[:, 1], A[:, 2]))
+    skip_b = np.zeros((n, 3), bool)
+    skip_b[:, 0] = True
+    apart = _one_side(A, B, skip_b) | _one_side(B, A, skip_b)
+    assert exact.sum() > 1000 and apart.sum() > 10000
+    assert not (apart & exact).any()
+    assert np.array_equal(pair_intersections(A, ida, B, idb), exact)
 
 
 def test_closed_sphere_has_no_self_intersections_and_a_dent_through_it_has():
