@@ -23,7 +23,8 @@ from .geometry import bounding_spheres, concat_ranges, cross, dot, plane_frame
 from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
-__all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "self_intersections", "embeds_by_projection"]
+__all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "crossing_pairs", "self_intersections",
+           "embeds_by_projection"]
 
 #: Barycentric / segment-parameter tolerance: hits this close to an edge or
 #: endpoint count as touching, not crossing.
@@ -379,27 +380,66 @@ def patch_vs_index(Pt, Pid, index, return_faces=False):
     return np.unique(ai[hit]) if return_faces else int(hit.sum())
 
 
+def crossing_pairs(C, ids):
+    """Pairs of triangles of one set that cross each other.
+
+    Candidates are pairs whose bounding spheres meet (a k-d tree over the
+    centroids; triangles far larger than the median are paired apart so
+    they do not widen every query), then pairs whose boxes overlap; those
+    get the exact tests of :func:`pair_intersections`.
+
+    Parameters
+    ----------
+    C : (t,3,3) float64
+        Triangle corners (subtract a nearby origin first for large offsets).
+    ids : (t,3) int64
+        Corner vertex ids (equal ids: a shared vertex, touching allowed).
+
+    Returns
+    -------
+    pairs : (h,2) int64
+        Crossing pairs, each as ``i < j``.
+    """
+    C = np.asarray(C, np.float64)
+    ids = np.asarray(ids, np.int64)
+    none = np.zeros((0, 2), np.int64)
+    if len(C) < 2:
+        return none
+    c, r = bounding_spheres(C)
+    r_cut = min(float(r.max()), 4 * float(np.median(r)))
+    tree = cKDTree(c)
+    P = tree.query_pairs(2 * r_cut, output_type="ndarray").astype(np.int64)
+    big = np.flatnonzero(r > r_cut)
+    if big.size:
+        lists = tree.query_ball_point(c[big], r[big] + float(r.max()), return_sorted=False)
+        cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+        i = np.repeat(big, cnt)
+        j = np.fromiter((k for x in lists for k in x), np.int64, int(cnt.sum()))
+        m = i != j
+        key = np.unique(np.concatenate([P[:, 0] * len(C) + P[:, 1],
+                                        np.minimum(i[m], j[m]) * len(C) + np.maximum(i[m], j[m])]))
+        P = np.column_stack([key // len(C), key % len(C)])
+    if len(P) == 0:
+        return none
+    i, j = P[:, 0], P[:, 1]
+    near = np.sum((c[i] - c[j]) ** 2, axis=1) <= (r[i] + r[j]) ** 2 * (1 + 1e-9)
+    lo, hi = C.min(axis=1), C.max(axis=1)
+    near &= np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
+    P = P[near]
+    hit = np.zeros(len(P), bool)
+    for s in range(0, len(P), 200_000):
+        a, b = P[s:s + 200_000, 0], P[s:s + 200_000, 1]
+        hit[s:s + 200_000] = pair_intersections(C[a], ids[a], C[b], ids[b])
+    return P[hit]
+
+
 def self_intersections(V, F):
     """Number of intersecting pairs among the triangles of one mesh."""
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
     if len(F) < 2:
         return 0
-    index = TriangleIndex(V, F, origin=V.mean(axis=0))
-    Q = V[F] - index.origin
-    ai, bi = index.candidate_pairs(index.centroids, index.radius)
-    m = ai != bi
-    pairs = np.unique(np.column_stack([np.minimum(ai[m], bi[m]), np.maximum(ai[m], bi[m])]), axis=0)
-    ai, bi = pairs[:, 0], pairs[:, 1]
-    amin, amax = Q[ai].min(axis=1), Q[ai].max(axis=1)
-    bmin, bmax = Q[bi].min(axis=1), Q[bi].max(axis=1)
-    keep = np.all((amin <= bmax) & (bmin <= amax), axis=1)
-    ai, bi = ai[keep], bi[keep]
-    hits = 0
-    for s in range(0, len(ai), 200_000):
-        sl = slice(s, s + 200_000)
-        hits += int(pair_intersections(Q[ai[sl]], F[ai[sl]], Q[bi[sl]], F[bi[sl]]).sum())
-    return hits
+    return len(crossing_pairs(V[F] - V.mean(axis=0), F))
 
 
 def _outline_is_simple(Q):

@@ -63,7 +63,7 @@ from .geometry import bounding_spheres, concat_ranges, cross, uniq
 from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth,
                    thin_plate_energy, umbrella_smooth, uniform_laplacian)
 from .holes import detect_holes
-from .intersect import NearFaces, embeds_by_projection, pair_intersections, patch_vs_index
+from .intersect import NearFaces, crossing_pairs, embeds_by_projection, pair_intersections, patch_vs_index
 from .io import Mesh
 from .refine import refine_patch, refine_patches
 from .report import table1_dict
@@ -407,13 +407,9 @@ def _check_patch(ctx, patch):
     # cross itself; otherwise test its triangles pair by pair
     if len(C) > 1 and not (patch.disc and embeds_by_projection(
             np.vstack([ctx.V[patch.loop], patch.P]), patch.T, len(patch.loop))):
-        c, r = bounding_spheres(C)
-        pairs = cKDTree(c).query_pairs(2 * r.max(), output_type="ndarray")
+        pairs = crossing_pairs(C - ctx.index.origin, ids)
         if len(pairs):
-            h = pair_intersections(C[pairs[:, 0]], ids[pairs[:, 0]], C[pairs[:, 1]], ids[pairs[:, 1]])
-            if h.any():
-                return (f"patch would cross itself ({int(h.sum())} triangle pairs)",
-                        np.unique(pairs[h].ravel()))
+            return f"patch would cross itself ({len(pairs)} triangle pairs)", np.unique(pairs.ravel())
     return None, np.zeros(0, np.int64)
 
 

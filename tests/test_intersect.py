@@ -4,7 +4,8 @@ import numpy as np
 
 from shellrepair import shapes
 from shellrepair.topology import edge_topology
-from shellrepair.intersect import (NearFaces, TriangleIndex, _one_side, _seg_tri, embeds_by_projection,
+from shellrepair.intersect import (NearFaces, TriangleIndex, _one_side, _seg_tri, crossing_pairs,
+                                   embeds_by_projection,
                                    pair_intersections, patch_vs_index, self_intersections)
 
 
@@ -65,6 +66,25 @@ def test_pairs_set_aside_by_the_plane_test_are_never_crossing_ones():
     assert exact.sum() > 1000 and apart.sum() > 10000
     assert not (apart & exact).any()
     assert np.array_equal(pair_intersections(A, ida, B, idb), exact)
+
+
+def test_crossing_pairs_are_exactly_the_crossing_pairs_among_all_pairs():
+    # a soup of small triangles in a box, a few huge ones through it, some
+    # corners shared; every pair tested by brute force is the reference
+    rng = np.random.default_rng(5)
+    t = 400
+    c = rng.uniform(0, 4, size=(t, 1, 3))
+    C = c + rng.normal(scale=0.25, size=(t, 3, 3))
+    C[:3] = rng.uniform(-2, 6, size=(3, 3, 3))            # huge triangles
+    ids = np.arange(3 * t).reshape(t, 3)
+    ids[10:40, 0] = ids[40:70, 0]                        # shared corners ...
+    C[10:40, 0] = C[40:70, 0]                            # ... at one position
+    i, j = np.triu_indices(t, 1)
+    ref = pair_intersections(C[i], ids[i], C[j], ids[j])
+    got = crossing_pairs(C, ids)
+    assert ref.sum() > 50
+    assert (got[:, 0] < got[:, 1]).all()
+    assert {tuple(p) for p in got} == set(zip(i[ref], j[ref]))
 
 
 def test_closed_sphere_has_no_self_intersections_and_a_dent_through_it_has():
