@@ -327,19 +327,36 @@ class NearFaces:
             return none, none
         c, r = bounding_spheres(self.V[self.F[f]] - self.origin)
         if len(C) * len(f) <= self.BRUTE:
-            # |C − c|² by one product; the slack covers its round-off (a
-            # superset of pairs is fine: they are tested exactly after)
-            nC, nc = np.einsum("ij,ij->i", C, C), np.einsum("ij,ij->i", c, c)
-            d2 = nC[:, None] + nc[None, :] - 2.0 * (C @ c.T)
-            reach = (R[:, None] + r[None, :]) ** 2 + 1e-9 * (nC[:, None] + nc[None, :])
-            ai, bj = np.nonzero(d2 <= reach)
-            return ai.astype(np.int64), f[bj]
-        lists = cKDTree(c).query_ball_point(C, R + r.max(), return_sorted=False)
+            ai, bj = _sphere_pairs(C, R, c, r)
+            return ai, f[bj]
+        # a k-d tree over the faces of ordinary size; the few much larger
+        # ones (a scan's flat base, say) would widen every query: all pairs
+        r_cut = min(float(r.max()), 4 * float(np.median(r)))
+        small = np.flatnonzero(r <= r_cut)
+        large = np.flatnonzero(r > r_cut)
+        lists = cKDTree(c[small]).query_ball_point(C, R + r_cut, return_sorted=False)
         cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
         ai = np.repeat(np.arange(len(C)), cnt)
-        bj = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
+        bj = small[np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))]
         keep = np.sum((C[ai] - c[bj]) ** 2, axis=1) <= (R[ai] + r[bj]) ** 2
-        return ai[keep], f[bj[keep]]
+        ai, bj = ai[keep], bj[keep]
+        if large.size:
+            step = max(1, self.BRUTE // large.size)
+            more = [_sphere_pairs(C[s:s + step], R[s:s + step], c[large], r[large]) for s in range(0, len(C), step)]
+            ai = np.concatenate([ai] + [m[0] + s for m, s in zip(more, range(0, len(C), step))])
+            bj = np.concatenate([bj] + [large[m[1]] for m in more])
+        return ai, f[bj]
+
+
+def _sphere_pairs(C, R, c, r):
+    """All pairs (i, j) of spheres (C[i], R[i]) and (c[j], r[j]) that meet,
+    by one product (|C − c|² expanded; its round-off is covered by a slack,
+    a superset of pairs being fine as they are tested exactly after)."""
+    nC, nc = np.einsum("ij,ij->i", C, C), np.einsum("ij,ij->i", c, c)
+    d2 = nC[:, None] + nc[None, :] - 2.0 * (C @ c.T)
+    reach = (R[:, None] + r[None, :]) ** 2 + 1e-9 * (nC[:, None] + nc[None, :])
+    ai, bj = np.nonzero(d2 <= reach)
+    return ai.astype(np.int64), bj.astype(np.int64)
 
 
 def patch_vs_index(Pt, Pid, index, return_faces=False):

@@ -128,6 +128,28 @@ def test_near_faces_keeps_a_long_triangle_reaching_in_from_far_away():
         assert patch_vs_index(probe, np.array([[-1, -2, -3]]), near, return_faces=True).size == 1
 
 
+def test_near_face_pairs_are_the_same_by_tree_and_by_product_with_huge_faces_about():
+    # a sheet with a few long triangles lying across it (a scan's flat base
+    # seen from its wall): the tree path pairs them apart, the set of
+    # sphere-meeting pairs is the one the all-pairs product finds
+    V, F = shapes.grid(40, 40)
+    rng = np.random.default_rng(8)
+    extra = []
+    for _ in range(6):
+        a = rng.uniform(0, 1, 3) * [1, 1, 0.02]
+        extra.append([a, a + [0.9, 0.1, 0], a + [0.1, 0.8, 0.01]])
+    V = np.vstack([V, np.reshape(extra, (-1, 3))])
+    F = np.vstack([F, len(V) - 18 + np.arange(18).reshape(6, 3)])
+    by_tree, by_product = NearFaces(V, F), NearFaces(V, F)
+    by_tree.BRUTE, by_product.BRUTE = 0, 10 ** 12
+    for _ in range(10):
+        C = np.column_stack([rng.uniform(0.2, 0.8, (50, 2)), rng.uniform(-0.02, 0.02, 50)])
+        R = rng.uniform(0.005, 0.03, 50)
+        a = set(zip(*by_tree.candidate_pairs(C, R)))
+        b = set(zip(*by_product.candidate_pairs(C, R)))
+        assert a == b and any(j >= len(F) - 6 for _, j in a)
+
+
 def test_projection_certificate_accepts_a_dome_and_refuses_a_fold():
     k = 24
     t = np.linspace(0, 2 * np.pi, k, endpoint=False)
