@@ -238,38 +238,39 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
         N[i, i + 1] = rim[i] if has_rim[i] else 0.0
         HN[i, i + 1] = bool(has_rim[i] and np.any(rim[i] != 0))
     for L in range(2, k):
-        i = np.arange(0, k - L)
+        r = k - L
+        i = np.arange(r)
         j = i + L
-        m = i[:, None] + np.arange(1, L)[None, :]          # (r, L-1)
-        I = np.broadcast_to(i[:, None], m.shape)
-        J = np.broadcast_to(j[:, None], m.shape)
-        QI = Q[I]
-        raw = cross(Q[J] - QI, Q[m] - QI)                  # triangle (i, j, m), unnormalised normal
+        # chord (i, j) closed by apex m = i + t, t = 1 .. L-1: the tables
+        # on edges (i, m) and (m, j) are read as strided views (_left, _right)
+        Qi = Q[:r, None, :]
+        Qm = np.lib.stride_tricks.as_strided(Q[1:], shape=(r, L - 1, 3), strides=(Q.strides[0],) + Q.strides,
+                                             writeable=False)                       # Q[i + t]
+        raw = cross(Q[L:, None, :] - Qi, Qm - Qi)          # triangle (i, j, m), unnormalised normal
         ln = np.sqrt(dot(raw, raw))
         nz = ln > 0
         n = raw / np.where(nz, ln, 1.0)[..., None]
         area = 0.5 * ln
         # dihedral cost (1 - cos) with the triangles (or rim faces) on edges (i, m) and (m, j);
         # 2 (a fold) for a degenerate candidate, 0 where there is no neighbour yet
-        a1 = np.where(HN[I, m], np.where(nz, 1.0 - np.clip(dot(n, N[I, m]), -1.0, 1.0), 2.0), 0.0)
-        a2 = np.where(HN[m, J], np.where(nz, 1.0 - np.clip(dot(n, N[m, J]), -1.0, 1.0), 2.0), 0.0)
-        wa = np.maximum(np.maximum(a1, a2), np.maximum(WA[I, m], WA[m, J]))
+        a1 = np.where(_left(HN, r, L), np.where(nz, 1.0 - np.clip(dot(n, _left(N, r, L)), -1.0, 1.0), 2.0), 0.0)
+        a2 = np.where(_right(HN, r, L), np.where(nz, 1.0 - np.clip(dot(n, _right(N, r, L)), -1.0, 1.0), 2.0), 0.0)
+        wa = np.maximum(np.maximum(a1, a2), np.maximum(_left(WA, r, L), _right(WA, r, L)))
         if L == k - 1 and has_rim[k - 1]:  # the closing edge (k-1 -> 0) has a scan face across it
             wa = np.maximum(wa, _angle(n, np.broadcast_to(rim[k - 1], n.shape)))
-        ws = area + WS[I, m] + WS[m, J]
-        bad = forb[I, m] | forb[m, J] | forb[I, J][:, :1]
+        ws = area + _left(WS, r, L) + _right(WS, r, L)
+        bad = _left(forb, r, L) | _right(forb, r, L) | np.diagonal(forb, L)[:, None]
         if axis is not None:  # embedding constraint: every triangle faces along the axis
             bad |= raw @ axis <= 0
         wa = np.where(bad, np.inf, wa)
         best_a = wa.min(axis=1, keepdims=True)
         ws_masked = np.where(wa <= best_a + ANGLE_TIE, ws, np.inf)
         t = np.argmin(ws_masked, axis=1)
-        r = np.arange(len(i))
-        WA[i, j] = wa[r, t]
-        WS[i, j] = ws_masked[r, t]
-        O[i, j] = m[r, t]
-        N[i, j] = n[r, t]
-        HN[i, j] = nz[r, t]
+        WA[i, j] = wa[i, t]
+        WS[i, j] = ws_masked[i, t]
+        O[i, j] = i + 1 + t
+        N[i, j] = n[i, t]
+        HN[i, j] = nz[i, t]
     if not np.isfinite(WA[0, k - 1]):
         if axis is not None:
             raise MeshError("no triangulation of this loop faces along its axis")
@@ -285,6 +286,20 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
         stack.append((a, mm))
         stack.append((mm, b))
     return np.array(tris, np.int64)
+
+
+def _left(X, r, L):
+    """``X[i, i + t]`` for i < r, 1 <= t < L, as a view of the (k,k,...) table X."""
+    s0, s1 = X.strides[:2]
+    return np.lib.stride_tricks.as_strided(X[0, 1:], shape=(r, L - 1) + X.shape[2:],
+                                           strides=(s0 + s1, s1) + X.strides[2:], writeable=False)
+
+
+def _right(X, r, L):
+    """``X[i + t, i + L]`` for i < r, 1 <= t < L, as a view of the (k,k,...) table X."""
+    s0, s1 = X.strides[:2]
+    return np.lib.stride_tricks.as_strided(X[1, L:], shape=(r, L - 1) + X.shape[2:],
+                                           strides=(s0 + s1, s0) + X.strides[2:], writeable=False)
 
 
 def _uses_forbidden(T, forbidden):
