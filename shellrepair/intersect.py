@@ -9,10 +9,14 @@ shared vertices and edges is not an intersection. Coplanar overlaps without
 a fold are not detected (they do not arise from faired patches).
 
 Candidate pairs for a patch come from the scan faces near its box
-(:class:`NearFaces`: vertices sorted along x, vertex-to-face lists), so a
-check costs about its own size, not the scan's; :class:`TriangleIndex`
-(a k-d tree over every triangle) serves whole-mesh self-intersection
-counts.
+(:class:`NearFaces`: vertices bucketed in xy columns, vertex-to-face
+lists), so a check costs about its own size, not the scan's;
+:class:`TriangleIndex` (a k-d tree over every triangle) is the plain
+whole-mesh index it is tested against. :func:`crossing_pairs` finds the
+crossing pairs within one set of triangles (a patch against itself,
+:func:`self_intersections` of a whole mesh). Before the exact edge tests,
+pairs with one triangle wholly on one side of the other's plane are set
+aside (most candidate pairs are).
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
 __all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "crossing_pairs", "self_intersections",
-           "embeds_by_projection"]
+           "embeds_by_projection", "ball_pairs"]
 
 #: Barycentric / segment-parameter tolerance: hits this close to an edge or
 #: endpoint count as touching, not crossing.
@@ -192,20 +196,10 @@ class TriangleIndex:
         -------
         ai, bi : (p,) int64
         """
-        lists = self.tree.query_ball_point(C, R + self.r_cut, return_sorted=False)
-        cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
-        ai = np.repeat(np.arange(len(C)), cnt)
-        bi = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
+        ai, bi = ball_pairs(self.tree, C, R + self.r_cut)
         if self.big.size:
-            cb, rb = self.centroids[self.big], self.radius[self.big]
-            step = max(1, 4_000_000 // self.big.size)
-            extra_a, extra_b = [ai], [bi]
-            for s in range(0, len(C), step):
-                d = np.linalg.norm(C[s:s + step, None, :] - cb[None], axis=2)
-                a2, b2 = np.nonzero(d <= R[s:s + step, None] + rb[None])
-                extra_a.append(a2 + s)
-                extra_b.append(self.big[b2])
-            ai, bi = np.concatenate(extra_a), np.concatenate(extra_b)
+            a2, b2 = _sphere_pairs(C, R, self.centroids[self.big], self.radius[self.big])
+            ai, bi = np.concatenate([ai, a2]), np.concatenate([bi, self.big[b2]])
             key = np.unique(ai * len(self.F) + bi)
             ai, bi = key // len(self.F), key % len(self.F)
         return ai, bi
@@ -334,29 +328,46 @@ class NearFaces:
         r_cut = min(float(r.max()), 4 * float(np.median(r)))
         small = np.flatnonzero(r <= r_cut)
         large = np.flatnonzero(r > r_cut)
-        lists = cKDTree(c[small]).query_ball_point(C, R + r_cut, return_sorted=False)
-        cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
-        ai = np.repeat(np.arange(len(C)), cnt)
-        bj = small[np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))]
+        ai, bj = ball_pairs(cKDTree(c[small]), C, R + r_cut)
+        bj = small[bj]
         keep = np.sum((C[ai] - c[bj]) ** 2, axis=1) <= (R[ai] + r[bj]) ** 2
         ai, bj = ai[keep], bj[keep]
         if large.size:
-            step = max(1, self.BRUTE // large.size)
-            more = [_sphere_pairs(C[s:s + step], R[s:s + step], c[large], r[large]) for s in range(0, len(C), step)]
-            ai = np.concatenate([ai] + [m[0] + s for m, s in zip(more, range(0, len(C), step))])
-            bj = np.concatenate([bj] + [large[m[1]] for m in more])
+            a2, b2 = _sphere_pairs(C, R, c[large], r[large], self.BRUTE)
+            ai, bj = np.concatenate([ai, a2]), np.concatenate([bj, large[b2]])
         return ai, f[bj]
 
 
-def _sphere_pairs(C, R, c, r):
-    """All pairs (i, j) of spheres (C[i], R[i]) and (c[j], r[j]) that meet,
-    by one product (|C − c|² expanded; its round-off is covered by a slack,
-    a superset of pairs being fine as they are tested exactly after)."""
+def ball_pairs(tree, X, radius):
+    """Pairs (i, j): point j of the k-d ``tree`` lies within ``radius[i]`` of ``X[i]``.
+
+    Returns
+    -------
+    ai, bj : (p,) int64
+    """
+    lists = tree.query_ball_point(X, radius, return_sorted=False)
+    cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+    ai = np.repeat(np.arange(len(X)), cnt)
+    bj = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
+    return ai, bj
+
+
+def _sphere_pairs(C, R, c, r, budget=4_000_000):
+    """All pairs (i, j) of spheres (C[i], R[i]) and (c[j], r[j]) that meet, by
+    products of at most ``budget`` entries (|C − c|² expanded; its round-off is
+    covered by a slack, a superset of pairs being fine as they are tested
+    exactly after)."""
     nC, nc = np.einsum("ij,ij->i", C, C), np.einsum("ij,ij->i", c, c)
-    d2 = nC[:, None] + nc[None, :] - 2.0 * (C @ c.T)
-    reach = (R[:, None] + r[None, :]) ** 2 + 1e-9 * (nC[:, None] + nc[None, :])
-    ai, bj = np.nonzero(d2 <= reach)
-    return ai.astype(np.int64), bj.astype(np.int64)
+    step = max(1, budget // max(len(c), 1))
+    ai, bj = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for s in range(0, len(C), step):
+        e = slice(s, s + step)
+        d2 = nC[e, None] + nc[None, :] - 2.0 * (C[e] @ c.T)
+        reach = (R[e, None] + r[None, :]) ** 2 + 1e-9 * (nC[e, None] + nc[None, :])
+        a, b = np.nonzero(d2 <= reach)
+        ai.append(a.astype(np.int64) + s)
+        bj.append(b.astype(np.int64))
+    return np.concatenate(ai), np.concatenate(bj)
 
 
 def patch_vs_index(Pt, Pid, index, return_faces=False):
@@ -428,10 +439,8 @@ def crossing_pairs(C, ids):
     P = tree.query_pairs(2 * r_cut, output_type="ndarray").astype(np.int64)
     big = np.flatnonzero(r > r_cut)
     if big.size:
-        lists = tree.query_ball_point(c[big], r[big] + float(r.max()), return_sorted=False)
-        cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
-        i = np.repeat(big, cnt)
-        j = np.fromiter((k for x in lists for k in x), np.int64, int(cnt.sum()))
+        i, j = ball_pairs(tree, c[big], r[big] + float(r.max()))
+        i = big[i]
         m = i != j
         key = np.unique(np.concatenate([P[:, 0] * len(C) + P[:, 1],
                                         np.minimum(i[m], j[m]) * len(C) + np.maximum(i[m], j[m])]))

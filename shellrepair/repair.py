@@ -63,7 +63,7 @@ from .geometry import bounding_spheres, concat_ranges, cross, uniq
 from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth,
                    thin_plate_energy, umbrella_smooth, uniform_laplacian)
 from .holes import detect_holes
-from .intersect import NearFaces, crossing_pairs, embeds_by_projection, pair_intersections, patch_vs_index
+from .intersect import NearFaces, ball_pairs, crossing_pairs, embeds_by_projection, pair_intersections, patch_vs_index
 from .io import Mesh
 from .refine import refine_patch, refine_patches
 from .report import table1_dict
@@ -969,13 +969,8 @@ class _Accepted:
             c1, r1 = bounding_spheres(C)
             for j in near:
                 other, D, oid, c2, r2 = self.items[j]
-                lists = cKDTree(c2).query_ball_point(c1, r1 + r2.max())
-                cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
-                if cnt.sum() == 0:
-                    continue
-                ai = np.repeat(np.arange(len(C)), cnt)
-                bi = np.fromiter((b for x in lists for b in x), np.int64, int(cnt.sum()))
-                if pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
+                ai, bi = ball_pairs(cKDTree(c2), c1, r1 + r2.max())
+                if ai.size and pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
                     return f"patch would cross the patch of hole {other.hole_id}", None
         return None, (C, ids)
 
