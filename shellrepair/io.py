@@ -351,21 +351,44 @@ def clean_faces(F):
     ok = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
     n_degen = int((~ok).sum())
     idx = np.flatnonzero(ok)
-    S = np.sort(F[idx], axis=1)
-    # rows in lexicographic order (stable: the first face of a group of
-    # duplicates comes first), cheaper than np.unique(axis=0)
-    order = np.lexsort((S[:, 2], S[:, 1], S[:, 0]))
-    Ss = S[order]
-    lead = np.ones(len(Ss), bool)
-    lead[1:] = (Ss[1:] != Ss[:-1]).any(axis=1)
-    first = np.sort(order[lead])
-    n_dup = len(idx) - len(first)
-    kept = idx[first]
+    # duplicates share their sorted vertex triple, hence its hash; only the
+    # faces whose hash value repeats (all duplicates, and rare collisions)
+    # are grouped exactly, so a scan without duplicates sorts one array
+    h = _triple_hash(F if n_degen == 0 else F[idx])
+    hs = np.sort(h)
+    rep = np.unique(hs[1:][hs[1:] == hs[:-1]])
+    del hs
+    keep = np.ones(len(idx), bool)
+    if rep.size:
+        cand = np.flatnonzero(rep[np.minimum(np.searchsorted(rep, h), rep.size - 1)] == h)
+        S = np.sort(F[idx[cand]], axis=1)
+        # stable: the first face of a group of duplicates comes first
+        order = np.lexsort((S[:, 2], S[:, 1], S[:, 0]))
+        Ss = S[order]
+        later = np.zeros(len(Ss), bool)
+        later[1:] = (Ss[1:] == Ss[:-1]).all(axis=1)
+        keep[cand[order[later]]] = False
+    kept = idx[keep] if rep.size or n_degen else idx
+    n_dup = len(idx) - len(kept)
     if n_degen:
         notes.append(f"{n_degen} faces with a repeated vertex dropped")
     if n_dup:
         notes.append(f"{n_dup} duplicate faces dropped")
     return F[kept], kept, notes
+
+
+def _triple_hash(F):
+    """A 64-bit hash of each row's vertex set (equal for equal sets in any order)."""
+    x, y, z = (F[:, i].astype(np.uint64) for i in range(3))
+    a = np.minimum(np.minimum(x, y), z)
+    c = np.maximum(np.maximum(x, y), z)
+    b = x + y + z - a - c
+    del x, y, z
+    h = a * np.uint64(0x9E3779B97F4A7C15)
+    h ^= b * np.uint64(0xC2B2AE3D27D4EB4F)
+    h ^= c * np.uint64(0x165667B19E3779F9)
+    h ^= h >> np.uint64(29)
+    return h
 
 
 # --------------------------------------------------------------------------

@@ -5,6 +5,7 @@ import pytest
 
 from shellrepair import MeshError, Mesh, read_mesh, write_mesh
 from shellrepair import shapes
+from shellrepair import io as io_module
 from shellrepair.io import clean_faces
 
 
@@ -79,6 +80,23 @@ def test_clean_faces_keeps_order_and_reports_indices():
     Fc, kept, notes = clean_faces(F)
     assert kept.tolist() == [0, 1]
     assert Fc.tolist() == [[0, 1, 2], [2, 3, 0]]
+
+
+@pytest.mark.parametrize("colliding", [False, True])
+def test_clean_faces_drops_exactly_the_later_copies_of_a_vertex_set(monkeypatch, colliding):
+    # random faces with copies in other vertex orders; the specification is
+    # the first face of each vertex set, by exact comparison of sorted rows
+    rng = np.random.default_rng(2)
+    F = rng.integers(0, 40, size=(3000, 3))
+    F = np.vstack([F, F[rng.integers(0, 3000, 500)][:, [2, 0, 1]]])
+    if colliding:   # a hash with many collisions must not change the result
+        monkeypatch.setattr(io_module, "_triple_hash", lambda G: (G.min(axis=1) % 3).astype(np.uint64))
+    Fc, kept, notes = clean_faces(F)
+    ok = np.flatnonzero((F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2]))
+    _, first = np.unique(np.sort(F[ok], axis=1), axis=0, return_index=True)
+    assert kept.tolist() == sorted(ok[first].tolist())
+    assert np.array_equal(Fc, F[kept])
+    assert len(kept) < len(ok) < len(F)
 
 
 def test_write_to_missing_folder_raises_and_writes_nothing(tmp_path):
