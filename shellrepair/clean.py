@@ -61,6 +61,10 @@ class OrientResult:
     topo : EdgeTopology or None
         The edge topology of the returned ``F`` when no face was flipped
         (it was built for the input), for callers to reuse; else None.
+    piece : (m,) int64 array or None
+        Each face's piece, labelled as :func:`shellrepair.topology.face_pieces`
+        labels them, when no edge has more than two faces (then the two
+        agree); else None.
     """
 
     F: np.ndarray
@@ -69,6 +73,7 @@ class OrientResult:
     nonorientable: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     topo: object = None
+    piece: np.ndarray | None = None
 
     @property
     def n_flipped(self):
@@ -205,7 +210,8 @@ def _finish(F, V, topo, f, g, piece, first, n_pieces, flip, nonorientable_pieces
     out[flip, 1], out[flip, 2] = F[flip, 2], F[flip, 1]
     res = OrientResult(F=out, flipped=flip, n_pieces=int(n_pieces),
                        nonorientable=[int(first[p]) for p in nonorientable_pieces],
-                       topo=None if flip.any() else topo)
+                       topo=None if flip.any() else topo,
+                       piece=None if len(topo.nonmanifold_edges) else piece.astype(np.int64))
     if res.n_flipped:
         res.notes.append(f"{res.n_flipped} faces flipped for consistent orientation")
     if res.nonorientable:

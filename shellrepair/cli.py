@@ -149,7 +149,8 @@ def _holes(args):
     from .report import holes_dict, holes_table
 
     mesh = read_mesh(args.scan)
-    scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders)
+    scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders,
+                        topo=mesh.cached("topology"), pieces=mesh.cached("pieces"), areas=mesh.cached("face_areas"))
     d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)
     print(json.dumps(d, indent=1) if args.json else holes_table(d))
     return 0

@@ -343,7 +343,8 @@ def _inside_fractions(V, loops, axes, centers, cent, w, chunk=64):
     return out
 
 
-def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTER_FRACTION, topo=None):
+def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTER_FRACTION, topo=None,
+                 pieces=None, areas=None):
     """Find every boundary loop, measure it and class it hole or border.
 
     Parameters
@@ -357,6 +358,12 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
     outer_fraction : float
         Threshold of rule 2 (see module docstring).
     topo : EdgeTopology, optional
+    pieces : (int, (m,) int64), optional
+        :func:`shellrepair.topology.face_pieces` of ``topo``.
+    areas : (m,) float64, optional
+        :func:`shellrepair.topology.face_areas` of ``V, F``.
+        (These three are built here when not given; :func:`read_mesh`
+        keeps them on the mesh, see :meth:`Mesh.cached`.)
 
     Returns
     -------
@@ -368,9 +375,9 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, outer_fraction=OUTE
     if topo is None:
         topo = edge_topology(F, n)
     loops, chains = boundary_loops(F, n, topo)
-    n_piece, fpiece = face_pieces(topo, len(F))
+    n_piece, fpiece = face_pieces(topo, len(F)) if pieces is None else pieces
     n_comp, vcomp, fcomp = components_of_pieces(F, n, fpiece, n_piece)
-    A = face_areas(V, F)
+    A = face_areas(V, F) if areas is None else areas
     piece_area = np.bincount(fpiece, weights=A, minlength=n_piece)
     bhe = topo.boundary_he
     he_face = dict(zip(map(tuple, topo.he[bhe].tolist()), (bhe // 3).tolist()))

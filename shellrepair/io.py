@@ -96,16 +96,26 @@ class Mesh:
     vertex_dtype: str = "f8"
     path: str | None = None
     notes: list = field(default_factory=list)
-    _topology: tuple | None = field(default=None, repr=False, compare=False)
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
-    def cached_topology(self):
-        """The edge topology ``read_mesh`` built for ``F``, or None (when it
-        built none, or ``F`` has been replaced since). Editing ``F`` in
-        place is not noticed: assign a new array instead (or set
-        ``mesh._topology = None``)."""
-        if self._topology is None or self._topology[0] is not self.F:
+    def cached(self, name):
+        """Whole-mesh data :func:`read_mesh` computed on its way, or None
+        (when it computed none, or ``V`` or ``F`` has been replaced since).
+
+        ``name``: ``"topology"`` (:func:`shellrepair.topology.edge_topology`),
+        ``"pieces"`` (``(n_pieces, face_piece)`` as
+        :func:`shellrepair.topology.face_pieces` gives them) or
+        ``"face_areas"``. Editing ``V`` or ``F`` in place is not noticed:
+        assign new arrays instead (or clear ``mesh._cache``).
+        """
+        entry = self._cache.get(name)
+        if entry is None or entry[0] is not self.V or entry[1] is not self.F:
             return None
-        return self._topology[1]
+        return entry[2]
+
+    def remember(self, name, value):
+        """Keep ``value`` as :meth:`cached` ``name`` for the current ``V`` and ``F``."""
+        self._cache[name] = (self.V, self.F, value)
 
     @property
     def n_vertices(self):
@@ -188,12 +198,17 @@ def read_mesh(path, *, clean=True, orient=True):
         res = orient_faces(mesh.F, mesh.V)
         mesh.F = res.F
         mesh.notes.extend(res.notes)
-        if res.topo is not None:  # built for these faces: a repair reuses it
-            mesh._topology = (mesh.F, res.topo)
+        # built on the way: hole detection and repair reuse them
+        if res.topo is not None:
+            mesh.remember("topology", res.topo)
+        if res.piece is not None:
+            mesh.remember("pieces", (res.n_pieces, res.piece))
     unused = mesh.n_vertices - _used_vertex_count(mesh.F, mesh.n_vertices)
     if unused:
         mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes)")
-    zero = _zero_area_count(mesh.V, mesh.F)
+    areas = face_areas(mesh.V, mesh.F)
+    mesh.remember("face_areas", areas)
+    zero = int(np.count_nonzero(areas == 0))
     if zero:
         mesh.notes.append(f"{zero} zero-area faces kept")
     return mesh
@@ -421,12 +436,6 @@ def _used_vertex_count(F, n):
     used = np.zeros(int(n), bool)
     used[np.asarray(F).ravel()] = True
     return int(used.sum())
-
-
-def _zero_area_count(V, F):
-    if len(F) == 0:
-        return 0
-    return int(np.count_nonzero(face_areas(V, F) == 0))
 
 
 def _polygons_to_triangles(polys, notes, V=None):

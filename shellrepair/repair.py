@@ -819,11 +819,13 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     V = np.asarray(mesh.V, np.float64)
     F = np.asarray(mesh.F, np.int64)
     _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
-    topo = mesh.cached_topology() if hasattr(mesh, "cached_topology") else None
-    if topo is None or topo.he.shape[0] != 3 * len(F):
+    known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh
+    topo = known("topology")
+    if topo is None:
         topo = edge_topology(F, len(V))
     _progress(progress, 1, 2, "finding holes")
-    scan = detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo)
+    scan = detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo,
+                        pieces=known("pieces"), areas=known("face_areas"))
     _progress(progress, 2, 2, "finding holes")
     holes = scan.holes
     ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))

@@ -7,9 +7,10 @@ from shellrepair import shapes
 from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, _independent_flips, _relax, _unfolded, refine_patch,
                                 refine_patches)
 from shellrepair.repair import _rim_data, _local_frame, _Context
-from shellrepair.io import Mesh
+from shellrepair.io import Mesh, read_mesh, write_mesh
+from shellrepair.report import holes_dict
 from shellrepair.holes import detect_holes
-from shellrepair.topology import (components_of_pieces, edge_topology, face_components, face_pieces,
+from shellrepair.topology import (components_of_pieces, edge_topology, face_areas, face_components, face_pieces,
                                   vertex_faces)
 from shellrepair.triangulate import triangulate_loop
 
@@ -44,6 +45,38 @@ def test_components_from_pieces_equal_the_vertex_graph_components():
         want = face_components(G, len(V))
         assert got[0] == want[0] == 2 and n_piece == 4
         assert np.array_equal(got[1], want[1]) and np.array_equal(got[2], want[2])
+
+
+def test_what_loading_keeps_on_the_mesh_is_what_detection_would_build(tmp_path):
+    V, F = _pieces_and_pinches()
+    keep = np.ones(len(F), bool)
+    keep[[5, 40, 41, 200]] = False                  # some holes
+    F = F[keep]
+    flipped = F.copy()
+    flipped[7] = flipped[7][[0, 2, 1]]              # loading will flip it back
+    e = F[10]                                       # a third face on an edge of face 10
+    nonmanifold = np.vstack([F, [[e[0], e[1], len(V)]]])
+    V2 = np.vstack([V, [[0.3, 0.3, 3.0]]])
+    for name, G, W in (("plain", F, V), ("flipped", flipped, V), ("nonmanifold", nonmanifold, V2)):
+        path = tmp_path / f"{name}.ply"
+        write_mesh(path, Mesh(V=W, F=G))
+        m = read_mesh(path)
+        topo = edge_topology(m.F, len(m.V))
+        pieces = face_pieces(topo, len(m.F))
+        kept = {k: m.cached(k) for k in ("topology", "pieces", "face_areas")}
+        assert (kept["topology"] is None) == (name == "flipped")
+        assert (kept["pieces"] is None) == (name == "nonmanifold")
+        if kept["topology"] is not None:
+            assert np.array_equal(kept["topology"].edge_of_he, topo.edge_of_he)
+        if kept["pieces"] is not None:
+            assert kept["pieces"][0] == pieces[0] and np.array_equal(kept["pieces"][1], pieces[1])
+        assert np.array_equal(kept["face_areas"], face_areas(m.V, m.F))
+        fresh = holes_dict(detect_holes(m.V, m.F))
+        reused = holes_dict(detect_holes(m.V, m.F, topo=kept["topology"], pieces=kept["pieces"],
+                                         areas=kept["face_areas"]))
+        assert fresh == reused and fresh["holes"] >= 3
+        m.F = m.F.copy()                            # a new array: nothing kept applies to it
+        assert all(m.cached(k) is None for k in kept)
 
 
 def test_vertex_face_lists_equal_a_stable_sort():
