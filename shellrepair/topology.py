@@ -199,6 +199,10 @@ def components_of_pieces(F, n_vertices, face_piece, n_pieces):
     n = int(n_vertices)
     m = len(F)
     flat = F.ravel()
+    if n_pieces == 1:  # one piece (the usual scan): one component
+        vertex_comp = np.full(n, -1, np.int64)
+        vertex_comp[flat] = 0
+        return 1, vertex_comp, np.zeros(m, np.int64)
     corner_piece = np.repeat(np.asarray(face_piece, np.int64), 3)
     some_piece = np.full(n, -1, np.int64)
     some_piece[flat] = corner_piece          # one piece per vertex (any)

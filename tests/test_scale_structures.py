@@ -45,6 +45,14 @@ def test_components_from_pieces_equal_the_vertex_graph_components():
         want = face_components(G, len(V))
         assert got[0] == want[0] == 2 and n_piece == 4
         assert np.array_equal(got[1], want[1]) and np.array_equal(got[2], want[2])
+    # one piece, with holes and two vertices no face uses
+    V, F = shapes.icosphere(2)
+    F = F[5:]
+    n_piece, fpiece = face_pieces(edge_topology(F, len(V) + 2), len(F))
+    got = components_of_pieces(F, len(V) + 2, fpiece, n_piece)
+    want = face_components(F, len(V) + 2)
+    assert n_piece == got[0] == want[0] == 1
+    assert np.array_equal(got[1], want[1]) and np.array_equal(got[2], want[2])
 
 
 def test_what_loading_keeps_on_the_mesh_is_what_detection_would_build(tmp_path):
