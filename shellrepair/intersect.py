@@ -270,7 +270,7 @@ class NearFaces:
         ij = np.floor((V[:, :2] - lo) / self.h).astype(np.int64)
         self.ny = int(ij[:, 1].max(initial=0)) + 1
         key = ij[:, 0] * self.ny + ij[:, 1]
-        self.vorder = np.argsort(key, kind="stable")
+        self.vorder = np.argsort(key)  # order within a column is immaterial: faces_near sorts its result
         self.vkey = key[self.vorder]
         del ij, key
         self.vf_order, self.vf_start = vertex_faces(F, len(V)) if vf is None else vf
