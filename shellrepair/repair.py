@@ -996,7 +996,7 @@ def _merge(mesh, V, F, patches):
     q = base - n
     V2 = np.vstack([V] + newP) if newP else V.copy()
     F2 = np.vstack([F] + newF) if newF else F.copy()
-    out = Mesh(V=V2, F=F2.astype(np.int64), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
+    out = Mesh(V=V2, F=F2.astype(np.int64, copy=False), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
                notes=list(mesh.notes))
     if mesh.vertex_colors is not None:
         out.vertex_colors = np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)
