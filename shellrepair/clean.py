@@ -93,10 +93,13 @@ def _manifold_face_pairs(F, topo):
     """
     # he_order groups the half-edges by edge, in edge order: a manifold
     # edge's two half-edges are the two entries of its group
-    start = np.cumsum(topo.edge_count) - topo.edge_count
+    start = np.cumsum(topo.edge_count)
+    start -= topo.edge_count
     two = start[topo.edge_count == 2]
+    del start
     h1, h2 = topo.he_order[two], topo.he_order[two + 1]
-    differ = topo.he[h1, 0] == topo.he[h2, 0]
+    tail = F.ravel()  # the tails of the half-edges (topo.he[:, 0]), a denser gather
+    differ = tail[h1] == tail[h2]
     return h1 // 3, h2 // 3, differ
 
 

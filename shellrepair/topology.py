@@ -73,35 +73,44 @@ def edge_topology(F, n_vertices=None):
     F = np.asarray(F, dtype=np.int64)
     n = int(F.max()) + 1 if n_vertices is None else int(n_vertices)
     nn = np.int64(max(n, 1))
-    m3 = 3 * F.shape[0]
+    m = F.shape[0]
+    m3 = 3 * m
+    # Large fresh arrays cost as much to fault in as to compute, so each
+    # scratch array below is reused once its content is no longer needed.
     he = np.empty((m3, 2), np.int64)
-    he[:, 0] = F.ravel()
-    he[:, 1] = F[:, [1, 2, 0]].ravel()
+    he[:, 0].reshape(m, 3)[:] = F
+    nxt = he[:, 1].reshape(m, 3)
+    nxt[:, :2] = F[:, 1:]
+    nxt[:, 2] = F[:, 0]
     key = np.minimum(he[:, 0], he[:, 1])
     key *= nn
-    key += np.maximum(he[:, 0], he[:, 1])
+    buf = np.maximum(he[:, 0], he[:, 1])
+    key += buf
     # one (unstable) argsort gives the unique edges, their counts and the inverse,
     # about twice as fast as np.unique(..., return_inverse=True, return_counts=True)
     order = np.argsort(key)
-    ks = key[order]
-    del key
-    first = np.empty(ks.size, bool)
+    ks = np.take(key, order, out=buf)
+    first = np.empty(m3, bool)
     first[:1] = True
     np.not_equal(ks[1:], ks[:-1], out=first[1:])
     starts = np.flatnonzero(first)
     ukey = ks[starts]
-    del ks
-    count = np.diff(np.append(starts, m3))
-    edge_of_he = np.empty(m3, np.int64)
-    edge_of_he[order] = np.cumsum(first) - 1
+    count = np.empty(starts.size, np.int64)
+    np.subtract(starts[1:], starts[:-1], out=count[:-1])
+    count[-1:] = m3 - starts[-1:]
+    group = np.cumsum(first, out=key)     # 1 + the edge id of each sorted half-edge
+    group -= 1
     del first
+    edge_of_he = buf                      # ks is done with
+    edge_of_he[order] = group
+    del key, group, ks
     edges = np.empty((ukey.size, 2), np.int64)
     np.floor_divide(ukey, nn, out=edges[:, 0])
     np.remainder(ukey, nn, out=edges[:, 1])
     # an edge with one face has its one half-edge at the head of its group
     boundary_he = np.sort(order[starts[count == 1]])
     return EdgeTopology(he=he, edge_of_he=edge_of_he, edges=edges,
-                        edge_count=count.astype(np.int64), boundary_he=boundary_he,
+                        edge_count=count, boundary_he=boundary_he,
                         nonmanifold_edges=edges[count > 2], he_order=order)
 
 
