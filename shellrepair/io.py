@@ -394,14 +394,23 @@ def clean_faces(F):
 
 def _triple_hash(F):
     """A 64-bit hash of each row's vertex set (equal for equal sets in any order)."""
-    x, y, z = (F[:, i].astype(np.uint64) for i in range(3))
-    a = np.minimum(np.minimum(x, y), z)
-    c = np.maximum(np.maximum(x, y), z)
-    b = x + y + z - a - c
-    del x, y, z
-    h = a * np.uint64(0x9E3779B97F4A7C15)
-    h ^= b * np.uint64(0xC2B2AE3D27D4EB4F)
-    h ^= c * np.uint64(0x165667B19E3779F9)
+    x, y, z = F[:, 0], F[:, 1], F[:, 2]
+    a = np.minimum(x, y)
+    np.minimum(a, z, out=a)
+    c = np.maximum(x, y)
+    np.maximum(c, z, out=c)
+    b = x + y
+    b += z
+    b -= a
+    b -= c
+    # in place, as unsigned 64-bit words (products wrap around)
+    h, b, c = a.view(np.uint64), b.view(np.uint64), c.view(np.uint64)
+    h *= np.uint64(0x9E3779B97F4A7C15)
+    b *= np.uint64(0xC2B2AE3D27D4EB4F)
+    h ^= b
+    c *= np.uint64(0x165667B19E3779F9)
+    h ^= c
+    del b, c
     h ^= h >> np.uint64(29)
     return h
 
