@@ -824,13 +824,33 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     if topo is None:
         topo = edge_topology(F, len(V))
     _progress(progress, 1, 2, "finding holes")
-    scan = detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo,
-                        pieces=known("pieces"), areas=known("face_areas"))
+
+    def context(index):
+        c = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
+        c.topo = topo
+        if index:
+            _ = c.index
+        return c
+
+    def detect():
+        return detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo,
+                            pieces=known("pieces"), areas=known("face_areas"))
+
+    if jobs > 1:
+        # with cores to spare, the near-face index is built beside hole
+        # detection (both are NumPy work that mostly runs without the GIL)
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(1) as ex:
+            later = ex.submit(context, True)
+            scan = detect()
+            ctx = later.result()
+    else:
+        scan = detect()
+        ctx = context(False)
     _progress(progress, 2, 2, "finding holes")
     holes = scan.holes
-    ctx = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
-    ctx.topo = topo
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
@@ -849,7 +869,7 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         unit_out = []
         if jobs > 1 and len(chunks) > 1:
             global _WORKER_CTX
-            _ = ctx.index  # build before forking so workers share it
+            _ = ctx.index  # built before forking (above), so workers share it
             _WORKER_CTX = ctx
             import multiprocessing as mp
             with mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
