@@ -118,7 +118,7 @@ def _repair_one(scan, out, report_path, options, progress):
     from .repair import repair_mesh
 
     t0 = time.perf_counter()
-    mesh = read_mesh(scan)
+    mesh = read_mesh(scan, progress=progress)
     row = {"vertices": mesh.n_vertices, "faces": mesh.n_faces}
     repaired, report = repair_mesh(mesh, progress=progress, **options)
     del mesh  # a large scan: free what is no longer needed before writing

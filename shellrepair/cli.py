@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 from .errors import MeshError
+from .progress import end_line
 
 __all__ = ["main", "quiet_hugepages"]
 
@@ -121,21 +122,26 @@ def main(argv=None):
     try:
         return {"holes": _holes, "repair": _repair, "batch": _batch, "render": _render}[args.cmd](args)
     except MeshError as exc:
+        end_line()  # a bar left open by the interrupted work
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
+        end_line()
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
     except MemoryError:
+        end_line()
         print(f"error: {getattr(args, 'scan', None) or getattr(args, 'mesh', None) or getattr(args, 'dir', '')}: "
               "out of memory",
               file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        end_line()
         print("error: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # an internal bug: still one line unless --debug
+        end_line()
         if args.debug:
             raise
         print(f"error: internal error: {type(exc).__name__}: {exc} (run with --debug for a traceback)",
@@ -148,9 +154,10 @@ def _holes(args):
     from .io import read_mesh
     from .report import holes_dict, holes_table
 
-    mesh = read_mesh(args.scan)
+    mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
     scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders,
                         topo=mesh.cached("topology"), pieces=mesh.cached("pieces"), areas=mesh.cached("face_areas"))
+    end_line()  # the loading bar's
     d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)
     print(json.dumps(d, indent=1) if args.json else holes_table(d))
     return 0
@@ -197,7 +204,7 @@ def _repair(args):
     if args.max_hole is not None and args.max_hole < 1:
         raise MeshError(f"--max-hole must be at least 1, got {args.max_hole}")
     t0 = time.perf_counter()
-    mesh = read_mesh(args.scan)
+    mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
     repaired, report = repair_mesh(mesh, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                                    fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
                                    progress=sys.stderr.isatty(), bridge=args.bridge)

@@ -129,7 +129,7 @@ class Mesh:
 # --------------------------------------------------------------------------
 # public entry points
 # --------------------------------------------------------------------------
-def read_mesh(path, *, clean=True, orient=True):
+def read_mesh(path, *, clean=True, orient=True, progress=False):
     """Read a triangle mesh from a PLY, OBJ, OFF or STL file.
 
     Parameters
@@ -145,6 +145,10 @@ def read_mesh(path, *, clean=True, orient=True):
         outward (see :func:`shellrepair.clean.orient_faces`). Only the corner
         order of some faces changes; vertices and face order never do.
         Default True.
+    progress : bool
+        Show the loading stages (parse, clean, orient, measure) as a bar on
+        stderr when it is a terminal; the line is left open for the next
+        bar (see :func:`shellrepair.progress.step`).
 
     Returns
     -------
@@ -173,6 +177,7 @@ def read_mesh(path, *, clean=True, orient=True):
     if len(data) == 0:
         raise MeshError("empty file", path)
     reader = {".ply": _read_ply, ".obj": _read_obj, ".off": _read_off, ".stl": _read_stl}[ext]
+    stage = _stages(progress, f"loading {path.name}", 4)
     try:
         mesh = reader(data)
     except MeshError as exc:
@@ -180,6 +185,7 @@ def read_mesh(path, *, clean=True, orient=True):
     except (ValueError, IndexError, UnicodeDecodeError, OverflowError, MemoryError) as exc:
         raise MeshError(f"malformed {ext[1:].upper()} file ({type(exc).__name__}: {exc})"[:300], path) from None
     mesh.path = str(path)
+    stage()
     try:
         _validate(mesh)
         if clean:
@@ -192,6 +198,7 @@ def read_mesh(path, *, clean=True, orient=True):
             mesh.notes.extend(notes)
     except MeshError as exc:
         raise MeshError(exc.message, path) from None
+    stage()
     if orient:
         from .clean import orient_faces
 
@@ -203,6 +210,7 @@ def read_mesh(path, *, clean=True, orient=True):
             mesh.remember("topology", res.topo)
         if res.piece is not None:
             mesh.remember("pieces", (res.n_pieces, res.piece))
+    stage()
     unused = mesh.n_vertices - _used_vertex_count(mesh.F, mesh.n_vertices)
     if unused:
         mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes)")
@@ -211,7 +219,24 @@ def read_mesh(path, *, clean=True, orient=True):
     zero = int(np.count_nonzero(areas == 0))
     if zero:
         mesh.notes.append(f"{zero} zero-area faces kept")
+    stage()
     return mesh
+
+
+def _stages(on, label, n):
+    """A callable that reports one more of ``n`` stages done (nothing when off)."""
+    if not on:
+        return lambda: None
+    from .progress import step
+
+    done = [0]
+    step(label, 0, n)
+
+    def stage():
+        done[0] += 1
+        step(label, done[0], n)
+
+    return stage
 
 
 def mesh_bytes(path, mesh, *, binary=True):

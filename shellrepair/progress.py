@@ -18,7 +18,7 @@ from __future__ import annotations
 import sys
 import time
 
-__all__ = ["Progress", "progress_enabled"]
+__all__ = ["Progress", "progress_enabled", "step", "end_line"]
 
 #: Seconds between two redraws; updates in between only count.
 MIN_INTERVAL = 0.1
@@ -147,6 +147,7 @@ class Progress:
 # --------------------------------------------------------------------------
 _prefix = []
 _current = None
+_open = False  # a bar drawn by step() whose line nobody has ended yet
 
 
 class prefix:
@@ -178,11 +179,26 @@ def step(label, i, n, *, stream=None):
     not ended here: the caller ends it (``repair_mesh`` prints the newline
     after its loop). Silent unless stderr is a terminal.
     """
-    global _current
+    global _current, _open
     lab = full_label(label)
     b = _current
     if b is None or i <= 1 or b.total != n or b.label != lab:
         b = _current = Progress(lab, n, stream=stream)
     b.set(i)
+    _open = _open or b.draws > 0
     if n > 0 and i >= n:
         _current = None
+
+
+def end_line(stream=None):
+    """End the line that :func:`step` bars were drawn on, if any was, so
+    that what follows (a table, an error) starts on a line of its own."""
+    global _current, _open
+    _current = None
+    if not _open:
+        return
+    _open = False
+    try:
+        (sys.stderr if stream is None else stream).write("\n")
+    except (OSError, ValueError):
+        pass

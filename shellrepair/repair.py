@@ -886,8 +886,10 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
 
             for chunk in chunks:
                 unit_out.extend(_run_chunk(ctx, chunk, tick))
-    if progress and units and sys.stderr.isatty():  # end the bar's line
-        print("", file=sys.stderr)
+    if progress:  # end the bars' line (if they drew one)
+        from .progress import end_line
+
+        end_line()
 
     # sequential merge: patches against each other, in hole order
     acc = _Accepted()

@@ -218,3 +218,43 @@ def test_batch_bars_on_a_terminal_leave_each_scan_on_its_own_line(tmp_path, monk
     assert drawn.rstrip("\n").split("\r")[-1].startswith("scans [") and "2/2 100%" in drawn
     # before each per-scan line the bar's line is wiped (carriage return, erase to end of line)
     assert all(drawn[:at].endswith("\r\x1b[K") for at in lines)
+
+
+def test_loading_shows_its_stages_on_a_terminal_only(tmp_path, monkeypatch):
+    V, F = shapes.icosphere(2)
+    write_mesh(tmp_path / "bust.ply", Mesh(V=V, F=F))
+    quiet = io.StringIO()
+    monkeypatch.setattr("sys.stderr", quiet)
+    read_mesh(tmp_path / "bust.ply", progress=True)
+    assert quiet.getvalue() == ""
+    tty = _Tty()
+    monkeypatch.setattr("sys.stderr", tty)
+    m = read_mesh(tmp_path / "bust.ply", progress=True)
+    drawn = tty.getvalue()
+    assert "loading bust.ply [" in drawn and "0/4" in drawn
+    assert drawn.split("\r")[-1].startswith("loading bust.ply [") and "4/4 100%" in drawn
+    assert not drawn.endswith("\n")              # left open for the repair's bars
+    assert len(m.F) == len(F)
+
+
+def test_an_error_after_a_bar_starts_on_its_own_line(tmp_path, monkeypatch):
+    # a file that parses, then fails validation: the loading bar was drawn
+    (tmp_path / "range.obj").write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n")
+    tty = _Tty()
+    monkeypatch.setattr("sys.stderr", tty)
+    assert main(["repair", str(tmp_path / "range.obj")]) == 2
+    out = tty.getvalue()
+    assert "loading range.obj [" in out
+    err = [ln for ln in out.split("\n") if "error:" in ln]
+    assert err == ["error: " + err[0].split("error: ", 1)[1]]   # the whole line, from column 0
+    assert out.endswith("\n")
+
+
+def test_holes_command_ends_the_loading_bar_line(tmp_path, monkeypatch, capsys):
+    V, F = shapes.icosphere(2)
+    write_mesh(tmp_path / "bust.ply", Mesh(V=V, F=F[3:]))
+    tty = _Tty()
+    monkeypatch.setattr("sys.stderr", tty)
+    assert main(["holes", str(tmp_path / "bust.ply")]) == 0
+    assert "loading bust.ply [" in tty.getvalue() and tty.getvalue().endswith("\n")
+    assert "hole" in capsys.readouterr().out
