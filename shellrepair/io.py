@@ -61,6 +61,10 @@ _PLY_NAMES = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort",
               "i4": "int", "u4": "uint", "f4": "float", "f8": "double"}
 
 
+#: Rows of ``V`` and of ``F`` sampled to notice in-place edits (:meth:`Mesh.cached`).
+CACHE_SAMPLE = 4096
+
+
 @dataclass
 class Mesh:
     """A triangle mesh with the per-element data a scan carries.
@@ -100,22 +104,27 @@ class Mesh:
 
     def cached(self, name):
         """Whole-mesh data :func:`read_mesh` computed on its way, or None
-        (when it computed none, or ``V`` or ``F`` has been replaced since).
+        (when it computed none, or ``V`` or ``F`` has changed since).
 
         ``name``: ``"topology"`` (:func:`shellrepair.topology.edge_topology`),
         ``"pieces"`` (``(n_pieces, face_piece)`` as
         :func:`shellrepair.topology.face_pieces` gives them) or
-        ``"face_areas"``. Editing ``V`` or ``F`` in place is not noticed:
-        assign new arrays instead (or clear ``mesh._cache``).
+        ``"face_areas"``. A change is noticed when ``V`` or ``F`` is
+        replaced, or edited in place on any of the evenly spaced rows kept
+        as a sample (a unit conversion or a shift of the whole scan is); an
+        in-place edit of a few rows may not be: then clear ``mesh._cache``.
         """
         entry = self._cache.get(name)
         if entry is None or entry[0] is not self.V or entry[1] is not self.F:
+            return None
+        if not all(np.array_equal(a[rows], sample) for a, rows, sample in zip((self.V, self.F), *entry[3])):
             return None
         return entry[2]
 
     def remember(self, name, value):
         """Keep ``value`` as :meth:`cached` ``name`` for the current ``V`` and ``F``."""
-        self._cache[name] = (self.V, self.F, value)
+        rows = [np.linspace(0, len(a) - 1, min(len(a), CACHE_SAMPLE)).astype(np.int64) for a in (self.V, self.F)]
+        self._cache[name] = (self.V, self.F, value, (rows, [a[r] for a, r in zip((self.V, self.F), rows)]))
 
     @property
     def n_vertices(self):

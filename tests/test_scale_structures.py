@@ -85,6 +85,12 @@ def test_what_loading_keeps_on_the_mesh_is_what_detection_would_build(tmp_path):
         assert fresh == reused and fresh["holes"] >= 3
         m.F = m.F.copy()                            # a new array: nothing kept applies to it
         assert all(m.cached(k) is None for k in kept)
+    # edits in place: a unit conversion is noticed, the same values are not a change
+    m = read_mesh(tmp_path / "plain.ply")
+    m.V[:] = m.V
+    assert m.cached("face_areas") is not None
+    m.V *= 1000.0                                   # metres to millimetres, in place
+    assert m.cached("face_areas") is None and m.cached("topology") is None
 
 
 def test_vertex_face_lists_equal_a_stable_sort():
