@@ -36,7 +36,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from .geometry import cross, dot
-from .topology import edge_topology
+from .topology import CHUNK, edge_topology
 
 __all__ = ["OrientResult", "orient_faces", "describe_open_chains"]
 
@@ -230,12 +230,19 @@ def _signed_volumes(V, F, flip, piece, n_pieces):
     Taking each piece about the mean of its face centroids keeps the triple
     products small for scans far from the origin (millimetres at 1e6).
     """
-    T = V[F]
+    m = len(F)
     cnt = np.maximum(np.bincount(piece, minlength=n_pieces), 1)
-    C = T.mean(axis=1)
+    C = np.empty((m, 3))
+    for s in range(0, m, CHUNK):  # face by face, in chunks (no (m,3,3) array)
+        C[s:s + CHUNK] = V[F[s:s + CHUNK]].mean(axis=1)
     cen = np.column_stack([np.bincount(piece, weights=C[:, j], minlength=n_pieces) for j in range(3)])
-    T -= (cen / cnt[:, None])[piece][:, None, :]
-    det = dot(T[:, 0], cross(T[:, 1], T[:, 2])) / 6.0
+    del C
+    cen /= cnt[:, None]
+    det = np.empty(m)
+    for s in range(0, m, CHUNK):
+        T = V[F[s:s + CHUNK]]
+        T -= cen[piece[s:s + CHUNK]][:, None, :]
+        det[s:s + CHUNK] = dot(T[:, 0], cross(T[:, 1], T[:, 2])) / 6.0
     det[flip] = -det[flip]  # swapping two corners negates the triple product
     return np.bincount(piece, weights=det, minlength=n_pieces)
 

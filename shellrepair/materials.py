@@ -283,9 +283,11 @@ def vertex_normals(V, F):
     -------
     N : (n,3) float64 array; (0, 0, 1) at isolated or degenerate vertices.
     """
+    from .topology import face_normals
+
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    fn = face_normals(V, F)
     N = np.empty_like(V)
     idx = F.ravel()
     for k in range(3):  # bincount is much faster than np.add.at
@@ -297,7 +299,7 @@ def vertex_normals(V, F):
     return N
 
 
-def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=1.6, subset=None):
+def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=1.6, subset=None, normals=None):
     """Rust coverage from an ambient-occlusion estimate.
 
     Parameters
@@ -314,6 +316,8 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=
     subset : (k,) int array or None, optional
         Only these vertices are estimated (e.g. those a render can see);
         the others get ``base``.
+    normals : (n,3) float array or None, optional
+        :func:`vertex_normals` of the mesh, when the caller has them.
 
     Returns
     -------
@@ -330,7 +334,7 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=
 
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    N = vertex_normals(V, F)
+    N = vertex_normals(V, F) if normals is None else np.asarray(normals, np.float64)
     diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 1.0
     diag = diag if diag > 0.0 else 1.0
     scene = o3d.t.geometry.RaycastingScene()
@@ -357,7 +361,7 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=
     return out
 
 
-def rust_coverage(V, F, vertex_colors=None, *, subset=None):
+def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None):
     """Per-vertex rust coverage: from colours when informative, else occlusion.
 
     Parameters
@@ -368,6 +372,8 @@ def rust_coverage(V, F, vertex_colors=None, *, subset=None):
     subset : (k,) int array or None
         Vertices that need the occlusion estimate (see
         :func:`rust_coverage_from_occlusion`).
+    normals : (n,3) float array or None
+        :func:`vertex_normals`, when the caller has them.
 
     Returns
     -------
@@ -382,7 +388,7 @@ def rust_coverage(V, F, vertex_colors=None, *, subset=None):
         _, sat = _hue_sat(np.clip(rgb, 0.0, 1.0))
         if len(sat) and np.median(sat) >= _SAT_UNINFORMATIVE:
             return rust_coverage_from_colors(col), "colors"
-    return rust_coverage_from_occlusion(V, F, subset=subset), "occlusion"
+    return rust_coverage_from_occlusion(V, F, subset=subset, normals=normals), "occlusion"
 
 
 # --------------------------------------------------------------------------

@@ -336,6 +336,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     t1 = time.perf_counter()
 
     # coverage per vertex
+    Nv = None  # vertex normals, computed once for the occlusion and the shading
     if not mat.corrodes:
         cov_v, cov_src = np.zeros(len(V)), "none"
     elif coverage is not None:
@@ -348,7 +349,8 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         # occlusion is only estimated where the camera sees the mesh
         seen = F[np.unique(hit["primitive_ids"].numpy().reshape(H, W)[mask])].ravel() if np.any(mask) \
             else np.zeros(0, np.int64)
-        cov_v, cov_src = mt.rust_coverage(V, F, vertex_colors, subset=seen)
+        Nv = mt.vertex_normals(V, F)
+        cov_v, cov_src = mt.rust_coverage(V, F, vertex_colors, subset=seen, normals=Nv)
     t2 = time.perf_counter()
 
     right, upv, back = cam.basis()
@@ -365,7 +367,8 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         p = rays[:, :3] + t_hit[mask][:, None].astype(np.float64) * d
         tri = F[pid]
         bw = np.stack([1.0 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]], axis=1)
-        Nv = mt.vertex_normals(V, F)
+        if Nv is None:
+            Nv = mt.vertex_normals(V, F)
         n = np.einsum("pk,pkj->pj", bw, Nv[tri])
         ng = np.cross(V[tri[:, 1]] - V[tri[:, 0]], V[tri[:, 2]] - V[tri[:, 0]])
         ngl = np.linalg.norm(ng, axis=1, keepdims=True)

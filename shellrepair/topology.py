@@ -18,6 +18,7 @@ from .geometry import cross
 CHUNK = 1 << 16
 
 __all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components", "face_pieces", "face_areas",
+           "face_normals",
            "euler_characteristic", "vertex_faces", "components_of_pieces"]
 
 
@@ -287,16 +288,31 @@ def face_pieces(topo, n_faces):
     return int(n), lab.astype(np.int64)
 
 
-def face_areas(V, F):
-    """Triangle areas, (m,) float64."""
+def _face_cross_chunks(V, F):
+    """(start, c) per chunk of faces: ``c`` the cross products (b − a) × (c − a)
+    of the chunk's triangles, twice their vector areas. In chunks:
+    temporaries that stay in cache cost half of whole-mesh ones."""
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
-    out = np.empty(len(F))
-    # in chunks: temporaries that stay in cache cost half of whole-mesh ones
     for s in range(0, len(F), CHUNK):
         T = V[F[s:s + CHUNK]]
-        c = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
-        out[s:s + CHUNK] = 0.5 * np.sqrt(np.einsum("ij,ij->i", c, c))
+        yield s, cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+
+
+def face_areas(V, F):
+    """Triangle areas, (m,) float64."""
+    out = np.empty(len(F))
+    for s, c in _face_cross_chunks(V, F):
+        out[s:s + len(c)] = 0.5 * np.sqrt(np.einsum("ij,ij->i", c, c))
+    return out
+
+
+def face_normals(V, F):
+    """Unnormalised triangle normals (b − a) × (c − a), (m,3) float64
+    (length twice the area)."""
+    out = np.empty((len(F), 3))
+    for s, c in _face_cross_chunks(V, F):
+        out[s:s + len(c)] = c
     return out
 
 
