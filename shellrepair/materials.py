@@ -299,7 +299,8 @@ def vertex_normals(V, F):
     return N
 
 
-def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=1.6, subset=None, normals=None):
+def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=1.6, subset=None, normals=None,
+                                 scene=None):
     """Rust coverage from an ambient-occlusion estimate.
 
     Parameters
@@ -318,6 +319,9 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=
         the others get ``base``.
     normals : (n,3) float array or None, optional
         :func:`vertex_normals` of the mesh, when the caller has them.
+    scene : open3d.t.geometry.RaycastingScene or None, optional
+        A scene holding exactly this mesh, when the caller has built one
+        (building it is a large part of the time on big meshes).
 
     Returns
     -------
@@ -337,8 +341,9 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=
     N = vertex_normals(V, F) if normals is None else np.asarray(normals, np.float64)
     diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 1.0
     diag = diag if diag > 0.0 else 1.0
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
+    if scene is None:
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
     dirs = _fibonacci_sphere(int(n_dirs))
     idx = np.arange(len(V)) if subset is None else np.unique(np.asarray(subset, dtype=np.int64))
     out = np.full(len(V), float(np.clip(base, 0.0, 1.0)))
@@ -361,7 +366,7 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=
     return out
 
 
-def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None):
+def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=None):
     """Per-vertex rust coverage: from colours when informative, else occlusion.
 
     Parameters
@@ -374,6 +379,8 @@ def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None):
         :func:`rust_coverage_from_occlusion`).
     normals : (n,3) float array or None
         :func:`vertex_normals`, when the caller has them.
+    scene : open3d RaycastingScene or None
+        See :func:`rust_coverage_from_occlusion`.
 
     Returns
     -------
@@ -388,7 +395,7 @@ def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None):
         _, sat = _hue_sat(np.clip(rgb, 0.0, 1.0))
         if len(sat) and np.median(sat) >= _SAT_UNINFORMATIVE:
             return rust_coverage_from_colors(col), "colors"
-    return rust_coverage_from_occlusion(V, F, subset=subset, normals=normals), "occlusion"
+    return rust_coverage_from_occlusion(V, F, subset=subset, normals=normals, scene=scene), "occlusion"
 
 
 # --------------------------------------------------------------------------

@@ -350,7 +350,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         seen = F[np.unique(hit["primitive_ids"].numpy().reshape(H, W)[mask])].ravel() if np.any(mask) \
             else np.zeros(0, np.int64)
         Nv = mt.vertex_normals(V, F)
-        cov_v, cov_src = mt.rust_coverage(V, F, vertex_colors, subset=seen, normals=Nv)
+        cov_v, cov_src = mt.rust_coverage(V, F, vertex_colors, subset=seen, normals=Nv, scene=scene)
     t2 = time.perf_counter()
 
     right, upv, back = cam.basis()
