@@ -50,7 +50,6 @@ intuitive framework for real-time freeform modeling", SIGGRAPH 2004.
 
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass, field
 
