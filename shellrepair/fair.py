@@ -18,8 +18,10 @@ minimised with the fixed rows given (libigl ``min_quad_with_fixed``, one
 factorisation per round). The first round uses uniform (umbrella) weights,
 since cotangents of the initial, flat patch are meaningless; later rounds
 re-evaluate cotangent weights and masses on the patch's own current
-geometry. Where a triangle is degenerate the round falls back to uniform
-weights.
+geometry, taken on its intrinsic Delaunay triangulation
+(:mod:`shellrepair.intrinsic`): the slivers a scan's rim is full of then
+give neither negative weights nor vanishing masses. Where a triangle is
+degenerate the round falls back to uniform weights.
 
 Coordinates are centred on the loop and scaled by its mean edge length
 before any solve, so scans in millimetres far from the origin give the same
@@ -38,6 +40,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from .intrinsic import intrinsic_laplacian
 
 __all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
 
@@ -65,11 +69,8 @@ def uniform_laplacian(F, n):
 
 
 def _cotan_operators(X, F):
-    import igl
-
-    K = (-igl.cotmatrix(X, F)).tocsc()
-    M = igl.massmatrix(X, F, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
-    return K, M
+    """K and lumped M of the submesh's intrinsic Delaunay triangulation."""
+    return intrinsic_laplacian(X, F)
 
 
 def _energy(K, Minv, order):
@@ -79,10 +80,13 @@ def _energy(K, Minv, order):
     if Minv is None:  # K symmetric: its powers are too
         Q = K @ K
         return (Q @ K if order == 3 else Q).tocsc()
+    K = sp.csc_matrix(K)
+    if order == 2:
+        # K M⁻¹ K = Bᵀ B with B = M^(−1/2) K (K symmetric): symmetric as built
+        B = sp.csc_matrix((K.data * np.sqrt(Minv)[K.indices], K.indices, K.indptr), shape=K.shape)
+        return (B.T @ B).tocsc()
     Dm = sp.diags(Minv)
-    Q = K @ Dm @ K
-    if order == 3:
-        Q = Q @ Dm @ K
+    Q = K @ Dm @ K @ Dm @ K
     return ((Q + Q.T) * 0.5).tocsc()
 
 
@@ -141,8 +145,6 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     unknown = np.flatnonzero(~pin)
     if unknown.size == 0:
         return X[n_fixed:], uniform_laplacian(F, n)
-    import igl
-
     K = uniform_laplacian(F, n)
     X[unknown] = _solve(_energy(K, None, order), fixed, unknown, X)
     for _ in range(int(rounds)):
@@ -154,16 +156,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
         if not (np.isfinite(Kc.data).all() and np.isfinite(Mc).all()):
             break
         floor = DEGENERATE_AREA + 1e-3 * np.median(Mc)
-        Xn = None
-        if Mc.min() > floor:
-            # no mass clamped: libigl's k-harmonic solve is this round's
-            # energy (the same Q = K (M⁻¹K)^(k−1)) in one call
-            try:
-                Xn = igl.harmonic(X, F, fixed, np.ascontiguousarray(X[fixed]), int(order))[unknown]
-            except Exception:
-                Xn = None
-        if Xn is None or not np.isfinite(Xn).all():
-            Xn = _solve(_energy(Kc, 1.0 / np.maximum(Mc, floor), order), fixed, unknown, X)
+        Xn = _solve(_energy(Kc, 1.0 / np.maximum(Mc, floor), order), fixed, unknown, X)
         if not np.isfinite(Xn).all():
             break
         X[unknown] = Xn
