@@ -112,7 +112,7 @@ def intrinsic_delaunay(X, F, max_rounds=MAX_ROUNDS):
         f2, i2 = h2 // 3, h2 % 3
         s = cot[f1, i1] + cot[f2, i2]                   # the two angles facing the edge
         c, d = T[f1, _NXT[_NXT[i1]]], T[f2, _NXT[_NXT[i2]]]
-        bad = np.flatnonzero((s < -FLIP_TOL) & (c != d))
+        bad = np.flatnonzero((s < -FLIP_TOL) & (c != d) & np.isfinite(s))
         if bad.size == 0:
             return T, L, True
         k = _independent_flips(bad, f1[bad], f2[bad], -s[bad], bad, t)
