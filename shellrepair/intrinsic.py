@@ -98,6 +98,13 @@ def intrinsic_delaunay(X, F, max_rounds=MAX_ROUNDS):
     settled : bool
         Every interior edge is Delaunay (False if ``max_rounds`` ran out).
     """
+    T, L, settled, _ = _flip_to_delaunay(X, F, max_rounds)
+    return T, L, settled
+
+
+def _flip_to_delaunay(X, F, max_rounds=MAX_ROUNDS):
+    """:func:`intrinsic_delaunay`, plus the cotangents and areas of the result
+    (from its last round) when settled, else None."""
     X = np.asarray(X, np.float64)
     T = np.array(F, np.int64)
     P = X[T]
@@ -106,7 +113,7 @@ def intrinsic_delaunay(X, F, max_rounds=MAX_ROUNDS):
     for _ in range(int(max_rounds)):
         twin = _twins(T, n)
         h1 = np.flatnonzero(twin > np.arange(3 * t))   # each interior edge once
-        cot, _ = _cotangents(L)
+        cot, A = _cotangents(L)
         f1, i1 = h1 // 3, h1 % 3
         h2 = twin[h1]
         f2, i2 = h2 // 3, h2 % 3
@@ -114,7 +121,7 @@ def intrinsic_delaunay(X, F, max_rounds=MAX_ROUNDS):
         c, d = T[f1, _NXT[_NXT[i1]]], T[f2, _NXT[_NXT[i2]]]
         bad = np.flatnonzero((s < -FLIP_TOL) & (c != d) & np.isfinite(s))
         if bad.size == 0:
-            return T, L, True
+            return T, L, True, (cot, A)
         k = _independent_flips(bad, f1[bad], f2[bad], -s[bad], bad, t)
         F1, F2, I1, I2 = f1[k], f2[k], i1[k], i2[k]
         a, b, C, D = T[F1, I1], T[F1, _NXT[I1]], c[k], d[k]
@@ -131,7 +138,7 @@ def intrinsic_delaunay(X, F, max_rounds=MAX_ROUNDS):
         L[F1] = np.column_stack([lca, lad, lcd])
         T[F2] = np.column_stack([D, b, C])
         L[F2] = np.column_stack([ldb, lbc, lcd])
-    return T, L, False
+    return T, L, False, None
 
 
 def intrinsic_laplacian(X, F):
@@ -153,8 +160,8 @@ def intrinsic_laplacian(X, F):
         corners (the same total area as the mesh).
     """
     n = len(X)
-    T, L, _ = intrinsic_delaunay(X, F)
-    cot, A = _cotangents(L)
+    T, L, _, known = _flip_to_delaunay(X, F)
+    cot, A = _cotangents(L) if known is None else known
     w = 0.5 * cot.ravel()
     i, j = T.ravel(), T[:, [1, 2, 0]].ravel()
     # each side's weight w: −w at (i, j) and (j, i), +w at (i, i) and (j, j); duplicates summed
