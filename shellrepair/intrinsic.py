@@ -8,11 +8,12 @@ its triangulation is bad. This module keeps the surface and changes the
 triangulation *intrinsically*: edges are flipped on the surface (each new
 edge a straight line across the two triangles it joins, its length found
 by laying the pair flat) until every interior edge is Delaunay (its two
-opposite angles sum to at most π). The cotangent weights of that
-triangulation are never negative, and its triangles are as round as the
-vertices allow (Bobenko & Springborn; Fisher et al.). Vertex positions,
-the surface and every vertex's star of area stay those of the mesh; only
-the operator changes.
+opposite angles sum to at most π). The cotangent weights of its interior
+edges are never negative, and its triangles are as round as the vertices
+allow (Bobenko & Springborn; Fisher et al.). Vertex positions and the
+surface stay those of the mesh; only the operator changes: the weights,
+and the lumped mass (a third of each intrinsic triangle's area at each
+corner, the same total area as the mesh).
 
 Positions are used once, for the edge lengths; everything after works on
 lengths. Boundary edges are not flipped. Flips go in rounds of edges that
