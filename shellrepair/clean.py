@@ -36,7 +36,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from .geometry import cross, dot
-from .topology import CHUNK, edge_topology
+from .topology import CHUNK, edge_topology, manifold_pairs
 
 __all__ = ["OrientResult", "orient_faces", "describe_open_chains"]
 
@@ -91,13 +91,7 @@ def _manifold_face_pairs(F, topo):
         True when both faces use the edge in the same direction, so exactly
         one of them must be flipped.
     """
-    # he_order groups the half-edges by edge, in edge order: a manifold
-    # edge's two half-edges are the two entries of its group
-    start = np.cumsum(topo.edge_count)
-    start -= topo.edge_count
-    two = start[topo.edge_count == 2]
-    del start
-    h1, h2 = topo.he_order[two], topo.he_order[two + 1]
+    h1, h2 = manifold_pairs(topo)
     tail = F.ravel()  # the tails of the half-edges (topo.he[:, 0]), a denser gather
     differ = tail[h1] == tail[h2]
     return h1 // 3, h2 // 3, differ

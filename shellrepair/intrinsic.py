@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .refine import _independent_flips
+from .topology import edge_topology, manifold_pairs
 
 __all__ = ["intrinsic_delaunay", "intrinsic_laplacian"]
 
@@ -67,17 +68,10 @@ def _twins(T, n):
     """Twin of each half-edge (slot ``3f+i`` runs ``T[f,i] -> T[f,i+1]``), or
     −1: boundary edges, and vertex pairs with more than two half-edges
     (which are then not flipped)."""
-    src = T.ravel()
-    dst = T[:, [1, 2, 0]].ravel()
-    key = np.minimum(src, dst) * n + np.maximum(src, dst)
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    head = np.flatnonzero(np.concatenate([[True], ks[1:] != ks[:-1]]))
-    size = np.diff(np.append(head, len(ks)))
-    two = head[size == 2]
-    twin = np.full(len(src), -1, np.int64)
-    twin[order[two]] = order[two + 1]
-    twin[order[two + 1]] = order[two]
+    h1, h2 = manifold_pairs(edge_topology(T, n))
+    twin = np.full(3 * len(T), -1, np.int64)
+    twin[h1] = h2
+    twin[h2] = h1
     return twin
 
 

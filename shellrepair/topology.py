@@ -19,7 +19,7 @@ CHUNK = 1 << 16
 
 __all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components", "face_pieces", "face_areas",
            "face_normals",
-           "euler_characteristic", "vertex_faces", "components_of_pieces"]
+           "euler_characteristic", "vertex_faces", "components_of_pieces", "manifold_pairs"]
 
 
 @dataclass
@@ -113,6 +113,27 @@ def edge_topology(F, n_vertices=None):
     return EdgeTopology(he=he, edge_of_he=edge_of_he, edges=edges,
                         edge_count=count, boundary_he=boundary_he,
                         nonmanifold_edges=edges[count > 2], he_order=order)
+
+
+def manifold_pairs(topo):
+    """The two half-edges of every edge with exactly two faces.
+
+    Parameters
+    ----------
+    topo : EdgeTopology
+        With ``he_order`` (as :func:`edge_topology` builds it).
+
+    Returns
+    -------
+    h1, h2 : (p,) int64
+        Half-edge ids; ``h1[k]`` and ``h2[k]`` run along the same edge.
+    """
+    # he_order groups the half-edges by edge, in edge order: a manifold
+    # edge's two half-edges are the two entries of its group
+    start = np.cumsum(topo.edge_count)
+    start -= topo.edge_count
+    two = start[topo.edge_count == 2]
+    return topo.he_order[two], topo.he_order[two + 1]
 
 
 def edge_count_delta(topo, F_new, n_vertices):
