@@ -1,5 +1,7 @@
-# shellrepair: `make setup` then `make test`. See README.md.
+# shellrepair: `make repair` and `make test` set up what they need on first use. See README.md.
 PY      ?= .venv/bin/python
+# written when .venv holds the package and its test tools; remade when pyproject.toml changes
+STAMP    = .venv/.shellrepair-installed
 SCAN    ?= data/bunny_zipper.ply
 OUT     ?= $(basename $(SCAN)).repaired.ply
 REPORT  ?= $(basename $(SCAN)).report.json
@@ -7,58 +9,70 @@ DIR     ?= data
 OUTDIR  ?= $(DIR)/repaired
 JOBS    ?= 1
 SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
+# python3 -m venv needs ensurepip, which Debian ships apart
+VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
 
 .PHONY: setup syslibs test holes repair render batch bench bench-scale bench-scale-profile table1 clean
 
+# `make setup` forces the install; every target that runs the package
+# depends on the stamp, so a fresh clone installs on its first command and
+# later commands skip it (make compares two timestamps).
 setup: syslibs
+	rm -f $(STAMP)
+	$(MAKE) --no-print-directory $(STAMP)
+
+$(STAMP): pyproject.toml
+	@$(MAKE) --no-print-directory syslibs
+	@echo "setting up .venv (first use, or pyproject.toml changed)"
 	test -x $(PY) || python3 -m venv .venv
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
 
 # open3d's wheel needs libusb (and libgomp); install them from Debian if missing.
 syslibs:
-	@missing=""; for p in $(SYSLIBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	@missing=""; for p in $(SYSLIBS) $(VENVLIB); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
 	if [ -n "$$missing" ]; then \
 	  echo "installing system libraries:$$missing"; \
 	  if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO=sudo; fi; \
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
 
-test:
+test: $(STAMP)
 	$(PY) -m pytest
 
-holes:
+holes: $(STAMP)
 	$(PY) -m shellrepair.cli holes $(SCAN)
 
-repair:
+repair: $(STAMP)
 	$(PY) -m shellrepair.cli repair $(SCAN) -o $(OUT) --report $(REPORT)
 
 # every scan of a folder: make batch DIR=scans OUTDIR=scans/repaired JOBS=2
-batch:
+batch: $(STAMP)
 	$(PY) -m shellrepair.cli batch $(DIR) -o $(OUTDIR) --jobs $(JOBS)
 
-render:
+render: $(STAMP)
 	test -f $(OUT) || $(MAKE) repair SCAN=$(SCAN)
 	$(PY) -m shellrepair.cli render $(OUT) --before $(SCAN) --highlight-filled -o $(basename $(SCAN)).before_after.png
 
 # accuracy and speed against the peers on the 19 cases, then the scale
 # benchmark (about 7 minutes in all)
-bench:
+bench: $(STAMP)
 	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the benchmark records them as missing"
 	$(PY) eval/bench.py
 	$(PY) eval/bench_scale.py
 
 # the scale benchmark alone: time and peak memory of read / detect / fill /
 # write at ~1M, ~4M, ~10M faces, and ours vs MeshLib and CGAL at 1M
-bench-scale:
+bench-scale: $(STAMP)
 	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the benchmark records them as missing"
 	$(PY) eval/bench_scale.py
 
 # where the time goes, per step, on the 1M and 4M cases (cProfile)
-bench-scale-profile:
+bench-scale-profile: $(STAMP)
 	$(PY) eval/bench_scale.py --sizes 1M,4M --profile --no-peers
 
-table1:
+table1: $(STAMP)
 	$(PY) eval/table1.py
 
 clean:
