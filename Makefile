@@ -12,7 +12,7 @@ SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 # python3 -m venv needs ensurepip, which Debian ships apart
 VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
 
-.PHONY: setup syslibs test holes repair render batch bench bench-scale bench-scale-profile table1 clean
+.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean
 
 # `make setup` forces the install; every target that runs the package
 # depends on the stamp, so a fresh clone installs on its first command and
@@ -38,8 +38,17 @@ syslibs:
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
 
-test: $(STAMP)
+test: $(STAMP) browser
 	$(PY) -m pytest
+
+# the HTML report's test opens the page in Debian's headless chromium;
+# installed here when apt can, else that test skips and says why
+browser:
+	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || { \
+	  echo "installing chromium for the HTML report's browser test"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO=sudo; fi; \
+	  ($$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq chromium >/dev/null) \
+	    || echo "chromium could not be installed: the browser test will skip"; }
 
 holes: $(STAMP)
 	$(PY) -m shellrepair.cli holes $(SCAN)

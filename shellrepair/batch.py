@@ -112,8 +112,9 @@ def _message(exc):
     return msg[:MAX_MESSAGE]
 
 
-def _repair_one(scan, out, report_path, options, progress):
-    """Read, repair and write one scan; returns its summary row fields."""
+def _repair_one(scan, out, report_path, options, progress, picture=None):
+    """Read, repair and write one scan; returns its summary row fields.
+    With ``picture`` (a path), also its before | after picture there."""
     from .io import atomic_write_many, mesh_bytes, read_mesh
     from .repair import repair_mesh
 
@@ -121,14 +122,23 @@ def _repair_one(scan, out, report_path, options, progress):
     mesh = read_mesh(scan, progress=progress)
     row = {"vertices": mesh.n_vertices, "faces": mesh.n_faces}
     repaired, report = repair_mesh(mesh, progress=progress, **options)
-    del mesh  # a large scan: free what is no longer needed before writing
     report["file"] = str(scan)
     report["output"] = str(out)
     report["notes"] = list(repaired.notes)
+    items = []
+    if picture is not None:
+        from .htmlreport import figure, file_sha256
+
+        fig = figure(mesh, repaired, report)
+        report["input_sha256"] = file_sha256(scan)
+        report["picture"] = {"file": Path(picture).name, "alt": fig["alt"], "width": fig["width"],
+                             "height": fig["height"]}
+        items.append((picture, fig["png"]))
+    del mesh  # a large scan: free what is no longer needed before writing
     payload = mesh_bytes(out, repaired)
     del repaired
     report["seconds_total"] = round(time.perf_counter() - t0, 4)
-    atomic_write_many([(out, payload), (report_path, json.dumps(report, indent=1) + "\n")])
+    atomic_write_many([(out, payload), (report_path, json.dumps(report, indent=1) + "\n")] + items)
     row.update(holes_before=int(report["holes_before"]), holes_after=int(report["holes_after"]),
                rate=report["interpolation_rate"], borders=int(report.get("borders", 0) or 0),
                vertices_after=int(report.get("vertices_after", 0)), faces_after=int(report.get("faces_after", 0)),
@@ -148,7 +158,7 @@ def _totals(rows):
 
 
 def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_borders=False, method="fair",
-                  bridge="auto", jobs=1, progress=None, on_scan=None):
+                  bridge="auto", jobs=1, progress=None, on_scan=None, html=False):
     """Repair every scan of ``folder`` into ``outdir``.
 
     Parameters
@@ -163,6 +173,12 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
         Draw progress bars on stderr; default: when stderr is a terminal.
     on_scan : callable, optional
         Called with each finished summary row (the CLI prints a line).
+    html : bool
+        Also write ``outdir/index.html`` (:func:`shellrepair.htmlreport.collection_page`):
+        Table 1 of the collection and of each scan, each scan's holes,
+        notes and provenance, and its before | after picture
+        (``outdir/<name>.view.png``, linked from the page). Rewritten after
+        every scan, like the summary.
 
     Returns
     -------
@@ -190,8 +206,8 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
         raise MeshError(f"--smooth must be 0 or more, got {smooth}")
     if max_hole is not None and max_hole < 1:
         raise MeshError(f"--max-hole must be at least 1, got {max_hole}")
-    if order not in (1, 2, 3):
-        raise MeshError(f"order must be 1, 2 or 3, got {order}")
+    if order not in (1, 2, 3, "auto"):
+        raise MeshError(f"order must be 1, 2, 3 or 'auto', got {order!r}")
     folder = Path(folder)
     same = False
     if Path(outdir).is_dir() and folder.is_dir():
@@ -219,7 +235,8 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
             t0 = time.perf_counter()
             try:
                 with prefix(f"{i + 1}/{len(scans)} {scan.name}"):
-                    row.update(_repair_one(scan, out, report_path, options, draw))
+                    row.update(_repair_one(scan, out, report_path, options, draw,
+                                           picture=outdir / f"{name}.view.png" if html else None))
             except Exception as exc:  # noqa: BLE001 - one bad scan is a row, the rest go on
                 row.update(status="error", error=_message(exc))
             row["seconds"] = round(time.perf_counter() - t0, 3)
@@ -230,12 +247,39 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
             bar.update(1, note=f"{scan.name} {row['status']}", force=True)
             summary.update(_totals(rows), seconds=round(time.perf_counter() - t_all, 3))
             atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
+            if html:
+                _write_index(summary, outdir)
     finally:
         bar.close()
     summary["complete"] = True
     summary.update(_totals(rows), seconds=round(time.perf_counter() - t_all, 3))
     atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
+    if html:
+        _write_index(summary, outdir)
     return summary
+
+
+#: The collection page written into OUTDIR.
+INDEX_NAME = "index.html"
+
+
+def _write_index(summary, outdir):
+    """OUTDIR/index.html from the summary and the reports written so far."""
+    from .htmlreport import collection_page, report_json, scan_section, write_page
+
+    sections = []
+    for i, r in enumerate(summary["scans"]):
+        if r["status"] != "ok":
+            sections.append(None)
+            continue
+        rep = report_json(r["report"])
+        pic = rep.get("picture")
+        fig = None
+        if pic:
+            fig = {"png": b"", "alt": pic["alt"], "width": pic["width"], "height": pic["height"]}
+        sections.append(scan_section(rep, fig, image_src=pic["file"] if pic else None, options=summary["options"],
+                                     sha256=rep.get("input_sha256"), anchor=f"scan-{i}", level=2))
+    write_page(Path(outdir) / INDEX_NAME, collection_page(summary, sections))
 
 
 def _fmt(v, spec=""):

@@ -62,6 +62,9 @@ def _parser():
     r.add_argument("--report", help="JSON report (default: beside the output, .report.json)")
     _repair_options(r)
     r.add_argument("--json", action="store_true", help="print the JSON report instead of the table")
+    r.add_argument("--html", metavar="PAGE.html", default=None,
+                   help="also write a self-contained HTML page: Table 1, a before | after picture, the holes, "
+                        "provenance (default: none)")
     _hole_options(r)
 
     b = sub.add_parser(
@@ -77,6 +80,8 @@ def _parser():
                    help="output folder, created if missing (its parent must exist)")
     _repair_options(b)
     b.add_argument("--json", action="store_true", help="print the JSON summary instead of the table")
+    b.add_argument("--no-html", dest="html", action="store_false",
+                   help="do not write OUTDIR/index.html and the pictures beside it (default: write them)")
     _hole_options(b)
 
     v = sub.add_parser("render", help="render a mesh with the aged-metal shading")
@@ -197,6 +202,11 @@ def _repair(args):
             raise MeshError(f"{what} would overwrite the input scan", p)
     if _same_file(out, report_path):
         raise MeshError("the report and the output mesh are the same file", out)
+    page = Path(args.html) if args.html else None
+    if page is not None:
+        check_output_path(page, what="page")
+        if any(_same_file(page, p) for p in (args.scan, out, report_path)):
+            raise MeshError("the page would overwrite the scan, the output or the report", page)
     if args.jobs < 1:
         raise MeshError(f"--jobs must be at least 1, got {args.jobs}")
     if args.smooth < 0:
@@ -213,15 +223,23 @@ def _repair(args):
     report["notes"] = list(mesh.notes)
     payload = mesh_bytes(out, repaired)
     report["seconds_total"] = round(time.perf_counter() - t0, 4)
-    # mesh and report appear together or not at all
-    atomic_write_many([(out, payload), (report_path, json.dumps(report, indent=1) + "\n")])
+    items = [(out, payload), (report_path, json.dumps(report, indent=1) + "\n")]
+    if page is not None:
+        from .htmlreport import figure, file_sha256, scan_page
+
+        options = dict(order=args.order, smooth=args.smooth, max_hole=args.max_hole, fill_borders=args.fill_borders,
+                       method=args.method, jobs=args.jobs, bridge=args.bridge)
+        items.append((page, scan_page(report, figure(mesh, repaired, report), options=options,
+                                      sha256=file_sha256(args.scan))))
+    # mesh, report (and page) appear together or not at all
+    atomic_write_many(items)
     if args.json:
         print(json.dumps(report, indent=1))
     else:
         print(table1_text(report))
         for n in mesh.notes:
             print(f"  note: {n}")
-        print(f"  wrote {out} and {report_path}")
+        print(f"  wrote {out} and {report_path}" + (f" and {page}" if page is not None else ""))
     return 0
 
 
@@ -236,14 +254,15 @@ def _batch(args):
 
     summary = repair_folder(args.dir, args.outdir, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                             fill_borders=args.fill_borders, method=args.method, bridge=args.bridge,
-                            jobs=args.jobs, on_scan=line)
+                            jobs=args.jobs, on_scan=line, html=args.html)
     if args.json:
         print(json.dumps(summary, indent=1))
     else:
         print()
         print(summary_table(summary, errors=False))  # the errors go to stderr below
         print(f"  wrote {summary['n_ok']} repaired scans with their reports, and "
-              f"{Path(summary['outdir']) / 'summary.json'}")
+              f"{Path(summary['outdir']) / 'summary.json'}"
+              + (f" and {Path(summary['outdir']) / 'index.html'}" if args.html else ""))
     for r in summary["scans"]:
         if r["status"] != "ok":  # also on stderr, one line each, as for a single scan
             print(f"error: {Path(args.dir) / r['file']}: {r['error']}", file=sys.stderr)

@@ -1,0 +1,479 @@
+"""A repair as a page people look at: one self-contained HTML file per scan
+and one per collection.
+
+A page holds, for each scan, the paper's Table 1 (holes before, after and
+the interpolation rate), a before | after picture aimed at the filled
+region with the synthesized faces tinted and the boundary left open drawn
+in its own colour, a per-hole table (holes left open first, every column
+sortable by a click), the borders left open, the notes of loading, and a
+provenance block: software version, options, input file and its SHA-256.
+
+The page needs no server and no network: its style and its one small
+sorting script are inline; a scan page embeds its picture as a ``data:``
+URI, a collection page (``OUTDIR/index.html`` of ``shellrepair batch``)
+links the pictures written beside it.
+
+    fig = figure(mesh, repaired, report)         # PNG bytes and alt text
+    html = scan_page(report, fig, options=opts)  # str
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import hashlib
+import html as _html
+import io as _io
+import json
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["figure", "scan_page", "collection_page", "file_sha256", "OPEN_EDGE_COLOR", "FIGURE_SIZE"]
+
+#: Colour (sRGB) the edges left open (borders and holes not filled) are drawn in.
+OPEN_EDGE_COLOR = (40, 110, 235)
+#: Size (width, height) of each panel of a page's picture, in pixels.
+FIGURE_SIZE = (480, 360)
+#: Pixels between samples of a drawn edge.
+_EDGE_STEP = 0.75
+
+_STATUS_ORDER = {"failed": 0, "skipped": 1, "filled": 2}
+
+
+def file_sha256(path, chunk=1 << 20):
+    """SHA-256 of a file's bytes, as hex."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while True:
+            b = fh.read(chunk)
+            if not b:
+                break
+            h.update(b)
+    return h.hexdigest()
+
+
+# --------------------------------------------------------------------------
+# the picture
+# --------------------------------------------------------------------------
+def _open_edges(F):
+    """Edges (e,2) used by exactly one face (the boundary left open)."""
+    F = np.asarray(F, np.int64)
+    if len(F) == 0:
+        return np.zeros((0, 2), np.int64)
+    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    u, c = np.unique(E, axis=0, return_counts=True)
+    return u[c == 1]
+
+
+def _project(cam, P):
+    """Pixel coordinates (col, row) and depth of points P seen by ``cam``."""
+    right, up, back = cam.basis()
+    d = P - cam.eye
+    z = -(d @ back)
+    ty = np.tan(0.5 * np.radians(cam.fov_y_deg))
+    tx = ty * cam.width / cam.height
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = (d @ right) / (z * tx)
+        y = (d @ up) / (z * ty)
+    col = (x + 1.0) * 0.5 * cam.width - 0.5
+    row = (1.0 - y) * 0.5 * cam.height - 0.5
+    return col, row, z
+
+
+def draw_open_edges(image, cam, V, F, color=OPEN_EDGE_COLOR, width=2):
+    """Draw the visible open edges of a mesh onto its render, in place.
+
+    An edge is sampled about every pixel; a sample is drawn when the first
+    surface hit on the ray from the eye to it is the sample itself (within
+    a thousandth of the mesh's size), so edges behind the surface stay
+    hidden.
+
+    Parameters
+    ----------
+    image : (H,W,3) uint8 array
+        The render made with ``cam``.
+    cam : shellrepair.render.Camera
+    V : (n,3) float64 array
+    F : (m,3) int64 array
+    color : (3,) ints
+    width : int
+        Line width in pixels.
+
+    Returns
+    -------
+    n_edges : int
+        Open edges found (drawn where visible).
+    """
+    import open3d as o3d
+
+    V = np.asarray(V, np.float64)
+    E = _open_edges(F)
+    if len(E) == 0:
+        return 0
+    a, b = V[E[:, 0]], V[E[:, 1]]
+    ca, ra, _ = _project(cam, a)
+    cb, rb, _ = _project(cam, b)
+    px = np.hypot(cb - ca, rb - ra)
+    n = np.clip(np.nan_to_num(np.ceil(px / _EDGE_STEP), nan=1.0), 1, 4096).astype(np.int64)
+    e = np.repeat(np.arange(len(E)), n)
+    t = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n) + 0.5) / np.repeat(n, n)
+    P = a[e] + t[:, None] * (b[e] - a[e])
+    col, row, z = _project(cam, P)
+    ok = (z > 0) & np.isfinite(col) & np.isfinite(row)
+    ok &= (col > -1) & (col < cam.width) & (row > -1) & (row < cam.height)
+    P, col, row = P[ok], col[ok], row[ok]
+    if len(P) == 0:
+        return int(len(E))
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
+                        o3d.core.Tensor(np.asarray(F, np.uint32)))
+    d = P - cam.eye
+    dist = np.linalg.norm(d, axis=1)
+    rays = np.concatenate([np.broadcast_to(cam.eye, P.shape), d / dist[:, None]], axis=1).astype(np.float32)
+    hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().astype(np.float64)
+    size = float(np.linalg.norm(np.ptp(V, axis=0))) or 1.0
+    seen = ~(hit < dist - 1e-3 * size)
+    col, row = col[seen], row[seen]
+    H, W = image.shape[:2]
+    r0 = np.rint(row).astype(np.int64)
+    c0 = np.rint(col).astype(np.int64)
+    for dr in range(-(width // 2), width - width // 2):
+        for dc in range(-(width // 2), width - width // 2):
+            rr, cc = r0 + dr, c0 + dc
+            m = (rr >= 0) & (rr < H) & (cc >= 0) & (cc < W)
+            image[rr[m], cc[m]] = color
+    return int(len(E))
+
+
+def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-bronze", unit_um=1000.0):
+    """Before | after picture of one repair, aimed at the filled region.
+
+    Both panels use one camera (the filled faces' side, or the default view
+    when nothing was filled); filled faces are tinted in the right panel;
+    the edges left open are drawn in :data:`OPEN_EDGE_COLOR` in both (on
+    the left they show every hole and border of the scan).
+
+    Parameters
+    ----------
+    before, repaired : shellrepair.io.Mesh
+        The scan as read and the repair's output (``face_filled`` set).
+    report : dict, optional
+        The repair's report, for the alt text.
+    size : (int, int)
+        Size of each panel.
+    material : str
+    unit_um : float
+        Micrometres per mesh unit (see :func:`shellrepair.render.render_mesh`).
+
+    Returns
+    -------
+    fig : dict
+        ``png`` (bytes), ``alt`` (str), ``width``, ``height``, ``view``
+        ((azimuth, elevation) or None), ``open_edges_before`` and
+        ``open_edges_after`` (counts).
+    """
+    from PIL import Image
+
+    from . import render as rd
+
+    filled = repaired.face_filled
+    view = None
+    if filled is not None and np.any(filled):
+        view = rd.view_towards(repaired.V, repaired.F, filled)
+    img = rd.render_side_by_side(before.V, before.F, repaired.V, repaired.F, size=size, material=material,
+                                 filled=filled, highlight_filled=filled is not None, view=view,
+                                 vertex_colors_before=before.vertex_colors,
+                                 vertex_colors_after=repaired.vertex_colors, unit_um=unit_um)
+    img = np.array(img, copy=True)
+    # the camera render_side_by_side used: framed on both meshes
+    cam = rd.frame_camera(np.concatenate([np.asarray(before.V, np.float64), np.asarray(repaired.V, np.float64)]),
+                          size, view)
+    W = cam.width
+    n_before = draw_open_edges(img[:, :W], cam, before.V, before.F)
+    right = img[:, img.shape[1] - W:]
+    n_after = draw_open_edges(right, cam, repaired.V, repaired.F)
+    buf = _io.BytesIO()
+    Image.fromarray(img, "RGB").save(buf, format="PNG", optimize=True)
+    what = "the scan before (left) and after (right) the repair"
+    if report is not None:
+        what += (f"; {report.get('holes_before', '?')} holes before, {report.get('holes_after', '?')} after; "
+                 f"{int(np.count_nonzero(filled)) if filled is not None else 0} synthesized faces tinted")
+    return {"png": buf.getvalue(), "alt": what, "width": int(img.shape[1]), "height": int(img.shape[0]),
+            "view": view, "open_edges_before": n_before, "open_edges_after": n_after}
+
+
+# --------------------------------------------------------------------------
+# the page
+# --------------------------------------------------------------------------
+_CSS = """
+body{font:15px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,sans-serif;margin:0 auto;max-width:1100px;
+ padding:1em 1.5em;color:#1d1d1f;background:#fbfbf8}
+h1{font-size:1.6em;margin:.3em 0}h2{font-size:1.3em;margin:1.6em 0 .4em;border-bottom:1px solid #ccc}
+h3{font-size:1.05em;margin:1.2em 0 .3em}
+table{border-collapse:collapse;margin:.4em 0 1em}th,td{padding:.25em .7em;border-bottom:1px solid #ddd;
+ text-align:right;vertical-align:top}th{background:#eee;position:sticky;top:0}
+td.t,th.t{text-align:left}table.sortable th{cursor:pointer;user-select:none}
+table.sortable th:after{content:" \\2195";color:#999;font-size:.8em}
+tr.open td{background:#fff1ee}tr.total td{font-weight:600;border-top:2px solid #999}
+figure{margin:.5em 0}figure img{max-width:100%;height:auto;border:1px solid #ccc}
+figcaption{font-size:.9em;color:#444}.sw{display:inline-block;width:1em;height:1em;vertical-align:-.15em;
+ border:1px solid #666;margin:0 .3em 0 .8em}dl{display:grid;grid-template-columns:max-content auto;gap:.1em 1em}
+dt{font-weight:600}dd{margin:0;overflow-wrap:anywhere}.warn{color:#a03000;font-weight:600}
+code{font-size:.92em}
+"""
+
+_JS = """
+document.querySelectorAll('table.sortable').forEach(function(t){
+ t.querySelectorAll('th').forEach(function(th,i){th.addEventListener('click',function(){
+  var b=t.tBodies[0],rows=Array.prototype.slice.call(b.rows),asc=th.dataset.dir!=='asc';
+  t.querySelectorAll('th').forEach(function(x){delete x.dataset.dir});th.dataset.dir=asc?'asc':'desc';
+  rows.sort(function(r,s){var x=r.cells[i].dataset.v!==undefined?r.cells[i].dataset.v:r.cells[i].textContent,
+   y=s.cells[i].dataset.v!==undefined?s.cells[i].dataset.v:s.cells[i].textContent,
+   p=parseFloat(x),q=parseFloat(y),c=(!isNaN(p)&&!isNaN(q))?p-q:x.localeCompare(y);return asc?c:-c});
+  rows.forEach(function(r){b.appendChild(r)})})})});
+"""
+
+
+def _e(x):
+    return _html.escape("-" if x is None else str(x), quote=True)
+
+
+def _num(x, spec=""):
+    if x is None:
+        return "-"
+    try:
+        return format(x, spec)
+    except (TypeError, ValueError):
+        return str(x)
+
+
+def _rate_text(report):
+    """The interpolation rate, with the open or non-manifold edges that
+    remain named beside it (a full rate alone never hides them)."""
+    rate = report.get("interpolation_rate")
+    if rate is None:
+        return "-"
+    txt = f"{float(rate):.1f} %"
+    left = (report.get("boundary_edges_after") or 0) + (report.get("nonmanifold_edges_after") or 0)
+    if left:
+        txt += f" of holes; {left} open or non-manifold edges remain"
+    return txt
+
+
+def _table1(report):
+    rows = [("holes", report.get("holes_before"), report.get("holes_after"), _rate_text(report))]
+    out = ['<table class="table1"><thead><tr><th class="t"></th><th>before</th><th>after</th>'
+           '<th>interpolation rate</th></tr></thead><tbody>']
+    for name, b, a, r in rows:
+        out.append(f'<tr><td class="t">{_e(name)}</td><td>{_e(b)}</td><td>{_e(a)}</td><td>{_e(r)}</td></tr>')
+    out.append("</tbody></table>")
+    facts = [("filled", report.get("filled")), ("skipped", report.get("skipped")),
+             ("failed", report.get("failed")), ("borders left open", report.get("borders")),
+             ("boundary edges after", report.get("boundary_edges_after")),
+             ("non-manifold edges after", report.get("nonmanifold_edges_after")),
+             ("Euler characteristic", f"{_num(report.get('euler_before'))} → {_num(report.get('euler_after'))}"),
+             ("vertices", f"{_num(report.get('vertices_before'), ',')} → {_num(report.get('vertices_after'), ',')}"),
+             ("faces", f"{_num(report.get('faces_before'), ',')} → {_num(report.get('faces_after'), ',')}"),
+             ("fill time", f"{_num(report.get('seconds'), '.2f')} s")]
+    out.append("<dl>" + "".join(f"<dt>{_e(k)}</dt><dd>{_e(v)}</dd>" for k, v in facts) + "</dl>")
+    return "\n".join(out)
+
+
+def _hole_rows(report):
+    holes = sorted(report.get("holes", []), key=lambda h: (_STATUS_ORDER.get(h.get("status"), 3), h.get("id", 0)))
+    cols = [("id", "id"), ("edges", "edges"), ("status", "status"), ("reason", "reason"), ("option", "option"),
+            ("new vertices", "new_vertices"), ("new faces", "new_faces"), ("seconds", "seconds")]
+    text_cols = {"status", "reason", "option"}
+    head = "".join(f'<th class="t">{_e(n)}</th>' if k in text_cols else f"<th>{_e(n)}</th>" for n, k in cols)
+    body = []
+    for h in holes:
+        cls = ' class="open"' if h.get("status") != "filled" else ""
+        cells = []
+        for _, k in cols:
+            v = h.get(k)
+            if k in text_cols:
+                cells.append(f'<td class="t">{_e(v)}</td>')
+            else:
+                cells.append(f'<td data-v="{_e(v if v is not None else "")}">{_e(v)}</td>')
+        body.append(f"<tr{cls}>{''.join(cells)}</tr>")
+    return (f'<table class="sortable holes"><thead><tr>{head}</tr></thead><tbody>\n'
+            + "\n".join(body) + "\n</tbody></table>")
+
+
+def _border_rows(report):
+    borders = report.get("border_loops") or []
+    if not borders:
+        return "<p>No border left open.</p>"
+    keys = [k for k in ("id", "edges", "reason") if any(k in b for b in borders)]
+    head = "".join(f'<th class="t">{_e(k)}</th>' if k == "reason" else f"<th>{_e(k)}</th>" for k in keys)
+    body = "".join("<tr>" + "".join(f'<td class="t">{_e(b.get(k))}</td>' if k == "reason" else
+                                    f"<td>{_e(b.get(k))}</td>" for k in keys) + "</tr>" for b in borders)
+    return f'<table class="sortable borders"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def _figure_html(fig, src):
+    legend = (f'<span class="sw" style="background:rgb{tuple(_tint())}"></span>synthesized (filled) faces'
+              f'<span class="sw" style="background:rgb{OPEN_EDGE_COLOR}"></span>edges left open')
+    return (f'<figure><img src="{_e(src)}" alt="{_e(fig.get("alt", "before and after the repair"))}" '
+            f'width="{int(fig.get("width", 0))}" height="{int(fig.get("height", 0))}">'
+            f"<figcaption><b>before</b> (left) | <b>after</b> (right), one camera. {legend}</figcaption></figure>")
+
+
+def _tint():
+    from .render import FILLED_TINT
+
+    t = np.asarray(FILLED_TINT, np.float64)
+    if t.max() <= 1.0:
+        t = t * 255.0
+    return [int(round(x)) for x in t[:3]]
+
+
+def _provenance(report, options, sha256, version):
+    items = [("shellrepair", version), ("input", report.get("file")), ("input SHA-256", sha256),
+             ("output", report.get("output"))]
+    if options:
+        items.append(("options", ", ".join(f"{k}={v}" for k, v in sorted(options.items()))))
+    return "<dl>" + "".join(f"<dt>{_e(k)}</dt><dd><code>{_e(v)}</code></dd>" for k, v in items) + "</dl>"
+
+
+def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None, anchor=None, level=2):
+    """The HTML of one scan's repair (a ``<section>``).
+
+    Parameters
+    ----------
+    report : dict
+        The repair report (``shellrepair repair --report``).
+    fig : dict, optional
+        From :func:`figure`; embedded as a ``data:`` URI unless
+        ``image_src`` names a file to link instead.
+    image_src : str, optional
+        Relative path of the picture written beside the page.
+    options : dict, optional
+        The repair options, for the provenance block.
+    sha256 : str, optional
+        The input file's hash.
+    anchor : str, optional
+        The section's id.
+    level : int
+        Heading level of the scan's title.
+
+    Returns
+    -------
+    html : str
+    """
+    from . import __version__
+
+    name = Path(str(report.get("file", "scan"))).name
+    h, h2 = f"h{level}", f"h{level + 1}"
+    parts = [f'<section id="{_e(anchor)}">' if anchor else "<section>", f"<{h}>{_e(name)}</{h}>"]
+    parts.append(_table1(report))
+    left = (report.get("boundary_edges_after") or 0) + (report.get("nonmanifold_edges_after") or 0)
+    if report.get("holes_after"):
+        parts.append(f'<p class="warn">{_e(report["holes_after"])} holes left open (listed first below, '
+                     "with their reason).</p>")
+    elif left:
+        parts.append(f'<p class="warn">{_e(left)} boundary or non-manifold edges remain.</p>')
+    if fig is not None:
+        src = image_src or "data:image/png;base64," + base64.b64encode(fig["png"]).decode("ascii")
+        parts.append(_figure_html(fig, src))
+    parts.append(f"<{h2}>Holes</{h2}>")
+    parts.append(_hole_rows(report) if report.get("holes") else "<p>No hole found.</p>")
+    parts.append(f"<{h2}>Borders left open</{h2}>")
+    parts.append(_border_rows(report))
+    bridges = report.get("bridges") or []
+    if bridges:
+        parts.append(f"<{h2}>Bands</{h2}><ul>" + "".join(
+            f"<li>loops {_e(b.get('loops'))}: {_e(b.get('chosen'))} ({_e(b.get('reason'))})</li>"
+            for b in bridges) + "</ul>")
+    notes = report.get("notes") or []
+    parts.append(f"<{h2}>Loading notes</{h2}>")
+    parts.append("<ul>" + "".join(f"<li>{_e(n)}</li>" for n in notes) + "</ul>" if notes else "<p>None.</p>")
+    parts.append(f"<{h2}>Provenance</{h2}>")
+    parts.append(_provenance(report, options, sha256, __version__))
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def _page(title, body):
+    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
+            f"<title>{_e(title)}</title><style>{_CSS}</style></head><body>\n"
+            f"{body}\n<p><small>Written by shellrepair on {stamp}.</small></p>\n"
+            f"<script>{_JS}</script>\n</body></html>\n")
+
+
+def scan_page(report, fig=None, *, options=None, sha256=None):
+    """A self-contained page for one repaired scan (picture embedded).
+
+    Parameters
+    ----------
+    report : dict
+    fig : dict, optional
+        From :func:`figure`.
+    options : dict, optional
+    sha256 : str, optional
+
+    Returns
+    -------
+    html : str
+    """
+    name = Path(str(report.get("file", "scan"))).name
+    body = ("<h1>Repair of " + _e(name) + "</h1>\n"
+            + scan_section(report, fig, options=options, sha256=sha256, level=2))
+    return _page(f"shellrepair: {name}", body)
+
+
+def collection_page(summary, sections):
+    """The page of a whole folder (``OUTDIR/index.html`` of ``batch``).
+
+    Parameters
+    ----------
+    summary : dict
+        :func:`shellrepair.batch.repair_folder`'s summary.
+    sections : list of str
+        One :func:`scan_section` per repaired scan, in the summary's order
+        (failed scans have none: pass ``None``).
+
+    Returns
+    -------
+    html : str
+    """
+    rows = []
+    for i, r in enumerate(summary.get("scans", [])):
+        link = f'<a href="#scan-{i}">{_e(r["file"])}</a>' if sections[i] else _e(r["file"])
+        status = r["status"] if r["status"] == "ok" else f"error: {r.get('error')}"
+        cls = ' class="open"' if r["status"] != "ok" or (r.get("holes_after") or 0) > 0 else ""
+        rows.append(f'<tr{cls}><td class="t">{link}</td><td data-v="{_e(r.get("vertices") or "")}">'
+                    f'{_num(r.get("vertices"), ",")}</td><td data-v="{_e(r.get("faces") or "")}">'
+                    f'{_num(r.get("faces"), ",")}</td><td>{_e(r.get("holes_before"))}</td>'
+                    f'<td>{_e(r.get("holes_after"))}</td><td>{_num(r.get("rate"), ".1f")}</td>'
+                    f'<td>{_num(r.get("seconds"), ".1f")}</td><td class="t">{_e(status)}</td></tr>')
+    tot = (f'<tr class="total"><td class="t">all {summary.get("n_scans", len(rows))} scans</td><td></td><td></td>'
+           f'<td>{_e(summary.get("holes_before"))}</td><td>{_e(summary.get("holes_after"))}</td>'
+           f'<td>{_num(summary.get("rate"), ".1f")}</td><td>{_num(summary.get("seconds"), ".1f")}</td>'
+           f'<td class="t">{summary.get("n_ok", 0)} ok, {summary.get("n_failed", 0)} failed</td></tr>')
+    table = ('<table class="sortable scans"><thead><tr><th class="t">scan</th><th>vertices</th><th>faces</th>'
+             "<th>holes before</th><th>after</th><th>rate %</th><th>seconds</th><th class=\"t\">status</th>"
+             "</tr></thead><tbody>\n" + "\n".join(rows) + "\n</tbody><tfoot>" + tot + "</tfoot></table>")
+    opts = summary.get("options") or {}
+    body = [f"<h1>Repair of {_e(summary.get('folder'))}</h1>",
+            "<p>Table 1 for the whole collection (last row) and for each scan; the scans follow, each with "
+            "its picture, its holes and its provenance.</p>", table,
+            "<p>Options: <code>" + _e(", ".join(f"{k}={v}" for k, v in sorted(opts.items()))) + "</code></p>"]
+    body += [s for s in sections if s]
+    return _page(f"shellrepair: {summary.get('folder')}", "\n".join(body))
+
+
+def write_page(path, html):
+    """Write a page atomically (see :func:`shellrepair.io.atomic_write`)."""
+    from .io import atomic_write
+
+    atomic_write(Path(path), html)
+
+
+def report_json(path):
+    """A report read back from its JSON file."""
+    with open(path, encoding="utf-8") as fh:
+        return json.load(fh)
