@@ -47,8 +47,11 @@ def quiet_hugepages():
 
 
 def _parser():
+    from . import __version__
+
     p = argparse.ArgumentParser(prog="shellrepair", description="Fill the holes of 3D scans with smooth shells.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    p.add_argument("--version", action="version", version=f"shellrepair {__version__}")
     sub = p.add_subparsers(dest="cmd", required=True)
 
     h = sub.add_parser("holes", help="list the boundary loops of a scan, classed hole or border")

@@ -778,8 +778,9 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
 
     Parameters
     ----------
-    mesh : Mesh
-    order : {1, 2, 3}
+    mesh : Mesh, (V, F), open3d or trimesh mesh, or path
+        See :func:`shellrepair.convert.as_mesh`.
+    order : {1, 2, 3, "auto"}
         Fairing order: harmonic, bilaplacian (default), curvature-continuous.
     smooth : int
         Non-shrinking smoothing passes of each patch after fairing (for
@@ -808,6 +809,9 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         Table 1 fields (see :func:`shellrepair.report.table1_dict`) plus
         per-hole details.
     """
+    from .convert import as_mesh
+
+    mesh = as_mesh(mesh)  # a (V, F) pair, an open3d or trimesh mesh, or a path
     if order not in (1, 2, 3, "auto"):
         raise MeshError(f"order must be 1, 2, 3 or 'auto', got {order!r}")
     if method not in ("fair", "seed"):

@@ -1,0 +1,47 @@
+"""The top-level API takes the meshes users hold and hands them back."""
+
+import numpy as np
+import pytest
+
+import shellrepair
+from shellrepair import MeshError, as_mesh, to_open3d
+from shellrepair.shapes import icosphere
+
+
+def _open_sphere():
+    V, F = icosphere(2)
+    return V, F[5:]          # a few faces missing: one hole
+
+
+def test_repair_mesh_takes_a_pair_and_an_open3d_mesh_alike():
+    V, F = _open_sphere()
+    _, from_pair = shellrepair.repair_mesh((V, F))
+    o3 = to_open3d(shellrepair.Mesh(V=V, F=F))
+    _, from_legacy = shellrepair.repair_mesh(o3)
+    _, from_tensor = shellrepair.repair_mesh(to_open3d((V, F), tensor=True))
+    assert from_pair["holes_before"] == 1 and from_pair["holes_after"] == 0
+    assert from_legacy["faces_after"] == from_pair["faces_after"]
+    # the tensor mesh holds float32 positions: same topology, same count
+    assert from_tensor["holes_before"] == 1 and from_tensor["holes_after"] == 0
+
+
+def test_open3d_round_trip_keeps_positions_and_faces():
+    V, F = _open_sphere()
+    m = as_mesh(to_open3d((V, F)))
+    assert np.array_equal(m.V, V) and np.array_equal(m.F, F)
+
+
+@pytest.mark.parametrize("bad", [np.zeros((3, 3)), (np.zeros((3, 2)), np.zeros((1, 3), int)),
+                                 (np.zeros((3, 3)), np.array([[0, 1, 5]]))])
+def test_what_is_not_a_mesh_is_one_clear_error(bad):
+    with pytest.raises(MeshError):
+        as_mesh(bad)
+
+
+def test_version_on_the_command_line(capsys):
+    from shellrepair.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"shellrepair {shellrepair.__version__}"
