@@ -299,9 +299,9 @@ class ManifoldResult:
         New vertex ``n + j`` is a copy of vertex ``src[j]`` (same position,
         same attributes).
     counts : dict
-        ``vertices_joined``, ``folded_faces_dropped``,
-        ``nonmanifold_edges_split``, ``nonmanifold_vertices_split``,
-        ``vertices_added``.
+        ``vertices_joined``, ``nonmanifold_edges_found`` (after joining),
+        ``folded_faces_dropped``, ``nonmanifold_edges_split``,
+        ``nonmanifold_vertices_split``, ``vertices_added``.
     notes : list of str
     topo : EdgeTopology or None
         The edge topology of ``F`` when it was built on the way.
@@ -322,7 +322,7 @@ class ManifoldResult:
 
 
 #: Keys of :attr:`ManifoldResult.counts`, all zero for a clean manifold mesh.
-FIX_COUNTS = ("vertices_joined", "folded_faces_dropped", "nonmanifold_edges_split",
+FIX_COUNTS = ("vertices_joined", "nonmanifold_edges_found", "folded_faces_dropped", "nonmanifold_edges_split",
               "nonmanifold_vertices_split", "vertices_added")
 
 
@@ -395,6 +395,7 @@ def make_manifold(V, F, topo=None):
         topo = edge_topology(F, n)
 
     # 2. folded faces
+    counts["nonmanifold_edges_found"] = int(topo.nonmanifold_edges.shape[0])
     if topo.nonmanifold_edges.size:
         pairs, left = _nonmanifold_pairs(V, F, topo)
         fold = _folded_faces(F, topo, left)

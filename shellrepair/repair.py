@@ -943,7 +943,8 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
                                 "open_chain_list": describe_open_chains(F, scan.open_chains, len(V), topo),
                                 "boundary_edges_before": int(topo.n_boundary_edges),
                                 "boundary_edges_after": int(topo.n_boundary_edges + delta["boundary_edges"]),
-                                "nonmanifold_edges_before": int(topo.nonmanifold_edges.shape[0]),
+                                "nonmanifold_edges_before": int(mesh.fixes.get("nonmanifold_edges_found",
+                                                                               topo.nonmanifold_edges.shape[0])),
                                 "nonmanifold_edges_after": int(topo.nonmanifold_edges.shape[0]
                                                                + delta["nonmanifold_edges"]),
                                 "smooth": smooth, "jobs": jobs, "bridge": bridge,

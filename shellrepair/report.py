@@ -197,7 +197,8 @@ def table1_text(d, *, limit=30):
         lines.append(f"  left in the output: {d['boundary_edges_after']} boundary edges "
                      f"({d.get('border_edges_after', 0)} of them in borders), "
                      f"{d.get('nonmanifold_edges_after', 0)} non-manifold edges")
-    fixes = [(k, d.get(k)) for k in ("vertices_joined", "folded_faces_dropped", "nonmanifold_edges_split",
+    fixes = [(k, d.get(k)) for k in ("vertices_joined", "nonmanifold_edges_found", "folded_faces_dropped",
+                                     "nonmanifold_edges_split",
                                      "nonmanifold_vertices_split", "vertices_added")]
     if any(v for _, v in fixes):
         lines.append("  topology: " + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in fixes if v))
