@@ -1050,7 +1050,7 @@ def _ply_ascii_body(body, elements):
 
 def _ply_bytes(mesh, binary=True):
     V = np.asarray(mesh.V, dtype=np.float64)
-    F = np.asarray(mesh.F, dtype=np.int64)
+    F = written_faces(mesh)
     n, m = len(V), len(F)
     vdt = mesh.vertex_dtype if mesh.vertex_dtype in ("f4", "f8") else "f8"
     endian = "<"
@@ -1168,7 +1168,7 @@ def _obj_bytes(mesh, binary=True):
         for j in range(3):
             vs = vs + " " + np.char.mod("%.6g", C[:, j])
     lines += vs.tolist()
-    F = np.asarray(mesh.F, np.int64) + 1
+    F = written_faces(mesh) + 1
     lines += ("f " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
               + np.char.mod("%d", F[:, 2])).tolist()
     return "\n".join(lines) + "\n"
@@ -1222,7 +1222,7 @@ def _read_off(data):
 
 def _off_bytes(mesh, binary=True):
     V = np.asarray(mesh.V, np.float64)
-    F = np.asarray(mesh.F, np.int64)
+    F = written_faces(mesh)
     lines = ["OFF", f"{len(V)} {len(F)} 0"]
     lines += (np.char.mod("%.17g", V[:, 0]) + " " + np.char.mod("%.17g", V[:, 1]) + " "
               + np.char.mod("%.17g", V[:, 2])).tolist()
