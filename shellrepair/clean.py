@@ -1,4 +1,22 @@
-"""Dirty but valid geometry: consistent orientation, and what is left open.
+"""Dirty but valid geometry: topology by position, manifold edges and
+vertices, consistent orientation, and what is left open.
+
+Topology by position (:func:`make_manifold`, :func:`split_piece_junctions`)
+------------------------------------------------------------------------
+Files often say less about connectivity than their geometry does: a
+triangle soup gives every face its own three vertices, a textured export
+cuts the surface at its UV seams, a decimation leaves faces folded over the
+surface, and a CAD export glues three faces on one edge. So, before any
+hole is looked for:
+
+* vertices on open edges at bit-identical positions are one vertex;
+* a face folded over a surface that is closed without it is dropped;
+* at a non-manifold edge one consistently oriented, flattest pair of faces
+  keeps the edge and the others get copies of its vertices;
+* pieces that meet at a single vertex get a copy each.
+
+Copies are appended after the original vertices (same position, same
+attributes) and faces re-pointed: no vertex moves, none is renumbered.
 
 Hole loops are chains of boundary half-edges, and a patch is wound like the
 faces around its rim, so both rely on every piece of the scan being wound
@@ -457,8 +475,11 @@ def split_piece_junctions(F, n_vertices, piece):
     """
     F = np.asarray(F, np.int64)
     n = int(n_vertices)
+    piece = np.asarray(piece, np.int64)
+    if piece.size == 0 or piece.max() == piece.min():   # one piece: no junction (the usual scan)
+        return F, np.zeros(0, np.int64)
     flat = F.ravel()
-    cp = np.repeat(np.asarray(piece, np.int64), 3)
+    cp = np.repeat(piece, 3)
     some = np.full(n, -1, np.int64)
     some[flat] = cp
     junction = np.unique(flat[cp != some[flat]])

@@ -346,6 +346,7 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
             out.notes.append(f"{k} face corners keep their own vertex in the written file "
                              "(coincident vertices with their own colours or properties: a seam)")
         src = np.concatenate([src, seam_src])
+        out.fixes["vertices_added"] += int(seam_src.size)
     if src.size:
         _append_copies(out, V, mesh, src)
     if flipped:

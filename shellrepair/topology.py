@@ -383,10 +383,11 @@ def coincident_vertices(V, verts=None):
     P = V[verts]
     P += 0.0  # -0.0 + 0.0 == +0.0: the two zeros are one position
     bits = np.ascontiguousarray(P).view(np.uint64)
-    h = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15)
-    h ^= bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F)
-    h ^= bits[:, 2] * np.uint64(0x165667B19E3779F9)
-    h ^= h >> np.uint64(31)
+    h = _mix64(bits[:, 0].copy())
+    h ^= bits[:, 1]
+    h = _mix64(h)
+    h ^= bits[:, 2]
+    h = _mix64(h)
     hs = np.sort(h)
     rep_h = np.unique(hs[1:][hs[1:] == hs[:-1]])
     del hs
@@ -405,6 +406,18 @@ def coincident_vertices(V, verts=None):
     rep = np.arange(n, dtype=np.int64)
     rep[verts[cand[order]]] = verts[cand[order[head]]]
     return rep
+
+
+def _mix64(w):
+    """The splitmix64 finaliser, in place on a uint64 array: every input bit
+    reaches every output bit (float32 values widened to float64 have 29
+    zero bits that a plain product would keep zero)."""
+    w ^= w >> np.uint64(30)
+    w *= np.uint64(0xBF58476D1CE4E5B9)
+    w ^= w >> np.uint64(27)
+    w *= np.uint64(0x94D049BB133111EB)
+    w ^= w >> np.uint64(31)
+    return w
 
 
 def corner_fans(F, verts, links):
