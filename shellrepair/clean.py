@@ -479,16 +479,19 @@ def split_piece_junctions(F, n_vertices, piece):
     if piece.size == 0 or piece.max() == piece.min():   # one piece: no junction (the usual scan)
         return F, np.zeros(0, np.int64)
     flat = F.ravel()
-    cp = np.repeat(piece, 3)
-    some = np.full(n, -1, np.int64)
-    some[flat] = cp
-    junction = np.unique(flat[cp != some[flat]])
+    cp = np.repeat(piece.astype(np.int32) if piece.max() < 2 ** 31 else piece, 3)   # 32 bits: half the traffic
+    some = np.empty(n, cp.dtype)
+    some[flat] = cp                                      # one piece per vertex (the last written)
+    cross_ = np.flatnonzero(cp != some[flat])
+    if cross_.size == 0:
+        return F, np.zeros(0, np.int64)
+    junction = np.unique(flat[cross_])
     if junction.size == 0:
         return F, np.zeros(0, np.int64)
     mark = np.zeros(n, bool)
     mark[junction] = True
     corners = np.flatnonzero(mark[flat])
-    key = flat[corners] * (int(cp.max()) + 1) + cp[corners]
+    key = flat[corners] * (int(cp.max()) + 1) + cp[corners].astype(np.int64)
     _, group = np.unique(key, return_inverse=True)
     return _split_groups(F, n, corners, group.astype(np.int64))
 

@@ -282,8 +282,8 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
         is added); copies made by splits are appended with the attributes of
         the vertex they copy. ``F`` is the topology's faces, ``F_out`` how
         to write them (None when that is ``F``), ``fixes`` the counts,
-        ``notes`` one line per change. The edge topology and pieces are
-        cached on it (:meth:`Mesh.cached`).
+        ``notes`` one line per change. The pieces, and the edge topology
+        when no face was flipped, are cached on it (:meth:`Mesh.cached`).
 
     Notes
     -----
@@ -349,11 +349,9 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
         out.fixes["vertices_added"] += int(seam_src.size)
     if src.size:
         _append_copies(out, V, mesh, src)
-    if flipped:
-        topo = None  # the flips changed the half-edges (not the edges)
-    if topo is None and len(F):
-        topo = edge_topology(F, len(out.V))
-    if topo is not None:
+    if topo is not None and not flipped:
+        # kept for hole detection and repair; after flips or a junction split
+        # it no longer matches F, and is rebuilt by whoever needs it
         out.remember("topology", topo)
     if piece is not None:
         out.remember("pieces", piece)
