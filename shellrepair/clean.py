@@ -11,8 +11,9 @@ hole is looked for:
 
 * vertices on open edges at bit-identical positions are one vertex;
 * a face folded over a surface that is closed without it is dropped;
-* at a non-manifold edge one consistently oriented, flattest pair of faces
-  keeps the edge and the others get copies of its vertices;
+* at a non-manifold edge one pair of faces keeps the edge (two faces of one
+  piece, consistently oriented, flattest) and the others get copies of its
+  vertices;
 * pieces that meet at a single vertex get a copy each.
 
 Copies are appended after the original vertices (same position, same
@@ -375,9 +376,10 @@ def make_manifold(V, F, topo=None):
        decimation: it shows as a one-edge opening). It is dropped and
        counted.
     3. *Non-manifold edges.* At an edge with three or more faces one pair is
-       kept together: consistently oriented if any pair is, then the pair
-       whose faces have the fewest open or non-manifold edges, then the
-       flattest pair (normals closest). The other faces are cut from the
+       kept together: two faces of one piece (joined across manifold edges)
+       if there are such, then consistently oriented if any pair is, then
+       the pair whose faces have the fewest open or non-manifold edges, then
+       the flattest pair (normals closest). The other faces are cut from the
        edge. At each end of every such edge the faces are grouped into fans
        (joined across the edges at that vertex that still join them); the
        largest fan keeps the vertex, each other fan gets a copy of it
@@ -537,6 +539,12 @@ def _nonmanifold_pairs(V, F, topo):
     ec = count[topo.edge_of_he].reshape(-1, 3)
     bad = (ec != 2).sum(axis=1)                           # open or non-manifold edges per face
     flat = F.ravel()
+    # faces joined across manifold edges: a pair from one such piece (the two
+    # faces of one closed part, the surface under a fold) belongs together
+    h1, h2 = manifold_pairs(topo)
+    m = len(F)
+    _, piece = connected_components(sp.csr_matrix((np.ones(h1.size, np.int8), (h1 // 3, h2 // 3)), shape=(m, m)),
+                                    directed=False)
     pairs, left = [], []
     for e in nm.tolist():
         hs = topo.he_order[start[e]:start[e] + count[e]]
@@ -550,7 +558,8 @@ def _nonmanifold_pairs(V, F, topo):
             for j in range(i + 1, len(hs)):
                 consistent = flat[hs[i]] != flat[hs[j]]
                 d = float(N[i] @ N[j]) if consistent else -float(N[i] @ N[j])
-                key = (not consistent, int(bad[fs[i]] + bad[fs[j]]), -d, int(fs[i]), int(fs[j]))
+                key = (piece[fs[i]] != piece[fs[j]], not consistent, int(bad[fs[i]] + bad[fs[j]]), -d,
+                       int(fs[i]), int(fs[j]))
                 if best_key is None or key < best_key:
                     best, best_key = (i, j), key
         pairs.append((hs[best[0]], hs[best[1]]))

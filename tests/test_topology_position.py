@@ -197,6 +197,49 @@ def test_two_cubes_sharing_a_vertex_get_one_copy_and_stay_closed(tmp_path):
     assert rep["boundary_edges_after"] == 0 and rep["nonmanifold_edges_after"] == 0
 
 
+def test_two_cubes_sharing_an_edge_each_keep_a_closed_copy_of_it():
+    V1, F1, _ = _cube()
+    V2, F2, _ = _cube(origin=(1.0, 1.0, 0.0))
+    # the first cube's vertices 6, 7 ((1,1,0), (1,1,1)) are the second's 0, 1
+    V = np.vstack([V1, V2[2:]])
+    F = np.vstack([F1, np.where(F2 < 2, F2 + 6, F2 + len(V1) - 2)])
+    R, rep = repair_mesh(Mesh(V=V, F=F))
+    assert rep["nonmanifold_edges_found"] == 1 and rep["nonmanifold_edges_split"] == 1
+    assert rep["nonmanifold_vertices_split"] == 2 and rep["vertices_added"] == 2
+    assert np.array_equal(_bits(R.V[:len(V)]), _bits(V))
+    assert np.array_equal(_bits(R.V[len(V):]), _bits(V[[6, 7]]))
+    scan = detect_holes(R.V, R.F)
+    assert scan.loops == [] and scan.n_components == 2 and scan.n_nonmanifold_edges == 0
+    assert rep["holes_before"] == 0 and rep["boundary_edges_after"] == 0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_extra_faces_on_a_closed_surface_are_split_off_without_moving_anything(seed):
+    """Random faces on random edges of a sphere (three or four faces per
+    edge): every non-manifold edge is resolved, and each face kept is the
+    same triangle in space as before."""
+    from shellrepair.io import clean_faces, manifold_mesh
+
+    V, F = shapes.icosphere(2)
+    rng = np.random.default_rng(seed)
+    E = edge_topology(F, len(V)).edges
+    E = E[rng.choice(len(E), 15, replace=False)]
+    Fx, _, _ = clean_faces(np.vstack([F, np.column_stack([E, rng.integers(0, len(V), len(E))])]))
+    m = manifold_mesh(Mesh(V=V, F=Fx))
+    topo = edge_topology(m.F, len(m.V))
+    assert topo.nonmanifold_edges.shape[0] == 0
+    assert m.fixes["nonmanifold_edges_found"] >= 15
+    assert np.array_equal(_bits(m.V[:len(V)]), _bits(V))
+    # the copies sit on their originals, so every face is where it was (up to orientation)
+    assert len(m.F) == len(Fx) - m.fixes["folded_faces_dropped"]
+    got = {tuple(sorted(map(tuple, t))) for t in m.V[m.F]}
+    assert got <= {tuple(sorted(map(tuple, t))) for t in V[Fx]}
+    assert len(got) == len(m.F)
+    # the sphere itself is untouched: its faces keep their vertices
+    sphere = {tuple(sorted(f)) for f in F.tolist()}
+    assert sphere <= {tuple(sorted(f)) for f in m.F.tolist()}
+
+
 def test_bowtie_is_split_into_two_triangles():
     V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [-1, 0, 0], [-1, -1, 0]], np.float64)
     F = np.array([[0, 1, 2], [0, 3, 4]], np.int64)
