@@ -251,7 +251,9 @@ def read_mesh(path, *, clean=True, orient=True, progress=False):
     stage()
     unused = mesh.n_vertices - _used_vertex_count(written_faces(mesh), mesh.n_vertices)
     if unused:
-        mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes)")
+        joined = int(mesh.fixes.get("vertices_joined", 0))
+        mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes"
+                          + (f"; the file is written with {joined} coincident vertices joined)" if joined else ")"))
     areas = face_areas(mesh.V, mesh.F)
     mesh.remember("face_areas", areas)
     zero = int(np.count_nonzero(areas == 0))

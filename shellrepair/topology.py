@@ -364,10 +364,11 @@ def coincident_vertices(V, verts=None):
 
     Notes
     -----
-    Vectorised: a 64-bit hash of the three coordinate words is sorted once;
-    only the vertices whose hash repeats are compared exactly (one
-    ``lexsort`` on their coordinate bits), so a mesh without twins costs one
-    sort of ``k`` integers.
+    Vectorised: a 64-bit hash of the three coordinate words is sorted once
+    (stable, so each run of equal hashes is in vertex order) and neighbours
+    in that order are compared bit for bit; only if two different positions
+    share a hash are the vertices ordered by their coordinate bits instead
+    (one ``lexsort``).
 
     Examples
     --------
@@ -377,34 +378,47 @@ def coincident_vertices(V, verts=None):
     """
     V = np.asarray(V, np.float64)
     n = len(V)
-    verts = np.arange(n, dtype=np.int64) if verts is None else np.unique(np.asarray(verts, np.int64))
+    if verts is None:
+        verts = np.arange(n, dtype=np.int64)
+    else:
+        mark = np.zeros(n, bool)
+        mark[np.asarray(verts, np.int64)] = True
+        verts = np.flatnonzero(mark)
     if verts.size < 2:
         return None
     P = V[verts]
     P += 0.0  # -0.0 + 0.0 == +0.0: the two zeros are one position
     bits = np.ascontiguousarray(P).view(np.uint64)
+    del P
     h = _mix64(bits[:, 0].copy())
     h ^= bits[:, 1]
     h = _mix64(h)
     h ^= bits[:, 2]
     h = _mix64(h)
-    hs = np.sort(h)
-    rep_h = np.unique(hs[1:][hs[1:] == hs[:-1]])
-    del hs
-    if rep_h.size == 0:
-        return None
-    cand = np.flatnonzero(rep_h[np.minimum(np.searchsorted(rep_h, h), rep_h.size - 1)] == h)
-    B = bits[cand]
-    # equal positions next to each other, lowest vertex first within each
-    order = np.lexsort((cand, B[:, 2], B[:, 1], B[:, 0]))
-    Bs = B[order]
-    same = np.zeros(len(order), bool)
-    same[1:] = (Bs[1:] == Bs[:-1]).all(axis=1)
+    # equal hashes next to each other, in vertex order within a run (stable)
+    order = np.argsort(h, kind="stable")
+    hs = h[order]
+    same = hs[1:] == hs[:-1]
+    del h, hs
     if not same.any():
         return None
-    head = np.maximum.accumulate(np.where(same, 0, np.arange(len(order))))
+    B = bits[order]
+    equal = (B[1:] == B[:-1]).all(axis=1)
+    if (same & ~equal).any():
+        # two positions share a hash (rare): order those runs by their bits exactly
+        B_order = np.lexsort((order, B[:, 2], B[:, 1], B[:, 0]))
+        order = order[B_order]
+        B = B[B_order]
+        same = (B[1:] == B[:-1]).all(axis=1)
+    else:
+        same &= equal
+    if not same.any():
+        return None
+    start = np.ones(order.size, bool)
+    start[1:] = ~same
+    head = np.maximum.accumulate(np.where(start, np.arange(order.size), 0))
     rep = np.arange(n, dtype=np.int64)
-    rep[verts[cand[order]]] = verts[cand[order[head]]]
+    rep[verts[order]] = verts[order[head]]
     return rep
 
 

@@ -66,6 +66,26 @@ def test_coincident_vertices_join_bit_identical_positions_and_both_zeros():
     assert coincident_vertices(V[[0, 1, 4]]) is None
 
 
+def _brute_rep(V):
+    key = [tuple(v + 0.0) for v in V]
+    return np.array([min(j for j in range(len(V)) if key[j] == key[i]) for i in range(len(V))])
+
+
+@pytest.mark.parametrize("collide", [False, True])
+def test_coincident_vertices_equal_a_brute_force_join(monkeypatch, collide):
+    import shellrepair.topology as topology
+
+    if collide:   # every position hashes alike: the exact ordering path must still be right
+        monkeypatch.setattr(topology, "_mix64", lambda w: w * np.uint64(0))
+    rng = np.random.default_rng(7)
+    for _ in range(100):
+        V = rng.integers(-2, 3, (int(rng.integers(2, 50)), 3)).astype(np.float64) * 0.5
+        V[rng.random(V.shape) < 0.3] *= -1.0                 # some zeros become -0.0
+        rep = topology.coincident_vertices(V)
+        want = _brute_rep(V)
+        assert np.array_equal(want, np.arange(len(V))) if rep is None else np.array_equal(rep, want)
+
+
 def test_triangle_soup_has_the_holes_of_its_welded_mesh_and_closes(tmp_path):
     V, F = shapes.icosphere(3)
     Vh, Fh, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.3, seed=2)
