@@ -382,7 +382,9 @@ def _seam_faces(mesh, rep, Ffile, F, n_topology):
     if not attrs:
         return none
     n = len(mesh.V)
-    g = np.flatnonzero((rep != np.arange(n)) | np.isin(np.arange(n), rep[rep != np.arange(n)]))
+    grouped = rep != np.arange(n)          # joined to another vertex ...
+    grouped[rep[grouped]] = True            # ... or another was joined to it
+    g = np.flatnonzero(grouped)
     cols = [rep[g].astype("<i8").view(np.uint8).reshape(len(g), -1)]
     for a in attrs:
         cols.append(np.ascontiguousarray(a[g]).view(np.uint8).reshape(len(g), -1))
