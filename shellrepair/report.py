@@ -131,7 +131,7 @@ def table1_dict(holes_before, results, *, path=None, seconds=None, method=None, 
     order : int, optional
     borders : int
         Loops left open as borders (not counted as holes).
-    open_chains : list of dict
+    open_chains : list of (k,) int64 arrays
         Boundary chains that do not close (never filled); they count as
         openings left in the rate.
     extra : dict, optional
