@@ -1,4 +1,23 @@
-"""Dirty but valid geometry: consistent orientation, and what is left open.
+"""Dirty but valid geometry: topology by position, manifold edges and
+vertices, consistent orientation, and what is left open.
+
+Topology by position (:func:`make_manifold`, :func:`split_piece_junctions`)
+------------------------------------------------------------------------
+Files often say less about connectivity than their geometry does: a
+triangle soup gives every face its own three vertices, a textured export
+cuts the surface at its UV seams, a decimation leaves faces folded over the
+surface, and a CAD export glues three faces on one edge. So, before any
+hole is looked for:
+
+* vertices on open edges at bit-identical positions are one vertex;
+* a face folded over a surface that is closed without it is dropped;
+* at a non-manifold edge one pair of faces keeps the edge (two faces of one
+  piece, consistently oriented, flattest) and the others get copies of its
+  vertices;
+* pieces that meet at a single vertex get a copy each.
+
+Copies are appended after the original vertices (same position, same
+attributes) and faces re-pointed: no vertex moves, none is renumbered.
 
 Hole loops are chains of boundary half-edges, and a patch is wound like the
 faces around its rim, so both rely on every piece of the scan being wound
@@ -36,9 +55,10 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from .geometry import cross, dot
-from .topology import CHUNK, edge_topology, manifold_pairs
+from .topology import CHUNK, corner_fans, edge_topology, manifold_pairs
 
-__all__ = ["OrientResult", "orient_faces", "describe_open_chains"]
+__all__ = ["OrientResult", "orient_faces", "describe_open_chains", "ManifoldResult", "make_manifold",
+           "split_piece_junctions", "FIX_COUNTS"]
 
 
 @dataclass
@@ -97,7 +117,7 @@ def _manifold_face_pairs(F, topo):
     return h1 // 3, h2 // 3, differ
 
 
-def orient_faces(F, V=None):
+def orient_faces(F, V=None, topo=None):
     """Wind every piece of a triangle mesh consistently by flipping faces.
 
     Parameters
@@ -134,7 +154,8 @@ def orient_faces(F, V=None):
     if m == 0:
         return OrientResult(F=F.copy(), flipped=np.zeros(0, bool), n_pieces=0)
     n = int(F.max()) + 1 if V is None else max(int(F.max()) + 1, len(V))
-    topo = edge_topology(F, n)
+    if topo is None:
+        topo = edge_topology(F, n)
     f, g, differ = _manifold_face_pairs(F, topo)
 
     # pieces: faces joined across manifold edges
@@ -272,3 +293,286 @@ def describe_open_chains(F, chains, n_vertices, topo=None):
         rows.append({"id": i, "edges": int(len(c) - 1), "first_vertex": int(c[0]),
                      "last_vertex": int(c[-1]), "reason": reason})
     return rows
+
+
+# --------------------------------------------------------------------------
+# topology by position, and non-manifold edges and vertices made manifold
+# --------------------------------------------------------------------------
+@dataclass
+class ManifoldResult:
+    """Result of :func:`make_manifold` and :func:`split_piece_junctions`.
+
+    Attributes
+    ----------
+    F : (k,3) int64 array
+        Faces for the topology: coincident vertices joined (each corner
+        points to the lowest-numbered vertex at its position), split corners
+        re-pointed to new vertices.
+    kept : (k,) int64 array
+        Index into the input ``F`` of each returned face (faces that repeat
+        a position, duplicates by position and folded faces are dropped).
+    rep : (n,) int64 array or None
+        The position weld: ``rep[v]`` the vertex ``v`` was joined to; None
+        when nothing was joined.
+    src : (q,) int64 array
+        New vertex ``n + j`` is a copy of vertex ``src[j]`` (same position,
+        same attributes).
+    counts : dict
+        ``vertices_joined``, ``nonmanifold_edges_found`` (after joining),
+        ``folded_faces_dropped``, ``nonmanifold_edges_split``,
+        ``nonmanifold_vertices_split``, ``vertices_added``.
+    notes : list of str
+    topo : EdgeTopology or None
+        The edge topology of ``F`` when it was built on the way.
+    """
+
+    F: np.ndarray
+    kept: np.ndarray
+    rep: np.ndarray | None = None
+    src: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    counts: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+    topo: object = None
+
+    @property
+    def changed(self):
+        return self.rep is not None or self.src.size > 0 or len(self.kept) != len(self.F) or \
+            any(self.counts.values())
+
+
+#: Keys of :attr:`ManifoldResult.counts`, all zero for a clean manifold mesh.
+FIX_COUNTS = ("vertices_joined", "nonmanifold_edges_found", "folded_faces_dropped", "nonmanifold_edges_split",
+              "nonmanifold_vertices_split", "vertices_added")
+
+
+def make_manifold(V, F, topo=None):
+    """Join coincident open vertices, drop folded faces, split non-manifold edges.
+
+    Parameters
+    ----------
+    V : (n,3) float64 array
+        Never changed; new vertices are copies of old ones (``src``).
+    F : (m,3) int64 array
+        Faces with no repeated vertex and no duplicate (as
+        :func:`shellrepair.io.clean_faces` leaves them).
+    topo : EdgeTopology, optional
+        Of ``F``, if already built.
+
+    Returns
+    -------
+    result : ManifoldResult
+
+    Notes
+    -----
+    1. *Coincident vertices.* Vertices on open edges (edges with one face)
+       whose positions are bit-identical (``-0.0`` read as ``0.0``) are one
+       vertex for the topology: a triangle soup or a surface cut at texture
+       seams becomes the surface it stands for. Only open-edge vertices are
+       compared: a vertex whose fan is closed could only be split off again.
+       Faces that then repeat a vertex or duplicate another face are dropped.
+    2. *Folded faces.* A face with two or more non-manifold edges, left out
+       of the manifold pair kept at each of them, whose other edge is open,
+       lies over a surface that is closed without it (a fold left by
+       decimation: it shows as a one-edge opening). It is dropped and
+       counted.
+    3. *Non-manifold edges.* At an edge with three or more faces one pair is
+       kept together: two faces of one piece (joined across manifold edges)
+       if there are such, then consistently oriented if any pair is, then
+       the pair whose faces have the fewest open or non-manifold edges, then
+       the flattest pair (normals closest). The other faces are cut from the
+       edge. At each end of every such edge the faces are grouped into fans
+       (joined across the edges at that vertex that still join them); the
+       largest fan keeps the vertex, each other fan gets a copy of it
+       (appended, same position and attributes). Nothing is moved.
+    """
+    from .io import clean_faces  # io imports this module lazily
+
+    V = np.asarray(V, np.float64)
+    F = np.asarray(F, np.int64)
+    n = len(V)
+    counts = dict.fromkeys(FIX_COUNTS, 0)
+    notes = []
+    kept = np.arange(len(F), dtype=np.int64)
+    if topo is None:
+        topo = edge_topology(F, n)
+
+    # 1. coincident open vertices
+    rep = None
+    if topo.boundary_he.size:
+        from .topology import coincident_vertices
+
+        rep = coincident_vertices(V, topo.he[topo.boundary_he].ravel())
+    if rep is not None:
+        used = np.zeros(n, bool)
+        used[F.ravel()] = True
+        counts["vertices_joined"] = int(np.count_nonzero((rep != np.arange(n)) & used))
+        F = rep[F]
+        F, k2, cn = clean_faces(F)
+        kept = kept[k2]
+        notes.append(f"{counts['vertices_joined']} vertices joined to a coincident vertex for the topology "
+                     "(same position, bit for bit)")
+        notes.extend(f"{c} after joining coincident vertices" for c in cn)
+        topo = edge_topology(F, n)
+
+    # 2. folded faces
+    counts["nonmanifold_edges_found"] = int(topo.nonmanifold_edges.shape[0])
+    if topo.nonmanifold_edges.size:
+        pairs, left = _nonmanifold_pairs(V, F, topo)
+        fold = _folded_faces(F, topo, left)
+        if fold.size:
+            keep = np.ones(len(F), bool)
+            keep[fold] = False
+            F, kept = F[keep], kept[keep]
+            counts["folded_faces_dropped"] = int(fold.size)
+            notes.append(f"{fold.size} folded faces dropped: each lay over faces that close the surface without "
+                         "it (two or more of its edges non-manifold, the other open: a one-edge opening)")
+            topo = edge_topology(F, n)
+
+    # 3. non-manifold edges
+    src = np.zeros(0, np.int64)
+    n_nm = int(topo.nonmanifold_edges.shape[0])
+    if n_nm:
+        pairs, _ = _nonmanifold_pairs(V, F, topo)
+        h1, h2 = manifold_pairs(topo)
+        links = np.concatenate([np.column_stack([h1, h2]), pairs])
+        verts = np.unique(topo.nonmanifold_edges)
+        F, src = _split_groups(F, n, *corner_fans(F, verts, links))
+        topo = edge_topology(F, n + src.size)
+        left = int(topo.nonmanifold_edges.shape[0])
+        counts["nonmanifold_edges_split"] = n_nm - left
+        counts["nonmanifold_vertices_split"] = int(np.unique(src).size)
+        counts["vertices_added"] = int(src.size)
+        notes.append(f"{n_nm - left} non-manifold edges split: {np.unique(src).size} vertices copied "
+                     f"({src.size} new vertices at the same positions, appended)")
+        if left:
+            notes.append(f"{left} non-manifold edges could not be split (their faces form one fan at both ends)")
+    return ManifoldResult(F=F, kept=kept, rep=rep, src=src, counts=counts, notes=notes, topo=topo)
+
+
+def split_piece_junctions(F, n_vertices, piece):
+    """Give each piece meeting others at a vertex its own copy of the vertex.
+
+    Parameters
+    ----------
+    F : (m,3) int64 array
+    n_vertices : int
+    piece : (m,) int64 array
+        Each face's piece (faces joined across manifold edges, as
+        :func:`shellrepair.topology.face_pieces` labels them).
+
+    Returns
+    -------
+    F_new : (m,3) int64 array
+        ``F`` with the corners of every piece but one re-pointed at each
+        junction vertex (the piece with the most corners there keeps it).
+    src : (q,) int64 array
+        New vertex ``n_vertices + j`` copies vertex ``src[j]``.
+
+    Notes
+    -----
+    Two closed surfaces touching at a vertex, or two triangles meeting at a
+    corner (a bowtie), are pieces that share only a vertex. Several fans of
+    one piece at a vertex (two holes touching at a corner) are not split:
+    filling the holes joins the fans into one.
+    """
+    F = np.asarray(F, np.int64)
+    n = int(n_vertices)
+    piece = np.asarray(piece, np.int64)
+    if piece.size == 0 or piece.max() == piece.min():   # one piece: no junction (the usual scan)
+        return F, np.zeros(0, np.int64)
+    flat = F.ravel()
+    cp = np.repeat(piece.astype(np.int32) if piece.max() < 2 ** 31 else piece, 3)   # 32 bits: half the traffic
+    some = np.empty(n, cp.dtype)
+    some[flat] = cp                                      # one piece per vertex (the last written)
+    cross_ = np.flatnonzero(cp != some[flat])
+    if cross_.size == 0:
+        return F, np.zeros(0, np.int64)
+    junction = np.unique(flat[cross_])
+    if junction.size == 0:
+        return F, np.zeros(0, np.int64)
+    mark = np.zeros(n, bool)
+    mark[junction] = True
+    corners = np.flatnonzero(mark[flat])
+    key = flat[corners] * (int(cp.max()) + 1) + cp[corners].astype(np.int64)
+    _, group = np.unique(key, return_inverse=True)
+    return _split_groups(F, n, corners, group.astype(np.int64))
+
+
+def _split_groups(F, n, corners, group):
+    """Re-point corners so that each group of a vertex's corners but the
+    largest gets a new vertex; returns (F_new, src)."""
+    flat = F.ravel()
+    if corners.size == 0:
+        return F, np.zeros(0, np.int64)
+    size = np.bincount(group)
+    first = np.full(size.size, corners.size, np.int64)
+    np.minimum.at(first, group, np.arange(corners.size))
+    gv = flat[corners[first]]                                 # the vertex of each group
+    order = np.lexsort((first, -size, gv))                    # per vertex: largest group first
+    head = np.ones(order.size, bool)
+    head[1:] = gv[order[1:]] != gv[order[:-1]]
+    extra = order[~head]
+    if extra.size == 0:
+        return F, np.zeros(0, np.int64)
+    extra = extra[np.lexsort((first[extra], gv[extra]))]      # new vertices in vertex order
+    new_id = np.full(size.size, -1, np.int64)
+    new_id[extra] = n + np.arange(extra.size)
+    out = flat.copy()
+    moved = new_id[group] >= 0
+    out[corners[moved]] = new_id[group[moved]]
+    return out.reshape(-1, 3), gv[extra]
+
+
+def _nonmanifold_pairs(V, F, topo):
+    """The pair of half-edges kept together at each non-manifold edge.
+
+    Returns
+    -------
+    pairs : (p,2) int64
+        Two half-edges per non-manifold edge.
+    left : (r,) int64
+        The other half-edges of those edges.
+    """
+    count = topo.edge_count
+    start = np.cumsum(count) - count
+    nm = np.flatnonzero(count > 2)
+    ec = count[topo.edge_of_he].reshape(-1, 3)
+    bad = (ec != 2).sum(axis=1)                           # open or non-manifold edges per face
+    flat = F.ravel()
+    # faces joined across manifold edges: a pair from one such piece (the two
+    # faces of one closed part, the surface under a fold) belongs together
+    h1, h2 = manifold_pairs(topo)
+    m = len(F)
+    _, piece = connected_components(sp.csr_matrix((np.ones(h1.size, np.int8), (h1 // 3, h2 // 3)), shape=(m, m)),
+                                    directed=False)
+    pairs, left = [], []
+    for e in nm.tolist():
+        hs = topo.he_order[start[e]:start[e] + count[e]]
+        fs = hs // 3
+        T = V[F[fs]]
+        N = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+        ln = np.linalg.norm(N, axis=1, keepdims=True)
+        N = np.divide(N, ln, out=np.zeros_like(N), where=ln > 0)
+        best, best_key = None, None
+        for i in range(len(hs)):
+            for j in range(i + 1, len(hs)):
+                consistent = flat[hs[i]] != flat[hs[j]]
+                d = float(N[i] @ N[j]) if consistent else -float(N[i] @ N[j])
+                key = (piece[fs[i]] != piece[fs[j]], not consistent, int(bad[fs[i]] + bad[fs[j]]), -d,
+                       int(fs[i]), int(fs[j]))
+                if best_key is None or key < best_key:
+                    best, best_key = (i, j), key
+        pairs.append((hs[best[0]], hs[best[1]]))
+        left.extend(int(h) for k, h in enumerate(hs) if k not in best)
+    return np.array(pairs, np.int64).reshape(-1, 2), np.array(left, np.int64)
+
+
+def _folded_faces(F, topo, left):
+    """Faces left out at two or more non-manifold edges whose other edges are open."""
+    if left.size == 0:
+        return np.zeros(0, np.int64)
+    m = len(F)
+    n_left = np.bincount(left // 3, minlength=m)
+    ec = topo.edge_count[topo.edge_of_he].reshape(-1, 3)
+    n_open = (ec == 1).sum(axis=1)
+    return np.flatnonzero((n_left >= 2) & (n_left + n_open == 3))

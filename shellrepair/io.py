@@ -12,6 +12,20 @@ What loading guarantees
   three vertices, in any order) are dropped; zero-area faces with three
   distinct corners are kept and counted; unreferenced vertices are kept
   (vertex order never changes) and counted.
+* Topology by position (:func:`manifold_mesh`): vertices on open edges
+  whose positions are bit-identical are one vertex for the topology, so a
+  triangle soup or a surface cut at texture seams reads as the surface it
+  stands for. ``mesh.F`` holds the faces the topology, hole detection and
+  repair work on (each corner at the lowest-numbered vertex of its
+  position); ``mesh.F_out``, when set, is how those faces are written: a
+  corner whose own vertex carries other attributes than that first vertex
+  (a colour or UV seam) keeps its own vertex, so every face keeps its
+  attributes. Without such differences the file is written joined.
+* Faces folded over a surface that is closed without them are dropped;
+  non-manifold edges, and vertices where pieces meet at a point, are split
+  by appending copies of vertices (same position, same attributes) and
+  re-pointing faces; nothing is moved (see
+  :func:`shellrepair.clean.make_manifold`). ``mesh.fixes`` counts each.
 * Each piece is wound consistently (:func:`shellrepair.clean.orient_faces`):
   some faces get corners 1 and 2 swapped, nothing else changes; closed
   pieces face outward; non-orientable pieces are reported.
@@ -39,9 +53,9 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MeshError
-from .topology import face_areas
+from .topology import edge_topology, face_areas
 
-__all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path", "clean_faces",
+__all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path", "clean_faces", "manifold_mesh",
            "atomic_write", "atomic_write_many", "MAX_ABS_COORDINATE"]
 
 SUPPORTED = (".ply", ".obj", ".off", ".stl")
@@ -89,6 +103,15 @@ class Mesh:
         Where it was read from.
     notes : list of str
         What loading changed (polygons split, faces dropped, ...).
+    F_out : (k,3) int64 array or None
+        How the first ``k`` faces are written, when that differs from ``F``:
+        ``F`` joins coincident vertices for the topology, ``F_out`` keeps a
+        corner's own vertex where its attributes differ (a seam). Faces
+        after the first ``k`` (added by a repair) are written as in ``F``.
+        Code that replaces ``F`` with other faces sets it to None.
+    fixes : dict
+        What :func:`manifold_mesh` did (see
+        :data:`shellrepair.clean.FIX_COUNTS`); empty when it did not run.
     """
 
     V: np.ndarray
@@ -100,6 +123,8 @@ class Mesh:
     vertex_dtype: str = "f8"
     path: str | None = None
     notes: list = field(default_factory=list)
+    F_out: np.ndarray | None = None
+    fixes: dict = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def cached(self, name):
@@ -208,7 +233,11 @@ def read_mesh(path, *, clean=True, orient=True, progress=False):
     except MeshError as exc:
         raise MeshError(exc.message, path) from None
     stage()
-    if orient:
+    if clean:
+        mesh = manifold_mesh(mesh, orient=orient)
+        if not len(mesh.F):
+            raise MeshError("no usable faces: all faces repeat a position", path)
+    elif orient:
         from .clean import orient_faces
 
         res = orient_faces(mesh.F, mesh.V)
@@ -220,9 +249,11 @@ def read_mesh(path, *, clean=True, orient=True, progress=False):
         if res.piece is not None:
             mesh.remember("pieces", (res.n_pieces, res.piece))
     stage()
-    unused = mesh.n_vertices - _used_vertex_count(mesh.F, mesh.n_vertices)
+    unused = mesh.n_vertices - _used_vertex_count(written_faces(mesh), mesh.n_vertices)
     if unused:
-        mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes)")
+        joined = int(mesh.fixes.get("vertices_joined", 0))
+        mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes"
+                          + (f"; the file is written with {joined} coincident vertices joined)" if joined else ")"))
     areas = face_areas(mesh.V, mesh.F)
     mesh.remember("face_areas", areas)
     zero = int(np.count_nonzero(areas == 0))
@@ -230,6 +261,197 @@ def read_mesh(path, *, clean=True, orient=True, progress=False):
         mesh.notes.append(f"{zero} zero-area faces kept")
     stage()
     return mesh
+
+
+def manifold_mesh(mesh, *, orient=True, topo=None):
+    """The mesh with its topology by position and made manifold.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Not changed. Its faces should have no repeated vertex and no
+        duplicate (:func:`clean_faces`).
+    orient : bool
+        Also wind every piece consistently
+        (:func:`shellrepair.clean.orient_faces`).
+    topo : EdgeTopology, optional
+        The edge topology of ``mesh.F``, if already built.
+
+    Returns
+    -------
+    out : Mesh
+        ``V`` starts with ``mesh.V`` unchanged (the same array when no vertex
+        is added); copies made by splits are appended with the attributes of
+        the vertex they copy. ``F`` is the topology's faces, ``F_out`` how
+        to write them (None when that is ``F``), ``fixes`` the counts,
+        ``notes`` one line per change. The pieces, and the edge topology
+        when no face was flipped, are cached on it (:meth:`Mesh.cached`).
+
+    Notes
+    -----
+    In order: coincident open vertices joined, folded faces dropped and
+    non-manifold edges split (:func:`shellrepair.clean.make_manifold`);
+    pieces oriented; vertices where pieces meet at a point split
+    (:func:`shellrepair.clean.split_piece_junctions`). When the file gave
+    coincident vertices different attributes (colours, normals, UVs, other
+    PLY properties), ``F_out`` writes each corner with a vertex carrying its
+    own attributes; with identical attributes the corner is written joined.
+    """
+    from .clean import FIX_COUNTS, make_manifold, orient_faces, split_piece_junctions
+    from .topology import face_pieces
+
+    V = np.asarray(mesh.V, np.float64)
+    F0 = np.asarray(mesh.F, np.int64)
+    n = len(V)
+    if topo is None:
+        topo = edge_topology(F0, n)
+    res = make_manifold(V, F0, topo)
+    F, topo, src = res.F, res.topo, res.src
+    fixes = dict(res.counts)
+    notes = list(mesh.notes) + res.notes
+    Ffile = F0[res.kept] if res.rep is not None else None
+    face_filled = None if mesh.face_filled is None else np.asarray(mesh.face_filled)[res.kept]
+    Vx = np.vstack([V, V[src]]) if src.size else V
+    piece = None
+    flipped = False
+    if orient and len(F):
+        o = orient_faces(F, Vx, topo=topo)
+        if o.n_flipped:
+            flipped = True
+            F = o.F
+            if Ffile is not None:
+                Ffile = Ffile.copy()
+                Ffile[o.flipped, 1], Ffile[o.flipped, 2] = Ffile[o.flipped, 2], Ffile[o.flipped, 1]
+        notes.extend(o.notes)
+        if o.piece is not None:
+            piece = (o.n_pieces, o.piece)
+    if piece is None and len(F):
+        piece = face_pieces(topo, len(F))   # flips leave the edges, hence the pieces, as they are
+    if len(F):
+        F2, src2 = split_piece_junctions(F, len(Vx), piece[1])
+        if src2.size:
+            src2 = np.where(src2 >= n, src[np.maximum(src2 - n, 0)] if src.size else src2, src2)
+            fixes["nonmanifold_vertices_split"] += int(np.unique(src2).size)
+            fixes["vertices_added"] += int(src2.size)
+            notes.append(f"{np.unique(src2).size} vertices where pieces meet at a point split: "
+                         f"{src2.size} new vertices at the same positions, appended")
+            F, src = F2, np.concatenate([src, src2])
+            Vx = np.vstack([V, V[src]])
+            topo = None
+    out = Mesh(V=Vx, F=F, vertex_colors=mesh.vertex_colors, vertex_filled=mesh.vertex_filled,
+               face_filled=face_filled, vertex_props=dict(mesh.vertex_props), vertex_dtype=mesh.vertex_dtype,
+               path=mesh.path, notes=notes, fixes={k: int(fixes.get(k, 0)) for k in FIX_COUNTS})
+    if Ffile is not None:
+        out.F_out, seam_src = _seam_faces(mesh, res.rep, Ffile, F, n + len(src))
+        if out.F_out is not None:
+            k = int(np.count_nonzero(out.F_out != F))
+            out.notes.append(f"{k} face corners keep their own vertex in the written file "
+                             "(coincident vertices with their own colours or properties: a seam)")
+        src = np.concatenate([src, seam_src])
+        out.fixes["vertices_added"] += int(seam_src.size)
+    if src.size:
+        _append_copies(out, V, mesh, src)
+    if topo is not None and not flipped:
+        # kept for hole detection and repair; after flips or a junction split
+        # it no longer matches F, and is rebuilt by whoever needs it
+        out.remember("topology", topo)
+    if piece is not None:
+        out.remember("pieces", piece)
+    return out
+
+
+def _seam_faces(mesh, rep, Ffile, F, n_topology):
+    """How to write the topology's faces ``F`` so that each corner keeps its attributes.
+
+    Returns
+    -------
+    F_out : (m,3) int64 or None
+        None when every corner's own vertex has the attributes of the vertex
+        the topology uses.
+    src : (q,) int64
+        Vertices to copy (appended after the topology's copies) where a
+        seam vertex's corners fall into several fans of the topology.
+    """
+    none = (None, np.zeros(0, np.int64))
+    attrs = []
+    if mesh.vertex_colors is not None:
+        attrs.append(np.asarray(mesh.vertex_colors))
+    attrs += [np.asarray(a) for a in mesh.vertex_props.values() if np.asarray(a).shape[:1] == (len(mesh.V),)]
+    if mesh.vertex_filled is not None:
+        attrs.append(np.asarray(mesh.vertex_filled))
+    if not attrs:
+        return none
+    n = len(mesh.V)
+    grouped = rep != np.arange(n)          # joined to another vertex ...
+    grouped[rep[grouped]] = True            # ... or another was joined to it
+    g = np.flatnonzero(grouped)
+    cols = [rep[g].astype("<i8").view(np.uint8).reshape(len(g), -1)]
+    for a in attrs:
+        cols.append(np.ascontiguousarray(a[g]).view(np.uint8).reshape(len(g), -1))
+    K = np.ascontiguousarray(np.hstack(cols))
+    _, first, inv = np.unique(K.view(np.dtype((np.void, K.shape[1]))).ravel(), return_index=True,
+                              return_inverse=True)
+    attr_rep = np.arange(n, dtype=np.int64)
+    attr_rep[g] = g[first[inv.ravel()]]
+    A = attr_rep[Ffile]
+    seam = A != rep[Ffile]
+    if not seam.any():
+        return none
+    out = np.where(seam, A, F)
+    # a seam vertex whose corners lie in several fans of the topology gets a copy per extra fan
+    c = np.flatnonzero(seam.ravel())
+    pairs, inv = np.unique(np.column_stack([A.ravel()[c], F.ravel()[c]]), axis=0, return_inverse=True)
+    inv = inv.ravel()
+    later = np.ones(len(pairs), bool)
+    later[0] = False
+    later[1:] = pairs[1:, 0] == pairs[:-1, 0]
+    if later.any():
+        base = int(n_topology)
+        new_id = np.full(len(pairs), -1, np.int64)
+        new_id[later] = base + np.arange(int(later.sum()))
+        flat = out.ravel()
+        moved = new_id[inv] >= 0
+        flat[c[moved]] = new_id[inv[moved]]
+        out = flat.reshape(-1, 3)
+        return out, pairs[later, 0]
+    return out, np.zeros(0, np.int64)
+
+
+def _append_copies(out, V, mesh, src):
+    """Append copies of vertices ``src`` (positions and attributes) to ``out``."""
+    out.V = np.vstack([V, V[src]])
+    if mesh.vertex_colors is not None:
+        C = np.asarray(mesh.vertex_colors)
+        out.vertex_colors = np.vstack([C, C[src]])
+    if mesh.vertex_filled is not None:
+        f = np.asarray(mesh.vertex_filled)
+        out.vertex_filled = np.concatenate([f, f[src]])
+    out.vertex_props = {k: (np.concatenate([np.asarray(a), np.asarray(a)[src]])
+                            if np.asarray(a).shape[:1] == (len(V),) else a)
+                        for k, a in mesh.vertex_props.items()}
+
+
+def written_faces(mesh):
+    """The faces as a file gets them: ``mesh.F_out`` where set, else ``mesh.F``.
+
+    Parameters
+    ----------
+    mesh : Mesh
+
+    Returns
+    -------
+    F : (m,3) int64 array
+    """
+    F = np.asarray(mesh.F, np.int64)
+    W = getattr(mesh, "F_out", None)
+    if W is None:
+        return F
+    W = np.asarray(W, np.int64)
+    k = len(W)
+    V = np.asarray(mesh.V)
+    if k > len(F) or W.size and (W.max() >= len(V) or not np.array_equal(V[W], V[F[:k]])):
+        return F  # F was replaced since: F_out no longer describes it
+    return np.vstack([W, F[k:]]) if k < len(F) else W
 
 
 def _stages(on, label, n):
@@ -831,7 +1053,7 @@ def _ply_ascii_body(body, elements):
 
 def _ply_bytes(mesh, binary=True):
     V = np.asarray(mesh.V, dtype=np.float64)
-    F = np.asarray(mesh.F, dtype=np.int64)
+    F = written_faces(mesh)
     n, m = len(V), len(F)
     vdt = mesh.vertex_dtype if mesh.vertex_dtype in ("f4", "f8") else "f8"
     endian = "<"
@@ -949,7 +1171,7 @@ def _obj_bytes(mesh, binary=True):
         for j in range(3):
             vs = vs + " " + np.char.mod("%.6g", C[:, j])
     lines += vs.tolist()
-    F = np.asarray(mesh.F, np.int64) + 1
+    F = written_faces(mesh) + 1
     lines += ("f " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
               + np.char.mod("%d", F[:, 2])).tolist()
     return "\n".join(lines) + "\n"
@@ -1003,7 +1225,7 @@ def _read_off(data):
 
 def _off_bytes(mesh, binary=True):
     V = np.asarray(mesh.V, np.float64)
-    F = np.asarray(mesh.F, np.int64)
+    F = written_faces(mesh)
     lines = ["OFF", f"{len(V)} {len(F)} 0"]
     lines += (np.char.mod("%.17g", V[:, 0]) + " " + np.char.mod("%.17g", V[:, 1]) + " "
               + np.char.mod("%.17g", V[:, 2])).tolist()

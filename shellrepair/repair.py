@@ -63,7 +63,7 @@ from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate,
                    thin_plate_energy, umbrella_smooth, uniform_laplacian)
 from .holes import detect_holes
 from .intersect import NearFaces, ball_pairs, crossing_pairs, embeds_by_projection, pair_intersections, patch_vs_index
-from .io import Mesh
+from .io import Mesh, manifold_mesh
 from .refine import refine_patch, refine_patches
 from .report import table1_dict
 from .topology import edge_count_delta, edge_topology, vertex_faces
@@ -819,11 +819,18 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     if bridge not in ("auto", "never", "always"):
         raise MeshError(f"bridge must be 'auto', 'never' or 'always', got {bridge!r}")
     t0 = time.perf_counter()
-    V = np.asarray(mesh.V, np.float64)
-    F = np.asarray(mesh.F, np.int64)
     _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
     known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh
     topo = known("topology")
+    if not getattr(mesh, "fixes", None):
+        # not prepared by read_mesh: the same topology by position, made manifold (not re-oriented)
+        if topo is None:
+            topo = edge_topology(np.asarray(mesh.F, np.int64), len(mesh.V))
+        mesh = manifold_mesh(_as_mesh(mesh), orient=False, topo=topo)
+        known = mesh.cached
+        topo = known("topology")
+    V = np.asarray(mesh.V, np.float64)
+    F = np.asarray(mesh.F, np.int64)
     if topo is None:
         topo = edge_topology(F, len(V))
     _progress(progress, 1, 2, "finding holes")
@@ -933,14 +940,16 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     delta = edge_count_delta(topo, repaired.F[len(F):], len(repaired.V))
     n_new_v, n_new_f = len(repaired.V) - len(V), len(repaired.F) - len(F)
     report = table1_dict(len(holes), rows, path=mesh.path, seconds=time.perf_counter() - t0,
-                         method=method, order=order, borders=len(scan.borders),
-                         extra={"vertices_before": int(len(V)), "faces_before": int(len(F)),
+                         method=method, order=order, borders=len(scan.borders), open_chains=scan.open_chains,
+                         extra={**{k: int(v) for k, v in mesh.fixes.items()},
+                                "border_edges_after": int(sum(b.edges for b in scan.borders)),
+                                "vertices_before": int(len(V)), "faces_before": int(len(F)),
                                 "vertices_after": int(len(repaired.V)), "faces_after": int(len(repaired.F)),
-                                "open_chains": len(scan.open_chains),
                                 "open_chain_list": describe_open_chains(F, scan.open_chains, len(V), topo),
                                 "boundary_edges_before": int(topo.n_boundary_edges),
                                 "boundary_edges_after": int(topo.n_boundary_edges + delta["boundary_edges"]),
-                                "nonmanifold_edges_before": int(topo.nonmanifold_edges.shape[0]),
+                                "nonmanifold_edges_before": int(mesh.fixes.get("nonmanifold_edges_found",
+                                                                               topo.nonmanifold_edges.shape[0])),
                                 "nonmanifold_edges_after": int(topo.nonmanifold_edges.shape[0]
                                                                + delta["nonmanifold_edges"]),
                                 "smooth": smooth, "jobs": jobs, "bridge": bridge,
@@ -1022,7 +1031,7 @@ def _merge(mesh, V, F, patches):
     V2 = np.vstack([V] + newP) if newP else V.copy()
     F2 = np.vstack([F] + newF) if newF else F.copy()
     out = Mesh(V=V2, F=F2.astype(np.int64, copy=False), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
-               notes=list(mesh.notes))
+               notes=list(mesh.notes), F_out=getattr(mesh, "F_out", None), fixes=dict(getattr(mesh, "fixes", {})))
     if mesh.vertex_colors is not None:
         out.vertex_colors = np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)
     out.vertex_props = {k: np.concatenate([np.asarray(mesh.vertex_props[k])] + v) for k, v in props.items()}
@@ -1036,6 +1045,17 @@ def _merge(mesh, V, F, patches):
         ff[:len(F)] = mesh.face_filled
     out.vertex_filled, out.face_filled = vf, ff
     return out
+
+
+def _as_mesh(mesh):
+    """A :class:`Mesh` with the fields of ``mesh`` (any object with ``V`` and ``F``)."""
+    if isinstance(mesh, Mesh):
+        return mesh
+    return Mesh(V=np.asarray(mesh.V, np.float64), F=np.asarray(mesh.F, np.int64),
+                vertex_colors=getattr(mesh, "vertex_colors", None), vertex_props=dict(getattr(mesh, "vertex_props", {})),
+                vertex_dtype=getattr(mesh, "vertex_dtype", "f8"), path=getattr(mesh, "path", None),
+                vertex_filled=getattr(mesh, "vertex_filled", None), face_filled=getattr(mesh, "face_filled", None),
+                notes=list(getattr(mesh, "notes", [])))
 
 
 def _seed_patches(ctx, holes, passes, results):

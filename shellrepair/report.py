@@ -6,6 +6,16 @@ reads. The interpolation rate is the paper's (Table 1):
     rate = (holes_before − holes_after) / holes_before × 100 %
 
 (156 before, 54 after, 65.4 % on the paper's statue scan).
+
+What is left is stated, not hidden: boundary chains that do not close
+(they run into a non-manifold edge or a badly wound face) count among the
+openings not filled, and the rate is withheld (``None``, with
+``rate_withheld`` saying why) while the output keeps a non-manifold edge or
+a boundary edge outside the loops left open as borders, so a table never
+shows 100 % for an output that is not closed. The repair measures
+``boundary_edges_after`` and ``nonmanifold_edges_after`` on the output's
+own faces (coincident vertices joined, as :func:`shellrepair.io.read_mesh`
+joins them).
 """
 
 from __future__ import annotations
@@ -104,7 +114,7 @@ def holes_table(d, *, limit=40):
 
 
 def table1_dict(holes_before, results, *, path=None, seconds=None, method=None, order=None,
-                borders=0, extra=None):
+                borders=0, open_chains=(), extra=None):
     """The paper's Table 1 for a repair, with a status per hole.
 
     Parameters
@@ -121,25 +131,43 @@ def table1_dict(holes_before, results, *, path=None, seconds=None, method=None, 
     order : int, optional
     borders : int
         Loops left open as borders (not counted as holes).
+    open_chains : list of (k,) int64 arrays
+        Boundary chains that do not close (never filled); they count as
+        openings left in the rate.
     extra : dict, optional
-        More top-level fields.
+        More top-level fields. With ``boundary_edges_after``,
+        ``nonmanifold_edges_after`` and ``border_edges_after`` (edges of the
+        loops left open as borders) the rate is withheld while the output
+        is not closed outside its borders.
 
     Returns
     -------
     d : dict
-        ``holes_before, holes_after, interpolation_rate, filled, skipped,
-        failed, holes: [...]`` and the fields given.
+        ``holes_before, holes_after, open_chains, interpolation_rate,
+        rate_withheld, filled, skipped, failed, holes: [...]`` and the
+        fields given.
     """
     filled = sum(1 for r in results if r["status"] == "filled")
     after = int(holes_before) - filled
+    n_chains = len(open_chains)
+    rate = interpolation_rate(int(holes_before) + n_chains, after + n_chains)
+    withheld = None
+    if extra:
+        nm = int(extra.get("nonmanifold_edges_after") or 0)
+        loose = int(extra.get("boundary_edges_after") or 0) - int(extra.get("border_edges_after") or 0)
+        if rate is not None and rate >= 100.0 and (nm > 0 or loose > 0):
+            withheld = (f"the output still has {nm} non-manifold edges and {max(loose, 0)} boundary edges "
+                        "outside the borders left open")
+            rate = None
     d = {
         "file": None if path is None else str(path),
         "method": method,
         "order": order,
         "holes_before": int(holes_before),
         "holes_after": after,
-        "interpolation_rate": None if interpolation_rate(holes_before, after) is None
-        else round(interpolation_rate(holes_before, after), 2),
+        "open_chains": n_chains,
+        "interpolation_rate": None if rate is None else round(rate, 2),
+        "rate_withheld": withheld,
         "filled": filled,
         "skipped": sum(1 for r in results if r["status"] == "skipped"),
         "failed": sum(1 for r in results if r["status"] == "failed"),
@@ -155,12 +183,25 @@ def table1_dict(holes_before, results, *, path=None, seconds=None, method=None, 
 def table1_text(d, *, limit=30):
     """Table 1 as a person reads it, from :func:`table1_dict`'s output."""
     rate = "n/a" if d["interpolation_rate"] is None else f"{d['interpolation_rate']:.1f}"
+    chains = int(d.get("open_chains") or 0)
     lines = [f"{d['file'] or ''}",
              "               before   after   interpolation rate [%]",
              f"  holes      {d['holes_before']:>8} {d['holes_after']:>7}   {rate:>10}",
              f"  filled {d['filled']}, skipped {d['skipped']}, failed {d['failed']}; "
              f"{d['borders']} borders left open"
+             + (f"; {chains} boundary chains that do not close (counted as not filled)" if chains else "")
              + ("" if d.get("seconds") is None else f"; {d['seconds']:.2f} s")]
+    if d.get("rate_withheld"):
+        lines.append(f"  rate withheld: {d['rate_withheld']}")
+    if d.get("boundary_edges_after") is not None:
+        lines.append(f"  left in the output: {d['boundary_edges_after']} boundary edges "
+                     f"({d.get('border_edges_after', 0)} of them in borders), "
+                     f"{d.get('nonmanifold_edges_after', 0)} non-manifold edges")
+    fixes = [(k, d.get(k)) for k in ("vertices_joined", "nonmanifold_edges_found", "folded_faces_dropped",
+                                     "nonmanifold_edges_split",
+                                     "nonmanifold_vertices_split", "vertices_added")]
+    if any(v for _, v in fixes):
+        lines.append("  topology: " + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in fixes if v))
     kinds = {}
     for h in d["holes"]:
         if h["status"] == "filled" and h.get("option"):

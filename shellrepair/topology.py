@@ -19,7 +19,8 @@ CHUNK = 1 << 16
 
 __all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components", "face_pieces", "face_areas",
            "face_normals",
-           "euler_characteristic", "vertex_faces", "components_of_pieces", "manifold_pairs"]
+           "euler_characteristic", "vertex_faces", "components_of_pieces", "manifold_pairs",
+           "coincident_vertices", "corner_fans"]
 
 
 @dataclass
@@ -343,3 +344,137 @@ def euler_characteristic(F, n_vertices=None):
     topo = edge_topology(F, n_vertices)
     nv = np.unique(F).size
     return int(nv - topo.edges.shape[0] + F.shape[0])
+
+
+def coincident_vertices(V, verts=None):
+    """Join vertices with bit-identical positions (``-0.0`` read as ``0.0``).
+
+    Parameters
+    ----------
+    V : (n,3) float64 array
+    verts : (k,) int64 array, optional
+        Only these vertices are compared with each other (default all).
+
+    Returns
+    -------
+    rep : (n,) int64 array or None
+        ``rep[v]`` is the lowest-numbered vertex among ``verts`` at the
+        position of ``v`` (``v`` itself for a vertex with no twin, and for
+        every vertex outside ``verts``); None when no two vertices coincide.
+
+    Notes
+    -----
+    Vectorised: a 64-bit hash of the three coordinate words is sorted once
+    (stable, so each run of equal hashes is in vertex order) and neighbours
+    in that order are compared bit for bit; only if two different positions
+    share a hash are the vertices ordered by their coordinate bits instead
+    (one ``lexsort``).
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [-0., 0, 0]])
+    >>> coincident_vertices(V).tolist()
+    [0, 1, 0]
+    """
+    V = np.asarray(V, np.float64)
+    n = len(V)
+    if verts is None:
+        verts = np.arange(n, dtype=np.int64)
+    else:
+        mark = np.zeros(n, bool)
+        mark[np.asarray(verts, np.int64)] = True
+        verts = np.flatnonzero(mark)
+    if verts.size < 2:
+        return None
+    P = V[verts]
+    P += 0.0  # -0.0 + 0.0 == +0.0: the two zeros are one position
+    bits = np.ascontiguousarray(P).view(np.uint64)
+    del P
+    h = _mix64(bits[:, 0].copy())
+    h ^= bits[:, 1]
+    h = _mix64(h)
+    h ^= bits[:, 2]
+    h = _mix64(h)
+    # equal hashes next to each other, in vertex order within a run (stable)
+    order = np.argsort(h, kind="stable")
+    hs = h[order]
+    same = hs[1:] == hs[:-1]
+    del h, hs
+    if not same.any():
+        return None
+    B = bits[order]
+    equal = (B[1:] == B[:-1]).all(axis=1)
+    if (same & ~equal).any():
+        # two positions share a hash (rare): order those runs by their bits exactly
+        B_order = np.lexsort((order, B[:, 2], B[:, 1], B[:, 0]))
+        order = order[B_order]
+        B = B[B_order]
+        same = (B[1:] == B[:-1]).all(axis=1)
+    else:
+        same &= equal
+    if not same.any():
+        return None
+    start = np.ones(order.size, bool)
+    start[1:] = ~same
+    head = np.maximum.accumulate(np.where(start, np.arange(order.size), 0))
+    rep = np.arange(n, dtype=np.int64)
+    rep[verts[order]] = verts[order[head]]
+    return rep
+
+
+def _mix64(w):
+    """The splitmix64 finaliser, in place on a uint64 array: every input bit
+    reaches every output bit (float32 values widened to float64 have 29
+    zero bits that a plain product would keep zero)."""
+    w ^= w >> np.uint64(30)
+    w *= np.uint64(0xBF58476D1CE4E5B9)
+    w ^= w >> np.uint64(27)
+    w *= np.uint64(0x94D049BB133111EB)
+    w ^= w >> np.uint64(31)
+    return w
+
+
+def corner_fans(F, verts, links):
+    """Fans of faces around some vertices.
+
+    Parameters
+    ----------
+    F : (m,3) int64 array
+    verts : (k,) int64 array
+        The vertices whose fans are wanted.
+    links : (p,2) int64 array
+        Pairs of half-edge ids ``3f + c`` (half-edge ``F[f,c] -> F[f,c+1]``)
+        that run along the same edge and join their two faces across it.
+        Only the faces a link joins are in one fan across that edge.
+
+    Returns
+    -------
+    corners : (q,) int64
+        The corner ids ``3f + c`` with ``F[f,c]`` in ``verts``, sorted.
+    fan : (q,) int64
+        A fan label per corner: corners of one vertex joined through links
+        at that vertex share it.
+    """
+    F = np.asarray(F, np.int64)
+    flat = F.ravel()
+    mark = np.zeros(int(flat.max(initial=-1)) + 1, bool)
+    mark[np.asarray(verts, np.int64)] = True
+    corners = np.flatnonzero(mark[flat])
+    q = corners.size
+    if q == 0:
+        return corners, np.zeros(0, np.int64)
+    links = np.asarray(links, np.int64).reshape(-1, 2)
+    h1, h2 = links[:, 0], links[:, 1]
+    nxt = lambda h: h - h % 3 + (h % 3 + 1) % 3  # noqa: E731 - the corner at the half-edge's head
+    same_dir = flat[h1] == flat[h2]
+    a1, b1 = h1, nxt(h1)                        # corners of face(h1) at the edge's tail and head
+    a2 = np.where(same_dir, h2, nxt(h2))       # corners of face(h2) at those same vertices
+    b2 = np.where(same_dir, nxt(h2), h2)
+    u = np.concatenate([a1, b1])
+    w = np.concatenate([a2, b2])
+    keep = mark[flat[u]]
+    u, w = u[keep], w[keep]
+    iu, iw = np.searchsorted(corners, u), np.searchsorted(corners, w)
+    A = sp.csr_matrix((np.ones(iu.size, np.int8), (iu, iw)), shape=(q, q))
+    _, fan = connected_components(A, directed=False)
+    return corners, fan.astype(np.int64)

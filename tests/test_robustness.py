@@ -627,11 +627,12 @@ def _flap(n, u, v):
     return np.array([[u, v, n]])
 
 
-def test_nonmanifold_flaps_stay_and_every_manifold_hole_is_filled():
+def test_nonmanifold_flaps_are_split_off_and_every_hole_is_filled():
     """Extra triangles hang on edges of the scan (three faces per edge): one
-    far from the holes, one at a vertex of a hole's rim. The hole whose rim
-    is manifold is filled; the one whose boundary runs into the flap is
-    left open and listed with the reason."""
+    far from the holes, one at a vertex of a hole's rim. Each flap is split
+    off (its two edge vertices copied, positions bit-identical), so both
+    holes have manifold rims and are filled; the flaps stay as lone
+    triangles whose outlines are borders."""
     V, F = _perforated()
     loops = detect_holes(V, F).loops
     assert len(loops) == 2
@@ -648,14 +649,18 @@ def test_nonmanifold_flaps_stay_and_every_manifold_hole_is_filled():
     Fx = np.vstack([F, _flap(n, a, x), _flap(n + 1, int(far[0]), int(far[1]))])
     m = Mesh(V=Vx, F=Fx)
     R, rep = repair_mesh(m)
-    assert rep["nonmanifold_edges_before"] == 2 == rep["nonmanifold_edges_after"]
-    assert rep["holes_before"] == 1 and rep["filled"] == 1 and rep["holes_after"] == 0
-    assert [h["edges"] for h in rep["holes"]] == [loops[1].edges]
-    listed = rep["open_chain_list"]
-    assert rep["open_chains"] == len(listed) >= 2
-    assert all("non-manifold" in c["reason"] for c in listed)
-    assert sum(c["edges"] for c in listed) == loops[0].edges + 4  # the open rim and the flaps' own edges
-    assert np.array_equal(R.V[:len(Vx)], Vx) and np.array_equal(R.F[:len(Fx)], Fx)
+    assert rep["nonmanifold_edges_before"] == 2 and rep["nonmanifold_edges_after"] == 0
+    assert rep["nonmanifold_edges_split"] == 2 and rep["nonmanifold_vertices_split"] == 4
+    assert rep["vertices_added"] == 4
+    assert rep["holes_before"] == 2 and rep["filled"] == 2 and rep["holes_after"] == 0
+    assert rep["open_chains"] == 0 and rep["borders"] == 2          # the two lone flaps
+    assert rep["boundary_edges_after"] == 6 == rep["border_edges_after"]
+    assert np.array_equal(R.V[:len(Vx)], Vx) and np.array_equal(R.F[:len(F)], F)
+    copies = R.V[len(Vx):len(Vx) + 4]
+    assert {tuple(p) for p in copies} == {tuple(V[v]) for v in (a, x, int(far[0]), int(far[1]))}
+    flaps = R.F[len(F):len(Fx)]
+    assert np.array_equal(R.V[flaps], Vx[Fx[len(F):]])               # the same triangles, by position
+
 
 
 def test_zero_area_faces_and_slivers_on_a_hole_rim():
@@ -862,25 +867,25 @@ def test_random_perforations_are_closed_into_a_valid_shell(tmp_path_factory, see
 # --------------------------------------------------------------------------
 # the real scans
 # --------------------------------------------------------------------------
-def test_real_bunny_with_nonmanifold_edges_fills_every_fillable_hole(tmp_path, capsys):
+def test_real_bunny_with_folded_faces_comes_out_closed(tmp_path, capsys):
     src = shared_scan("real_bunny_pymeshfix_decimated.ply")
     before = src.read_bytes()
     out, rp = tmp_path / "b.ply", tmp_path / "b.json"
     assert main(["repair", str(src), "-o", str(out), "--report", str(rp), "--json"]) == 0
     d = json.loads(rp.read_text())
-    assert d["nonmanifold_edges_before"] == 132 == d["nonmanifold_edges_after"]
-    assert sorted(h["edges"] for h in d["holes"]) == [26, 55, 58, 90]
-    assert d["filled"] == 4 and d["holes_after"] == 0 and d["failed"] == 0
-    # the 59-edge loop and the 65 one-edge loops run over non-manifold edges: listed, with the reason
-    chains = sorted(c["edges"] for c in d["open_chain_list"])
-    assert d["open_chains"] == 66 and chains == [1] * 65 + [59]
-    assert all("non-manifold" in c["reason"] for c in d["open_chain_list"])
+    # 66 faces folded over the surface (each the cause of a one-edge opening and
+    # of two of the 132 non-manifold edges) are dropped on reading; the 59-edge
+    # chain that ran into them closes as a 58-edge loop
+    assert d["nonmanifold_edges_before"] == 132 and d["nonmanifold_edges_after"] == 0
+    assert d["folded_faces_dropped"] == 66 and d["open_chains"] == 0
+    assert sorted(h["edges"] for h in d["holes"]) == [26, 55, 58, 58, 90]
+    assert d["filled"] == 5 and d["holes_after"] == 0 and d["failed"] == 0
     m = read_mesh(src)
     R = read_mesh(out, orient=False)
     assert np.array_equal(R.V[:len(m.V)].view(np.uint64), m.V.view(np.uint64))
     assert np.array_equal(R.F[:len(m.F)], m.F)
     assert int(R.face_filled.sum()) == sum(h["new_faces"] for h in d["holes"]) > 0
-    assert d["boundary_edges_after"] == d["boundary_edges_before"] - 26 - 55 - 58 - 90
+    assert d["boundary_edges_after"] == 0 and d["interpolation_rate"] == 100.0
     assert src.read_bytes() == before
 
 
