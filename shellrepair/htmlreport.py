@@ -253,7 +253,8 @@ def _rate_text(report):
     remain named beside it (a full rate alone never hides them)."""
     rate = report.get("interpolation_rate")
     if rate is None:
-        return "-"
+        why = report.get("rate_withheld")
+        return f"withheld: {why}" if why else "-"
     txt = f"{float(rate):.1f} %"
     left = (report.get("boundary_edges_after") or 0) + (report.get("nonmanifold_edges_after") or 0)
     if left:
