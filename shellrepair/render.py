@@ -248,9 +248,9 @@ def _dipole_spread(diffuse_img, mask, choice, material, footprint_um):
     from scipy.signal import fftconvolve
 
     mat = mt.get_material(material)
-    Ks = np.array([L.K for L, _ in mat.layers])
-    Ss = np.array([L.S for L, _ in mat.layers])
-    X = np.array([x for _, x in mat.layers])
+    Ks = np.array([L[0].K for L in mat.layers])
+    Ss = np.array([L[0].S for L in mat.layers])
+    X = np.array(mt.layer_thicknesses(1.0, mat))
     K, S = sh.km_mix(Ks, Ss, X)
     sa, ssp = sh.km_to_transport(K, S)
     rad_px = int(min(64, max(2, np.ceil(4.0 * choice.diffusion_length_um / footprint_um))))
