@@ -91,7 +91,7 @@ class AgingParams:
         (0.5; 0-1).
     band : float
         Area fraction of the transition from bare to fully corroded, where
-        the patina is thin and cuprite shows (0.12; 0.02-0.3).
+        the patina is thin and cuprite shows (0.2; 0.02-0.3).
     """
 
     edge_scale: float = 0.015
@@ -109,7 +109,7 @@ class AgingParams:
     b_exposure: float = 0.7
     b_blotch: float = 0.35
     loss: float = 0.5
-    band: float = 0.12
+    band: float = 0.2
 
 
 @dataclasses.dataclass(frozen=True)

@@ -66,6 +66,7 @@ __all__ = [
     "MaterialShader",
     "ModelChoice",
     "choose_model",
+    "model_switch_footprint_um",
 ]
 
 #: Wavelengths (nm) of the R, G, B channels: rows of Johnson & Christy's
@@ -174,7 +175,7 @@ CUPRITE = KMLayer(
 #: Handbook of Mineralogy.
 GREEN_PATINA = KMLayer(
     "green patina",
-    K=(0.14, 0.011, 0.027),
+    K=(0.2, 0.022, 0.045),
     S=(0.1, 0.1, 0.1),
     eta=1.75,
     illustrative=True,
@@ -406,7 +407,8 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=
     return out
 
 
-def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=None):
+def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=None,
+                  colors_only=False):
     """Per-vertex rust coverage: from colours when informative, else occlusion.
 
     Parameters
@@ -428,6 +430,10 @@ def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=
     source : str
         ``"colors"`` or ``"occlusion"`` (colours that are nearly grey, median
         saturation below 0.05, carry no rust cue and are ignored).
+    colors_only : bool
+        Return ``(None, None)`` instead of estimating occlusion when the
+        colours carry no cue (the renderer then uses
+        :func:`shellrepair.aging.aging_maps`).
     """
     if vertex_colors is not None:
         col = np.asarray(vertex_colors)
@@ -435,6 +441,8 @@ def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=
         _, sat = _hue_sat(np.clip(rgb, 0.0, 1.0))
         if len(sat) and np.median(sat) >= _SAT_UNINFORMATIVE:
             return rust_coverage_from_colors(col), "colors"
+    if colors_only:
+        return None, None
     return rust_coverage_from_occlusion(V, F, subset=subset, normals=normals, scene=scene), "occlusion"
 
 
@@ -854,3 +862,41 @@ def choose_model(footprint_um, material, *, coverage=1.0, tol=0.01):
     return ModelChoice("dipole", err, ell, fp,
                        "diffusion length %.3g um visible at footprint %.3g um: the local form "
                        "would misplace %.2g of the diffuse light" % (ell, fp, err))
+
+
+def model_switch_footprint_um(material, *, coverage=1.0, tol=0.01):
+    """Pixel footprint (um) below which :func:`choose_model` picks the dipole.
+
+    Parameters
+    ----------
+    material : Material or str
+        A corroding material.
+    coverage, tol : float, optional
+        As in :func:`choose_model`.
+
+    Returns
+    -------
+    footprint_um : float
+        The footprint at which the misplaced fraction equals ``tol``
+        (bisection in log footprint to a relative 1e-6); ``0.0`` for a
+        material that does not corrode (never the dipole).
+
+    Notes
+    -----
+    The misplaced fraction decreases monotonically with the footprint (the
+    dipole profile's tail beyond half a pixel), so the switch is one point.
+    docs/shading.md quotes the value this prints.
+    """
+    mat = get_material(material)
+    if not mat.corrodes or coverage <= 0.0:
+        return 0.0
+    lo, hi = 1e-3, 1e6
+    for _ in range(80):
+        mid = np.sqrt(lo * hi)
+        if choose_model(mid, mat, coverage=coverage, tol=tol).model == "local":
+            hi = mid
+        else:
+            lo = mid
+        if hi / lo < 1.0 + 1e-6:
+            break
+    return float(hi)
