@@ -74,8 +74,8 @@ class AgingParams:
     wear_start, wear_full : float
         Convexity at the edge scale at which wear starts and is complete
         (0.30, 0.70).  On a sphere of radius R >> s the convexity at scale
-        s is 1.34 s / R (measured, tests/test_aging.py), so wear starts on
-        curvature radii below ~4.5 edge scales and is complete below ~2.
+        s is 1.25 s / R (measured, tests/test_aging.py), so wear starts on
+        curvature radii below ~4 edge scales and is complete below ~1.8.
     cavity_full : float
         Concavity (minus the convexity, at the edge or the cavity scale) at
         which a cavity holds water fully (0.15; 0.05-0.3): a hollow of
@@ -248,8 +248,7 @@ class _Grid:
         g = (P - self.lo) / self.h
         i0 = np.clip(np.floor(g).astype(np.int64), 0, np.array(self.shape) - 2)
         f = np.clip(g - i0, 0.0, 1.0)
-        near = np.clip(np.rint(g).astype(np.int64), 0, np.array(self.shape) - 1)
-        self.nearest = (near[:, 0] * ny + near[:, 1]) * nz + near[:, 2]
+        self.n = len(P)
         self.idx = []
         self.w = []  # float32: the fields read are smooth, 7 digits are plenty
         for dx in (0, 1):
@@ -266,20 +265,56 @@ class _Grid:
         X, Y, Z = np.meshgrid(*axes, indexing="ij")
         return np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
 
-    def splat(self, values):
-        """Sum values (n, k) into their nearest cells: grid arrays (k, nx, ny, nz)."""
-        values = np.asarray(values, dtype=np.float64).reshape(len(self.nearest), -1)
-        return np.stack([np.bincount(self.nearest, values[:, j], minlength=self.size).reshape(self.shape)
+    def splat(self, Q, values):
+        """Sum values (q, k) at points Q (q, 3) into their nearest cells: (k, nx, ny, nz)."""
+        values = np.asarray(values, dtype=np.float64).reshape(len(Q), -1)
+        near = np.clip(np.rint((Q - self.lo) / self.h).astype(np.int64), 0, np.array(self.shape) - 1)
+        idx = (near[:, 0] * self.shape[1] + near[:, 1]) * self.shape[2] + near[:, 2]
+        return np.stack([np.bincount(idx, values[:, j], minlength=self.size).reshape(self.shape)
                          for j in range(values.shape[1])])
 
     def read(self, G):
         """Trilinear read at the points of grid arrays (k, nx, ny, nz) -> (n, k)."""
         G = np.asarray(G)
         flat = np.ascontiguousarray(G.reshape(G.shape[0] if G.ndim == 4 else 1, -1).T)  # (size, k)
-        out = np.zeros((len(self.nearest), flat.shape[1]), dtype=flat.dtype)
+        out = np.zeros((self.n, flat.shape[1]), dtype=flat.dtype)
         for idx, w in zip(self.idx, self.w):
             out += w[:, None] * np.take(flat, idx, axis=0)
         return out
+
+
+def _surface_samples(P, F, h):
+    """Points sampling every face at least once per cell: (Q, area weights, area-weighted normals).
+
+    A face whose longest edge is up to ``k h`` long is cut into k^2 similar
+    triangles and sampled at their centroids, so a coarse mesh and a dense
+    one of the same shape splat the same surface (a scan's faces are far
+    below a cell: one sample, its centroid, per face).
+    """
+    A, B, C = P[F[:, 0]], P[F[:, 1]], P[F[:, 2]]
+    cr = np.cross(B - A, C - A)
+    area = 0.5 * np.linalg.norm(cr, axis=1)
+    longest = np.sqrt(np.maximum(np.maximum(np.sum((B - A) ** 2, 1), np.sum((C - B) ** 2, 1)),
+                                 np.sum((A - C) ** 2, 1)))
+    k = np.clip(np.ceil(longest / h), 1, 32).astype(np.int64)
+    Qs, Ws, Ns = [], [], []
+    for kk in np.unique(k):
+        sel = np.flatnonzero(k == kk)
+        # barycentric centroids of the kk^2 sub-triangles
+        bc = []
+        for i in range(kk):
+            for j in range(kk - i):
+                bc.append(((i + 1 / 3) / kk, (j + 1 / 3) / kk))
+                if i + j < kk - 1:
+                    bc.append(((i + 2 / 3) / kk, (j + 2 / 3) / kk))
+        bc = np.asarray(bc)
+        a, b = bc[:, 0], bc[:, 1]
+        Q = (A[sel, None, :] * (1.0 - a - b)[None, :, None] + B[sel, None, :] * a[None, :, None]
+             + C[sel, None, :] * b[None, :, None])
+        Qs.append(Q.reshape(-1, 3))
+        Ws.append(np.repeat(area[sel] / len(bc), len(bc)))
+        Ns.append(np.repeat(0.5 * cr[sel] / len(bc), len(bc), axis=0))
+    return np.concatenate(Qs), np.concatenate(Ws), np.concatenate(Ns)
 
 
 def _vertex_areas(V, F):
@@ -372,8 +407,8 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     Convexity at scale s: ``kappa_s = (v - c_s(v)) . n_s(v) / s`` with c_s
     the area-weighted centroid of the surface around v and n_s its mean
     normal, both Gaussian-weighted with width s (grid of cell
-    ``edge_scale`` x diagonal).  On a sphere of radius R, kappa_s ~ s/(2R)
-    (measured in tests/test_aging.py).  Exposure is ``max(n_s . up, 0)``
+    ``edge_scale`` x diagonal).  On a sphere of radius R >> s,
+    kappa_s = 1.25 s/R (measured in tests/test_aging.py).  Exposure is ``max(n_s . up, 0)``
     times the fraction of the rain columns above v (a 3x3-cell cone) that
     no surface blocks.
     """
@@ -414,8 +449,10 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
 
     h = p.edge_scale * diag
     grid = _Grid(P, h)
+    Q, wq, nq = _surface_samples(P, F, h)
     # channels: area, area-weighted position (3), area-weighted normal (3)
-    G = grid.splat(np.concatenate([area[:, None], area[:, None] * P, Nw], axis=1))
+    G = grid.splat(Q, np.concatenate([wq[:, None], wq[:, None] * Q, nq], axis=1))
+    del Q, wq, nq
 
     def fallback(sel):
         nn = (np.asarray(normals, dtype=np.float64)[sel] @ R.T) if normals is not None else Nw[sel]
