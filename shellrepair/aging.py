@@ -283,7 +283,7 @@ class _Grid:
         return out
 
 
-def _surface_samples(P, F, h):
+def _surface_samples(P, F, h, cr):
     """Points sampling every face at least once per cell: (Q, area weights, area-weighted normals).
 
     A face whose longest edge is up to ``k h`` long is cut into k^2 similar
@@ -292,13 +292,19 @@ def _surface_samples(P, F, h):
     below a cell: one sample, its centroid, per face).
     """
     A, B, C = P[F[:, 0]], P[F[:, 1]], P[F[:, 2]]
-    cr = np.cross(B - A, C - A)
-    area = 0.5 * np.linalg.norm(cr, axis=1)
-    longest = np.sqrt(np.maximum(np.maximum(np.sum((B - A) ** 2, 1), np.sum((C - B) ** 2, 1)),
-                                 np.sum((A - C) ** 2, 1)))
-    k = np.clip(np.ceil(longest / h), 1, 32).astype(np.int64)
-    Qs, Ws, Ns = [], [], []
-    for kk in np.unique(k):
+    area = 0.5 * np.sqrt(np.einsum("ij,ij->i", cr, cr))
+    d = B - A
+    l2 = np.einsum("ij,ij->i", d, d)
+    d = C - B
+    np.maximum(l2, np.einsum("ij,ij->i", d, d), out=l2)
+    d = A - C
+    np.maximum(l2, np.einsum("ij,ij->i", d, d), out=l2)
+    k = np.clip(np.ceil(np.sqrt(l2) / h), 1, 32).astype(np.int64)
+    one = k == 1
+    Qs = [(A[one] + B[one] + C[one]) * (1.0 / 3.0)]  # the usual case: one sample, the centroid
+    Ws = [area[one]]
+    Ns = [0.5 * cr[one]]
+    for kk in np.unique(k[~one]):
         sel = np.flatnonzero(k == kk)
         # barycentric centroids of the kk^2 sub-triangles
         bc = []
@@ -417,6 +423,9 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     F = np.asarray(F, dtype=np.int64)
     if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
         raise ValueError("aging_maps: V must be (n,3) and F (m,3), got %s and %s" % (V.shape, F.shape))
+    if len(F) and (F.min() < 0 or F.max() >= len(V)):
+        bad = int(np.argmax((F < 0).any(axis=1) | (F >= len(V)).any(axis=1)))
+        raise ValueError("aging_maps: face %d refers to a vertex outside 0..%d" % (bad, len(V) - 1))
     age = float(age)
     if not 0.0 <= age <= 1.0:
         raise ValueError("aging_maps: age must be in [0, 1], got %r" % age)
@@ -441,15 +450,14 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
     if not diag > 0.0:
         return AgingMaps(zero, np.ones(n), zero, zero, zero, zero, zero, zero)
-    area = _vertex_areas(V, F)
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]) @ R.T  # area-weighted, x2
-    Nw = np.zeros((n, 3))
-    for k in range(3):
-        Nw[:, k] = np.bincount(F.ravel(), np.repeat(fn[:, k], 3), minlength=n)
+    fn = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])  # 2 x area x normal
+    fidx = F.ravel()
+    area = np.bincount(fidx, np.repeat(np.sqrt(np.einsum("ij,ij->i", fn, fn)) / 6.0, 3), minlength=n)
+    Nw = np.stack([np.bincount(fidx, np.repeat(fn[:, k], 3), minlength=n) for k in range(3)], axis=1)
 
     h = p.edge_scale * diag
     grid = _Grid(P, h)
-    Q, wq, nq = _surface_samples(P, F, h)
+    Q, wq, nq = _surface_samples(P, F, h, fn)
     # channels: area, area-weighted position (3), area-weighted normal (3)
     G = grid.splat(Q, np.concatenate([wq[:, None], wq[:, None] * Q, nq], axis=1))
     del Q, wq, nq

@@ -62,12 +62,12 @@ _LIGHTS = (
 #: Environment radiance above and below the horizon (linear RGB): a warm
 #: room, bright above, dark floor.  Metals show what they mirror, so this
 #: is what makes gold read as gold rather than as a grey-khaki.
-_SKY = np.array([0.42, 0.36, 0.28])
+_SKY = np.array([0.30, 0.25, 0.18])
 _GROUND = np.array([0.05, 0.045, 0.04])
 #: A soft box seen in mirror reflections, around the key light: radiance
 #: added to the environment (linear RGB) and its angular width (radians).
-_SOFTBOX = np.array([2.2, 1.9, 1.5])
-_SOFTBOX_WIDTH = 0.25
+_SOFTBOX = np.array([2.6, 2.2, 1.7])
+_SOFTBOX_WIDTH = 0.35
 #: Exposure applied before tone mapping.
 _EXPOSURE = 1.0
 #: Offset of shadow-ray origins, as a fraction of the bounding radius.
