@@ -1,17 +1,22 @@
 """CPU ray-cast renderer for repaired scans with the aged-metal reflectance.
 
-One primary ray per pixel through an auto-framed pinhole camera is cast with
-open3d's ``RaycastingScene`` (an Embree BVH); each hit is shaded by
+2 x 2 primary rays per pixel (averaged in linear light) through an
+auto-framed pinhole camera are cast with open3d's ``RaycastingScene`` (an
+Embree BVH); each hit is shaded by
 :class:`shellrepair.materials.MaterialShader` under two directional lights
-with ray-traced shadows, plus a sky/ground environment term, then tone
-mapped to sRGB.  Faces flagged ``filled`` (synthesised by the repair) can be
-tinted so a viewer sees what was added.
+with ray-traced shadows, plus a warm room with a soft box seen in mirror
+reflections, then tone mapped to sRGB.  Rust coverage and gilding come from
+the scan's colours when informative, else from the aging map
+(:func:`shellrepair.aging.aging_maps`).  Faces flagged ``filled``
+(synthesised by the repair) can be tinted so a viewer sees what was added;
+side-by-side renders share one camera and carry labels and a legend.
 
 The model is chosen per render (:func:`shellrepair.materials.choose_model`)
-from the pixel footprint on the statue: at ordinary statue scales the
-corrosion layers' diffusion length (~10 um) is far below a pixel and the
-local form is used; if a close-up makes it visible, the diffuse term is
-spread in screen space by the dipole profile.
+from the pixel footprint on the statue, which needs the mesh's length unit
+(given, or inferred from its size by :func:`infer_unit`): at ordinary statue
+scales the corrosion layers' diffusion length (~5 um) is far below a pixel
+and the local form is used; if a close-up makes it visible (below ~38 um a
+pixel), the diffuse term is spread in screen space by the dipole profile.
 
 Everything is deterministic: no random sampling.
 """
