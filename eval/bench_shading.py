@@ -54,7 +54,7 @@ RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 # --------------------------------------------------------------------------
 
 
-def naive_shade(wi, wo, n, c, mat, interp, gild=1.0):
+def naive_shade(wi, wo, n, c, mat, interp, gild=1.0, crust=0.0):
     """The full model transcribed formula by formula, no precomputation."""
     wi = wi / np.linalg.norm(wi, axis=-1, keepdims=True)
     wo = wo / np.linalg.norm(wo, axis=-1, keepdims=True)
@@ -98,9 +98,13 @@ def naive_shade(wi, wo, n, c, mat, interp, gild=1.0):
     # Kubelka-Munk, eq 5 verbatim, bottom layer first
     Rg = mt.substrate_reflectance(mat)
     R = np.broadcast_to(Rg, (len(c), 3))
-    for L, xmax, c0, c1 in mat.layers:
+    for li, (L, xmax, c0, c1) in enumerate(mat.layers):
         K = np.asarray(L.K)
         S = np.asarray(L.S)
+        if li == len(mat.layers) - 1 and mat.crust is not None:  # eq 7: dark crust in the top layer
+            p = (np.broadcast_to(np.asarray(crust, float), c.shape) * mat.crust[1])[:, None]
+            K = (1 - p) * K + p * np.asarray(mat.crust[0].K)
+            S = (1 - p) * S + p * np.asarray(mat.crust[0].S)
         X = (xmax * np.clip((c - c0) / (c1 - c0), 0, 1))[:, None]
         Ri = (1 + K / S) - np.sqrt((K / S) ** 2 + 2 * K / S)
         E = np.exp(S * X * (1 / Ri - Ri))
@@ -125,7 +129,8 @@ def random_points(N, seed=0):
 
     n = rng.normal(size=(N, 3)) * 0.15 + [0, 0, 1]
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    return hemi(N), hemi(N), n, rng.uniform(0.0, 1.0, N), rng.uniform(0.0, 1.0, N)
+    return (hemi(N), hemi(N), n, rng.uniform(0.0, 1.0, N), rng.uniform(0.0, 1.0, N),
+            rng.uniform(0.0, 1.0, N))
 
 
 def best_of(fn, repeat):
@@ -145,13 +150,13 @@ def bench_shading(N, repeat):
     table = sh.rho_dt_table()
     interp = RegularGridInterpolator((table.u, table.log_m, table.kappa), table.values,
                                      bounds_error=False, fill_value=None)
-    wi, wo, n, c, g = random_points(N)
+    wi, wo, n, c, g, d = random_points(N)
     shader = mt.MaterialShader(mat)
-    shader(wi[:1000], wo[:1000], n[:1000], c[:1000], g[:1000])  # warm up
-    t_fast, f_fast = best_of(lambda: shader(wi, wo, n, c, g), repeat)
-    t_ref, f_ref = best_of(lambda: mt.shade_reference(wi, wo, n, c, mat, g), repeat)
+    shader(wi[:1000], wo[:1000], n[:1000], c[:1000], g[:1000], d[:1000])  # warm up
+    t_fast, f_fast = best_of(lambda: shader(wi, wo, n, c, g, d), repeat)
+    t_ref, f_ref = best_of(lambda: mt.shade_reference(wi, wo, n, c, mat, g, d), repeat)
     with np.errstate(all="ignore"):
-        t_naive, f_naive = best_of(lambda: naive_shade(wi, wo, n, c, mat, interp, g), repeat)
+        t_naive, f_naive = best_of(lambda: naive_shade(wi, wo, n, c, mat, interp, g, d), repeat)
 
     def rel(a, b):
         ok = np.isfinite(b)

@@ -14,6 +14,11 @@ accessible each point of the surface is:
 - **blotch** z: corrosion spreads in patches (pits, drips, local alloy and
   gilding defects), modelled as seeded value noise sampled on the surface.
 
+Where rain does not wash the patina -- under overhangs, in cavities -- soot
+and sulphate deposits build a dark crust (Graedel 1987; Scott 2002):
+``crust = clip(D_K k + D_S (1 - sky) max(n.up, 0) + D_Z z'' - D_0, 0, 1)``, mixed into the
+green layer by the paper's eq 7 (:data:`shellrepair.materials.DARK_CRUST`).
+
 They combine into a corrosion potential ``P = A_E e + A_K k - A_W w + A_Z z``
 and a gilding-loss potential ``Q = B_W w + B_E e + B_Z z'``.  The ``age`` in
 [0, 1] sets how much area has turned: the rust coverage c is 1 on the
@@ -92,6 +97,11 @@ class AgingParams:
     band : float
         Area fraction of the transition from bare to fully corroded, where
         the patina is thin and cuprite shows (0.2; 0.02-0.3).
+    d_cavity, d_shelter, d_blotch, d_offset : float
+        Dark crust ``clip(d_cavity k + d_shelter (1 - sky) max(n.up, 0)
+        + d_blotch z'' - d_offset, 0, 1)`` (0.8, 0.6, 0.3, 0.3): cavities
+        and upward surfaces under an overhang are not washed by rain; z''
+        breaks it into patches.  0 everywhere with all weights 0.
     """
 
     edge_scale: float = 0.015
@@ -110,6 +120,10 @@ class AgingParams:
     b_blotch: float = 0.35
     loss: float = 0.5
     band: float = 0.2
+    d_cavity: float = 0.8
+    d_shelter: float = 0.6
+    d_blotch: float = 0.3
+    d_offset: float = 0.3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,6 +143,8 @@ class AgingMaps:
     convexity_edge, convexity_cavity : (n,) float64 arrays
         The convexity kappa at the edge and cavity scales (see
         :func:`aging_maps`), positive where convex.
+    crust : (n,) float64 array in [0, 1]
+        Dark deposit on the patina where rain does not wash it.
     """
 
     coverage: np.ndarray
@@ -139,6 +155,7 @@ class AgingMaps:
     blotch: np.ndarray
     convexity_edge: np.ndarray
     convexity_cavity: np.ndarray
+    crust: np.ndarray
 
 
 # --------------------------------------------------------------------------
@@ -436,7 +453,7 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     n = len(V)
     zero = np.zeros(n)
     if n == 0 or len(F) == 0:
-        return AgingMaps(zero, np.ones(n), zero, zero, zero, zero, zero, zero)
+        return AgingMaps(zero, np.ones(n), zero, zero, zero, zero, zero, zero, zero)
     from scipy.ndimage import gaussian_filter
 
     # frame with z along up (rain columns are grid columns)
@@ -449,7 +466,7 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     P = (V - center) @ R.T
     diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
     if not diag > 0.0:
-        return AgingMaps(zero, np.ones(n), zero, zero, zero, zero, zero, zero)
+        return AgingMaps(zero, np.ones(n), zero, zero, zero, zero, zero, zero, zero)
     fn = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])  # 2 x area x normal
     fidx = F.ravel()
     area = np.bincount(fidx, np.repeat(np.sqrt(np.einsum("ij,ij->i", fn, fn)) / 6.0, 3), minlength=n)
@@ -480,7 +497,7 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     # blotches: value noise at the grid nodes (world coordinates), read at the vertices
     nodes_world = grid.nodes() @ R + center
     noise = [value_noise(nodes_world, p.patch_scale * diag, seed=sd, octaves=p.octaves,
-                         normalize=False).reshape(grid.shape) for sd in (seed, seed + 7919)]
+                         normalize=False).reshape(grid.shape) for sd in (seed, seed + 7919, seed + 104729)]
     fields = ([gaussian_filter(g, sig_e, mode="constant") for g in G]
               + [gaussian_filter(g, sig_c, mode="constant") for g in G[:4]] + [blocked] + noise)
     r = grid.read(np.stack([f.astype(np.float32) for f in fields])).astype(np.float64)
@@ -512,6 +529,10 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
 
     blotch = unit_var(r[:, 12])
     blotch2 = unit_var(r[:, 13])
+    blotch3 = unit_var(r[:, 14])
+    sheltered = (1.0 - sky) * np.clip(n_e[:, 2], 0.0, 1.0)  # facing up, under an overhang
+    crust = np.clip(p.d_cavity * cavity + p.d_shelter * sheltered + p.d_blotch * blotch3 - p.d_offset,
+                    0.0, 1.0)
 
     P_rust = p.a_exposure * exposure + p.a_cavity * cavity - p.a_wear * wear + p.a_blotch * blotch
     coverage = _turn(P_rust, area, age, p.band)
@@ -520,4 +541,4 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     free = area * (1.0 - coverage)
     lost = _turn(Q_loss, free, p.loss * age, p.band)
     gild = 1.0 - lost
-    return AgingMaps(coverage, gild, exposure, cavity, wear, blotch, kappa_e, kappa_c)
+    return AgingMaps(coverage, gild, exposure, cavity, wear, blotch, kappa_e, kappa_c, crust)

@@ -54,6 +54,7 @@ __all__ = [
     "BRONZE",
     "CUPRITE",
     "GREEN_PATINA",
+    "DARK_CRUST",
     "MATERIALS",
     "get_material",
     "layer_thicknesses",
@@ -117,6 +118,10 @@ class Material:
     eta_top : float
         Refractive index of the outermost corrosion layer (the rough
         dielectric interface).
+    crust : (KMLayer, float) or None
+        A dark deposit mixed into the outermost layer (eq 7) in proportion
+        ``crust x p_max`` where the surface is sheltered from washing rain,
+        with its largest proportion p_max.
     """
 
     name: str
@@ -126,6 +131,7 @@ class Material:
     m_exposed: float
     m_rust: float
     eta_top: float
+    crust: tuple = None
 
     @property
     def corrodes(self):
@@ -182,6 +188,18 @@ GREEN_PATINA = KMLayer(
     source="illustrative K, S (no published values); eta from Handbook of Mineralogy",
 )
 
+#: Dark crust on sheltered outdoor bronze: soot and sulphate deposits that
+#: rain does not wash away (Graedel 1987; Scott 2002).  ILLUSTRATIVE K, S: a
+#: black, weakly scattering pigment, mixed into the green layer by eq 7.
+DARK_CRUST = KMLayer(
+    "dark crust",
+    K=(1.5, 1.5, 1.5),
+    S=(0.1, 0.1, 0.1),
+    eta=1.75,
+    illustrative=True,
+    source="illustrative K, S (a black deposit); dark crusts on sheltered bronze: Graedel 1987, Scott 2002",
+)
+
 MATERIALS = {
     "aged-bronze": Material(
         "aged-bronze",
@@ -193,6 +211,7 @@ MATERIALS = {
         m_exposed=0.15,
         m_rust=0.45,
         eta_top=GREEN_PATINA.eta,
+        crust=(DARK_CRUST, 0.06),
     ),
     "gilt": Material("gilt", GOLD_LEAF, BRONZE, (), 0.12, 0.12, GREEN_PATINA.eta),
     "bronze": Material("bronze", BRONZE, BRONZE, (), 0.2, 0.2, GREEN_PATINA.eta),
@@ -491,15 +510,21 @@ def substrate_reflectance(material):
     return sh.fresnel_conductor(1.0, n, k)
 
 
-def _km_of_coverage(c, mat):
+def _km_of_coverage(c, mat, crust=0.0):
     c = np.asarray(c, dtype=np.float64)
     Rg = substrate_reflectance(mat)
     X = layer_thicknesses(c, mat)
-    layers = [(np.asarray(L[0].K), np.asarray(L[0].S), x[..., None]) for L, x in zip(mat.layers, X)]
-    return sh.km_layers(layers, Rg)
+    layers = [[np.asarray(L[0].K), np.asarray(L[0].S), x[..., None]] for L, x in zip(mat.layers, X)]
+    if mat.crust is not None:
+        # eq 7: the dark deposit mixed into the outermost layer
+        p = (np.clip(np.asarray(crust, dtype=np.float64), 0.0, 1.0) * mat.crust[1])[..., None]
+        top = layers[-1]
+        top[0] = (1.0 - p) * top[0] + p * np.asarray(mat.crust[0].K)
+        top[1] = (1.0 - p) * top[1] + p * np.asarray(mat.crust[0].S)
+    return sh.km_layers([tuple(L) for L in layers], Rg)
 
 
-def shade_reference(wi, wo, n, coverage, material, gild=1.0):
+def shade_reference(wi, wo, n, coverage, material, gild=1.0, crust=0.0):
     """The full aged-metal BRDF, composed term by term from :mod:`shading`.
 
     Parameters
@@ -511,6 +536,9 @@ def shade_reference(wi, wo, n, coverage, material, gild=1.0):
     gild : (...) float array in [0, 1], optional
         Fraction of the uncorroded area where the exposed metal (gold leaf)
         remains; the rest shows the substrate (bronze).  1 by default.
+    crust : (...) float array in [0, 1], optional
+        Dark deposit on the patina (sheltered from rain), as a fraction of
+        the material's largest proportion (eq 7 mixing).  0 by default.
 
     Returns
     -------
@@ -533,7 +561,7 @@ def shade_reference(wi, wo, n, coverage, material, gild=1.0):
     metal = g[..., None] * gold + (1.0 - g)[..., None] * bare
     if not mat.corrodes:
         return metal
-    R_km = _km_of_coverage(c, mat)
+    R_km = _km_of_coverage(c, mat, crust)
     rust = sh.local_brdf(wi, wo, n, m, mat.eta_top, R_km)
     return (1.0 - c)[..., None] * metal + c[..., None] * rust
 
@@ -580,13 +608,22 @@ class MaterialShader:
         if self.corrodes:
             self._F_top = sh.fresnel_dielectric(x, mat.eta_top)
             self._dF_top = np.diff(self._F_top, append=self._F_top[-1])
-            R = _km_of_coverage(x, mat)  # (L, 3), nodes in c
-            m_x, _ = surface_params(x, mat)
-            r_i = sh.internal_reflectance(m_x, mat.eta_top)[:, None]
-            rbar_x = sh.mean_transmittance(m_x, mat.eta_top)[:, None]
+            # R_eff on a (c, crust) grid; c nodes 1/1024 apart (the layer
+            # schedule's kinks at c = 0.25 and 0.3 fall on or next to nodes)
+            self._nrc = 1025
+            self._nrd = 65 if mat.crust is not None else 2
+            xc = np.linspace(0.0, 1.0, self._nrc)[:, None]
+            xd = np.linspace(0.0, 1.0, self._nrd)[None, :]
+            R = _km_of_coverage(xc, mat, xd)  # (Nc, Nd, 3)
+            m_x, _ = surface_params(xc, mat)
+            r_i = sh.internal_reflectance(m_x, mat.eta_top)[..., None]
+            rbar_x = sh.mean_transmittance(m_x, mat.eta_top)[..., None]
             # internal reflection at the interface folded in (layered_diffuse)
-            self._R_km = R * (1.0 - r_i) / (np.maximum(rbar_x, 1e-300) * (1.0 - r_i * R))
-            self._dR_km = np.diff(self._R_km, axis=0, append=self._R_km[-1:])
+            Reff = R * (1.0 - r_i) / (np.maximum(rbar_x, 1e-300) * (1.0 - r_i * R))
+            self._R_eff = Reff
+            self._R4 = np.ascontiguousarray(np.concatenate(
+                [Reff[:-1, :-1], Reff[:-1, 1:], Reff[1:, :-1], Reff[1:, 1:]], axis=-1
+            ).reshape(-1, 12))
             table = sh.rho_dt_table()
             sl = table.slice_eta(mat.eta_top)  # (Nu, Nm)
             self._nc = 257
@@ -612,8 +649,19 @@ class MaterialShader:
         self._Fpack = np.ascontiguousarray(
             np.concatenate([self._F_metal, self._F_bare, Ft[:, None],
                             self._dF_metal, self._dF_bare, dFt[:, None]], axis=1))
-        if self.corrodes:
-            self._Rpack = np.ascontiguousarray(np.concatenate([self._R_km, self._dR_km], axis=1))
+
+    def _R_of(self, c, d):
+        """Bilinear R_eff(c, crust), one gather of the 4 corners."""
+        fc = c * (self._nrc - 1)
+        i = np.minimum(fc.astype(np.intp), self._nrc - 2)
+        a = (fc - i)[:, None]
+        fd = np.clip(d, 0.0, 1.0) * (self._nrd - 1)
+        j = np.minimum(fd.astype(np.intp), self._nrd - 2)
+        b = (fd - j)[:, None]
+        g = np.take(self._R4, i * (self._nrd - 1) + j, axis=0)
+        r0 = g[:, 0:3] + b * (g[:, 3:6] - g[:, 0:3])
+        r1 = g[:, 6:9] + b * (g[:, 9:12] - g[:, 6:9])
+        return r0 + a * (r1 - r0)
 
     def _lut(self, T, dT, x):
         f = x * (self.n_lut - 1)
@@ -645,16 +693,16 @@ class MaterialShader:
         r1 = g[:, 2] + b * (g[:, 3] - g[:, 2])
         return r0 + a * (r1 - r0)
 
-    def __call__(self, wi, wo, n, coverage, gild=1.0, *, parts=False):
+    def __call__(self, wi, wo, n, coverage, gild=1.0, crust=0.0, *, parts=False):
         """Evaluate the BRDF.
 
         Parameters
         ----------
         wi, wo, n : (..., 3) float arrays (broadcasting)
         coverage : (...) float array in [0, 1]
-        gild : (...) float array in [0, 1], optional
-            Gilding fraction of the uncorroded area (see
-            :func:`shade_reference`).
+        gild, crust : (...) float arrays in [0, 1], optional
+            Gilding fraction of the uncorroded area and dark crust on the
+            patina (see :func:`shade_reference`).
         parts : bool, optional
             Return the specular and diffuse parts separately.
 
@@ -666,18 +714,21 @@ class MaterialShader:
         wi, wo, n = (np.asarray(a, dtype=np.float64) for a in (wi, wo, n))
         c = np.asarray(coverage, dtype=np.float64)
         g = np.asarray(gild, dtype=np.float64)
-        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape, g.shape)
+        dd = np.asarray(crust, dtype=np.float64)
+        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape, g.shape,
+                                    dd.shape)
         P = int(np.prod(shape))
         wi = np.broadcast_to(wi, shape + (3,)).reshape(P, 3)
         wo = np.broadcast_to(wo, shape + (3,)).reshape(P, 3)
         n = np.broadcast_to(n, shape + (3,)).reshape(P, 3)
         c = np.broadcast_to(c, shape).reshape(P)
         g = np.broadcast_to(g, shape).reshape(P)
+        dd = np.broadcast_to(dd, shape).reshape(P)
         spec = np.empty((P, 3), dtype=np.float64)
         diff = np.zeros((P, 3), dtype=np.float64) if parts else None
         for s in range(0, P, self.chunk):
             sl = slice(s, s + self.chunk)
-            fs, fd = self._eval(wi[sl], wo[sl], n[sl], c[sl], g[sl])
+            fs, fd = self._eval(wi[sl], wo[sl], n[sl], c[sl], g[sl], dd[sl])
             if parts:
                 spec[sl] = fs
                 if fd is not None:
@@ -688,7 +739,7 @@ class MaterialShader:
             return spec.reshape(shape + (3,)), diff.reshape(shape + (3,))
         return spec.reshape(shape + (3,))
 
-    def ambient(self, cos_o, coverage, gild=1.0):
+    def ambient(self, cos_o, coverage, gild=1.0, crust=0.0):
         """Reflectance weights under a distant environment.
 
         Parameters
@@ -696,7 +747,7 @@ class MaterialShader:
         cos_o : (P,) float array
             Cosine of the view direction with the normal.
         coverage : (P,) float array
-        gild : (P,) float array or float, optional
+        gild, crust : (P,) float arrays or floats, optional
 
         Returns
         -------
@@ -722,12 +773,12 @@ class MaterialShader:
             return Fm, np.zeros_like(Fm)
         rho_o = self._rho(np.sqrt(no), c)
         rbar = np.interp(c, np.linspace(0.0, 1.0, self._nc), self._rho_bar)
-        R = self._lut(self._R_km, self._dR_km, c)
+        R = self._R_of(c, np.broadcast_to(np.asarray(crust, dtype=np.float64), c.shape))
         w_spec = (1.0 - c)[:, None] * Fm + (c * (1.0 - rho_o))[:, None]
         w_diff = (c * rho_o * rbar)[:, None] * R
         return w_spec, w_diff
 
-    def _eval(self, wi, wo, n, c, gild):
+    def _eval(self, wi, wo, n, c, gild, crust):
         # For unit wi, wo: |wi + wo|^2 = 2 (1 + wi.wo), o.h = sqrt((1 + wi.wo) / 2)
         # and n.h = (n.i + n.o) / |wi + wo|: three dot products, no h array.
         c = np.clip(c, 0.0, 1.0)
@@ -762,7 +813,7 @@ class MaterialShader:
         b = fc - j
         rho = self._rho_cj(np.sqrt(nis), j, b) * self._rho_cj(np.sqrt(nos), j, b)
         diff = np.where(valid, c * rho * (1.0 / np.pi), 0.0)
-        R = self._packed(self._Rpack, c, 3)
+        R = self._R_of(c, crust)
         return spec, diff[:, None] * R
 
     def _rho_cj(self, u, j, b):

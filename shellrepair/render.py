@@ -386,7 +386,7 @@ def _scaled_camera(cam, s):
 
 def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                 highlight_filled=False, view=None, vertex_colors=None, coverage=None,
-                gild=None, camera=None, unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0),
+                gild=None, crust=None, camera=None, unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0),
                 seed=0, supersample=2, legend=None, info=None):
     """Render a triangle mesh with the aged-metal shading.
 
@@ -410,6 +410,9 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         Rust coverage and gilding per vertex; override ``vertex_colors`` and
         the aging map (:func:`shellrepair.aging.aging_maps`).  ``gild``
         defaults to 1 (all gilt) when only ``coverage`` is given.
+    crust : (n,) float array or None
+        Dark crust on the patina per vertex (0 when ``coverage`` is given
+        without it).
     camera : Camera or None
         Use this camera instead of auto-framing (``size`` is then ignored).
     unit : {"mm", "cm", "m"}, float or None
@@ -480,6 +483,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     # rust coverage and gilding per vertex
     maps = None
     ones = np.ones(len(V))
+    crust_v = np.zeros(len(V)) if crust is None else np.clip(np.asarray(crust, np.float64), 0.0, 1.0)
     if not mat.corrodes and coverage is None:
         cov_v, cov_src = np.zeros(len(V)), "none"
         gild_v = ones if gild is None else np.clip(np.asarray(gild, np.float64), 0.0, 1.0)
@@ -499,9 +503,12 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             maps = ag.aging_maps(V, F, age=ag.DEFAULT_AGE if age is None else float(age), up=up,
                                  seed=seed)
             cov_v, gild_v, cov_src = maps.coverage, maps.gild, "aging"
-    if gild_v.shape != (len(V),):
-        raise _InputError("gild must have one value per vertex (%d), got shape %s"
-                          % (len(V), gild_v.shape))
+            if crust is None:
+                crust_v = maps.crust
+    for name, arr in (("gild", gild_v), ("crust", crust_v)):
+        if arr.shape != (len(V),):
+            raise _InputError("%s must have one value per vertex (%d), got shape %s"
+                              % (name, len(V), arr.shape))
     t2 = time.perf_counter()
 
     right, upv, back = cam_s.basis()
@@ -535,6 +542,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         n = np.where((ndo < 0.02)[:, None], ng, n)
         c = np.einsum("pk,pk->p", bw, cov_v[tri])
         g = np.einsum("pk,pk->p", bw, gild_v[tri])
+        dk = np.einsum("pk,pk->p", bw, crust_v[tri])
         shader = mt.MaterialShader(mat)
         origin = p + (_SHADOW_EPS * radius) * ng
         spec_sum = np.zeros((len(p), 3))
@@ -549,14 +557,14 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             vis = lit & ~occl
             if not np.any(vis):
                 continue
-            spec, diff = shader(ldir, wo[vis], n[vis], c[vis], g[vis], parts=True)
+            spec, diff = shader(ldir, wo[vis], n[vis], c[vis], g[vis], dk[vis], parts=True)
             w = (cos_i[vis])[:, None] * E
             spec_sum[vis] += spec * w
             diff_sum[vis] += diff * w
         # environment: metals mirror the room, the patina sees it diffusely
         no = np.clip(np.einsum("ij,ij->i", n, wo), 0.0, 1.0)
         refl = 2.0 * no[:, None] * n - wo
-        env_spec, env_diff = shader.ambient(no, c, g)
+        env_spec, env_diff = shader.ambient(no, c, g, dk)
         key = _LIGHTS[0][0]
         key = key[0] * right + key[1] * upv + key[2] * back
         spec_sum += env_spec * _environment(refl, cam.up, key / np.linalg.norm(key))
@@ -723,11 +731,13 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     mat = mt.get_material(material)
     cov = {"before": None, "after": None}
     gld = {"before": None, "after": None}
+    crs = {"before": None, "after": None}
     if mat.corrodes and vertex_colors_before is None and vertex_colors_after is None:
         maps = ag.aging_maps(Va, Fa, age=ag.DEFAULT_AGE if age is None else float(age), up=up, seed=seed)
         _, near = cKDTree(Va).query(Vb)
         cov = {"before": maps.coverage[near], "after": maps.coverage}
         gld = {"before": maps.gild[near], "after": maps.gild}
+        crs = {"before": maps.crust[near], "after": maps.crust}
     if not (highlight_filled and filled is not None and np.any(filled)):
         legend = None
     panels = {}
@@ -738,7 +748,7 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
             "after": (Va, Fa, vertex_colors_after, filled, highlight_filled, legend)}.items():
         sub = {}
         img = render_mesh(V, F, vertex_colors=vc, filled=fl, highlight_filled=hl, coverage=cov[key],
-                          gild=gld[key], legend=lg, info=sub, **common)
+                          gild=gld[key], crust=crs[key], legend=lg, info=sub, **common)
         if labels:
             img = draw_label(img, labels[0] if key == "before" else labels[1])
         panels[key] = img

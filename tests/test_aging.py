@@ -90,12 +90,17 @@ def test_exposure_rain_from_above_and_shelter_under_an_overhang():
     F = np.concatenate([Fb, Fr + len(Vb)])
     maps = ag.aging_maps(V, F, up=(0, 1, 0))
     top = (np.abs(V[:, 1] - 0.3) < 1e-9) & (np.arange(len(V)) < len(Vb))
-    under = top & (V[:, 0] < -0.5) & (np.abs(V[:, 2]) < 0.6)
+    under = top & (V[:, 0] < -0.5) & (V[:, 0] > -1.6) & (np.abs(V[:, 2]) < 0.6)
     open_ = top & (V[:, 0] > 0.8) & (V[:, 0] < 1.4) & (np.abs(V[:, 2]) < 0.6)
     assert np.all(maps.exposure[open_] > 0.9)
     assert np.all(maps.exposure[under] < 0.1)
     bottom = np.abs(V[:, 1] + 0.3) < 1e-9
     assert np.all(maps.exposure[bottom] == 0.0)  # facing down: no rain
+    assert maps.crust[under].mean() > maps.crust[open_].mean()  # unwashed: dark crust
+    plain = ag.aging_maps(V, F, up=(0, 1, 0), params=ag.AgingParams(d_blotch=0.0))
+    p = ag.AgingParams()
+    np.testing.assert_allclose(plain.crust[under], p.d_shelter - p.d_offset, atol=0.08)
+    assert np.all(plain.crust[open_] == 0.0)
     # turning the world upside down swaps the roles of top and bottom faces
     flipped = ag.aging_maps(V, F, up=(0, -1, 0))
     assert np.all(flipped.exposure[top] == 0.0)
@@ -120,6 +125,9 @@ def test_wear_on_convex_edges_and_cavities_in_hollows():
     away = floor & (V[:, 0] > 0.0) & (V[:, 0] < 1.5)
     assert corner.any() and maps.cavity[corner].mean() > 0.5
     assert np.all(maps.cavity[away] == 0.0)
+    # rain does not wash hollows: a dark crust builds there first
+    plain = ag.aging_maps(V, F, params=ag.AgingParams(d_blotch=0.0))
+    assert plain.crust[corner].mean() > 0.2 and np.all(plain.crust[away] == 0.0)
 
 
 # --------------------------------------------------------------------------

@@ -401,13 +401,32 @@ def test_fast_shader_agrees_with_reference():
     wo = unit(rng.normal(size=(N, 3)))
     n = unit(rng.normal(size=(N, 3)))
     c = rng.uniform(-0.1, 1.1, N)
+    g = rng.uniform(0.0, 1.0, N)  # gilding
+    d = rng.uniform(0.0, 1.0, N)  # dark crust
     for name in ("aged-bronze", "gilt", "bronze"):
-        fast = mt.MaterialShader(name)(wi, wo, n, c)
-        ref = mt.shade_reference(wi, wo, n, c, name)
+        fast = mt.MaterialShader(name)(wi, wo, n, c, g, d)
+        ref = mt.shade_reference(wi, wo, n, c, name, g, d)
         assert fast.shape == (N, 3) and np.all(np.isfinite(fast))
         np.testing.assert_allclose(fast, ref, rtol=2e-3, atol=1e-6)
-        spec, diff = mt.MaterialShader(name)(wi, wo, n, c, parts=True)
+        spec, diff = mt.MaterialShader(name)(wi, wo, n, c, g, d, parts=True)
         np.testing.assert_allclose(spec + diff, fast, rtol=1e-12, atol=0)
+
+
+def test_gilding_and_crust_change_only_their_part():
+    """gild mixes gold and bronze in the metal part; crust darkens only the patina's diffuse part."""
+    shader = mt.MaterialShader("aged-bronze")
+    n = np.array([0.0, 0.0, 1.0])
+    wi, wo = unit([0.3, 0.0, 1.0]), unit([-0.5, 0.2, 1.0])
+    gold = shader(wi, wo, n, 0.0, 1.0)
+    bronze = shader(wi, wo, n, 0.0, 0.0)
+    assert gold[1] / gold[0] > bronze[1] / bronze[0]  # gold is yellower than copper-bronze
+    np.testing.assert_allclose(shader(wi, wo, n, 0.0, 0.5), 0.5 * (gold + bronze), rtol=1e-12)
+    np.testing.assert_array_equal(shader(wi, wo, n, 0.0, 1.0, 1.0), gold)  # no patina: no crust
+    s0, d0 = shader(wi, wo, n, 1.0, 1.0, 0.0, parts=True)
+    s1, d1 = shader(wi, wo, n, 1.0, 1.0, 1.0, parts=True)
+    np.testing.assert_array_equal(s0, s1)
+    assert np.all(d1 < 0.8 * d0) and d1.sum() < 0.6 * d0.sum()  # a dark deposit (eq 7 mixing) ...
+    assert d1[1] > d1[0]  # ... on a still green patina
 
 
 def test_material_presets_cite_sources_and_flag_illustrative_values():
