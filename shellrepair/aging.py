@@ -16,8 +16,9 @@ accessible each point of the surface is:
 
 Where rain does not wash the patina -- under overhangs, in cavities -- soot
 and sulphate deposits build a dark crust (Graedel 1987; Scott 2002):
-``crust = clip(D_K k + D_S (1 - sky) max(n.up, 0) + D_Z z'' - D_0, 0, 1)``, mixed into the
-green layer by the paper's eq 7 (:data:`shellrepair.materials.DARK_CRUST`).
+``crust = clip(D_K k + D_S (1 - sky) max(n.up, 0) + D_Z z'' - D_0, 0, 1)``,
+mixed into the green layer by the paper's eq 7
+(:data:`shellrepair.materials.DARK_CRUST`).
 
 They combine into a corrosion potential ``P = A_E e + A_K k - A_W w + A_Z z``
 and a gilding-loss potential ``Q = B_W w + B_E e + B_Z z'``.  The ``age`` in
@@ -33,8 +34,9 @@ resolution.
 All measures are computed on a regular grid around the object (cell size a
 fraction of its bounding diagonal), so they depend on the shape at the
 stated scales, not on the mesh's resolution, and cost O(n) with a small
-constant: splat (area-weighted positions and normals) with trilinear
-weights, blur (``scipy.ndimage.gaussian_filter``), read back trilinearly.
+constant: splat face samples (area-weighted positions and normals) into
+their cells, blur (``scipy.ndimage.gaussian_filter``), read back at the
+vertices trilinearly.
 
 References
 ----------
@@ -485,7 +487,7 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
 
     # every grid quantity is read back at the vertices in one trilinear pass:
     # edge scale (area, moment, normal: 7), cavity scale (area, moment: 4),
-    # rain shelter (1) and two noise fields (2)
+    # rain shelter (1) and three noise fields (3)
     sig_e = p.edge_scale * diag / h
     sig_c = p.cavity_scale * diag / h
     # rain: a column is blocked above a cell if any surface lies >= 3 cells higher

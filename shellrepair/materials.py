@@ -22,8 +22,12 @@ dielectric Fresnel over the Kubelka-Munk stack on bronze, with the
 interface's internal reflection, :func:`shellrepair.shading.layered_diffuse`)::
 
     f = (1 - c) [g f_TS,gold + (1 - g) f_TS,bronze]
-        + c [f_TS,patina + rho_dt(i) rho_dt(o) R_eff(c) / pi]
+        + c [f_TS,patina + rho_dt(i) rho_dt(o) R_eff(c, d) / pi]
     R_eff = R_KM (1 - r_i) / (rho_bar (1 - r_i R_KM))
+
+where a dark crust d in [0, 1] (soot and sulphates where rain does not wash
+the patina) is mixed into the outermost layer by eq 7.  c, g and d per
+vertex come from the scan's colours or from :mod:`shellrepair.aging`.
 
 Colour is three channels at the wavelengths :data:`RGB_WAVELENGTHS_NM`.
 
