@@ -13,7 +13,15 @@ Measures, in one run on this machine:
    with the largest relative difference between them;
 2. the rho_dt table: build time and its largest error against the
    reference quadrature over the required range;
-3. render time of a ~1M-face mesh at 1024 x 1024.
+3. render time of a ~1M-face mesh at 1024 x 1024 (2 x 2 rays per pixel),
+   and the cost of that antialiasing (one ray per pixel against 2 x 2) on
+   the bundled bunny;
+4. the aging map (shellrepair.aging) on a ~1M-vertex mesh: wall and CPU
+   seconds;
+5. the numbers docs/shading.md quotes: the footprint where the model
+   switches to the dipole, how far rho_dt at m = 0.005 is from its smooth
+   limit 1 - F by angle, the table's error for eta < 1 and the worst
+   white-furnace albedo.
 
 Prints a table and writes eval/results/bench_shading.json.
 
@@ -46,7 +54,7 @@ RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 # --------------------------------------------------------------------------
 
 
-def naive_shade(wi, wo, n, c, mat, interp):
+def naive_shade(wi, wo, n, c, mat, interp, gild=1.0, crust=0.0):
     """The full model transcribed formula by formula, no precomputation."""
     wi = wi / np.linalg.norm(wi, axis=-1, keepdims=True)
     wo = wo / np.linalg.norm(wo, axis=-1, keepdims=True)
@@ -60,19 +68,26 @@ def naive_shade(wi, wo, n, c, mat, interp):
     m = mat.m_exposed + (mat.m_rust - mat.m_exposed) * c
     th = np.arccos(np.clip(nh, -1, 1))
     D = np.exp(-(np.tan(th) / m) ** 2) / (np.pi * m ** 2 * np.cos(th) ** 4)
-    G = np.minimum(1.0, np.minimum(2 * nh * no / oh, 2 * nh * ni / oh))
-    # conductor Fresnel with complex numbers
-    eta_c = np.asarray(mat.exposed.n) + 1j * np.asarray(mat.exposed.k)
-    cc = oh[:, None] + 0j
-    ct = np.sqrt(eta_c ** 2 - (1 - cc ** 2))
-    rs = (cc - ct) / (cc + ct)
-    rp = (eta_c ** 2 * cc - ct) / (eta_c ** 2 * cc + ct)
-    Fm = 0.5 * (np.abs(rs) ** 2 + np.abs(rp) ** 2)
+    # grazing guard: eq 8's cosines floored at MU_FLOOR, G with the same cosines
+    nfi = np.maximum(ni, sh.MU_FLOOR)
+    nfo = np.maximum(no, sh.MU_FLOOR)
+    G = np.minimum(1.0, np.minimum(2 * nh * nfo / oh, 2 * nh * nfi / oh))
+
+    def complex_fresnel(metal):
+        eta_c = np.asarray(metal.n) + 1j * np.asarray(metal.k)
+        cc = oh[:, None] + 0j
+        ct = np.sqrt(eta_c ** 2 - (1 - cc ** 2))
+        rs = (cc - ct) / (cc + ct)
+        rp = (eta_c ** 2 * cc - ct) / (eta_c ** 2 * cc + ct)
+        return 0.5 * (np.abs(rs) ** 2 + np.abs(rp) ** 2)
+
+    gl = np.broadcast_to(np.asarray(gild, float), c.shape)[:, None]
+    Fm = gl * complex_fresnel(mat.exposed) + (1 - gl) * complex_fresnel(mat.substrate)
     # dielectric Fresnel, eq 12
     eta = mat.eta_top
     g = np.sqrt(eta ** 2 + oh ** 2 - 1)
     Ft = 0.5 * (g - oh) ** 2 / (g + oh) ** 2 * (1 + (oh * (g + oh) - 1) ** 2 / (oh * (g - oh) + 1) ** 2)
-    base = D * G / (4 * ni * no)
+    base = D * G / (4 * nfi * nfo)
     f_metal = base[:, None] * Fm
     f_spec = base * Ft
     # rho_dt by interpolation in the library's table
@@ -83,14 +98,21 @@ def naive_shade(wi, wo, n, c, mat, interp):
     # Kubelka-Munk, eq 5 verbatim, bottom layer first
     Rg = mt.substrate_reflectance(mat)
     R = np.broadcast_to(Rg, (len(c), 3))
-    for L, xmax in mat.layers:
+    for li, (L, xmax, c0, c1) in enumerate(mat.layers):
         K = np.asarray(L.K)
         S = np.asarray(L.S)
-        X = (c * xmax)[:, None]
+        if li == len(mat.layers) - 1 and mat.crust is not None:  # eq 7: dark crust in the top layer
+            p = (np.broadcast_to(np.asarray(crust, float), c.shape) * mat.crust[1])[:, None]
+            K = (1 - p) * K + p * np.asarray(mat.crust[0].K)
+            S = (1 - p) * S + p * np.asarray(mat.crust[0].S)
+        X = (xmax * np.clip((c - c0) / (c1 - c0), 0, 1))[:, None]
         Ri = (1 + K / S) - np.sqrt((K / S) ** 2 + 2 * K / S)
         E = np.exp(S * X * (1 / Ri - Ri))
         R = ((1 / Ri) * (R - Ri) - Ri * (R - 1 / Ri) * E) / ((R - Ri) - (R - 1 / Ri) * E)
-    f_rust = f_spec[:, None] + (rho_i * rho_o / np.pi)[:, None] * R
+    # internal reflection at the interface (Saunderson-type): 1 - r_i = rho_bar / eta^2
+    rho_bar = sh.mean_transmittance(m, eta)[:, None]
+    r_i = 1 - rho_bar / eta ** 2
+    f_rust = f_spec[:, None] + (rho_i * rho_o / np.pi)[:, None] * R * (1 - r_i) / (rho_bar * (1 - r_i * R))
     f = (1 - c)[:, None] * f_metal + c[:, None] * f_rust
     ok = (ni > 0) & (no > 0)
     return np.where(ok[:, None], f, 0.0)
@@ -107,7 +129,8 @@ def random_points(N, seed=0):
 
     n = rng.normal(size=(N, 3)) * 0.15 + [0, 0, 1]
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    return hemi(N), hemi(N), n, rng.uniform(0.0, 1.0, N)
+    return (hemi(N), hemi(N), n, rng.uniform(0.0, 1.0, N), rng.uniform(0.0, 1.0, N),
+            rng.uniform(0.0, 1.0, N))
 
 
 def best_of(fn, repeat):
@@ -127,13 +150,13 @@ def bench_shading(N, repeat):
     table = sh.rho_dt_table()
     interp = RegularGridInterpolator((table.u, table.log_m, table.kappa), table.values,
                                      bounds_error=False, fill_value=None)
-    wi, wo, n, c = random_points(N)
+    wi, wo, n, c, g, d = random_points(N)
     shader = mt.MaterialShader(mat)
-    shader(wi[:1000], wo[:1000], n[:1000], c[:1000])  # warm up
-    t_fast, f_fast = best_of(lambda: shader(wi, wo, n, c), repeat)
-    t_ref, f_ref = best_of(lambda: mt.shade_reference(wi, wo, n, c, mat), repeat)
+    shader(wi[:1000], wo[:1000], n[:1000], c[:1000], g[:1000], d[:1000])  # warm up
+    t_fast, f_fast = best_of(lambda: shader(wi, wo, n, c, g, d), repeat)
+    t_ref, f_ref = best_of(lambda: mt.shade_reference(wi, wo, n, c, mat, g, d), repeat)
     with np.errstate(all="ignore"):
-        t_naive, f_naive = best_of(lambda: naive_shade(wi, wo, n, c, mat, interp), repeat)
+        t_naive, f_naive = best_of(lambda: naive_shade(wi, wo, n, c, mat, interp, g, d), repeat)
 
     def rel(a, b):
         ok = np.isfinite(b)
@@ -228,6 +251,81 @@ def bench_render(faces, size):
     }
 
 
+def bench_aging(target_faces):
+    from shellrepair import aging as ag
+
+    V, F = bumpy_sphere(target_faces)
+    from shellrepair import shapes
+
+    ag.aging_maps(*shapes.icosphere(1))  # imports
+    t, c = time.perf_counter(), time.process_time()
+    maps = ag.aging_maps(V, F)
+    wall, cpu = time.perf_counter() - t, time.process_time() - c
+    return {"vertices": int(len(V)), "faces": int(len(F)), "seconds_wall": wall, "seconds_cpu": cpu,
+            "corroded_area_fraction": float(np.mean(maps.coverage))}
+
+
+def bench_antialiasing(size):
+    from shellrepair.io import read_mesh
+
+    bunny = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "bunny_zipper.ply")
+    mesh = read_mesh(bunny)
+    out = {}
+    for ss in (1, 2):
+        info = {}
+        t = time.perf_counter()
+        rd.render_mesh(mesh.V, mesh.F, size=size, supersample=ss, info=info)
+        out["ss%d_seconds" % ss] = time.perf_counter() - t
+        out["ss%d_breakdown" % ss] = info["seconds"]
+    out["size"] = list(size)
+    out["cost_ratio"] = out["ss2_seconds"] / out["ss1_seconds"]
+    return out
+
+
+def bench_doc_numbers():
+    """Numbers docs/shading.md quotes, printed from the code."""
+    mat = mt.get_material("aged-bronze")
+    switch = mt.model_switch_footprint_um(mat)
+    choice = mt.choose_model(1000.0, mat)
+    th = np.array([0.0, 60.0, 80.0, 85.0, 87.0, 89.0])
+    c = np.cos(np.radians(th))
+    smooth = {}
+    for eta in (1.5, 1.75):
+        d = np.abs(sh.diffuse_transmittance(c, 0.005, eta) - (1.0 - sh.fresnel_dielectric(c, eta)))
+        smooth["eta=%g" % eta] = {"%g deg" % a: float(v) for a, v in zip(th, d)}
+    rng = np.random.default_rng(3)
+    N = 300
+    tt = rng.uniform(0, 89, N)
+    m = np.exp(rng.uniform(np.log(0.02), 0.0, N))
+    eta = rng.uniform(0.3, 1.0, N)
+    cc = np.cos(np.radians(tt))
+    err = np.abs(sh.diffuse_transmittance(cc, m, eta) - (1.0 - sh.specular_albedo(cc, m, eta, n_t=48,
+                                                                                    n_phi=80)))
+    rough = m >= 0.1
+    # white furnace: directional albedo of a white stack over a grid with eta < 1 and grazing
+    x, w = np.polynomial.legendre.leggauss(400)
+    mu, w = 0.5 * (x + 1.0), 0.5 * w
+    worst = {"below_1": 0.0, "at_or_above_1": 0.0}
+    for e in (0.5, 0.67, 0.8, 0.95, 1.0, 1.2, 1.5, 1.75, 2.5, 3.0):
+        for mm in (0.02, 0.1, 0.3, 1.0, 1.5):
+            co = np.cos(np.radians([0.0, 30.0, 60.0, 80.0, 85.0, 88.0, 89.0, 89.5, 89.9]))
+            A = sh.specular_albedo(co, mm, e, n_t=64, n_phi=96)
+            fd = sh.layered_diffuse(mu[None, :], co[:, None], mm, e, np.ones(1))[..., 0]
+            A = A + 2.0 * np.pi * np.sum(fd * mu * w, axis=1)
+            key = "below_1" if e < 1.0 else "at_or_above_1"
+            worst[key] = max(worst[key], float(A.max()))
+    return {
+        "dipole_switch_footprint_um": switch,
+        "diffusion_length_um": choice.diffusion_length_um,
+        "rho_dt_m0.005_minus_smooth_limit": smooth,
+        "rho_dt_eta_below_1_max_error_m>=0.02": float(err.max()),
+        "rho_dt_eta_below_1_max_error_m>=0.1": float(err[rough].max()),
+        "rho_dt_eta_below_1_median_error": float(np.median(err)),
+        "white_furnace_max_albedo": worst,
+        "internal_reflectance_eta1.75_m0.45": float(sh.internal_reflectance(0.45, 1.75)),
+    }
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=1_000_000)
@@ -243,6 +341,9 @@ def main(argv=None):
     table = bench_table(400 if not args.quick else 60)
     shading = bench_shading(args.points, args.repeat)
     render = bench_render(args.faces, size)
+    aging = bench_aging(2 * args.faces)
+    aa = bench_antialiasing((256, 192) if args.quick else (512, 384))
+    numbers = bench_doc_numbers()
     result = {
         "machine": {"python": platform.python_version(), "numpy": np.__version__,
                     "processor": platform.processor() or platform.machine(),
@@ -250,6 +351,9 @@ def main(argv=None):
         "shading": shading,
         "rho_dt_table": table,
         "render": render,
+        "aging_map": aging,
+        "antialiasing": aa,
+        "doc_numbers": numbers,
     }
     os.makedirs(RESULTS, exist_ok=True)
     path = os.path.join(RESULTS, "bench_shading.json")
@@ -279,6 +383,12 @@ def main(argv=None):
           " model %s (error %.1e)"
           % (r["faces"], size[0], size[1], r["seconds_total"], b["cast"], b["coverage"],
              r["coverage_source"], b["shade"], r["model"], r["model_error_estimate"]))
+    a = aging
+    print("aging map: %d vertices in %.2f s wall, %.2f s CPU" % (a["vertices"], a["seconds_wall"],
+                                                              a["seconds_cpu"]))
+    print("antialiasing (bunny at %dx%d): 1 ray/pixel %.2f s, 2x2 rays %.2f s (x%.2f)"
+          % (aa["size"][0], aa["size"][1], aa["ss1_seconds"], aa["ss2_seconds"], aa["cost_ratio"]))
+    print("doc numbers:", json.dumps(numbers, indent=1))
     print("wrote %s" % os.path.relpath(path))
     return 0
 

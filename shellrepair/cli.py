@@ -7,6 +7,7 @@
     shellrepair batch DIR -o OUTDIR [--jobs N] [--order 1|2|3] [--max-hole N] [--fill-borders]
                       [--bridge auto|never|always] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
+                       [--before MESH] [--unit mm|cm|m] [--age A] [--up AXIS]
 
 Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
 exit status 2; no traceback, no output file. ``batch`` goes on past a bad
@@ -95,7 +96,24 @@ def _parser():
     v.add_argument("--highlight-filled", action="store_true")
     v.add_argument("--view", default=None, help="AZ,EL in degrees")
     v.add_argument("--before", default=None, help="also render this mesh and put it on the left")
+    v.add_argument("--unit", choices=("mm", "cm", "m"), default=None,
+                   help="length unit of the mesh (default: inferred from its size, said in the output); "
+                        "sets the pixel footprint and so the reflectance model")
+    v.add_argument("--age", type=_age, default=None, metavar="A",
+                   help="aging in [0, 1]: 0 all gilt, 1 all corroded (default 0.5)")
+    v.add_argument("--up", default="y", choices=("x", "y", "z", "-x", "-y", "-z"),
+                   help="world up axis: camera up and where rain comes from (default y)")
     return p
+
+
+def _age(text):
+    try:
+        a = float(text)
+    except ValueError:
+        a = float("nan")
+    if not 0.0 <= a <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be a number in [0, 1], not {text!r}")
+    return a
 
 
 def _order(text):
@@ -293,19 +311,29 @@ def _render(args):
     if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
         raise MeshError("output would overwrite an input mesh", out)
     mesh = read_mesh(args.mesh)
+    axis = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}[args.up[-1]]
+    up = tuple(-a for a in axis) if args.up.startswith("-") else axis
     if view is None and args.highlight_filled and mesh.face_filled is not None and mesh.face_filled.any():
-        view = rd.view_towards(mesh.V, mesh.F, mesh.face_filled)  # face the filled region
-    kw = dict(size=(w, h), material=args.material, view=view)
+        view = rd.view_towards(mesh.V, mesh.F, mesh.face_filled, up=up)  # face the filled region
+    unit, unit_reason = (args.unit, "given") if args.unit else rd.infer_unit(mesh.V)
+    kw = dict(size=(w, h), material=args.material, view=view, unit=unit, age=args.age, up=up)
+    info = {}
     if args.before:  # one camera for both panels
         before = read_mesh(args.before)
         img = rd.render_side_by_side(before.V, before.F, mesh.V, mesh.F, filled=mesh.face_filled,
                                      highlight_filled=args.highlight_filled,
                                      vertex_colors_before=before.vertex_colors,
-                                     vertex_colors_after=mesh.vertex_colors, **kw)
+                                     vertex_colors_after=mesh.vertex_colors, info=info, **kw)
+        info = info["after"]
     else:
+        legend = ("filled by the repair" if args.highlight_filled and mesh.face_filled is not None
+                  and mesh.face_filled.any() else None)
         img = rd.render_mesh(mesh.V, mesh.F, filled=mesh.face_filled, highlight_filled=args.highlight_filled,
-                             vertex_colors=mesh.vertex_colors, **kw)
+                             vertex_colors=mesh.vertex_colors, legend=legend, info=info, **kw)
     rd.save_png(out, img)
+    choice = info["model"]
+    print(f"unit: {unit} ({unit_reason})")
+    print(f"pixel footprint {info['footprint_um']:.3g} um: {choice.model} model ({choice.reason})")
     print(f"wrote {out}")
     return 0
 

@@ -4,17 +4,30 @@ A gilt-bronze statue after centuries (source paper, 4.4; Dorsey & Hanrahan
 1996) is bronze partly covered by corrosion layers -- cuprite (Cu2O) next to
 the metal, then green basic copper salts -- with remnants of gold leaf where
 the corrosion has not reached.  Per vertex a *rust coverage* c in [0, 1]
-says how much of the surface is corroded; it drives
+says how much of the surface is corroded and a *gilding* fraction g in
+[0, 1] how much of the uncorroded rest still carries gold leaf (the rest is
+bare, worn bronze).  c drives
 
 - the Beckmann roughness ``m = m_exposed + (m_rust - m_exposed) c``
   (source paper 4.3: the spread of rust is used as the roughness), and
-- the thickness of each corrosion layer ``X_l = c X_l_max``,
+- the thickness of each corrosion layer, which grows in the order the
+  corrosion forms (source paper 4.4; Dorsey & Hanrahan 1996): cuprite next
+  to the metal first (``X = X_max clip(c / c_full)``), the green basic
+  salts on top of it later (``X = X_max clip((c - c_start) / (1 - c_start))``),
+  so a thin patina shows cuprite red-brown and a thick one green,
 
-and the BRDF is the area-weighted mix of the exposed metal (Torrance-Sparrow
+and the BRDF is the area-weighted mix of the exposed metals (Torrance-Sparrow
 with conductor Fresnel) and the corroded part (Torrance-Sparrow with
-dielectric Fresnel over the Kubelka-Munk stack on bronze)::
+dielectric Fresnel over the Kubelka-Munk stack on bronze, with the
+interface's internal reflection, :func:`shellrepair.shading.layered_diffuse`)::
 
-    f = (1 - c) f_TS,metal + c [f_TS,patina + rho_dt(i) R_KM(c) rho_dt(o) / pi]
+    f = (1 - c) [g f_TS,gold + (1 - g) f_TS,bronze]
+        + c [f_TS,patina + rho_dt(i) rho_dt(o) R_eff(c, d) / pi]
+    R_eff = R_KM (1 - r_i) / (rho_bar (1 - r_i R_KM))
+
+where a dark crust d in [0, 1] (soot and sulphates where rain does not wash
+the patina) is mixed into the outermost layer by eq 7.  c, g and d per
+vertex come from the scan's colours or from :mod:`shellrepair.aging`.
 
 Colour is three channels at the wavelengths :data:`RGB_WAVELENGTHS_NM`.
 
@@ -45,8 +58,10 @@ __all__ = [
     "BRONZE",
     "CUPRITE",
     "GREEN_PATINA",
+    "DARK_CRUST",
     "MATERIALS",
     "get_material",
+    "layer_thicknesses",
     "rust_coverage_from_colors",
     "rust_coverage_from_occlusion",
     "rust_coverage",
@@ -56,6 +71,7 @@ __all__ = [
     "MaterialShader",
     "ModelChoice",
     "choose_model",
+    "model_switch_footprint_um",
 ]
 
 #: Wavelengths (nm) of the R, G, B channels: rows of Johnson & Christy's
@@ -93,17 +109,23 @@ class Material:
     ----------
     name : str
     exposed : Conductor
-        Metal seen where there is no rust (gold leaf, or bronze).
+        Metal seen where there is no rust and the gilding holds (gold leaf,
+        or bronze for an ungilded statue).
     substrate : Conductor
-        Metal under the corrosion layers.
-    layers : tuple of (KMLayer, float)
-        Corrosion layers from the metal up, with their thickness (um) at
-        full coverage.  Empty for an uncorroded metal.
+        Metal under the corrosion layers, and where the gilding is worn off.
+    layers : tuple of (KMLayer, X_max, c_start, c_full)
+        Corrosion layers from the metal up: thickness (um) at full growth
+        and the coverage range over which it grows linearly from 0 to
+        X_max (:func:`layer_thicknesses`).  Empty for an uncorroded metal.
     m_exposed, m_rust : float
         Beckmann RMS slope at coverage 0 and 1.
     eta_top : float
         Refractive index of the outermost corrosion layer (the rough
         dielectric interface).
+    crust : (KMLayer, float) or None
+        A dark deposit mixed into the outermost layer (eq 7) in proportion
+        ``crust x p_max`` where the surface is sheltered from washing rain,
+        with its largest proportion p_max.
     """
 
     name: str
@@ -113,6 +135,7 @@ class Material:
     m_exposed: float
     m_rust: float
     eta_top: float
+    crust: tuple = None
 
     @property
     def corrodes(self):
@@ -138,12 +161,15 @@ BRONZE = Conductor(
 #: Cuprite, Cu2O, the red oxide next to the metal.  No published
 #: Kubelka-Munk K, S exist for it: the values are ILLUSTRATIVE, chosen only
 #: to follow its ~2.1 eV band gap (weak absorption in red, strong in green
-#: and blue).  Its index (n ~ 2.85, Handbook of Mineralogy) is not used for
-#: an interface because it lies under the green patina.
+#: and blue) and so that 4 um of it on copper, under the eta = 1.75
+#: interface, looks red-brown (diffuse albedo ~ (0.27, 0.03, 0.013), sRGB
+#: ~ (141, 48, 30); docs/shading.md).  Its index (n ~ 2.85, Handbook of
+#: Mineralogy) is not used for an interface because it lies under the green
+#: patina.
 CUPRITE = KMLayer(
     "cuprite",
-    K=(0.04, 1.0, 4.0),
-    S=(0.15, 0.15, 0.15),
+    K=(0.08, 1.2, 3.0),
+    S=(0.3, 0.3, 0.3),
     eta=2.85,
     illustrative=True,
     source="illustrative K, S (no published values); n from Handbook of Mineralogy",
@@ -151,15 +177,31 @@ CUPRITE = KMLayer(
 
 #: Green patina of basic copper salts (brochantite / malachite).  No
 #: published K, S: the values are ILLUSTRATIVE (absorb red, scatter
-#: weakly).  eta = 1.75 lies within the principal indices of brochantite
-#: (1.73-1.80) and malachite (1.66-1.91), Handbook of Mineralogy.
+#: weakly), chosen so that a thick layer, seen through the eta = 1.75
+#: interface with its internal reflection, has the diffuse albedo
+#: ~ (0.07, 0.30, 0.20) (sRGB ~ (75, 150, 125)) of a verdigris patina rather
+#: than a pastel mint; K/S = (1.4, 0.11, 0.27).  eta = 1.75 lies within the
+#: principal indices of brochantite (1.73-1.80) and malachite (1.66-1.91),
+#: Handbook of Mineralogy.
 GREEN_PATINA = KMLayer(
     "green patina",
-    K=(0.060, 0.010, 0.030),
-    S=(0.05, 0.06, 0.06),
+    K=(0.2, 0.022, 0.045),
+    S=(0.1, 0.1, 0.1),
     eta=1.75,
     illustrative=True,
     source="illustrative K, S (no published values); eta from Handbook of Mineralogy",
+)
+
+#: Dark crust on sheltered outdoor bronze: soot and sulphate deposits that
+#: rain does not wash away (Graedel 1987; Scott 2002).  ILLUSTRATIVE K, S: a
+#: black, weakly scattering pigment, mixed into the green layer by eq 7.
+DARK_CRUST = KMLayer(
+    "dark crust",
+    K=(1.5, 1.5, 1.5),
+    S=(0.1, 0.1, 0.1),
+    eta=1.75,
+    illustrative=True,
+    source="illustrative K, S (a black deposit); dark crusts on sheltered bronze: Graedel 1987, Scott 2002",
 )
 
 MATERIALS = {
@@ -167,14 +209,36 @@ MATERIALS = {
         "aged-bronze",
         exposed=GOLD_LEAF,
         substrate=BRONZE,
-        layers=((CUPRITE, 3.0), (GREEN_PATINA, 60.0)),
+        # cuprite forms first (full 4 um at c = 0.3), the green salts grow
+        # on it from c = 0.25 to 40 um at c = 1
+        layers=((CUPRITE, 4.0, 0.0, 0.3), (GREEN_PATINA, 40.0, 0.25, 1.0)),
         m_exposed=0.15,
         m_rust=0.45,
         eta_top=GREEN_PATINA.eta,
+        crust=(DARK_CRUST, 0.06),
     ),
     "gilt": Material("gilt", GOLD_LEAF, BRONZE, (), 0.12, 0.12, GREEN_PATINA.eta),
     "bronze": Material("bronze", BRONZE, BRONZE, (), 0.2, 0.2, GREEN_PATINA.eta),
 }
+
+
+def layer_thicknesses(coverage, material):
+    """Thickness of each corrosion layer at a rust coverage.
+
+    Parameters
+    ----------
+    coverage : (...) float array in [0, 1]
+    material : Material or str
+
+    Returns
+    -------
+    X : list of (...) float64 arrays
+        Thickness (um) of each layer, from the metal up:
+        ``X_max clip((c - c_start) / (c_full - c_start), 0, 1)``.
+    """
+    mat = get_material(material)
+    c = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)
+    return [xmax * np.clip((c - c0) / (c1 - c0), 0.0, 1.0) for _, xmax, c0, c1 in mat.layers]
 
 
 def get_material(name):
@@ -366,7 +430,8 @@ def rust_coverage_from_occlusion(V, F, *, n_dirs=16, radius=0.1, base=0.2, gain=
     return out
 
 
-def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=None):
+def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=None,
+                  colors_only=False):
     """Per-vertex rust coverage: from colours when informative, else occlusion.
 
     Parameters
@@ -388,6 +453,10 @@ def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=
     source : str
         ``"colors"`` or ``"occlusion"`` (colours that are nearly grey, median
         saturation below 0.05, carry no rust cue and are ignored).
+    colors_only : bool
+        Return ``(None, None)`` instead of estimating occlusion when the
+        colours carry no cue (the renderer then uses
+        :func:`shellrepair.aging.aging_maps`).
     """
     if vertex_colors is not None:
         col = np.asarray(vertex_colors)
@@ -395,6 +464,8 @@ def rust_coverage(V, F, vertex_colors=None, *, subset=None, normals=None, scene=
         _, sat = _hue_sat(np.clip(rgb, 0.0, 1.0))
         if len(sat) and np.median(sat) >= _SAT_UNINFORMATIVE:
             return rust_coverage_from_colors(col), "colors"
+    if colors_only:
+        return None, None
     return rust_coverage_from_occlusion(V, F, subset=subset, normals=normals, scene=scene), "occlusion"
 
 
@@ -416,12 +487,12 @@ def surface_params(coverage, material):
     m : (...) float64 array
         ``m_exposed + (m_rust - m_exposed) c``.
     X : list of (...) float64 arrays
-        Thickness (um) of each corrosion layer, ``c X_max``.
+        Thickness (um) of each corrosion layer (:func:`layer_thicknesses`).
     """
     mat = get_material(material)
     c = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)
     m = mat.m_exposed + (mat.m_rust - mat.m_exposed) * c
-    return m, [c * xmax for _, xmax in mat.layers]
+    return m, layer_thicknesses(c, mat)
 
 
 def substrate_reflectance(material):
@@ -443,16 +514,21 @@ def substrate_reflectance(material):
     return sh.fresnel_conductor(1.0, n, k)
 
 
-def _km_of_coverage(c, mat):
+def _km_of_coverage(c, mat, crust=0.0):
     c = np.asarray(c, dtype=np.float64)
     Rg = substrate_reflectance(mat)
-    layers = [
-        (np.asarray(L.K), np.asarray(L.S), (c * xmax)[..., None]) for L, xmax in mat.layers
-    ]
-    return sh.km_layers(layers, Rg)
+    X = layer_thicknesses(c, mat)
+    layers = [[np.asarray(L[0].K), np.asarray(L[0].S), x[..., None]] for L, x in zip(mat.layers, X)]
+    if mat.crust is not None:
+        # eq 7: the dark deposit mixed into the outermost layer
+        p = (np.clip(np.asarray(crust, dtype=np.float64), 0.0, 1.0) * mat.crust[1])[..., None]
+        top = layers[-1]
+        top[0] = (1.0 - p) * top[0] + p * np.asarray(mat.crust[0].K)
+        top[1] = (1.0 - p) * top[1] + p * np.asarray(mat.crust[0].S)
+    return sh.km_layers([tuple(L) for L in layers], Rg)
 
 
-def shade_reference(wi, wo, n, coverage, material):
+def shade_reference(wi, wo, n, coverage, material, gild=1.0, crust=0.0):
     """The full aged-metal BRDF, composed term by term from :mod:`shading`.
 
     Parameters
@@ -461,6 +537,12 @@ def shade_reference(wi, wo, n, coverage, material):
         Unit light direction, view direction and normal.
     coverage : (...) float array in [0, 1]
     material : Material or str
+    gild : (...) float array in [0, 1], optional
+        Fraction of the uncorroded area where the exposed metal (gold leaf)
+        remains; the rest shows the substrate (bronze).  1 by default.
+    crust : (...) float array in [0, 1], optional
+        Dark deposit on the patina (sheltered from rain), as a fraction of
+        the material's largest proportion (eq 7 mixing).  0 by default.
 
     Returns
     -------
@@ -474,12 +556,16 @@ def shade_reference(wi, wo, n, coverage, material):
     """
     mat = get_material(material)
     c = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)
+    g = np.clip(np.asarray(gild, dtype=np.float64), 0.0, 1.0)
     m, _ = surface_params(c, mat)
-    metal = sh.torrance_sparrow_conductor(wi, wo, n, m, np.asarray(mat.exposed.n),
-                                          np.asarray(mat.exposed.k))
+    gold = sh.torrance_sparrow_conductor(wi, wo, n, m, np.asarray(mat.exposed.n),
+                                         np.asarray(mat.exposed.k))
+    bare = sh.torrance_sparrow_conductor(wi, wo, n, m, np.asarray(mat.substrate.n),
+                                         np.asarray(mat.substrate.k))
+    metal = g[..., None] * gold + (1.0 - g)[..., None] * bare
     if not mat.corrodes:
         return metal
-    R_km = _km_of_coverage(c, mat)
+    R_km = _km_of_coverage(c, mat, crust)
     rust = sh.local_brdf(wi, wo, n, m, mat.eta_top, R_km)
     return (1.0 - c)[..., None] * metal + c[..., None] * rust
 
@@ -498,8 +584,10 @@ class MaterialShader:
     For one material every nonlinear factor except the Beckmann exponent is
     a function of one or two bounded scalars, so it is tabulated once:
 
-    - conductor and dielectric Fresnel as functions of o.h (1-D),
-    - R_KM as a function of the coverage c (1-D; m and X follow from c),
+    - conductor (gold, bronze) and dielectric Fresnel as functions of o.h
+      (1-D),
+    - R_eff = R_KM (1 - r_i) / (rho_bar (1 - r_i R_KM)) as a function of the
+      coverage c (1-D; m and X follow from c),
     - rho_dt as a function of (sqrt(cos theta), c) (2-D), sliced from the
       shared rho_dt table at this material's eta.
 
@@ -517,12 +605,29 @@ class MaterialShader:
         self._F_metal = sh.fresnel_conductor(x[:, None], np.asarray(mat.exposed.n),
                                              np.asarray(mat.exposed.k))  # (L, 3)
         self._dF_metal = np.diff(self._F_metal, axis=0, append=self._F_metal[-1:])
+        self._F_bare = sh.fresnel_conductor(x[:, None], np.asarray(mat.substrate.n),
+                                            np.asarray(mat.substrate.k))  # (L, 3)
+        self._dF_bare = np.diff(self._F_bare, axis=0, append=self._F_bare[-1:])
         self.corrodes = mat.corrodes
         if self.corrodes:
             self._F_top = sh.fresnel_dielectric(x, mat.eta_top)
             self._dF_top = np.diff(self._F_top, append=self._F_top[-1])
-            self._R_km = _km_of_coverage(x, mat)  # (L, 3), nodes in c
-            self._dR_km = np.diff(self._R_km, axis=0, append=self._R_km[-1:])
+            # R_eff on a (c, crust) grid; c nodes 1/1024 apart (the layer
+            # schedule's kinks at c = 0.25 and 0.3 fall on or next to nodes)
+            self._nrc = 1025
+            self._nrd = 65 if mat.crust is not None else 2
+            xc = np.linspace(0.0, 1.0, self._nrc)[:, None]
+            xd = np.linspace(0.0, 1.0, self._nrd)[None, :]
+            R = _km_of_coverage(xc, mat, xd)  # (Nc, Nd, 3)
+            m_x, _ = surface_params(xc, mat)
+            r_i = sh.internal_reflectance(m_x, mat.eta_top)[..., None]
+            rbar_x = sh.mean_transmittance(m_x, mat.eta_top)[..., None]
+            # internal reflection at the interface folded in (layered_diffuse)
+            Reff = R * (1.0 - r_i) / (np.maximum(rbar_x, 1e-300) * (1.0 - r_i * R))
+            self._R_eff = Reff
+            self._R4 = np.ascontiguousarray(np.concatenate(
+                [Reff[:-1, :-1], Reff[:-1, 1:], Reff[1:, :-1], Reff[1:, 1:]], axis=-1
+            ).reshape(-1, 12))
             table = sh.rho_dt_table()
             sl = table.slice_eta(mat.eta_top)  # (Nu, Nm)
             self._nc = 257
@@ -546,9 +651,21 @@ class MaterialShader:
         Ft = self._F_top if self.corrodes else np.zeros(self.n_lut)
         dFt = self._dF_top if self.corrodes else np.zeros(self.n_lut)
         self._Fpack = np.ascontiguousarray(
-            np.concatenate([self._F_metal, Ft[:, None], self._dF_metal, dFt[:, None]], axis=1))
-        if self.corrodes:
-            self._Rpack = np.ascontiguousarray(np.concatenate([self._R_km, self._dR_km], axis=1))
+            np.concatenate([self._F_metal, self._F_bare, Ft[:, None],
+                            self._dF_metal, self._dF_bare, dFt[:, None]], axis=1))
+
+    def _R_of(self, c, d):
+        """Bilinear R_eff(c, crust), one gather of the 4 corners."""
+        fc = c * (self._nrc - 1)
+        i = np.minimum(fc.astype(np.intp), self._nrc - 2)
+        a = (fc - i)[:, None]
+        fd = np.clip(d, 0.0, 1.0) * (self._nrd - 1)
+        j = np.minimum(fd.astype(np.intp), self._nrd - 2)
+        b = (fd - j)[:, None]
+        g = np.take(self._R4, i * (self._nrd - 1) + j, axis=0)
+        r0 = g[:, 0:3] + b * (g[:, 3:6] - g[:, 0:3])
+        r1 = g[:, 6:9] + b * (g[:, 9:12] - g[:, 6:9])
+        return r0 + a * (r1 - r0)
 
     def _lut(self, T, dT, x):
         f = x * (self.n_lut - 1)
@@ -580,13 +697,16 @@ class MaterialShader:
         r1 = g[:, 2] + b * (g[:, 3] - g[:, 2])
         return r0 + a * (r1 - r0)
 
-    def __call__(self, wi, wo, n, coverage, *, parts=False):
+    def __call__(self, wi, wo, n, coverage, gild=1.0, crust=0.0, *, parts=False):
         """Evaluate the BRDF.
 
         Parameters
         ----------
         wi, wo, n : (..., 3) float arrays (broadcasting)
         coverage : (...) float array in [0, 1]
+        gild, crust : (...) float arrays in [0, 1], optional
+            Gilding fraction of the uncorroded area and dark crust on the
+            patina (see :func:`shade_reference`).
         parts : bool, optional
             Return the specular and diffuse parts separately.
 
@@ -597,17 +717,22 @@ class MaterialShader:
         """
         wi, wo, n = (np.asarray(a, dtype=np.float64) for a in (wi, wo, n))
         c = np.asarray(coverage, dtype=np.float64)
-        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape)
+        g = np.asarray(gild, dtype=np.float64)
+        dd = np.asarray(crust, dtype=np.float64)
+        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape, g.shape,
+                                    dd.shape)
         P = int(np.prod(shape))
         wi = np.broadcast_to(wi, shape + (3,)).reshape(P, 3)
         wo = np.broadcast_to(wo, shape + (3,)).reshape(P, 3)
         n = np.broadcast_to(n, shape + (3,)).reshape(P, 3)
         c = np.broadcast_to(c, shape).reshape(P)
+        g = np.broadcast_to(g, shape).reshape(P)
+        dd = np.broadcast_to(dd, shape).reshape(P)
         spec = np.empty((P, 3), dtype=np.float64)
         diff = np.zeros((P, 3), dtype=np.float64) if parts else None
         for s in range(0, P, self.chunk):
             sl = slice(s, s + self.chunk)
-            fs, fd = self._eval(wi[sl], wo[sl], n[sl], c[sl])
+            fs, fd = self._eval(wi[sl], wo[sl], n[sl], c[sl], g[sl], dd[sl])
             if parts:
                 spec[sl] = fs
                 if fd is not None:
@@ -618,7 +743,7 @@ class MaterialShader:
             return spec.reshape(shape + (3,)), diff.reshape(shape + (3,))
         return spec.reshape(shape + (3,))
 
-    def ambient(self, cos_o, coverage):
+    def ambient(self, cos_o, coverage, gild=1.0, crust=0.0):
         """Reflectance weights under a distant environment.
 
         Parameters
@@ -626,6 +751,7 @@ class MaterialShader:
         cos_o : (P,) float array
             Cosine of the view direction with the normal.
         coverage : (P,) float array
+        gild, crust : (P,) float arrays or floats, optional
 
         Returns
         -------
@@ -637,22 +763,26 @@ class MaterialShader:
         -----
         The dielectric lobe's directional albedo is exactly
         ``1 - rho_dt(o)``; the diffuse albedo under uniform light is
-        ``rho_dt(o) R_KM rho_bar`` with ``rho_bar = 2 int rho_dt(mu) mu dmu``.
+        ``rho_dt(o) R_eff rho_bar`` with ``rho_bar = 2 int rho_dt(mu) mu dmu``
+        (= ``rho_dt(o) R_KM (1 - r_i) / (1 - r_i R_KM)``).
         The conductor lobe is approximated by F(n.o) (roughness ignored).
         """
         no = np.clip(np.asarray(cos_o, dtype=np.float64), 0.0, 1.0)
         c = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)
-        Fm = self._lut(self._F_metal, self._dF_metal, no)
+        g = np.clip(np.asarray(gild, dtype=np.float64), 0.0, 1.0)
+        g = np.broadcast_to(g, no.shape)[:, None]
+        Fm = (g * self._lut(self._F_metal, self._dF_metal, no)
+              + (1.0 - g) * self._lut(self._F_bare, self._dF_bare, no))
         if not self.corrodes:
             return Fm, np.zeros_like(Fm)
         rho_o = self._rho(np.sqrt(no), c)
         rbar = np.interp(c, np.linspace(0.0, 1.0, self._nc), self._rho_bar)
-        R = self._lut(self._R_km, self._dR_km, c)
+        R = self._R_of(c, np.broadcast_to(np.asarray(crust, dtype=np.float64), c.shape))
         w_spec = (1.0 - c)[:, None] * Fm + (c * (1.0 - rho_o))[:, None]
         w_diff = (c * rho_o * rbar)[:, None] * R
         return w_spec, w_diff
 
-    def _eval(self, wi, wo, n, c):
+    def _eval(self, wi, wo, n, c, gild, crust):
         # For unit wi, wo: |wi + wo|^2 = 2 (1 + wi.wo), o.h = sqrt((1 + wi.wo) / 2)
         # and n.h = (n.i + n.o) / |wi + wo|: three dot products, no h array.
         c = np.clip(c, 0.0, 1.0)
@@ -665,6 +795,8 @@ class MaterialShader:
         nos = np.where(valid, no, 1.0)
         inv_hl = 1.0 / np.sqrt(np.where(valid, hl2, 1.0))
         nh = np.minimum((nis + nos) * inv_hl, 1.0)
+        nfi = np.maximum(nis, sh.MU_FLOOR)  # grazing guard of eq 8's denominator
+        nfo = np.maximum(nos, sh.MU_FLOOR)
         oh = np.minimum(0.5 * np.where(valid, hl2, 1.0) * inv_hl, 1.0)
         m = np.maximum(self._m0 + self._dm * c, sh.M_MIN)
         inv_m2 = 1.0 / (m * m)
@@ -672,18 +804,20 @@ class MaterialShader:
         nh2 = nh * nh
         D = np.exp((nh2 - 1.0) / nh2 * inv_m2) * inv_m2 / (np.pi * nh2 * nh2)
         # G / (4 ni no)  (eq 11 over the denominator of eq 8)
-        g = np.minimum(1.0 / (nis * nos), 2.0 * nh / (np.maximum(oh, sh.COS_EPS) * np.maximum(nis, nos)))
+        g = np.minimum(1.0 / (nfi * nfo), 2.0 * nh / (np.maximum(oh, sh.COS_EPS) * np.maximum(nfi, nfo)))
         DG4 = np.where(valid, 0.25 * D * g, 0.0)
-        Fmt = self._packed(self._Fpack, oh, 4)  # conductor (3) and dielectric (1) Fresnel
+        Fmt = self._packed(self._Fpack, oh, 7)  # gold (3), bronze (3) and dielectric (1) Fresnel
+        gl = np.clip(gild, 0.0, 1.0)[:, None]
+        Fmetal = gl * Fmt[:, :3] + (1.0 - gl) * Fmt[:, 3:6]
         if not self.corrodes:
-            return DG4[:, None] * Fmt[:, :3], None
-        spec = DG4[:, None] * ((1.0 - c)[:, None] * Fmt[:, :3] + (c * Fmt[:, 3])[:, None])
+            return DG4[:, None] * Fmetal, None
+        spec = DG4[:, None] * ((1.0 - c)[:, None] * Fmetal + (c * Fmt[:, 6])[:, None])
         fc = c * (self._nc - 1)
         j = np.minimum(fc.astype(np.intp), self._nc - 2)
         b = fc - j
         rho = self._rho_cj(np.sqrt(nis), j, b) * self._rho_cj(np.sqrt(nos), j, b)
         diff = np.where(valid, c * rho * (1.0 / np.pi), 0.0)
-        R = self._packed(self._Rpack, c, 3)
+        R = self._R_of(c, crust)
         return spec, diff[:, None] * R
 
     def _rho_cj(self, u, j, b):
@@ -768,9 +902,9 @@ def choose_model(footprint_um, material, *, coverage=1.0, tol=0.01):
     if not mat.corrodes or coverage <= 0.0:
         return ModelChoice("specular", 0.0, 0.0, fp,
                            "opaque conductor: no light enters, Torrance-Sparrow alone is exact")
-    Ks = np.array([L.K for L, _ in mat.layers], dtype=np.float64)
-    Ss = np.array([L.S for L, _ in mat.layers], dtype=np.float64)
-    X = np.array([x * coverage for _, x in mat.layers], dtype=np.float64)
+    Ks = np.array([L[0].K for L in mat.layers], dtype=np.float64)
+    Ss = np.array([L[0].S for L in mat.layers], dtype=np.float64)
+    X = np.array(layer_thicknesses(coverage, mat), dtype=np.float64)
     K, S = sh.km_mix(Ks, Ss, X)  # eq 7, weighted by thickness
     sa, ssp = sh.km_to_transport(K, S)
     s_tr = np.sqrt(3.0 * sa * (sa + ssp))
@@ -783,3 +917,41 @@ def choose_model(footprint_um, material, *, coverage=1.0, tol=0.01):
     return ModelChoice("dipole", err, ell, fp,
                        "diffusion length %.3g um visible at footprint %.3g um: the local form "
                        "would misplace %.2g of the diffuse light" % (ell, fp, err))
+
+
+def model_switch_footprint_um(material, *, coverage=1.0, tol=0.01):
+    """Pixel footprint (um) below which :func:`choose_model` picks the dipole.
+
+    Parameters
+    ----------
+    material : Material or str
+        A corroding material.
+    coverage, tol : float, optional
+        As in :func:`choose_model`.
+
+    Returns
+    -------
+    footprint_um : float
+        The footprint at which the misplaced fraction equals ``tol``
+        (bisection in log footprint to a relative 1e-6); ``0.0`` for a
+        material that does not corrode (never the dipole).
+
+    Notes
+    -----
+    The misplaced fraction decreases monotonically with the footprint (the
+    dipole profile's tail beyond half a pixel), so the switch is one point.
+    docs/shading.md quotes the value this prints.
+    """
+    mat = get_material(material)
+    if not mat.corrodes or coverage <= 0.0:
+        return 0.0
+    lo, hi = 1e-3, 1e6
+    for _ in range(80):
+        mid = np.sqrt(lo * hi)
+        if choose_model(mid, mat, coverage=coverage, tol=tol).model == "local":
+            hi = mid
+        else:
+            lo = mid
+        if hi / lo < 1.0 + 1e-6:
+            break
+    return float(hi)

@@ -1,17 +1,22 @@
 """CPU ray-cast renderer for repaired scans with the aged-metal reflectance.
 
-One primary ray per pixel through an auto-framed pinhole camera is cast with
-open3d's ``RaycastingScene`` (an Embree BVH); each hit is shaded by
+2 x 2 primary rays per pixel (averaged in linear light) through an
+auto-framed pinhole camera are cast with open3d's ``RaycastingScene`` (an
+Embree BVH); each hit is shaded by
 :class:`shellrepair.materials.MaterialShader` under two directional lights
-with ray-traced shadows, plus a sky/ground environment term, then tone
-mapped to sRGB.  Faces flagged ``filled`` (synthesised by the repair) can be
-tinted so a viewer sees what was added.
+with ray-traced shadows, plus a warm room with a soft box seen in mirror
+reflections, then tone mapped to sRGB.  Rust coverage and gilding come from
+the scan's colours when informative, else from the aging map
+(:func:`shellrepair.aging.aging_maps`).  Faces flagged ``filled``
+(synthesised by the repair) can be tinted so a viewer sees what was added;
+side-by-side renders share one camera and carry labels and a legend.
 
 The model is chosen per render (:func:`shellrepair.materials.choose_model`)
-from the pixel footprint on the statue: at ordinary statue scales the
-corrosion layers' diffusion length (~10 um) is far below a pixel and the
-local form is used; if a close-up makes it visible, the diffuse term is
-spread in screen space by the dipole profile.
+from the pixel footprint on the statue, which needs the mesh's length unit
+(given, or inferred from its size by :func:`infer_unit`): at ordinary statue
+scales the corrosion layers' diffusion length (~5 um) is far below a pixel
+and the local form is used; if a close-up makes it visible (below ~38 um a
+pixel), the diffuse term is spread in screen space by the dipole profile.
 
 Everything is deterministic: no random sampling.
 """
@@ -39,6 +44,10 @@ __all__ = [
     "render_mesh",
     "render_side_by_side",
     "save_png",
+    "infer_unit",
+    "draw_label",
+    "draw_legend",
+    "UNITS_UM",
     "FILLED_TINT",
 ]
 
@@ -49,14 +58,21 @@ FILLED_TINT_WEIGHT = 0.55
 #: Background colour (sRGB, 0-255).
 BACKGROUND = np.array([38, 40, 46], dtype=np.uint8)
 #: Lights in camera coordinates (x right, y up, z towards the viewer) and
-#: their irradiance (linear RGB, arbitrary units).
+#: their irradiance (linear RGB, arbitrary units): a museum-like warm key
+#: (tungsten-halogen, ~3200 K) and a weaker neutral fill.
 _LIGHTS = (
-    (np.array([-0.55, 0.75, 0.65]), np.array([2.6, 2.45, 2.2])),  # key, warm
-    (np.array([0.75, 0.15, 0.55]), np.array([0.55, 0.6, 0.7])),  # fill, cool
+    (np.array([-0.55, 0.75, 0.65]), np.array([2.5, 2.15, 1.65])),  # key, warm
+    (np.array([0.75, 0.15, 0.55]), np.array([0.5, 0.5, 0.52])),  # fill, neutral
 )
-#: Environment radiance above and below the horizon (linear RGB).
-_SKY = np.array([0.30, 0.32, 0.36])
+#: Environment radiance above and below the horizon (linear RGB): a warm
+#: room, bright above, dark floor.  Metals show what they mirror, so this
+#: is what makes gold read as gold rather than as a grey-khaki.
+_SKY = np.array([0.30, 0.25, 0.18])
 _GROUND = np.array([0.05, 0.045, 0.04])
+#: A soft box seen in mirror reflections, around the key light: radiance
+#: added to the environment (linear RGB) and its angular width (radians).
+_SOFTBOX = np.array([2.6, 2.2, 1.7])
+_SOFTBOX_WIDTH = 0.35
 #: Exposure applied before tone mapping.
 _EXPOSURE = 1.0
 #: Offset of shadow-ray origins, as a fraction of the bounding radius.
@@ -236,11 +252,16 @@ def _srgb(linear):
     return np.round(np.clip(s, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def _environment(r, up):
-    """Sky/ground radiance for unit directions r (..., 3)."""
+def _environment(r, up, box=None):
+    """Room radiance for unit directions r (..., 3); with ``box`` (a unit
+    direction) a soft box around it is added (for mirror lookups)."""
     t = np.clip(0.5 * (1.0 + r @ up), 0.0, 1.0)
     t = t * t * (3.0 - 2.0 * t)
-    return _GROUND + (_SKY - _GROUND) * t[..., None]
+    L = _GROUND + (_SKY - _GROUND) * t[..., None]
+    if box is not None:
+        a = np.exp(-(1.0 - np.clip(r @ box, -1.0, 1.0)) / (0.5 * _SOFTBOX_WIDTH ** 2))
+        L = L + _SOFTBOX * a[..., None]
+    return L
 
 
 def _dipole_spread(diffuse_img, mask, choice, material, footprint_um):
@@ -248,9 +269,9 @@ def _dipole_spread(diffuse_img, mask, choice, material, footprint_um):
     from scipy.signal import fftconvolve
 
     mat = mt.get_material(material)
-    Ks = np.array([L.K for L, _ in mat.layers])
-    Ss = np.array([L.S for L, _ in mat.layers])
-    X = np.array([x for _, x in mat.layers])
+    Ks = np.array([L[0].K for L in mat.layers])
+    Ss = np.array([L[0].S for L in mat.layers])
+    X = np.array(mt.layer_thicknesses(1.0, mat))
     K, S = sh.km_mix(Ks, Ss, X)
     sa, ssp = sh.km_to_transport(K, S)
     rad_px = int(min(64, max(2, np.ceil(4.0 * choice.diffusion_length_um / footprint_um))))
@@ -267,9 +288,106 @@ def _dipole_spread(diffuse_img, mask, choice, material, footprint_um):
     return out
 
 
+#: Length of one mesh unit in micrometres, by unit name.
+UNITS_UM = {"mm": 1e3, "cm": 1e4, "m": 1e6}
+#: Heights (metres) a statue scan plausibly has: a figurine to a life-size
+#: statue.
+STATUE_HEIGHT_M = (0.05, 3.0)
+#: Order of preference when several units give a plausible height: scanners
+#: and the formats they write mostly use millimetres.
+_UNIT_PREFERENCE = ("mm", "m", "cm")
+
+
+def infer_unit(V):
+    """The length unit that makes a scan a plausibly sized statue.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+
+    Returns
+    -------
+    unit : str
+        ``"mm"``, ``"cm"`` or ``"m"``.
+    reason : str
+        One line saying why (the height it implies).
+
+    Notes
+    -----
+    The height is the largest bounding-box extent (whatever the up axis).
+    Among the units that put it in :data:`STATUE_HEIGHT_M` the first of
+    mm, m, cm is taken (an extent of 50-300 fits both mm and cm: mm is the
+    scanners' usual unit); if none does, the unit whose height is closest to
+    the range (in ratio) is taken and the reason says so.
+
+    Examples
+    --------
+    >>> infer_unit(np.array([[0, 0, 0], [0.06, 0.15, 0.05]]))[0]   # the Stanford bunny
+    'm'
+    >>> infer_unit(np.array([[0, 0, 0], [240.0, 360, 490]]))[0]   # a bust in mm
+    'mm'
+    """
+    V = np.asarray(V, dtype=np.float64)
+    ext = float(np.max(V.max(axis=0) - V.min(axis=0))) if len(V) else 0.0
+    lo, hi = STATUE_HEIGHT_M
+    heights = {u: ext * UNITS_UM[u] * 1e-6 for u in UNITS_UM}
+    for u in _UNIT_PREFERENCE:
+        if lo <= heights[u] <= hi:
+            return u, ("inferred: the largest extent %.4g would be %.3g m tall in %s, a plausible "
+                       "statue (%.2g-%.2g m)" % (ext, heights[u], u, lo, hi))
+
+    def miss(u):
+        hgt = max(heights[u], 1e-300)
+        return max(np.log(lo / hgt), np.log(hgt / hi), 0.0)
+
+    u = min(_UNIT_PREFERENCE, key=miss)
+    return u, ("inferred: no unit makes the largest extent %.4g a %.2g-%.2g m statue; %s "
+               "(%.3g m) is the closest" % (ext, lo, hi, u, heights[u]))
+
+
+def _unit_um(unit, V):
+    """(micrometres per mesh unit, unit name, reason) from a unit name, number or None."""
+    if unit is None:
+        name, reason = infer_unit(V)
+        return UNITS_UM[name], name, reason
+    if isinstance(unit, str):
+        if unit not in UNITS_UM:
+            raise _InputError("unit must be one of %s, got %r" % (", ".join(UNITS_UM), unit))
+        return UNITS_UM[unit], unit, "given"
+    um = float(unit)
+    if not um > 0.0 or not np.isfinite(um):
+        raise _InputError("unit must be a positive length in micrometres, got %r" % (unit,))
+    return um, "%g um" % um, "given"
+
+
+def _srgb_to_linear(u8):
+    x = np.asarray(u8, dtype=np.float64) / 255.0
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+def _linear_to_srgb8(x):
+    x = np.clip(x, 0.0, 1.0)
+    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+    return np.round(s * 255.0).astype(np.uint8)
+
+
+def _downsample(img, s):
+    """Average s x s blocks of an sRGB uint8 image in linear light."""
+    if s == 1:
+        return img
+    H, W = img.shape[0] // s, img.shape[1] // s
+    lin = _srgb_to_linear(img).reshape(H, s, W, s, 3).mean(axis=(1, 3))
+    return _linear_to_srgb8(lin)
+
+
+def _scaled_camera(cam, s):
+    return dataclasses.replace(cam, width=cam.width * s, height=cam.height * s)
+
+
 def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                 highlight_filled=False, view=None, vertex_colors=None, coverage=None,
-                camera=None, unit_um=1000.0, info=None):
+                gild=None, crust=None, camera=None, unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0),
+                seed=0, supersample=2, legend=None, info=None):
     """Render a triangle mesh with the aged-metal shading.
 
     Parameters
@@ -287,17 +405,34 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     view : (float, float) or None
         (azimuth, elevation) in degrees; see :func:`frame_camera`.
     vertex_colors : (n,3) uint8 array or None
-        Scanned colours; used for the rust-coverage map when informative.
-    coverage : (n,) float array or None
-        Rust coverage per vertex; overrides ``vertex_colors`` / occlusion.
+        Scanned colours; used for the rust coverage when informative.
+    coverage, gild : (n,) float arrays or None
+        Rust coverage and gilding per vertex; override ``vertex_colors`` and
+        the aging map (:func:`shellrepair.aging.aging_maps`).  ``gild``
+        defaults to 1 (all gilt) when only ``coverage`` is given.
+    crust : (n,) float array or None
+        Dark crust on the patina per vertex (0 when ``coverage`` is given
+        without it).
     camera : Camera or None
         Use this camera instead of auto-framing (``size`` is then ignored).
-    unit_um : float
-        Length of one mesh unit in micrometres (1000 for a scan in mm); sets
-        the pixel footprint for the model choice.
+    unit : {"mm", "cm", "m"}, float or None
+        Length of one mesh unit (a name, or micrometres); None infers it
+        from the size (:func:`infer_unit`).  Sets the pixel footprint for
+        the model choice.  ``unit_um`` is the older spelling of a number.
+    age : float or None
+        Aging level in [0, 1] of the aging map (None: its default).
+    up : (3,) sequence
+        World up: the camera's up and where the rain comes from.
+    seed : int
+        Seed of the aging map's blotches.
+    supersample : int
+        Rays per pixel along each axis (2: 2 x 2 rays, averaged in linear
+        light; 1: one ray per pixel).
+    legend : str or None
+        Text drawn at the bottom-left (e.g. what the tint means).
     info : dict or None
-        If given, filled with the camera, the :class:`ModelChoice`, the
-        coverage source and timings.
+        If given, filled with the camera, the :class:`ModelChoice`, the unit,
+        the coverage source, the aging maps and timings.
 
     Returns
     -------
@@ -306,9 +441,11 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     Raises
     ------
     ValueError (shellrepair.errors.MeshError)
-        For malformed V, F, filled or vertex_colors, or an unknown material.
+        For malformed V, F, filled or vertex_colors, an unknown material or
+        unit, or an age outside [0, 1].
     """
     import open3d as o3d
+    from . import aging as ag
 
     t0 = time.perf_counter()
     V, F = _validate(V, F)
@@ -323,52 +460,72 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         if vertex_colors.shape != (len(V), 3):
             raise _InputError("vertex_colors must be (%d,3), got shape %s"
                               % (len(V), vertex_colors.shape))
-    cam = camera if camera is not None else frame_camera(V, size, view)
-    W, H = cam.width, cam.height
+    if age is not None and not 0.0 <= float(age) <= 1.0:
+        raise _InputError("age must be in [0, 1], got %r" % (age,))
+    ss = int(supersample)
+    if ss < 1:
+        raise _InputError("supersample must be >= 1, got %r" % (supersample,))
+    um_per_unit, unit_name, unit_reason = _unit_um(unit_um if unit_um is not None else unit, V)
+    cam = camera if camera is not None else frame_camera(V, size, view, up=up)
+    cam_s = _scaled_camera(cam, ss)
+    W, H = cam_s.width, cam_s.height
 
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
                         o3d.core.Tensor(F.astype(np.uint32)))
-    hit = scene.cast_rays(o3d.core.Tensor(cam.rays()))
+    rays_all = cam_s.rays()
+    hit = scene.cast_rays(o3d.core.Tensor(rays_all))
     t_hit = hit["t_hit"].numpy().reshape(H, W)
     mask = np.isfinite(t_hit)
     image = np.broadcast_to(BACKGROUND, (H, W, 3)).copy()
     t1 = time.perf_counter()
 
-    # coverage per vertex
-    Nv = None  # vertex normals, computed once for the occlusion and the shading
-    if not mat.corrodes:
+    # rust coverage and gilding per vertex
+    maps = None
+    ones = np.ones(len(V))
+    crust_v = np.zeros(len(V)) if crust is None else np.clip(np.asarray(crust, np.float64), 0.0, 1.0)
+    if not mat.corrodes and coverage is None:
         cov_v, cov_src = np.zeros(len(V)), "none"
+        gild_v = ones if gild is None else np.clip(np.asarray(gild, np.float64), 0.0, 1.0)
     elif coverage is not None:
         cov_v = np.clip(np.asarray(coverage, dtype=np.float64), 0.0, 1.0)
         if cov_v.shape != (len(V),):
             raise _InputError("coverage must have one value per vertex (%d), got shape %s"
                               % (len(V), cov_v.shape))
+        gild_v = ones if gild is None else np.clip(np.asarray(gild, np.float64), 0.0, 1.0)
         cov_src = "given"
     else:
-        # occlusion is only estimated where the camera sees the mesh
-        seen = F[np.unique(hit["primitive_ids"].numpy().reshape(H, W)[mask])].ravel() if np.any(mask) \
-            else np.zeros(0, np.int64)
-        Nv = mt.vertex_normals(V, F)
-        cov_v, cov_src = mt.rust_coverage(V, F, vertex_colors, subset=seen, normals=Nv, scene=scene)
+        cov_src = None
+        if vertex_colors is not None:
+            cov_v, cov_src = mt.rust_coverage(V, F, vertex_colors, colors_only=True)
+            gild_v = ones
+        if cov_src is None:
+            maps = ag.aging_maps(V, F, age=ag.DEFAULT_AGE if age is None else float(age), up=up,
+                                 seed=seed)
+            cov_v, gild_v, cov_src = maps.coverage, maps.gild, "aging"
+            if crust is None:
+                crust_v = maps.crust
+    for name, arr in (("gild", gild_v), ("crust", crust_v)):
+        if arr.shape != (len(V),):
+            raise _InputError("%s must have one value per vertex (%d), got shape %s"
+                              % (name, len(V), arr.shape))
     t2 = time.perf_counter()
 
-    right, upv, back = cam.basis()
+    right, upv, back = cam_s.basis()
     radius = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) * 0.5 or 1.0
     dist_c = float(np.linalg.norm(cam.eye - cam.target))
-    footprint_um = cam.footprint(dist_c) * unit_um
+    footprint_um = cam.footprint(dist_c) * um_per_unit  # of an output pixel
     choice = mt.choose_model(footprint_um, mat, coverage=float(cov_v.max()) if len(cov_v) else 0.0)
 
     if np.any(mask):
         pid = hit["primitive_ids"].numpy().reshape(H, W)[mask].astype(np.int64)
         uv = hit["primitive_uvs"].numpy().reshape(H, W, 2)[mask].astype(np.float64)
-        rays = cam.rays()[mask].astype(np.float64)
+        rays = rays_all[mask].astype(np.float64)
         d = rays[:, 3:]
         p = rays[:, :3] + t_hit[mask][:, None].astype(np.float64) * d
         tri = F[pid]
         bw = np.stack([1.0 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]], axis=1)
-        if Nv is None:
-            Nv = mt.vertex_normals(V, F)
+        Nv = mt.vertex_normals(V, F)
         n = np.einsum("pk,pkj->pj", bw, Nv[tri])
         ng = np.cross(V[tri[:, 1]] - V[tri[:, 0]], V[tri[:, 2]] - V[tri[:, 0]])
         ngl = np.linalg.norm(ng, axis=1, keepdims=True)
@@ -384,6 +541,8 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         ndo = np.einsum("ij,ij->i", n, wo)
         n = np.where((ndo < 0.02)[:, None], ng, n)
         c = np.einsum("pk,pk->p", bw, cov_v[tri])
+        g = np.einsum("pk,pk->p", bw, gild_v[tri])
+        dk = np.einsum("pk,pk->p", bw, crust_v[tri])
         shader = mt.MaterialShader(mat)
         origin = p + (_SHADOW_EPS * radius) * ng
         spec_sum = np.zeros((len(p), 3))
@@ -398,39 +557,130 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             vis = lit & ~occl
             if not np.any(vis):
                 continue
-            spec, diff = shader(ldir, wo[vis], n[vis], c[vis], parts=True)
+            spec, diff = shader(ldir, wo[vis], n[vis], c[vis], g[vis], dk[vis], parts=True)
             w = (cos_i[vis])[:, None] * E
             spec_sum[vis] += spec * w
             diff_sum[vis] += diff * w
-        # environment: metals mirror the sky/ground, the patina sees it diffusely
+        # environment: metals mirror the room, the patina sees it diffusely
         no = np.clip(np.einsum("ij,ij->i", n, wo), 0.0, 1.0)
         refl = 2.0 * no[:, None] * n - wo
-        env_spec, env_diff = shader.ambient(no, c)
-        spec_sum += env_spec * _environment(refl, cam.up)
+        env_spec, env_diff = shader.ambient(no, c, g, dk)
+        key = _LIGHTS[0][0]
+        key = key[0] * right + key[1] * upv + key[2] * back
+        spec_sum += env_spec * _environment(refl, cam.up, key / np.linalg.norm(key))
         diff_sum += env_diff * _environment(n, cam.up)
         if choice.model == "dipole":
             dimg = np.zeros((H, W, 3))
             dimg[mask] = diff_sum
-            diff_sum = _dipole_spread(dimg, mask, choice, mat, footprint_um)[mask]
+            diff_sum = _dipole_spread(dimg, mask, choice, mat, footprint_um / ss)[mask]
         rgb = _EXPOSURE * (spec_sum + diff_sum)
         if highlight_filled and filled is not None:
             fsel = filled[pid]
             rgb[fsel] = (1.0 - FILLED_TINT_WEIGHT) * rgb[fsel] + FILLED_TINT_WEIGHT * FILLED_TINT * (
                 0.35 + 0.65 * no[fsel, None])
         image[mask] = _srgb(rgb)
+    image = _downsample(image, ss)
+    if legend:
+        image = draw_legend(image, legend, FILLED_TINT if highlight_filled else None)
     t3 = time.perf_counter()
     if info is not None:
-        info.update(camera=cam, model=choice, coverage_source=cov_src,
+        info.update(camera=cam, model=choice, coverage_source=cov_src, unit=unit_name,
+                    unit_reason=unit_reason, footprint_um=footprint_um, maps=maps,
                     seconds={"cast": t1 - t0, "coverage": t2 - t1, "shade": t3 - t2,
                              "total": t3 - t0},
-                    hit_pixels=int(mask.sum()))
+                    hit_pixels=int(mask.sum()) // (ss * ss), supersample=ss)
     return image
+
+
+# --------------------------------------------------------------------------
+# Text on images
+# --------------------------------------------------------------------------
+
+#: Text colour (sRGB) and the shade behind it.
+_TEXT = (235, 235, 235)
+_TEXT_SHADE = (20, 21, 24)
+
+
+def _font(px):
+    from PIL import ImageFont
+
+    try:
+        return ImageFont.load_default(size=px)  # Pillow >= 10.1: a scalable font
+    except TypeError:  # pragma: no cover - older Pillow: the fixed bitmap font
+        return ImageFont.load_default()
+
+
+def _text_px(image):
+    return int(np.clip(round(image.shape[0] / 22), 10, 40))
+
+
+def draw_label(image, text, *, where="top-left"):
+    """Write a short label on an image (on a dark box), returning a new image.
+
+    Parameters
+    ----------
+    image : (H,W,3) uint8 array
+    text : str
+    where : {"top-left", "bottom-left"}
+
+    Returns
+    -------
+    image : (H,W,3) uint8 array
+    """
+    from PIL import Image, ImageDraw
+
+    im = Image.fromarray(np.ascontiguousarray(image), "RGB")
+    dr = ImageDraw.Draw(im)
+    px = _text_px(image)
+    font = _font(px)
+    pad = max(2, px // 3)
+    x0, y0, x1, y1 = dr.textbbox((0, 0), text, font=font)
+    w, h = x1 - x0, y1 - y0
+    x = pad
+    y = pad if where == "top-left" else image.shape[0] - h - 3 * pad
+    dr.rectangle([x - pad // 2, y - pad // 2, x + w + pad, y + h + pad + y0], fill=_TEXT_SHADE)
+    dr.text((x - x0 + pad // 4, y), text, fill=_TEXT, font=font)
+    return np.asarray(im).copy()
+
+
+def draw_legend(image, text, swatch=None):
+    """A legend at the bottom-left: a colour swatch (linear RGB) and its meaning.
+
+    Parameters
+    ----------
+    image : (H,W,3) uint8 array
+    text : str
+    swatch : (3,) float array (linear RGB) or None
+
+    Returns
+    -------
+    image : (H,W,3) uint8 array
+    """
+    from PIL import Image, ImageDraw
+
+    im = Image.fromarray(np.ascontiguousarray(image), "RGB")
+    dr = ImageDraw.Draw(im)
+    px = _text_px(image)
+    font = _font(px)
+    pad = max(2, px // 3)
+    x0, y0, x1, y1 = dr.textbbox((0, 0), text, font=font)
+    w, h = x1 - x0, y1 - y0
+    sw = px if swatch is not None else 0
+    y = image.shape[0] - h - 3 * pad
+    dr.rectangle([pad // 2, y - pad // 2, pad + sw + pad + w + pad, y + h + pad + y0], fill=_TEXT_SHADE)
+    if swatch is not None:
+        col = tuple(int(v) for v in _linear_to_srgb8(np.asarray(swatch, np.float64)))
+        dr.rectangle([pad, y + y0, pad + sw, y + y0 + h], fill=col)
+    dr.text((pad + sw + pad - x0, y), text, fill=_TEXT, font=font)
+    return np.asarray(im).copy()
 
 
 def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768),
                         material="aged-bronze", filled=None, highlight_filled=False, view=None,
                         vertex_colors_before=None, vertex_colors_after=None, gap=8,
-                        unit_um=1000.0):
+                        unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0), seed=0,
+                        supersample=2, labels=("before", "after"), legend="filled by the repair",
+                        info=None):
     """Before and after renders with one shared camera, side by side.
 
     Parameters
@@ -444,25 +694,68 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     filled : (m_after,) bool array or None
         Filled faces of the repaired mesh.
     highlight_filled : bool
-        Tint the filled faces in the right panel.
+        Tint the filled faces in the right panel (a legend says so).
     gap : int
         Pixels of background between the panels.
+    labels : (str, str) or None
+        Written at the top-left of each panel.
+    legend : str or None
+        With ``highlight_filled``, the meaning of the tint, written next to a
+        swatch of it at the bottom-left of the right panel.
+    info : dict or None
+        Filled with ``{"before": {...}, "after": {...}}`` as in
+        :func:`render_mesh`.
     Other parameters are as in :func:`render_mesh`.
 
     Returns
     -------
     image : (H, 2W + gap, 3) numpy uint8 array
+
+    Notes
+    -----
+    Both panels use one camera, framed on both meshes, one unit (inferred
+    from the repaired mesh when not given) and one aging map: it is computed
+    on the repaired mesh and each vertex of the scan takes the values of the
+    nearest repaired vertex (the original vertices are kept by the repair, so
+    these are the same points), so the two panels differ only where the
+    repair added surface.
     """
-    Vb, _ = _validate(V_before, F_before)
-    Va, _ = _validate(V_after, F_after)
-    cam = frame_camera(np.concatenate([Vb, Va]), size, view)
-    left = render_mesh(V_before, F_before, material=material, vertex_colors=vertex_colors_before,
-                       camera=cam, unit_um=unit_um)
-    right = render_mesh(V_after, F_after, material=material, filled=filled,
-                        highlight_filled=highlight_filled, vertex_colors=vertex_colors_after,
-                        camera=cam, unit_um=unit_um)
+    from scipy.spatial import cKDTree
+
+    from . import aging as ag
+
+    Vb, Fb = _validate(V_before, F_before)
+    Va, Fa = _validate(V_after, F_after)
+    cam = frame_camera(np.concatenate([Vb, Va]), size, view, up=up)
+    um, _, _ = _unit_um(unit_um if unit_um is not None else unit, Va)
+    mat = mt.get_material(material)
+    cov = {"before": None, "after": None}
+    gld = {"before": None, "after": None}
+    crs = {"before": None, "after": None}
+    if mat.corrodes and vertex_colors_before is None and vertex_colors_after is None:
+        maps = ag.aging_maps(Va, Fa, age=ag.DEFAULT_AGE if age is None else float(age), up=up, seed=seed)
+        _, near = cKDTree(Va).query(Vb)
+        cov = {"before": maps.coverage[near], "after": maps.coverage}
+        gld = {"before": maps.gild[near], "after": maps.gild}
+        crs = {"before": maps.crust[near], "after": maps.crust}
+    if not (highlight_filled and filled is not None and np.any(filled)):
+        legend = None
+    panels = {}
+    common = dict(material=material, camera=cam, unit=um, age=age, up=up, seed=seed,
+                  supersample=supersample)
+    for key, (V, F, vc, fl, hl, lg) in {
+            "before": (Vb, Fb, vertex_colors_before, None, False, None),
+            "after": (Va, Fa, vertex_colors_after, filled, highlight_filled, legend)}.items():
+        sub = {}
+        img = render_mesh(V, F, vertex_colors=vc, filled=fl, highlight_filled=hl, coverage=cov[key],
+                          gild=gld[key], crust=crs[key], legend=lg, info=sub, **common)
+        if labels:
+            img = draw_label(img, labels[0] if key == "before" else labels[1])
+        panels[key] = img
+        if info is not None:
+            info[key] = sub
     sep = np.broadcast_to(BACKGROUND, (cam.height, int(gap), 3))
-    return np.concatenate([left, sep, right], axis=1)
+    return np.concatenate([panels["before"], sep, panels["after"]], axis=1)
 
 
 def save_png(path, image):

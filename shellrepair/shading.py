@@ -43,6 +43,7 @@ References
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import os
 import tempfile
@@ -53,6 +54,7 @@ import numpy as np
 __all__ = [
     "M_MIN",
     "COS_EPS",
+    "MU_FLOOR",
     "RHO_DT_M_RANGE",
     "RHO_DT_ETA_RANGE",
     "RHO_DT_MAX_ERROR",
@@ -64,6 +66,9 @@ __all__ = [
     "torrance_sparrow_conductor",
     "specular_albedo",
     "diffuse_transmittance",
+    "mean_transmittance",
+    "internal_reflectance",
+    "layered_diffuse",
     "RhoDtTable",
     "rho_dt_table",
     "km_r_inf",
@@ -96,9 +101,19 @@ COS_EPS = 1e-12
 _TINY = np.finfo(np.float64).tiny
 
 #: Domain of the precomputed rho_dt table (roughness m, relative index eta).
-#: The brief requires at least m in [0.02, 1] and eta in [1.1, 2.5].
+#: eta < 1 (the layer optically thinner than the medium above it) is
+#: covered too: light arriving outside the critical cone is totally
+#: reflected, and the table holds that consistently with the Fresnel term.
 RHO_DT_M_RANGE = (0.005, 1.5)
-RHO_DT_ETA_RANGE = (1.0, 3.0)
+RHO_DT_ETA_RANGE = (0.3, 3.0)
+
+#: Floor (dimensionless) of the cosines n.i and n.o in the denominator
+#: 4 (n.i)(n.o) of eq 8: cos(89.5 deg).  Without it a mirror pair of
+#: directions both grazing the horizon gives f ~ D / (4 cos^2), 1e6-1e10
+#: for the presets' roughness.  Flooring a denominator can only lower f, so
+#: the directional albedo stays below its unfloored value (<= 1) and
+#: ``f (n.i) <= F D(n.h) / (4 max(n.o, MU_FLOOR)) <= 1 / (4 pi m^2 MU_FLOOR)``.
+MU_FLOOR = float(np.cos(np.radians(89.5)))
 
 #: Stated bound on |table - reference quadrature| for incidence up to 89 deg
 #: over RHO_DT_M_RANGE x RHO_DT_ETA_RANGE (checked in tests/test_shading.py
@@ -327,8 +342,9 @@ def _microfacet_geometry(wi, wo, n, m):
     hv = hv / np.where(valid, hlen, 1.0)[..., None]
     nh = np.clip(_dot(n, hv), 0.0, 1.0)
     oh = np.clip(_dot(wo, hv), 0.0, 1.0)
-    nis = np.where(valid, ni, 1.0)
-    nos = np.where(valid, no, 1.0)
+    # grazing guard: the cosines of eq 8's denominator are floored at MU_FLOOR
+    nis = np.maximum(np.where(valid, ni, 1.0), MU_FLOOR)
+    nos = np.maximum(np.where(valid, no, 1.0), MU_FLOOR)
     ohs = np.maximum(oh, COS_EPS)
     # G / (ni no) with G = min(1, 2 nh no / oh, 2 nh ni / oh)   (eq 11)
     g_over = np.minimum(1.0 / (nis * nos), 2.0 * nh / (ohs * np.maximum(nis, nos)))
@@ -367,6 +383,10 @@ def torrance_sparrow(wi, wo, n, m, eta):
     G eq 11, F eq 12.  ``G / ((n.i)(n.o))`` is evaluated as
     ``min(1/(ni no), 2 nh/(oh max(ni, no)))`` which is the same quantity
     with no 0/0 as a direction grazes.  Symmetric in wi and wo.
+
+    Grazing guard: in that denominator n.i and n.o are floored at
+    :data:`MU_FLOOR` (cos 89.5 deg), which bounds
+    ``f (n.i) <= 1 / (4 pi m^2 MU_FLOOR)`` and can only lower the albedo.
 
     References
     ----------
@@ -541,13 +561,16 @@ def specular_albedo(cos_theta, m, eta, *, n_t=64, n_phi=64):
 #: Grid of the table.  Axes are chosen so that trilinear interpolation is
 #: accurate where rho_dt bends sharply (measured, docs/shading.md):
 #: u = sqrt(cos theta) (fine near grazing, where F rises steeply), log m,
-#: and kappa = sqrt(eta^2 - 1) (the g of eq 12 at grazing; fine near eta = 1).
+#: and the signed kappa = sign(eta - 1) sqrt(|eta^2 - 1|) (the g of eq 12 at
+#: grazing for eta > 1, minus the critical cosine for eta < 1; fine near
+#: eta = 1).  _TABLE_N_KAPPA nodes span eta in [1, 3]; the same spacing
+#: continues below 0 down to eta = RHO_DT_ETA_RANGE[0].
 _TABLE_N_U = 129
 _TABLE_N_M = 49
 _TABLE_N_KAPPA = 81
 _TABLE_QUAD = (24, 40)  # (n_t, n_phi) per node
 _TABLE_N_C = 1025  # nodes in o.h for the Fresnel factor
-_TABLE_VERSION = 3
+_TABLE_VERSION = 4
 #: Geometric azimuth panels on each side of phi = pi/2 in the quadrature.
 _PHI_GRADING = 4
 
@@ -563,7 +586,8 @@ class RhoDtTable:
     log_m : (Nm,) float64 array
         Natural log of the roughness nodes, uniform.
     kappa : (Nk,) float64 array
-        ``sqrt(eta^2 - 1)`` nodes, uniform.
+        Signed ``sign(eta - 1) sqrt(|eta^2 - 1|)`` nodes, uniform, with a
+        node at 0 (eta = 1).
     values : (Nu, Nm, Nk) float64 array
         ``1 - specular_albedo`` at the nodes.
     """
@@ -577,25 +601,46 @@ class RhoDtTable:
         """Trilinear interpolation; inputs clamped to the grid."""
         return _trilinear(self, cos_theta, m, eta)
 
+    @functools.cached_property
+    def mean_values(self):
+        """``(Nm, Nk)`` cosine-weighted hemispherical mean of rho_dt.
+
+        ``rho_bar = 2 int_0^1 rho_dt(mu) mu dmu = 4 int_0^1 rho_dt(u) u^3 du``
+        (mu = u^2), by the trapezoid rule on the table's u nodes.
+        """
+        w = 4.0 * self.u ** 3
+        return np.trapezoid(self.values * w[:, None, None], self.u, axis=0)
+
     def slice_eta(self, eta):
         """2-D table ``(Nu, Nm)`` for one fixed eta (linear in kappa)."""
-        kap = np.sqrt(max(float(eta) ** 2 - 1.0, 0.0))
+        kap = float(_kappa(float(eta)))
         k, w = _axis_index(np.float64(kap), self.kappa[0], self.kappa[1] - self.kappa[0],
                            self.kappa.size)
         return (1.0 - w) * self.values[:, :, k] + w * self.values[:, :, k + 1]
 
 
+def _kappa(eta):
+    """Signed table coordinate of eta: sign(eta - 1) sqrt(|eta^2 - 1|)."""
+    e2 = np.asarray(eta, dtype=np.float64) ** 2 - 1.0
+    return np.sign(e2) * np.sqrt(np.abs(e2))
+
+
+def _eta_of_kappa(kappa):
+    return np.sqrt(1.0 + kappa * np.abs(kappa))
+
+
 def _grid():
     u = np.linspace(0.0, 1.0, _TABLE_N_U)
     log_m = np.linspace(np.log(RHO_DT_M_RANGE[0]), np.log(RHO_DT_M_RANGE[1]), _TABLE_N_M)
-    kappa = np.linspace(np.sqrt(RHO_DT_ETA_RANGE[0] ** 2 - 1.0),
-                        np.sqrt(RHO_DT_ETA_RANGE[1] ** 2 - 1.0), _TABLE_N_KAPPA)
+    dk = _kappa(RHO_DT_ETA_RANGE[1]) / (_TABLE_N_KAPPA - 1)
+    n_neg = int(np.ceil(-_kappa(RHO_DT_ETA_RANGE[0]) / dk - 1e-9))
+    kappa = dk * np.arange(-n_neg, _TABLE_N_KAPPA)
     return u, log_m, kappa
 
 
 def _build_table():
     u, log_m, kappa = _grid()
-    eta = np.sqrt(1.0 + kappa * kappa)
+    eta = _eta_of_kappa(kappa)
     n_t, n_phi = _TABLE_QUAD
     vals = np.empty((u.size, log_m.size, kappa.size), dtype=np.float64)
     mm = np.exp(log_m)
@@ -686,24 +731,46 @@ def _axis_index(x, x0, dx, n):
     return i, f - i
 
 
+def _edge_aligned_cos(x, c_query, c_node):
+    """Move cos theta = x from a critical cosine c_query to c_node.
+
+    For eta < 1 rho_dt falls steeply at the critical angle (cos = c =
+    sqrt(1 - eta^2), total internal reflection beyond it).  Two table
+    slices in eta have their edges at different angles, so blending them at
+    the same angle would give two half steps.  Instead each slice is read at
+    the angle that lies in the same relative position to its own edge:
+    piecewise linear in x with 0 -> 0, c_query -> c_node, 1 -> 1.
+    """
+    below = x < c_query
+    lo = x * c_node / np.maximum(c_query, _TINY)
+    hi = c_node + (x - c_query) * (1.0 - c_node) / np.maximum(1.0 - c_query, _TINY)
+    return np.where(below, lo, hi)
+
+
 def _trilinear(table, cos_theta, m, eta):
     cos_theta, m, eta = np.broadcast_arrays(
         np.asarray(cos_theta, dtype=np.float64),
         np.asarray(m, dtype=np.float64),
         np.asarray(eta, dtype=np.float64),
     )
-    u = np.sqrt(np.clip(cos_theta, 0.0, 1.0))
+    x = np.clip(cos_theta, 0.0, 1.0)
     lm = np.log(np.maximum(m, M_MIN))
-    kap = np.sqrt(np.maximum(eta * eta - 1.0, 0.0))
+    kap = _kappa(np.maximum(eta, _TINY))
     U, L, Kp = table.u, table.log_m, table.kappa
-    i, wi = _axis_index(u, U[0], U[1] - U[0], U.size)
     j, wj = _axis_index(lm, L[0], L[1] - L[0], L.size)
     k, wk = _axis_index(kap, Kp[0], Kp[1] - Kp[0], Kp.size)
+    kap_c = np.clip(kap, Kp[0], Kp[-1])
     V = table.values
     out = 0.0
-    for di, ai in ((0, 1.0 - wi), (1, wi)):
-        for dj, aj in ((0, 1.0 - wj), (1, wj)):
-            for dk, ak in ((0, 1.0 - wk), (1, wk)):
+    for dk, ak in ((0, 1.0 - wk), (1, wk)):
+        # eta < 1: read each slice at the same position relative to its
+        # critical angle (for eta >= 1 there is none and x is unchanged)
+        kn = Kp[k + dk]
+        tir = (kap_c < 0.0) & (kn < 0.0)
+        xk = np.where(tir, _edge_aligned_cos(x, -np.minimum(kap_c, 0.0), -np.minimum(kn, 0.0)), x)
+        i, wi = _axis_index(np.sqrt(xk), U[0], U[1] - U[0], U.size)
+        for di, ai in ((0, 1.0 - wi), (1, wi)):
+            for dj, aj in ((0, 1.0 - wj), (1, wj)):
                 out = out + ai * aj * ak * V[i + di, j + dj, k + dk]
     return np.asarray(out, dtype=np.float64)
 
@@ -731,12 +798,14 @@ def diffuse_transmittance(cos_theta, m, eta):
         rho_dt(o) = 1 - int_{2 pi} f_r(o, i) (n.i) dw_i
 
     Read by trilinear interpolation in (sqrt(cos theta), log m,
-    sqrt(eta^2 - 1)) from a table of
+    sign(eta - 1) sqrt(|eta^2 - 1|)) from a table of
     Gauss-quadrature values (:func:`rho_dt_table`).  Stated accuracy:
     within :data:`RHO_DT_MAX_ERROR` (1e-3) of the reference quadrature for
-    m in [0.005, 1.5], eta in [1.0, 3.0] and incidence up to 89 degrees
+    m in [0.02, 1], eta in [1.1, 2.5] and incidence up to 89 degrees
     (measured maximum in docs/shading.md); between 89 and 90 degrees the
-    table is still finite and monotone but not held to that bound.
+    table is still finite and monotone but not held to that bound.  For
+    eta < 1 (total internal reflection outside the critical cone) the same
+    table is used; its measured error there is in docs/shading.md.
 
     Examples
     --------
@@ -744,6 +813,120 @@ def diffuse_transmittance(cos_theta, m, eta):
     1.0
     """
     return np.clip(rho_dt_table()(cos_theta, m, eta), 0.0, 1.0)
+
+
+def mean_transmittance(m, eta):
+    """Cosine-weighted hemispherical mean of rho_dt (diffuse light entering).
+
+    Parameters
+    ----------
+    m : (...) float array
+        Beckmann RMS slope; clamped to :data:`RHO_DT_M_RANGE`.
+    eta : (...) float array
+        Relative refractive index; clamped to :data:`RHO_DT_ETA_RANGE`.
+
+    Returns
+    -------
+    rho_bar : (...) float64 array in [0, 1]
+        ``2 int_0^1 rho_dt(mu) mu dmu``: the fraction of uniformly diffuse
+        light from above that crosses the interface (1 - the external
+        diffuse reflectance r_e).
+
+    Notes
+    -----
+    Bilinear in (log m, signed kappa) on the table's nodes, each node a
+    trapezoid rule over its 129 u nodes (:attr:`RhoDtTable.mean_values`).
+    """
+    table = rho_dt_table()
+    m, eta = np.broadcast_arrays(np.asarray(m, dtype=np.float64), np.asarray(eta, dtype=np.float64))
+    L, Kp = table.log_m, table.kappa
+    j, wj = _axis_index(np.log(np.maximum(m, M_MIN)), L[0], L[1] - L[0], L.size)
+    k, wk = _axis_index(_kappa(np.maximum(eta, _TINY)), Kp[0], Kp[1] - Kp[0], Kp.size)
+    M = table.mean_values
+    out = ((1.0 - wj) * ((1.0 - wk) * M[j, k] + wk * M[j, k + 1])
+           + wj * ((1.0 - wk) * M[j + 1, k] + wk * M[j + 1, k + 1]))
+    return np.clip(out, 0.0, 1.0)
+
+
+def internal_reflectance(m, eta):
+    """Diffuse reflectance r_i of the interface seen from inside the layer.
+
+    Parameters
+    ----------
+    m, eta : (...) float arrays
+        As :func:`mean_transmittance`.
+
+    Returns
+    -------
+    r_i : (...) float64 array in [0, 1)
+
+    Notes
+    -----
+    Diffuse (Lambertian) light going up inside a layer of index eta leaves
+    with probability ``1 - r_i``.  Reciprocity of the interface (the
+    radiance of transmitted light scales by eta^2) ties it to the outside
+    transmittance: ``1 - r_i = rho_bar / eta^2`` (e.g. Kelemen &
+    Szirmay-Kalos 2001; Weidlich & Wilkie 2007).  For a smooth interface
+    at eta = 1.5 this gives r_i ~ 0.60, the classical value.  Clamped to
+    [0, 1 - 1e-9] so that ``1 / (1 - r_i R)`` stays finite.
+    """
+    m, eta = np.broadcast_arrays(np.asarray(m, dtype=np.float64), np.asarray(eta, dtype=np.float64))
+    e = np.clip(eta, RHO_DT_ETA_RANGE[0], RHO_DT_ETA_RANGE[1])
+    return np.clip(1.0 - mean_transmittance(m, eta) / (e * e), 0.0, 1.0 - 1e-9)
+
+
+def layered_diffuse(cos_i, cos_o, m, eta, R_km):
+    """Diffuse BRDF of a Kubelka-Munk stack under a rough dielectric interface.
+
+    Parameters
+    ----------
+    cos_i, cos_o : (...) float arrays
+        Cosines of the light and view directions with the normal; 0 at or
+        below the horizon (<= :data:`COS_EPS`).
+    m, eta : (...) float arrays
+        Roughness and relative index of the interface.
+    R_km : (..., C) float array
+        Diffuse reflectance of the stack below the interface, per channel.
+
+    Returns
+    -------
+    f_d : (..., C) float64 array
+        BRDF (1/sr).
+
+    Notes
+    -----
+    Eq 2 in its local form (R_d -> R_KM at a point) with the light that the
+    interface reflects back down counted (a Saunderson-type correction,
+    Saunderson 1942)::
+
+        f_d = rho_dt(i) rho_dt(o) R / (pi eta^2 (1 - r_i R))
+
+    Light enters with probability rho_dt(i) (eq 3), is reflected diffusely
+    by the stack (R), leaves with probability 1 - r_i = rho_bar / eta^2
+    (:func:`internal_reflectance`) or goes back down for another round
+    (the geometric series 1 / (1 - r_i R)); by reciprocity the leaving light
+    is distributed as rho_dt(o) cos(o), normalised by pi rho_bar.  It is
+    evaluated as ``rho_dt(i) rho_dt(o) R (1 - r_i) / (pi rho_bar (1 - r_i R))``,
+    equal to the form above where ``1 - r_i = rho_bar / eta^2`` and, where
+    the single-scattering lobe makes rho_bar / eta^2 exceed 1 (rough
+    interfaces with eta < 1, r_i clamped to 0), still never creating
+    energy.  With
+    R = 1 the directional albedo of ``f_TS + f_d`` is exactly
+    ``(1 - rho_dt(o)) + rho_dt(o) = 1`` (white furnace), and with eta = 1
+    it is Lambert's R / pi.  Without the correction a white stack under an
+    eta = 1.75 interface reflects only rho_bar ~ 0.9 of what enters.
+    """
+    ci = np.asarray(cos_i, dtype=np.float64)
+    co = np.asarray(cos_o, dtype=np.float64)
+    above = (ci > COS_EPS) & (co > COS_EPS)
+    t_i = diffuse_transmittance(ci, m, eta)  # eq 3 at wi
+    t_o = diffuse_transmittance(co, m, eta)  # eq 3 at wo
+    rho_bar = mean_transmittance(m, eta)
+    r_i = internal_reflectance(m, eta)
+    R = np.asarray(R_km, dtype=np.float64)
+    # eq 2, local form; (1 - r_i) / rho_bar = 1 / eta^2 where reciprocity holds
+    scale = np.where(above, t_i * t_o * (1.0 - r_i) / (np.pi * np.maximum(rho_bar, _TINY)), 0.0)
+    return scale[..., None] * R / (1.0 - r_i[..., None] * R)  # internal reflections
 
 
 # --------------------------------------------------------------------------
@@ -1138,21 +1321,18 @@ def local_brdf(wi, wo, n, m, eta, R_km):
     -----
     Eq 2 with the distance-dependent R_d(|x_i - x_o|) collapsed to a point
     (R_d -> R_KM delta(x_i - x_o), as the paper does in 4.2), plus the
-    specular reflection of eq 8::
+    specular reflection of eq 8, with the interface's internal reflection
+    (:func:`layered_diffuse`)::
 
-        f = f_TS(i, o) + rho_dt(i) R_KM rho_dt(o) / pi
+        f = f_TS(i, o) + rho_dt(i) rho_dt(o) R_KM / (pi eta^2 (1 - r_i R_KM))
 
-    Energy: with rho_dt = 1 - A_spec the directional albedo is at most
-    ``A + (1 - A) R_KM <= 1``.
+    Energy: with rho_dt = 1 - A_spec the directional albedo is
+    ``A + (1 - A) R_eff <= 1`` where ``R_eff = R (1 - r_i) / (1 - r_i R) <= 1``
+    (= 1 for a white stack).
     """
     wi = np.asarray(wi, dtype=np.float64)
     wo = np.asarray(wo, dtype=np.float64)
     n = np.asarray(n, dtype=np.float64)
     spec = torrance_sparrow(wi, wo, n, m, eta)  # eq 8
-    ni = _dot(n, wi)
-    no = _dot(n, wo)
-    above = (ni > COS_EPS) & (no > COS_EPS)
-    t_i = diffuse_transmittance(ni, m, eta)  # eq 3 at wi
-    t_o = diffuse_transmittance(no, m, eta)  # eq 3 at wo
-    diff = np.where(above, t_i * t_o / np.pi, 0.0)  # eq 2, local form
-    return spec[..., None] + diff[..., None] * np.asarray(R_km, dtype=np.float64)
+    diff = layered_diffuse(_dot(n, wi), _dot(n, wo), m, eta, R_km)  # eq 2 + Saunderson
+    return spec[..., None] + diff

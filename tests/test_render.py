@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from shellrepair import materials as mt
 from shellrepair import render as rd
 
 
@@ -121,7 +122,8 @@ def test_side_by_side_shares_the_camera(sphere):
     V, F = sphere
     V2, F2 = icosphere(3, radius=100.0)
     filled = V2[F2].mean(axis=1)[:, 1] > 50.0
-    img = rd.render_side_by_side(V, F, V2, F2, size=SIZE, filled=filled, highlight_filled=True, gap=6)
+    img = rd.render_side_by_side(V, F, V2, F2, size=SIZE, filled=filled, highlight_filled=True, gap=6,
+                                 labels=None, legend=None)
     assert img.shape == (120, 2 * 160 + 6, 3)
     left, right = img[:, :160].astype(int), img[:, 166:].astype(int)
     # same geometry, same camera: identical except where the right one is tinted
@@ -173,8 +175,83 @@ def test_model_choice_reported(sphere):
     rd.render_mesh(V, F, size=SIZE, info=info)
     assert info["model"].model == "local"  # ~1 mm pixels vs ~10 um diffusion length
     info = {}
-    rd.render_mesh(V * 1e-3, F, size=SIZE, info=info)  # a 0.1 mm sphere: um pixels
+    rd.render_mesh(V * 1e-3, F, size=SIZE, info=info, unit="mm")  # a 0.1 mm sphere: um pixels
     assert info["model"].model == "dipole" and info["model"].error_estimate > 0.01
+
+
+def test_unit_is_inferred_from_the_size_and_drives_the_model_choice(sphere):
+    V, F = sphere  # 200 units across
+    assert rd.infer_unit(V)[0] == "mm"  # 0.2 m: mm (cm would make it 2 m: also plausible, mm preferred)
+    assert rd.infer_unit(V * 1e-3)[0] == "m"  # 0.2 units: only metres give a statue
+    assert rd.infer_unit(V * 0.1)[0] == "cm"  # 20 units: 20 cm
+    assert rd.infer_unit(V * 1e-6)[0] == "m"  # nothing plausible: the closest, and it says so
+    assert "closest" in rd.infer_unit(V * 1e-6)[1]
+    small = V * 1e-3
+    got = {}
+    for unit in (None, "m", "mm"):
+        info = {}
+        rd.render_mesh(small, F, size=(64, 48), unit=unit, info=info, supersample=1)
+        got[unit] = info
+    assert got[None]["unit"] == "m" and got[None]["model"].model == "local"
+    assert got["m"]["footprint_um"] == pytest.approx(1000.0 * got["mm"]["footprint_um"])
+    assert got["mm"]["model"].model == "dipole"
+    # the switch lies where the documented footprint says
+    switch = mt.model_switch_footprint_um("aged-bronze")
+    assert mt.choose_model(1.05 * switch, "aged-bronze").model == "local"
+    assert mt.choose_model(0.95 * switch, "aged-bronze").model == "dipole"
+    with pytest.raises(ValueError, match="unit"):
+        rd.render_mesh(V, F, size=SIZE, unit="inch")
+
+
+def test_supersampling_is_the_linear_average_of_a_finer_render(sphere):
+    V, F = sphere
+    kw = dict(view=(30, 20), coverage=np.full(len(V), 0.4), unit="mm")
+    aa = rd.render_mesh(V, F, size=(80, 60), supersample=2, **kw)
+    fine = rd.render_mesh(V, F, size=(160, 120), supersample=1, **kw)
+    # same rays: the 2x2 render averaged in linear light, re-encoded
+    expect = rd._downsample(fine, 2)
+    assert np.abs(aa.astype(int) - expect.astype(int)).max() <= 1
+    # closer to a 4x4 reference than one ray per pixel is (jagged edges, aliased highlights)
+    one = rd.render_mesh(V, F, size=(80, 60), supersample=1, **kw)
+    ref = rd._downsample(rd.render_mesh(V, F, size=(320, 240), supersample=1, **kw), 4).astype(int)
+    err_one = np.abs(one.astype(int) - ref).sum(-1)
+    err_aa = np.abs(aa.astype(int) - ref).sum(-1)
+    assert err_aa.mean() < 0.6 * err_one.mean()
+    assert err_aa.max() < err_one.max()
+
+
+def test_side_by_side_has_labels_and_a_legend(sphere):
+    V, F = sphere
+    filled = V[F].mean(axis=1)[:, 1] > 50.0
+    kw = dict(size=(200, 150), filled=filled, highlight_filled=True, gap=6)
+    plain = rd.render_side_by_side(V, F, V, F, labels=None, legend=None, **kw).astype(int)
+    info = {}
+    img = rd.render_side_by_side(V, F, V, F, info=info, **kw).astype(int)
+    diff = np.any(img != plain, axis=-1)
+    left, right = diff[:, :200], diff[:, 206:]
+    assert left[:30, :80].any() and right[:30, :80].any()  # "before" / "after" at the top-left
+    assert right[-30:, :120].any() and not left[-30:, :].any()  # legend only on the right
+    # the legend's swatch shows the tint (magenta: red and blue above green)
+    sw = img[-30:, 206:240][right[-30:, :34]]
+    assert np.any((sw[:, 0] > sw[:, 1] + 60) & (sw[:, 2] > sw[:, 1] + 60))
+    # one camera, one unit and one aging map for both panels
+    assert info["before"]["camera"] == info["after"]["camera"]
+    assert info["before"]["unit"] == info["after"]["unit"]
+
+
+def test_cli_render_says_the_unit_and_model(tmp_path, capsys):
+    from shellrepair.cli import main
+
+    bunny = os.path.join(os.path.dirname(__file__), "..", "data", "bunny_zipper.ply")
+    out = tmp_path / "b.png"
+    assert main(["render", bunny, "-o", str(out), "--size", "96x72"]) == 0
+    said = capsys.readouterr().out
+    assert "unit: m (inferred" in said and "local model" in said and out.exists()
+    assert main(["render", bunny, "-o", str(out), "--size", "96x72", "--unit", "mm", "--age", "0.8"]) == 0
+    said = capsys.readouterr().out
+    assert "unit: mm (given)" in said and "dipole model" in said
+    with pytest.raises(SystemExit):
+        main(["render", bunny, "-o", str(out), "--age", "1.5"])
 
 
 def test_view_towards_faces_the_selected_faces():

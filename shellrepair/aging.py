@@ -1,0 +1,546 @@
+"""Where a gilt-bronze statue corrodes and where its gilding survives.
+
+A map per vertex from the causes of aging, after Dorsey & Hanrahan (1996),
+who grow, erode and polish patina layers according to how exposed and how
+accessible each point of the surface is:
+
+- **exposure** e: upward-facing surface open to the sky takes rain and
+  deposits (wet-dry cycles; rain-washed outdoor bronze turns to green
+  basic sulphates, Graedel 1987);
+- **cavity** k: concave places hold moisture and dirt and corrode first
+  (Dorsey & Hanrahan's accessibility; Miller 1994);
+- **wear** w: convex edges are rubbed: the gilding goes first and the bronze
+  under it is polished free of corrosion;
+- **blotch** z: corrosion spreads in patches (pits, drips, local alloy and
+  gilding defects), modelled as seeded value noise sampled on the surface.
+
+Where rain does not wash the patina -- under overhangs, in cavities -- soot
+and sulphate deposits build a dark crust (Graedel 1987; Scott 2002):
+``crust = clip(D_K k + D_S (1 - sky) max(n.up, 0) + D_Z z'' - D_0, 0, 1)``,
+mixed into the green layer by the paper's eq 7
+(:data:`shellrepair.materials.DARK_CRUST`).
+
+They combine into a corrosion potential ``P = A_E e + A_K k - A_W w + A_Z z``
+and a gilding-loss potential ``Q = B_W w + B_E e + B_Z z'``.  The ``age`` in
+[0, 1] sets how much area has turned: the rust coverage c is 1 on the
+fraction ``age`` of the area where P is highest and falls smoothly to 0
+across a band of :data:`AgingParams.band` of the area around it (there the
+patina is thin and shows cuprite); of the area left uncorroded, the
+fraction ``LOSS * age`` where Q is highest has lost its gilding (bare
+bronze), and the rest, the sheltered and unworn part, keeps its gold.
+Thresholds are area-weighted quantiles, so the fractions hold on any mesh
+resolution.
+
+All measures are computed on a regular grid around the object (cell size a
+fraction of its bounding diagonal), so they depend on the shape at the
+stated scales, not on the mesh's resolution, and cost O(n) with a small
+constant: splat face samples (area-weighted positions and normals) into
+their cells, blur (``scipy.ndimage.gaussian_filter``), read back at the
+vertices trilinearly.
+
+References
+----------
+.. [1] J. Dorsey and P. Hanrahan, "Modeling and Rendering of Metallic
+   Patinas", SIGGRAPH 1996, 387-396.
+.. [2] G. Miller, "Efficient Algorithms for Local and Global Accessibility
+   Shading", SIGGRAPH 1994.
+.. [3] T. E. Graedel, "Copper patinas formed in the atmosphere - II. A
+   qualitative assessment of mechanisms", Corrosion Science 27(7), 1987.
+.. [4] D. A. Scott, Copper and Bronze in Art: Corrosion, Colorants,
+   Conservation, Getty Publications, 2002 (cuprite next to the metal, basic
+   copper salts above it; sheltered vs rain-washed surfaces).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+__all__ = ["AgingParams", "AgingMaps", "aging_maps", "value_noise", "DEFAULT_AGE"]
+
+#: Age of the default render: half the area corroded.
+DEFAULT_AGE = 0.5
+
+
+@dataclasses.dataclass(frozen=True)
+class AgingParams:
+    """Parameters of :func:`aging_maps` (lengths as fractions of the bounding diagonal).
+
+    Attributes
+    ----------
+    edge_scale : float
+        Scale of the convexity that decides wear (0.015; sensible 0.005-0.03):
+        features narrower than a few times this are "edges".
+    cavity_scale : float
+        Scale of the concavity that decides cavities (0.05; 0.03-0.1).
+    patch_scale : float
+        Wavelength of the coarsest blotch octave (0.12; 0.05-0.3).
+    octaves : int
+        Octaves of value noise (3), each half the wavelength and amplitude.
+    wear_start, wear_full : float
+        Convexity at the edge scale at which wear starts and is complete
+        (0.30, 0.70).  On a sphere of radius R >> s the convexity at scale
+        s is 1.25 s / R (measured, tests/test_aging.py), so wear starts on
+        curvature radii below ~4 edge scales and is complete below ~1.8.
+    cavity_full : float
+        Concavity (minus the convexity, at the edge or the cavity scale) at
+        which a cavity holds water fully (0.15; 0.05-0.3): a hollow of
+        radius ~9 scales.
+    a_exposure, a_cavity, a_wear, a_blotch : float
+        Weights of the corrosion potential (1, 1, 1, 0.35).  The blotch
+        weight multiplies unit-variance noise; 0.2-0.6 gives patches from
+        coherent to scattered.
+    b_wear, b_exposure, b_blotch : float
+        Weights of the gilding-loss potential (1.5, 0.7, 0.35).
+    loss : float
+        Fraction of the uncorroded area that has lost its gilding at age 1
+        (0.5; 0-1).
+    band : float
+        Area fraction of the transition from bare to fully corroded, where
+        the patina is thin and cuprite shows (0.2; 0.02-0.3).
+    d_cavity, d_shelter, d_blotch, d_offset : float
+        Dark crust ``clip(d_cavity k + d_shelter (1 - sky) max(n.up, 0)
+        + d_blotch z'' - d_offset, 0, 1)`` (0.8, 0.6, 0.3, 0.3): cavities
+        and upward surfaces under an overhang are not washed by rain; z''
+        breaks it into patches.  0 everywhere with all weights 0.
+    """
+
+    edge_scale: float = 0.015
+    cavity_scale: float = 0.05
+    patch_scale: float = 0.12
+    octaves: int = 3
+    wear_start: float = 0.30
+    wear_full: float = 0.70
+    cavity_full: float = 0.15
+    a_exposure: float = 1.0
+    a_cavity: float = 1.0
+    a_wear: float = 1.0
+    a_blotch: float = 0.35
+    b_wear: float = 1.5
+    b_exposure: float = 0.7
+    b_blotch: float = 0.35
+    loss: float = 0.5
+    band: float = 0.2
+    d_cavity: float = 0.8
+    d_shelter: float = 0.6
+    d_blotch: float = 0.3
+    d_offset: float = 0.3
+
+
+@dataclasses.dataclass(frozen=True)
+class AgingMaps:
+    """Per-vertex aging state and the causes it came from.
+
+    Attributes
+    ----------
+    coverage : (n,) float64 array in [0, 1]
+        Rust coverage (area fraction corroded; also sets the patina
+        thickness, :func:`shellrepair.materials.layer_thicknesses`).
+    gild : (n,) float64 array in [0, 1]
+        Fraction of the uncorroded area still gilded.
+    exposure, cavity, wear : (n,) float64 arrays in [0, 1]
+    blotch : (n,) float64 array
+        Unit-variance noise of the corrosion potential.
+    convexity_edge, convexity_cavity : (n,) float64 arrays
+        The convexity kappa at the edge and cavity scales (see
+        :func:`aging_maps`), positive where convex.
+    crust : (n,) float64 array in [0, 1]
+        Dark deposit on the patina where rain does not wash it.
+    """
+
+    coverage: np.ndarray
+    gild: np.ndarray
+    exposure: np.ndarray
+    cavity: np.ndarray
+    wear: np.ndarray
+    blotch: np.ndarray
+    convexity_edge: np.ndarray
+    convexity_cavity: np.ndarray
+    crust: np.ndarray
+
+
+# --------------------------------------------------------------------------
+# Value noise
+# --------------------------------------------------------------------------
+
+_M1 = np.uint64(0x9E3779B185EBCA87)
+_M2 = np.uint64(0xC2B2AE3D27D4EB4F)
+_M3 = np.uint64(0x165667B19E3779F9)
+_MIX1 = np.uint64(0xFF51AFD7ED558CCD)
+_MIX2 = np.uint64(0xC4CEB9FE1A85EC53)
+
+
+def _hash01(ix, iy, iz, seed):
+    """Deterministic hash of integer lattice points to [0, 1)."""
+    with np.errstate(over="ignore"):
+        h = (ix.astype(np.uint64) * _M1) ^ (iy.astype(np.uint64) * _M2) ^ (iz.astype(np.uint64) * _M3)
+        h ^= np.uint64(seed & 0xFFFFFFFF) * _MIX2
+        h ^= h >> np.uint64(33)
+        h *= _MIX1
+        h ^= h >> np.uint64(33)
+        h *= _MIX2
+        h ^= h >> np.uint64(33)
+    return (h >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
+
+
+def value_noise(P, wavelength, *, seed=0, octaves=3, normalize=True):
+    """Seeded fractal value noise at points, zero mean and unit variance.
+
+    Parameters
+    ----------
+    P : (n,3) float array
+        Points (e.g. vertices): the noise is a solid texture sampled on the
+        surface, so it does not depend on the mesh's parametrisation.
+    wavelength : float
+        Lattice spacing of the coarsest octave (world units), > 0.
+    seed : int, optional
+    octaves : int, optional
+        Each further octave has half the wavelength and half the amplitude.
+    normalize : bool, optional
+        Shift and scale to mean 0 and variance 1 over the points given.
+
+    Returns
+    -------
+    z : (n,) float64 array
+        Deterministic for a given seed: lattice values are a hash of the
+        integer lattice point and the seed, blended with smoothstep weights.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3:
+        raise ValueError("value_noise: points must be (n,3), got shape %s" % (P.shape,))
+    if not wavelength > 0.0:
+        raise ValueError("value_noise: wavelength must be > 0, got %r" % (wavelength,))
+    out = np.zeros(len(P))
+    rng = np.random.default_rng(seed)
+    amp = 1.0
+    for o in range(int(octaves)):
+        q = P / (wavelength * 0.5 ** o) + rng.uniform(0.0, 1000.0, 3)  # decorrelate octaves
+        i0 = np.floor(q)
+        f = q - i0
+        s = f * f * (3.0 - 2.0 * f)  # smoothstep blend
+        i0 = i0.astype(np.int64)
+        lo = i0.min(axis=0)
+        ext = i0.max(axis=0) - lo + 2
+        if np.prod(ext.astype(np.float64)) <= 4 * len(P) + 64:
+            # hash each lattice point of the box once, then gather
+            ax = [lo[k] + np.arange(ext[k]) for k in range(3)]
+            X, Y, Z = np.meshgrid(*ax, indexing="ij")
+            lat = _hash01(X.ravel(), Y.ravel(), Z.ravel(), seed * 131 + o)
+            base = ((i0[:, 0] - lo[0]) * ext[1] + (i0[:, 1] - lo[1])) * ext[2] + (i0[:, 2] - lo[2])
+
+            def corner(dx, dy, dz):
+                return lat[base + (dx * ext[1] + dy) * ext[2] + dz]
+        else:
+            def corner(dx, dy, dz):
+                return _hash01(i0[:, 0] + dx, i0[:, 1] + dy, i0[:, 2] + dz, seed * 131 + o)
+        acc = 0.0
+        for dx in (0, 1):
+            wx = s[:, 0] if dx else 1.0 - s[:, 0]
+            for dy in (0, 1):
+                wy = s[:, 1] if dy else 1.0 - s[:, 1]
+                for dz in (0, 1):
+                    wz = s[:, 2] if dz else 1.0 - s[:, 2]
+                    acc = acc + wx * wy * wz * corner(dx, dy, dz)
+        out += amp * acc
+        amp *= 0.5
+    if len(out) == 0 or not normalize:
+        return out
+    out -= out.mean()
+    sd = out.std()
+    return out / sd if sd > 0.0 else out
+
+
+# --------------------------------------------------------------------------
+# The grid
+# --------------------------------------------------------------------------
+
+
+class _Grid:
+    """A regular grid over points: nearest-cell splatting, trilinear reading."""
+
+    def __init__(self, P, h, pad=4):
+        self.h = float(h)
+        self.lo = P.min(axis=0) - pad * self.h
+        self.shape = tuple(int(x) for x in np.ceil((P.max(axis=0) + pad * self.h - self.lo) / self.h) + 1)
+        nx, ny, nz = self.shape
+        g = (P - self.lo) / self.h
+        i0 = np.clip(np.floor(g).astype(np.int64), 0, np.array(self.shape) - 2)
+        f = np.clip(g - i0, 0.0, 1.0)
+        self.n = len(P)
+        self.idx = []
+        self.w = []  # float32: the fields read are smooth, 7 digits are plenty
+        for dx in (0, 1):
+            for dy in (0, 1):
+                for dz in (0, 1):
+                    self.idx.append(((i0[:, 0] + dx) * ny + (i0[:, 1] + dy)) * nz + (i0[:, 2] + dz))
+                    self.w.append(((f[:, 0] if dx else 1.0 - f[:, 0]) * (f[:, 1] if dy else 1.0 - f[:, 1])
+                                   * (f[:, 2] if dz else 1.0 - f[:, 2])).astype(np.float32))
+        self.size = nx * ny * nz
+
+    def nodes(self):
+        """Coordinates (size, 3) of the grid nodes."""
+        axes = [self.lo[k] + self.h * np.arange(self.shape[k]) for k in range(3)]
+        X, Y, Z = np.meshgrid(*axes, indexing="ij")
+        return np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
+
+    def splat(self, Q, values):
+        """Sum values (q, k) at points Q (q, 3) into their nearest cells: (k, nx, ny, nz)."""
+        values = np.asarray(values, dtype=np.float64).reshape(len(Q), -1)
+        near = np.clip(np.rint((Q - self.lo) / self.h).astype(np.int64), 0, np.array(self.shape) - 1)
+        idx = (near[:, 0] * self.shape[1] + near[:, 1]) * self.shape[2] + near[:, 2]
+        return np.stack([np.bincount(idx, values[:, j], minlength=self.size).reshape(self.shape)
+                         for j in range(values.shape[1])])
+
+    def read(self, G):
+        """Trilinear read at the points of grid arrays (k, nx, ny, nz) -> (n, k)."""
+        G = np.asarray(G)
+        flat = np.ascontiguousarray(G.reshape(G.shape[0] if G.ndim == 4 else 1, -1).T)  # (size, k)
+        out = np.zeros((self.n, flat.shape[1]), dtype=flat.dtype)
+        for idx, w in zip(self.idx, self.w):
+            out += w[:, None] * np.take(flat, idx, axis=0)
+        return out
+
+
+def _surface_samples(P, F, h, cr):
+    """Points sampling every face at least once per cell: (Q, area weights, area-weighted normals).
+
+    A face whose longest edge is up to ``k h`` long is cut into k^2 similar
+    triangles and sampled at their centroids, so a coarse mesh and a dense
+    one of the same shape splat the same surface (a scan's faces are far
+    below a cell: one sample, its centroid, per face).
+    """
+    A, B, C = P[F[:, 0]], P[F[:, 1]], P[F[:, 2]]
+    area = 0.5 * np.sqrt(np.einsum("ij,ij->i", cr, cr))
+    d = B - A
+    l2 = np.einsum("ij,ij->i", d, d)
+    d = C - B
+    np.maximum(l2, np.einsum("ij,ij->i", d, d), out=l2)
+    d = A - C
+    np.maximum(l2, np.einsum("ij,ij->i", d, d), out=l2)
+    k = np.clip(np.ceil(np.sqrt(l2) / h), 1, 32).astype(np.int64)
+    one = k == 1
+    Qs = [(A[one] + B[one] + C[one]) * (1.0 / 3.0)]  # the usual case: one sample, the centroid
+    Ws = [area[one]]
+    Ns = [0.5 * cr[one]]
+    for kk in np.unique(k[~one]):
+        sel = np.flatnonzero(k == kk)
+        # barycentric centroids of the kk^2 sub-triangles
+        bc = []
+        for i in range(kk):
+            for j in range(kk - i):
+                bc.append(((i + 1 / 3) / kk, (j + 1 / 3) / kk))
+                if i + j < kk - 1:
+                    bc.append(((i + 2 / 3) / kk, (j + 2 / 3) / kk))
+        bc = np.asarray(bc)
+        a, b = bc[:, 0], bc[:, 1]
+        Q = (A[sel, None, :] * (1.0 - a - b)[None, :, None] + B[sel, None, :] * a[None, :, None]
+             + C[sel, None, :] * b[None, :, None])
+        Qs.append(Q.reshape(-1, 3))
+        Ws.append(np.repeat(area[sel] / len(bc), len(bc)))
+        Ns.append(np.repeat(0.5 * cr[sel] / len(bc), len(bc), axis=0))
+    return np.concatenate(Qs), np.concatenate(Ws), np.concatenate(Ns)
+
+
+def _vertex_areas(V, F):
+    a = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    return np.bincount(F.ravel(), np.repeat(a / 3.0, 3), minlength=len(V))
+
+
+#: Bins of the histogram behind the area-weighted quantiles.
+_QUANTILE_BINS = 1 << 14
+
+
+def _weighted_quantile(x, w, q):
+    """Area-weighted quantile(s) q in [0, 1] of x.
+
+    From a histogram of ``_QUANTILE_BINS`` bins over [min x, max x] with
+    linear interpolation inside a bin (O(n), no sort): within
+    (max - min) / 16384 of the exact weighted quantile.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    w = np.asarray(w, dtype=np.float64)
+    q = np.clip(np.asarray(q, dtype=np.float64), 0.0, 1.0)
+    if len(x) == 0:
+        return np.zeros(q.shape)
+    lo, hi = float(x.min()), float(x.max())
+    total = float(w.sum())
+    if not hi > lo or not total > 0.0:
+        return np.full(q.shape, lo)
+    nb = _QUANTILE_BINS
+    b = np.minimum(((x - lo) * (nb / (hi - lo))).astype(np.int64), nb - 1)
+    cw = np.concatenate([[0.0], np.cumsum(np.bincount(b, w, minlength=nb))])
+    t = q * total
+    k = np.clip(np.searchsorted(cw, t, side="left") - 1, 0, nb - 1)
+    frac = np.clip((t - cw[k]) / np.maximum(cw[k + 1] - cw[k], 1e-300), 0.0, 1.0)
+    return lo + (k + frac) * ((hi - lo) / nb)
+
+
+def _smoothstep(a, b, x):
+    t = np.clip((x - a) / np.maximum(b - a, 1e-300), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _turn(x, w, fraction, band):
+    """1 on the top ``fraction`` of the area by x, 0 below, smooth over ``band``.
+
+    Returns values in [0, 1]; exactly 0 everywhere for fraction <= 0 and 1
+    for fraction >= 1.  The band shrinks near the ends so those hold.
+    """
+    if fraction <= 0.0:
+        return np.zeros(len(x))
+    if fraction >= 1.0:
+        return np.ones(len(x))
+    b = band * min(1.0, 2.0 * fraction, 2.0 * (1.0 - fraction))
+    lo, mid, hi = _weighted_quantile(x, w, [1.0 - fraction - 0.5 * b, 1.0 - fraction,
+                                              1.0 - fraction + 0.5 * b])
+    if hi <= lo:  # flat potential: a step at the quantile
+        return (x > mid).astype(np.float64)
+    return _smoothstep(lo, hi, x)
+
+
+def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None, normals=None):
+    """Rust coverage and gilding per vertex from the causes of aging.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    age : float, optional
+        In [0, 1]: 0 new (all gilt), 1 fully corroded.
+    up : (3,) sequence, optional
+        World up (where rain comes from).  Scans are usually y-up.
+    seed : int, optional
+        Seed of the blotch noise; the map is a deterministic function of
+        (V, F, age, up, seed, params).
+    params : AgingParams or None, optional
+    normals : (n,3) float array or None, optional
+        Unit vertex normals, when the caller has them (only used for
+        vertices the grid leaves without a normal).
+
+    Returns
+    -------
+    AgingMaps
+
+    Raises
+    ------
+    ValueError
+        For an age outside [0, 1], a zero up vector or malformed V, F.
+
+    Notes
+    -----
+    Convexity at scale s: ``kappa_s = (v - c_s(v)) . n_s(v) / s`` with c_s
+    the area-weighted centroid of the surface around v and n_s its mean
+    normal, both Gaussian-weighted with width s (grid of cell
+    ``edge_scale`` x diagonal).  On a sphere of radius R >> s,
+    kappa_s = 1.25 s/R (measured in tests/test_aging.py).  Exposure is ``max(n_s . up, 0)``
+    times the fraction of the rain columns above v (a 3x3-cell cone) that
+    no surface blocks.
+    """
+    p = AgingParams() if params is None else params
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
+        raise ValueError("aging_maps: V must be (n,3) and F (m,3), got %s and %s" % (V.shape, F.shape))
+    if len(F) and (F.min() < 0 or F.max() >= len(V)):
+        bad = int(np.argmax((F < 0).any(axis=1) | (F >= len(V)).any(axis=1)))
+        raise ValueError("aging_maps: face %d refers to a vertex outside 0..%d" % (bad, len(V) - 1))
+    age = float(age)
+    if not 0.0 <= age <= 1.0:
+        raise ValueError("aging_maps: age must be in [0, 1], got %r" % age)
+    up = np.asarray(up, dtype=np.float64)
+    if not np.linalg.norm(up) > 0.0:
+        raise ValueError("aging_maps: up must be a non-zero vector")
+    up = up / np.linalg.norm(up)
+    n = len(V)
+    zero = np.zeros(n)
+    if n == 0 or len(F) == 0:
+        return AgingMaps(zero, np.ones(n), zero, zero, zero, zero, zero, zero, zero)
+    from scipy.ndimage import gaussian_filter
+
+    # frame with z along up (rain columns are grid columns)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    a = ref - up * (ref @ up)
+    a /= np.linalg.norm(a)
+    b = np.cross(up, a)
+    R = np.stack([a, b, up])  # rows: new axes
+    center = 0.5 * (V.min(axis=0) + V.max(axis=0))
+    P = (V - center) @ R.T
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    if not diag > 0.0:
+        return AgingMaps(zero, np.ones(n), zero, zero, zero, zero, zero, zero, zero)
+    fn = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])  # 2 x area x normal
+    fidx = F.ravel()
+    area = np.bincount(fidx, np.repeat(np.sqrt(np.einsum("ij,ij->i", fn, fn)) / 6.0, 3), minlength=n)
+    Nw = np.stack([np.bincount(fidx, np.repeat(fn[:, k], 3), minlength=n) for k in range(3)], axis=1)
+
+    h = p.edge_scale * diag
+    grid = _Grid(P, h)
+    Q, wq, nq = _surface_samples(P, F, h, fn)
+    # channels: area, area-weighted position (3), area-weighted normal (3)
+    G = grid.splat(Q, np.concatenate([wq[:, None], wq[:, None] * Q, nq], axis=1))
+    del Q, wq, nq
+
+    def fallback(sel):
+        nn = (np.asarray(normals, dtype=np.float64)[sel] @ R.T) if normals is not None else Nw[sel]
+        return nn / np.maximum(np.linalg.norm(nn, axis=1, keepdims=True), 1e-300)
+
+    # every grid quantity is read back at the vertices in one trilinear pass:
+    # edge scale (area, moment, normal: 7), cavity scale (area, moment: 4),
+    # rain shelter (1) and three noise fields (3)
+    sig_e = p.edge_scale * diag / h
+    sig_c = p.cavity_scale * diag / h
+    # rain: a column is blocked above a cell if any surface lies >= 3 cells higher
+    occ = G[0] > 0.0
+    above = np.flip(np.logical_or.accumulate(np.flip(occ, axis=2), axis=2), axis=2)
+    blocked = np.zeros(occ.shape)
+    blocked[:, :, :-3] = above[:, :, 3:]
+    blocked = gaussian_filter(blocked, (1.0, 1.0, 0.0), mode="nearest")  # a narrow cone of rain
+    # blotches: value noise at the grid nodes (world coordinates), read at the vertices
+    nodes_world = grid.nodes() @ R + center
+    noise = [value_noise(nodes_world, p.patch_scale * diag, seed=sd, octaves=p.octaves,
+                         normalize=False).reshape(grid.shape) for sd in (seed, seed + 7919, seed + 104729)]
+    fields = ([gaussian_filter(g, sig_e, mode="constant") for g in G]
+              + [gaussian_filter(g, sig_c, mode="constant") for g in G[:4]] + [blocked] + noise)
+    r = grid.read(np.stack([f.astype(np.float32) for f in fields])).astype(np.float64)
+    del fields
+
+    def convexity(rw, scale, nrm):
+        cen = rw[:, 1:4] / np.maximum(rw[:, :1], 1e-300)
+        return np.einsum("ij,ij->i", P - cen, nrm) / scale
+
+    n_e = r[:, 4:7]
+    ln = np.sqrt(np.einsum("ij,ij->i", n_e, n_e))
+    n_e /= np.maximum(ln, 1e-300)[:, None]
+    bad = ln <= 0.0
+    if np.any(bad):
+        n_e[bad] = fallback(bad)
+    kappa_e = convexity(r[:, 0:4], p.edge_scale * diag, n_e)
+    kappa_c = convexity(r[:, 7:11], p.cavity_scale * diag, n_e)
+    sky = np.clip(1.0 - r[:, 11], 0.0, 1.0)
+    exposure = sky * np.clip(n_e[:, 2], 0.0, 1.0)
+    cavity = np.maximum(np.clip(-kappa_c / p.cavity_full, 0.0, 1.0),
+                        np.clip(-kappa_e / p.cavity_full, 0.0, 1.0))
+    wear = _smoothstep(p.wear_start, p.wear_full, kappa_e)
+    wsum = area.sum()
+
+    def unit_var(z):
+        z = z - np.sum(area * z) / wsum
+        sd = np.sqrt(np.sum(area * z * z) / wsum)
+        return z / sd if sd > 0.0 else z
+
+    blotch = unit_var(r[:, 12])
+    blotch2 = unit_var(r[:, 13])
+    blotch3 = unit_var(r[:, 14])
+    sheltered = (1.0 - sky) * np.clip(n_e[:, 2], 0.0, 1.0)  # facing up, under an overhang
+    crust = np.clip(p.d_cavity * cavity + p.d_shelter * sheltered + p.d_blotch * blotch3 - p.d_offset,
+                    0.0, 1.0)
+
+    P_rust = p.a_exposure * exposure + p.a_cavity * cavity - p.a_wear * wear + p.a_blotch * blotch
+    coverage = _turn(P_rust, area, age, p.band)
+    Q_loss = p.b_wear * wear + p.b_exposure * exposure + p.b_blotch * blotch2
+    # gilding is lost on the top LOSS*age of the uncorroded area by Q
+    free = area * (1.0 - coverage)
+    lost = _turn(Q_loss, free, p.loss * age, p.band)
+    gild = 1.0 - lost
+    return AgingMaps(coverage, gild, exposure, cavity, wear, blotch, kappa_e, kappa_c, crust)

@@ -1,0 +1,213 @@
+"""Specification of shellrepair.aging: where the statue corrodes and keeps its gold."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from shellrepair import aging as ag
+from shellrepair import render as rd
+from shellrepair import shapes
+
+BUNNY = Path(__file__).resolve().parents[1] / "data" / "bunny_zipper.ply"
+
+
+def box(center, half, n=12):
+    """Closed axis-aligned box (V, F) with n x n quads per side, outward winding."""
+    V, F = shapes.grid(n, n)  # unit square in z = 0, normals +z
+    V = np.asarray(V, float)
+    V = (V - V.min(axis=0)) / np.ptp(V[:, :2], axis=0).max() * 2.0 - [1.0, 1.0, 0.0]
+    V[:, 2] = 1.0
+    Vs, Fs = [], []
+    # rotations taking +z to each face normal
+    rots = [np.eye(3), np.diag([1.0, -1.0, -1.0]),
+            np.array([[0, 0, 1], [0, 1, 0], [-1, 0, 0.0]]), np.array([[0, 0, -1], [0, 1, 0], [1, 0, 0.0]]),
+            np.array([[1, 0, 0], [0, 0, 1], [0, -1, 0.0]]), np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0.0]])]
+    for k, Rm in enumerate(rots):
+        Vs.append(V @ Rm.T)
+        Fs.append(np.asarray(F) + k * len(V))
+    V = np.concatenate(Vs) * np.asarray(half, float) + np.asarray(center, float)
+    return V, np.concatenate(Fs).astype(np.int64)
+
+
+def area_weights(V, F):
+    return ag._vertex_areas(np.asarray(V, float), np.asarray(F, np.int64))
+
+
+def colour_masks(img):
+    """Gold (hue 25-65 deg, saturation >= 0.3, value >= 0.25) and green patina
+    (hue 80-200 deg, saturation >= 0.2, value >= 0.15) pixels of the object."""
+    obj = np.any(img != rd.BACKGROUND, axis=-1)
+    x = img.astype(float) / 255.0
+    mx, mn = x.max(-1), x.min(-1)
+    d = mx - mn
+    sat = np.where(mx > 0, d / np.maximum(mx, 1e-9), 0.0)
+    r, g, b = x[..., 0], x[..., 1], x[..., 2]
+    ds = np.maximum(d, 1e-9)
+    hue = 60.0 * np.where(mx == r, ((g - b) / ds) % 6, np.where(mx == g, (b - r) / ds + 2, (r - g) / ds + 4))
+    hue = np.where(d > 0, hue, 0.0)
+    gold = obj & (hue >= 25) & (hue <= 65) & (sat >= 0.3) & (mx >= 0.25)
+    green = obj & (hue >= 80) & (hue <= 200) & (sat >= 0.2) & (mx >= 0.15)
+    return obj, gold, green
+
+
+def in_patches(mask, min_px):
+    """Fraction of the mask's pixels in 8-connected components of >= min_px pixels."""
+    lab, n = ndimage.label(mask, structure=np.ones((3, 3)))
+    if n == 0:
+        return 0.0
+    sizes = np.bincount(lab.ravel())[1:]
+    return float(sizes[sizes >= min_px].sum() / mask.sum())
+
+
+# --------------------------------------------------------------------------
+# The measures
+# --------------------------------------------------------------------------
+
+
+def test_convexity_of_a_sphere_is_1_25_scale_over_radius():
+    """The grid convexity is a mean-curvature estimate at its scale: kappa = 1.25 s / R."""
+    V, F = shapes.icosphere(5)
+    far = np.array([12.0, 0.0, 0.0])  # a second sphere stretches the diagonal: R >> s
+    for r in (0.5, 1.0, 3.0):
+        V2 = np.concatenate([V * r, V + far])
+        F2 = np.concatenate([F, F + len(V)])
+        maps = ag.aging_maps(V2, F2)
+        diag = np.linalg.norm(V2.max(0) - V2.min(0))
+        s = ag.AgingParams().edge_scale * diag
+        k = maps.convexity_edge[: len(V)]
+        assert np.median(k) == pytest.approx(1.25 * s / r, rel=0.03)
+        lo, hi = np.percentile(k, [2, 98]) / np.median(k)
+        assert lo > 0.85 and hi < 1.15  # uniform on a sphere up to the grid's anisotropy
+
+
+def test_exposure_rain_from_above_and_shelter_under_an_overhang():
+    # a low block and, above its left half, a roof: rain reaches the right half only
+    Vb, Fb = box((0.0, 0.0, 0.0), (2.0, 0.3, 1.0))
+    Vr, Fr = box((-1.0, 2.0, 0.0), (1.1, 0.2, 1.2))
+    V = np.concatenate([Vb, Vr])
+    F = np.concatenate([Fb, Fr + len(Vb)])
+    maps = ag.aging_maps(V, F, up=(0, 1, 0))
+    top = (np.abs(V[:, 1] - 0.3) < 1e-9) & (np.arange(len(V)) < len(Vb))
+    under = top & (V[:, 0] < -0.5) & (V[:, 0] > -1.6) & (np.abs(V[:, 2]) < 0.6)
+    open_ = top & (V[:, 0] > 0.8) & (V[:, 0] < 1.4) & (np.abs(V[:, 2]) < 0.6)
+    assert np.all(maps.exposure[open_] > 0.9)
+    assert np.all(maps.exposure[under] < 0.1)
+    bottom = np.abs(V[:, 1] + 0.3) < 1e-9
+    assert np.all(maps.exposure[bottom] == 0.0)  # facing down: no rain
+    assert maps.crust[under].mean() > maps.crust[open_].mean()  # unwashed: dark crust
+    plain = ag.aging_maps(V, F, up=(0, 1, 0), params=ag.AgingParams(d_blotch=0.0))
+    p = ag.AgingParams()
+    np.testing.assert_allclose(plain.crust[under], p.d_shelter - p.d_offset, atol=0.08)
+    assert np.all(plain.crust[open_] == 0.0)
+    # turning the world upside down swaps the roles of top and bottom faces
+    flipped = ag.aging_maps(V, F, up=(0, -1, 0))
+    assert np.all(flipped.exposure[top] == 0.0)
+
+
+def test_wear_on_convex_edges_and_cavities_in_hollows():
+    V, F = box((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), n=16)
+    maps = ag.aging_maps(V, F)
+    on_edge = np.sum(np.abs(np.abs(V) - 1.0) < 1e-9, axis=1) >= 2
+    mid_face = np.sum(np.abs(V) < 0.3, axis=1) == 2
+    assert maps.wear[on_edge].mean() > 0.8
+    assert np.all(maps.wear[mid_face] == 0.0)
+    assert np.all(maps.cavity == 0.0)  # a convex solid has no hollows
+    # inside corner of an L-shaped pair of blocks: a hollow
+    V1, F1 = box((0.0, 0.0, 0.0), (2.0, 0.5, 1.0))
+    V2, F2 = box((-1.5, 1.5, 0.0), (0.5, 1.0, 1.0))
+    V = np.concatenate([V1, V2])
+    F = np.concatenate([F1, F2 + len(V1)])
+    maps = ag.aging_maps(V, F)
+    floor = (np.arange(len(V)) < len(V1)) & (np.abs(V[:, 1] - 0.5) < 1e-9) & (np.abs(V[:, 2]) < 0.5)
+    corner = floor & (V[:, 0] > -1.0) & (V[:, 0] < -0.8)  # the floor beside the wall
+    away = floor & (V[:, 0] > 0.0) & (V[:, 0] < 1.5)
+    assert corner.any() and maps.cavity[corner].mean() > 0.5
+    assert np.all(maps.cavity[away] == 0.0)
+    # rain does not wash hollows: a dark crust builds there first
+    plain = ag.aging_maps(V, F, params=ag.AgingParams(d_blotch=0.0))
+    assert plain.crust[corner].mean() > 0.2 and np.all(plain.crust[away] == 0.0)
+
+
+# --------------------------------------------------------------------------
+# The age and the maps it makes
+# --------------------------------------------------------------------------
+
+
+def test_age_sets_the_corroded_and_ungilded_area():
+    V, F = shapes.icosphere(4)
+    V = V * (1.0 + 0.2 * np.sin(3 * V[:, :1]) * np.cos(2 * V[:, 1:2]))
+    w = area_weights(V, F)
+    w = w / w.sum()
+    new = ag.aging_maps(V, F, age=0.0)
+    assert np.all(new.coverage == 0.0) and np.all(new.gild == 1.0)
+    old = ag.aging_maps(V, F, age=1.0)
+    assert np.all(old.coverage == 1.0)
+    fractions = []
+    for age in (0.2, 0.4, 0.6, 0.8):
+        maps = ag.aging_maps(V, F, age=age)
+        assert np.sum(w * maps.coverage) == pytest.approx(age, abs=0.03)
+        lost = np.sum(w * (1.0 - maps.coverage) * (1.0 - maps.gild)) / np.sum(w * (1.0 - maps.coverage))
+        assert lost == pytest.approx(ag.AgingParams().loss * age, abs=0.03)
+        fractions.append(np.sum(w * maps.coverage))
+    assert np.all(np.diff(fractions) > 0)
+    with pytest.raises(ValueError, match="age"):
+        ag.aging_maps(V, F, age=1.2)
+
+
+def test_deterministic_seeded_and_resolution_independent():
+    V, F = shapes.icosphere(4)
+    a = ag.aging_maps(V, F, seed=3)
+    b = ag.aging_maps(V, F, seed=3)
+    np.testing.assert_array_equal(a.coverage, b.coverage)
+    np.testing.assert_array_equal(a.gild, b.gild)
+    c = ag.aging_maps(V, F, seed=4)
+    assert np.mean(np.abs(a.coverage - c.coverage)) > 0.1
+    # a finer mesh of the same shape gives the same map at the shared vertices
+    V5, F5 = shapes.icosphere(5)  # icosphere(4)'s vertices come first
+    np.testing.assert_allclose(V5[: len(V)], V, atol=1e-12)
+    fine = ag.aging_maps(V5, F5, seed=3)
+    assert np.mean(np.abs(fine.coverage[: len(V)] - a.coverage)) < 0.08
+    # the noise at a point does not depend on the other points sampled with it
+    P = np.random.default_rng(0).uniform(-1, 1, (500, 3))
+    full = ag.value_noise(P, 0.3, seed=2, normalize=False)
+    part = ag.value_noise(P[:7], 0.3, seed=2, normalize=False)
+    np.testing.assert_allclose(part, full[:7], rtol=0, atol=1e-15)
+    z = ag.value_noise(P, 0.3, seed=2)
+    assert abs(z.mean()) < 1e-12 and z.std() == pytest.approx(1.0)
+
+
+# --------------------------------------------------------------------------
+# What a person sees
+# --------------------------------------------------------------------------
+
+
+def _aged_render(path, up, size=(240, 180), seed=0):
+    from shellrepair.io import read_mesh
+
+    mesh = read_mesh(path)
+    return rd.render_mesh(mesh.V, mesh.F, size=size, up=up, seed=seed)
+
+
+def _assert_reads_as_aged_gilt_bronze(img):
+    obj, gold, green = colour_masks(img)
+    n = obj.sum()
+    assert gold.sum() >= 0.15 * n, gold.sum() / n
+    assert green.sum() >= 0.10 * n, green.sum() / n
+    # in patches, not salt and pepper: most of each colour lies in blobs of
+    # at least 0.5 % of the object's pixels
+    assert in_patches(gold, 0.005 * n) > 0.7
+    assert in_patches(green, 0.005 * n) > 0.7
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_default_aged_bunny_shows_gilding_and_patina_in_patches(seed):
+    _assert_reads_as_aged_gilt_bronze(_aged_render(BUNNY, (0, 1, 0), seed=seed))
+
+
+def test_default_aged_bust_shows_gilding_and_patina_in_patches():
+    from conftest import shared_scan
+
+    path = shared_scan("closed_nefertiti_bust.ply")  # z-up, in mm
+    _assert_reads_as_aged_gilt_bronze(_aged_render(path, (0, 0, 1)))
