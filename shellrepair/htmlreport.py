@@ -146,7 +146,8 @@ def draw_open_edges(image, cam, V, F, color=OPEN_EDGE_COLOR, width=2):
     return int(len(E))
 
 
-def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-bronze", unit_um=1000.0):
+def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-bronze", unit=None,
+           up=(0.0, 1.0, 0.0)):
     """Before | after picture of one repair, aimed at the filled region.
 
     Both panels use one camera (the filled faces' side, or the default view
@@ -163,8 +164,11 @@ def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-br
     size : (int, int)
         Size of each panel.
     material : str
-    unit_um : float
-        Micrometres per mesh unit (see :func:`shellrepair.render.render_mesh`).
+    unit : {"mm", "cm", "m"} or None
+        The mesh's length unit; None infers it from the size
+        (see :func:`shellrepair.render.render_mesh`).
+    up : (3,) floats
+        The scan's up axis.
 
     Returns
     -------
@@ -184,11 +188,11 @@ def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-br
     img = rd.render_side_by_side(before.V, before.F, repaired.V, repaired.F, size=size, material=material,
                                  filled=filled, highlight_filled=filled is not None, view=view,
                                  vertex_colors_before=before.vertex_colors,
-                                 vertex_colors_after=repaired.vertex_colors, unit_um=unit_um)
+                                 vertex_colors_after=repaired.vertex_colors, unit=unit, up=up)
     img = np.array(img, copy=True)
     # the camera render_side_by_side used: framed on both meshes
     cam = rd.frame_camera(np.concatenate([np.asarray(before.V, np.float64), np.asarray(repaired.V, np.float64)]),
-                          size, view)
+                          size, view, up=up)
     W = cam.width
     n_before = draw_open_edges(img[:, :W], cam, before.V, before.F)
     right = img[:, img.shape[1] - W:]
