@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
-from .predicates import orient2d, orient3d
+from .predicates import EPS, TINY, orient2d, orient3d
 from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
@@ -63,22 +63,56 @@ PROJECTION_MAX_LOOP = 600
 PROJECTION_AREA_TOL = 1e-9
 
 
-def _plane_signs(T, P):
+#: Error bound factor of the plane-side filter in :func:`_plane_signs`: the
+#: value −n·(p − t0), n = (t1 − t0) × (t2 − t0), is a sum of six products of
+#: three rounded differences; each reaches the sum through at most 8
+#: roundings (3 differences, a product and a difference in n, a product
+#: and two sums in the dot), so its error is below γ₈ = 8ε/(1 − 8ε) times
+#: the same sum taken in absolute values (the permanent). 10ε covers that
+#: and the rounding of the permanent itself.
+SIDE_BOUND = 10.0 * EPS
+
+
+def _plane_signs(T, P, known=None):
     """Exact side of each point ``P[:, i]`` of the plane of triangle T.
+
+    The sign is that of ``orient3d(T0, T1, T2, P_i)``. T's normal is
+    formed once per pair and dotted with each point (a cheaper form than
+    three full determinants); rows its error bound (``SIDE_BOUND``) cannot
+    decide go to the exact predicate.
 
     Parameters
     ----------
     T, P : (p,3,3) float64
+    known : (p,3) bool, optional
+        Points known to be at a corner of T (shared vertex ids): 0 without
+        arithmetic.
 
     Returns
     -------
     s : (p,3) int8
-        orient3d(T0, T1, T2, P_i); 0 when P_i is at a corner of T (the
-        common case of shared vertices, decided without arithmetic).
     """
+    t0 = T[:, 0]
+    e1 = T[:, 1] - t0
+    e2 = T[:, 2] - t0
+    n = cross(e1, e2)
+    m = np.empty_like(n)
+    m[:, 0] = np.abs(e1[:, 1] * e2[:, 2]) + np.abs(e1[:, 2] * e2[:, 1])
+    m[:, 1] = np.abs(e1[:, 2] * e2[:, 0]) + np.abs(e1[:, 0] * e2[:, 2])
+    m[:, 2] = np.abs(e1[:, 0] * e2[:, 1]) + np.abs(e1[:, 1] * e2[:, 0])
     s = np.empty(P.shape[:2], np.int8)
     for i in range(3):
-        s[:, i] = orient3d(T[:, 0], T[:, 1], T[:, 2], P[:, i])
+        w = P[:, i] - t0
+        det = n[:, 0] * w[:, 0] + n[:, 1] * w[:, 1] + n[:, 2] * w[:, 2]
+        perm = m[:, 0] * np.abs(w[:, 0]) + m[:, 1] * np.abs(w[:, 1]) + m[:, 2] * np.abs(w[:, 2])
+        s[:, i] = -np.sign(det)
+        unsure = ~(np.abs(det) > SIDE_BOUND * perm) | (perm < TINY)
+        if known is not None:
+            s[known[:, i], i] = 0
+            unsure &= ~known[:, i]
+        u = np.flatnonzero(unsure)
+        if u.size:
+            s[u, i] = orient3d(T[u, 0], T[u, 1], T[u, 2], P[u, i])
     return s
 
 
@@ -267,15 +301,18 @@ def _degenerate(T):
     return _collinear(T[:, 0], T[:, 1], T[:, 2])
 
 
-def triangles_cross(A, B):
+def triangles_cross(A, B, shared=None):
     """Which triangle pairs cross: their relative interiors meet.
 
     Exact for the float64 positions given (see the module docstring for
-    what counts as contact). Vertex ids play no part.
+    what counts as contact). Vertex ids play no part in the answer.
 
     Parameters
     ----------
     A, B : (p,3,3) float64
+    shared : (p,3,3) bool, optional
+        ``shared[:, i, j]``: corner i of A is corner j of B (same vertex id,
+        hence same position). Only saves arithmetic.
 
     Returns
     -------
@@ -287,18 +324,20 @@ def triangles_cross(A, B):
     hit = np.zeros(p, bool)
     if p == 0:
         return hit
-    sb = _plane_signs(A, B)
-    near = np.flatnonzero(~((sb > 0).all(axis=1) | (sb < 0).all(axis=1)))
+    sb = _plane_signs(A, B, None if shared is None else shared.any(axis=1))
+    # B must straddle A's plane or lie in it; otherwise it meets the plane
+    # (and A) at most in a corner or an edge
+    straddle_b = (sb > 0).any(axis=1) & (sb < 0).any(axis=1)
+    flat_b = (sb == 0).all(axis=1)
+    near = np.flatnonzero(straddle_b | flat_b)
     if near.size == 0:
         return hit
     A, B, sb = A[near], B[near], sb[near]
-    sa = _plane_signs(B, A)
-    keep = ~((sa > 0).all(axis=1) | (sa < 0).all(axis=1))
-    near, A, B, sa, sb = near[keep], A[keep], B[keep], sa[keep], sb[keep]
-    flat = (sb == 0).all(axis=1) | (sa == 0).all(axis=1)   # one plane, or a zero-area triangle
+    sa = _plane_signs(B, A, None if shared is None else shared[near].any(axis=2))
+    straddle_a = (sa > 0).any(axis=1) & (sa < 0).any(axis=1)
+    flat = flat_b[near] | (sa == 0).all(axis=1)     # one plane, or a zero-area triangle
     # the general case: each straddles the other's plane
-    g = np.flatnonzero(~flat & (sa > 0).any(axis=1) & (sa < 0).any(axis=1)
-                       & (sb > 0).any(axis=1) & (sb < 0).any(axis=1))
+    g = np.flatnonzero(~flat & straddle_a & straddle_b[near])
     if g.size:
         hit[near[g]] = _straddling_cross(A[g], B[g], sa[g], sb[g])
     f = np.flatnonzero(flat)
@@ -350,7 +389,9 @@ def pair_intersections(A, Aid, B, Bid):
     -------
     hit : (p,) bool
     """
-    return triangles_cross(A, B)
+    Aid = np.asarray(Aid)
+    Bid = np.asarray(Bid)
+    return triangles_cross(A, B, Aid[:, :, None] == Bid[:, None, :])
 
 
 class TriangleIndex:
@@ -566,7 +607,7 @@ def _sphere_pairs(C, R, c, r, budget=4_000_000):
     return np.concatenate(ai), np.concatenate(bj)
 
 
-def patch_vs_index(Pt, Pid, index, return_faces=False):
+def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
     """Count patch triangles crossing the indexed triangles.
 
     Parameters
@@ -579,12 +620,14 @@ def patch_vs_index(Pt, Pid, index, return_faces=False):
     index : TriangleIndex
     return_faces : bool
         Return the crossing patch triangles instead of the count.
+    return_pairs : bool
+        Return the crossing pairs (patch triangle, indexed face) instead.
 
     Returns
     -------
-    n_hits : int, or (h,) int64 patch triangle indices
+    n_hits : int, or (h,) int64 patch triangle indices, or (h,2) int64 pairs
     """
-    none = np.zeros(0, np.int64) if return_faces else 0
+    none = np.zeros((0, 2), np.int64) if return_pairs else np.zeros(0, np.int64) if return_faces else 0
     if len(Pt) == 0 or len(index.F) == 0:
         return none
     Q = Pt - index.origin
@@ -601,6 +644,8 @@ def patch_vs_index(Pt, Pid, index, return_faces=False):
     for s in range(0, len(ai), 200_000):
         sl = slice(s, s + 200_000)
         hit[sl] = pair_intersections(Q[ai[sl]], Pid[ai[sl]], T[sl], index.F[bi[sl]])
+    if return_pairs:
+        return np.column_stack([ai[hit], bi[hit]])
     return np.unique(ai[hit]) if return_faces else int(hit.sum())
 
 

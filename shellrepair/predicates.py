@@ -21,8 +21,9 @@ How
    same expression with every product and difference taken in absolute
    value. This decides nearly every row of a scan at NumPy speed.
 2. The few rows left (points coplanar or collinear up to round-off, as in
-   CAD parts) are first checked for two equal points (determinant exactly
-   0), then evaluated exactly: each coordinate is an integer times a
+   CAD parts) are first checked for two equal points, and (orient3d) for
+   four points sharing one coordinate, both exactly 0; the rest are
+   evaluated exactly: each coordinate is an integer times a
    power of two, so after scaling a row by a power of two (which keeps
    the sign) the determinant is an integer polynomial, computed with
    Python integers.
@@ -121,9 +122,11 @@ def orient3d(a, b, c, d):
     if unsure.any():
         u = np.flatnonzero(unsure)
         au, bu, cu, du = a[u], b[u], c[u], d[u]
-        # two equal points: exactly zero, no arithmetic needed
+        # exactly zero without arithmetic: two equal points, or all four
+        # points in one axis-aligned plane (the flat faces of CAD parts)
         zero = (_equal(au, bu) | _equal(au, cu) | _equal(au, du) | _equal(bu, cu)
-                | _equal(bu, du) | _equal(cu, du))
+                | _equal(bu, du) | _equal(cu, du)
+                | ((au == bu) & (au == cu) & (au == du)).any(axis=1))
         s[u[zero]] = 0
         r = ~zero
         if r.any():

@@ -428,6 +428,36 @@ def _chords_near(ctx, patch, bad):
     return out
 
 
+#: A loop at most this planar (RMS distance to its plane over its diameter;
+#: float32 round-off of a flat CAD face is ~1e-7) whose flat triangulation
+#: covers its outline one-to-one is a plane region: every flat
+#: triangulation covers the same region, so scan faces crossing it away
+#: from the loop cross them all, and re-routing chords is futile.
+BLOCKED_PLANARITY = 1e-6
+
+
+def _blocked_in_plane(ctx, hole_id, flat, bad):
+    """How many scan faces cross a planar opening's region away from its
+    loop (so that every flat triangulation crosses them), or 0 when that
+    cannot be shown (the loop is not planar, its outline not simple, or
+    every crossing face touches the loop, where another chord may help)."""
+    from .holes import loop_stats
+
+    loop = flat.loop
+    if not flat.disc or len(flat.P) or bad.size == 0:
+        return 0
+    planarity = ctx.planarity.get(hole_id)
+    if planarity is None:
+        planarity = loop_stats(ctx.V, loop)["planarity"]
+    if planarity > BLOCKED_PLANARITY or not embeds_by_projection(ctx.V[loop], flat.T, len(loop)):
+        return 0
+    C, ids = _corners(ctx, flat)
+    pairs = patch_vs_index(C[bad], ids[bad], ctx.index, return_pairs=True)
+    faces = np.unique(pairs[:, 1])
+    touching = np.isin(ctx.F[faces], loop).any(axis=1)
+    return int(faces.size) if faces.size and not touching.any() else 0
+
+
 #: Rounds of re-triangulation when the flat triangulation crosses the scan.
 FLAT_RETRIES = 12
 #: Rounds of re-triangulation when the faired patch crosses the scan.
@@ -450,6 +480,15 @@ EDGE_ON_COS = 0.35
 EDGE_ON_RINGS = 6
 
 
+#: A loop planar to this (RMS over diameter; round-off of float32 CAD
+#: coordinates is ~1e-7, scans are far from it) is a CAD face's outline:
+#: it is edge-on as soon as one face at its rim stands across its plane (a
+#: crease along part of the rim). On a coarse CAD part the six rings reach
+#: far beyond the walls (the plate around a pocket, a tangent curved face
+#: beside a flat one), whose area would outvote them.
+EDGE_ON_CAD_PLANARITY = 1e-6
+
+
 def _meets_edge_on(ctx, loop, hole_id=None):
     """Is the loop a planar opening whose surrounding walls stand across its plane?"""
     from .holes import loop_stats
@@ -459,13 +498,24 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     st = loop_stats(ctx.V, loop)
     if st["planarity"] > EDGE_ON_PLANARITY:
         return False
-    T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
-    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-    a = 0.5 * np.linalg.norm(n, axis=1)
-    if a.sum() <= 0:
+
+    def mean_cos(faces):
+        T = ctx.F[faces]
+        n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+        a = 0.5 * np.linalg.norm(n, axis=1)
+        if a.sum() <= 0:
+            return np.inf
+        cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
+        return float(np.sum(a * cosines) / a.sum())
+
+    if mean_cos(ctx.ring_faces(loop, EDGE_ON_RINGS)) <= EDGE_ON_COS:
+        return True
+    if st["planarity"] > EDGE_ON_CAD_PLANARITY:
         return False
-    cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
-    return float(np.sum(a * cosines) / a.sum()) <= EDGE_ON_COS
+    T = ctx.F[ctx.faces_of(loop)]
+    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    ln = np.linalg.norm(n, axis=1)
+    return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
 
 
 def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth):
@@ -590,6 +640,11 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
                 pass
         why, bad = _check_patch(ctx, flat)
         if why is not None:
+            blocked = _blocked_in_plane(ctx, hole_id, flat, bad)
+            if blocked:
+                reasons.append(f"flat: {why}; {blocked} scan faces cross the opening's own plane inside it, "
+                               f"so no flat triangulation avoids them")
+                break
             more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
             if not more:
                 reasons.append(f"flat: {why}")

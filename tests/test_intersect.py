@@ -240,6 +240,13 @@ def test_random_pairs_agree_with_the_exact_rational_oracle(seed):
     assert ref.sum() > 200 and (~ref).sum() > 200        # both kinds drawn
     assert np.array_equal(got, ref)
     assert np.array_equal(got, triangles_cross(B, A))    # symmetric
+    # ids naming the shared corners only save arithmetic: the same answers
+    ida = np.arange(3 * len(A)).reshape(-1, 3)
+    idb = ida + 3 * len(A)
+    same = (B[:, :, None, :] == A[:, None, :, :]).all(axis=3)      # (p, corner of B, corner of A)
+    r, j, i = np.nonzero(same)
+    idb[r, j] = ida[r, i]
+    assert np.array_equal(pair_intersections(A, ida, B, idb), ref)
 
 
 def test_near_coplanar_float_pairs_agree_with_the_oracle():
