@@ -211,6 +211,20 @@ def _coplanar_cross(A, B, axis):
     return ~sep
 
 
+def _folded(A, B, shared):
+    """Coplanar non-degenerate pairs sharing exactly one edge: folded onto
+    each other (third corners on the same side of the edge, in the plane)?"""
+    r = np.arange(len(A))
+    ia = np.argmin(shared.any(axis=2), axis=1)      # A's corner off the edge
+    ib = np.argmin(shared.any(axis=1), axis=1)
+    T = _rotate(A, ia)                              # (a_off, e0, e1)
+    axis, _ = _drop_axis(T)
+    P = _project(np.concatenate([T, B[r, ib][:, None]], axis=1), axis)
+    sa = orient2d(P[:, 1], P[:, 2], P[:, 0])
+    sb = orient2d(P[:, 1], P[:, 2], P[:, 3])
+    return sa == sb
+
+
 def _segment_of(T):
     """The two extreme corners of zero-area triangles (their segment)."""
     d = np.stack([np.sum((T[:, 1] - T[:, 2]) ** 2, axis=1), np.sum((T[:, 2] - T[:, 0]) ** 2, axis=1),
@@ -342,16 +356,24 @@ def triangles_cross(A, B, shared=None):
         hit[near[g]] = _straddling_cross(A[g], B[g], sa[g], sb[g])
     f = np.flatnonzero(flat)
     if f.size:
-        hit[near[f]] = _flat_cross(A[f], B[f])
+        hit[near[f]] = _flat_cross(A[f], B[f], None if shared is None else shared[near[f]])
     return hit
 
 
-def _flat_cross(A, B):
+def _flat_cross(A, B, shared=None):
     """Pairs with one triangle's corners all on the other's plane: both in
-    one plane, or a zero-area triangle among them."""
+    one plane, or a zero-area triangle among them. ``shared`` as in
+    :func:`triangles_cross`: coplanar pairs sharing an edge cross when
+    their third corners lie on one side of it (one sign each)."""
     out = np.zeros(len(A), bool)
     da, db = _degenerate(A), _degenerate(B)
     both = ~da & ~db
+    if shared is not None:
+        edge = both & (shared.sum(axis=(1, 2)) == 2)
+        e = np.flatnonzero(edge)
+        if e.size:
+            out[e] = _folded(A[e], B[e], shared[e])
+        both &= ~edge
     i = np.flatnonzero(both)
     if i.size:
         axis, _ = _drop_axis(A[i])

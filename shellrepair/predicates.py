@@ -151,7 +151,8 @@ def orient2d(a, b, c):
     if unsure.any():
         u = np.flatnonzero(unsure)
         au, bu, cu = a[u], b[u], c[u]
-        zero = _equal(au, bu) | _equal(au, cu) | _equal(bu, cu)
+        zero = (_equal(au, bu) | _equal(au, cu) | _equal(bu, cu)
+                | ((au == bu) & (au == cu)).any(axis=1))      # on one axis-parallel line
         s[u[zero]] = 0
         r = ~zero
         if r.any():
