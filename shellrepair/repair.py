@@ -481,11 +481,13 @@ EDGE_ON_RINGS = 6
 
 
 #: A loop planar to this (RMS over diameter; round-off of float32 CAD
-#: coordinates is ~1e-7, scans are far from it) is a CAD face's outline:
-#: it is edge-on as soon as one face at its rim stands across its plane (a
-#: crease along part of the rim). On a coarse CAD part the six rings reach
-#: far beyond the walls (the plate around a pocket, a tangent curved face
-#: beside a flat one), whose area would outvote them.
+#: coordinates is ~1e-7, scans are far from it) is a CAD face's outline,
+#: judged by its first ring of faces alone: edge-on as soon as one of them
+#: stands across its plane (a crease along part of the rim). On a coarse
+#: CAD part six rings reach far beyond the rim, and large faces there
+#: outvote it either way: the plate around a pocket hides the pocket's
+#: walls, a capsule's long walls make the ring at its dome's pole look
+#: edge-on.
 EDGE_ON_CAD_PLANARITY = 1e-6
 
 
@@ -498,24 +500,18 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     st = loop_stats(ctx.V, loop)
     if st["planarity"] > EDGE_ON_PLANARITY:
         return False
-
-    def mean_cos(faces):
-        T = ctx.F[faces]
+    if st["planarity"] <= EDGE_ON_CAD_PLANARITY:
+        T = ctx.F[ctx.faces_of(loop)]
         n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-        a = 0.5 * np.linalg.norm(n, axis=1)
-        if a.sum() <= 0:
-            return np.inf
-        cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
-        return float(np.sum(a * cosines) / a.sum())
-
-    if mean_cos(ctx.ring_faces(loop, EDGE_ON_RINGS)) <= EDGE_ON_COS:
-        return True
-    if st["planarity"] > EDGE_ON_CAD_PLANARITY:
-        return False
-    T = ctx.F[ctx.faces_of(loop)]
+        ln = np.linalg.norm(n, axis=1)
+        return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
+    T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
     n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-    ln = np.linalg.norm(n, axis=1)
-    return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
+    a = 0.5 * np.linalg.norm(n, axis=1)
+    if a.sum() <= 0:
+        return False
+    cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
+    return float(np.sum(a * cosines) / a.sum()) <= EDGE_ON_COS
 
 
 def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth):

@@ -226,3 +226,21 @@ def test_fandisk_flat_regions_close_flat():
     d = np.linalg.norm(C - centre, axis=1)
     V2, F2 = cp.remove(V, F, faces[d < np.quantile(d, 0.2)])
     assert_openings_close_flat(V2, F2)
+
+
+def test_a_planar_loop_without_walls_at_its_rim_is_still_faired_round():
+    # the pole of a faceted dome cut at a ring of latitude: the loop is
+    # exactly planar, but the faces around it slant (none stands across the
+    # plane), so the surface is a dome to continue, not a flat face
+    V, F, g = cp.capsule(48, rings=6)
+    dome = g["dome"]
+    ring = -0.5 * np.sin(np.radians(45))                    # the ring of latitude 45 degrees
+    pole = dome[V[F[dome]][:, :, 2].max(axis=1) <= ring + 1e-12]
+    V2, F2 = cp.remove(V, F, pole)
+    loop = detect_holes(V2, F2, fill_borders=True).loops[0].vertices
+    assert np.ptp(V2[loop, 2]) == 0.0                      # exactly planar
+    R, report = repair_mesh(Mesh(V=V2, F=F2), fill_borders=True)
+    row = report["holes"][0]
+    assert row["status"] == "filled" and row["option"].startswith("faired")
+    # the patch bulges out past the loop's plane, towards where the pole was
+    assert R.V[len(V2):, 2].min() < V2[loop, 2].min() - 0.05
