@@ -73,6 +73,7 @@ PROJECTION_AREA_TOL = 1e-9
 SIDE_BOUND = 10.0 * EPS
 
 
+@np.errstate(over="ignore", invalid="ignore")
 def _plane_signs(T, P, known=None):
     """Exact side of each point ``P[:, i]`` of the plane of triangle T.
 
@@ -106,7 +107,7 @@ def _plane_signs(T, P, known=None):
         det = n[:, 0] * w[:, 0] + n[:, 1] * w[:, 1] + n[:, 2] * w[:, 2]
         perm = m[:, 0] * np.abs(w[:, 0]) + m[:, 1] * np.abs(w[:, 1]) + m[:, 2] * np.abs(w[:, 2])
         s[:, i] = -np.sign(det)
-        unsure = ~(np.abs(det) > SIDE_BOUND * perm) | (perm < TINY)
+        unsure = ~(np.abs(det) > SIDE_BOUND * perm) | ~(perm >= TINY) | ~np.isfinite(perm)
         if known is not None:
             s[known[:, i], i] = 0
             unsure &= ~known[:, i]

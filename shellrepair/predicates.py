@@ -15,7 +15,8 @@ or offset.
 How
 ---
 1. Every row is evaluated in float64 in Shewchuk's form and kept when the
-   value exceeds his a-priori error bound (eq. 21 of the paper): for
+   value exceeds his a-priori error bound (``o3derrboundA``,
+   ``ccwerrboundA`` of his predicates): for
    orient3d ``|det| > (7 + 56ε)ε · permanent``, for orient2d
    ``|det| > (3 + 16ε)ε · permanent``, ε = 2⁻⁵³, the permanent being the
    same expression with every product and difference taken in absolute
@@ -28,8 +29,9 @@ How
    the sign) the determinant is an integer polynomial, computed with
    Python integers.
 
-The bounds ignore underflow; rows whose permanent is below
-``TINY`` (products of coordinates under ~1e-150) go to the exact stage too.
+The bounds ignore underflow and overflow; rows whose permanent is below
+``TINY`` (products of coordinates under ~1e-93 each) or not finite go to
+the exact stage too. Inputs must be finite.
 
 References
 ----------
@@ -95,6 +97,7 @@ def _equal(p, q):
     return (p == q).all(axis=-1)
 
 
+@np.errstate(over="ignore", invalid="ignore")
 def orient3d(a, b, c, d):
     """Exact sign of the orientation of d against the plane through a, b, c.
 
@@ -118,7 +121,7 @@ def orient3d(a, b, c, d):
             + np.abs(bdz) * (np.abs(cdxady) + np.abs(adxcdy))
             + np.abs(cdz) * (np.abs(adxbdy) + np.abs(bdxady)))
     s = np.sign(det).astype(np.int8)
-    unsure = ~(np.abs(det) > O3D_BOUND * perm) | (perm < TINY)
+    unsure = ~(np.abs(det) > O3D_BOUND * perm) | ~(perm >= TINY) | ~np.isfinite(perm)
     if unsure.any():
         u = np.flatnonzero(unsure)
         au, bu, cu, du = a[u], b[u], c[u], d[u]
@@ -134,6 +137,7 @@ def orient3d(a, b, c, d):
     return s
 
 
+@np.errstate(over="ignore", invalid="ignore")
 def orient2d(a, b, c):
     """Exact sign of (b − a) × (c − a) for (p,2) float64 rows.
 
@@ -147,7 +151,7 @@ def orient2d(a, b, c):
     det = detleft - detright
     perm = np.abs(detleft) + np.abs(detright)
     s = np.sign(det).astype(np.int8)
-    unsure = ~(np.abs(det) > O2D_BOUND * perm) | (perm < TINY)
+    unsure = ~(np.abs(det) > O2D_BOUND * perm) | ~(perm >= TINY) | ~np.isfinite(perm)
     if unsure.any():
         u = np.flatnonzero(unsure)
         au, bu, cu = a[u], b[u], c[u]

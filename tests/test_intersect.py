@@ -431,3 +431,18 @@ def test_projection_certificate_never_covers_a_patch_that_crosses_itself():
         certified += ok
         crossing += n > 0
     assert certified > 20 and crossing > 5   # both kinds were drawn
+
+
+@pytest.mark.parametrize("scale", [2.0 ** -1000, 2.0 ** -1060, 2.0 ** 500])
+def test_predicates_keep_their_signs_at_extreme_scales(scale):
+    # scaling by a power of two keeps every sign; near underflow and past
+    # overflow the float filter cannot be trusted, so those rows go exact
+    rng = np.random.default_rng(9)
+    P = np.round(rng.normal(size=(500, 4, 3)) * 8)
+    P[:100, 3] = P[:100, 1] + P[:100, 2] - P[:100, 0]     # exactly coplanar
+    ref = orient3d(P[:, 0], P[:, 1], P[:, 2], P[:, 3])
+    Q = P * scale
+    assert np.array_equal(orient3d(Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 3]), ref)
+    ref2 = orient2d(P[:, 0, :2], P[:, 1, :2], P[:, 2, :2])
+    assert np.array_equal(orient2d(Q[:, 0, :2], Q[:, 1, :2], Q[:, 2, :2]), ref2)
+    assert (ref == 0).sum() >= 100 and (ref != 0).sum() > 300
