@@ -7,14 +7,17 @@ only the patch and a few rings of scan around it:
 2. refine it to the density of the rim (:mod:`~shellrepair.refine`);
 3. fair it, Δᵏx = 0 with the scan around it fixed
    (:mod:`~shellrepair.fair`), optionally smooth it (Taubin, non-shrinking);
-   a planar opening that the scan meets edge-on (a base, a sole) gets a flat
-   cap instead, bent only where rim faces slant across it;
+   a planar opening that the scan meets edge-on (a base, a sole; on a CAD
+   part, any exactly planar outline with a crease along its rim) gets a
+   flat cap instead, bent only where rim faces slant across it;
 4. check it (:mod:`~shellrepair.intersect`): no patch triangle may cross the
    scan, itself or an earlier patch, and no patch may create an edge the
    mesh has. A patch that crosses is rebuilt: chords near the crossing are
    re-routed, vertices near it are held on the flat triangulation, then the
-   harmonic patch and the checked flat triangulation are tried. If nothing
-   works the hole stays open and the report says why.
+   harmonic patch and the checked flat triangulation are tried. A planar
+   opening whose own region the scan crosses away from its rim stops at
+   once: every flat triangulation covers that region. If nothing works
+   the hole stays open and the report says why.
 
 Two loops facing each other across a missing band are first offered a tube
 (:mod:`~shellrepair.bridge`); the tube or the two caps are kept by their

@@ -134,8 +134,9 @@ def _flat_regions(V, F, cos_tol=1e-9):
     return connected_components(A, directed=False)[1]
 
 
-def assert_openings_close_flat(V, F, **kw):
-    """Repair the part ``V, F``; check every opening closed flat, nothing crossed."""
+def assert_openings_close_flat(V, F, si_before=None, **kw):
+    """Repair the part ``V, F``; check every opening closed flat, nothing
+    crossed (``si_before``: the input's crossing count, when known)."""
     scan = detect_holes(V, F, fill_borders=True)
     assert len(scan.loops) > 0
     R, report = repair_mesh(Mesh(V=V, F=F), fill_borders=True, **kw)
@@ -160,7 +161,9 @@ def assert_openings_close_flat(V, F, **kw):
             assert float(np.abs((new - c) @ normal).max()) <= own + FLAT_TOL * diameter
     assert start == len(R.V)
     # nothing crossed: the exact count of crossing pairs is unchanged
-    assert self_intersections(R.V, R.F) == self_intersections(V, F)
+    if si_before is None:
+        si_before = self_intersections(V, F)
+    assert self_intersections(R.V, R.F) == si_before
     return report
 
 
@@ -210,22 +213,25 @@ def test_zero_area_rim_faces_no_longer_block_the_cap():
 def test_fandisk_flat_regions_close_flat():
     M = read_mesh(shared_scan("closed_fandisk_cad.ply"))
     V, F = M.V, M.F
+    assert self_intersections(V, F) == 0     # so no part of it crosses either
     label = _flat_regions(V, F)
     sizes = np.bincount(label)
     biggest = np.argsort(-sizes, kind="stable")[:6]
-    # one whole flat region at a time (bounded by creases: the walls stand across it)
-    for r in biggest[:4]:
+    # one whole flat region at a time: the largest, bounded by creases all
+    # round, and the fourth, beside a curved face that meets it almost
+    # tangentially along part of its rim
+    for r in biggest[[0, 3]]:
         V2, F2 = cp.remove(V, F, np.flatnonzero(label == r))
-        assert_openings_close_flat(V2, F2)
+        assert_openings_close_flat(V2, F2, si_before=0)
     # two at once, and a disc inside the largest (coplanar neighbours all round)
     V2, F2 = cp.remove(V, F, np.flatnonzero(np.isin(label, biggest[4:6])))
-    assert_openings_close_flat(V2, F2)
+    assert_openings_close_flat(V2, F2, si_before=0)
     faces = np.flatnonzero(label == biggest[0])
     C = V[F[faces]].mean(axis=1)
     centre = C[np.argmin(np.linalg.norm(C - C.mean(axis=0), axis=1))]
     d = np.linalg.norm(C - centre, axis=1)
     V2, F2 = cp.remove(V, F, faces[d < np.quantile(d, 0.2)])
-    assert_openings_close_flat(V2, F2)
+    assert_openings_close_flat(V2, F2, si_before=0)
 
 
 def test_a_planar_loop_without_walls_at_its_rim_is_still_faired_round():

@@ -231,13 +231,13 @@ def _random_pairs(rng, n, grid):
     return A[ok], B[ok]
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("seed", [0, 1])
 def test_random_pairs_agree_with_the_exact_rational_oracle(seed):
     rng = np.random.default_rng(seed)
-    A, B = _random_pairs(rng, 1500, 2)
+    A, B = _random_pairs(rng, 1000, 2)
     got = triangles_cross(A, B)
     ref = np.array([oracle_cross(a, b) for a, b in zip(A, B)])
-    assert ref.sum() > 200 and (~ref).sum() > 200        # both kinds drawn
+    assert ref.sum() > 150 and (~ref).sum() > 150        # both kinds drawn
     assert np.array_equal(got, ref)
     assert np.array_equal(got, triangles_cross(B, A))    # symmetric
     # ids naming the shared corners only save arithmetic: the same answers
@@ -253,7 +253,7 @@ def test_near_coplanar_float_pairs_agree_with_the_oracle():
     # B squeezed towards A's plane at every scale down to round-off, some
     # sharing a corner, some at a 1e6 offset
     rng = np.random.default_rng(7)
-    n = 1500
+    n = 800
     A = rng.normal(size=(n, 3, 3))
     B = rng.normal(size=(n, 3, 3))
     nA = np.cross(A[:, 1] - A[:, 0], A[:, 2] - A[:, 0])
@@ -268,7 +268,7 @@ def test_near_coplanar_float_pairs_agree_with_the_oracle():
     B[m] += 1e6
     got = triangles_cross(A, B)
     ref = np.array([oracle_cross(a, b) for a, b in zip(A, B)])
-    assert ref.sum() > 100
+    assert ref.sum() > 50 and (~ref).sum() > 50
     assert np.array_equal(got, ref)
 
 
