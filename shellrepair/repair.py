@@ -485,8 +485,9 @@ EDGE_ON_RINGS = 6
 
 #: A loop planar to this (RMS over diameter; round-off of float32 CAD
 #: coordinates is ~1e-7, scans are far from it) is a CAD face's outline,
-#: judged by its first ring of faces alone: edge-on as soon as one of them
-#: stands across its plane (a crease along part of the rim). On a coarse
+#: judged by its first ring of faces alone (the first with any area, past
+#: zero-area faces an exporter left on the rim): edge-on as soon as one of
+#: them stands across its plane (a crease along part of the rim). On a coarse
 #: CAD part six rings reach far beyond the rim, and large faces there
 #: outvote it either way: the plate around a pocket hides the pocket's
 #: walls, a capsule's long walls make the ring at its dome's pole look
@@ -504,10 +505,13 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     if st["planarity"] > EDGE_ON_PLANARITY:
         return False
     if st["planarity"] <= EDGE_ON_CAD_PLANARITY:
-        T = ctx.F[ctx.faces_of(loop)]
-        n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-        ln = np.linalg.norm(n, axis=1)
-        return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
+        for rings in range(1, EDGE_ON_RINGS + 1):   # past rings of zero-area faces only
+            T = ctx.F[ctx.ring_faces(loop, rings)]
+            n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+            ln = np.linalg.norm(n, axis=1)
+            if np.any(ln > 0):
+                return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
+        return False
     T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
     n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
     a = 0.5 * np.linalg.norm(n, axis=1)

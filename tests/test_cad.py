@@ -107,7 +107,7 @@ def _cases():
     add("slab, U, L and spiral openings among coplanar neighbours", slab,
         [f"cell {i} {j}" for c in cells.values() for i, j in c])
     V, F, faces, kw = cases["slab, U, L and spiral openings among coplanar neighbours"]
-    cases["the same, rotated and 1e6 off the origin"] = (V @ rot.T + 1e6, F, faces, kw)
+    cases["the same (coplanar neighbours), rotated and 1e6 off the origin"] = (V @ rot.T + 1e6, F, faces, kw)
     V, F, faces, kw = cases["plate with a pocket, pocket bottom missing"]
     cases["plate with a pocket, rotated and 1e6 off the origin"] = (V @ rot.T + 1e6, F, faces, kw)
     V, F, top = _rim_sealed_cube()
@@ -171,7 +171,12 @@ def assert_openings_close_flat(V, F, si_before=None, **kw):
 def test_every_planar_opening_of_a_cad_part_closes_flat(name):
     V, F, faces, kw = CASES[name]
     V2, F2 = cp.remove(V, F, faces)
-    assert_openings_close_flat(V2, F2, **kw)
+    report = assert_openings_close_flat(V2, F2, **kw)
+    if "coplanar" not in name and "mouths" not in name:
+        # walls stand across these openings (at least along part of the rim):
+        # the flat cap, at the first attempt
+        assert all(r["option"].startswith("flat cap") for r in report["holes"]), \
+            [r["option"] for r in report["holes"]]
 
 
 def test_the_parts_are_closed_consistent_and_do_not_cross_themselves():
