@@ -1,12 +1,32 @@
 """Local triangle–triangle intersection tests for new patches.
 
-Two triangles that share no vertex intersect when an edge of one crosses
-the other. Triangles that share one vertex (a patch triangle at the rim and
-a scan face at the same loop vertex) intersect beyond it only where the
-edge opposite the shared vertex of one crosses the other. Triangles that
-share an edge intersect only when folded flat onto each other. Touching at
-shared vertices and edges is not an intersection. Coplanar overlaps without
-a fold are not detected (they do not arise from faired patches).
+What counts as crossing
+-----------------------
+Two triangles *cross* when their relative interiors meet: some point lies
+inside both (for a zero-area triangle, inside the segment it covers). So
+
+* triangles that share a vertex or an edge, or only touch at a point or
+  along a segment of their boundaries, are in contact, not crossing;
+* two triangles in one plane cross when they overlap in area (a patch
+  lying on top of a scan face, two faces folded flat onto each other over
+  a shared edge) and do not when they only touch along an edge or at a
+  point;
+* corners are compared by position, not by vertex id: two vertices at the
+  same position (a seam that was not welded) are contact too.
+
+Every decision is a sign of an exact orientation predicate
+(:mod:`shellrepair.predicates`: a float filter with Shewchuk's error bound,
+exact integer arithmetic for the few rows it cannot decide), so there is
+no tolerance: the answer is the one for the float64 positions given.
+
+How: a pair is apart when all corners of one triangle lie strictly on one
+side of the other's plane (most candidate pairs). Otherwise, if both
+triangles straddle each other's plane, each cuts a segment out of the line
+where the two planes meet, and they cross when those two open segments
+overlap (two more orient3d signs, after Guigue & Devillers 2003). Pairs in
+one plane are judged in it: projected along the axis of a non-zero normal
+component, their interiors overlap unless one of the six edge lines
+separates them (orient2d).
 
 Candidate pairs for a patch come from the scan faces near its box
 (:class:`NearFaces`: vertices bucketed in xy columns, vertex-to-face
@@ -14,147 +34,387 @@ lists), so a check costs about its own size, not the scan's;
 :class:`TriangleIndex` (a k-d tree over every triangle) is the plain
 whole-mesh index it is tested against. :func:`crossing_pairs` finds the
 crossing pairs within one set of triangles (a patch against itself,
-:func:`self_intersections` of a whole mesh). Before the exact edge tests,
-pairs with one triangle wholly on one side of the other's plane are set
-aside (most candidate pairs are).
+:func:`self_intersections` of a whole mesh).
+
+References
+----------
+P. Guigue, O. Devillers, "Fast and robust triangle-triangle overlap test
+using orientation predicates", Journal of Graphics Tools 8(1), 2003.
+J. R. Shewchuk, "Adaptive Precision Floating-Point Arithmetic and Fast
+Robust Geometric Predicates", 1997.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .geometry import bounding_spheres, concat_ranges, cross, dot, plane_frame
+from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
+from .predicates import EPS, TINY, orient2d, orient3d
 from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
 __all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "crossing_pairs", "self_intersections",
-           "embeds_by_projection", "ball_pairs"]
+           "embeds_by_projection", "ball_pairs", "triangles_cross"]
 
-#: Barycentric / segment-parameter tolerance: hits this close to an edge or
-#: endpoint count as touching, not crossing.
-TOUCH_TOL = 1e-7
 #: Largest loop whose projected outline :func:`embeds_by_projection` tests
 #: for simplicity (O(k²) segment pairs).
 PROJECTION_MAX_LOOP = 600
 #: Smallest projected area, relative to the largest, counted as positive.
 PROJECTION_AREA_TOL = 1e-9
-#: Normals of two triangles sharing an edge with a dot product below
-#: ``-1 + FOLD_TOL`` are folded onto each other.
-FOLD_TOL = 1e-6
 
 
-def _seg_tri(p0, p1, a, b, c, tol=TOUCH_TOL):
-    """Does segment p0–p1 cross the interior of triangle abc (vectorised)?"""
-    d = p1 - p0
-    e1 = b - a
-    e2 = c - a
-    h = cross(d, e2)
-    det = np.sum(e1 * h, axis=-1)
-    scale = np.linalg.norm(d, axis=-1) * np.linalg.norm(e1, axis=-1) * np.linalg.norm(e2, axis=-1)
-    ok = np.abs(det) > 1e-12 * np.maximum(scale, 1e-300)
-    f = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-    s = p0 - a
-    u = f * np.sum(s * h, axis=-1)
-    q = cross(s, e1)
-    v = f * np.sum(d * q, axis=-1)
-    t = f * np.sum(e2 * q, axis=-1)
-    return ok & (u > tol) & (v > tol) & (u + v < 1 - tol) & (t > tol) & (t < 1 - tol)
+#: Error bound factor of the plane-side filter in :func:`_plane_signs`: the
+#: value −n·(p − t0), n = (t1 − t0) × (t2 − t0), is a sum of six products of
+#: three rounded differences; each reaches the sum through at most 8
+#: roundings (3 differences, a product and a difference in n, a product
+#: and two sums in the dot), so its error is below γ₈ = 8ε/(1 − 8ε) times
+#: the same sum taken in absolute values (the permanent). 10ε covers that
+#: and the rounding of the permanent itself.
+SIDE_BOUND = 10.0 * EPS
 
 
-#: Corners closer to the other triangle's plane than this, relative to the
-#: plane normal's length times the corner's distance from the plane's
-#: anchor, count as on the plane (:func:`_one_side`).
-SIDE_TOL = 1e-10
+@np.errstate(over="ignore", invalid="ignore")
+def _plane_signs(T, P, known=None):
+    """Exact side of each point ``P[:, i]`` of the plane of triangle T.
+
+    The sign is that of ``orient3d(T0, T1, T2, P_i)``. T's normal is
+    formed once per pair and dotted with each point (a cheaper form than
+    three full determinants); rows its error bound (``SIDE_BOUND``) cannot
+    decide go to the exact predicate.
+
+    Parameters
+    ----------
+    T, P : (p,3,3) float64
+    known : (p,3) bool, optional
+        Points known to be at a corner of T (shared vertex ids): 0 without
+        arithmetic.
+
+    Returns
+    -------
+    s : (p,3) int8
+    """
+    t0 = T[:, 0]
+    e1 = T[:, 1] - t0
+    e2 = T[:, 2] - t0
+    n = cross(e1, e2)
+    m = np.empty_like(n)
+    m[:, 0] = np.abs(e1[:, 1] * e2[:, 2]) + np.abs(e1[:, 2] * e2[:, 1])
+    m[:, 1] = np.abs(e1[:, 2] * e2[:, 0]) + np.abs(e1[:, 0] * e2[:, 2])
+    m[:, 2] = np.abs(e1[:, 0] * e2[:, 1]) + np.abs(e1[:, 1] * e2[:, 0])
+    s = np.empty(P.shape[:2], np.int8)
+    for i in range(3):
+        w = P[:, i] - t0
+        det = n[:, 0] * w[:, 0] + n[:, 1] * w[:, 1] + n[:, 2] * w[:, 2]
+        perm = m[:, 0] * np.abs(w[:, 0]) + m[:, 1] * np.abs(w[:, 1]) + m[:, 2] * np.abs(w[:, 2])
+        s[:, i] = -np.sign(det)
+        unsure = ~(np.abs(det) > SIDE_BOUND * perm) | ~(perm >= TINY) | ~np.isfinite(perm)
+        if known is not None:
+            s[known[:, i], i] = 0
+            unsure &= ~known[:, i]
+        u = np.flatnonzero(unsure)
+        if u.size:
+            s[u, i] = orient3d(T[u, 0], T[u, 1], T[u, 2], P[u, i])
+    return s
 
 
-def _one_side(A, B, skip):
-    """Do the corners of B (other than the ``skip`` ones) lie strictly on one
-    side of A's plane?
+def _rotate(T, first):
+    """Triangles with corner ``first`` (p,) moved to the front, turning
+    sense kept."""
+    r = np.arange(len(T))
+    return np.stack([T[r, first], T[r, (first + 1) % 3], T[r, (first + 2) % 3]], axis=1)
 
-    Such a pair cannot intersect: no edge of B reaches A's plane, and A lies
-    in a plane that B meets at most in a shared corner. The margin
-    (``SIDE_TOL``) is far above the round-off of the signed distances, so
-    a pair on one side here is one the exact tests reject too.
+
+def _alone(s):
+    """Index of the corner alone on its side (the one whose non-zero sign
+    the other two do not share), for triangles straddling a plane."""
+    pos = s > 0
+    return np.where(pos.sum(axis=1) == 1, np.argmax(pos, axis=1), np.argmax(s < 0, axis=1))
+
+
+def _straddling_cross(A, B, sa, sb):
+    """Pairs that each straddle the other's plane: do the two open
+    segments the triangles cut out of the planes' common line overlap?
+
+    Guigue–Devillers: turn each triangle so its lone corner comes first,
+    swap the other's last two corners so the lone corner lies on the
+    positive side of it, and compare the segments' ends by two orient3d
+    signs (strictly, for open segments).
+    """
+    ia, ib = _alone(sa), _alone(sb)
+    r = np.arange(len(A))
+    sa0, sb0 = sa[r, ia], sb[r, ib]
+    A = _rotate(A, ia)
+    B = _rotate(B, ib)
+    # flip B (swap its last two corners) where A's lone corner is below it,
+    # and A where B's lone corner is below A
+    fb = sa0 < 0
+    B[fb] = B[fb][:, [0, 2, 1]]
+    fa = sb0 < 0
+    A[fa] = A[fa][:, [0, 2, 1]]
+    p1, q1, r1 = A[:, 0], A[:, 1], A[:, 2]
+    p2, q2, r2 = B[:, 0], B[:, 1], B[:, 2]
+    return (orient3d(p1, q1, p2, q2) < 0) & (orient3d(p1, r1, r2, p2) < 0)
+
+
+def _drop_axis(T):
+    """For each non-degenerate triangle, an axis along which it projects
+    with non-zero area (the largest normal component first), and the sign
+    of that projected area."""
+    n = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    order = np.argsort(-np.abs(n), axis=1)
+    axis = order[:, 0].copy()
+    sign = np.zeros(len(T), np.int8)
+    todo = np.arange(len(T))
+    for k in range(3):
+        if todo.size == 0:
+            break
+        ax = order[todo, k]
+        s = _proj_orient(T[todo], ax)
+        done = s != 0
+        axis[todo[done]] = ax[done]
+        sign[todo[done]] = s[done]
+        todo = todo[~done]
+    return axis, sign
+
+
+_KEEP = np.array([[1, 2], [2, 0], [0, 1]])   # coordinates kept when dropping axis 0, 1, 2
+
+
+def _project(P, axis):
+    """(p,k,3) points to (p,k,2), dropping coordinate ``axis`` (p,): exact.
+    The kept coordinates follow in cyclic order (y z, z x, x y), so the
+    projection turns as the triangle does seen from the positive axis."""
+    return np.take_along_axis(P, _KEEP[axis][:, None, :], axis=2)
+
+
+def _proj_orient(T, axis):
+    Q = _project(T, axis)
+    return orient2d(Q[:, 0], Q[:, 1], Q[:, 2])
+
+
+def _coplanar_cross(A, B, axis):
+    """Pairs in one plane: do their interiors overlap? Projected along
+    ``axis`` (exact), each turned counter-clockwise; separated when all
+    corners of one lie on the closed outer side of an edge line of the
+    other."""
+    PA, PB = _project(A, axis), _project(B, axis)
+    for P in (PA, PB):
+        s = orient2d(P[:, 0], P[:, 1], P[:, 2])
+        P[s < 0] = P[s < 0][:, [0, 2, 1]]
+    sep = np.zeros(len(A), bool)
+    for P, Q in ((PA, PB), (PB, PA)):
+        for i in range(3):
+            j = (i + 1) % 3
+            out = np.ones(len(A), bool)
+            for c in range(3):
+                out &= orient2d(P[:, i], P[:, j], Q[:, c]) <= 0
+            sep |= out
+    return ~sep
+
+
+def _folded(A, B, shared):
+    """Coplanar non-degenerate pairs sharing exactly one edge: folded onto
+    each other (third corners on the same side of the edge, in the plane)?"""
+    r = np.arange(len(A))
+    ia = np.argmin(shared.any(axis=2), axis=1)      # A's corner off the edge
+    ib = np.argmin(shared.any(axis=1), axis=1)
+    T = _rotate(A, ia)                              # (a_off, e0, e1)
+    axis, _ = _drop_axis(T)
+    P = _project(np.concatenate([T, B[r, ib][:, None]], axis=1), axis)
+    sa = orient2d(P[:, 1], P[:, 2], P[:, 0])
+    sb = orient2d(P[:, 1], P[:, 2], P[:, 3])
+    return sa == sb
+
+
+def _segment_of(T):
+    """The two extreme corners of zero-area triangles (their segment)."""
+    d = np.stack([np.sum((T[:, 1] - T[:, 2]) ** 2, axis=1), np.sum((T[:, 2] - T[:, 0]) ** 2, axis=1),
+                  np.sum((T[:, 0] - T[:, 1]) ** 2, axis=1)], axis=1)
+    k = np.argmax(d, axis=1)          # the corner opposite the longest side is between the others
+    r = np.arange(len(T))
+    return T[r, (k + 1) % 3], T[r, (k + 2) % 3]
+
+
+def _segment_cross(p, q, B, s_p, s_q, axis):
+    """Open segments p–q against the interiors of non-degenerate triangles B.
+
+    ``s_p, s_q``: sides of p and q of B's plane; ``axis``: B's projection axis.
+    """
+    hit = np.zeros(len(B), bool)
+    if len(B) == 0:
+        return hit
+    # through the plane: the crossing point inside B, strictly
+    through = (s_p * s_q) < 0
+    t = np.flatnonzero(through)
+    if t.size:
+        o = [orient3d(p[t], q[t], B[t, i], B[t, (i + 1) % 3]) for i in range(3)]
+        hit[t] = ((o[0] > 0) & (o[1] > 0) & (o[2] > 0)) | ((o[0] < 0) & (o[1] < 0) & (o[2] < 0))
+    # in the plane: separated by an edge line of B or by the segment's own line
+    f = np.flatnonzero((s_p == 0) & (s_q == 0) & ~(p == q).all(axis=1))
+    if f.size:
+        PB = _project(B[f], axis[f])
+        S = _project(np.stack([p[f], q[f]], axis=1), axis[f])
+        s = orient2d(PB[:, 0], PB[:, 1], PB[:, 2])
+        PB[s < 0] = PB[s < 0][:, [0, 2, 1]]
+        sep = np.zeros(f.size, bool)
+        for i in range(3):
+            j = (i + 1) % 3
+            sep |= (orient2d(PB[:, i], PB[:, j], S[:, 0]) <= 0) & (orient2d(PB[:, i], PB[:, j], S[:, 1]) <= 0)
+        o = np.stack([orient2d(S[:, 0], S[:, 1], PB[:, c]) for c in range(3)], axis=1)
+        sep |= (o >= 0).all(axis=1) | (o <= 0).all(axis=1)
+        hit[f] = ~sep
+    return hit
+
+
+def _segments_cross(p1, q1, p2, q2):
+    """Do the open segments p1–q1 and p2–q2 meet (crossing in one point, or
+    overlapping along one line)? Zero-length segments never do."""
+    hit = np.zeros(len(p1), bool)
+    ok = ~(p1 == q1).all(axis=1) & ~(p2 == q2).all(axis=1)
+    f = np.flatnonzero(ok)
+    f = f[orient3d(p1[f], q1[f], p2[f], q2[f]) == 0]       # in one plane
+    if f.size == 0:
+        return hit
+    a, b, c, d = p1[f], q1[f], p2[f], q2[f]
+    col_c, col_d = _collinear(a, b, c), _collinear(a, b, d)
+    line = col_c & col_d
+    # in a plane: a proper crossing, seen in a projection that keeps the plane
+    i = np.flatnonzero(~line)
+    if i.size:
+        T = np.stack([a[i], b[i], np.where(col_c[i, None], d[i], c[i])], axis=1)
+        axis, _ = _drop_axis(T)
+        P = _project(np.stack([a[i], b[i], c[i], d[i]], axis=1), axis)
+        o1, o2 = orient2d(P[:, 0], P[:, 1], P[:, 2]), orient2d(P[:, 0], P[:, 1], P[:, 3])
+        o3, o4 = orient2d(P[:, 2], P[:, 3], P[:, 0]), orient2d(P[:, 2], P[:, 3], P[:, 1])
+        hit[f[i]] = (o1 * o2 < 0) & (o3 * o4 < 0)
+    # on one line: an overlap of positive length
+    i = np.flatnonzero(line)
+    if i.size:
+        ta, tb, tc, td = _line_coordinate(a[i], b[i], c[i], d[i])
+        lo1, hi1 = np.minimum(ta, tb), np.maximum(ta, tb)
+        lo2, hi2 = np.minimum(tc, td), np.maximum(tc, td)
+        hit[f[i]] = np.maximum(lo1, lo2) < np.minimum(hi1, hi2)
+    return hit
+
+
+def _collinear(a, b, c):
+    return (orient2d(a[:, [1, 2]], b[:, [1, 2]], c[:, [1, 2]]) == 0) \
+        & (orient2d(a[:, [2, 0]], b[:, [2, 0]], c[:, [2, 0]]) == 0) \
+        & (orient2d(a[:, [0, 1]], b[:, [0, 1]], c[:, [0, 1]]) == 0)
+
+
+def _line_coordinate(a, b, c, d):
+    """Positions of collinear points along their line, by the coordinate
+    in which a and b differ most (exact: comparisons only)."""
+    ax = np.argmax(np.abs(b - a), axis=1)
+    r = np.arange(len(a))
+    return a[r, ax], b[r, ax], c[r, ax], d[r, ax]
+
+
+def _degenerate(T):
+    """Zero-area triangles (collinear or coincident corners), exactly."""
+    return _collinear(T[:, 0], T[:, 1], T[:, 2])
+
+
+def triangles_cross(A, B, shared=None):
+    """Which triangle pairs cross: their relative interiors meet.
+
+    Exact for the float64 positions given (see the module docstring for
+    what counts as contact). Vertex ids play no part in the answer.
 
     Parameters
     ----------
     A, B : (p,3,3) float64
-    skip : (p,3) bool
-        Corners of B shared with A (on A's plane by construction).
+    shared : (p,3,3) bool, optional
+        ``shared[:, i, j]``: corner i of A is corner j of B (same vertex id,
+        hence same position). Only saves arithmetic.
 
     Returns
     -------
-    apart : (p,) bool
+    hit : (p,) bool
     """
-    n = cross(A[:, 1] - A[:, 0], A[:, 2] - A[:, 0])
-    r = B - A[:, :1]
-    d = dot(r, n[:, None, :])
-    tol = SIDE_TOL * np.sqrt(dot(n, n))[:, None] * np.sqrt(dot(r, r))
-    pos = (d > tol) | skip
-    neg = (d < -tol) | skip
-    return pos.all(axis=1) | neg.all(axis=1)
+    A = np.asarray(A, np.float64)
+    B = np.asarray(B, np.float64)
+    p = len(A)
+    hit = np.zeros(p, bool)
+    if p == 0:
+        return hit
+    sb = _plane_signs(A, B, None if shared is None else shared.any(axis=1))
+    # B must straddle A's plane or lie in it; otherwise it meets the plane
+    # (and A) at most in a corner or an edge
+    straddle_b = (sb > 0).any(axis=1) & (sb < 0).any(axis=1)
+    flat_b = (sb == 0).all(axis=1)
+    near = np.flatnonzero(straddle_b | flat_b)
+    if near.size == 0:
+        return hit
+    A, B, sb = A[near], B[near], sb[near]
+    sa = _plane_signs(B, A, None if shared is None else shared[near].any(axis=2))
+    straddle_a = (sa > 0).any(axis=1) & (sa < 0).any(axis=1)
+    flat = flat_b[near] | (sa == 0).all(axis=1)     # one plane, or a zero-area triangle
+    # the general case: each straddles the other's plane
+    g = np.flatnonzero(~flat & straddle_a & straddle_b[near])
+    if g.size:
+        hit[near[g]] = _straddling_cross(A[g], B[g], sa[g], sb[g])
+    f = np.flatnonzero(flat)
+    if f.size:
+        hit[near[f]] = _flat_cross(A[f], B[f], None if shared is None else shared[near[f]])
+    return hit
+
+
+def _flat_cross(A, B, shared=None):
+    """Pairs with one triangle's corners all on the other's plane: both in
+    one plane, or a zero-area triangle among them. ``shared`` as in
+    :func:`triangles_cross`: coplanar pairs sharing an edge cross when
+    their third corners lie on one side of it (one sign each)."""
+    out = np.zeros(len(A), bool)
+    da, db = _degenerate(A), _degenerate(B)
+    both = ~da & ~db
+    if shared is not None:
+        edge = both & (shared.sum(axis=(1, 2)) == 2)
+        e = np.flatnonzero(edge)
+        if e.size:
+            out[e] = _folded(A[e], B[e], shared[e])
+        both &= ~edge
+    i = np.flatnonzero(both)
+    if i.size:
+        axis, _ = _drop_axis(A[i])
+        out[i] = _coplanar_cross(A[i], B[i], axis)
+    for D, T, dD, dT in ((A, B, da, db), (B, A, db, da)):
+        i = np.flatnonzero(dD & ~dT)
+        if i.size:
+            p, q = _segment_of(D[i])
+            T_ = T[i]
+            s = _plane_signs(T_, np.stack([p, q, q], axis=1))
+            axis, _ = _drop_axis(T_)
+            out[i] = _segment_cross(p, q, T_, s[:, 0], s[:, 1], axis)
+    i = np.flatnonzero(da & db)
+    if i.size:
+        p1, q1 = _segment_of(A[i])
+        p2, q2 = _segment_of(B[i])
+        out[i] = _segments_cross(p1, q1, p2, q2)
+    return out
 
 
 def pair_intersections(A, Aid, B, Bid):
-    """Which triangle pairs intersect.
+    """Which triangle pairs cross (see :func:`triangles_cross`).
 
     Parameters
     ----------
     A, B : (p,3,3) float64
         Corner positions of the two triangles of each pair.
     Aid, Bid : (p,3) int64
-        Corner vertex ids (equal ids mean a shared vertex).
+        Corner vertex ids. Equal ids must mean equal positions; the test
+        itself compares positions (so vertices at one position with
+        different ids are contact too); the same face twice crosses
+        itself (its interior overlaps).
 
     Returns
     -------
     hit : (p,) bool
     """
-    p = len(A)
-    hit = np.zeros(p, bool)
-    if p == 0:
-        return hit
-    eq = Aid[:, :, None] == Bid[:, None, :]
-    sa = eq.any(axis=2)  # corner of A shared
-    sb = eq.any(axis=1)
-    ns = sa.sum(axis=1)
-    # pairs sharing at most a corner with one triangle wholly on one side
-    # of the other's plane cannot meet (most candidate pairs): skip them
-    near = np.flatnonzero(ns <= 1)
-    if near.size:
-        apart = _one_side(A[near], B[near], sb[near]) | _one_side(B[near], A[near], sa[near])
-        ns = ns.copy()
-        ns[near[apart]] = -1
-    # no shared vertex: all six edge/triangle tests
-    z = np.flatnonzero(ns == 0)
-    if z.size:
-        a, b = A[z], B[z]
-        h = np.zeros(z.size, bool)
-        for i in range(3):
-            j = (i + 1) % 3
-            h |= _seg_tri(a[:, i], a[:, j], b[:, 0], b[:, 1], b[:, 2])
-            h |= _seg_tri(b[:, i], b[:, j], a[:, 0], a[:, 1], a[:, 2])
-        hit[z] = h
-    # one shared vertex: the opposite edges
-    o = np.flatnonzero(ns == 1)
-    if o.size:
-        ia = np.argmax(sa[o], axis=1)
-        ib = np.argmax(sb[o], axis=1)
-        r = np.arange(o.size)
-        a, b = A[o], B[o]
-        a1, a2 = a[r, (ia + 1) % 3], a[r, (ia + 2) % 3]
-        b1, b2 = b[r, (ib + 1) % 3], b[r, (ib + 2) % 3]
-        hit[o] = (_seg_tri(a1, a2, b[:, 0], b[:, 1], b[:, 2])
-                  | _seg_tri(b1, b2, a[:, 0], a[:, 1], a[:, 2]))
-    # a shared edge: folded onto each other
-    t = np.flatnonzero(ns == 2)
-    if t.size:
-        na = cross(A[t, 1] - A[t, 0], A[t, 2] - A[t, 0])
-        nb = cross(B[t, 1] - B[t, 0], B[t, 2] - B[t, 0])
-        den = np.linalg.norm(na, axis=1) * np.linalg.norm(nb, axis=1)
-        cos = np.sum(na * nb, axis=1) / np.maximum(den, 1e-300)
-        hit[t] = (cos < -1 + FOLD_TOL) | (den == 0)
-    hit[ns == 3] = True  # the same triangle twice
-    return hit
+    Aid = np.asarray(Aid)
+    Bid = np.asarray(Bid)
+    return triangles_cross(A, B, Aid[:, :, None] == Bid[:, None, :])
 
 
 class TriangleIndex:
@@ -370,7 +630,7 @@ def _sphere_pairs(C, R, c, r, budget=4_000_000):
     return np.concatenate(ai), np.concatenate(bj)
 
 
-def patch_vs_index(Pt, Pid, index, return_faces=False):
+def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
     """Count patch triangles crossing the indexed triangles.
 
     Parameters
@@ -383,12 +643,14 @@ def patch_vs_index(Pt, Pid, index, return_faces=False):
     index : TriangleIndex
     return_faces : bool
         Return the crossing patch triangles instead of the count.
+    return_pairs : bool
+        Return the crossing pairs (patch triangle, indexed face) instead.
 
     Returns
     -------
-    n_hits : int, or (h,) int64 patch triangle indices
+    n_hits : int, or (h,) int64 patch triangle indices, or (h,2) int64 pairs
     """
-    none = np.zeros(0, np.int64) if return_faces else 0
+    none = np.zeros((0, 2), np.int64) if return_pairs else np.zeros(0, np.int64) if return_faces else 0
     if len(Pt) == 0 or len(index.F) == 0:
         return none
     Q = Pt - index.origin
@@ -405,6 +667,8 @@ def patch_vs_index(Pt, Pid, index, return_faces=False):
     for s in range(0, len(ai), 200_000):
         sl = slice(s, s + 200_000)
         hit[sl] = pair_intersections(Q[ai[sl]], Pid[ai[sl]], T[sl], index.F[bi[sl]])
+    if return_pairs:
+        return np.column_stack([ai[hit], bi[hit]])
     return np.unique(ai[hit]) if return_faces else int(hit.sum())
 
 

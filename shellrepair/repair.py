@@ -7,14 +7,17 @@ only the patch and a few rings of scan around it:
 2. refine it to the density of the rim (:mod:`~shellrepair.refine`);
 3. fair it, Δᵏx = 0 with the scan around it fixed
    (:mod:`~shellrepair.fair`), optionally smooth it (Taubin, non-shrinking);
-   a planar opening that the scan meets edge-on (a base, a sole) gets a flat
-   cap instead, bent only where rim faces slant across it;
+   a planar opening that the scan meets edge-on (a base, a sole; on a CAD
+   part, any exactly planar outline with a crease along its rim) gets a
+   flat cap instead, bent only where rim faces slant across it;
 4. check it (:mod:`~shellrepair.intersect`): no patch triangle may cross the
    scan, itself or an earlier patch, and no patch may create an edge the
    mesh has. A patch that crosses is rebuilt: chords near the crossing are
    re-routed, vertices near it are held on the flat triangulation, then the
-   harmonic patch and the checked flat triangulation are tried. If nothing
-   works the hole stays open and the report says why.
+   harmonic patch and the checked flat triangulation are tried. A planar
+   opening whose own region the scan crosses away from its rim stops at
+   once: every flat triangulation covers that region. If nothing works
+   the hole stays open and the report says why.
 
 Two loops facing each other across a missing band are first offered a tube
 (:mod:`~shellrepair.bridge`); the tube or the two caps are kept by their
@@ -428,6 +431,36 @@ def _chords_near(ctx, patch, bad):
     return out
 
 
+#: A loop at most this planar (RMS distance to its plane over its diameter;
+#: float32 round-off of a flat CAD face is ~1e-7) whose flat triangulation
+#: covers its outline one-to-one is a plane region: every flat
+#: triangulation covers the same region, so scan faces crossing it away
+#: from the loop cross them all, and re-routing chords is futile.
+BLOCKED_PLANARITY = 1e-6
+
+
+def _blocked_in_plane(ctx, hole_id, flat, bad):
+    """How many scan faces cross a planar opening's region away from its
+    loop (so that every flat triangulation crosses them), or 0 when that
+    cannot be shown (the loop is not planar, its outline not simple, or
+    every crossing face touches the loop, where another chord may help)."""
+    from .holes import loop_stats
+
+    loop = flat.loop
+    if not flat.disc or len(flat.P) or bad.size == 0:
+        return 0
+    planarity = ctx.planarity.get(hole_id)
+    if planarity is None:
+        planarity = loop_stats(ctx.V, loop)["planarity"]
+    if planarity > BLOCKED_PLANARITY or not embeds_by_projection(ctx.V[loop], flat.T, len(loop)):
+        return 0
+    C, ids = _corners(ctx, flat)
+    pairs = patch_vs_index(C[bad], ids[bad], ctx.index, return_pairs=True)
+    faces = np.unique(pairs[:, 1])
+    touching = np.isin(ctx.F[faces], loop).any(axis=1)
+    return int(faces.size) if faces.size and not touching.any() else 0
+
+
 #: Rounds of re-triangulation when the flat triangulation crosses the scan.
 FLAT_RETRIES = 12
 #: Rounds of re-triangulation when the faired patch crosses the scan.
@@ -450,6 +483,18 @@ EDGE_ON_COS = 0.35
 EDGE_ON_RINGS = 6
 
 
+#: A loop planar to this (RMS over diameter; round-off of float32 CAD
+#: coordinates is ~1e-7, scans are far from it) is a CAD face's outline,
+#: judged by its first ring of faces alone (the first with any area, past
+#: zero-area faces an exporter left on the rim): edge-on as soon as one of
+#: them stands across its plane (a crease along part of the rim). On a coarse
+#: CAD part six rings reach far beyond the rim, and large faces there
+#: outvote it either way: the plate around a pocket hides the pocket's
+#: walls, a capsule's long walls make the ring at its dome's pole look
+#: edge-on.
+EDGE_ON_CAD_PLANARITY = 1e-6
+
+
 def _meets_edge_on(ctx, loop, hole_id=None):
     """Is the loop a planar opening whose surrounding walls stand across its plane?"""
     from .holes import loop_stats
@@ -458,6 +503,14 @@ def _meets_edge_on(ctx, loop, hole_id=None):
         return False
     st = loop_stats(ctx.V, loop)
     if st["planarity"] > EDGE_ON_PLANARITY:
+        return False
+    if st["planarity"] <= EDGE_ON_CAD_PLANARITY:
+        for rings in range(1, EDGE_ON_RINGS + 1):   # past rings of zero-area faces only
+            T = ctx.F[ctx.ring_faces(loop, rings)]
+            n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+            ln = np.linalg.norm(n, axis=1)
+            if np.any(ln > 0):
+                return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
         return False
     T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
     n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
@@ -590,6 +643,11 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
                 pass
         why, bad = _check_patch(ctx, flat)
         if why is not None:
+            blocked = _blocked_in_plane(ctx, hole_id, flat, bad)
+            if blocked:
+                reasons.append(f"flat: {why}; {blocked} scan faces cross the opening's own plane inside it, "
+                               f"so no flat triangulation avoids them")
+                break
             more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
             if not more:
                 reasons.append(f"flat: {why}")

@@ -1,0 +1,271 @@
+"""CAD-like closed parts built from planar polygons, coarsely triangulated.
+
+Each part is a list of planar faces (an outer ring, optionally one inner
+ring, and the outward normal), triangulated the way CAD exporters do: a
+convex face as a fan from one corner (long thin triangles), a face with a
+hole by zipping its two rings. Corners at the same position are one
+vertex, so the part is closed. Every builder returns ``V, F, groups``:
+``groups[name]`` are the faces of one named planar face, for cutting
+openings.
+"""
+
+import numpy as np
+
+
+class _Builder:
+    def __init__(self):
+        self.key = {}
+        self.V = []
+        self.F = []
+        self.W = []          # wanted normal per face
+        self.group = []
+
+    def vid(self, p):
+        k = tuple(np.round(np.asarray(p, float), 12))
+        if k not in self.key:
+            self.key[k] = len(self.V)
+            self.V.append(np.asarray(p, float))
+        return self.key[k]
+
+    def tri(self, a, b, c, normal, name):
+        self.F.append([a, b, c])
+        self.W.append(normal)
+        self.group.append(name)
+
+    def fan(self, ring, normal, name, inner=None):
+        """A planar ring (optionally with one ``inner`` ring cut out), turning
+        counter-clockwise about ``normal``, by ear clipping: the first clean
+        ear each time, so corners get fans of long thin triangles, and no
+        zero-area triangle is made. A hole is joined to the outer ring by a
+        cut between their closest corners first."""
+        nrm = np.asarray(normal, float)
+        u = np.cross(nrm, [1.0, 0, 0] if abs(nrm[0]) < 0.9 else [0, 1.0, 0])
+        u /= np.linalg.norm(u)
+        v = np.cross(nrm, u)
+        ring = np.asarray(ring, float)
+        flat = lambda R: np.column_stack([R @ u, R @ v])
+        area = lambda Q: 0.5 * np.sum(Q[:, 0] * np.roll(Q[:, 1], -1) - np.roll(Q[:, 0], -1) * Q[:, 1])
+        if area(flat(ring)) < 0:
+            ring = ring[::-1]
+        pts = list(ring)
+        if inner is not None:
+            inner = np.asarray(inner, float)
+            if area(flat(inner)) > 0:
+                inner = inner[::-1]          # the hole turns the other way
+            d = np.linalg.norm(ring[:, None] - inner[None], axis=2)
+            k, m = np.unravel_index(np.argmin(d), d.shape)
+            hole = [inner[(m + t) % len(inner)] for t in range(len(inner) + 1)]
+            pts = list(ring[:k + 1]) + hole + list(ring[k:])
+        ids = [self.vid(p) for p in pts]
+        Q = flat(np.array(pts))
+        poly = list(range(len(pts)))
+
+        def o2(a, b, c):
+            return (Q[b, 0] - Q[a, 0]) * (Q[c, 1] - Q[a, 1]) - (Q[b, 1] - Q[a, 1]) * (Q[c, 0] - Q[a, 0])
+
+        while len(poly) > 3:
+            for i in range(len(poly)):
+                a, b, c = poly[i - 1], poly[i], poly[(i + 1) % len(poly)]
+                if o2(a, b, c) <= 1e-12:
+                    continue
+                if any(o2(a, b, d) >= -1e-12 and o2(b, c, d) >= -1e-12 and o2(c, a, d) >= -1e-12
+                       for d in poly if ids[d] not in (ids[a], ids[b], ids[c])):
+                    continue
+                self.tri(ids[a], ids[b], ids[c], normal, name)
+                poly.pop(i)
+                break
+            else:
+                raise ValueError("no ear")
+        self.tri(*[ids[p] for p in poly], normal, name)
+
+    def zip(self, outer, inner, normal, name):
+        """The planar ring between ``outer`` and ``inner``."""
+        self.fan(outer, normal, name, inner=inner)
+
+    def strip(self, ring0, ring1, outward, name, closed=True):
+        """Walls between two rings of equal length, each quad split in two
+        long triangles; ``outward(p)`` is the wall's outward normal at p."""
+        a, b = [self.vid(p) for p in ring0], [self.vid(p) for p in ring1]
+        n = len(a)
+        for i in range(n if closed else n - 1):
+            j = (i + 1) % n
+            c = (np.asarray(ring0[i]) + np.asarray(ring0[j]) + np.asarray(ring1[i]) + np.asarray(ring1[j])) / 4
+            w = outward(c)
+            self.tri(a[i], a[j], b[j], w, name)
+            self.tri(a[i], b[j], b[i], w, name)
+
+    def mesh(self):
+        V = np.array(self.V, float)
+        F = np.array(self.F, np.int64)
+        W = np.array(self.W, float)
+        n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+        flip = np.einsum("ij,ij->i", n, W) < 0
+        F[flip] = F[flip][:, ::-1]
+        names = np.array(self.group)
+        groups = {g: np.flatnonzero(names == g) for g in dict.fromkeys(self.group)}
+        return V, F, groups
+
+
+def _rect(x0, y0, x1, y1, z, n=1):
+    """Counter-clockwise rectangle at height z, each side in n segments."""
+    c = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], float)
+    pts = []
+    for i in range(4):
+        a, b = c[i], c[(i + 1) % 4]
+        for t in np.arange(n) / n:
+            pts.append([*(a + t * (b - a)), z])
+    return np.array(pts)
+
+
+def _circle(cx, cy, r, z, k):
+    t = 2 * np.pi * np.arange(k) / k
+    return np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t), np.full(k, float(z))])
+
+
+def _with_z(ring, z):
+    R = np.array(ring, float)
+    R[:, 2] = z
+    return R
+
+
+def _side_walls(b, ring0, ring1, name, centre, inward=False):
+    """Vertical walls of a prism ring; rectangle sides get one group each."""
+    sgn = -1.0 if inward else 1.0
+
+    def out(p):
+        d = np.array([p[0] - centre[0], p[1] - centre[1], 0.0])
+        return sgn * d / np.linalg.norm(d)
+
+    b.strip(ring0, ring1, out, name)
+
+
+def coarse_cube(n=1, size=1.0):
+    """A cube whose six faces are fans (each side in ``n`` segments)."""
+    b = _Builder()
+    s = size
+    r = lambda z: _rect(0, 0, s, s, z, n)
+    b.fan(r(s), [0, 0, 1], "top")
+    b.fan(r(0.0), [0, 0, -1], "bottom")
+    for name, (axis, val, nrm) in {"x0": (0, 0.0, -1), "x1": (0, s, 1), "y0": (1, 0.0, -1),
+                                   "y1": (1, s, 1)}.items():
+        # the side face as a ring: its 4 corners, each side in n segments
+        o = [a for a in range(3) if a != axis]
+        c2 = np.array([[0, 0], [s, 0], [s, s], [0, s]], float)
+        ring = []
+        for i in range(4):
+            a, c = c2[i], c2[(i + 1) % 4]
+            for t in np.arange(n) / n:
+                p = np.zeros(3)
+                p[axis] = val
+                p[o] = a + t * (c - a)
+                ring.append(p)
+        w = np.zeros(3)
+        w[axis] = nrm
+        b.fan(ring, w, name)
+    return b.mesh()
+
+
+def capsule(segments=24, radius=0.5, length=6.0, rings=3):
+    """A cylinder (one segment along its axis: long thin walls) with a
+    hemispherical end at z = 0 side and a flat fan cap at z = length."""
+    b = _Builder()
+    c0 = _circle(0, 0, radius, 0.0, segments)
+    c1 = _circle(0, 0, radius, length, segments)
+    b.strip(c0, c1, lambda p: np.array([p[0], p[1], 0.0]), "wall")
+    prev = c0
+    for i in range(1, rings):
+        phi = 0.5 * np.pi * i / rings
+        cur = _circle(0, 0, radius * np.cos(phi), -radius * np.sin(phi), segments)
+        b.strip(prev, cur, lambda p: p / np.linalg.norm(p), "dome")
+        prev = cur
+    tip = b.vid([0, 0, -radius])
+    ids = [b.vid(p) for p in prev]
+    for i in range(segments):
+        b.tri(ids[i], ids[(i + 1) % segments], tip, [0, 0, -1], "dome")
+    b.fan(c1, [0, 0, 1], "cap")
+    return b.mesh()
+
+
+def box_with_through_hole(round_hole=False, segments=20, n=1):
+    """A 4 x 3 x 1 box with a hole through it along z: rectangular
+    (1.5..2.5 x 1..2) or round (radius 0.6). Groups: ``top``, ``bottom``,
+    the outer walls ``wall``, the tunnel ``tunnel`` (round) or its four
+    sides ``tunnel0``..``tunnel3`` (rectangular)."""
+    b = _Builder()
+    outer = lambda z: _rect(0, 0, 4, 3, z, n)
+    if round_hole:
+        inner = lambda z: _circle(2, 1.5, 0.6, z, segments)
+    else:
+        inner = lambda z: _rect(1.5, 1, 2.5, 2, z, n)
+    b.zip(outer(1.0), inner(1.0), [0, 0, 1], "top")
+    b.zip(outer(0.0), inner(0.0), [0, 0, -1], "bottom")
+    # outer walls, one group per side
+    for side in range(4):
+        o0, o1 = outer(0.0), outer(1.0)
+        idx = [(side * n + t) % (4 * n) for t in range(n + 1)]
+        centre = (2.0, 1.5)
+        b.strip(o0[idx], o1[idx], lambda p: np.array([p[0] - 2, p[1] - 1.5, 0]) * (
+            np.abs([p[0] - 2, p[1] - 1.5, 0]) / np.array([2, 1.5, 1]) > 0.999), f"wall{side}", closed=False)
+    if round_hole:
+        b.strip(inner(0.0), inner(1.0), lambda p: -np.array([p[0] - 2, p[1] - 1.5, 0]), "tunnel")
+    else:
+        for side in range(4):
+            i0, i1 = inner(0.0), inner(1.0)
+            idx = [(side * n + t) % (4 * n) for t in range(n + 1)]
+            b.strip(i0[idx], i1[idx], lambda p: -np.array([p[0] - 2, p[1] - 1.5, 0]) * (
+                np.abs([p[0] - 2, p[1] - 1.5, 0]) / np.array([0.5, 0.5, 1]) > 0.999), f"tunnel{side}",
+                closed=False)
+    return b.mesh()
+
+
+def plate_with_pocket(n=1, depth=0.5):
+    """A 4 x 4 x 1 plate with a 2 x 2 pocket ``depth`` deep in its top;
+    groups ``top``, ``pocket_walls``, ``pocket_bottom``, ``walls``, ``bottom``."""
+    b = _Builder()
+    outer = lambda z: _rect(0, 0, 4, 4, z, n)
+    pocket = lambda z: _rect(1, 1, 3, 3, z, 2 * n)
+    b.zip(outer(1.0), pocket(1.0), [0, 0, 1], "top")
+    _side_walls(b, pocket(1.0 - depth), pocket(1.0), "pocket_walls", (2, 2), inward=True)
+    b.fan(pocket(1.0 - depth), [0, 0, 1], "pocket_bottom")
+    _side_walls(b, outer(0.0), outer(1.0), "walls", (2, 2))
+    b.fan(outer(0.0), [0, 0, -1], "bottom")
+    return b.mesh()
+
+
+def slab_with_grid_top(nx=7, ny=5, size=(3.5, 2.0), height=0.4):
+    """A slab whose top is a grid of thin cells (coplanar neighbours around
+    any opening cut in it); top cell (i, j) is group ``cell i j``."""
+    b = _Builder()
+    X = np.linspace(0, size[0], nx + 1)
+    Y = np.linspace(0, size[1], ny + 1)
+    for i in range(nx):
+        for j in range(ny):
+            p = [[X[i], Y[j], height], [X[i + 1], Y[j], height], [X[i + 1], Y[j + 1], height],
+                 [X[i], Y[j + 1], height]]
+            ids = [b.vid(q) for q in p]
+            diag = (i + j) % 2
+            if diag:
+                b.tri(ids[0], ids[1], ids[2], [0, 0, 1], f"cell {i} {j}")
+                b.tri(ids[0], ids[2], ids[3], [0, 0, 1], f"cell {i} {j}")
+            else:
+                b.tri(ids[0], ids[1], ids[3], [0, 0, 1], f"cell {i} {j}")
+                b.tri(ids[1], ids[2], ids[3], [0, 0, 1], f"cell {i} {j}")
+    # the top's rim, counter-clockwise, with every grid vertex on it
+    rim = ([[x, Y[0]] for x in X[:-1]] + [[X[-1], y] for y in Y[:-1]]
+           + [[x, Y[-1]] for x in X[::-1][:-1]] + [[X[0], y] for y in Y[::-1][:-1]])
+    rim = np.array(rim)
+    top = np.column_stack([rim, np.full(len(rim), height)])
+    bot = np.column_stack([rim, np.zeros(len(rim))])
+    centre = (size[0] / 2, size[1] / 2)
+    b.strip(bot, top, lambda p: np.array([p[0] - centre[0], p[1] - centre[1], 0]) * (
+        np.abs([p[0] - centre[0], p[1] - centre[1], 0]) / np.array([centre[0], centre[1], 1]) > 0.999),
+        "walls")
+    b.fan(bot, [0, 0, -1], "bottom")
+    return b.mesh()
+
+
+def remove(V, F, faces):
+    """The mesh without ``faces`` (vertices kept: originals stay in place)."""
+    keep = np.ones(len(F), bool)
+    keep[np.asarray(faces, np.int64)] = False
+    return V, F[keep]
