@@ -478,7 +478,7 @@ def _validate(mesh):
         mesh.notes.append(f"{int(bad.sum())} unreferenced vertices with NaN or infinite coordinates "
                           "kept as they are")
     with np.errstate(invalid="ignore"):
-        huge = (np.abs(V) > MAX_ABS_COORDINATE).any(axis=1)
+        huge = (np.abs(V) > MAX_ABS_COORDINATE).any(axis=1) & ~bad  # finite but too large
     if huge.any():
         i = int(np.flatnonzero(huge)[0])
         raise MeshError(f"vertex {i} has a coordinate beyond {MAX_ABS_COORDINATE:.0e} "
@@ -1370,22 +1370,37 @@ def _obj_bytes(mesh, binary=True):
 # OFF
 # --------------------------------------------------------------------------
 def _read_off(data):
-    """Object File Format: ``OFF``, ``COFF``, ``NOFF``, ``CNOFF``, ``STOFF``...
-    (vertex lines ``x y z [nx ny nz] [r g b [a]] [s t]``), comments, counts on the
-    keyword's line, faces with a colour after their indices (ignored, noted)."""
+    """Object File Format: ``OFF``, ``COFF``, ``NOFF``, ``CNOFF``, ``STOFF``... (vertex
+    lines ``x y z`` then the normal, colour and texture coordinates the keyword
+    names), comments, counts on the keyword's line, faces with a colour after
+    their indices (ignored, noted).
+
+    Notes
+    -----
+    The Geomview specification orders the keyword ``[ST][C][N]OFF`` and the
+    vertex values normal, colour, texture coordinates: the reverse of the
+    keyword's letters. MeshLab writes ``NCOFF`` with the colour before the
+    normal, again the reverse of its letters; so the values are read in the
+    reverse order of the letters as written. Colours written as integers
+    are 0..255, as decimals 0..1 (as the specification says).
+    """
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
     if b"#" in data:
         data = re.sub(rb"#[^\n\r]*", b"", data)
     lines = [ln for ln in data.splitlines() if ln.strip()]
     head = lines[0].split() if lines else []
-    m = re.fullmatch(rb"(ST)?(C)?(N)?(4)?(n)?OFF", head[0]) if head else None
+    m = re.fullmatch(rb"((?:ST|C|N)*)(4)?(n)?OFF", head[0]) if head else None
+    if m is None and head and head[0].isdigit():
+        m, head = re.fullmatch(rb"()()()", b""), [b"OFF"] + head  # the keyword is optional
     if m is None:
         raise MeshError("not an OFF file (missing 'OFF' magic)")
-    if m.group(4) or m.group(5):
+    if m.group(2) or m.group(3):
         raise MeshError(f"OFF variant '{head[0].decode()}' is not 3-dimensional")
     if len(head) > 1 and head[1].upper() == b"BINARY":
         raise MeshError("binary OFF is not supported (write it as text OFF, PLY or STL)")
+    letters = re.findall(rb"ST|C|N", m.group(1))[::-1]  # in the order of the values
+    width = {b"N": 3, b"ST": 2}
     rest = lines[1:]
     first = head[1:]
     if not first:
@@ -1408,19 +1423,24 @@ def _read_off(data):
         raise MeshError(f"vertex {i}: needs 3 coordinates, has {int(cnt[i])}")
     off = np.zeros(nv, np.int64)
     np.cumsum(cnt[:-1], out=off[1:])
-    vals = _to_numbers(text.split(), np.float64,
-                       lambda j, t: f"vertex {np.searchsorted(off, j, side='right') - 1}: bad number '{t}'")
+    vals = _parse_numbers(text, np.float64, int(cnt.sum()), lambda j, t: (
+        f"vertex {np.searchsorted(off, j, side='right') - 1}: bad number '{t}'"))
     V = vals.reshape(-1, 3) if (cnt == 3).all() else vals[off[:, None] + np.arange(3)]
     mesh = Mesh(V=V.reshape(-1, 3), F=np.zeros((0, 3), np.int64))
-    if m.group(2):  # colour after the normal, before the texture coordinates
-        c0 = 3 + (3 if m.group(3) else 0)
-        k = cnt - c0 - (2 if m.group(1) else 0)
-        if nv and (k == k[0]).all() and k[0] in (3, 4):
-            mesh.vertex_colors = _colors_to_uint8(vals[off[:, None] + c0 + np.arange(int(k[0]))], notes, "OFF")
-        elif nv:
+    announced = 3 + sum(width.get(c, 0) for c in letters) + (3 if b"C" in letters else 0)
+    if b"C" in letters and nv:
+        c0 = 3 + sum(width.get(c, 0) for c in letters[:letters.index(b"C")])
+        k = cnt - (announced - 3)  # the colour has 3 or 4 values
+        if (k == k[0]).all() and k[0] in (3, 4):
+            cols = off[:, None] + c0 + np.arange(int(k[0]))
+            tokens = text.split()
+            decimal = any(not t.isdigit() for t in (tokens[j] for j in cols.ravel().tolist()))
+            C = vals[cols] if decimal else vals[cols].astype(np.int64)
+            mesh.vertex_colors = _colors_to_uint8(C, notes, "OFF", unit=True)
+        else:
             notes.append("OFF: vertex colours dropped (not 3 or 4 values on every vertex)")
-    elif nv and (cnt > 3 + (3 if m.group(3) else 0) + (2 if m.group(1) else 0)).any():
-        notes.append("OFF: vertex values after those the keyword announces ignored")
+    elif nv and (cnt > announced).any():
+        notes.append(f"OFF: values after the {announced} per vertex that '{head[0].decode()}' announces ignored")
 
     text = b"\n".join(rest[nv:nv + nf])
     cnt = _token_counts(text) if nf else np.zeros(0, np.int64)
