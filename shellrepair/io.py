@@ -515,21 +515,18 @@ def _token_counts(text, starts=None):
     Parameters
     ----------
     text : bytes
-    starts : (len(text),) bool array, optional
-        :func:`_token_starts` of ``text``, if already computed.
+    starts : (k,) int64 array, optional
+        Where the tokens start (``np.flatnonzero(_token_starts(x))``), if known.
 
     Returns
     -------
     counts : (text.count(b"\\n") + 1,) int64 array
     """
     x = np.frombuffer(text, np.uint8)
-    at = np.concatenate([[0], np.flatnonzero(x == 10) + 1])
-    counts = np.zeros(len(at), np.int64)
-    if x.size:
-        first = _token_starts(x) if starts is None else starts
-        inside = at < x.size  # a last line after a final newline is empty
-        counts[inside] = np.add.reduceat(first, at[inside], dtype=np.int64)
-    return counts
+    at = np.concatenate([[0], np.flatnonzero(x == 10) + 1, [x.size]])
+    if starts is None:
+        starts = np.flatnonzero(_token_starts(x)) if x.size else np.zeros(0, np.int64)
+    return np.diff(np.searchsorted(starts, at)).astype(np.int64)
 
 
 def _parse_numbers(text, dtype, n, where):
@@ -884,6 +881,12 @@ def _ply_list_table(props, scalars, lists, count):
     if idx_name is None:
         return tab
     counts, flat = lists[idx_name]
+    if np.ndim(counts) == 0:  # every record has this many corners
+        counts = int(counts)
+        if counts == 3:
+            tab["__F__"] = flat.reshape(-1, 3)
+            return tab
+        counts = np.full(count, counts, np.int64)
     if counts.size == count and (counts == 3).all():
         tab["__F__"] = flat.reshape(-1, 3)
     else:
@@ -933,7 +936,7 @@ def _ply_binary_lists(data, pos, el, endian):
         raise MeshError(f"truncated: {name} data needs {need} bytes, {max(0, len(data) - pos)} left")
     if same:
         scalars = {p[0]: arr[p[0]] for p in props if p[1] == "scalar"}
-        lists = {p[0]: (np.full(count, first[j], np.int64), arr[p[0]].reshape(-1).astype(np.int64))
+        lists = {p[0]: (first[j], arr[p[0]].reshape(-1).astype(np.int64))
                  for j, p in enumerate(p for p in props if p[1] == "list") if p[3][0] != "f"}
         return _ply_list_table(props, scalars, lists, count), pos + need
     return _ply_binary_walk(data, pos, el, endian)
@@ -1072,7 +1075,7 @@ def _ply_ascii_element(chunk, props, count, name, notes):
                     L = lists[p[0]]
                     if not (np.isfinite(L).all() and (L == np.round(L)).all()):
                         raise MeshError(f"{name}: list '{p[0]}' holds values that are not integers")
-                    int_lists[p[0]] = (np.full(count, L.shape[1], np.int64), L.reshape(-1).astype(np.int64))
+                    int_lists[p[0]] = (L.shape[1], L.reshape(-1).astype(np.int64))
                 return _ply_list_table(props, scalars, int_lists, count)
     # lines of different layouts: one by one
     scal = {p[0]: [] for p in props if p[1] == "scalar"}
@@ -1291,8 +1294,8 @@ def _read_obj(data):
     if slashed:
         text = text.replace(b"//", b"/0/")  # an empty texture slot
     x = np.frombuffer(text, np.uint8)
-    first = _token_starts(x) if x.size else np.zeros(0, bool)
-    cnt = _token_counts(text, first) if f_line.size else np.zeros(0, np.int64)
+    tstart = np.flatnonzero(_token_starts(x)) if x.size else np.zeros(0, np.int64)
+    cnt = _token_counts(text, tstart) if f_line.size else np.zeros(0, np.int64)
     foff = np.zeros(len(cnt), np.int64)
     np.cumsum(cnt[:-1], out=foff[1:])
 
@@ -1300,8 +1303,8 @@ def _read_obj(data):
         return int(f_line[np.searchsorted(foff, j, side="right") - 1] + 1)
 
     if slashed:
-        tstart = np.flatnonzero(first)
-        parts = np.add.reduceat(x == ord("/"), tstart, dtype=np.int64) + 1  # per corner
+        slash = np.flatnonzero(x == ord("/"))
+        parts = np.diff(np.searchsorted(slash, np.append(tstart, x.size))) + 1  # per corner
         pstart = np.zeros(len(parts), np.int64)
         np.cumsum(parts[:-1], out=pstart[1:])
         vals = _parse_numbers(text.replace(b"/", b" "), np.int64, int(parts.sum()), lambda j, t: (
@@ -1335,7 +1338,7 @@ def _read_obj(data):
     n_vt, n_vn = int(is_vt.sum()), int(is_vn.sum())
     if n_vt or n_vn:
         what = [f"{n} {name}" for n, name in ((n_vt, "texture coordinates (vt)"), (n_vn, "normals (vn)")) if n]
-        notes.append(f"OBJ: {' and '.join(what)} not kept (per-corner data; positions and colours are)")
+        notes.append(f"OBJ: {' and '.join(what)} not kept (shellrepair keeps positions and vertex colours)")
     for k, name in ((b"l", "polylines (l)"), (b"p", "points (p)")):
         if k in skipped:
             notes.append(f"OBJ: {skipped.pop(k)} {name} ignored")
