@@ -6,7 +6,15 @@ What loading guarantees
   ``float`` is read as float32 and widened to float64 (exact), and written
   back as float32, so the original coordinates round-trip bit for bit.
 * Vertex colours (PLY ``red green blue [alpha]``, OBJ ``v x y z r g b``,
-  OFF ``COFF``) are kept as ``uint8``.
+  OFF ``COFF``) are kept as ``uint8``; float colours (0..1) are converted
+  and NaN channels set to 0, each with a note.
+* What a triangle mesh does not hold is skipped with a note: OBJ ``vt``,
+  ``vn``, ``l``, ``p`` and free-form statements, PLY elements other than
+  vertex and face and face properties other than the index list, OFF face
+  colours. The readers follow the specifications as exporters use them
+  (OBJ line continuations, relative indices and ``v/vt/vn`` corners; PLY
+  ascii and both binary byte orders, any list count and index types; the
+  OFF variants; binary STL whose header starts with ``solid``).
 * Polygons with more than three corners are split into a fan of triangles.
 * Faces that repeat a vertex (``[a, a, b]``) and duplicate faces (the same
   three vertices, in any order) are dropped; zero-area faces with three
@@ -18,9 +26,11 @@ What loading guarantees
 * ``mesh.notes`` lists each of these changes in one line.
 * STL's per-triangle vertices are welded on exact coordinates.
 * Anything that cannot be read raises :class:`~shellrepair.errors.MeshError`
-  naming the file and what is wrong; NaN/inf coordinates, out-of-range or
+  naming the file and what is wrong; NaN/inf coordinates of a vertex a face
+  uses (of a vertex no face uses: kept, with a note), out-of-range or
   negative indices, a file with no faces, truncated or inconsistent files,
   directories, unreadable or non-regular files (a FIFO would block).
+* Reading prints nothing: NumPy warnings on odd values are notes or errors.
 
 Writing always goes to a temporary file in the target folder that is
 flushed to disk and renamed into place, so a failed write never leaves a
@@ -473,7 +483,7 @@ def _validate(mesh):
         if bad_used.any():
             i = int(np.flatnonzero(bad_used)[0])
             raise MeshError(f"vertex {i} has a non-finite coordinate "
-                            f"({int(bad_used.sum())} such vertices used by faces)")
+                            f"({int(bad_used.sum())} such vertices)")
         # nothing refers to them: they are kept, like every unreferenced vertex
         mesh.notes.append(f"{int(bad.sum())} unreferenced vertices with NaN or infinite coordinates "
                           "kept as they are")
@@ -1330,7 +1340,8 @@ def _read_obj(data):
         rel = np.repeat(seen, cnt)[neg] + idx[neg]
         if rel.min() < 0:
             j = int(neg[np.argmin(rel)])
-            raise MeshError(f"line {line_of_corner(j)}: relative index {int(idx[j])} reaches before the first vertex")
+            raise MeshError(f"line {line_of_corner(j)}: relative index {int(idx[j])} out of range "
+                            f"({int(np.repeat(seen, cnt)[j])} vertices before this line)")
         idx[neg] = rel + 1
     idx -= 1
     mesh.F = _polygons_to_triangles((cnt, idx), notes, V)

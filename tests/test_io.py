@@ -207,7 +207,7 @@ def test_obj_relative_indices_count_back_from_the_vertices_read_so_far(tmp_path)
     m = _read_bytes(tmp_path, "r.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n"
                                        "v 5 0 0\nv 5 1 0\nf -3 -1 -2\nf 1 -2 -1\n")
     assert m.F.tolist() == [[0, 1, 2], [2, 4, 3], [0, 3, 4]]
-    with pytest.raises(MeshError, match="line 2: relative index -2 reaches before the first vertex"):
+    with pytest.raises(MeshError, match=r"line 2: relative index -2 out of range \(1 vertices before this line\)"):
         _read_bytes(tmp_path, "b.obj", "v 0 0 0\nf -1 -1 -2\n")
 
 
@@ -403,7 +403,7 @@ def test_nan_vertex_no_face_uses_is_kept_with_a_note_one_a_face_uses_is_an_error
     assert np.isnan(m.V[4, 0]) and np.isinf(m.V[4, 1])
     assert any("1 unreferenced vertices with NaN or infinite coordinates kept" in n for n in m.notes)
     p.write_text(SQUARE + "v nan inf 0\nf 1 2 5\n")
-    with pytest.raises(MeshError, match=r"vertex 4 has a non-finite coordinate \(1 such vertices used by faces\)"):
+    with pytest.raises(MeshError, match=r"vertex 4 has a non-finite coordinate \(1 such vertices\)$"):
         read_mesh(p)
 
 
