@@ -1024,101 +1024,85 @@ def _ply_ascii_cast(col, code, name, prop, notes):
 
 
 def _ply_ascii_body(body, elements, notes):
-    text = body.decode("ascii", errors="replace")
-    lines = [ln for ln in text.splitlines() if ln.strip()]
+    """The elements of an ascii PLY body: one line per record, blank lines skipped."""
+    x = np.frombuffer(body, np.uint8)
+    at = np.concatenate([[0], np.flatnonzero(x == 10) + 1, [x.size]])
+    cnt = _token_counts(body)
+    rows = np.flatnonzero(cnt)
     total = sum(el["count"] for el in elements)
-    if len(lines) != total:
+    if len(rows) != total:
         announced = ", ".join(f"{el['count']} {el['name']}" for el in elements)
         raise MeshError(f"header disagrees with body: header announces {announced} lines "
-                        f"({total}), body has {len(lines)}")
+                        f"({total}), body has {len(rows)}")
     tables = {}
-    at = 0
+    done = 0
     for el in elements:
-        props, count, name = el["props"], el["count"], el["name"]
-        chunk = lines[at:at + count]
-        at += count
-        tables[name] = _ply_ascii_element(chunk, props, count, name, notes)
+        r = rows[done:done + el["count"]]
+        done += el["count"]
+        text = body[at[r[0]]:at[r[-1] + 1]] if len(r) else b""
+        tables[el["name"]] = _ply_ascii_element(text, cnt[r], el["props"], el["count"], el["name"], notes)
     return tables
 
 
-def _ply_ascii_element(chunk, props, count, name, notes):
-    """One element of an ascii PLY body, ``count`` lines."""
-    nscal = sum(p[1] == "scalar" for p in props)
+def _ply_ascii_element(text, per_line, props, count, name, notes):
+    """One element of an ascii PLY body.
+
+    Parameters
+    ----------
+    text : bytes
+        Its ``count`` lines (and any blank lines between them).
+    per_line : (count,) int64 array
+        Values on each of those lines.
+
+    Notes
+    -----
+    All values are parsed at once; then each property is taken from every
+    record together, a cursor per record moving past scalars and lists, so
+    records of different lengths (triangles and quads, texture coordinate
+    lists) need no loop over records.
+    """
     if count == 0:
         return _ply_list_table(props, {p[0]: np.zeros(0, p[2]) for p in props if p[1] == "scalar"},
                                {p[0]: (np.zeros(0, np.int64), np.zeros(0, np.int64)) for p in props
                                 if p[1] == "list"}, 0)
-    tok = " ".join(chunk).split()
-    per_line = _token_counts("\n".join(chunk).encode("ascii", "replace"))
-    width = int(per_line[0])
-    same = (per_line == width).all()
-    if nscal == len(props) and not (same and width == len(props)):
+    if all(p[1] == "scalar" for p in props) and (per_line != len(props)).any():
         raise MeshError(f"header disagrees with body: {name} lines should have {len(props)} values each")
-    if same:
-        # every line may have the same layout: read as a table, then check the list lengths
-        try:
-            arr = np.array(tok, dtype=np.float64).reshape(count, width)
-        except ValueError:
-            arr = None
-        if arr is not None:
-            cols, j, ok = {}, 0, True
-            lists = {}
-            for p in props:
-                if p[1] == "scalar":
-                    cols[p[0]] = arr[:, j]
-                    j += 1
-                    continue
-                k = arr[:, j]
-                if not (k == k[0]).all() or not k[0] >= 0 or j + 1 + int(k[0]) > arr.shape[1]:
-                    ok = False
-                    break
-                k0 = int(k[0])
-                lists[p[0]] = arr[:, j + 1:j + 1 + k0]
-                j += 1 + k0
-            if ok and j == arr.shape[1]:
-                scalars = {p[0]: _ply_ascii_cast(cols[p[0]], p[2], name, p[0], notes)
-                           for p in props if p[1] == "scalar"}
-                int_lists = {}
-                for p in props:
-                    if p[1] != "list" or p[3][0] == "f":
-                        continue
-                    L = lists[p[0]]
-                    if not (np.isfinite(L).all() and (L == np.round(L)).all()):
-                        raise MeshError(f"{name}: list '{p[0]}' holds values that are not integers")
-                    int_lists[p[0]] = (L.shape[1], L.reshape(-1).astype(np.int64))
-                return _ply_list_table(props, scalars, int_lists, count)
-    # lines of different layouts: one by one
-    scal = {p[0]: [] for p in props if p[1] == "scalar"}
-    lens = {p[0]: [] for p in props if p[1] == "list"}
-    flat = {p[0]: [] for p in props if p[1] == "list"}
-    for li, ln in enumerate(chunk):
-        tok = ln.split()
-        k = 0
-        for p in props:
-            if p[1] == "scalar":
-                if k >= len(tok):
-                    raise MeshError(f"{name} {li}: missing value '{p[0]}'")
-                scal[p[0]].append(float(tok[k]))
-                k += 1
-            else:
-                if k >= len(tok):
-                    raise MeshError(f"{name} {li}: missing list '{p[0]}'")
-                n = int(tok[k])
-                if n < 0:
-                    raise MeshError(f"{name} {li}: negative list length {n}")
-                vals = tok[k + 1:k + 1 + n]
-                if len(vals) != n:
-                    raise MeshError(f"{name} {li}: list announces {n} values, has {len(vals)}")
-                if p[3][0] != "f":
-                    lens[p[0]].append(n)
-                    flat[p[0]].extend(int(v) for v in vals)
-                k += 1 + n
-        if k != len(tok):
-            raise MeshError(f"{name} {li}: {len(tok) - k} values more than the header announces")
-    scalars = {p[0]: _ply_ascii_cast(np.array(scal[p[0]], np.float64), p[2], name, p[0], notes)
-               for p in props if p[1] == "scalar"}
-    lists = {p[0]: (np.array(lens[p[0]], np.int64), np.array(flat[p[0]], np.int64))
-             for p in props if p[1] == "list" and p[3][0] != "f"}
+    off = np.zeros(count, np.int64)
+    np.cumsum(per_line[:-1], out=off[1:])
+    end = off + per_line
+    vals = _parse_numbers(text, np.float64, int(per_line.sum()), lambda j, t: (
+        f"{name} {np.searchsorted(off, j, side='right') - 1}: bad number '{t}'"))
+    cur = off.copy()
+    scalars, lists = {}, {}
+    for p in props:
+        short = np.flatnonzero(cur >= end)
+        if short.size:
+            raise MeshError(f"{name} {int(short[0])}: missing {'value' if p[1] == 'scalar' else 'list'} '{p[0]}'")
+        if p[1] == "scalar":
+            scalars[p[0]] = _ply_ascii_cast(vals[cur], p[2], name, p[0], notes)
+            cur += 1
+            continue
+        k = vals[cur]
+        bad = np.flatnonzero(~(k >= 0) | (k != np.floor(k)))
+        if bad.size:
+            raise MeshError(f"{name} {int(bad[0])}: bad list length '{k[bad[0]]:g}'")
+        k = k.astype(np.int64)
+        over = np.flatnonzero(cur + 1 + k > end)
+        if over.size:
+            i = int(over[0])
+            raise MeshError(f"{name} {i}: list announces {int(k[i])} values, has {int(end[i] - cur[i] - 1)}")
+        if p[3][0] != "f":  # float lists (texture coordinates) are not kept
+            first = np.zeros(count, np.int64)
+            np.cumsum(k[:-1], out=first[1:])
+            L = vals[np.repeat(cur + 1 - first, k) + np.arange(int(k.sum()))]
+            if not (L == np.round(L)).all():  # NaN fails too
+                raise MeshError(f"{name}: list '{p[0]}' holds values that are not integers")
+            lists[p[0]] = (int(k[0]) if (k == k[0]).all() else k, L.astype(np.int64))
+        cur += 1 + k
+    extra = np.flatnonzero(cur < end)
+    if extra.size:
+        i = int(extra[0])
+        raise MeshError(f"{name} {i}: {int(end[i] - cur[i])} values more than the header announces")
     return _ply_list_table(props, scalars, lists, count)
 
 
