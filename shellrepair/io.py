@@ -967,6 +967,9 @@ def _ply_binary_walk(data, pos, el, endian):
     where = [[] for _ in props]   # byte offset of each scalar / of each list's first item
     lens = [[] for _ in props]
     n = len(data)
+    one = [j for j, p in enumerate(props) if p[1] == "list"]
+    if len(one) == 1 and props[one[0]][2] in ("u1", "i1") and count:
+        return _ply_binary_walk_one(data, pos, el, endian, one[0])
     for i in range(count):
         for j, (size, unpack, isz) in enumerate(plan):
             if pos + size > n:
@@ -1001,6 +1004,53 @@ def _ply_binary_walk(data, pos, el, endian):
         flat = b[item[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt).astype(np.int64)
         lists[p[0]] = (k, flat)
     return _ply_list_table(props, scalars, lists, count), pos
+
+
+def _ply_binary_walk_one(data, pos, el, endian, j0):
+    """:func:`_ply_binary_walk` for the usual face record: one list, whose
+    length is one byte; the walk reads just that byte of each record."""
+    props, count, name = el["props"], el["count"], el["name"]
+    sizes = [np.dtype(p[2]).itemsize for p in props]
+    before = sum(sizes[:j0])
+    step = sum(sizes)  # a record's bytes less its list items
+    isz = np.dtype(props[j0][3]).itemsize
+    ks = []
+    at = pos + before
+    try:
+        for _ in range(count):
+            k = data[at]
+            ks.append(k)
+            at += step + k * isz
+    except IndexError:
+        raise MeshError(f"truncated: {name} {len(ks)} of {count} is cut off") from None
+    k = np.array(ks, np.int64)
+    if props[j0][2] == "i1":
+        k = k.astype(np.uint8).view(np.int8).astype(np.int64)
+        if (k < 0).any():
+            i = int(np.flatnonzero(k < 0)[0])
+            raise MeshError(f"{name} {i}: negative list length {int(k[i])}")
+    rec = np.zeros(count, np.int64)  # where each record starts
+    np.cumsum(step + k[:-1] * isz, out=rec[1:])
+    rec += pos
+    end = int(rec[-1]) + step + int(k[-1]) * isz
+    if end > len(data):
+        raise MeshError(f"truncated: {name} {count - 1} of {count} is cut off")
+    b = np.frombuffer(data, np.uint8)
+    scalars, lists = {}, {}
+    for j, p in enumerate(props):
+        at = rec + sum(sizes[:j]) + (k * isz if j > j0 else 0)
+        if j != j0:
+            dt = np.dtype(endian + p[2])
+            scalars[p[0]] = b[at[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt)
+            continue
+        if p[3][0] == "f":
+            continue  # float lists (texture coordinates) are not kept
+        dt = np.dtype(endian + p[3])
+        first = np.zeros(count, np.int64)
+        np.cumsum(k[:-1], out=first[1:])
+        item = np.repeat(at + sizes[j0] - first * dt.itemsize, k) + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
+        lists[p[0]] = (k, b[item[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt).astype(np.int64))
+    return _ply_list_table(props, scalars, lists, count), end
 
 
 def _ply_ascii_cast(col, code, name, prop, notes):

@@ -435,3 +435,20 @@ def test_polygons_of_every_size_keep_their_place(tmp_path):
     # the same from (counts, flat) arrays
     flat = np.concatenate([np.asarray(p) for p in polys])
     assert np.array_equal(io_module._polygons_to_triangles(([len(p) for p in polys], flat), [], V), F)
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("count_type", ["uchar", "char", "int"])
+@pytest.mark.parametrize("fmt", ["binary_little_endian", "binary_big_endian"])
+def test_ply_face_records_with_scalars_around_a_list_of_varying_length(tmp_path, count_type, fmt):
+    fprops = [("flags", "uchar"), ("vertex_indices", f"list {count_type} int"), ("quality", "float")]
+    faces = [(7, 3, 1, 4, 2, 0.5), (8, 4, 0, 1, 2, 3, 1.5), (9, 3, 0, 2, 3, 2.5)]
+    m = _read_bytes(tmp_path, "f.ply", _ply(fmt, XYZ, SQ, fprops, faces))
+    assert m.F.tolist() == [[1, 4, 2], [0, 1, 2], [0, 2, 3], [0, 2, 3]]
+    assert any("face properties not kept: flags, quality" in n for n in m.notes)
+    data = _ply(fmt, XYZ, SQ, fprops, faces)
+    fmt_, elements, pos = io_module._parse_ply_header(data)
+    face = io_module._ply_binary_body(data, pos, elements, ">" if "big" in fmt else "<")["face"]
+    assert face["flags"].tolist() == [7, 8, 9] and face["quality"].tolist() == [0.5, 1.5, 2.5]
+    with pytest.raises(MeshError, match="truncated"):
+        _read_bytes(tmp_path, "t.ply", _ply(fmt, XYZ, SQ, fprops, faces)[:-3])
