@@ -1434,10 +1434,20 @@ def _read_off(data):
     """
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
+    if b"\n" not in data and b"\r" in data:  # old Mac line ends
+        data = data.replace(b"\r", b"\n")
     if b"#" in data:
         data = re.sub(rb"#[^\n\r]*", b"", data)
-    lines = [ln for ln in data.splitlines() if ln.strip()]
-    head = lines[0].split() if lines else []
+    x = np.frombuffer(data, np.uint8)
+    at = np.concatenate([[0], np.flatnonzero(x == 10) + 1, [x.size]])
+    per_line = _token_counts(data)
+    rows = np.flatnonzero(per_line)  # lines with values
+
+    def span(r):
+        """The text of lines ``r`` (and the blank lines between them), and their value counts."""
+        return (data[at[r[0]]:at[r[-1] + 1]] if len(r) else b""), per_line[r]
+
+    head = span(rows[:1])[0].split()
     m = re.fullmatch(rb"((?:ST|C|N)*)(4)?(n)?OFF", head[0]) if head else None
     if m is None and head and head[0].isdigit():
         m, head = re.fullmatch(rb"()()()", b""), [b"OFF"] + head  # the keyword is optional
@@ -1449,12 +1459,12 @@ def _read_off(data):
         raise MeshError("binary OFF is not supported (write it as text OFF, PLY or STL)")
     letters = re.findall(rb"ST|C|N", m.group(1))[::-1]  # in the order of the values
     width = {b"N": 3, b"ST": 2}
-    rest = lines[1:]
+    rest = rows[1:]
     first = head[1:]
     if not first:
-        if not rest:
+        if not len(rest):
             raise MeshError("OFF file has no counts line")
-        first = rest[0].split()
+        first = span(rest[:1])[0].split()
         rest = rest[1:]
     if len(first) < 2:
         raise MeshError("OFF counts line needs vertex and face counts")
@@ -1464,8 +1474,7 @@ def _read_off(data):
     if len(rest) < nv + nf:
         raise MeshError(f"header disagrees with body: {nv} vertices and {nf} faces announced, {len(rest)} lines found")
     notes = []
-    text = b"\n".join(rest[:nv])
-    cnt = _token_counts(text) if nv else np.zeros(0, np.int64)
+    text, cnt = span(rest[:nv])
     if nv and cnt.min() < 3:
         i = int(np.flatnonzero(cnt < 3)[0])
         raise MeshError(f"vertex {i}: needs 3 coordinates, has {int(cnt[i])}")
@@ -1490,14 +1499,12 @@ def _read_off(data):
     elif nv and (cnt > announced).any():
         notes.append(f"OFF: values after the {announced} per vertex that '{head[0].decode()}' announces ignored")
 
-    text = b"\n".join(rest[nv:nv + nf])
-    cnt = _token_counts(text) if nf else np.zeros(0, np.int64)
-    toks = text.split()
+    text, cnt = span(rest[nv:nv + nf])
     try:
-        vals = np.array(toks, dtype=np.int64)
-    except (ValueError, OverflowError):  # face colours as floats
-        vals = _to_numbers(toks, np.float64,
-                           lambda j, t: f"face {np.searchsorted(np.cumsum(cnt), j, side='right')}: bad value '{t}'")
+        vals = _parse_numbers(text, np.int64, int(cnt.sum()), lambda j, t: "")
+    except MeshError:  # face colours as decimals
+        vals = _parse_numbers(text, np.float64, int(cnt.sum()), lambda j, t: (
+            f"face {np.searchsorted(np.cumsum(cnt), j, side='right')}: bad value '{t}'"))
     off = np.zeros(nf, np.int64)
     np.cumsum(cnt[:-1], out=off[1:])
     k = vals[off[cnt > 0]]
