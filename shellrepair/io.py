@@ -1576,13 +1576,45 @@ def _read_stl(data):
 
 
 def _weld(P, vdt):
-    """Merge STL corners with bit-identical coordinates into shared vertices."""
-    P = np.ascontiguousarray(P, dtype=np.float64)
-    V, inv = np.unique(P, axis=0, return_inverse=True)
-    F = inv.reshape(-1, 3).astype(np.int64)
-    mesh = Mesh(V=V, F=F, vertex_dtype=vdt)
+    """Merge STL corners with identical coordinates into shared vertices.
+
+    Vertices are numbered in the order they first appear in the file.
+    Corners are grouped by a 64-bit hash of their coordinates' bits (-0.0
+    taken as 0.0), checked exactly; if two different corners share a hash,
+    they are grouped by an exact sort instead.
+    """
+    P = np.ascontiguousarray(P, dtype=np.float64) + 0.0  # -0.0 + 0.0 is 0.0
+    bits = P.view(np.uint64)
+    h = _row_hash(bits)
+    order = np.argsort(h, kind="stable")
+    B = bits[order]
+    differ = (B[1:] != B[:-1]).any(axis=1)
+    hs = h[order]
+    if np.any(differ & (hs[1:] == hs[:-1])):  # a collision: group by the bits themselves
+        order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
+        B = bits[order]
+        differ = (B[1:] != B[:-1]).any(axis=1)
+    start = np.concatenate([[True], differ])
+    group = np.cumsum(start) - 1          # group of each sorted corner
+    first = order[start]                  # each group's first corner in the file (stable sorts)
+    rank = np.empty(len(first), np.int64)
+    by_appearance = np.argsort(first, kind="stable")
+    rank[by_appearance] = np.arange(len(first))
+    inv = np.empty(len(P), np.int64)
+    inv[order] = rank[group]
+    V = P[first[by_appearance]]
+    mesh = Mesh(V=V, F=inv.reshape(-1, 3), vertex_dtype=vdt)
     mesh.notes.append(f"STL: {len(P)} corners welded into {len(V)} vertices")
     return mesh
+
+
+def _row_hash(bits):
+    """A 64-bit hash of each row of a (n,3) uint64 array."""
+    h = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15)  # products wrap around
+    h ^= bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F)
+    h ^= bits[:, 2] * np.uint64(0x165667B19E3779F9)
+    h ^= h >> np.uint64(29)
+    return h
 
 
 def _stl_bytes(mesh, binary=True):

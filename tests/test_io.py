@@ -452,3 +452,19 @@ def test_ply_face_records_with_scalars_around_a_list_of_varying_length(tmp_path,
     assert face["flags"].tolist() == [7, 8, 9] and face["quality"].tolist() == [0.5, 1.5, 2.5]
     with pytest.raises(MeshError, match="truncated"):
         _read_bytes(tmp_path, "t.ply", _ply(fmt, XYZ, SQ, fprops, faces)[:-3])
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("colliding", [False, True])
+def test_stl_weld_joins_equal_corners_in_order_of_appearance(monkeypatch, colliding):
+    """Corners with equal coordinates (0.0 and -0.0 alike) become one vertex,
+    numbered by first appearance; a hash with many collisions changes nothing."""
+    rng = np.random.default_rng(3)
+    P = rng.integers(-3, 4, (3000, 3)).astype(np.float64)
+    P[rng.random(P.shape) < 0.2] *= -1  # some zeros become -0.0
+    if colliding:
+        monkeypatch.setattr(io_module, "_row_hash", lambda bits: (bits[:, 0] % np.uint64(3)))
+    m = io_module._weld(P, "f8")
+    assert np.array_equal(m.V[m.F.reshape(-1)], P + 0.0)
+    _, first = np.unique(P + 0.0, axis=0, return_index=True)
+    assert np.array_equal(m.V, (P + 0.0)[np.sort(first)])
