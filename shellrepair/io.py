@@ -6,7 +6,15 @@ What loading guarantees
   ``float`` is read as float32 and widened to float64 (exact), and written
   back as float32, so the original coordinates round-trip bit for bit.
 * Vertex colours (PLY ``red green blue [alpha]``, OBJ ``v x y z r g b``,
-  OFF ``COFF``) are kept as ``uint8``.
+  OFF ``COFF``) are kept as ``uint8``; float colours (0..1) are converted
+  and NaN channels set to 0, each with a note.
+* What a triangle mesh does not hold is skipped with a note: OBJ ``vt``,
+  ``vn``, ``l``, ``p`` and free-form statements, PLY elements other than
+  vertex and face and face properties other than the index list, OFF face
+  colours. The readers follow the specifications as exporters use them
+  (OBJ line continuations, relative indices and ``v/vt/vn`` corners; PLY
+  ascii and both binary byte orders, any list count and index types; the
+  OFF variants; binary STL whose header starts with ``solid``).
 * Polygons with more than three corners are split into a fan of triangles.
 * Faces that repeat a vertex (``[a, a, b]``) and duplicate faces (the same
   three vertices, in any order) are dropped; zero-area faces with three
@@ -32,9 +40,11 @@ What loading guarantees
 * ``mesh.notes`` lists each of these changes in one line.
 * STL's per-triangle vertices are welded on exact coordinates.
 * Anything that cannot be read raises :class:`~shellrepair.errors.MeshError`
-  naming the file and what is wrong; NaN/inf coordinates, out-of-range or
+  naming the file and what is wrong; NaN/inf coordinates of a vertex a face
+  uses (of a vertex no face uses: kept, with a note), out-of-range or
   negative indices, a file with no faces, truncated or inconsistent files,
   directories, unreadable or non-regular files (a FIFO would block).
+* Reading prints nothing: NumPy warnings on odd values are notes or errors.
 
 Writing always goes to a temporary file in the target folder that is
 flushed to disk and renamed into place, so a failed write never leaves a
@@ -44,6 +54,7 @@ report together.
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import tempfile
@@ -678,15 +689,6 @@ def _validate(mesh):
     V, F = mesh.V, mesh.F
     if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] == 0:
         raise MeshError("no vertices")
-    bad = ~np.isfinite(V).all(axis=1)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise MeshError(f"vertex {i} has a non-finite coordinate ({int(bad.sum())} such vertices)")
-    huge = (np.abs(V) > MAX_ABS_COORDINATE).any(axis=1)
-    if huge.any():
-        i = int(np.flatnonzero(huge)[0])
-        raise MeshError(f"vertex {i} has a coordinate beyond {MAX_ABS_COORDINATE:.0e} "
-                        f"({int(huge.sum())} such vertices)")
     if F.shape[0] == 0:
         raise MeshError("no faces: this is a point cloud, not a surface mesh")
     lo, hi = F.min(), F.max()
@@ -695,6 +697,24 @@ def _validate(mesh):
         i = int(rows[0])
         raise MeshError(f"face {i} has vertex index {int(F[i][(F[i] < 0) | (F[i] >= V.shape[0])][0])} "
                         f"out of range 0..{V.shape[0] - 1}")
+    bad = ~np.isfinite(V).all(axis=1)
+    if bad.any():
+        used = np.zeros(V.shape[0], bool)
+        used[F.ravel()] = True
+        bad_used = bad & used
+        if bad_used.any():
+            i = int(np.flatnonzero(bad_used)[0])
+            raise MeshError(f"vertex {i} has a non-finite coordinate "
+                            f"({int(bad_used.sum())} such vertices)")
+        # nothing refers to them: they are kept, like every unreferenced vertex
+        mesh.notes.append(f"{int(bad.sum())} unreferenced vertices with NaN or infinite coordinates "
+                          "kept as they are")
+    with np.errstate(invalid="ignore"):
+        huge = (np.abs(V) > MAX_ABS_COORDINATE).any(axis=1) & ~bad  # finite but too large
+    if huge.any():
+        i = int(np.flatnonzero(huge)[0])
+        raise MeshError(f"vertex {i} has a coordinate beyond {MAX_ABS_COORDINATE:.0e} "
+                        f"({int(huge.sum())} such vertices)")
 
 
 def _used_vertex_count(F, n):
@@ -703,13 +723,135 @@ def _used_vertex_count(F, n):
     return int(used.sum())
 
 
+# --------------------------------------------------------------------------
+# shared by the readers
+# --------------------------------------------------------------------------
+#: Bytes that separate tokens in the text formats (those ``bytes.split()`` splits on).
+_WS = np.zeros(256, bool)
+_WS[[9, 10, 11, 12, 13, 32]] = True
+
+
+def _token_starts(x):
+    """Where each token of the bytes ``x`` (uint8 array) starts, as ``bytes.split()`` splits."""
+    ws = x <= 32
+    if np.count_nonzero(ws) != np.count_nonzero(x == 32) + np.count_nonzero((x - np.uint8(9)) <= 4):
+        ws = _WS[x]  # control bytes that do not separate tokens: look each byte up
+    first = ~ws
+    first[1:] &= ws[:-1]
+    return first
+
+
+def _token_counts(text, starts=None):
+    """Tokens on each line of ``text`` (bytes, lines ended by ``\\n``), as ``bytes.split()`` finds them.
+
+    Parameters
+    ----------
+    text : bytes
+    starts : (k,) int64 array, optional
+        Where the tokens start (``np.flatnonzero(_token_starts(x))``), if known.
+
+    Returns
+    -------
+    counts : (text.count(b"\\n") + 1,) int64 array
+    """
+    x = np.frombuffer(text, np.uint8)
+    at = np.concatenate([[0], np.flatnonzero(x == 10) + 1, [x.size]])
+    if starts is None:
+        starts = np.flatnonzero(_token_starts(x)) if x.size else np.zeros(0, np.int64)
+    return np.diff(np.searchsorted(starts, at)).astype(np.int64)
+
+
+def _parse_numbers(text, dtype, n, where):
+    """The ``n`` whitespace-separated numbers of ``text`` (bytes) as a ``dtype`` array.
+
+    Parsed in one pass when every token is one number; otherwise token by
+    token, and the first bad token raises :class:`MeshError` with the message
+    ``where(i, token)`` (``i`` counts tokens from 0). Returns an array of
+    another length only when ``n`` is not the number of tokens.
+    """
+    try:
+        vals = np.fromstring(text, dtype=dtype, sep=" ")
+        if vals.size == n:
+            return vals
+    except ValueError:  # a token that is not a number
+        pass
+    return _to_numbers(text.split(), dtype, where)
+
+
+def _to_numbers(tokens, dtype, where):
+    """``tokens`` (list of bytes) as a ``dtype`` array; a bad token raises MeshError(``where(i, token)``)."""
+    try:
+        return np.array(tokens, dtype=dtype)
+    except (ValueError, OverflowError):
+        conv = float if np.dtype(dtype).kind == "f" else int
+        for i, t in enumerate(tokens):
+            try:
+                v = conv(t)
+                if conv is int and not -2**63 <= v < 2**63:
+                    raise OverflowError
+            except (ValueError, OverflowError):
+                raise MeshError(where(i, t.decode("utf-8", errors="replace")[:40])) from None
+        raise
+
+
+def _colors_to_uint8(C, notes, what, unit=None):
+    """Vertex colours as uint8, whatever the file stored.
+
+    Parameters
+    ----------
+    C : (n,k) array
+        k = 3 (RGB) or 4 (RGBA), any numeric dtype.
+    notes : list of str
+        Gets one line per conversion that is not the identity.
+    what : str
+        Names the source in the notes (``"PLY"``, ``"OBJ"``, ``"OFF"``).
+    unit : bool or None
+        True: floats are in 0..1 (the PLY convention for float colours);
+        None: floats are 0..1 when none exceeds 1, else 0..255.
+
+    Returns
+    -------
+    colors : (n,k) uint8 array
+        NaN or infinite channels become 0 (alpha 255), with a note.
+    """
+    C = np.asarray(C)
+    if C.dtype == np.uint8:
+        return C
+    k = C.shape[1]
+    X = C.astype(np.float64)
+    bad = ~np.isfinite(X)
+    if bad.any():
+        X[bad] = 0.0
+        notes.append(f"{what}: {int(bad.any(axis=1).sum())} vertex colours with NaN or infinite "
+                     "channels: those channels set to 0 (alpha to 255)")
+    if C.dtype.kind == "f":
+        if unit or (unit is None and X.max(initial=0.0) <= 1.0):
+            X = X * 255.0
+            notes.append(f"{what}: vertex colours stored as floats 0..1 converted to 8 bits")
+        else:
+            notes.append(f"{what}: vertex colours stored as floats 0..255 rounded to 8 bits")
+    elif C.dtype.itemsize > 1 and X.max(initial=0.0) > 255:
+        X = X / 257.0  # 16-bit channels
+        notes.append(f"{what}: 16-bit vertex colours reduced to 8 bits")
+    X = np.rint(X)
+    out_of_range = (X < 0) | (X > 255)
+    if out_of_range.any():
+        notes.append(f"{what}: {int(out_of_range.any(axis=1).sum())} vertex colours outside 0..255 clipped")
+    out = np.clip(X, 0, 255).astype(np.uint8)
+    if k == 4:
+        out[bad[:, 3], 3] = 255
+    return out
+
+
 def _polygons_to_triangles(polys, notes, V=None):
     """Split polygons into triangles that stay inside them; returns (m,3) int64.
 
     Parameters
     ----------
-    polys : list of lists of int
-        Corner indices, in the polygon's winding.
+    polys : list of lists of int, or (counts, flat) pair of int arrays
+        Corner indices, in the polygon's winding; as a pair, polygon ``i``
+        has ``counts[i]`` corners, stored one polygon after the other in
+        ``flat``.
     notes : list of str
         Gets one line per kind of change.
     V : (n,3) float64 array, optional
@@ -718,70 +860,78 @@ def _polygons_to_triangles(polys, notes, V=None):
 
     Notes
     -----
-    A quad is split along 0-2 unless that diagonal lies outside it (corners
-    1 and 3 on the same side), then along 1-3. Larger polygons are ear
-    clipped in the plane of their Newell normal, which keeps every triangle
-    inside a non-convex outline; a polygon with no ear (self-crossing) is
-    fanned. All triangles keep the polygon's winding.
+    Triangles are kept as they are, in file order; each polygon's triangles
+    take its place. A quad is split along 0-2 unless that diagonal lies
+    outside it (corners 1 and 3 on the same side), then along 1-3. Larger
+    polygons are ear clipped in the plane of their Newell normal, which
+    keeps every triangle inside a non-convex outline; a polygon with no ear
+    (self-crossing) is fanned. All triangles keep the polygon's winding.
+    Faces with fewer than 3 corners are dropped.
     """
-    tris = []
-    quads = []
-    n_poly = 0
-    n_small = 0
-    n = -1 if V is None else len(V)
-    for p in polys:
-        k = len(p)
-        if k < 3:
-            n_small += 1
-            continue
-        if k == 3:
-            tris.append(tuple(p))
-            continue
-        n_poly += 1
-        if n > 0 and min(p) >= 0 and max(p) < n:
-            if k == 4:
-                quads.append((len(tris), p))
-                tris.append(None)
-                tris.append(None)
-                continue
-            tris.extend(_ear_clip(V, p))
-            continue
-        for j in range(1, k - 1):
-            tris.append((p[0], p[j], p[j + 1]))
-    if quads:
-        at = np.array([q[0] for q in quads], np.int64)
-        Q = np.array([q[1] for q in quads], np.int64)
-        P = V[Q]
-        n1 = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])  # triangle 0-1-2
-        n2 = np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 0])  # triangle 0-2-3
-        use13 = np.einsum("ij,ij->i", n1, n2) < 0  # 1 and 3 on the same side of 0-2: 0-2 lies outside
-        A = np.where(use13[:, None], Q[:, [1, 2, 3]], Q[:, [0, 1, 2]])
-        B = np.where(use13[:, None], Q[:, [1, 3, 0]], Q[:, [0, 2, 3]])
-        for i, a, b in zip(at.tolist(), A.tolist(), B.tolist()):
-            tris[i] = tuple(a)
-            tris[i + 1] = tuple(b)
+    if isinstance(polys, tuple):
+        counts = np.asarray(polys[0], np.int64)
+        flat = np.asarray(polys[1], np.int64)
+    else:
+        counts = np.fromiter(map(len, polys), np.int64, len(polys))
+        flat = np.fromiter(itertools.chain.from_iterable(polys), np.int64, int(counts.sum()))
+    if counts.size and (counts == 3).all():
+        return flat.reshape(-1, 3)
+    off = np.zeros(len(counts), np.int64)
+    np.cumsum(counts[:-1], out=off[1:])
+    ntri = np.maximum(counts - 2, 0)
+    at = np.zeros(len(counts), np.int64)  # first output row of each polygon
+    np.cumsum(ntri[:-1], out=at[1:])
+    out = np.empty((int(ntri.sum()), 3), np.int64)
+    n = 0 if V is None else len(V)
+    inside = np.zeros(len(counts), bool)  # every corner indexes V
+    nz = np.flatnonzero(counts > 0)
+    if n and nz.size:
+        inside[nz] = (np.minimum.reduceat(flat, off[nz]) >= 0) & (np.maximum.reduceat(flat, off[nz]) < n)
+
+    k3 = np.flatnonzero(counts == 3)
+    out[at[k3]] = flat[off[k3, None] + np.arange(3)]
+    k4 = np.flatnonzero(counts == 4)
+    if k4.size:
+        Q = flat[off[k4, None] + np.arange(4)]
+        use13 = np.zeros(len(k4), bool)
+        ok = inside[k4]
+        if ok.any():
+            with np.errstate(invalid="ignore", over="ignore"):
+                P = V[Q[ok]]
+                n1 = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])  # triangle 0-1-2
+                n2 = np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 0])  # triangle 0-2-3
+                use13[ok] = np.einsum("ij,ij->i", n1, n2) < 0  # 1 and 3 on one side of 0-2: 0-2 lies outside
+        out[at[k4]] = np.where(use13[:, None], Q[:, [1, 2, 3]], Q[:, [0, 1, 2]])
+        out[at[k4] + 1] = np.where(use13[:, None], Q[:, [1, 3, 0]], Q[:, [0, 2, 3]])
+    for i in np.flatnonzero(counts > 4).tolist():
+        p = flat[off[i]:off[i] + counts[i]].tolist()
+        tris = _ear_clip(V, p) if inside[i] else [(p[0], p[j], p[j + 1]) for j in range(1, len(p) - 1)]
+        out[at[i]:at[i] + len(tris)] = tris
+    n_poly = int(np.count_nonzero(counts > 3))
+    n_small = int(np.count_nonzero(counts < 3))
     if n_poly:
         notes.append(f"{n_poly} polygons with more than 3 corners split into triangles")
     if n_small:
         notes.append(f"{n_small} faces with fewer than 3 corners dropped")
-    return np.array(tris, dtype=np.int64).reshape(-1, 3)
+    return out
 
 
 def _ear_clip(V, poly):
     """Ear clipping of one polygon in the plane of its Newell normal."""
     idx = list(poly)
-    P = np.asarray(V, np.float64)[idx]
-    P = P - P.mean(axis=0)
-    nrm = np.sum(np.cross(P, np.roll(P, -1, axis=0)), axis=0)  # Newell normal (twice the vector area)
-    ln = np.linalg.norm(nrm)
-    if not np.isfinite(ln) or ln == 0:
-        return [(idx[0], idx[j], idx[j + 1]) for j in range(1, len(idx) - 1)]
-    nrm = nrm / ln
-    t = np.array([1.0, 0.0, 0.0]) if abs(nrm[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(nrm, t)
-    u /= np.linalg.norm(u)
-    w = np.cross(nrm, u)
-    xy = np.column_stack([P @ u, P @ w])  # counter-clockwise seen along nrm
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        P = np.asarray(V, np.float64)[idx]
+        P = P - P.mean(axis=0)
+        nrm = np.sum(np.cross(P, np.roll(P, -1, axis=0)), axis=0)  # Newell normal (twice the vector area)
+        ln = np.linalg.norm(nrm)
+        if not np.isfinite(ln) or ln == 0:
+            return [(idx[0], idx[j], idx[j + 1]) for j in range(1, len(idx) - 1)]
+        nrm = nrm / ln
+        t = np.array([1.0, 0.0, 0.0]) if abs(nrm[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        u = np.cross(nrm, t)
+        u /= np.linalg.norm(u)
+        w = np.cross(nrm, u)
+        xy = np.column_stack([P @ u, P @ w]).tolist()  # counter-clockwise seen along nrm
 
     def cross2(o, a, b):
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
@@ -845,9 +995,12 @@ def _parse_ply_header(data):
         elif tok[0] == "property":
             if not elements:
                 raise MeshError(f"PLY header line {lineno}: property before any element")
-            if tok[1] == "list":
+            if len(tok) > 1 and tok[1] == "list":
                 if len(tok) != 5 or tok[2] not in _PLY_TYPES or tok[3] not in _PLY_TYPES:
                     raise MeshError(f"PLY header line {lineno}: bad list property '{raw.strip()}'")
+                if _PLY_TYPES[tok[2]][0] == "f":
+                    raise MeshError(f"PLY header line {lineno}: list length of type '{tok[2]}' "
+                                    "(must be an integer type)")
                 elements[-1]["props"].append((tok[4], "list", _PLY_TYPES[tok[2]], _PLY_TYPES[tok[3]]))
             else:
                 if len(tok) != 3 or tok[1] not in _PLY_TYPES:
@@ -860,6 +1013,14 @@ def _parse_ply_header(data):
     return fmt, elements, body_start
 
 
+#: Names of vertex colour channels, in the order they are looked for.
+_PLY_COLOR_NAMES = (("red", "green", "blue", "alpha"),
+                    ("diffuse_red", "diffuse_green", "diffuse_blue", "diffuse_alpha"),
+                    ("r", "g", "b", "a"))
+#: Names of the face element's vertex index list.
+_PLY_INDEX_NAMES = ("vertex_indices", "vertex_index")
+
+
 def _read_ply(data):
     fmt, elements, pos = _parse_ply_header(data)
     names = [e["name"] for e in elements]
@@ -867,8 +1028,9 @@ def _read_ply(data):
         raise MeshError("PLY has no vertex element")
     if "face" not in names:
         raise MeshError("no faces: this is a point cloud, not a surface mesh")
+    notes = []
     if fmt == "ascii":
-        tables = _ply_ascii_body(data[pos:], elements)
+        tables = _ply_ascii_body(data[pos:], elements, notes)
     else:
         endian = "<" if fmt == "binary_little_endian" else ">"
         tables = _ply_binary_body(data, pos, elements, endian)
@@ -876,33 +1038,45 @@ def _read_ply(data):
     for c in "xyz":
         if c not in vert:
             raise MeshError(f"PLY vertex element has no '{c}' property")
-    vdt = "f8" if any(vert[c].dtype == np.float64 for c in "xyz") else "f4"
+    # float coordinates keep their width; anything else is written back as double
+    vdt = "f4" if all(vert[c].dtype.kind == "f" and vert[c].dtype.itemsize == 4 for c in "xyz") else "f8"
     V = np.column_stack([vert[c].astype(np.float64) for c in "xyz"])
     mesh = Mesh(V=V, F=np.zeros((0, 3), np.int64), vertex_dtype=vdt)
-    col = [c for c in ("red", "green", "blue", "alpha") if c in vert]
-    if len(col) >= 3 and col[:3] == ["red", "green", "blue"]:
-        cols = [vert[c] for c in col]
-        if all(c.dtype == np.uint8 for c in cols):
-            mesh.vertex_colors = np.column_stack(cols).astype(np.uint8)
-        else:  # float colours in [0, 1]
-            mesh.vertex_colors = np.clip(np.round(np.column_stack(cols).astype(np.float64) * 255), 0, 255).astype(np.uint8)
-    skip = {"x", "y", "z", "red", "green", "blue", "alpha", "filled"}
+    skip = {"x", "y", "z", "filled"}
+    for cn in _PLY_COLOR_NAMES:
+        if all(c in vert for c in cn[:3]):
+            cn = cn if cn[3] in vert else cn[:3]
+            cols = [vert[c] for c in cn]
+            if all(c.dtype == np.uint8 for c in cols):
+                mesh.vertex_colors = np.column_stack(cols)
+            else:
+                kind = "f" if any(c.dtype.kind == "f" for c in cols) else "i"
+                C = np.column_stack([c.astype(np.float64 if kind == "f" else np.int64) for c in cols])
+                mesh.vertex_colors = _colors_to_uint8(C, notes, "PLY", unit=True)
+            skip.update(cn)
+            break
     for name, arr in vert.items():
-        if name not in skip and arr.ndim == 1:
+        if name not in skip and not name.startswith("__") and arr.ndim == 1:
             mesh.vertex_props[name] = arr
     if "filled" in vert:
         mesh.vertex_filled = vert["filled"].astype(bool)
     face = tables["face"]
-    F = face.get("__F__")
-    if F is None:
+    if "__F__" not in face and "__polys__" not in face:
         raise MeshError("PLY face element has no vertex index list")
     if "__polys__" in face:
-        F = _polygons_to_triangles(face["__polys__"], mesh.notes, V)
+        mesh.F = _polygons_to_triangles(face["__polys__"], notes, V)
     else:
-        F = F.astype(np.int64)
-    mesh.F = F
-    if "filled" in face and "__polys__" not in face:
-        mesh.face_filled = face["filled"].astype(bool)
+        mesh.F = np.asarray(face["__F__"], dtype=np.int64).reshape(-1, 3)
+        if "filled" in face:
+            mesh.face_filled = face["filled"].astype(bool)
+    dropped = [p[0] for p in next(e for e in elements if e["name"] == "face")["props"]
+               if p[0] not in _PLY_INDEX_NAMES and not (p[0] == "filled" and "__polys__" not in face)]
+    if dropped:
+        notes.append(f"PLY: face properties not kept: {', '.join(dropped)}")
+    others = [f"{e['name']} ({e['count']})" for e in elements if e["name"] not in ("vertex", "face")]
+    if others:
+        notes.append(f"PLY: elements skipped: {', '.join(others)}")
+    mesh.notes.extend(notes)
     return mesh
 
 
@@ -928,127 +1102,280 @@ def _ply_binary_body(data, pos, elements, endian):
     return tables
 
 
+_STRUCT_CODES = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I", "f4": "f", "f8": "d"}
+
+
+def _ply_list_table(props, scalars, lists, count):
+    """The table of an element with list properties: scalars by name, the
+    vertex index list as ``__F__`` (all triangles) or ``__polys__`` (counts, flat)."""
+    tab = dict(scalars)
+    idx_name = next((p[0] for p in props if p[1] == "list" and p[0] in _PLY_INDEX_NAMES), None)
+    if idx_name is None:
+        return tab
+    counts, flat = lists[idx_name]
+    if np.ndim(counts) == 0:  # every record has this many corners
+        counts = int(counts)
+        if counts == 3:
+            tab["__F__"] = flat.reshape(-1, 3)
+            return tab
+        counts = np.full(count, counts, np.int64)
+    if counts.size == count and (counts == 3).all():
+        tab["__F__"] = flat.reshape(-1, 3)
+    else:
+        tab["__polys__"] = (counts, flat)
+    return tab
+
+
 def _ply_binary_lists(data, pos, el, endian):
-    """Element with list properties: a fast path for all-triangle faces."""
+    """Element with list properties.
+
+    When every record has the list lengths of the first (all triangles, all
+    quads, a fixed-length texcoord list...), the element is one structured
+    array; otherwise records are walked one by one to find where each starts.
+    """
     props, count, name = el["props"], el["count"], el["name"]
-    tab = {}
-    list_props = [p for p in props if p[1] == "list"]
-    idx_name = next((p[0] for p in list_props if p[0] in ("vertex_indices", "vertex_index")), None)
-    if len(list_props) == 1 and idx_name is not None and count > 0:
-        fields = []
-        for p in props:
-            if p[1] == "list":
-                fields += [("__n__", endian + p[2]), ("__F__", endian + p[3], (3,))]
-            else:
-                fields.append((p[0], endian + p[2]))
-        dt = np.dtype(fields)
-        need = dt.itemsize * count
-        avail = min(count, max(0, len(data) - pos) // dt.itemsize)
-        arr = np.frombuffer(data, dtype=dt, count=avail, offset=pos)
-        if (arr["__n__"] == 3).all() and avail < count:
-            raise MeshError(f"truncated: {name} data needs {need} bytes, {max(0, len(data) - pos)} left")
-        if avail == count:
-            if (arr["__n__"] == 3).all():
-                for p in props:
-                    tab[p[0] if p[1] == "scalar" else "__F__"] = arr[p[0] if p[1] == "scalar" else "__F__"]
-                return tab, pos + need
-    # general path: walk records one by one
-    scal = {p[0]: [] for p in props if p[1] == "scalar"}
-    lists = {p[0]: [] for p in props if p[1] == "list"}
-    mv = memoryview(data)
-    for i in range(count):
-        for p in props:
-            if p[1] == "scalar":
-                dt = np.dtype(endian + p[2])
-                if pos + dt.itemsize > len(data):
-                    raise MeshError(f"truncated: {name} {i} of {count} is cut off")
-                scal[p[0]].append(np.frombuffer(mv, dt, 1, pos)[0])
-                pos += dt.itemsize
-            else:
-                cdt, idt = np.dtype(endian + p[2]), np.dtype(endian + p[3])
-                if pos + cdt.itemsize > len(data):
-                    raise MeshError(f"truncated: {name} {i} of {count} is cut off")
-                n = int(np.frombuffer(mv, cdt, 1, pos)[0])
-                pos += cdt.itemsize
-                if pos + n * idt.itemsize > len(data):
-                    raise MeshError(f"truncated: {name} {i} of {count} is cut off")
-                lists[p[0]].append(np.frombuffer(mv, idt, n, pos).astype(np.int64).tolist())
-                pos += n * idt.itemsize
-    for k, v in scal.items():
-        tab[k] = np.array(v)
-    if idx_name is not None:
-        polys = lists[idx_name]
-        if all(len(p) == 3 for p in polys):
-            tab["__F__"] = np.array(polys, dtype=np.int64).reshape(-1, 3)
+    if count == 0:
+        return _ply_list_table(props, {p[0]: np.zeros(0, endian + p[2]) for p in props if p[1] == "scalar"},
+                               {p[0]: (np.zeros(0, np.int64), np.zeros(0, np.int64)) for p in props
+                                if p[1] == "list"}, 0), pos
+    # lengths of the first record's lists
+    first, at = [], pos
+    for p in props:
+        if p[1] == "scalar":
+            at += np.dtype(p[2]).itemsize
+            continue
+        cdt = np.dtype(endian + p[2])
+        if at + cdt.itemsize > len(data):
+            raise MeshError(f"truncated: {name} 0 of {count} is cut off")
+        k = int(np.frombuffer(data, cdt, 1, at)[0])
+        if k < 0:
+            raise MeshError(f"{name} 0: negative list length {k}")
+        first.append(k)
+        at += cdt.itemsize + k * np.dtype(p[3]).itemsize
+    fields, j = [], 0
+    for p in props:
+        if p[1] == "scalar":
+            fields.append((p[0], endian + p[2]))
         else:
-            tab["__F__"] = np.zeros((0, 3), np.int64)
-            tab["__polys__"] = polys
-    return tab, pos
+            fields += [(f"__n{j}__", endian + p[2]), (p[0], endian + p[3], (first[j],))]
+            j += 1
+    dt = np.dtype(fields)
+    need = dt.itemsize * count
+    avail = min(count, max(0, len(data) - pos) // dt.itemsize)
+    arr = np.frombuffer(data, dtype=dt, count=avail, offset=pos)
+    same = all((arr[f"__n{j}__"] == k).all() for j, k in enumerate(first))
+    if same and avail < count:
+        raise MeshError(f"truncated: {name} data needs {need} bytes, {max(0, len(data) - pos)} left")
+    if same:
+        scalars = {p[0]: arr[p[0]] for p in props if p[1] == "scalar"}
+        lists = {p[0]: (first[j], arr[p[0]].reshape(-1).astype(np.int64))
+                 for j, p in enumerate(p for p in props if p[1] == "list") if p[3][0] != "f"}
+        return _ply_list_table(props, scalars, lists, count), pos + need
+    return _ply_binary_walk(data, pos, el, endian)
 
 
-def _ply_ascii_body(body, elements):
-    text = body.decode("ascii", errors="replace")
-    lines = [ln for ln in text.splitlines() if ln.strip()]
+def _ply_binary_walk(data, pos, el, endian):
+    """Element with list properties of varying length: walk the records, then gather."""
+    import struct
+
+    props, count, name = el["props"], el["count"], el["name"]
+    plan = []
+    for p in props:
+        if p[1] == "scalar":
+            plan.append((np.dtype(p[2]).itemsize, None, 0))
+        else:
+            plan.append((np.dtype(p[2]).itemsize, struct.Struct(endian + _STRUCT_CODES[p[2]]).unpack_from,
+                         np.dtype(p[3]).itemsize))
+    where = [[] for _ in props]   # byte offset of each scalar / of each list's first item
+    lens = [[] for _ in props]
+    n = len(data)
+    one = [j for j, p in enumerate(props) if p[1] == "list"]
+    if len(one) == 1 and props[one[0]][2] in ("u1", "i1") and count:
+        return _ply_binary_walk_one(data, pos, el, endian, one[0])
+    for i in range(count):
+        for j, (size, unpack, isz) in enumerate(plan):
+            if pos + size > n:
+                raise MeshError(f"truncated: {name} {i} of {count} is cut off")
+            if unpack is None:
+                where[j].append(pos)
+                pos += size
+                continue
+            k = unpack(data, pos)[0]
+            if k < 0:
+                raise MeshError(f"{name} {i}: negative list length {k}")
+            pos += size
+            where[j].append(pos)
+            lens[j].append(k)
+            pos += k * isz
+            if pos > n:
+                raise MeshError(f"truncated: {name} {i} of {count} is cut off")
+    b = np.frombuffer(data, np.uint8)
+    scalars, lists = {}, {}
+    for j, p in enumerate(props):
+        at = np.asarray(where[j], np.int64)
+        if p[1] == "scalar":
+            dt = np.dtype(endian + p[2])
+            scalars[p[0]] = b[at[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt)
+            continue
+        if p[3][0] == "f":
+            continue  # float lists (texture coordinates) are not kept
+        dt = np.dtype(endian + p[3])
+        k = np.asarray(lens[j], np.int64)
+        start = np.repeat(at - np.concatenate([[0], np.cumsum(k)[:-1]]) * dt.itemsize, k)
+        item = start + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
+        flat = b[item[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt).astype(np.int64)
+        lists[p[0]] = (k, flat)
+    return _ply_list_table(props, scalars, lists, count), pos
+
+
+def _ply_binary_walk_one(data, pos, el, endian, j0):
+    """:func:`_ply_binary_walk` for the usual face record: one list, whose
+    length is one byte; the walk reads just that byte of each record."""
+    props, count, name = el["props"], el["count"], el["name"]
+    sizes = [np.dtype(p[2]).itemsize for p in props]
+    before = sum(sizes[:j0])
+    step = sum(sizes)  # a record's bytes less its list items
+    isz = np.dtype(props[j0][3]).itemsize
+    ks = []
+    at = pos + before
+    try:
+        for _ in range(count):
+            k = data[at]
+            ks.append(k)
+            at += step + k * isz
+    except IndexError:
+        raise MeshError(f"truncated: {name} {len(ks)} of {count} is cut off") from None
+    k = np.array(ks, np.int64)
+    if props[j0][2] == "i1":
+        k = k.astype(np.uint8).view(np.int8).astype(np.int64)
+        if (k < 0).any():
+            i = int(np.flatnonzero(k < 0)[0])
+            raise MeshError(f"{name} {i}: negative list length {int(k[i])}")
+    rec = np.zeros(count, np.int64)  # where each record starts
+    np.cumsum(step + k[:-1] * isz, out=rec[1:])
+    rec += pos
+    end = int(rec[-1]) + step + int(k[-1]) * isz
+    if end > len(data):
+        raise MeshError(f"truncated: {name} {count - 1} of {count} is cut off")
+    b = np.frombuffer(data, np.uint8)
+    scalars, lists = {}, {}
+    for j, p in enumerate(props):
+        at = rec + sum(sizes[:j]) + (k * isz if j > j0 else 0)
+        if j != j0:
+            dt = np.dtype(endian + p[2])
+            scalars[p[0]] = b[at[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt)
+            continue
+        if p[3][0] == "f":
+            continue  # float lists (texture coordinates) are not kept
+        dt = np.dtype(endian + p[3])
+        first = np.zeros(count, np.int64)
+        np.cumsum(k[:-1], out=first[1:])
+        item = np.repeat(at + sizes[j0] - first * dt.itemsize, k) + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
+        lists[p[0]] = (k, b[item[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt).astype(np.int64))
+    return _ply_list_table(props, scalars, lists, count), end
+
+
+def _ply_ascii_cast(col, code, name, prop, notes):
+    """An ascii column (float64) as PLY type ``code``; integers that are not numbers or
+    out of the type's range are set to 0 or clipped, with a note."""
+    dt = np.dtype(code)
+    if dt.kind == "f":
+        with np.errstate(over="ignore"):
+            return col.astype(dt)
+    info = np.iinfo(dt)
+    bad = ~np.isfinite(col)
+    if bad.any():
+        notes.append(f"PLY: {name} property '{prop}': {int(bad.sum())} values are not numbers, read as 0")
+        col = np.where(bad, 0.0, col)
+    out = (col < info.min) | (col > info.max)
+    if out.any():
+        notes.append(f"PLY: {name} property '{prop}': {int(out.sum())} values outside "
+                     f"{info.min}..{info.max} clipped")
+        col = np.clip(col, info.min, info.max)
+    return col.astype(dt)
+
+
+def _ply_ascii_body(body, elements, notes):
+    """The elements of an ascii PLY body: one line per record, blank lines skipped."""
+    x = np.frombuffer(body, np.uint8)
+    at = np.concatenate([[0], np.flatnonzero(x == 10) + 1, [x.size]])
+    cnt = _token_counts(body)
+    rows = np.flatnonzero(cnt)
     total = sum(el["count"] for el in elements)
-    if len(lines) != total:
+    if len(rows) != total:
         announced = ", ".join(f"{el['count']} {el['name']}" for el in elements)
         raise MeshError(f"header disagrees with body: header announces {announced} lines "
-                        f"({total}), body has {len(lines)}")
+                        f"({total}), body has {len(rows)}")
     tables = {}
-    at = 0
+    done = 0
     for el in elements:
-        props, count, name = el["props"], el["count"], el["name"]
-        chunk = lines[at:at + count]
-        if len(chunk) < count:
-            raise MeshError(f"header disagrees with body: {count} {name} lines announced, {len(chunk)} found")
-        at += count
-        tab = {}
-        if all(p[1] == "scalar" for p in props):
-            if count:
-                flat = " ".join(chunk).split()
-                if len(flat) != count * len(props):
-                    raise MeshError(f"header disagrees with body: {name} lines should have {len(props)} values each")
-                arr = np.array(flat, dtype=np.float64).reshape(count, len(props))
-            else:
-                arr = np.zeros((0, len(props)))
-            for j, p in enumerate(props):
-                tab[p[0]] = arr[:, j].astype(p[2]) if p[2] not in ("f4", "f8") else arr[:, j].astype(p[2])
-        else:
-            scal = {p[0]: [] for p in props if p[1] == "scalar"}
-            polys = []
-            for li, ln in enumerate(chunk):
-                tok = ln.split()
-                k = 0
-                for p in props:
-                    if p[1] == "scalar":
-                        if k >= len(tok):
-                            raise MeshError(f"{name} {li}: missing value '{p[0]}'")
-                        scal[p[0]].append(float(tok[k]))
-                        k += 1
-                    else:
-                        if k >= len(tok):
-                            raise MeshError(f"{name} {li}: missing list '{p[0]}'")
-                        n = int(tok[k])
-                        if n < 0:
-                            raise MeshError(f"{name} {li}: negative list length {n}")
-                        vals = tok[k + 1:k + 1 + n]
-                        if len(vals) != n:
-                            raise MeshError(f"{name} {li}: list announces {n} values, has {len(vals)}")
-                        if p[0] in ("vertex_indices", "vertex_index"):
-                            polys.append([int(v) for v in vals])
-                        k += 1 + n
-            for p in props:
-                if p[1] == "scalar":
-                    tab[p[0]] = np.array(scal[p[0]], dtype=p[2])
-            if all(len(p) == 3 for p in polys):
-                tab["__F__"] = np.array(polys, dtype=np.int64).reshape(-1, 3)
-            else:
-                tab["__F__"] = np.zeros((0, 3), np.int64)
-                tab["__polys__"] = polys
-        tables[name] = tab
-    if at < len(lines):
-        raise MeshError(f"header disagrees with body: {len(lines) - at} extra lines after the last element")
+        r = rows[done:done + el["count"]]
+        done += el["count"]
+        text = body[at[r[0]]:at[r[-1] + 1]] if len(r) else b""
+        tables[el["name"]] = _ply_ascii_element(text, cnt[r], el["props"], el["count"], el["name"], notes)
     return tables
+
+
+def _ply_ascii_element(text, per_line, props, count, name, notes):
+    """One element of an ascii PLY body.
+
+    Parameters
+    ----------
+    text : bytes
+        Its ``count`` lines (and any blank lines between them).
+    per_line : (count,) int64 array
+        Values on each of those lines.
+
+    Notes
+    -----
+    All values are parsed at once; then each property is taken from every
+    record together, a cursor per record moving past scalars and lists, so
+    records of different lengths (triangles and quads, texture coordinate
+    lists) need no loop over records.
+    """
+    if count == 0:
+        return _ply_list_table(props, {p[0]: np.zeros(0, p[2]) for p in props if p[1] == "scalar"},
+                               {p[0]: (np.zeros(0, np.int64), np.zeros(0, np.int64)) for p in props
+                                if p[1] == "list"}, 0)
+    if all(p[1] == "scalar" for p in props) and (per_line != len(props)).any():
+        raise MeshError(f"header disagrees with body: {name} lines should have {len(props)} values each")
+    off = np.zeros(count, np.int64)
+    np.cumsum(per_line[:-1], out=off[1:])
+    end = off + per_line
+    vals = _parse_numbers(text, np.float64, int(per_line.sum()), lambda j, t: (
+        f"{name} {np.searchsorted(off, j, side='right') - 1}: bad number '{t}'"))
+    cur = off.copy()
+    scalars, lists = {}, {}
+    for p in props:
+        short = np.flatnonzero(cur >= end)
+        if short.size:
+            raise MeshError(f"{name} {int(short[0])}: missing {'value' if p[1] == 'scalar' else 'list'} '{p[0]}'")
+        if p[1] == "scalar":
+            scalars[p[0]] = _ply_ascii_cast(vals[cur], p[2], name, p[0], notes)
+            cur += 1
+            continue
+        k = vals[cur]
+        bad = np.flatnonzero(~(k >= 0) | (k != np.floor(k)))
+        if bad.size:
+            raise MeshError(f"{name} {int(bad[0])}: bad list length '{k[bad[0]]:g}'")
+        k = k.astype(np.int64)
+        over = np.flatnonzero(cur + 1 + k > end)
+        if over.size:
+            i = int(over[0])
+            raise MeshError(f"{name} {i}: list announces {int(k[i])} values, has {int(end[i] - cur[i] - 1)}")
+        if p[3][0] != "f":  # float lists (texture coordinates) are not kept
+            first = np.zeros(count, np.int64)
+            np.cumsum(k[:-1], out=first[1:])
+            L = vals[np.repeat(cur + 1 - first, k) + np.arange(int(k.sum()))]
+            if not (L == np.round(L)).all():  # NaN fails too
+                raise MeshError(f"{name}: list '{p[0]}' holds values that are not integers")
+            lists[p[0]] = (int(k[0]) if (k == k[0]).all() else k, L.astype(np.int64))
+        cur += 1 + k
+    extra = np.flatnonzero(cur < end)
+    if extra.size:
+        i = int(extra[0])
+        raise MeshError(f"{name} {i}: {int(end[i] - cur[i])} values more than the header announces")
+    return _ply_list_table(props, scalars, lists, count)
 
 
 def _ply_bytes(mesh, binary=True):
@@ -1118,47 +1445,179 @@ def _ply_bytes(mesh, binary=True):
 # --------------------------------------------------------------------------
 # OBJ
 # --------------------------------------------------------------------------
+#: OBJ statements that hold nothing a triangle mesh keeps (grouping, materials,
+#: display and render attributes): skipped without a note.
+_OBJ_QUIET = {b"o", b"g", b"s", b"mg", b"usemtl", b"mtllib", b"usemap", b"maplib", b"lod", b"bevel",
+              b"c_interp", b"d_interp", b"shadow_obj", b"trace_obj", b"call", b"csh"}
+#: Free-form curve and surface statements (cstype ... end).
+_OBJ_FREEFORM = {b"cstype", b"deg", b"bmat", b"step", b"curv", b"curv2", b"surf", b"parm", b"trim",
+                 b"hole", b"scrv", b"sp", b"end", b"con", b"ctech", b"stech", b"vp"}
+
+
+def _obj_text(data):
+    """OBJ bytes with comments removed and continued lines joined.
+
+    A line ending in a backslash continues on the next; the joined line
+    takes the place of the first and the lines it swallowed stay as empty
+    lines, so line numbers still count physical lines.
+    """
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    if b"\n" not in data and b"\r" in data:  # old Mac line ends
+        data = data.replace(b"\r", b"\n")
+    if b"#" in data:
+        data = re.sub(rb"#[^\n]*", b"", data)
+    if b"\\" in data:
+        def join(m):
+            s = m.group()
+            return re.sub(rb"\\[ \t\r]*\n", b" ", s) + b"\n" * s.count(b"\n")
+
+        data = re.sub(rb"(?m)^(?:[^\n]*\\[ \t\r]*\n)+[^\n]*", join, data)
+        data = re.sub(rb"\\[ \t\r]*$", b"", data)  # a backslash on the very last line continues nothing
+    return data
+
+
+def _obj_lines_of(mask, buf, starts, ends):
+    """The bytes of the lines in ``mask``, one per line (runs of adjacent lines are sliced at once)."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    first, stop = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    return b"\n".join(buf[s:e] for s, e in zip(starts[first].tolist(), ends[stop - 1].tolist()))
+
+
 def _read_obj(data):
-    text = data.decode("utf-8", errors="replace")
-    verts, cols, polys = [], [], []
-    for lineno, line in enumerate(text.splitlines(), 1):
-        line = line.split("#", 1)[0].strip()
-        if not line or line[0] not in "vf":
-            continue
-        tok = line.split()
-        if tok[0] == "v":
-            if len(tok) < 4:
-                raise MeshError(f"line {lineno}: vertex needs 3 coordinates")
-            try:
-                vals = [float(t) for t in tok[1:]]
-            except ValueError:
-                raise MeshError(f"line {lineno}: bad number in '{line.strip()}'") from None
-            verts.append(vals[:3])
-            if len(vals) >= 6:
-                cols.append(vals[3:6])
-        elif tok[0] == "f":
-            n = len(verts)
-            idx = []
-            for t in tok[1:]:
-                s = t.split("/", 1)[0]
-                try:
-                    k = int(s)
-                except ValueError:
-                    raise MeshError(f"line {lineno}: bad face index '{t}'") from None
-                if k == 0:
-                    raise MeshError(f"line {lineno}: face index 0 (OBJ indices start at 1)")
-                idx.append(k - 1 if k > 0 else n + k)
-            polys.append(idx)
-    if not verts:
+    """Wavefront OBJ: ``v`` (with optional ``w`` or ``r g b`` colour) and ``f``
+    lines; ``v/vt/vn``, ``v//vn``, ``v/vt`` corners and negative (relative)
+    indices; line continuations, comments and CRLF. Everything else is
+    skipped, with a note for what carries geometry (``vt``, ``vn``, ``l``, ...).
+    """
+    data = _obj_text(data)
+    b = np.frombuffer(data, np.uint8)
+    nl = np.flatnonzero(b == 10)
+    starts = np.concatenate([[0], nl + 1])
+    ends = np.concatenate([nl, [len(b)]])
+    buf = np.concatenate([b, np.full(3, 32, np.uint8)])  # writable, padded for the look-ahead
+    key = starts.copy()  # where each line's first token starts
+    lead = np.flatnonzero(_WS[buf[starts]] & (ends > starts))
+    blank = ends == starts
+    for i in lead.tolist():  # lines that start with white space
+        s = data[starts[i]:ends[i]]
+        t = s.lstrip()
+        if t.strip():
+            key[i] += len(s) - len(t)
+        else:
+            blank[i] = True
+    c0, c1, c2 = buf[key], buf[key + 1], buf[key + 2]
+    is_v = (c0 == ord("v")) & _WS[c1] & ~blank
+    is_f = (c0 == ord("f")) & _WS[c1] & ~blank
+    is_vt = (c0 == ord("v")) & (c1 == ord("t")) & _WS[c2]
+    is_vn = (c0 == ord("v")) & (c1 == ord("n")) & _WS[c2]
+    other = np.flatnonzero(~(is_v | is_f | is_vt | is_vn | blank))
+    notes = []
+    skipped = {}
+    for i in other.tolist():
+        k = data[key[i]:ends[i]].split(None, 1)[0]
+        skipped[k] = skipped.get(k, 0) + 1
+    if not is_v.any():
         raise MeshError("no vertices")
-    mesh = Mesh(V=np.array(verts, dtype=np.float64), F=np.zeros((0, 3), np.int64))
-    V = mesh.V
-    if cols and len(cols) == len(verts):
-        c = np.array(cols, dtype=np.float64)
-        if c.max() <= 1.0:
-            c = c * 255.0
-        mesh.vertex_colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
-    mesh.F = _polygons_to_triangles(polys, mesh.notes, V)
+    buf[key[is_v | is_f]] = 32  # blank the 'v' and 'f' keywords: what is left are values
+    mv = buf.tobytes()
+    v_line = np.flatnonzero(is_v)
+    f_line = np.flatnonzero(is_f)
+
+    # vertices: x y z, x y z w, or x y z r g b (MeshLab's vertex colours)
+    text = _obj_lines_of(is_v, mv, starts, ends)
+    cnt = _token_counts(text)
+    if cnt.min() < 3:
+        i = int(np.flatnonzero(cnt < 3)[0])
+        raise MeshError(f"line {v_line[i] + 1}: vertex needs 3 coordinates")
+    voff = np.zeros(len(cnt), np.int64)
+    np.cumsum(cnt[:-1], out=voff[1:])
+    vals = _parse_numbers(text, np.float64, int(cnt.sum()), lambda j, t: (
+        f"line {v_line[np.searchsorted(voff, j, side='right') - 1] + 1}: bad number '{t}'"))
+    if (cnt == 3).all():
+        V = vals.reshape(-1, 3)
+    else:
+        V = vals[voff[:, None] + np.arange(3)]
+    mesh = Mesh(V=V, F=np.zeros((0, 3), np.int64))
+    with_w = cnt == 4
+    if with_w.any():
+        w = vals[voff[with_w] + 3]
+        if (w != 1).any():
+            notes.append(f"OBJ: w coordinates ignored ({int((w != 1).sum())} vertices have w other than 1)")
+    with_c = cnt >= 6
+    if with_c.all():
+        mesh.vertex_colors = _colors_to_uint8(vals[voff[:, None] + np.arange(3, 6)], notes, "OBJ")
+        if (cnt > 6).any():
+            notes.append(f"OBJ: values after x y z r g b ignored on {int((cnt > 6).sum())} vertices")
+    elif with_c.any():
+        notes.append(f"OBJ: vertex colours dropped: only {int(with_c.sum())} of {len(cnt)} vertices have one")
+    if (cnt == 5).any():
+        notes.append(f"OBJ: values after x y z ignored on {int((cnt == 5).sum())} vertices")
+
+    # faces: corners 'v', 'v/vt', 'v//vn' or 'v/vt/vn'; the position index comes first
+    text = _obj_lines_of(is_f, mv, starts, ends)
+    slashed = b"/" in text
+    if slashed:
+        text = text.replace(b"//", b"/0/")  # an empty texture slot
+    x = np.frombuffer(text, np.uint8)
+    tstart = np.flatnonzero(_token_starts(x)) if x.size else np.zeros(0, np.int64)
+    cnt = _token_counts(text, tstart) if f_line.size else np.zeros(0, np.int64)
+    foff = np.zeros(len(cnt), np.int64)
+    np.cumsum(cnt[:-1], out=foff[1:])
+
+    def line_of_corner(j):
+        return int(f_line[np.searchsorted(foff, j, side="right") - 1] + 1)
+
+    if slashed:
+        slash = np.flatnonzero(x == ord("/"))
+        parts = np.diff(np.searchsorted(slash, np.append(tstart, x.size))) + 1  # per corner
+        pstart = np.zeros(len(parts), np.int64)
+        np.cumsum(parts[:-1], out=pstart[1:])
+        vals = _parse_numbers(text.replace(b"/", b" "), np.int64, int(parts.sum()), lambda j, t: (
+            f"line {line_of_corner(np.searchsorted(pstart, j, side='right') - 1)}: bad face index '{t}'"))
+        if vals.size != parts.sum():  # an empty part: '1/', '/2', '1///2'
+            for j, t in enumerate(text.split()):
+                if b"" in t.split(b"/"):
+                    raise MeshError(f"line {line_of_corner(j)}: bad face corner "
+                                    f"'{t.decode('utf-8', errors='replace')[:40]}'")
+            raise MeshError("bad face corners")  # not reached: some corner has an empty part
+        idx = vals[::int(parts[0])] if (parts == parts[0]).all() else vals[pstart]
+    else:
+        idx = _parse_numbers(text, np.int64, int(cnt.sum()),
+                             lambda j, t: f"line {line_of_corner(j)}: bad face index '{t}'")
+    idx = np.array(idx, np.int64)  # own, writable
+    if idx.size and idx.min() <= 0:
+        zero = np.flatnonzero(idx == 0)
+        if zero.size:
+            raise MeshError(f"line {line_of_corner(int(zero[0]))}: face index 0 (OBJ indices start at 1)")
+        # a negative index counts back from the last vertex read before its line
+        seen = np.searchsorted(v_line, f_line)  # vertices above each face line
+        neg = np.flatnonzero(idx < 0)
+        rel = np.repeat(seen, cnt)[neg] + idx[neg]
+        if rel.min() < 0:
+            j = int(neg[np.argmin(rel)])
+            raise MeshError(f"line {line_of_corner(j)}: relative index {int(idx[j])} out of range "
+                            f"({int(np.repeat(seen, cnt)[j])} vertices before this line)")
+        idx[neg] = rel + 1
+    idx -= 1
+    mesh.F = _polygons_to_triangles((cnt, idx), notes, V)
+
+    n_vt, n_vn = int(is_vt.sum()), int(is_vn.sum())
+    if n_vt or n_vn:
+        what = [f"{n} {name}" for n, name in ((n_vt, "texture coordinates (vt)"), (n_vn, "normals (vn)")) if n]
+        notes.append(f"OBJ: {' and '.join(what)} not kept (shellrepair keeps positions and vertex colours)")
+    for k, name in ((b"l", "polylines (l)"), (b"p", "points (p)")):
+        if k in skipped:
+            notes.append(f"OBJ: {skipped.pop(k)} {name} ignored")
+    ff = sum(skipped.pop(k) for k in list(skipped) if k in _OBJ_FREEFORM)
+    if ff:
+        notes.append(f"OBJ: {ff} free-form curve and surface statements ignored")
+    unknown = {k: n for k, n in skipped.items() if k not in _OBJ_QUIET}
+    if unknown:
+        notes.append("OBJ: unknown statements ignored: "
+                     + ", ".join(f"'{k.decode('utf-8', errors='replace')[:20]}' ({n})"
+                                 for k, n in sorted(unknown.items())[:5]))
+    mesh.notes.extend(notes)
     return mesh
 
 
@@ -1181,45 +1640,116 @@ def _obj_bytes(mesh, binary=True):
 # OFF
 # --------------------------------------------------------------------------
 def _read_off(data):
-    text = data.decode("utf-8", errors="replace")
-    lines = [ln.split("#", 1)[0].strip() for ln in text.splitlines()]
-    lines = [ln for ln in lines if ln]
-    if not lines or not re.match(r"^C?N?OFF", lines[0]):
+    """Object File Format: ``OFF``, ``COFF``, ``NOFF``, ``CNOFF``, ``STOFF``... (vertex
+    lines ``x y z`` then the normal, colour and texture coordinates the keyword
+    names), comments, counts on the keyword's line, faces with a colour after
+    their indices (ignored, noted).
+
+    Notes
+    -----
+    The Geomview specification orders the keyword ``[ST][C][N]OFF`` and the
+    vertex values normal, colour, texture coordinates: the reverse of the
+    keyword's letters. MeshLab writes ``NCOFF`` with the colour before the
+    normal, again the reverse of its letters; so the values are read in the
+    reverse order of the letters as written. Colours written as integers
+    are 0..255, as decimals 0..1 (as the specification says).
+    """
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    if b"\n" not in data and b"\r" in data:  # old Mac line ends
+        data = data.replace(b"\r", b"\n")
+    if b"#" in data:
+        data = re.sub(rb"#[^\n\r]*", b"", data)
+    x = np.frombuffer(data, np.uint8)
+    at = np.concatenate([[0], np.flatnonzero(x == 10) + 1, [x.size]])
+    per_line = _token_counts(data)
+    rows = np.flatnonzero(per_line)  # lines with values
+
+    def span(r):
+        """The text of lines ``r`` (and the blank lines between them), and their value counts."""
+        return (data[at[r[0]]:at[r[-1] + 1]] if len(r) else b""), per_line[r]
+
+    head = span(rows[:1])[0].split()
+    m = re.fullmatch(rb"((?:ST|C|N)*)(4)?(n)?OFF", head[0]) if head else None
+    if m is None and head and head[0].isdigit():
+        m, head = re.fullmatch(rb"()()()", b""), [b"OFF"] + head  # the keyword is optional
+    if m is None:
         raise MeshError("not an OFF file (missing 'OFF' magic)")
-    head = lines[0]
-    rest = lines[1:]
-    first = head[head.index("OFF") + 3:].split()
+    if m.group(2) or m.group(3):
+        raise MeshError(f"OFF variant '{head[0].decode()}' is not 3-dimensional")
+    if len(head) > 1 and head[1].upper() == b"BINARY":
+        raise MeshError("binary OFF is not supported (write it as text OFF, PLY or STL)")
+    letters = re.findall(rb"ST|C|N", m.group(1))[::-1]  # in the order of the values
+    width = {b"N": 3, b"ST": 2}
+    rest = rows[1:]
+    first = head[1:]
     if not first:
-        if not rest:
+        if not len(rest):
             raise MeshError("OFF file has no counts line")
-        first = rest[0].split()
+        first = span(rest[:1])[0].split()
         rest = rest[1:]
     if len(first) < 2:
         raise MeshError("OFF counts line needs vertex and face counts")
     nv, nf = int(first[0]), int(first[1])
-    if len(rest) < nv + nf:
-        raise MeshError(f"header disagrees with body: {nv} vertices and {nf} faces announced, {len(rest)} lines found")
     if nv < 0 or nf < 0:
         raise MeshError(f"OFF counts line has a negative count ({nv} vertices, {nf} faces)")
-    vrows = [r.split() for r in rest[:nv]]
-    for i, r in enumerate(vrows):
-        if len(r) < 3:
-            raise MeshError(f"vertex {i}: needs 3 coordinates, has {len(r)}")
-    V = np.array([[float(x) for x in r[:3]] for r in vrows], dtype=np.float64).reshape(-1, 3)
-    mesh = Mesh(V=V, F=np.zeros((0, 3), np.int64))
-    if head.startswith("C") and all(len(r) >= 6 for r in vrows):
-        c = np.array([[float(x) for x in r[3:6]] for r in vrows])
-        if c.max() <= 1.0:
-            c = c * 255
-        mesh.vertex_colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
-    polys = []
-    for i, r in enumerate(rest[nv:nv + nf]):
-        tok = r.split()
-        k = int(tok[0])
-        if k < 0 or len(tok) < 1 + k:
-            raise MeshError(f"face {i}: announces {k} corners, has {len(tok) - 1}")
-        polys.append([int(t) for t in tok[1:1 + k]])
-    mesh.F = _polygons_to_triangles(polys, mesh.notes, V)
+    if len(rest) < nv + nf:
+        raise MeshError(f"header disagrees with body: {nv} vertices and {nf} faces announced, {len(rest)} lines found")
+    notes = []
+    text, cnt = span(rest[:nv])
+    if nv and cnt.min() < 3:
+        i = int(np.flatnonzero(cnt < 3)[0])
+        raise MeshError(f"vertex {i}: needs 3 coordinates, has {int(cnt[i])}")
+    off = np.zeros(nv, np.int64)
+    np.cumsum(cnt[:-1], out=off[1:])
+    vals = _parse_numbers(text, np.float64, int(cnt.sum()), lambda j, t: (
+        f"vertex {np.searchsorted(off, j, side='right') - 1}: bad number '{t}'"))
+    V = vals.reshape(-1, 3) if (cnt == 3).all() else vals[off[:, None] + np.arange(3)]
+    mesh = Mesh(V=V.reshape(-1, 3), F=np.zeros((0, 3), np.int64))
+    announced = 3 + sum(width.get(c, 0) for c in letters) + (3 if b"C" in letters else 0)
+    if b"C" in letters and nv:
+        c0 = 3 + sum(width.get(c, 0) for c in letters[:letters.index(b"C")])
+        k = cnt - (announced - 3)  # the colour has 3 or 4 values
+        if (k == k[0]).all() and k[0] in (3, 4):
+            cols = off[:, None] + c0 + np.arange(int(k[0]))
+            tokens = text.split()
+            decimal = any(not t.isdigit() for t in (tokens[j] for j in cols.ravel().tolist()))
+            C = vals[cols] if decimal else vals[cols].astype(np.int64)
+            mesh.vertex_colors = _colors_to_uint8(C, notes, "OFF", unit=True)
+        else:
+            notes.append("OFF: vertex colours dropped (not 3 or 4 values on every vertex)")
+    elif nv and (cnt > announced).any():
+        notes.append(f"OFF: values after the {announced} per vertex that '{head[0].decode()}' announces ignored")
+
+    text, cnt = span(rest[nv:nv + nf])
+    try:
+        vals = _parse_numbers(text, np.int64, int(cnt.sum()), lambda j, t: "")
+    except MeshError:  # face colours as decimals
+        vals = _parse_numbers(text, np.float64, int(cnt.sum()), lambda j, t: (
+            f"face {np.searchsorted(np.cumsum(cnt), j, side='right')}: bad value '{t}'"))
+    off = np.zeros(nf, np.int64)
+    np.cumsum(cnt[:-1], out=off[1:])
+    k = vals[off[cnt > 0]]
+    if k.dtype.kind == "f" and not (k == np.round(k)).all():
+        i = int(np.flatnonzero(cnt > 0)[np.flatnonzero(k != np.round(k))[0]])
+        raise MeshError(f"face {i}: corner count is not an integer")
+    k = np.zeros(nf, np.int64)
+    k[cnt > 0] = vals[off[cnt > 0]].astype(np.int64)
+    short = (cnt == 0) | (k < 0) | (cnt < 1 + k)
+    if short.any():
+        i = int(np.flatnonzero(short)[0])
+        raise MeshError(f"face {i}: announces {int(k[i])} corners, has {max(int(cnt[i]) - 1, 0)}")
+    item = np.repeat(off + 1 - np.concatenate([[0], np.cumsum(k)[:-1]]), k) + np.arange(int(k.sum()))
+    flat = vals[item]
+    if flat.dtype.kind == "f":
+        if not (flat == np.round(flat)).all():
+            raise MeshError("OFF face indices must be integers")
+        flat = flat.astype(np.int64)
+    extra = cnt > 1 + k
+    if extra.any():
+        notes.append(f"OFF: face colours not kept ({int(extra.sum())} faces have values after their indices)")
+    mesh.F = _polygons_to_triangles((k, flat), notes, V)
+    mesh.notes.extend(notes)
     return mesh
 
 
@@ -1237,37 +1767,76 @@ def _off_bytes(mesh, binary=True):
 # --------------------------------------------------------------------------
 # STL
 # --------------------------------------------------------------------------
+_STL_RECORD = np.dtype([("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("a", "<u2")])
+
+
 def _read_stl(data):
-    if len(data) >= 84:
-        ntri = int(np.frombuffer(data, "<u4", 1, 80)[0])
-        if 84 + 50 * ntri == len(data):
-            rec = np.dtype([("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("a", "<u2")])
-            arr = np.frombuffer(data, rec, ntri, 84)
-            P = arr["v"].reshape(-1, 3)
-            return _weld(P, "f4")
-    head = data[:5].lower()
-    if head.startswith(b"solid"):
+    """STL, binary or ascii. A binary file is recognised by its size (84 bytes
+    plus 50 per triangle), so binaries whose header starts with ``solid`` read
+    as binaries; normals are not read (NaN normals are harmless)."""
+    ntri = int(np.frombuffer(data, "<u4", 1, 80)[0]) if len(data) >= 84 else -1
+    if ntri >= 0 and 84 + 50 * ntri == len(data):
+        return _weld(np.frombuffer(data, _STL_RECORD, ntri, 84)["v"].reshape(-1, 3), "f4")
+    head = data[:1024].lstrip().lower()
+    ascii_like = head.startswith(b"solid") and (b"facet" in head or b"endsolid" in head)
+    if ascii_like:
         text = data.decode("ascii", errors="replace")
-        nums = re.findall(r"vertex\s+(\S+)\s+(\S+)\s+(\S+)", text)
+        nums = re.findall(r"vertex\s+(\S+)\s+(\S+)\s+(\S+)", text, flags=re.IGNORECASE)
         if not nums or len(nums) % 3:
             raise MeshError("ASCII STL has no complete facets")
-        P = np.array(nums, dtype=np.float64)
+        P = _to_numbers([t.encode() for row in nums for t in row], np.float64,
+                        lambda j, t: f"facet {j // 9}: bad number '{t}'").reshape(-1, 3)
         return _weld(P, "f8")
-    if len(data) >= 84:
-        ntri = int(np.frombuffer(data, "<u4", 1, 80)[0])
+    if ntri >= 0 and 84 + 50 * ntri < len(data):
+        mesh = _weld(np.frombuffer(data, _STL_RECORD, ntri, 84)["v"].reshape(-1, 3), "f4")
+        mesh.notes.append(f"STL: {len(data) - 84 - 50 * ntri} bytes after the last of {ntri} triangles ignored")
+        return mesh
+    if ntri >= 0:
         raise MeshError(f"truncated or malformed binary STL: header announces {ntri} triangles "
                         f"({84 + 50 * ntri} bytes), file has {len(data)} bytes")
     raise MeshError("not an STL file")
 
 
 def _weld(P, vdt):
-    """Merge STL corners with bit-identical coordinates into shared vertices."""
-    P = np.ascontiguousarray(P, dtype=np.float64)
-    V, inv = np.unique(P, axis=0, return_inverse=True)
-    F = inv.reshape(-1, 3).astype(np.int64)
-    mesh = Mesh(V=V, F=F, vertex_dtype=vdt)
+    """Merge STL corners with identical coordinates into shared vertices.
+
+    Vertices are numbered in the order they first appear in the file.
+    Corners are grouped by a 64-bit hash of their coordinates' bits (-0.0
+    taken as 0.0), checked exactly; if two different corners share a hash,
+    they are grouped by an exact sort instead.
+    """
+    P = np.ascontiguousarray(P, dtype=np.float64) + 0.0  # -0.0 + 0.0 is 0.0
+    bits = P.view(np.uint64)
+    h = _row_hash(bits)
+    order = np.argsort(h, kind="stable")
+    B = bits[order]
+    differ = (B[1:] != B[:-1]).any(axis=1)
+    hs = h[order]
+    if np.any(differ & (hs[1:] == hs[:-1])):  # a collision: group by the bits themselves
+        order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
+        B = bits[order]
+        differ = (B[1:] != B[:-1]).any(axis=1)
+    start = np.concatenate([[True], differ])
+    group = np.cumsum(start) - 1          # group of each sorted corner
+    first = order[start]                  # each group's first corner in the file (stable sorts)
+    rank = np.empty(len(first), np.int64)
+    by_appearance = np.argsort(first, kind="stable")
+    rank[by_appearance] = np.arange(len(first))
+    inv = np.empty(len(P), np.int64)
+    inv[order] = rank[group]
+    V = P[first[by_appearance]]
+    mesh = Mesh(V=V, F=inv.reshape(-1, 3), vertex_dtype=vdt)
     mesh.notes.append(f"STL: {len(P)} corners welded into {len(V)} vertices")
     return mesh
+
+
+def _row_hash(bits):
+    """A 64-bit hash of each row of a (n,3) uint64 array."""
+    h = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15)  # products wrap around
+    h ^= bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F)
+    h ^= bits[:, 2] * np.uint64(0x165667B19E3779F9)
+    h ^= h >> np.uint64(29)
+    return h
 
 
 def _stl_bytes(mesh, binary=True):

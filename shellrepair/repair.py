@@ -889,6 +889,12 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         topo = known("topology")
     V = np.asarray(mesh.V, np.float64)
     F = np.asarray(mesh.F, np.int64)
+    # a vertex no face uses may be NaN or infinite (read_mesh keeps it, noted): the
+    # whole-mesh work sees a finite stand-in, the output gets the vertex back as it was
+    stand_in = ~np.isfinite(V).all(axis=1)
+    if stand_in.any():
+        V = V.copy()
+        V[stand_in] = V[F[0, 0]]
     if topo is None:
         topo = edge_topology(F, len(V))
     _progress(progress, 1, 2, "finding holes")
@@ -993,6 +999,8 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     rows = [rows[h.id] for h in holes if h.id in rows]
     accepted = [it[0] for it in acc.items]
     repaired = _merge(mesh, V, F, accepted)
+    if stand_in.any():
+        repaired.V[:len(V)][stand_in] = np.asarray(mesh.V, np.float64)[stand_in]
     # check the result: boundary and non-manifold edges left, counted on the
     # edges the appended faces touch (the rest of the mesh did not change)
     delta = edge_count_delta(topo, repaired.F[len(F):], len(repaired.V))
