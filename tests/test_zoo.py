@@ -423,7 +423,6 @@ WRITERS = {
 #: The hand-written writers the UV meshes go through: OBJ (which writes vt and
 #: vn of its own) and binary STL (which welds the seams on reading).
 UV_SPEC_WRITERS = ("spec-obj", "spec-stl-binary-solid")
-NEEDS_POSITION = pytest.mark.xfail(strict=False, reason="needs topology by position")
 
 
 def _cases():
@@ -435,8 +434,9 @@ def _cases():
                 continue  # open3d holds triangles only
             if mesh.startswith("uv_") and writer.startswith("spec-") and writer not in UV_SPEC_WRITERS:
                 continue  # hand-written files write no UVs: the other meshes cover their corners
-            split = (ref.split and ext != ".stl") or writer == "spec-obj-soup"  # STL is welded on reading
-            yield pytest.param(mesh, writer, marks=marks + ([NEEDS_POSITION] if split else []),
+            # files split at seams (or soups) read to the same holes through
+            # topology by position
+            yield pytest.param(mesh, writer, marks=marks,
                                id=f"{mesh}-{writer}")
 
 
