@@ -18,9 +18,10 @@ is read from the piece itself, from its face normals:
 *View ratio.* Seen along a direction ``d``, the faces turned towards ``d``
 have projected area ``P+(d) = Σ A_f max(n_f·d, 0)`` and those turned away
 ``P−(d) = Σ A_f max(−n_f·d, 0)``. A scanner records only surface that faces
-it, so a single view has ``P− = 0`` from its own viewpoint, up to noise on
-steep faces (the real dragon range scan in ../shared/data: exactly 0 on
-all its 28 pieces). On a closed surface ``P+ = P−`` from every direction
+it, so a single view has ``P− ≈ 0`` along its viewing direction
+(perspective and noise on steep faces add a little: the real dragon range
+scan in ../shared/data has exactly 0 on all its 42 pieces, synthetic
+noisy range scans at most 0.0005). On a closed surface ``P+ = P−`` from every direction
 (the projections of a closed surface cancel), and cutting a part off lowers
 the ratio only gradually: a sphere missing a cap of a fraction ``p`` of its
 area has ``min_d P−/P+ = (1 − 2p)²``, 0.25 with a quarter gone; the real
@@ -624,7 +625,8 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, closed=None, topo=N
             L.kind, L.reason = "hole", "--fill-borders"
         elif wraps:
             L.kind = "hole"
-            L.reason = f"closed by the surrounding surface: its piece wraps around ({how})"
+            L.reason = ("closed by the surrounding surface: --closed yes" if closed is True else
+                        f"closed by the surrounding surface: its piece wraps around ({how})")
         elif rim[p] == L.id:
             L.kind = "border"
             L.reason = (f"outer edge of a single-view piece ({how}): {100 * L.inside_fraction:.0f}% of the "
