@@ -435,7 +435,8 @@ def _experiment(seeds):
     random resolution and depth noise (one rim per piece, the rest holes).
     Prints the counts."""
     meshes = {n: read_mesh(SHARED / (n + ".ply")) for n in CLOSED_SCANS}
-    n_loops = n_wrong = n_cases = n_frag = n_frag_border = 0
+    n_loops = n_wrong = n_cases = n_frag = n_frag_border = frag_faces = 0
+    lowest = highest = None
     s_loops = s_wrong = s_cases = 0
     min_closed, max_view = np.inf, 0.0
     for seed in seeds:
@@ -451,9 +452,11 @@ def _experiment(seeds):
                 if p != main:
                     n_frag += 1
                     n_frag_border += L.kind == "border"
+                    frag_faces = max(frag_faces, int(np.count_nonzero(fp == p)))
                     continue
                 n_loops += 1
-                min_closed = min(min_closed, L.back_ratio)
+                if L.back_ratio < min_closed:
+                    min_closed, lowest = L.back_ratio, (seed, name)
                 if L.kind != "hole":
                     n_wrong += 1
                     print(f"cut  seed {seed} {name}: loop {L.id} ({L.edges} edges) {L.kind}: {L.reason}")
@@ -464,13 +467,16 @@ def _experiment(seeds):
             s_cases += 1
             s_loops += len(scan.loops)
             s_wrong += len(wrong)
-            max_view = max([max_view] + [lp.back_ratio for lp in scan.loops if lp.reading == "single view"])
+            for lp in scan.loops:
+                if lp.reading == "single view" and lp.back_ratio > max_view:
+                    max_view, highest = lp.back_ratio, (seed, name, len(Fs))
             for lp in wrong:
                 print(f"scan seed {seed} {name}: loop {lp.id} ({lp.edges} edges) {lp.kind}: {lp.reason}")
     print(f"cut figures: {n_cases} cases, {n_loops} loops of the figure, {n_wrong} not classed hole; "
-          f"smallest back ratio {min_closed:.3f}; {n_frag} loops of hanging fragments, {n_frag_border} borders")
+          f"smallest back ratio {min_closed:.3f} {lowest}; {n_frag} loops of fragments left hanging "
+          f"(at most {frag_faces} faces), {n_frag_border} borders")
     print(f"range scans: {s_cases} cases, {s_loops} loops, {s_wrong} misclassified; "
-          f"largest back ratio of a single-view piece {max_view:.4f}")
+          f"largest back ratio of a single-view piece {max_view:.4f} {highest}")
 
 
 if __name__ == "__main__":
