@@ -1,6 +1,6 @@
 """Command line: a thin layer over the library.
 
-    shellrepair holes SCAN [--json] [--max-hole N] [--fill-borders]
+    shellrepair holes SCAN [--json] [--max-hole N] [--fill-borders] [--closed auto|yes|no]
     shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3] [--smooth N]
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
                        [--bridge auto|never|always]
@@ -59,6 +59,10 @@ def _parser():
     h.add_argument("scan")
     h.add_argument("--json", action="store_true", help="print JSON instead of a table")
     _hole_options(h)
+    h.add_argument("--closed", choices=("auto", "yes", "no"), default="auto",
+                   help="how to read each piece: auto (default) from its normals, yes: part of a closed "
+                        "object (every loop a hole, its base included), no: a single view (its outer rim "
+                        "a border)")
 
     r = sub.add_parser("repair", help="fill the holes and write the repaired scan and a report")
     r.add_argument("scan")
@@ -182,6 +186,7 @@ def _holes(args):
 
     mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
     scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders,
+                        closed={"auto": None, "yes": True, "no": False}[args.closed],
                         topo=mesh.cached("topology"), pieces=mesh.cached("pieces"), areas=mesh.cached("face_areas"))
     end_line()  # the loading bar's
     d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)

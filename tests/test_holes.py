@@ -31,6 +31,7 @@ def test_perforated_sphere_loops_match_removed_region():
     V2, F2, removed, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.25, seed=1)
     scan = detect_holes(V2, F2)
     assert len(scan.loops) == 3 and len(scan.holes) == 3
+    assert all(lp.reading == "closed" and lp.back_ratio > 0.8 for lp in scan.loops)  # 1 with no hole at all
     assert scan.n_components == 1
     assert sum(lp.edges for lp in scan.loops) == scan.n_boundary_edges
     assert scan.euler == 2 - 3
@@ -54,7 +55,7 @@ def test_grid_outer_edge_is_one_border():
     assert len(scan.loops) == 1
     lp = scan.loops[0]
     assert lp.edges == 2 * (8 - 1) + 2 * (5 - 1)
-    assert lp.kind == "border"
+    assert lp.kind == "border" and lp.reading == "single view" and lp.back_ratio == 0.0
     assert lp.inside_fraction == pytest.approx(1.0, abs=0.02)
     assert lp.perimeter == pytest.approx(4.0)
 
