@@ -158,7 +158,7 @@ def _totals(rows):
 
 
 def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_borders=False, method="fair",
-                  bridge="auto", jobs=1, progress=None, on_scan=None, html=False):
+                  bridge="auto", jobs=1, progress=None, on_scan=None, html=False, closed=None):
     """Repair every scan of ``folder`` into ``outdir``.
 
     Parameters
@@ -167,7 +167,7 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
         Where the scans are (not searched recursively).
     outdir : str or Path
         Where outputs go; created if missing (its parent must exist).
-    order, smooth, max_hole, fill_borders, method, bridge, jobs
+    order, smooth, max_hole, fill_borders, method, bridge, jobs, closed
         Passed to :func:`shellrepair.repair.repair_mesh` for every scan.
     progress : bool, optional
         Draw progress bars on stderr; default: when stderr is a terminal.
@@ -217,7 +217,7 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
         raise MeshError(f"no scans ({', '.join('*' + e for e in SCAN_EXTENSIONS)}) in the folder", folder)
     outdir = _prepare_outdir(outdir)
     options = dict(order=order, smooth=smooth, max_hole=max_hole, fill_borders=fill_borders, method=method,
-                   bridge=bridge, jobs=int(jobs))
+                   bridge=bridge, jobs=int(jobs), closed=closed)
     draw = progress_enabled() if progress is None else bool(progress)
     summary = {"folder": str(folder), "outdir": str(outdir), "options": options, "complete": False,
                "scans": []}

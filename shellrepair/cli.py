@@ -59,10 +59,6 @@ def _parser():
     h.add_argument("scan")
     h.add_argument("--json", action="store_true", help="print JSON instead of a table")
     _hole_options(h)
-    h.add_argument("--closed", choices=("auto", "yes", "no"), default="auto",
-                   help="how to read each piece: auto (default) from its normals, yes: part of a closed "
-                        "object (every loop a hole, its base included), no: a single view (its outer rim "
-                        "a border)")
 
     r = sub.add_parser("repair", help="fill the holes and write the repaired scan and a report")
     r.add_argument("scan")
@@ -143,6 +139,10 @@ def _repair_options(p):
 def _hole_options(p):
     p.add_argument("--max-hole", type=int, default=None, help="loops with more edges than N are left open")
     p.add_argument("--fill-borders", action="store_true", help="treat borders (outer edges) as holes too")
+    p.add_argument("--closed", choices=("auto", "yes", "no"), default="auto",
+                   help="how to read each piece: auto (default) from its normals, yes: part of a closed "
+                        "object (every loop a hole, its base included), no: a single view (its outer rim "
+                        "a border)")
 
 
 def main(argv=None):
@@ -179,6 +179,11 @@ def main(argv=None):
         return 1
 
 
+def _closed(args):
+    """--closed as detect_holes takes it."""
+    return {"auto": None, "yes": True, "no": False}[args.closed]
+
+
 def _holes(args):
     from .holes import detect_holes
     from .io import read_mesh
@@ -186,7 +191,7 @@ def _holes(args):
 
     mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
     scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders,
-                        closed={"auto": None, "yes": True, "no": False}[args.closed],
+                        closed=_closed(args),
                         topo=mesh.cached("topology"), pieces=mesh.cached("pieces"), areas=mesh.cached("face_areas"))
     end_line()  # the loading bar's
     d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)
@@ -243,7 +248,7 @@ def _repair(args):
     mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
     repaired, report = repair_mesh(mesh, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                                    fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
-                                   progress=sys.stderr.isatty(), bridge=args.bridge)
+                                   progress=sys.stderr.isatty(), bridge=args.bridge, closed=_closed(args))
     report["file"] = str(args.scan)
     report["output"] = str(out)
     report["notes"] = list(mesh.notes)
@@ -254,7 +259,7 @@ def _repair(args):
         from .htmlreport import figure, file_sha256, scan_page
 
         options = dict(order=args.order, smooth=args.smooth, max_hole=args.max_hole, fill_borders=args.fill_borders,
-                       method=args.method, jobs=args.jobs, bridge=args.bridge)
+                       method=args.method, jobs=args.jobs, bridge=args.bridge, closed=args.closed)
         items.append((page, scan_page(report, figure(mesh, repaired, report), options=options,
                                       sha256=file_sha256(args.scan))))
     # mesh, report (and page) appear together or not at all
@@ -280,7 +285,7 @@ def _batch(args):
 
     summary = repair_folder(args.dir, args.outdir, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                             fill_borders=args.fill_borders, method=args.method, bridge=args.bridge,
-                            jobs=args.jobs, on_scan=line, html=args.html)
+                            jobs=args.jobs, on_scan=line, html=args.html, closed=_closed(args))
     if args.json:
         print(json.dumps(summary, indent=1))
     else:

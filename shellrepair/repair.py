@@ -831,7 +831,7 @@ def _edges_of(T):
 
 
 def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, method="fair",
-                jobs=1, progress=False, bridge="auto"):
+                jobs=1, progress=False, bridge="auto", closed=None):
     """Fill the holes of a mesh.
 
     Parameters
@@ -848,6 +848,11 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     fill_borders : bool
         Fill borders too.
     method : {"fair", "seed"}
+    closed : bool or None
+        How each piece is read (see :func:`shellrepair.holes.detect_holes`):
+        None infers it from the piece's normals, True reads every piece as
+        part of a closed object (every loop a hole), False as a single view
+        (its outer rim a border).
     jobs : int
         Processes building patches; the output is the same for any value.
     progress : bool
@@ -876,6 +881,8 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         raise MeshError(f"method must be 'fair' or 'seed', got {method!r}")
     if bridge not in ("auto", "never", "always"):
         raise MeshError(f"bridge must be 'auto', 'never' or 'always', got {bridge!r}")
+    if closed not in (None, True, False):
+        raise MeshError(f"closed must be None, True or False, got {closed!r}")
     t0 = time.perf_counter()
     _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
     known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh
@@ -907,7 +914,7 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
         return c
 
     def detect():
-        return detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, topo=topo,
+        return detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, closed=closed, topo=topo,
                             pieces=known("pieces"), areas=known("face_areas"))
 
     if jobs > 1:
@@ -1019,6 +1026,7 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
                                 "nonmanifold_edges_after": int(topo.nonmanifold_edges.shape[0]
                                                                + delta["nonmanifold_edges"]),
                                 "smooth": smooth, "jobs": jobs, "bridge": bridge,
+                                "closed": {None: "auto", True: "yes", False: "no"}[closed],
                                 "bridges": bridges,
                                 "euler_before": int(scan.euler),
                                 "euler_after": int(scan.euler + n_new_v - delta["edges"] + n_new_f),
