@@ -305,10 +305,11 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     avoid : set of (int, int)
         More loop-position pairs the triangulation must not join (chords
         whose triangles crossed the scan in an earlier attempt).
-    initial : (t,3) int64, optional
+    initial : (t,3) int64 or ((q,3) float64, (t,3) int64), optional
         A first triangulation over the loop positions to use instead of
         triangulating ``loop`` (a tube between two loops given as one
-        concatenated ``loop``).
+        concatenated ``loop``); with positions, a first mesh whose vertex
+        ``k + j`` is ``P[j]``.
     energy : bool
         Also measure the faired patch's energies (``patch.energy``: thin
         plate, curvature variation).
@@ -332,6 +333,9 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     forbidden = forbidden | set(avoid)
     fresh = pre is not None and not avoid  # the batch's first attempt applies
     if initial is not None:
+        if isinstance(initial, tuple):  # a first tube with vertices inside (bridge.guide_tube)
+            P_in, initial = initial
+            Pl = np.vstack([Pl, (np.asarray(P_in, np.float64) - origin) / scale])
         T = np.asarray(initial, np.int64)
     elif fresh and pre.T0 is not None:
         T = pre.T0
@@ -654,41 +658,134 @@ ENERGY = 1
 
 
 def _fill_pair(ctx, A, B, order, smooth, mode):
-    """A band between loops A and B: a tube, or a cap on each.
+    """A missing region bounded by loops A and B: a tube, or a cap on each.
+
+    The tube starts from :func:`~shellrepair.bridge.guide_tube` (rings
+    along both loops' continuation arcs; the plain zip of the two loops if
+    that fails), is refined and faired like a cap with both loops' rings
+    fixed, and is checked against the scan and itself. The caps are checked
+    against the scan and against each other. An option that fails its
+    checks loses; if both pass, the lower energy wins (``ENERGY``). While a
+    valid tube is in hand each cap gets one attempt (no re-routing): a cap
+    that crosses something there is not needed.
 
     Returns (outcomes, record): outcomes as for :func:`_fill_one` per loop
     (the tube patch is given with A, B refers to it), record for the report.
     """
-    from .bridge import tube_triangles
+    from .bridge import MAX_REACH, continuation_arcs, guide_tube, tube_triangles
 
     t0 = time.perf_counter()
     loop = np.concatenate([A.vertices, B.vertices])
-    T = tube_triangles(ctx.V[A.vertices], ctx.V[B.vertices])
     order = 2 if order == "auto" else order
+    PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
+    arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 2)], L.vertices) for L in (A, B)]
+    Pg, Tg = guide_tube(PA, PB, *arcs, spacing=0.5 * (A.mean_edge + B.mean_edge),
+                        reach=MAX_REACH * max(A.diameter, B.diameter))
+    mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
-    for o in ((order, 1) if order != 1 else (1,)):
+
+    def attempt(first, init, o, fair=True, pinned=None):
+        nonlocal why_tube
         try:
-            p = build_patch(ctx, A.id, loop, order=o, smooth=smooth, initial=T, energy=True)
+            p = build_patch(ctx, A.id, loop, order=o, smooth=smooth if fair else 0, initial=init,
+                            energy=fair, fair=fair, pinned=pinned)
         except PatchError as exc:
             why_tube = str(exc)
-            continue
-        why, _ = _check_patch(ctx, p)
+            return None, np.zeros(0, np.int64)
+        why, bad = _check_patch(ctx, p)
         if why is None:
-            tube = p
-            tube.option = f"tube to loop {B.id}, faired order {o}"
-            break
-        why_tube = why
-    caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+            how = f"faired order {o}" if fair else "refined, not faired"
+            if pinned is not None:
+                how += f", {len(pinned)} vertices held on the first tube"
+            p.option = f"tube to loop {B.id} ({first}), {how}"
+            return p, bad
+        why_tube = f"{first}: {why}"
+        return None, bad
+
+    if len(Pg) and np.isfinite(Pg).all():
+        first, init = "along the continuation arcs", (Pg, Tg)
+        faired, bad = attempt(first, init, order)
+        # the first tube itself (refined, every vertex held): the arcs carry
+        # the scan's curvature across the gap, which fairing can flatten;
+        # the fairer of the two valid options is kept
+        q = len(faired.P) if faired is not None else None
+        if q is None:
+            try:
+                q = len(build_patch(ctx, A.id, loop, order=1, initial=init, fair=False).P)
+            except PatchError:
+                q = None
+        held = None
+        if q:
+            held, _ = attempt(first, init, order, pinned=np.arange(q))
+            if held is not None:
+                held.option = f"tube to loop {B.id} ({first}), refined, held on the arcs"
+        valid = [p for p in (faired, held) if p is not None]
+        if valid:
+            tube = min(valid, key=lambda p: p.energy[ENERGY] if p.energy is not None else np.inf)
+        elif bad.size:
+            # hold the vertices near the crossing on the arcs (as for a cap)
+            try:
+                built = build_patch(ctx, A.id, loop, order=order, smooth=smooth, initial=init)
+            except PatchError:
+                built = None
+            pinned = None
+            for _ in range(PIN_ROUNDS if built is not None else 0):
+                pinned = _pin_region(built, bad, pinned)
+                tube, b2 = attempt(first, init, order, pinned=pinned)
+                if tube is not None:
+                    break
+                bad = np.union1d(bad, b2) if b2.size else bad
+    if tube is None:
+        for o in ((order, 1) if order != 1 else (1,)):
+            tube, _ = attempt("zipped", tube_triangles(PA, PB), o)
+            if tube is not None:
+                break
+    if tube is not None and mutual and mode != "always":
+        caps = None     # the loops see each other: the tube continues the surface
+    elif tube is not None:    # one attempt per cap
+        caps = []
+        for L in (A, B):
+            t1 = time.perf_counter()
+            try:
+                c = build_patch(ctx, L.id, L.vertices, order=order, smooth=smooth, energy=True)
+                why, _ = _check_patch(ctx, c)
+            except PatchError as exc:
+                c, why = None, str(exc)
+            if why is not None:
+                c = None
+            else:
+                c.option = OPTION_NAMES["faired"].format(order=order)
+            caps.append((c, why or "", time.perf_counter() - t1, []))
+    else:
+        caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+    if caps is None:
+        secs = time.perf_counter() - t0
+        e_tube = tube.energy[ENERGY] if tube.energy is not None else None
+        record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
+                  "tube_energy": None if e_tube is None else round(float(e_tube), 6), "caps_energy": None,
+                  "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
+        tube.hole_id = A.id
+        return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
+    why_caps = "; ".join(f"cap of loop {L.id}: {c[1]}" for L, c in zip((A, B), caps) if c[0] is None)
+    if caps[0][0] is not None and caps[1][0] is not None:
+        acc = _Accepted()
+        acc.add(caps[0][0], *_corners(ctx, caps[0][0]))
+        clash, _ = acc.conflict(ctx, caps[1][0])
+        if clash:
+            why_caps = f"the two caps cross each other"
     e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
-    e_caps = sum(c[0].energy[ENERGY] if c[0] is not None and c[0].energy is not None else np.inf for c in caps)
+    caps_ok = not why_caps
+    e_caps = sum(c[0].energy[ENERGY] if c[0] is not None and c[0].energy is not None else np.inf
+                 for c in caps) if caps_ok else np.inf
     record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
               "tube_energy": None if not np.isfinite(e_tube) else round(float(e_tube), 6),
               "caps_energy": None if not np.isfinite(e_caps) else round(float(e_caps), 6)}
-    use_tube = tube is not None and (mode == "always" or e_tube < e_caps)
+    use_tube = tube is not None and (mode == "always" or not caps_ok or e_tube < e_caps)
     secs = time.perf_counter() - t0
     if use_tube:
         record["chosen"] = "tube"
         record["reason"] = ("--bridge always" if mode == "always" else
+                            f"caps failed: {why_caps}" if not caps_ok else
                             f"tube energy {e_tube:.4g} < caps energy {e_caps:.4g}")
         tube.hole_id = A.id
         return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
@@ -738,33 +835,42 @@ def _worker(chunk):
 
 
 def _find_bands(ctx, scan):
-    """Candidate band pairs among all loops (holes and borders)."""
-    from .bridge import MAX_GAP, MAX_SIZE_RATIO, band_pairs, continuation_direction
+    """Pairs of ``hole`` loops whose continuation arcs land on each other.
+
+    Only loops classed ``hole`` are paired (a border is never bridged);
+    borders still stop arcs. Only loops with another loop within reach of
+    their arcs (``MAX_REACH`` diameters) have their arcs followed. Loops
+    that share a vertex are never paired. Sets ``ctx.bands_mutual``.
+    """
+    from .bridge import MAX_REACH, band_pairs, loop_sights
 
     loops = scan.loops
-    if len(loops) < 2:
+    hole = np.array([L.kind == "hole" for L in loops], bool)
+    if hole.sum() < 2:
         return []
     centres = np.array([ctx.V[L.vertices].mean(axis=0) for L in loops])
-    diam = np.array([L.diameter for L in loops])
-    per = np.array([L.perimeter for L in loops])
-    # only loops with a partner close and alike enough can pair (band_pairs'
-    # gap and size rules): measure the continuation direction of those alone
-    near = np.zeros(len(loops), bool)
-    for s in range(0, len(loops), 1024):
-        sl = slice(s, s + 1024)
-        d = np.linalg.norm(centres[sl, None] - centres[None], axis=2)
-        close = (d > 0) & (d <= MAX_GAP * np.maximum(diam[sl, None], diam[None]))
-        alike = np.maximum(per[sl, None], per[None]) <= MAX_SIZE_RATIO * np.minimum(per[sl, None], per[None])
-        near[sl] = (close & alike).any(axis=1)
-    dirs = []
-    for L, c, cand in zip(loops, centres, near):
-        if cand:
-            ring = ctx.F[ctx.faces_of(L.vertices)]
-            dirs.append((c, continuation_direction(ctx.V, ring, L.vertices)))
-        else:
-            dirs.append((c, np.zeros(3)))
-    pairs = band_pairs(loops, dirs)
-    return [(loops[i], loops[j], sc) for i, j, sc in pairs]
+    radius = np.array([0.5 * L.diameter for L in loops])
+    tree = cKDTree(centres)
+    cand = []
+    for i in np.flatnonzero(hole):
+        near = tree.query_ball_point(centres[i], radius[i] + MAX_REACH * loops[i].diameter + radius.max())
+        near = [j for j in near if j != i and hole[j]
+                and np.linalg.norm(centres[j] - centres[i]) <= radius[i] + MAX_REACH * loops[i].diameter + radius[j]]
+        if near:
+            cand.append(int(i))
+    if not cand:
+        return []
+    sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 2)], candidates=cand)
+    # loops that touch (share a vertex, e.g. the pinched pieces of a slit)
+    # are one opening split at a pinch, not the two ends of a band
+    for a, (counts, m) in sights.items():
+        for b in np.flatnonzero(counts):
+            if b != a and np.intersect1d(loops[a].vertices, loops[b].vertices).size:
+                counts[b] = 0
+    pairs = band_pairs(sights, hole)
+    # pairs whose loops each send most of their arcs to the other: read by _fill_pair
+    ctx.bands_mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, mutual in pairs if mutual}
+    return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
 
 
 def _edges_of(T):
