@@ -93,7 +93,8 @@ def continuation_arcs(V, F_near, loop, smooth=2):
     ----------
     V : (n,3) float64
     F_near : (r,3) int64
-        Scan faces within two rings of the loop.
+        Scan faces within three rings of the loop (every face of the
+        vertices two rings off it).
     loop : (k,) int64
     smooth : int
         Tangents, normals and curvatures are averaged over ``2*smooth+1``
@@ -118,9 +119,11 @@ def continuation_arcs(V, F_near, loop, smooth=2):
     Notes
     -----
     ``q2`` is the mean of the vertices two rings off the loop next to those
-    ring-one neighbours; the arc is the circle through ``q2``, ``q1`` and the
-    rim vertex ``p``: ``κ = 2 |(q1 - q2) × (p - q1)| / (|q1 - q2| |p - q1| |p - q2|)``,
-    its tangent at ``q1`` parallel to ``p - q2``. Averaging over each ring
+    ring-one neighbours, ``n1`` and ``n2`` the mean vertex normals there.
+    The arc leaves ``q1`` parallel to ``p - q2`` (projected on the tangent
+    plane) with the normal curvature ``κ = -(n1 - n2)·t / ((q1 - q2)·t)``
+    (Weingarten: the normal turns by ``-κ`` per unit length along ``t``);
+    the median over ``2*smooth+1`` rim vertices is taken. Averaging over each ring
     cancels most of the sideways spread of the neighbours; what is left
     (a skewed triangulation's) is removed by projecting ``q1`` and ``q2`` on
     the plane through ``p`` normal to the loop, so the circle lies across
@@ -168,18 +171,24 @@ def continuation_arcs(V, F_near, loop, smooth=2):
     a, b, c = q1 - q2, P - q1, P - q2
     la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
     ok &= (la > 0) & (lb > 0) & (lc > 0)
-    kap = 2 * np.linalg.norm(np.cross(a, b), axis=1) / np.maximum(la * lb * lc, 1e-300)
+    N2 = R2 @ Nv
+    N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
+    N2 = N2 / np.maximum(np.linalg.norm(N2, axis=1, keepdims=True), 1e-300)
     T = np.divide(c, lc[:, None], out=np.zeros_like(c), where=lc[:, None] > 0)
+    # normal curvature along T from the turn of the normal between the rings
+    # (Weingarten: dn/ds · t = -κ); the neighbours' sideways spread turns the
+    # normal sideways only, which the dot with T ignores
+    step = np.sum(a * T, axis=1)
+    kap = np.where(np.abs(step) > 0, -np.sum((N - N2) * T, axis=1) / np.where(step != 0, step, 1.0), 0.0)
+    ok &= step > 0
     s0 = lb
     if smooth and k > 2 * smooth + 1:   # circular moving sum over the loop
         def ring_sum(Y):
             return sum(np.roll(Y, d, axis=0) for d in range(-smooth, smooth + 1))
-        w = ring_sum(ok.astype(np.float64))
         Nn = ring_sum(N * ok[:, None])
         Nn = Nn / np.maximum(np.linalg.norm(Nn, axis=1, keepdims=True), 1e-300)
-        sgn = np.sign(np.sum((0.5 * (P + q2) - q1) * Nn, axis=1))
         # the median over the window: one jag in the rim does not bend its neighbours' arcs
-        win = np.stack([np.roll(np.where(ok, sgn * kap, np.nan), d) for d in range(-smooth, smooth + 1)])
+        win = np.stack([np.roll(np.where(ok, kap, np.nan), d) for d in range(-smooth, smooth + 1)])
         with np.errstate(all="ignore"):
             kap = np.nanmedian(win, axis=0) if np.isfinite(win).any() else np.zeros(k)
         kap = np.where(np.isfinite(kap), kap, 0.0)
@@ -187,7 +196,6 @@ def continuation_arcs(V, F_near, loop, smooth=2):
         N = Nn
     else:
         N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
-        kap = kap * np.sign(np.sum((0.5 * (P + q2) - q1) * N, axis=1))
     T = T - np.sum(T * N, axis=1)[:, None] * N
     tl = np.linalg.norm(T, axis=1, keepdims=True)
     ok &= tl[:, 0] > 0
@@ -231,7 +239,7 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
         With ``vertices``, ``diameter``, ``mean_edge``; every loop that
         can stop an arc (holes and borders).
     faces_near : callable
-        ``faces_near(loop_vertices)`` -> scan faces within two rings.
+        ``faces_near(loop_vertices)`` -> scan faces within three rings.
     candidates : iterable of int, optional
         Indices of the loops whose arcs are followed (default all).
 

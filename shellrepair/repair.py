@@ -678,7 +678,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     loop = np.concatenate([A.vertices, B.vertices])
     order = 2 if order == "auto" else order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
-    arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 2)], L.vertices) for L in (A, B)]
+    arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
     Pg, Tg = guide_tube(PA, PB, *arcs, spacing=0.5 * (A.mean_edge + B.mean_edge),
                         reach=MAX_REACH * max(A.diameter, B.diameter))
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
@@ -860,7 +860,7 @@ def _find_bands(ctx, scan):
             cand.append(int(i))
     if not cand:
         return []
-    sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 2)], candidates=cand)
+    sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], candidates=cand)
     # loops that touch (share a vertex, e.g. the pinched pieces of a slit)
     # are one opening split at a pinch, not the two ends of a band
     for a, (counts, m) in sights.items():
