@@ -685,59 +685,60 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     tube, why_tube = None, ""
 
     def attempt(first, init, o, fair=True, pinned=None):
+        """(the patch if it passes its checks, the faulty triangles, the patch built)"""
         nonlocal why_tube
         try:
             p = build_patch(ctx, A.id, loop, order=o, smooth=smooth if fair else 0, initial=init,
                             energy=fair, fair=fair, pinned=pinned)
         except PatchError as exc:
             why_tube = str(exc)
-            return None, np.zeros(0, np.int64)
+            return None, np.zeros(0, np.int64), None
         why, bad = _check_patch(ctx, p)
         if why is None:
             how = f"faired order {o}" if fair else "refined, not faired"
             if pinned is not None:
                 how += f", {len(pinned)} vertices held on the first tube"
             p.option = f"tube to loop {B.id} ({first}), {how}"
-            return p, bad
+            return p, bad, p
         why_tube = f"{first}: {why}"
-        return None, bad
+        return None, bad, p
 
     if len(Pg) and np.isfinite(Pg).all():
         first, init = "along the continuation arcs", (Pg, Tg)
-        faired, bad = attempt(first, init, order)
+        faired, bad, built = attempt(first, init, order)
         # the first tube itself (refined, every vertex held): the arcs carry
         # the scan's curvature across the gap, which fairing can flatten;
         # the fairer of the two valid options is kept
-        q = len(faired.P) if faired is not None else None
-        if q is None:
-            try:
-                q = len(build_patch(ctx, A.id, loop, order=1, initial=init, fair=False).P)
-            except PatchError:
-                q = None
         held = None
+        q = len(built.P) if built is not None else 0
         if q:
-            held, _ = attempt(first, init, order, pinned=np.arange(q))
+            held, hbad, hp = attempt(first, init, order, pinned=np.arange(q))
+            free = None
+            for _ in range(PIN_ROUNDS if held is None and hbad.size and hp is not None else 0):
+                # a fold of the arcs (at a jag of a rim): fair only around it
+                free = _pin_region(hp, hbad, free)
+                held, b2, _ = attempt(first, init, order, pinned=np.setdiff1d(np.arange(q), free))
+                if held is not None:
+                    break
+                hbad = np.union1d(hbad, b2) if b2.size else hbad
             if held is not None:
-                held.option = f"tube to loop {B.id} ({first}), refined, held on the arcs"
+                held.option = f"tube to loop {B.id} ({first}), refined, held on the arcs" + (
+                    f" except {len(free)} vertices faired (order {order}) around a fold" if free is not None else "")
         valid = [p for p in (faired, held) if p is not None]
         if valid:
             tube = min(valid, key=lambda p: p.energy[ENERGY] if p.energy is not None else np.inf)
-        elif bad.size:
+        elif bad.size and built is not None:
             # hold the vertices near the crossing on the arcs (as for a cap)
-            try:
-                built = build_patch(ctx, A.id, loop, order=order, smooth=smooth, initial=init)
-            except PatchError:
-                built = None
             pinned = None
-            for _ in range(PIN_ROUNDS if built is not None else 0):
+            for _ in range(PIN_ROUNDS):
                 pinned = _pin_region(built, bad, pinned)
-                tube, b2 = attempt(first, init, order, pinned=pinned)
+                tube, b2, _ = attempt(first, init, order, pinned=pinned)
                 if tube is not None:
                     break
                 bad = np.union1d(bad, b2) if b2.size else bad
     if tube is None:
         for o in ((order, 1) if order != 1 else (1,)):
-            tube, _ = attempt("zipped", tube_triangles(PA, PB), o)
+            tube, _, _ = attempt("zipped", tube_triangles(PA, PB), o)
             if tube is not None:
                 break
     if tube is not None and mutual and mode != "always":
