@@ -52,6 +52,8 @@ unrelated start vertices zip without a twist.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -189,8 +191,9 @@ def continuation_arcs(V, F_near, loop, smooth=2):
         Nn = Nn / np.maximum(np.linalg.norm(Nn, axis=1, keepdims=True), 1e-300)
         # the median over the window: one jag in the rim does not bend its neighbours' arcs
         win = np.stack([np.roll(np.where(ok, kap, np.nan), d) for d in range(-smooth, smooth + 1)])
-        with np.errstate(all="ignore"):
-            kap = np.nanmedian(win, axis=0) if np.isfinite(win).any() else np.zeros(k)
+        with warnings.catch_warnings():   # windows with no estimate give NaN, set to 0 below
+            warnings.simplefilter("ignore", RuntimeWarning)
+            kap = np.nanmedian(win, axis=0)
         kap = np.where(np.isfinite(kap), kap, 0.0)
         T = ring_sum(T * ok[:, None])
         N = Nn

@@ -683,6 +683,12 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                         reach=MAX_REACH * max(A.diameter, B.diameter))
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
+    # edges the scan has between the two loops' vertices (other than the
+    # loops' own edges): a tube that made one again would be non-manifold
+    Fl = ctx.F[ctx.faces_of(loop)]
+    scan_edges = {tuple(e) for e in _edges_of(Fl).tolist()}
+    own = {tuple(sorted(e)) for L in (A, B) for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
+    scan_edges -= own
 
     def attempt(first, init, o, fair=True, pinned=None):
         """(the patch if it passes its checks, the faulty triangles, the patch built)"""
@@ -694,6 +700,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             why_tube = str(exc)
             return None, np.zeros(0, np.int64), None
         why, bad = _check_patch(ctx, p)
+        if why is None and any(e in scan_edges for e in _scan_edges(p)):
+            why = "the tube would repeat an edge of the scan"
         if why is None:
             how = f"faired order {o}" if fair else "refined, not faired"
             if pinned is not None:
@@ -849,15 +857,16 @@ def _find_bands(ctx, scan):
     hole = np.array([L.kind == "hole" for L in loops], bool)
     if hole.sum() < 2:
         return []
-    centres = np.array([ctx.V[L.vertices].mean(axis=0) for L in loops])
-    radius = np.array([0.5 * L.diameter for L in loops])
+    ids = np.flatnonzero(hole)
+    centres = np.array([ctx.V[loops[i].vertices].mean(axis=0) for i in ids])
+    radius = np.array([0.5 * loops[i].diameter for i in ids])
+    reach = radius + MAX_REACH * 2 * radius
     tree = cKDTree(centres)
     cand = []
-    for i in np.flatnonzero(hole):
-        near = tree.query_ball_point(centres[i], radius[i] + MAX_REACH * loops[i].diameter + radius.max())
-        near = [j for j in near if j != i and hole[j]
-                and np.linalg.norm(centres[j] - centres[i]) <= radius[i] + MAX_REACH * loops[i].diameter + radius[j]]
-        if near:
+    for a, i in enumerate(ids):     # holes with another hole within reach of their arcs
+        near = np.asarray(tree.query_ball_point(centres[a], reach[a] + radius.max()), np.int64)
+        near = near[(near != a) & (np.linalg.norm(centres[near] - centres[a], axis=1) <= reach[a] + radius[near])]
+        if near.size:
             cand.append(int(i))
     if not cand:
         return []

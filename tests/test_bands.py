@@ -232,6 +232,31 @@ def test_a_slit_pinched_into_many_loops_is_not_bridged_across_its_pinches():
     assert_closed_and_clean(M, R, rep)
 
 
+def test_two_slits_end_to_end_are_capped_not_bridged():
+    """Two slits along one edge path with a short piece of scan between
+    them: their arcs cross each slit's width and land on its own far side,
+    so the two loops are no band; each is capped."""
+    from eval.cases import _edge_graph
+    from scipy.sparse.csgraph import dijkstra
+
+    V, F = ellipsoid("uv", (1.5, 0.5, 0.3))
+    d, pred = dijkstra(_edge_graph(V, F), indices=5, return_predecessors=True)
+    t = int(np.argmin(np.abs(d - 2.4)))
+    path = [t]
+    while path[-1] != 5:
+        path.append(int(pred[path[-1]]))
+    path = np.array(path[1:-1])
+    m = len(path) // 2
+    cut = np.concatenate([path[:m - 2], path[m + 2:]])                # a gap of three path vertices
+    V2, F2, _ = shapes.remove_faces(V, F, np.isin(F, cut).any(axis=1))
+    M = Mesh(V=V2, F=F2)
+    assert len(detect_holes(V2, F2).holes) == 2
+    R, rep = repair_mesh(M)
+    assert all(b["chosen"] == "caps" for b in rep["bridges"])
+    assert_closed_and_clean(M, R, rep)
+    assert rep["euler_after"] == 2
+
+
 # --------------------------------------------------------------------------
 # borders are never bridged
 # --------------------------------------------------------------------------
@@ -277,6 +302,19 @@ def test_a_sheet_with_floating_islands_bridges_nothing():
     for b in rep["bridges"]:
         assert b["kinds"] == ["hole", "hole"]
     assert all(scan.loops[b].kind == "hole" for r in rep["bridges"] for b in r["loops"])
+
+
+def test_a_real_single_view_range_scan_pairs_no_border():
+    """The range scan's outer edge and its floating debris are borders; a
+    pair, if any, joins two holes."""
+    from shellrepair import read_mesh
+    from shellrepair.repair import _Context, _find_bands
+
+    m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
+    scan = detect_holes(m.V, m.F)
+    assert len(scan.borders) >= 2
+    for A, B, _ in _find_bands(_Context(m), scan):
+        assert A.kind == "hole" and B.kind == "hole"
 
 
 def test_band_pairs_skips_loops_not_eligible():
