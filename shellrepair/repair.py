@@ -663,11 +663,16 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     The tube starts from :func:`~shellrepair.bridge.guide_tube` (rings
     along both loops' continuation arcs; the plain zip of the two loops if
     that fails), is refined and faired like a cap with both loops' rings
-    fixed, and is checked against the scan and itself. The caps are checked
-    against the scan and against each other. An option that fails its
-    checks loses; if both pass, the lower energy wins (``ENERGY``). While a
-    valid tube is in hand each cap gets one attempt (no re-routing): a cap
-    that crosses something there is not needed.
+    fixed, and is checked against the scan and itself; the faired tube and
+    the tube held on the arcs are both tried and the valid one with the
+    lower energy (``ENERGY``) is kept. Only for loops that see each other
+    both ways are crossings retried (vertices held around them). The caps
+    are checked against the scan and against each other. When each loop's
+    arcs land on the other the valid tube is kept without building caps;
+    otherwise an option that fails its checks loses, and if both pass the
+    lower energy wins. While a valid tube is in hand each cap gets one
+    attempt (no re-routing): a cap that crosses something there is not
+    needed.
 
     Returns (outcomes, record): outcomes as for :func:`_fill_one` per loop
     (the tube patch is given with A, B refers to it), record for the report.
@@ -722,7 +727,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         if q:
             held, hbad, hp = attempt(first, init, order, pinned=np.arange(q))
             free = None
-            for _ in range(PIN_ROUNDS if held is None and hbad.size and hp is not None else 0):
+            for _ in range(PIN_ROUNDS if mutual and faired is None and held is None and hbad.size and hp is not None
+                           else 0):
                 # a fold of the arcs (at a jag of a rim): fair only around it
                 free = _pin_region(hp, hbad, free)
                 held, b2, _ = attempt(first, init, order, pinned=np.setdiff1d(np.arange(q), free))
@@ -735,7 +741,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         valid = [p for p in (faired, held) if p is not None]
         if valid:
             tube = min(valid, key=lambda p: p.energy[ENERGY] if p.energy is not None else np.inf)
-        elif bad.size and built is not None:
+        elif mutual and bad.size and built is not None:
             # hold the vertices near the crossing on the arcs (as for a cap)
             pinned = None
             for _ in range(PIN_ROUNDS):
@@ -745,10 +751,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                     break
                 bad = np.union1d(bad, b2) if b2.size else bad
     if tube is None:
-        for o in ((order, 1) if order != 1 else (1,)):
-            tube, _, _ = attempt("zipped", tube_triangles(PA, PB), o)
-            if tube is not None:
-                break
+        tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
     if tube is not None and mutual and mode != "always":
         caps = None     # the loops see each other: the tube continues the surface
     elif tube is not None:    # one attempt per cap
