@@ -684,8 +684,11 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     order = 2 if order == "auto" else order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
-    Pg, Tg = guide_tube(PA, PB, *arcs, spacing=0.5 * (A.mean_edge + B.mean_edge),
-                        reach=MAX_REACH * max(A.diameter, B.diameter))
+    try:
+        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=0.5 * (A.mean_edge + B.mean_edge),
+                            reach=MAX_REACH * max(A.diameter, B.diameter))
+    except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
+        Pg, Tg = np.zeros((0, 3)), None
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
     # edges the scan has between the two loops' vertices (other than the
