@@ -57,7 +57,7 @@ import warnings
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles",
+__all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
            "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
 #: Arcs are followed at most this many loop diameters (or one full turn):

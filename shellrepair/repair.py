@@ -719,6 +719,24 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         why_tube = f"{first}: {why}"
         return None, bad, p
 
+    def caps_crossing(caps):
+        """Why the two caps cannot both be used, or ''."""
+        why = "; ".join(f"cap of loop {L.id}: {c[1] or 'failed'}" for L, c in zip((A, B), caps) if c[0] is None)
+        if not why:
+            acc = _Accepted()
+            acc.add(caps[0][0], *_corners(ctx, caps[0][0]))
+            if acc.conflict(ctx, caps[1][0])[0]:
+                why = "the two caps cross each other"
+        return why
+
+    # loops that see each other one way only (an island and its surround, or
+    # a loop whose arcs happen to reach a neighbour): the caps first; while
+    # they stand, the tube gets one attempt, for the energy comparison
+    caps = None
+    lean = False
+    if not mutual and mode != "always":
+        caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+        lean = not caps_crossing(caps)
     if len(Pg) and np.isfinite(Pg).all():
         first, init = "along the continuation arcs", (Pg, Tg)
         faired, bad, built = attempt(first, init, order)
@@ -726,7 +744,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         # the scan's curvature across the gap, which fairing can flatten;
         # the fairer of the two valid options is kept
         held = None
-        q = len(built.P) if built is not None else 0
+        q = len(built.P) if built is not None and not lean else 0
         if q:
             held, hbad, hp = attempt(first, init, order, pinned=np.arange(q))
             free = None
@@ -753,26 +771,26 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                 if tube is not None:
                     break
                 bad = np.union1d(bad, b2) if b2.size else bad
-    if tube is None:
+    if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
-    if tube is not None and mutual and mode != "always":
-        caps = None     # the loops see each other: the tube continues the surface
-    elif tube is not None:    # one attempt per cap
-        caps = []
-        for L in (A, B):
-            t1 = time.perf_counter()
-            try:
-                c = build_patch(ctx, L.id, L.vertices, order=order, smooth=smooth, energy=True)
-                why, _ = _check_patch(ctx, c)
-            except PatchError as exc:
-                c, why = None, str(exc)
-            if why is not None:
-                c = None
-            else:
-                c.option = OPTION_NAMES["faired"].format(order=order)
-            caps.append((c, why or "", time.perf_counter() - t1, []))
-    else:
-        caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+    seen_both_ways = tube is not None and mutual and mode != "always"
+    if caps is None and not seen_both_ways:   # (seen both ways: the tube continues the surface)
+        if tube is not None:    # one attempt per cap
+            caps = []
+            for L in (A, B):
+                t1 = time.perf_counter()
+                try:
+                    c = build_patch(ctx, L.id, L.vertices, order=order, smooth=smooth, energy=True)
+                    why, _ = _check_patch(ctx, c)
+                except PatchError as exc:
+                    c, why = None, str(exc)
+                if why is not None:
+                    c = None
+                else:
+                    c.option = OPTION_NAMES["faired"].format(order=order)
+                caps.append((c, why or "", time.perf_counter() - t1, []))
+        else:
+            caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
     if caps is None:
         secs = time.perf_counter() - t0
         e_tube = tube.energy[ENERGY] if tube.energy is not None else None
@@ -781,13 +799,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                   "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
         tube.hole_id = A.id
         return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
-    why_caps = "; ".join(f"cap of loop {L.id}: {c[1]}" for L, c in zip((A, B), caps) if c[0] is None)
-    if caps[0][0] is not None and caps[1][0] is not None:
-        acc = _Accepted()
-        acc.add(caps[0][0], *_corners(ctx, caps[0][0]))
-        clash, _ = acc.conflict(ctx, caps[1][0])
-        if clash:
-            why_caps = f"the two caps cross each other"
+    why_caps = caps_crossing(caps)
     e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
     caps_ok = not why_caps
     e_caps = sum(c[0].energy[ENERGY] if c[0] is not None and c[0].energy is not None else np.inf
