@@ -11,13 +11,14 @@ side); a tube continues the surface.
 Which loops see each other
 --------------------------
 At each rim vertex the scan arrives from one side and is heading somewhere
-when it stops. The *continuation arc* extends it: it leaves the off-loop
-neighbour ``u`` of the rim vertex along the scan's direction there (the
-edge ``u -> p`` projected onto the tangent plane at ``u``) and bends like the
-scan does along that direction (the normal curvature of the edge,
-``κ = 2 (p - u)·n_u / |p - u|²``, the osculating circle through ``u`` and
-``p`` tangent to the scan at ``u``). The arc is the circle the surface would
-follow if its curvature across the gap stayed what it is at the rim.
+when it stops. The *continuation arc* extends it: it starts one ring off
+the loop, at the mean ``q1`` of the rim vertex's neighbours there, heads
+towards the rim (along ``p - q2``, ``q2`` the mean of the next ring) and
+bends like the scan does in that direction: its curvature is the normal
+curvature across the rim, measured by how far the vertex normals turn
+between the two rings (:func:`continuation_arcs`). The arc is the circle
+the surface would follow if its curvature across the gap stayed what it is
+at the rim.
 
 * On a hole in a smooth surface the arcs cross the hole and land on the
   same loop's far side.
@@ -37,17 +38,23 @@ never bridged.
 
 Which option is kept
 --------------------
-Seeing is only the reason to try. The tube is built like a cap (zipped,
-refined to the rim's edge length, faired with both loops' rings fixed) and
-checked: it must cross neither the scan nor itself. The two caps are built
-and checked as usual. If one option fails its check the other one is kept;
-if both pass, the lower curvature-variation energy wins (see
-:func:`shellrepair.repair.repair_mesh`).
+Seeing is only the reason to try. The tube is built along both loops'
+arcs (:func:`guide_tube`), refined to the rim's edge length, and then
+either faired with both loops' rings fixed or kept on the arcs, whichever
+valid one has the lower curvature-variation energy; every option is
+checked like a cap: it must cross neither the scan nor itself, nor repeat
+an edge of the scan. Then (see :func:`shellrepair.repair._fill_pair`):
 
-The tube's first triangulation zips the two loops together, matched by arc
-length from the cyclic shift of the second loop (walked backwards) that
-best matches the first, so loops of very different vertex counts or with
-unrelated start vertices zip without a twist.
+* loops that see each other both ways keep a valid tube (the surface
+  continues from each into the other; the caps are not built);
+* otherwise the two caps are built and checked, against each other too;
+  an option that fails its checks loses, and between valid ones the lower
+  energy wins.
+
+The tube's rings, and the plain zip used when no guide can be built, are
+matched by arc length from the cyclic shift of the second loop (walked
+backwards) that best matches the first, so loops of very different vertex
+counts or with unrelated start vertices zip without a twist.
 """
 
 from __future__ import annotations
