@@ -535,17 +535,25 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach):
         return np.zeros((0, 3)), tube_triangles(PA, PB)
     rings, params, ids = [], [ta], [np.arange(ka)]
     base = ka + kb
-    for r in range(1, M + 1):
-        tau = r / (M + 1)
-        m = max(3, int(round(ka + (kb - ka) * tau)))
-        u = np.arange(m) / m
+    def ring(tau, u):
         w = 3 * tau ** 2 - 2 * tau ** 3
         XA = arc_points(_lerp_loop(ta, Ua, u), _lerp_loop(ta, Ta, u), _lerp_loop(ta, Na, u),
                         _lerp_loop(ta, Ka, u), (_lerp_loop(ta, S0a, u) + tau * _lerp_loop(ta, Sa, u))[:, None])[:, 0]
         XC = arc_points(_lerp_loop(tc, Uc, u), _lerp_loop(tc, Tc, u), _lerp_loop(tc, Nc, u),
                         _lerp_loop(tc, Kc, u),
                         (_lerp_loop(tc, S0c, u) + (1 - tau) * _lerp_loop(tc, Sc, u))[:, None])[:, 0]
-        rings.append((1 - w) * XA + w * XC)
+        return (1 - w) * XA + w * XC
+
+    fine = max(ka, kb)
+    for r in range(1, M + 1):
+        tau = r / (M + 1)
+        # as many vertices as the ring's length holds at ``spacing`` (at
+        # most the finer loop's count): triangles stay about as long as wide
+        X = ring(tau, np.arange(fine) / fine)
+        length_r = float(np.linalg.norm(np.roll(X, -1, axis=0) - X, axis=1).sum())
+        m = int(np.clip(round(length_r / max(spacing, 1e-300)), 3, fine))
+        u = np.arange(m) / m
+        rings.append(X if m == fine else ring(tau, u))
         params.append(u)
         ids.append(base + np.arange(m))
         base += m

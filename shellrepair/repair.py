@@ -685,7 +685,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
     try:
-        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=0.5 * (A.mean_edge + B.mean_edge),
+        sigma = _rim_data(ctx, loop)[0]      # the rim's edge length, as refinement reads it
+        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=float(np.mean(sigma)),
                             reach=MAX_REACH * max(A.diameter, B.diameter))
     except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
         Pg, Tg = np.zeros((0, 3)), None
