@@ -1,144 +1,350 @@
-"""Bridge a missing band: two loops that bound one missing strip of surface.
+"""Bridge a missing band: two loops that bound one missing region of surface.
 
 A scanner that misses a whole band (the inner side of a ring-like fold, the
-gap around a wrist) leaves two loops facing each other. Capping each loop
-gives the wrong shape; a tube between them continues the surface.
+gap around a wrist or a thin arm, the inner equator of a torus seen from a
+ring of views) leaves two loops that one tube of surface joins. A hole with
+a floating island of scan inside it leaves an outer and an inner loop that
+one annulus joins. Capping each loop gives the wrong shape (and often
+cannot be done at all: a cap of a torus's inner band crosses the opposite
+side); a tube continues the surface.
 
-Which pairs are candidates
+Which loops see each other
 --------------------------
-At every loop vertex the scan arrives from one side; its *continuation
-direction* points from the mean of the vertex's scan neighbours off the loop
-to the vertex, i.e. the way the surface was heading when it stopped. For a
-hole in a smooth surface these directions point all around the hole and
-average to almost nothing; for a band's rim they all point across the gap.
-Two loops are a candidate pair when
+At each rim vertex the scan arrives from one side and is heading somewhere
+when it stops. The *continuation arc* extends it: it starts one ring off
+the loop, at the mean ``q1`` of the rim vertex's neighbours there, heads
+towards the rim (along ``p - q2``, ``q2`` the mean of the next ring) and
+bends like the scan does in that direction: its curvature is the normal
+curvature across the rim, measured by how far the vertex normals turn
+between the two rings (:func:`continuation_arcs`). The arc is the circle
+the surface would follow if its curvature across the gap stayed what it is
+at the rim.
 
-* both mean continuation directions have length ≥ ``MIN_COHERENCE``,
-* each points towards the other loop (cosine with the line between the loop
-  centres ≥ ``MIN_FACING``),
-* their perimeters differ by at most a factor ``MAX_SIZE_RATIO``, and
-* the gap between their centres is at most ``MAX_GAP`` times the larger
-  diameter.
+* On a hole in a smooth surface the arcs cross the hole and land on the
+  same loop's far side.
+* Around a cut arm or cylinder the arcs run straight across the gap and
+  land on the other loop; around a torus's inner band they turn with the
+  tube (more than a half turn) and land on the other loop too, although the
+  loops' mean directions point away from each other.
+* From an island the arcs run outwards and land on the surrounding loop.
 
-The loops may lie in different components: a missing ring cuts a cylinder
-in two. Coherence and facing are measured as cosines over all rim vertices,
-so a band whose rims head partly inwards (the inner side of a torus) still
-qualifies: the radial parts cancel, the part across the gap remains.
+Loop A *sees* loop B when most of A's arcs (a strict majority, the only
+rule used) land on B before any other loop; a pair is a candidate when
+either sees the other. Arcs are followed up to ``MAX_REACH`` times the
+loop's diameter or one full turn, whichever is shorter (the search horizon,
+not a decision threshold). Only loops classed ``hole`` are looked at: a
+border (the rim of a single-view scan, the edge of floating debris) is
+never bridged.
 
-Each loop joins at most one pair (best-aligned first). Whether the tube is
-used is then decided by comparing the faired thin-plate energy of the tube
-with that of the two caps (see :func:`shellrepair.repair.repair_mesh`).
+Which option is kept
+--------------------
+Seeing is only the reason to try. The tube is built along both loops'
+arcs (:func:`guide_tube`), refined to the rim's edge length, and then
+either faired with both loops' rings fixed or kept on the arcs, whichever
+valid one has the lower curvature-variation energy; every option is
+checked like a cap: it must cross neither the scan nor itself, nor repeat
+an edge of the scan. Then (see :func:`shellrepair.repair._fill_pair`):
 
-The tube's first triangulation zips the two loops together, matched by arc
-length (the second loop walked backwards, from the cyclic shift that best
-matches the first); it is then refined and faired like any patch.
+* loops that see each other both ways keep a valid tube (the surface
+  continues from each into the other; the caps are not built);
+* otherwise the two caps are built and checked, against each other too;
+  an option that fails its checks loses, and between valid ones the lower
+  energy wins.
+
+The tube's rings, and the plain zip used when no guide can be built, are
+matched by arc length from the cyclic shift of the second loop (walked
+backwards) that best matches the first, so loops of very different vertex
+counts or with unrelated start vertices zip without a twist.
 """
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+from scipy.spatial import cKDTree
 
-__all__ = ["continuation_direction", "band_pairs", "tube_triangles",
-           "MIN_COHERENCE", "MIN_FACING", "MAX_SIZE_RATIO", "MAX_GAP"]
+__all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
+           "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
-#: Minimum length of a loop's mean continuation direction (1 = all parallel).
-MIN_COHERENCE = 0.2
-#: Minimum cosine between a loop's continuation direction and the line to the other loop.
-MIN_FACING = 0.2
-#: Largest perimeter ratio of the two loops.
-MAX_SIZE_RATIO = 2.0
-#: Largest centre distance, in units of the larger loop diameter.
-MAX_GAP = 2.0
+#: Arcs are followed at most this many loop diameters (or one full turn):
+#: the search horizon for a partner loop, not a decision threshold.
+MAX_REACH = 4.0
+#: Rim vertices (evenly spaced) whose arcs are followed, per loop.
+ARCS_PER_LOOP = 48
+#: Samples per arc.
+ARC_SAMPLES = 96
+#: Lateral slack of a landing, per unit of arc length travelled (about 9°):
+#: the one-ring curvature and direction estimates at a rim are this
+#: accurate on the meshes tested (tori, cylinders, ellipsoids, scans).
+SIGHT_SLACK = 0.15
+#: Rim vertices this many steps along the loop from an arc's own vertex are
+#: where the arc starts, not where it lands.
+SELF_SKIP = 2
 
 
-def continuation_direction(V, F_ring, loop):
-    """Mean unit direction in which the scan reaches the loop.
+def _vertex_normals(V, F, verts):
+    """Area-weighted unit normals of ``verts`` over the faces ``F``."""
+    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    loc = np.searchsorted(verts, F)
+    ok = (loc < len(verts)) & (verts[np.minimum(loc, len(verts) - 1)] == F)
+    acc = np.zeros((len(verts), 3))
+    for c in range(3):
+        np.add.at(acc, loc[ok[:, c], c], N[ok[:, c]])
+    ln = np.linalg.norm(acc, axis=1, keepdims=True)
+    return np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
+
+
+def continuation_arcs(V, F_near, loop, smooth=2):
+    """Where the scan heads at each rim vertex, as an osculating circle.
 
     Parameters
     ----------
     V : (n,3) float64
-    F_ring : (r,3) int64
-        Scan faces touching the loop.
+    F_near : (r,3) int64
+        Scan faces within three rings of the loop (every face of the
+        vertices two rings off it).
     loop : (k,) int64
+    smooth : int
+        Tangents, normals and curvatures are averaged over ``2*smooth+1``
+        consecutive rim vertices.
 
     Returns
     -------
-    m : (3,) float64
-        Mean of the per-vertex unit directions (length 0 … 1).
+    U : (k,3) float64
+        Base point ``q1``: mean of the rim vertex's neighbours one ring off
+        the loop.
+    Tn : (k,3) float64
+        Unit direction of the scan at the base, towards the rim.
+    Nn : (k,3) float64
+        Unit scan normal at the base.
+    kappa : (k,) float64
+        Normal curvature along ``Tn`` (positive: bends towards ``Nn``).
+    s0 : (k,) float64
+        Arc length from the base to the rim vertex.
+    ok : (k,) bool
+        The vertex has neighbours one and two rings off the loop.
+
+    Notes
+    -----
+    ``q2`` is the mean of the vertices two rings off the loop next to those
+    ring-one neighbours, ``n1`` and ``n2`` the mean vertex normals there.
+    The arc leaves ``q1`` parallel to ``p - q2`` (projected on the tangent
+    plane) with the normal curvature ``κ = -(n1 - n2)·t / ((q1 - q2)·t)``
+    (Weingarten: the normal turns by ``-κ`` per unit length along ``t``);
+    the median over ``2*smooth+1`` rim vertices is taken. Averaging over each ring
+    cancels most of the sideways spread of the neighbours; what is left
+    (a skewed triangulation's) is removed by projecting ``q1`` and ``q2`` on
+    the plane through ``p`` normal to the loop, so the circle lies across
+    the rim.
     """
+    import scipy.sparse as sp
+
     loop = np.asarray(loop, np.int64)
-    on = np.zeros(int(max(F_ring.max(initial=0), loop.max())) + 1, bool)
-    on[loop] = True
-    pos = -np.ones(len(on), np.int64)
-    pos[loop] = np.arange(len(loop))
-    E = np.concatenate([F_ring[:, [0, 1]], F_ring[:, [1, 2]], F_ring[:, [2, 0]],
-                        F_ring[:, [1, 0]], F_ring[:, [2, 1]], F_ring[:, [0, 2]]])
-    E = np.unique(E, axis=0)
-    E = E[on[E[:, 0]] & ~on[E[:, 1]]]          # loop vertex -> off-loop neighbour
+    F_near = np.asarray(F_near, np.int64)
     k = len(loop)
-    acc = np.zeros((k, 3))
-    cnt = np.zeros(k)
-    np.add.at(acc, pos[E[:, 0]], V[E[:, 1]])
-    np.add.at(cnt, pos[E[:, 0]], 1)
-    ok = cnt > 0
-    d = np.zeros((k, 3))
-    d[ok] = V[loop[ok]] - acc[ok] / cnt[ok, None]
-    ln = np.linalg.norm(d, axis=1, keepdims=True)
-    d = np.divide(d, ln, out=np.zeros_like(d), where=ln > 0)
-    return d[ok].mean(axis=0) if ok.any() else np.zeros(3)
+    verts = np.unique(np.concatenate([F_near.ravel(), loop]))
+    nv = len(verts)
+    L = np.searchsorted(verts, F_near)
+    li = np.searchsorted(verts, loop)
+    E = np.concatenate([L[:, [0, 1]], L[:, [1, 2]], L[:, [2, 0]]])
+    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
+                      shape=(nv, nv))
+    A.data[:] = 1.0
+    level = np.full(nv, 3, np.int64)
+    level[li] = 0
+    ring1 = (A[li].sum(axis=0).A1 > 0) & (level > 0)
+    level[ring1] = 1
+    ring2 = (A[np.flatnonzero(ring1)].sum(axis=0).A1 > 0) & (level > 1)
+    level[ring2] = 2
+    R1 = A[li].multiply((level == 1)[None]).tocsr()                 # rim vertex -> its ring-1 neighbours
+    R1.eliminate_zeros()
+    R2 = (R1 @ A).multiply((level == 2)[None]).tocsr()              # ... -> ring-2 vertices next to them
+    R2.eliminate_zeros()
+    R2.data[:] = 1.0
+    c1 = R1.sum(axis=1).A1
+    c2 = R2.sum(axis=1).A1
+    X = V[verts]
+    Nv = _vertex_normals(V, F_near, verts)
+    ok = (c1 > 0) & (c2 > 0)
+    q1 = (R1 @ X) / np.maximum(c1, 1)[:, None]
+    q2 = (R2 @ X) / np.maximum(c2, 1)[:, None]
+    N = R1 @ Nv
+    P = V[loop]
+    # keep the circle in the plane across the rim: drop the neighbours'
+    # sideways offsets along the loop (a skewed triangulation has them)
+    tau = np.roll(P, -1, axis=0) - np.roll(P, 1, axis=0)
+    tau = tau / np.maximum(np.linalg.norm(tau, axis=1, keepdims=True), 1e-300)
+    q1 = q1 - np.sum((q1 - P) * tau, axis=1)[:, None] * tau
+    q2 = q2 - np.sum((q2 - P) * tau, axis=1)[:, None] * tau
+    a, b, c = q1 - q2, P - q1, P - q2
+    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+    ok &= (la > 0) & (lb > 0) & (lc > 0)
+    N2 = R2 @ Nv
+    N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
+    N2 = N2 / np.maximum(np.linalg.norm(N2, axis=1, keepdims=True), 1e-300)
+    T = np.divide(c, lc[:, None], out=np.zeros_like(c), where=lc[:, None] > 0)
+    # normal curvature along T from the turn of the normal between the rings
+    # (Weingarten: dn/ds · t = -κ); the neighbours' sideways spread turns the
+    # normal sideways only, which the dot with T ignores
+    step = np.sum(a * T, axis=1)
+    kap = np.where(np.abs(step) > 0, -np.sum((N - N2) * T, axis=1) / np.where(step != 0, step, 1.0), 0.0)
+    ok &= step > 0
+    s0 = lb
+    if smooth and k > 2 * smooth + 1:   # circular moving sum over the loop
+        def ring_sum(Y):
+            return sum(np.roll(Y, d, axis=0) for d in range(-smooth, smooth + 1))
+        Nn = ring_sum(N * ok[:, None])
+        Nn = Nn / np.maximum(np.linalg.norm(Nn, axis=1, keepdims=True), 1e-300)
+        # the median over the window: one jag in the rim does not bend its neighbours' arcs
+        win = np.stack([np.roll(np.where(ok, kap, np.nan), d) for d in range(-smooth, smooth + 1)])
+        with warnings.catch_warnings():   # windows with no estimate give NaN, set to 0 below
+            warnings.simplefilter("ignore", RuntimeWarning)
+            kap = np.nanmedian(win, axis=0)
+        kap = np.where(np.isfinite(kap), kap, 0.0)
+        T = ring_sum(T * ok[:, None])
+        N = Nn
+    else:
+        N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
+    T = T - np.sum(T * N, axis=1)[:, None] * N
+    tl = np.linalg.norm(T, axis=1, keepdims=True)
+    ok &= tl[:, 0] > 0
+    T = np.divide(T, tl, out=np.zeros_like(T), where=tl > 0)
+    return q1, T, N, kap, s0, ok
 
 
-def band_pairs(loops, directions, *, components=None, min_coherence=MIN_COHERENCE, min_facing=MIN_FACING,
-               max_size_ratio=MAX_SIZE_RATIO, max_gap=MAX_GAP):
-    """Candidate pairs of loops bounding one missing band.
+def arc_points(U, T, N, kappa, s):
+    """Points at arc length ``s`` along circles (straight lines where κ = 0).
 
     Parameters
     ----------
-    loops : list of Loop
-        With ``vertices``, ``perimeter``, ``diameter``; their centres are
-        taken from ``centers``.
-    directions : list of (centre (3,), direction (3,))
-        Per loop: its centroid and mean continuation direction.
-    components : list of int, optional
-        Pairs are only formed within one component.
+    U, T, N : (m,3) float64
+        Base points, unit tangents, unit normals.
+    kappa : (m,) float64
+    s : (m,j) float64
 
     Returns
     -------
-    pairs : list of (i, j, score)
-        Indices into ``loops``; each loop appears at most once; score is the
-        smaller of the two facing cosines.
+    X : (m,j,3) float64
+
+    Notes
+    -----
+    ``x(s) = u + sin(κs)/κ t + (1 - cos(κs))/κ n``, written with ``sinc`` so
+    that it is exact and stable as κ → 0.
     """
-    cand = []
-    n = len(loops)
-    for i in range(n):
-        ci, mi = directions[i]
-        if np.linalg.norm(mi) < min_coherence:
+    ks = kappa[:, None] * s
+    a = s * np.sinc(ks / np.pi)                                  # sin(κs)/κ
+    b = 0.5 * kappa[:, None] * s ** 2 * np.sinc(ks / (2 * np.pi)) ** 2  # (1 - cos κs)/κ
+    return U[:, None] + a[..., None] * T[:, None] + b[..., None] * N[:, None]
+
+
+def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n_arcs=ARCS_PER_LOOP,
+                n_samples=ARC_SAMPLES, slack=SIGHT_SLACK):
+    """Which loop each loop's continuation arcs land on first.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loops : list of Loop
+        With ``vertices``, ``diameter``, ``mean_edge``; every loop that
+        can stop an arc (holes and borders).
+    faces_near : callable
+        ``faces_near(loop_vertices)`` -> scan faces within three rings.
+    candidates : iterable of int, optional
+        Indices of the loops whose arcs are followed (default all).
+
+    Returns
+    -------
+    sights : dict of int -> (counts (len(loops),) int64, n_arcs int)
+        Per followed loop: how many of its arcs landed first on each loop
+        (its own far side included).
+    """
+    if not loops:
+        return {}
+    sizes = [len(L.vertices) for L in loops]
+    allv = np.concatenate([np.asarray(L.vertices, np.int64) for L in loops])
+    owner = np.repeat(np.arange(len(loops)), sizes)
+    place = np.concatenate([np.arange(s) for s in sizes])
+    edge = np.array([L.mean_edge for L in loops], np.float64)
+    tree = cKDTree(V[allv])
+    out = {}
+    for a in (range(len(loops)) if candidates is None else candidates):
+        L = loops[a]
+        loop = np.asarray(L.vertices, np.int64)
+        k = len(loop)
+        if k < 2 * SELF_SKIP + 2:
             continue
-        for j in range(i + 1, n):
-            cj, mj = directions[j]
-            if np.linalg.norm(mj) < min_coherence:
-                continue
-            if components is not None and components[i] != components[j]:
-                continue
-            pa, pb = loops[i].perimeter, loops[j].perimeter
-            if max(pa, pb) > max_size_ratio * min(pa, pb):
-                continue
-            gap = np.linalg.norm(cj - ci)
-            if gap == 0 or gap > max_gap * max(loops[i].diameter, loops[j].diameter):
-                continue
-            u = (cj - ci) / gap
-            fa = np.dot(mi, u) / np.linalg.norm(mi)
-            fb = -np.dot(mj, u) / np.linalg.norm(mj)
-            if min(fa, fb) >= min_facing:
-                cand.append((float(min(fa, fb)), i, j))
-    cand.sort(key=lambda t: -t[0])
-    used = set()
-    pairs = []
-    for s, i, j in cand:
+        U, T, N, kap, s0, ok = continuation_arcs(V, faces_near(loop), loop)
+        idx = np.flatnonzero(ok)
+        if idx.size == 0:
+            continue
+        if idx.size > n_arcs:
+            idx = idx[np.linspace(0, idx.size - 1, n_arcs).round().astype(np.int64)]
+        reach = max_reach * max(L.diameter, 1e-300)
+        turn = np.where(np.abs(kap[idx]) > 0, 2 * np.pi / np.maximum(np.abs(kap[idx]), 1e-300), np.inf)
+        length = np.minimum(reach, turn)
+        frac = np.arange(1, n_samples + 1) / n_samples
+        s = s0[idx, None] + length[:, None] * frac[None]
+        X = arc_points(U[idx], T[idx], N[idx], kap[idx], s)
+        h = (length / n_samples)[:, None]
+        tol = h + slack * (s - s0[idx, None])                 # (m, j) without the target's edge
+        d, j = tree.query(X.reshape(-1, 3), distance_upper_bound=float(tol.max() + edge.max()))
+        d = d.reshape(X.shape[:2])
+        j = j.reshape(X.shape[:2])
+        found = np.isfinite(d)
+        jj = np.where(found, j, 0)
+        who = owner[jj]
+        hit = found & (d <= tol + edge[who])
+        # the arc's own start: rim vertices next to its vertex on its own loop
+        gap = np.abs(place[jj] - idx[:, None])
+        gap = np.minimum(gap, k - gap)
+        hit &= ~((who == a) & (gap <= SELF_SKIP))
+        first = np.where(hit.any(axis=1), np.argmax(hit, axis=1), -1)
+        landed = who[np.arange(len(idx)), np.maximum(first, 0)][first >= 0]
+        out[a] = (np.bincount(landed, minlength=len(loops)), len(idx))
+    return out
+
+
+def band_pairs(sights, eligible):
+    """Pairs of loops that see each other (either way), best first.
+
+    Parameters
+    ----------
+    sights : dict of int -> (counts, n_arcs)
+        From :func:`loop_sights`.
+    eligible : (len(loops),) bool
+        Loops that may be bridged (classed ``hole``).
+
+    Returns
+    -------
+    pairs : list of (i, j, score, mutual)
+        ``i < j``; each loop appears at most once; score is the larger
+        fraction of arcs one loop sends to the other (> 1/2); ``mutual``
+        when each loop sends most of its arcs to the other.
+    """
+    eligible = np.asarray(eligible, bool)
+    sees = {}
+    for a, (counts, m) in sights.items():
+        if not eligible[a] or m == 0:
+            continue
+        c = counts.astype(np.float64)
+        c[a] = -1
+        c[~eligible] = -1
+        b = int(np.argmax(c))
+        if 2 * c[b] > m:                      # a strict majority of a's arcs land on b
+            sees[a] = (b, c[b] / m)
+    cand = {}
+    for a, (b, f) in sees.items():
+        key = (min(a, b), max(a, b))
+        mutual = sees.get(b, (None,))[0] == a
+        cand[key] = (max(cand.get(key, (0.0,))[0], f), mutual)
+    order = sorted(cand.items(), key=lambda kv: (not kv[1][1], -kv[1][0], kv[0]))
+    used, pairs = set(), []
+    for (i, j), (sc, mutual) in order:
         if i in used or j in used:
             continue
         used.update((i, j))
-        pairs.append((i, j, s))
+        pairs.append((i, j, float(sc), bool(mutual)))
     return pairs
 
 
@@ -146,6 +352,52 @@ def _arclength(P):
     seg = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
     t = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
     return t / max(seg.sum(), 1e-300)
+
+
+def _facing_order(PA, PB):
+    """Indices of PB walked backwards from the cyclic shift that best matches
+    PA by arc length (the second loop's vertices in the first loop's sense)."""
+    kb = len(PB)
+    rev = np.arange(kb)[::-1]
+    ta = _arclength(PA)
+    best = (np.inf, 0)
+    shifts = range(kb) if kb <= 512 else np.linspace(0, kb - 1, 512).astype(int)
+    for s in shifts:
+        order = np.roll(rev, -s)
+        Q = PB[order]
+        tb = _arclength(Q)
+        j = np.minimum(np.searchsorted(tb, ta), kb - 1)
+        cost = np.linalg.norm(PA - Q[j], axis=1).sum()
+        if cost < best[0]:
+            best = (cost, s)
+    return np.roll(rev, -best[1])
+
+
+def _zip(ta, tc, ia, ic):
+    """Triangles zipping two rings walked the same way round, advancing the
+    side whose next vertex comes first by (normalised) arc length ``ta``,
+    ``tc``; ``ia``, ``ic`` are the rings' vertex indices."""
+    ka, kc = len(ia), len(ic)
+    tris = []
+    i = t = 0
+    while i < ka or t < kc:
+        a0, a1 = ia[i % ka], ia[(i + 1) % ka]
+        c0, c1 = ic[t % kc], ic[(t + 1) % kc]
+        if i == ka:
+            adv_a = False
+        elif t == kc:
+            adv_a = True
+        else:
+            na = ta[i + 1] if i + 1 < ka else 1.0
+            nc = tc[t + 1] if t + 1 < kc else 1.0
+            adv_a = na <= nc
+        if adv_a:
+            tris.append((a0, c0, a1))
+            i += 1
+        else:
+            tris.append((a0, c0, c1))
+            t += 1
+    return np.array(tris, np.int64)
 
 
 def tube_triangles(PA, PB):
@@ -165,40 +417,147 @@ def tube_triangles(PA, PB):
         consistently with both loops' scan faces (each loop edge appears
         reversed).
     """
+    ka = len(PA)
+    order = _facing_order(PA, PB)
+    return _zip(_arclength(PA), _arclength(PB[order]), np.arange(ka), order + ka)
+
+
+def _lerp_loop(t, X, u):
+    """Values ``X`` (k,...) given at loop parameters ``t`` (k,) increasing
+    from 0, interpolated at ``u`` in [0, 1) cyclically."""
+    k = len(t)
+    tt = np.concatenate([t, [1.0]])
+    j = np.clip(np.searchsorted(tt, u, side="right") - 1, 0, k - 1)
+    f = (u - tt[j]) / np.maximum(tt[j + 1] - tt[j], 1e-300)
+    f = f.reshape((-1,) + (1,) * (X.ndim - 1))
+    return (1 - f) * X[j] + f * X[(j + 1) % k]
+
+
+def _landing(arcs, P, targets, reach, n=128):
+    """Per vertex: arc length along its continuation arc to the point
+    nearest its target, and whether the arc gets nearer to it than half the
+    straight chord (else the arc is replaced by the chord)."""
+    U, T, N, kap, s0, ok = arcs
+    chord = np.linalg.norm(targets - P, axis=1)
+    turn = np.where(np.abs(kap) > 0, 2 * np.pi / np.maximum(np.abs(kap), 1e-300), np.inf)
+    length = np.minimum(np.maximum(reach, 2 * chord), turn)
+    s = s0[:, None] + length[:, None] * (np.arange(1, n + 1) / n)[None]
+    X = arc_points(U, T, N, kap, s)
+    d = np.linalg.norm(X - targets[:, None], axis=2)
+    j = np.argmin(d, axis=1)
+    S = s[np.arange(len(P)), j] - s0
+    good = ok & (d[np.arange(len(P)), j] <= 0.5 * chord)
+    return S, good
+
+
+def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach):
+    """A first tube between two loops that follows both loops' continuation
+    arcs, with rings of vertices about ``spacing`` apart.
+
+    Parameters
+    ----------
+    PA, PB : (ka,3), (kb,3) float64
+        The loops, each in its boundary half-edge order.
+    arcs_a, arcs_b : tuple
+        :func:`continuation_arcs` of each loop.
+    spacing : float
+        Target distance between rings (the rim's edge length).
+    reach : float
+        How far arcs are followed looking for the other loop.
+
+    Returns
+    -------
+    P : (q,3) float64
+        Positions of the new ring vertices.
+    T : (t,3) int64
+        Triangles over ``[PA; PB; P]``, oriented like :func:`tube_triangles`.
+
+    Notes
+    -----
+    Rim vertex ``a`` whose zip partner on the other loop is ``b`` (same
+    arc-length parameter) gets its arc length ``S_a`` to the arc's point
+    nearest ``b`` (a straight chord where its arc misses ``b``). The ring at
+    ``τ ∈ (0, 1)`` is the blend ``(1 - w) x_a(τ S_a) + w x_b((1 - τ) S_b)``,
+    ``w = 3τ² - 2τ³``: exact for a cylinder (straight arcs) and for a torus
+    (both arcs the same circle).
+    """
     ka, kb = len(PA), len(PB)
-    rev = np.arange(kb)[::-1]
-    # best cyclic shift of the reversed second loop, matched by arc length
-    ta = _arclength(PA)
-    best = (np.inf, 0)
-    shifts = range(kb) if kb <= 512 else np.linspace(0, kb - 1, 512).astype(int)
-    for s in shifts:
-        order = np.roll(rev, -s)
-        Q = PB[order]
-        tb = _arclength(Q)
-        j = np.minimum(np.searchsorted(tb, ta), kb - 1)
-        cost = np.linalg.norm(PA - Q[j], axis=1).sum()
-        if cost < best[0]:
-            best = (cost, s)
-    order = np.roll(rev, -best[1])
+    order = _facing_order(PA, PB)
     C = PB[order]
-    tb = _arclength(C)
-    tris = []
-    i = t = 0
-    while i < ka or t < kb:
-        a0, a1 = i % ka, (i + 1) % ka
-        c0, c1 = order[t % kb] + ka, order[(t + 1) % kb] + ka
-        if i == ka:
-            adv_a = False
-        elif t == kb:
-            adv_a = True
-        else:  # advance the side whose next vertex comes first along the loops
-            na = ta[i + 1] if i + 1 < ka else 1.0
-            nb = tb[t + 1] if t + 1 < kb else 1.0
-            adv_a = na <= nb
-        if adv_a:
-            tris.append((a0, c0, a1))
-            i += 1
-        else:
-            tris.append((a0, c0, c1))
-            t += 1
-    return np.array(tris, np.int64)
+    arcs_c = tuple(x[order] for x in arcs_b)
+    ta, tc = _arclength(PA), _arclength(C)
+    to_c = _lerp_loop(tc, C, ta)                    # partner of each A vertex on C
+    to_a = _lerp_loop(ta, PA, tc)
+    Sa, ga = _landing(arcs_a, PA, to_c, reach)
+    Sc, gc = _landing(arcs_c, C, to_a, reach)
+
+    def repair(arcs, t, P, Q, S, good):
+        """Arcs that miss their partner take the direction, normal,
+        curvature and length of the nearest arcs that do (by arc-length
+        parameter); if none does, the straight chord."""
+        U, T, N, kap, s0, ok = (np.array(x, copy=True) for x in arcs)
+        S = np.array(S, copy=True)
+        bad = ~good
+        if not bad.any():
+            return U, T, N, kap, s0, S
+        if good.sum() >= 2:
+            g = np.flatnonzero(good)
+            tg = np.concatenate([t[g] - 1.0, t[g], t[g] + 1.0])
+            for X in (T, N, kap, S):
+                Y = np.concatenate([X[g]] * 3)
+                if X.ndim == 1:
+                    X[bad] = np.interp(t[bad], tg, Y)
+                else:
+                    for c in range(X.shape[1]):
+                        X[bad, c] = np.interp(t[bad], tg, Y[:, c])
+            N[bad] /= np.maximum(np.linalg.norm(N[bad], axis=1, keepdims=True), 1e-300)
+            T[bad] -= np.sum(T[bad] * N[bad], axis=1)[:, None] * N[bad]
+            T[bad] /= np.maximum(np.linalg.norm(T[bad], axis=1, keepdims=True), 1e-300)
+            # the borrowed arc starts at the rim vertex itself, turned by
+            # the borrowed curvature over the borrowed base-to-rim length
+            s0g = np.interp(t[bad], tg, np.concatenate([s0[g]] * 3))
+            ang = (kap[bad] * s0g)[:, None]
+            Tb, Nb = T[bad].copy(), N[bad].copy()
+            T[bad] = np.cos(ang) * Tb + np.sin(ang) * Nb
+            N[bad] = -np.sin(ang) * Tb + np.cos(ang) * Nb
+            U[bad], s0[bad] = P[bad], 0.0
+            S[bad] = np.maximum(S[bad] - s0g, 0.0)
+            return U, T, N, kap, s0, S
+        D = Q - P
+        ln = np.maximum(np.linalg.norm(D, axis=1), 1e-300)
+        return P, D / ln[:, None], np.zeros_like(P), np.zeros(len(P)), np.zeros(len(P)), ln
+
+    Ua, Ta, Na, Ka, S0a, Sa = repair(arcs_a, ta, PA, to_c, Sa, ga)
+    Uc, Tc, Nc, Kc, S0c, Sc = repair(arcs_c, tc, C, to_a, Sc, gc)
+    length = 0.5 * (float(np.mean(Sa)) + float(np.mean(Sc)))
+    M = int(max(0, round(length / max(spacing, 1e-300)) - 1))
+    if M == 0:
+        return np.zeros((0, 3)), tube_triangles(PA, PB)
+    rings, params, ids = [], [ta], [np.arange(ka)]
+    base = ka + kb
+    def ring(tau, u):
+        w = 3 * tau ** 2 - 2 * tau ** 3
+        XA = arc_points(_lerp_loop(ta, Ua, u), _lerp_loop(ta, Ta, u), _lerp_loop(ta, Na, u),
+                        _lerp_loop(ta, Ka, u), (_lerp_loop(ta, S0a, u) + tau * _lerp_loop(ta, Sa, u))[:, None])[:, 0]
+        XC = arc_points(_lerp_loop(tc, Uc, u), _lerp_loop(tc, Tc, u), _lerp_loop(tc, Nc, u),
+                        _lerp_loop(tc, Kc, u),
+                        (_lerp_loop(tc, S0c, u) + (1 - tau) * _lerp_loop(tc, Sc, u))[:, None])[:, 0]
+        return (1 - w) * XA + w * XC
+
+    fine = max(ka, kb)
+    for r in range(1, M + 1):
+        tau = r / (M + 1)
+        # as many vertices as the ring's length holds at ``spacing`` (at
+        # most the finer loop's count): triangles stay about as long as wide
+        X = ring(tau, np.arange(fine) / fine)
+        length_r = float(np.linalg.norm(np.roll(X, -1, axis=0) - X, axis=1).sum())
+        m = int(np.clip(round(length_r / max(spacing, 1e-300)), 3, fine))
+        u = np.arange(m) / m
+        rings.append(X if m == fine else ring(tau, u))
+        params.append(u)
+        ids.append(base + np.arange(m))
+        base += m
+    params.append(tc)
+    ids.append(order + ka)
+    T = np.vstack([_zip(params[r], params[r + 1], ids[r], ids[r + 1]) for r in range(M + 1)])
+    return np.vstack(rings), T

@@ -308,10 +308,11 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     avoid : set of (int, int)
         More loop-position pairs the triangulation must not join (chords
         whose triangles crossed the scan in an earlier attempt).
-    initial : (t,3) int64, optional
+    initial : (t,3) int64 or ((q,3) float64, (t,3) int64), optional
         A first triangulation over the loop positions to use instead of
         triangulating ``loop`` (a tube between two loops given as one
-        concatenated ``loop``).
+        concatenated ``loop``); with positions, a first mesh whose vertex
+        ``k + j`` is ``P[j]``.
     energy : bool
         Also measure the faired patch's energies (``patch.energy``: thin
         plate, curvature variation).
@@ -335,6 +336,9 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     forbidden = forbidden | set(avoid)
     fresh = pre is not None and not avoid  # the batch's first attempt applies
     if initial is not None:
+        if isinstance(initial, tuple):  # a first tube with vertices inside (bridge.guide_tube)
+            P_in, initial = initial
+            Pl = np.vstack([Pl, (np.asarray(P_in, np.float64) - origin) / scale])
         T = np.asarray(initial, np.int64)
     elif fresh and pre.T0 is not None:
         T = pre.T0
@@ -712,41 +716,162 @@ ENERGY = 1
 
 
 def _fill_pair(ctx, A, B, order, smooth, mode):
-    """A band between loops A and B: a tube, or a cap on each.
+    """A missing region bounded by loops A and B: a tube, or a cap on each.
+
+    The tube starts from :func:`~shellrepair.bridge.guide_tube` (rings
+    along both loops' continuation arcs; the plain zip of the two loops if
+    that fails), is refined and faired like a cap with both loops' rings
+    fixed, and is checked against the scan and itself; the faired tube and
+    the tube held on the arcs are both tried and the valid one with the
+    lower energy (``ENERGY``) is kept. Only for loops that see each other
+    both ways are crossings retried (vertices held around them). The caps
+    are checked against the scan and against each other. When each loop's
+    arcs land on the other the valid tube is kept without building caps;
+    otherwise an option that fails its checks loses, and if both pass the
+    lower energy wins. While a valid tube is in hand each cap gets one
+    attempt (no re-routing): a cap that crosses something there is not
+    needed.
 
     Returns (outcomes, record): outcomes as for :func:`_fill_one` per loop
     (the tube patch is given with A, B refers to it), record for the report.
     """
-    from .bridge import tube_triangles
+    from .bridge import MAX_REACH, continuation_arcs, guide_tube, tube_triangles
 
     t0 = time.perf_counter()
     loop = np.concatenate([A.vertices, B.vertices])
-    T = tube_triangles(ctx.V[A.vertices], ctx.V[B.vertices])
     order = 2 if order == "auto" else order
+    PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
+    arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
+    try:
+        sigma = _rim_data(ctx, loop)[0]      # the rim's edge length, as refinement reads it
+        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=float(np.mean(sigma)),
+                            reach=MAX_REACH * max(A.diameter, B.diameter))
+    except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
+        Pg, Tg = np.zeros((0, 3)), None
+    mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
-    for o in ((order, 1) if order != 1 else (1,)):
+    # edges the scan has between the two loops' vertices (other than the
+    # loops' own edges): a tube that made one again would be non-manifold
+    Fl = ctx.F[ctx.faces_of(loop)]
+    scan_edges = {tuple(e) for e in _edges_of(Fl).tolist()}
+    own = {tuple(sorted(e)) for L in (A, B) for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
+    scan_edges -= own
+
+    def attempt(first, init, o, fair=True, pinned=None):
+        """(the patch if it passes its checks, the faulty triangles, the patch built)"""
+        nonlocal why_tube
         try:
-            p = build_patch(ctx, A.id, loop, order=o, smooth=smooth, initial=T, energy=True)
+            p = build_patch(ctx, A.id, loop, order=o, smooth=smooth if fair else 0, initial=init,
+                            energy=fair, fair=fair, pinned=pinned)
         except PatchError as exc:
             why_tube = str(exc)
-            continue
-        why, _ = _check_patch(ctx, p)
+            return None, np.zeros(0, np.int64), None
+        why, bad = _check_patch(ctx, p)
+        if why is None and any(e in scan_edges for e in _scan_edges(p)):
+            why = "the tube would repeat an edge of the scan"
         if why is None:
-            tube = p
-            tube.option = f"tube to loop {B.id}, faired order {o}"
-            break
-        why_tube = why
-    caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+            how = f"faired order {o}" if fair else "refined, not faired"
+            if pinned is not None:
+                how += f", {len(pinned)} vertices held on the first tube"
+            p.option = f"tube to loop {B.id} ({first}), {how}"
+            return p, bad, p
+        why_tube = f"{first}: {why}"
+        return None, bad, p
+
+    def caps_crossing(caps):
+        """Why the two caps cannot both be used, or ''."""
+        why = "; ".join(f"cap of loop {L.id}: {c[1] or 'failed'}" for L, c in zip((A, B), caps) if c[0] is None)
+        if not why:
+            acc = _Accepted()
+            acc.add(caps[0][0], *_corners(ctx, caps[0][0]))
+            if acc.conflict(ctx, caps[1][0])[0]:
+                why = "the two caps cross each other"
+        return why
+
+    # loops that see each other one way only (an island and its surround, or
+    # a loop whose arcs happen to reach a neighbour): the caps first; while
+    # they stand, the tube gets one attempt, for the energy comparison
+    caps = None
+    lean = False
+    if not mutual and mode != "always":
+        caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+        lean = not caps_crossing(caps)
+    if len(Pg) and np.isfinite(Pg).all():
+        first, init = "along the continuation arcs", (Pg, Tg)
+        faired, bad, built = attempt(first, init, order)
+        # the first tube itself (refined, every vertex held): the arcs carry
+        # the scan's curvature across the gap, which fairing can flatten;
+        # the fairer of the two valid options is kept
+        held = None
+        q = len(built.P) if built is not None and not lean else 0
+        if q:
+            held, hbad, hp = attempt(first, init, order, pinned=np.arange(q))
+            free = None
+            for _ in range(PIN_ROUNDS if mutual and faired is None and held is None and hbad.size and hp is not None
+                           else 0):
+                # a fold of the arcs (at a jag of a rim): fair only around it
+                free = _pin_region(hp, hbad, free)
+                held, b2, _ = attempt(first, init, order, pinned=np.setdiff1d(np.arange(q), free))
+                if held is not None:
+                    break
+                hbad = np.union1d(hbad, b2) if b2.size else hbad
+            if held is not None:
+                held.option = f"tube to loop {B.id} ({first}), refined, held on the arcs" + (
+                    f" except {len(free)} vertices faired (order {order}) around a fold" if free is not None else "")
+        valid = [p for p in (faired, held) if p is not None]
+        if valid:
+            tube = min(valid, key=lambda p: p.energy[ENERGY] if p.energy is not None else np.inf)
+        elif mutual and bad.size and built is not None:
+            # hold the vertices near the crossing on the arcs (as for a cap)
+            pinned = None
+            for _ in range(PIN_ROUNDS):
+                pinned = _pin_region(built, bad, pinned)
+                tube, b2, _ = attempt(first, init, order, pinned=pinned)
+                if tube is not None:
+                    break
+                bad = np.union1d(bad, b2) if b2.size else bad
+    if tube is None and not lean:
+        tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
+    seen_both_ways = tube is not None and mutual and mode != "always"
+    if caps is None and not seen_both_ways:   # (seen both ways: the tube continues the surface)
+        if tube is not None:    # one attempt per cap
+            caps = []
+            for L in (A, B):
+                t1 = time.perf_counter()
+                try:
+                    c = build_patch(ctx, L.id, L.vertices, order=order, smooth=smooth, energy=True)
+                    why, _ = _check_patch(ctx, c)
+                except PatchError as exc:
+                    c, why = None, str(exc)
+                if why is not None:
+                    c = None
+                else:
+                    c.option = OPTION_NAMES["faired"].format(order=order)
+                caps.append((c, why or "", time.perf_counter() - t1, []))
+        else:
+            caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+    if caps is None:
+        secs = time.perf_counter() - t0
+        e_tube = tube.energy[ENERGY] if tube.energy is not None else None
+        record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
+                  "tube_energy": None if e_tube is None else round(float(e_tube), 6), "caps_energy": None,
+                  "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
+        tube.hole_id = A.id
+        return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
+    why_caps = caps_crossing(caps)
     e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
-    e_caps = sum(c[0].energy[ENERGY] if c[0] is not None and c[0].energy is not None else np.inf for c in caps)
+    caps_ok = not why_caps
+    e_caps = sum(c[0].energy[ENERGY] if c[0] is not None and c[0].energy is not None else np.inf
+                 for c in caps) if caps_ok else np.inf
     record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
               "tube_energy": None if not np.isfinite(e_tube) else round(float(e_tube), 6),
               "caps_energy": None if not np.isfinite(e_caps) else round(float(e_caps), 6)}
-    use_tube = tube is not None and (mode == "always" or e_tube < e_caps)
+    use_tube = tube is not None and (mode == "always" or not caps_ok or e_tube < e_caps)
     secs = time.perf_counter() - t0
     if use_tube:
         record["chosen"] = "tube"
         record["reason"] = ("--bridge always" if mode == "always" else
+                            f"caps failed: {why_caps}" if not caps_ok else
                             f"tube energy {e_tube:.4g} < caps energy {e_caps:.4g}")
         tube.hole_id = A.id
         return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
@@ -796,33 +921,43 @@ def _worker(chunk):
 
 
 def _find_bands(ctx, scan):
-    """Candidate band pairs among all loops (holes and borders)."""
-    from .bridge import MAX_GAP, MAX_SIZE_RATIO, band_pairs, continuation_direction
+    """Pairs of ``hole`` loops whose continuation arcs land on each other.
+
+    Only loops classed ``hole`` are paired (a border is never bridged);
+    borders still stop arcs. Only loops with another loop within reach of
+    their arcs (``MAX_REACH`` diameters) have their arcs followed. Loops
+    that share a vertex are never paired. Sets ``ctx.bands_mutual``.
+    """
+    from .bridge import MAX_REACH, band_pairs, loop_sights
 
     loops = scan.loops
-    if len(loops) < 2:
+    hole = np.array([L.kind == "hole" for L in loops], bool)
+    if hole.sum() < 2:
         return []
-    centres = np.array([ctx.V[L.vertices].mean(axis=0) for L in loops])
-    diam = np.array([L.diameter for L in loops])
-    per = np.array([L.perimeter for L in loops])
-    # only loops with a partner close and alike enough can pair (band_pairs'
-    # gap and size rules): measure the continuation direction of those alone
-    near = np.zeros(len(loops), bool)
-    for s in range(0, len(loops), 1024):
-        sl = slice(s, s + 1024)
-        d = np.linalg.norm(centres[sl, None] - centres[None], axis=2)
-        close = (d > 0) & (d <= MAX_GAP * np.maximum(diam[sl, None], diam[None]))
-        alike = np.maximum(per[sl, None], per[None]) <= MAX_SIZE_RATIO * np.minimum(per[sl, None], per[None])
-        near[sl] = (close & alike).any(axis=1)
-    dirs = []
-    for L, c, cand in zip(loops, centres, near):
-        if cand:
-            ring = ctx.F[ctx.faces_of(L.vertices)]
-            dirs.append((c, continuation_direction(ctx.V, ring, L.vertices)))
-        else:
-            dirs.append((c, np.zeros(3)))
-    pairs = band_pairs(loops, dirs)
-    return [(loops[i], loops[j], sc) for i, j, sc in pairs]
+    ids = np.flatnonzero(hole)
+    centres = np.array([ctx.V[loops[i].vertices].mean(axis=0) for i in ids])
+    radius = np.array([0.5 * loops[i].diameter for i in ids])
+    reach = radius + MAX_REACH * 2 * radius
+    tree = cKDTree(centres)
+    cand = []
+    for a, i in enumerate(ids):     # holes with another hole within reach of their arcs
+        near = np.asarray(tree.query_ball_point(centres[a], reach[a] + radius.max()), np.int64)
+        near = near[(near != a) & (np.linalg.norm(centres[near] - centres[a], axis=1) <= reach[a] + radius[near])]
+        if near.size:
+            cand.append(int(i))
+    if not cand:
+        return []
+    sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], candidates=cand)
+    # loops that touch (share a vertex, e.g. the pinched pieces of a slit)
+    # are one opening split at a pinch, not the two ends of a band
+    for a, (counts, m) in sights.items():
+        for b in np.flatnonzero(counts):
+            if b != a and np.intersect1d(loops[a].vertices, loops[b].vertices).size:
+                counts[b] = 0
+    pairs = band_pairs(sights, hole)
+    # pairs whose loops each send most of their arcs to the other: read by _fill_pair
+    ctx.bands_mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, mutual in pairs if mutual}
+    return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
 
 
 def _edges_of(T):

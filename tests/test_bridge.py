@@ -90,3 +90,23 @@ def test_cylinder_missing_a_ring_gets_a_tube():
     band = np.abs(P[:, 2]) < 0.2
     assert band.sum() > 0
     assert np.abs(np.linalg.norm(P[band, :2], axis=1) - 0.5).max() < 0.02
+
+
+def test_arc_points_are_exact_circles_and_lines():
+    from shellrepair.bridge import arc_points
+
+    U = np.zeros((3, 3))
+    T = np.tile([1.0, 0.0, 0.0], (3, 1))
+    N = np.tile([0.0, 0.0, 1.0], (3, 1))
+    kappa = np.array([2.0, -0.5, 0.0])
+    s = np.linspace(0.0, 3.0, 31)[None].repeat(3, 0)
+    X = arc_points(U, T, N, kappa, s)
+    # on the circle of radius 1/|κ| centred at N/κ, at arc length s
+    for i in range(2):
+        c = N[i] / kappa[i]
+        assert np.allclose(np.linalg.norm(X[i] - c, axis=1), 1 / abs(kappa[i]), atol=1e-12)
+        chord = np.linalg.norm(X[i] - U[i], axis=1)
+        assert np.allclose(chord, 2 / abs(kappa[i]) * np.abs(np.sin(kappa[i] * s[i] / 2)), atol=1e-12)
+    assert np.allclose(X[2], s[2][:, None] * T[2], atol=1e-15)     # κ = 0: the tangent line
+    tiny = arc_points(U[:1], T[:1], N[:1], np.array([1e-12]), s[:1])
+    assert np.allclose(tiny, X[2:], atol=1e-9)                     # continuous as κ -> 0
