@@ -290,7 +290,7 @@ def _prefill(ctx, units):
 
 
 def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
-                energy=False, pinned=None):
+                energy=False, pinned=None, scan_aware=False):
     """Build one hole's patch (no checks against the scan).
 
     Parameters
@@ -315,6 +315,9 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     pinned : array of int, optional
         New vertices (0-based among the new ones) kept where refinement put
         them, on the flat triangulation, instead of being faired.
+    scan_aware : bool
+        Triangulate with only triangles that cross no scan face near the
+        hole (:func:`_scan_allowed`).
 
     Returns
     -------
@@ -330,14 +333,15 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     sigma, edge_normals, forbidden = pre.rim if pre is not None else _rim_data(ctx, loop)
     origin, scale, Pl = _local_frame(ctx, loop, sigma)
     forbidden = forbidden | set(avoid)
-    fresh = pre is not None and not avoid  # the batch's first attempt applies
+    fresh = pre is not None and not avoid and not scan_aware  # the batch's first attempt applies
     if initial is not None:
         T = np.asarray(initial, np.int64)
     elif fresh and pre.T0 is not None:
         T = pre.T0
     else:
         try:
-            T = triangulate_loop(Pl, edge_normals, forbidden)
+            T = triangulate_loop(Pl, edge_normals, forbidden,
+                                 allowed=_scan_allowed(ctx, loop) if scan_aware else None)
         except MeshError as exc:
             raise PatchError(str(exc)) from None
     T0 = T
@@ -387,6 +391,21 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
                  energy=patch_energy, order=order if fair else None)
 
 
+def _scan_allowed(ctx, loop):
+    """``allowed(T)`` for :func:`triangulate_loop`: True for the triangles
+    (loop positions) that cross no scan face."""
+    loop = np.asarray(loop, np.int64)
+
+    def allowed(T):
+        T = np.asarray(T, np.int64)
+        ok = np.ones(len(T), bool)
+        if len(T):
+            ok[patch_vs_index(ctx.V[loop[T]], loop[T], ctx.index, return_faces=True)] = False
+        return ok
+
+    return allowed
+
+
 def _corners(ctx, patch):
     k = len(patch.loop)
     allp = np.vstack([ctx.V[patch.loop], patch.P])
@@ -434,6 +453,10 @@ FLAT_RETRIES = 12
 FAIRED_RETRIES = 3
 #: Rounds of growing the region held on the flat triangulation around a crossing.
 PIN_ROUNDS = 3
+#: Time budget of one hole, seconds: no new attempt starts after
+#: ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges``.
+HOLE_SECONDS = 2.0
+HOLE_SECONDS_PER_EDGE = 0.002
 
 
 #: How each option is named in the report.
@@ -562,9 +585,16 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
         options = [("flat cap", 1)] + options
     faired_rounds = 0
     first = True
-    for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 1):
+    scan_aware = False
+    budget = HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * len(loop)
+    for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 2):
+        if time.perf_counter() - t0 > budget:
+            reasons.append(f"gave up after {time.perf_counter() - t0:.1f} s (budget {budget:.1f} s for "
+                           f"{len(loop)} edges), {len(avoid)} chords re-routed")
+            break
         try:
-            flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid)
+            flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid,
+                               scan_aware=scan_aware)
         except PatchError as exc:
             if avoid:
                 reasons.append(f"no triangulation avoids crossing the scan ({len(avoid)} chords re-routed)")
@@ -589,6 +619,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
             except PatchError:
                 pass
         why, bad = _check_patch(ctx, flat)
+        if why is not None and not scan_aware:
+            scan_aware = True  # again, with only triangles that cross no scan face
+            continue
         if why is not None:
             more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
             if not more:
