@@ -455,8 +455,8 @@ FAIRED_RETRIES = 3
 PIN_ROUNDS = 3
 #: Time budget of one hole, seconds: no new attempt starts after
 #: ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges``.
-HOLE_SECONDS = 2.0
-HOLE_SECONDS_PER_EDGE = 0.002
+HOLE_SECONDS = 3.0
+HOLE_SECONDS_PER_EDGE = 0.004
 
 
 #: How each option is named in the report.

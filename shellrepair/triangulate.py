@@ -38,6 +38,8 @@ RESTRICTED_MAX = 2000
 #: A tetrahedralization with more triangles than this per loop vertex (points
 #: along a smooth space curve can make it nearly quadratic) is not searched.
 FACES_PER_VERTEX = 40
+#: Rounds of the restricted search that drop the triangles ``allowed`` rejects.
+LAZY_ROUNDS = 16
 #: Tolerance when comparing worst dihedral costs (1 − cos of the angle) before areas.
 ANGLE_TIE = 1e-12
 
@@ -216,8 +218,7 @@ def _restricted(P, idx, edge_normals, forbidden, axis, allowed):
     D = delaunay_faces(Q)
     if D is None or len(D) > FACES_PER_VERTEX * k:
         return None
-    if allowed is not None and len(D):
-        D = D[np.asarray(allowed(idx[D]), bool)]
+    D = _with_loop_edges(D, k)
     # rim normals of the sub-loop's edges that are loop edges; forbidden pairs in local positions
     nxt = np.roll(idx, -1)
     rim_ok = (idx + 1) % len(P) == nxt
@@ -227,12 +228,50 @@ def _restricted(P, idx, edge_normals, forbidden, axis, allowed):
     for x, y in forbidden:
         if x in pos and y in pos:
             forb.add((min(pos[x], pos[y]), max(pos[x], pos[y])))
+    n = np.int64(k)
+    key = (D[:, 0] * n + D[:, 1]) * n + D[:, 2]    # sorted: D is
+    verdict = np.zeros(len(D), np.int8)           # allowed(): 0 not asked yet, 1 yes, -1 no
+    keep = np.ones(len(D), bool)
     for ax in ((axis, None) if axis is not None else (None,)):
-        try:
-            return idx[restricted_dp(Q, D, en, forb, ax)]
-        except MeshError:
-            continue
+        # ``allowed`` is asked lazily: only about the triangles of each answer;
+        # the ones it rejects leave the search space and the search runs again
+        for _ in range(LAZY_ROUNDS):
+            try:
+                T = restricted_dp(Q, D[keep], en, forb, ax)
+            except MeshError:
+                break
+            if allowed is None:
+                return idx[T]
+            S = np.sort(T, axis=1)
+            at = np.searchsorted(key, (S[:, 0] * n + S[:, 1]) * n + S[:, 2])
+            ask = at[verdict[at] == 0]
+            if ask.size:
+                verdict[ask] = np.where(np.asarray(allowed(idx[D[ask]]), bool), 1, -1)
+            if (verdict[at] > 0).all():
+                return idx[T]
+            keep[at[verdict[at] < 0]] = False
     return None
+
+
+def _with_loop_edges(D, k):
+    """Candidates ``D`` plus, for each loop edge no candidate has (the
+    tetrahedralization need not contain the loop's edges), the triangles on
+    it with every other apex; only those may then cross other candidates."""
+    n = np.int64(k)
+    E = np.concatenate([D[:, 0] * n + D[:, 1], D[:, 1] * n + D[:, 2], D[:, 0] * n + D[:, 2]])
+    i = np.arange(k - 1)
+    want = np.concatenate([i * n + i + 1, [k - 1]])
+    miss = np.flatnonzero(~np.isin(want, E))
+    if miss.size == 0:
+        return D
+    extra = []
+    for e in miss.tolist():
+        a, b = (e, e + 1) if e < k - 1 else (0, k - 1)
+        m = np.setdiff1d(np.arange(k), [a, b])
+        extra.append(np.sort(np.column_stack([np.full(m.size, a), np.full(m.size, b), m]), axis=1))
+    A = np.concatenate([D] + extra)
+    key = np.unique((A[:, 0] * n + A[:, 1]) * n + A[:, 2])
+    return np.column_stack([key // (n * n), (key // n) % n, key % n])
 
 
 def _best_chord(P, idx, forbidden):
@@ -463,7 +502,7 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
     n = raw / np.where(nz, ln, 1.0)[:, None]
     area = 0.5 * ln
     bad0 = np.zeros(len(a), bool) if axis is None else raw @ axis <= 0
-    closing = et == np.searchsorted(keys, k - 1)   # the interval (0, k-1): its rim edge closes the loop
+    top = int(np.searchsorted(keys, k - 1))        # the interval (0, k-1): its rim edge closes the loop
     rim_close = edge_normals[k - 1]
     has_close = bool(np.abs(rim_close).sum() > 0)
     L = c - a
@@ -478,9 +517,8 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
         a1 = np.where(HN[l], np.where(zg, 1.0 - d1, 2.0), 0.0)
         a2 = np.where(HN[r], np.where(zg, 1.0 - d2, 2.0), 0.0)
         wa = np.maximum(np.maximum(a1, a2), np.maximum(WA[l], WA[r]))
-        if has_close:
-            cl = closing[grp]
-            wa = np.where(cl, np.maximum(wa, _angle(ng, np.broadcast_to(rim_close, ng.shape))), wa)
+        if has_close and t[0] == top:  # the interval (0, k-1) is the longest: alone in its group
+            wa = np.maximum(wa, _angle(ng, np.broadcast_to(rim_close, ng.shape)))
         wa = np.where(bad0[grp], np.inf, wa)
         ws = area[grp] + WS[l] + WS[r]
         fin = np.isfinite(wa)
@@ -498,7 +536,6 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
         apex[tt] = b[grp[first]]
         N[tt] = n[grp[first]]
         HN[tt] = nz[grp[first]]
-    top = int(np.searchsorted(keys, k - 1))
     if not np.isfinite(WA[top]):
         raise MeshError("no triangulation of this loop uses only triangles of its Delaunay tetrahedralization")
     tris = []
