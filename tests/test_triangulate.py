@@ -189,3 +189,97 @@ def test_a_loop_of_1500_edges_is_triangulated_without_crossing_itself(make):
     print(f"{make.__name__} {k}: {time.perf_counter() - t:.2f} s")
     assert_disc(T, k)
     assert self_crossings(P, T) == 0
+
+
+def wall_across(P, T, t):
+    """A small wall (two triangles) standing through triangle ``t`` of ``T``
+    at its centroid, across its plane: a scan sheet the triangle pierces."""
+    A = P[T[t]]
+    c = A.mean(axis=0)
+    n = np.cross(A[1] - A[0], A[2] - A[0])
+    n /= np.linalg.norm(n)
+    u = A[1] - A[0]
+    u /= np.linalg.norm(u)
+    s = 0.15 * min(np.linalg.norm(A - c, axis=1))
+    q = [c - s * u - s * n, c + s * u - s * n, c + s * u + s * n, c - s * u + s * n]
+    return np.array([[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+
+
+def wall_allowed(P, walls):
+    """``allowed(T)`` for triangle_loop: True where T crosses no wall triangle."""
+    from shellrepair.intersect import pair_intersections
+
+    def allowed(T):
+        T = np.asarray(T)
+        ok = np.ones(len(T), bool)
+        for W in np.concatenate(walls):
+            hit = pair_intersections(P[T], T, np.broadcast_to(W, (len(T), 3, 3)).copy(),
+                                     np.full((len(T), 3), -1))
+            ok &= ~hit
+        return ok
+
+    return allowed
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_folded_loop_next_to_a_scan_wall_is_closed_without_crossing_it(seed):
+    """A twisted loop whose best triangulation would pierce a scan sheet
+    standing through its widest chord triangle: with ``allowed`` the search
+    routes around the sheet; the result crosses neither it nor itself."""
+    rng = np.random.default_rng(seed)
+    k = 60
+    th = np.linspace(0, 2 * np.pi, k, endpoint=False)
+    P = np.column_stack([np.cos(th), 0.7 * np.sin(th), 0.6 * np.sin(2 * th + rng.uniform(0, 1))])
+    P += 0.01 * rng.normal(size=P.shape)
+    T0 = triangulate_loop(P)
+    chords = [t for t, tri in enumerate(T0.tolist())
+              if all((b - a) % k not in (1, k - 1) for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])))]
+    area = lambda t: np.linalg.norm(np.cross(*(P[T0[t][1:]] - P[T0[t][0]])))
+    walls = [wall_across(P, T0, max(chords or range(len(T0)), key=area))]
+    allowed = wall_allowed(P, walls)
+    assert not allowed(T0).all()            # the plain answer pierces the sheet
+    T = triangulate_loop(P, allowed=allowed)
+    assert_disc(T, k)
+    assert allowed(T).all()
+    assert self_crossings(P, T) == 0
+
+
+def _occluded_shape(seed):
+    """A randomly rotated torus seen by 3–8 scanners on a ring or helix at a
+    random elevation (eval.cases' ray-cast occlusion), largest piece kept."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from eval.cases import keep_largest, occlusion_mask, scanner_positions
+    from scipy.spatial.transform import Rotation
+
+    from shellrepair import shapes
+
+    rng = np.random.default_rng(seed)
+    V, F = shapes.torus(1.0, 0.4, 64, 24)
+    R = Rotation.random(random_state=int(rng.integers(1 << 31))).as_matrix()
+    V = V @ R.T
+    for _ in range(20):
+        path = "ring" if rng.random() < 0.5 else "helix"
+        e0 = float(rng.uniform(-40, 50))
+        P = scanner_positions(V, int(rng.integers(3, 9)), path=path, elevation=(e0, e0 + 30 * (path == "helix")),
+                              seed=int(rng.integers(1 << 31)))
+        rem = keep_largest(F, occlusion_mask(V, F, P, max_incidence=float(rng.uniform(65, 85))))
+        if 0 < rem.mean() <= 0.2:
+            break
+    return shapes.remove_faces(V, F, rem)[:2]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_occlusion_holes_are_all_closed_without_self_intersections(seed):
+    from shellrepair.intersect import self_intersections
+    from shellrepair.io import Mesh
+    from shellrepair.repair import repair_mesh
+
+    V, F = _occluded_shape(seed)
+    R, rep = repair_mesh(Mesh(V=V, F=F))
+    assert rep["holes"] and all(h["status"] == "filled" for h in rep["holes"])
+    assert rep["boundary_edges_after"] == 0
+    assert self_intersections(R.V, R.F) == self_intersections(V, F)
+    assert np.array_equal(R.V[:len(V)], V)
