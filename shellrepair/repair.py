@@ -564,12 +564,19 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
 
     0. Triangulate, refine and fair; done if the patch crosses nothing.
     1. Otherwise check the flat triangulation against the
-       scan; where it crosses (a peninsula of scan next to the rim), forbid
-       the chords near the crossing and triangulate again.
+       scan; where it crosses (a peninsula of scan next to the rim),
+       triangulate again with only triangles that cross no scan face
+       (``scan_aware``: the search over the loop's Delaunay triangles drops
+       each triangle the scan rejects); if that still crosses, forbid the
+       chords near the crossing and triangulate again.
     2. Refine and fair that triangulation (order ``order``, then harmonic);
        if the faired patch crosses the scan, re-route the chords near the
        crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
     3. Otherwise keep the checked flat triangulation, if there is one.
+
+    No new round starts after ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * k``
+    seconds; the hole then keeps the checked flat triangulation or fails
+    saying so.
 
     Returns (patch or None, reason, seconds, reasons tried).
     """

@@ -1,16 +1,26 @@
 """Triangulate a hole's boundary loop.
 
-Loops up to ``DP_MAX`` edges get Liepa's minimum-weight triangulation: the
-triangulation whose worst dihedral angle (between neighbouring new
-triangles, and between a new triangle and the scan's face across a loop
-edge) is smallest, ties broken by the smallest total area. Its dynamic
-program is O(k³) and runs vectorised over all splits of one interval length
-at a time.
+Every layer minimises Liepa's weight: the triangulation whose worst dihedral
+angle (between neighbouring new triangles, and between a new triangle and
+the scan's face across a loop edge) is smallest, ties broken by the
+smallest total area. The layers, each tried where the one before has no
+answer:
 
-Longer loops are first cut by short chords between vertices far apart along
-the loop (each piece keeping at least a quarter of the vertices) until every
-piece is within ``DP_MAX``; each piece is then triangulated as above. This
-keeps thousands-of-edges loops fast (O(k²) for the cuts) and valid.
+1. the Delaunay triangulation of the loop projected along its axis, where it
+   triangulates the loop exactly (O(k log k));
+2. the minimum-weight triangulation among the triangles of the 3D Delaunay
+   tetrahedralization of the loop's vertices (Zou, Ju & Carr 2013; the
+   search space of CGAL's ``triangulate_hole``), loop edges the
+   tetrahedralization lacks completed with every apex: O(t) for t
+   candidate triangles, so loops of thousands of edges are searched whole.
+   Faces of one tetrahedralization meet only at shared edges and corners,
+   so this answer never crosses itself. An ``allowed`` test (the scan's
+   faces) is asked about each answer's triangles; rejected ones leave the
+   search space and the search runs again (``LAZY_ROUNDS``);
+3. Liepa's full O(k³) dynamic program, vectorised over all splits of one
+   interval length at a time, for loops up to ``DP_MAX`` edges;
+4. longer loops are cut by a short chord between vertices far apart along
+   the loop, and each piece goes through layers 2–4 on its own vertices.
 
 No triangulation creates an edge the mesh already has: chords between loop
 vertices that are already joined by a mesh edge are forbidden.
@@ -18,7 +28,8 @@ vertices that are already joined by a mesh edge are forbidden.
 References
 ----------
 P. Liepa, "Filling Holes in Meshes", Eurographics Symposium on Geometry
-Processing, 2003.
+Processing, 2003. M. Zou, T. Ju, N. Carr, "An algorithm for triangulating
+multiple 3D polygons", Eurographics Symposium on Geometry Processing, 2013.
 """
 
 from __future__ import annotations
