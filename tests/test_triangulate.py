@@ -31,8 +31,6 @@ def assert_disc(T, k):
     s = set(keys.tolist())
     assert loop <= s
     for a, b in he.tolist():
-        if b * k + a in loop or a * k + b in loop and False:
-            continue
         if a * k + b not in loop:
             assert b * k + a in s, f"chord ({a},{b}) has one side only"
 
@@ -283,3 +281,20 @@ def test_random_occlusion_holes_are_all_closed_without_self_intersections(seed):
     assert rep["boundary_edges_after"] == 0
     assert self_intersections(R.V, R.F) == self_intersections(V, F)
     assert np.array_equal(R.V[:len(V)], V)
+
+
+@pytest.mark.parametrize("case", ["planar", "repeated point", "offset 1e6", "collinear"])
+def test_degenerate_loops_still_get_a_triangulation(case):
+    """A planar loop (no tetrahedron; Qhull joggles), a repeated position (a
+    pinch), a loop a million units from the origin and a collinear loop all
+    come back as a triangulation of the loop."""
+    th = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    P = np.column_stack([np.cos(th), np.sin(th), 0 * th])
+    if case == "repeated point":
+        P = np.vstack([P[:20], P[10:11], P[20:]])
+    elif case == "offset 1e6":
+        P = P + 1e6
+    elif case == "collinear":
+        P = np.column_stack([th, 0 * th, 0 * th])
+    T = triangulate_loop(P, axis=None)
+    assert_disc(T, len(P))
