@@ -293,7 +293,7 @@ def _prefill(ctx, units):
 
 
 def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
-                energy=False, pinned=None):
+                energy=False, pinned=None, scan_aware=False):
     """Build one hole's patch (no checks against the scan).
 
     Parameters
@@ -319,6 +319,9 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     pinned : array of int, optional
         New vertices (0-based among the new ones) kept where refinement put
         them, on the flat triangulation, instead of being faired.
+    scan_aware : bool
+        Triangulate with only triangles that cross no scan face near the
+        hole (:func:`_scan_allowed`).
 
     Returns
     -------
@@ -334,7 +337,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     sigma, edge_normals, forbidden = pre.rim if pre is not None else _rim_data(ctx, loop)
     origin, scale, Pl = _local_frame(ctx, loop, sigma)
     forbidden = forbidden | set(avoid)
-    fresh = pre is not None and not avoid  # the batch's first attempt applies
+    fresh = pre is not None and not avoid and not scan_aware  # the batch's first attempt applies
     if initial is not None:
         if isinstance(initial, tuple):  # a first tube with vertices inside (bridge.guide_tube)
             P_in, initial = initial
@@ -344,7 +347,8 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
         T = pre.T0
     else:
         try:
-            T = triangulate_loop(Pl, edge_normals, forbidden)
+            T = triangulate_loop(Pl, edge_normals, forbidden,
+                                 allowed=_scan_allowed(ctx, loop) if scan_aware else None)
         except MeshError as exc:
             raise PatchError(str(exc)) from None
     T0 = T
@@ -392,6 +396,21 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     Pn = origin + scale * new_local
     return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props, T0=T0, disc=len(T0) == k - 2,
                  energy=patch_energy, order=order if fair else None)
+
+
+def _scan_allowed(ctx, loop):
+    """``allowed(T)`` for :func:`triangulate_loop`: True for the triangles
+    (loop positions) that cross no scan face."""
+    loop = np.asarray(loop, np.int64)
+
+    def allowed(T):
+        T = np.asarray(T, np.int64)
+        ok = np.ones(len(T), bool)
+        if len(T):
+            ok[patch_vs_index(ctx.V[loop[T]], loop[T], ctx.index, return_faces=True)] = False
+        return ok
+
+    return allowed
 
 
 def _corners(ctx, patch):
@@ -471,6 +490,10 @@ FLAT_RETRIES = 12
 FAIRED_RETRIES = 3
 #: Rounds of growing the region held on the flat triangulation around a crossing.
 PIN_ROUNDS = 3
+#: Time budget of one hole, seconds: no new attempt starts after
+#: ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges``.
+HOLE_SECONDS = 3.0
+HOLE_SECONDS_PER_EDGE = 0.004
 
 
 #: How each option is named in the report.
@@ -598,12 +621,19 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
 
     0. Triangulate, refine and fair; done if the patch crosses nothing.
     1. Otherwise check the flat triangulation against the
-       scan; where it crosses (a peninsula of scan next to the rim), forbid
-       the chords near the crossing and triangulate again.
+       scan; where it crosses (a peninsula of scan next to the rim),
+       triangulate again with only triangles that cross no scan face
+       (``scan_aware``: the search over the loop's Delaunay triangles drops
+       each triangle the scan rejects); if that still crosses, forbid the
+       chords near the crossing and triangulate again.
     2. Refine and fair that triangulation (order ``order``, then harmonic);
        if the faired patch crosses the scan, re-route the chords near the
        crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
     3. Otherwise keep the checked flat triangulation, if there is one.
+
+    No new round starts after ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * k``
+    seconds; the hole then keeps the checked flat triangulation or fails
+    saying so.
 
     Returns (patch or None, reason, seconds, reasons tried).
     """
@@ -619,9 +649,16 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
         options = [("flat cap", 1)] + options
     faired_rounds = 0
     first = True
-    for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 1):
+    scan_aware = False
+    budget = HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * len(loop)
+    for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 2):
+        if time.perf_counter() - t0 > budget:
+            reasons.append(f"gave up after {time.perf_counter() - t0:.1f} s (budget {budget:.1f} s for "
+                           f"{len(loop)} edges), {len(avoid)} chords re-routed")
+            break
         try:
-            flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid)
+            flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid,
+                               scan_aware=scan_aware)
         except PatchError as exc:
             if avoid:
                 reasons.append(f"no triangulation avoids crossing the scan ({len(avoid)} chords re-routed)")
@@ -646,6 +683,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
             except PatchError:
                 pass
         why, bad = _check_patch(ctx, flat)
+        if why is not None and not scan_aware:
+            scan_aware = True  # again, with only triangles that cross no scan face
+            continue
         if why is not None:
             blocked = _blocked_in_plane(ctx, hole_id, flat, bad)
             if blocked:

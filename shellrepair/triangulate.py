@@ -1,16 +1,26 @@
 """Triangulate a hole's boundary loop.
 
-Loops up to ``DP_MAX`` edges get Liepa's minimum-weight triangulation: the
-triangulation whose worst dihedral angle (between neighbouring new
-triangles, and between a new triangle and the scan's face across a loop
-edge) is smallest, ties broken by the smallest total area. Its dynamic
-program is O(k³) and runs vectorised over all splits of one interval length
-at a time.
+Every layer minimises Liepa's weight: the triangulation whose worst dihedral
+angle (between neighbouring new triangles, and between a new triangle and
+the scan's face across a loop edge) is smallest, ties broken by the
+smallest total area. The layers, each tried where the one before has no
+answer:
 
-Longer loops are first cut by short chords between vertices far apart along
-the loop (each piece keeping at least a quarter of the vertices) until every
-piece is within ``DP_MAX``; each piece is then triangulated as above. This
-keeps thousands-of-edges loops fast (O(k²) for the cuts) and valid.
+1. the Delaunay triangulation of the loop projected along its axis, where it
+   triangulates the loop exactly (O(k log k));
+2. the minimum-weight triangulation among the triangles of the 3D Delaunay
+   tetrahedralization of the loop's vertices (Zou, Ju & Carr 2013; the
+   search space of CGAL's ``triangulate_hole``), loop edges the
+   tetrahedralization lacks completed with every apex: O(t) for t
+   candidate triangles, so loops of thousands of edges are searched whole.
+   Faces of one tetrahedralization meet only at shared edges and corners,
+   so this answer never crosses itself. An ``allowed`` test (the scan's
+   faces) is asked about each answer's triangles; rejected ones leave the
+   search space and the search runs again (``LAZY_ROUNDS``);
+3. Liepa's full O(k³) dynamic program, vectorised over all splits of one
+   interval length at a time, for loops up to ``DP_MAX`` edges;
+4. longer loops are cut by a short chord between vertices far apart along
+   the loop, and each piece goes through layers 2–4 on its own vertices.
 
 No triangulation creates an edge the mesh already has: chords between loop
 vertices that are already joined by a mesh edge are forbidden.
@@ -18,7 +28,8 @@ vertices that are already joined by a mesh edge are forbidden.
 References
 ----------
 P. Liepa, "Filling Holes in Meshes", Eurographics Symposium on Geometry
-Processing, 2003.
+Processing, 2003. M. Zou, T. Ju, N. Carr, "An algorithm for triangulating
+multiple 3D polygons", Eurographics Symposium on Geometry Processing, 2013.
 """
 
 from __future__ import annotations
@@ -29,10 +40,17 @@ from .geometry import cross, dot, plane_frame
 
 from .errors import MeshError
 
-__all__ = ["triangulate_loop", "DP_MAX"]
+__all__ = ["triangulate_loop", "restricted_dp", "delaunay_faces", "DP_MAX", "RESTRICTED_MAX"]
 
 #: Largest loop triangulated by one dynamic program.
 DP_MAX = 200
+#: Longest (sub-)loop searched over its Delaunay tetrahedralization's triangles.
+RESTRICTED_MAX = 2000
+#: A tetrahedralization with more triangles than this per loop vertex (points
+#: along a smooth space curve can make it nearly quadratic) is not searched.
+FACES_PER_VERTEX = 40
+#: Rounds of the restricted search that drop the triangles ``allowed`` rejects.
+LAZY_ROUNDS = 16
 #: Tolerance when comparing worst dihedral costs (1 − cos of the angle) before areas.
 ANGLE_TIE = 1e-12
 
@@ -51,8 +69,21 @@ def _angle(n1, n2):
     return np.where(bad, 2.0, 1.0 - np.clip(d, -1.0, 1.0))
 
 
-def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=True):
+def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=True, allowed=None):
     """Triangulate a closed loop of points.
+
+    The layers, each tried where the one before finds nothing:
+
+    1. (``fast``) the Delaunay triangulation of the loop projected along
+       ``axis``, where it triangulates the loop exactly;
+    2. Liepa's minimum-weight triangulation searched over the triangles of
+       the 3D Delaunay tetrahedralization of the loop's vertices
+       (:func:`delaunay_faces`, :func:`restricted_dp`; loops up to
+       ``RESTRICTED_MAX`` edges). Such triangles meet only at shared edges
+       and corners, so this triangulation never crosses itself;
+    3. the full O(k³) search (:func:`_dp`), loops up to ``DP_MAX`` edges;
+    4. longer loops are cut by a short chord into two pieces, each
+       triangulated by layers 2–4 on its own vertices.
 
     Parameters
     ----------
@@ -80,7 +111,12 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
         edge, k − 2 triangles, all facing along the axis, no forbidden
         chord). The refinement and fairing that follow decide the shape, so
         the O(k log k) triangulation serves where it is valid; the dynamic
-        program handles the rest.
+        programs handle the rest.
+    allowed : callable, optional
+        ``allowed(T) -> (t,) bool`` for candidate triangles ``T`` (t,3) of
+        loop positions: False for triangles that must not be used (they
+        cross the scan). The projection and the restricted search use only
+        allowed triangles; the full search and the chord cuts ignore it.
 
     Returns
     -------
@@ -107,16 +143,13 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
         va = -0.5 * cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
         ln = np.linalg.norm(va)
         axis = va / ln if ln > 0 else None
+    if axis is not None:
+        axis = np.asarray(axis, np.float64)
     if axis is not None and fast:
         T = _delaunay_in_projection(P, axis, forbidden)
-        if T is not None:
+        if T is not None and (allowed is None or np.asarray(allowed(T), bool).all()):
             return T
-    if axis is not None:
-        try:
-            return _triangulate(P, idx, edge_normals, forbidden, np.asarray(axis, np.float64))
-        except MeshError:
-            pass
-    return _triangulate(P, idx, edge_normals, forbidden, None)
+    return _triangulate(P, idx, edge_normals, forbidden, axis, allowed)
 
 
 def _delaunay_in_projection(P, axis, forbidden):
@@ -164,17 +197,92 @@ def _delaunay_in_projection(P, axis, forbidden):
     return S
 
 
-def _triangulate(P, idx, edge_normals, forbidden, axis):
-    """Triangulate the sub-loop ``idx`` (global positions into P)."""
+def _triangulate(P, idx, edge_normals, forbidden, axis, allowed=None):
+    """Triangulate the sub-loop ``idx`` (global positions into P): the
+    restricted search, the full search, or a chord cut and both pieces."""
     k = len(idx)
+    if 4 <= k <= RESTRICTED_MAX:
+        T = _restricted(P, idx, edge_normals, forbidden, axis, allowed)
+        if T is not None:
+            return T
     if k <= DP_MAX:
-        return _dp(P, idx, edge_normals, forbidden, axis)
+        if axis is not None:
+            try:
+                return _dp(P, idx, edge_normals, forbidden, axis)
+            except MeshError:
+                pass
+        return _dp(P, idx, edge_normals, forbidden, None)
     i, j = _best_chord(P, idx, forbidden)
     a = idx[i:j + 1]                          # closes with chord idx[j] -> idx[i]
     b = np.concatenate([idx[j:], idx[:i + 1]])  # closes with chord idx[i] -> idx[j]
-    Ta = _triangulate(P, a, edge_normals, forbidden, axis)
-    Tb = _triangulate(P, b, edge_normals, forbidden, axis)
+    Ta = _triangulate(P, a, edge_normals, forbidden, axis, allowed)
+    Tb = _triangulate(P, b, edge_normals, forbidden, axis, allowed)
     return np.vstack([Ta, Tb])
+
+
+def _restricted(P, idx, edge_normals, forbidden, axis, allowed):
+    """Layer 2 on the sub-loop ``idx``: the minimum-weight triangulation
+    among its Delaunay faces (allowed ones only), facing along ``axis``
+    first; None where there is none."""
+    k = len(idx)
+    Q = P[idx]
+    D = delaunay_faces(Q)
+    if D is None or len(D) > FACES_PER_VERTEX * k:
+        return None
+    D = _with_loop_edges(D, k)
+    # rim normals of the sub-loop's edges that are loop edges; forbidden pairs in local positions
+    nxt = np.roll(idx, -1)
+    rim_ok = (idx + 1) % len(P) == nxt
+    en = np.where(rim_ok[:, None], edge_normals[idx], 0.0)
+    pos = {int(g): t for t, g in enumerate(idx)}
+    forb = set()
+    for x, y in forbidden:
+        if x in pos and y in pos:
+            forb.add((min(pos[x], pos[y]), max(pos[x], pos[y])))
+    n = np.int64(k)
+    key = (D[:, 0] * n + D[:, 1]) * n + D[:, 2]    # sorted: D is
+    verdict = np.zeros(len(D), np.int8)           # allowed(): 0 not asked yet, 1 yes, -1 no
+    keep = np.ones(len(D), bool)
+    for ax in ((axis, None) if axis is not None else (None,)):
+        # ``allowed`` is asked lazily: only about the triangles of each answer;
+        # the ones it rejects leave the search space and the search runs again
+        for _ in range(LAZY_ROUNDS):
+            try:
+                T = restricted_dp(Q, D[keep], en, forb, ax)
+            except MeshError:
+                break
+            if allowed is None:
+                return idx[T]
+            S = np.sort(T, axis=1)
+            at = np.searchsorted(key, (S[:, 0] * n + S[:, 1]) * n + S[:, 2])
+            ask = at[verdict[at] == 0]
+            if ask.size:
+                verdict[ask] = np.where(np.asarray(allowed(idx[D[ask]]), bool), 1, -1)
+            if (verdict[at] > 0).all():
+                return idx[T]
+            keep[at[verdict[at] < 0]] = False
+    return None
+
+
+def _with_loop_edges(D, k):
+    """Candidates ``D`` plus, for each loop edge no candidate has (the
+    tetrahedralization need not contain the loop's edges), the triangles on
+    it with every other apex; only those may then cross other candidates."""
+    n = np.int64(k)
+    E = np.concatenate([D[:, 0] * n + D[:, 1], D[:, 1] * n + D[:, 2], D[:, 0] * n + D[:, 2]])
+    i = np.arange(k - 1)
+    want = np.concatenate([i * n + i + 1, [k - 1]])
+    miss = np.flatnonzero(~np.isin(want, E))
+    if miss.size == 0:
+        return D
+    extra = []
+    for e in miss.tolist():
+        a, b = (e, e + 1) if e < k - 1 else (0, k - 1)
+        m = np.setdiff1d(np.arange(k), [a, b])
+        extra.append(np.sort(np.column_stack([np.full(m.size, a), np.full(m.size, b), m]), axis=1))
+    A = np.concatenate([D] + extra)
+    key = np.unique((A[:, 0] * n + A[:, 1]) * n + A[:, 2])
+    return np.column_stack([key // (n * n), (key // n) % n, key % n])
 
 
 def _best_chord(P, idx, forbidden):
@@ -308,3 +416,149 @@ def _uses_forbidden(T, forbidden):
             if (min(a, b), max(a, b)) in forbidden:
                 return True
     return False
+
+
+def delaunay_faces(P):
+    """Triangles of the 3D Delaunay tetrahedralization of the points ``P``.
+
+    Parameters
+    ----------
+    P : (k,3) float64
+
+    Returns
+    -------
+    D : (t,3) int64 or None
+        Each face once, corners sorted ascending; None when the points span
+        less than a volume even after joggling (Qhull ``QJ``) or a point was
+        merged with another (duplicates), so the faces cannot serve as the
+        search space of every loop vertex.
+    """
+    from scipy.spatial import Delaunay, QhullError
+
+    if len(P) < 4:
+        return None
+    C = P - P.mean(axis=0)
+    tri = None
+    for opts in ("Qbb Qc Qz Q12", "QJ"):
+        try:
+            tri = Delaunay(C, qhull_options=opts)
+        except (QhullError, ValueError):
+            continue
+        if tri.coplanar.size == 0:
+            break
+        tri = None
+    if tri is None:
+        return None
+    S = np.sort(tri.simplices.astype(np.int64), axis=1)
+    D = np.concatenate([S[:, [0, 1, 2]], S[:, [0, 1, 3]], S[:, [0, 2, 3]], S[:, [1, 2, 3]]])
+    n = np.int64(len(P))
+    key = np.unique((D[:, 0] * n + D[:, 1]) * n + D[:, 2])
+    return np.column_stack([key // (n * n), (key // n) % n, key % n])
+
+
+def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
+    """Liepa's minimum-weight triangulation searched over the triangles
+    ``cand`` only (Zou, Ju & Carr 2013; CGAL's ``triangulate_hole``).
+
+    A triangle ``(a, b, c)``, a < b < c, closes the interval ``(a, c)`` of
+    the loop with apex ``b`` on the best triangulations of ``(a, b)`` and
+    ``(b, c)``; intervals are solved by increasing length, so every
+    candidate is looked at once: O(t) for t candidates instead of O(k³).
+
+    Parameters
+    ----------
+    P : (k,3) float64
+    cand : (t,3) int64
+        Candidate triangles, corners sorted ascending.
+    edge_normals, forbidden, axis
+        As for :func:`triangulate_loop`.
+
+    Returns
+    -------
+    T : (k-2,3) int64
+
+    Raises
+    ------
+    MeshError
+        If no triangulation of the loop uses only candidate triangles.
+    """
+    k = len(P)
+    cand = np.asarray(cand, np.int64).reshape(-1, 3)
+    a, b, c = cand[:, 0], cand[:, 1], cand[:, 2]
+    ok = (a < b) & (b < c)
+    if forbidden:
+        fk = np.array([x * k + y for x, y in forbidden], np.int64)
+        for p, q in ((a, b), (b, c), (a, c)):
+            chord = (q - p > 1) & ~((p == 0) & (q == k - 1))
+            ok &= ~(chord & np.isin(p * k + q, fk))
+    a, b, c = a[ok], b[ok], c[ok]
+    # edge ids: the loop edges (i, i+1) first, then every candidate's edges
+    keys = np.unique(np.concatenate([np.arange(k - 1) * k + np.arange(1, k), [k - 1], a * k + b, b * k + c, a * k + c]))
+    el, er, et = (np.searchsorted(keys, x) for x in (a * k + b, b * k + c, a * k + c))
+    ne = len(keys)
+    WA = np.full(ne, np.inf)
+    WS = np.full(ne, np.inf)
+    N = np.zeros((ne, 3))
+    HN = np.zeros(ne, bool)
+    apex = np.full(ne, -1, np.int64)
+    base = np.searchsorted(keys, np.arange(k - 1) * k + np.arange(1, k))
+    WA[base] = 0.0
+    WS[base] = 0.0
+    # rim normals: the scan face across loop edge (i, i+1)
+    N[base] = edge_normals[:k - 1]
+    HN[base] = np.abs(edge_normals[:k - 1]).sum(axis=1) > 0
+    raw = cross(P[c] - P[a], P[b] - P[a])           # triangle (a, c, b), the patch's orientation
+    ln = np.sqrt(dot(raw, raw))
+    nz = ln > 0
+    n = raw / np.where(nz, ln, 1.0)[:, None]
+    area = 0.5 * ln
+    bad0 = np.zeros(len(a), bool) if axis is None else raw @ axis <= 0
+    top = int(np.searchsorted(keys, k - 1))        # the interval (0, k-1): its rim edge closes the loop
+    rim_close = edge_normals[k - 1]
+    has_close = bool(np.abs(rim_close).sum() > 0)
+    L = c - a
+    order = np.argsort(L, kind="stable")
+    cuts = np.flatnonzero(np.diff(L[order])) + 1
+    for grp in np.split(order, cuts):
+        l, r, t = el[grp], er[grp], et[grp]
+        ng = n[grp]
+        zg = nz[grp]
+        d1 = np.clip(dot(ng, N[l]), -1.0, 1.0)
+        d2 = np.clip(dot(ng, N[r]), -1.0, 1.0)
+        a1 = np.where(HN[l], np.where(zg, 1.0 - d1, 2.0), 0.0)
+        a2 = np.where(HN[r], np.where(zg, 1.0 - d2, 2.0), 0.0)
+        wa = np.maximum(np.maximum(a1, a2), np.maximum(WA[l], WA[r]))
+        if has_close and t[0] == top:  # the interval (0, k-1) is the longest: alone in its group
+            wa = np.maximum(wa, _angle(ng, np.broadcast_to(rim_close, ng.shape)))
+        wa = np.where(bad0[grp], np.inf, wa)
+        ws = area[grp] + WS[l] + WS[r]
+        fin = np.isfinite(wa)
+        if not fin.any():
+            continue
+        grp, t, wa, ws = grp[fin], t[fin], wa[fin], ws[fin]
+        best = np.full(ne, np.inf)
+        np.minimum.at(best, t, wa)
+        ws = np.where(wa <= best[t] + ANGLE_TIE, ws, np.inf)
+        o = np.lexsort((ws, t))
+        first = o[np.r_[True, t[o][1:] != t[o][:-1]]]
+        tt = t[first]
+        WA[tt] = wa[first]
+        WS[tt] = ws[first]
+        apex[tt] = b[grp[first]]
+        N[tt] = n[grp[first]]
+        HN[tt] = nz[grp[first]]
+    if not np.isfinite(WA[top]):
+        raise MeshError("no triangulation of this loop uses only triangles of its Delaunay tetrahedralization")
+    tris = []
+    stack = [(0, k - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        m = int(apex[np.searchsorted(keys, i * k + j)])
+        if not i < m < j:  # cannot happen: every solved interval has its apex
+            raise MeshError(f"restricted search: interval ({i}, {j}) has no apex")
+        tris.append((i, j, m))
+        stack.append((i, m))
+        stack.append((m, j))
+    return np.array(tris, np.int64)
