@@ -12,7 +12,7 @@ SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 # python3 -m venv needs ensurepip, which Debian ships apart
 VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
 
-.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean
+.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance
 
 # `make setup` forces the install; every target that runs the package
 # depends on the stamp, so a fresh clone installs on its first command and
@@ -86,3 +86,11 @@ table1: $(STAMP)
 
 clean:
 	rm -rf .pytest_cache .hypothesis build *.egg-info data/*.repaired.ply data/*.report.json data/*.png data/repaired
+
+# appearance error of the filled regions: truth and each tool rendered with
+# the same cameras, material and aging map; SSIM and CIEDE2000 over the
+# filled pixels (eval/results/appearance.{json,md}, appearance_worst.png;
+# about 10 minutes on 7 cases x 4 tools)
+appearance: $(STAMP)
+	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the run records them as missing"
+	$(PY) eval/appearance.py

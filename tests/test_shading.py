@@ -498,38 +498,108 @@ FURNACE_M = (0.005, 0.02, 0.1, 0.3, 1.0, 1.5)
 FURNACE_THETA = (0.0, 30.0, 60.0, 80.0, 85.0, 88.0, 89.0, 89.5, 89.9)
 
 
+def _incidence_rule(eta):
+    """Gauss nodes and weights in mu on [0, 1], broken at every kink of the table's read at eta.
+
+    diffuse_transmittance is piecewise linear in sqrt(cos) between the
+    table's nodes, and for eta < 1 each slice is read shifted to the
+    critical angle; with a break at each of those places a 6-point rule
+    per piece integrates the diffuse term to rounding.
+    """
+    T = sh.rho_dt_table()
+    u2 = T.u ** 2
+    br = [u2]
+    if eta < 1.0:
+        cq = np.sqrt(1.0 - eta * eta)
+        br.append([cq])
+        for cn in -T.kappa[T.kappa < 0.0]:
+            br.append(u2[u2 < cn] * cq / cn)
+            br.append(cq + (u2[u2 >= cn] - cn) * (1.0 - cq) / (1.0 - cn))
+    b = np.unique(np.clip(np.concatenate([np.ravel(x) for x in br]), 0.0, 1.0))
+    g, gw = np.polynomial.legendre.leggauss(6)
+    g, gw = 0.5 * (g + 1.0), 0.5 * gw
+    return (b[:-1, None] + np.diff(b)[:, None] * g).ravel(), (np.diff(b)[:, None] * gw).ravel()
+
+
 def _layered_albedo(theta_deg, m, eta, R):
-    """Directional albedo of local_brdf: lobe by quadrature + diffuse part by Gauss in mu."""
+    """Directional albedo of local_brdf: the lobe by the table's own quadrature rule
+    (the same way its nodes are computed) + the diffuse part integrated over incidence."""
     co = np.cos(np.radians(np.asarray(theta_deg, float)))
-    A_spec = sh.specular_albedo(co, m, eta, n_t=64, n_phi=96)
-    x, w = np.polynomial.legendre.leggauss(400)
-    mu, w = 0.5 * (x + 1.0), 0.5 * w
+    A_spec = sh._rule_albedo(co, np.full(co.shape, m), np.array([eta]))[:, 0]
+    mu, w = _incidence_rule(eta)
     fd = sh.layered_diffuse(mu[None, :], co[:, None], m, eta, np.atleast_1d(R))[..., 0]
     return A_spec + 2.0 * np.pi * np.sum(fd * mu * w, axis=1)
 
 
 @pytest.mark.parametrize("eta", FURNACE_ETA)
 def test_white_furnace_layered_albedo_at_most_one(eta):
-    """A white stack (R = 1) under any interface reflects everything it receives, no more.
+    """A white stack (R = 1) under any interface reflects at most what it receives.
 
     Without the interface's internal reflection a white stack reflected only
-    0.89-0.95; without a consistent eta < 1 (table clamped to eta = 1 while
-    the lobe has total internal reflection) the albedo reached 2.  The
-    tolerance is the table's interpolation error: 2e-3 for eta >= 1, and
-    2e-2 for eta < 1 where rho_dt falls steeply at the critical angle
-    (measured maximum 0.015 at m = 0.02; docs/shading.md).
+    0.89-0.95; without a consistent eta < 1 the albedo reached 2; with the
+    table read as is, 1.0003 (eta >= 1) and 1.08 (eta < 1, at the critical
+    angle).  Now rho_dt is a lower envelope of the lobe's quadrature rule
+    and rho_bar the exact mean of what is read, so the bound holds to
+    rounding on the whole grid, m < 0.02 and eta < 1 included.
     """
+    theta_c = np.degrees(np.arcsin(eta)) if eta < 1.0 else None
     for m in FURNACE_M:
-        if eta < 1.0 and m < 0.02:
-            continue  # the critical-angle step is sharper than a table cell
         A = _layered_albedo(FURNACE_THETA, m, eta, 1.0)
-        tol = 2e-3 if eta >= 1.0 else 2e-2
-        assert np.all(A <= 1.0 + tol), (m, A.max())
-        # and nothing is lost below 80 degrees: the stack returns what the lobe lets in
-        assert np.all(A[:4] >= 1.0 - tol), (m, A[:4].min())
+        assert np.all(A <= 1.0 + 1e-9), (m, A.max() - 1.0)
+        # and little is lost below 80 degrees (measured: 2.6e-4 for eta >= 1;
+        # for eta < 1 the envelope holds the table cell of the critical-angle
+        # step below the step, losing up to 0.17 there and 0.021 elsewhere)
+        th = np.asarray(FURNACE_THETA)
+        keep = th < 80.0
+        if theta_c is not None:
+            keep &= np.abs(th - theta_c) > 3.0
+        tol = 5e-4 if eta >= 1.0 else 2.5e-2
+        assert np.all(A[keep] >= 1.0 - tol), (m, A[keep].min())
     # grey stacks reflect less, and still at most one
     A_grey = _layered_albedo(FURNACE_THETA, 0.3, eta, 0.5)
     assert np.all(A_grey < _layered_albedo(FURNACE_THETA, 0.3, eta, 1.0))
+
+
+def test_white_furnace_at_random_points_off_the_table_grid():
+    """The bound between the table's check points: random (theta, m, eta), seeded."""
+    rng = np.random.default_rng(12)
+    worst = -1.0
+    for _ in range(25):
+        eta = float(np.exp(rng.uniform(np.log(0.3), np.log(3.0))))
+        m = float(np.exp(rng.uniform(np.log(0.005), np.log(1.5))))
+        th = rng.uniform(0.0, 90.0, 6)
+        if eta < 1.0:  # half of them right at the critical-angle step, where it is hardest
+            th[:3] = np.degrees(np.arcsin(eta)) + rng.uniform(-4.0, 4.0, 3) * np.degrees(m)
+        A = _layered_albedo(np.clip(th, 0.0, 89.99), m, eta, 1.0)
+        worst = max(worst, float(A.max()) - 1.0)
+    assert worst <= 1e-9, worst
+
+
+def test_rho_bar_is_the_exact_mean_of_rho_dt():
+    """mean_transmittance = 2 int rho_dt(mu) mu dmu of what diffuse_transmittance returns."""
+    rng = np.random.default_rng(4)
+    for eta, m in zip(np.r_[rng.uniform(0.3, 1.0, 4), rng.uniform(1.0, 3.0, 3), 1.0],
+                      np.exp(rng.uniform(np.log(0.005), np.log(1.5), 8))):
+        mu, w = _incidence_rule(eta)
+        direct = 2.0 * np.sum(sh.diffuse_transmittance(mu, m, eta) * mu * w)
+        assert float(sh.mean_transmittance(m, eta)) == pytest.approx(direct, abs=1e-12), (eta, m)
+
+
+def test_table_rule_against_the_converged_integral():
+    """The lobe albedo by the table's rule vs a converged quadrature (measured bounds).
+
+    For eta >= 1 the rule is within 1e-4; for eta < 1 the Fresnel factor's
+    kink at total internal reflection is sampled by Gauss nodes and the
+    rule errs by up to ~1e-2 at m >= 1 (so the energy bound above is
+    against the rule, and the converged lobe may exceed it by that much).
+    """
+    th = np.array([0.0, 40.0, 75.0, 88.0])
+    co = np.cos(np.radians(th))
+    for m, eta, bound in [(0.02, 1.5, 1e-4), (0.3, 1.75, 1e-4), (1.5, 2.5, 1e-4), (0.3, 0.67, 5e-3),
+                          (1.5, 0.67, 1.5e-2)]:
+        rule = sh._rule_albedo(co, np.full(4, m), np.array([eta]))[:, 0]
+        ref = sh.specular_albedo(co, m, eta, n_t=128, n_phi=192)
+        assert np.max(np.abs(rule - ref)) <= bound, (m, eta, np.max(np.abs(rule - ref)))
 
 
 def test_white_furnace_brute_force_over_the_hemisphere():
@@ -551,9 +621,11 @@ def test_internal_reflectance_classical_values_and_reciprocity():
     # reciprocity: what enters a denser layer from outside equals what leaves the
     # rarer side from inside: rho_bar(eta) = eta^2 (1 - r_i(eta)) and the pair
     # (eta, 1/eta) swap roles: rho_bar(1/eta) ~ (1 - r_i(eta)) for a smooth interface
+    # (at m = 0.02: at 0.005 the table cell holding the critical-angle step of
+    # eta = 1/2 is held below the step by the energy bound, 0.014 of rho_bar)
     for eta in (1.2, 1.5, 2.0):
-        assert sh.mean_transmittance(0.005, 1.0 / eta) == pytest.approx(
-            1.0 - sh.internal_reflectance(0.005, eta), abs=0.01)
+        assert sh.mean_transmittance(0.02, 1.0 / eta) == pytest.approx(
+            1.0 - sh.internal_reflectance(0.02, eta), abs=0.01)
 
 
 def test_saunderson_limits_of_layered_diffuse():
