@@ -27,6 +27,8 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv .venv
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
+	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"
+	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
 	touch $(STAMP)
 
 # open3d's wheel needs libusb (and libgomp); install them from Debian if missing.
