@@ -8,7 +8,7 @@ OUTDIR  ?= $(DIR)/repaired
 JOBS    ?= 1
 SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 
-.PHONY: setup syslibs test holes repair render batch bench bench-scale bench-scale-profile table1 clean
+.PHONY: setup syslibs test holes repair render batch bench bench-scale bench-scale-profile table1 clean stress
 
 setup: syslibs
 	test -x $(PY) || python3 -m venv .venv
@@ -63,3 +63,11 @@ table1:
 
 clean:
 	rm -rf .pytest_cache .hypothesis build *.egg-info data/*.repaired.ply data/*.report.json data/*.png data/repaired
+
+# randomized stress: N cases drawn from SEED (seeds < 1000 for development,
+# >= 1000 kept for validation), ours against CGAL and MeshLib when installed
+N    ?= 12
+SEED ?= 1000
+stress:
+	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the stress suite records them as missing"
+	$(PY) eval/stress.py --n $(N) --seed $(SEED)
