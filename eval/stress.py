@@ -60,7 +60,9 @@ tool's own report):
 * ``orig changed``: input vertices not present bit for bit in the output
   (must be 0);
 * ``nm edges`` / ``bd edges``: non-manifold and boundary edges of the
-  output;
+  output; ``topology``: watertight with the truth's Euler characteristic
+  (a band capped on both sides instead of joined by a tube is closed but
+  has the wrong topology);
 * ``s``: the tool's fill call; a case over ``SLOW_SECONDS`` (10 s) for ours
   is flagged;
 * ``RMS ‰``: distance of the added faces to the true surface, in ‰ of the
@@ -96,6 +98,7 @@ from scipy.spatial import cKDTree  # noqa: E402
 
 from eval import cases as casemod  # noqa: E402
 from eval import metrics, peers  # noqa: E402
+from shellrepair.topology import euler_characteristic  # noqa: E402
 
 __all__ = ["FAMILIES", "SHAPES", "stress_case", "available_shapes", "measure", "triangle_pairs_added",
            "closed_loops", "run", "main"]
@@ -357,7 +360,7 @@ def _band_mask(V, F, meta, rng):
         rho = np.hypot(Q[:, 0], Q[:, 1])
         if kind == "torus" and rng.random() < 0.5:
             # across the tube: an azimuth window (two loops the tube joins)
-            width = float(rng.uniform(0.15, 0.6))
+            width = float(rng.uniform(0.2, 0.6))
             start = float(rng.uniform(0, 2 * np.pi))
             return casemod.band_mask(Q, F, start=start, width=width), {"band": "tube", "width_rad": round(width, 3)}
         # around the hole: the inner equator, |angle around the tube - pi| < w
@@ -372,14 +375,14 @@ def _band_mask(V, F, meta, rng):
         c = np.asarray(meta["centers"][k], float)
         Q = V - c
         out = np.sign(c[0]) * Q[:, 0] > 0
-        width = float(rng.uniform(0.1, 0.4))
+        width = float(rng.uniform(0.15, 0.45))
         ang = np.abs(np.arctan2(Q[:, 1], np.abs(Q[:, 0])))
         return (out & (ang < width / 2))[F].any(axis=1), {"band": "genus2-tube", "width_rad": round(width, 3)}
     if kind == "dumbbell":
         a, b = np.asarray(meta["balls"], float)
         r_arm = meta["bar_r"]
         t = float(rng.uniform(-0.4, 0.4))
-        width = float(rng.uniform(0.05, 0.3))
+        width = float(rng.uniform(0.08, 0.3))
         x = V[:, 0]
         sel = (np.abs(x - t) < width / 2) & (np.hypot(V[:, 1], V[:, 2]) < 2.5 * r_arm)
         return sel[F].any(axis=1), {"band": "bar", "at": round(t, 3), "width": round(width, 3)}
@@ -390,7 +393,7 @@ def _band_mask(V, F, meta, rng):
         s = V @ d
         radial = np.linalg.norm(V - s[:, None] * d, axis=1)
         t = float(rng.uniform(0.5, 0.85)) * meta["arm_len"]
-        width = float(rng.uniform(0.04, 0.2))
+        width = float(rng.uniform(0.08, 0.25))
         sel = (np.abs(s - t) < width / 2) & (radial < 2.5 * meta["arm_r"])
         return sel[F].any(axis=1), {"band": "arm", "arm": k, "at": round(t, 3), "width": round(width, 3)}
     raise ValueError(f"no band for shape kind '{kind}'")
@@ -415,6 +418,27 @@ def _base_mask(V, F, up, rng):
     rem = np.zeros(len(F), bool)
     rem[order[:k + 1]] = True
     return rem, {"cut_area_pct": round(100 * frac, 1), "tilt_deg": round(float(np.degrees(tilt)), 1)}
+
+
+#: A band across a thin part cuts a genus-0 shape in two: both parts are scan
+#: data the fill must join, so band cases keep every piece with at least this
+#: fraction of the faces (smaller ones are debris, removed as elsewhere).
+BAND_MIN_PIECE = 0.01
+
+
+def _keep_big(F, remove, min_fraction):
+    """Also remove the pieces left with fewer than ``min_fraction`` of the faces."""
+    from shellrepair.topology import edge_topology, face_pieces
+
+    remove = np.asarray(remove, bool).copy()
+    keep = np.flatnonzero(~remove)
+    if keep.size == 0:
+        return remove
+    Fk = F[keep]
+    nc, fc = face_pieces(edge_topology(Fk, int(F.max()) + 1), len(Fk))
+    size = np.bincount(fc, minlength=nc)
+    remove[keep[size[fc] < min_fraction * len(F)]] = True
+    return remove
 
 
 BAND_SHAPES = ("torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2", "dumbbell", "star")
@@ -493,7 +517,7 @@ def stress_case(index, seed, *, quick=False, family=None, shape=None, shapes_ok=
                 desc = f"bottom {p['cut_area_pct']} % cut by a plane tilted {p['tilt_deg']}°"
             else:
                 raise ValueError(f"unknown family '{family}'")
-            rem = casemod.keep_largest(F0, rem)
+            rem = _keep_big(F0, rem, BAND_MIN_PIECE) if family == "band" else casemod.keep_largest(F0, rem)
             if rem.any() and not rem.all():
                 break
         else:
@@ -690,6 +714,7 @@ def input_facts(case):
     kind = np.array([L.kind == "hole" for L in scan.loops], bool)
     facts = metrics.input_facts(case.V, case.F)
     return {"loops": loops, "is_hole": kind, "truth": metrics.TruthSurface(case.V_true, case.F_true),
+            "euler_truth": euler_characteristic(case.F_true, len(case.V_true)),
             "metrics_facts": facts, "border_reasons": [L.reason for L in scan.loops if L.kind != "hole"]}
 
 
@@ -720,6 +745,8 @@ def measure(case, facts, V_out, F_out, *, n_samples=N_SAMPLES, seed=0):
         "boundary_edges": int(chk["boundary_edges"]),
         "loops_after": int(chk["loops"]),
         "watertight": bool(chk["watertight"]),
+        "euler": euler_characteristic(F_out, len(V_out)),
+        "euler_truth": int(facts["euler_truth"]),
         "faces_added": int(added.sum()),
         "si_added": triangle_pairs_added(V_out, F_out, added),
         "si_faces_pymeshlab": metrics.self_intersecting_faces(V_out, F_out)
@@ -727,6 +754,8 @@ def measure(case, facts, V_out, F_out, *, n_samples=N_SAMPLES, seed=0):
     }
     ev = metrics.evaluate(case.V, case.F, V_out, F_out, truth, n_samples=n_samples, seed=seed,
                           facts=facts["metrics_facts"], self_intersections=False)
+    # closed with the truth's topology (a band capped instead of joined is not)
+    m["topology_ok"] = m["watertight"] and m["euler"] == m["euler_truth"]
     m["rms_permille"] = ev.get("rms_permille")
     m["max_permille"] = ev.get("max_permille")
     return m
@@ -783,7 +812,8 @@ def _row_line(r):
         return f"{r['tool']:15s} {r.get('status')}: {str(r.get('error'))[:100]}"
     return (f"{r['tool']:15s} holes {r['holes_closed']:>4}/{r['holes']:<4} rate {_pct(r['fill_rate']):>6} "
             f"si+ {r['si_added']:>4} orig {r['orig_changed']:>3} nm {r['nonmanifold_edges']:>3} "
-            f"bd {r['boundary_edges']:>5} {r['seconds']:7.2f}s{' SLOW' if r.get('slow') else '     '} "
+            f"bd {r['boundary_edges']:>5} topo {'y' if r.get('topology_ok') else 'n'} "
+            f"{r['seconds']:7.2f}s{' SLOW' if r.get('slow') else '     '} "
             f"rms {_num(r.get('rms_permille')):>7}‰")
 
 
@@ -828,6 +858,7 @@ def summarize(rows, tools):
             "fill_rate": closed / holes if holes and ok else None,
             "cases_all_closed": sum(1 for r in ok if r.get("holes_closed") == r.get("holes")),
             "cases_watertight": sum(1 for r in ok if r.get("watertight")),
+            "cases_topology_ok": sum(1 for r in ok if r.get("topology_ok")),
             "si_added": sum(int(r.get("si_added") or 0) for r in ok),
             "cases_with_si": sum(1 for r in ok if (r.get("si_added") or 0) > 0),
             "orig_changed": sum(int(r.get("orig_changed") or 0) for r in ok),
@@ -843,13 +874,14 @@ def summarize(rows, tools):
 
 
 def summary_text(summary):
-    lines = [f"{'tool':15s} {'ok':>5} {'holes closed':>13} {'rate':>6} {'all':>3} {'wt':>3} {'si+':>5} "
+    lines = [f"{'tool':15s} {'ok':>5} {'holes closed':>13} {'rate':>6} {'all':>3} {'wt':>3} {'topo':>4} {'si+':>5} "
              f"{'si cases':>8} {'orig':>4} {'nm':>4} {'bd':>6} {'total s':>8} {'max s':>7} {'>10s':>4} "
              f"{'medRMS‰':>8} {'×best':>6}"]
     for s in summary:
         lines.append(
             f"{s['tool']:15s} {s['ok']:>2}/{s['cases']:<2} {s['holes_closed']:>6}/{s['holes']:<6} "
-            f"{_pct(s['fill_rate']):>6} {s['cases_all_closed']:>3} {s['cases_watertight']:>3} {s['si_added']:>5} "
+            f"{_pct(s['fill_rate']):>6} {s['cases_all_closed']:>3} {s['cases_watertight']:>3} "
+            f"{s['cases_topology_ok']:>4} {s['si_added']:>5} "
             f"{s['cases_with_si']:>8} {s['orig_changed']:>4} {s['nonmanifold_edges']:>4} {s['boundary_edges']:>6} "
             f"{_num(s['total_seconds']):>8} {_num(s['max_seconds']):>7} {s['slow_cases']:>4} "
             f"{_num(s['median_rms_permille']):>8} {_num(s['median_rms_x_best_peer']):>6}"
@@ -869,18 +901,21 @@ def markdown(result):
     lines += ["", "Holes: loops classed `hole` by `detect_holes` (every loop of these inputs is truly a hole; "
               "`borders` are the rest). A loop is closed when each of its edges has exactly two faces in the output. "
               "si+: intersecting face pairs involving an added face. orig: input vertices not bit-identical in "
-              "the output. nm / bd: non-manifold / boundary edges of the output. RMS: added faces to the true "
+              "the output. nm / bd: non-manifold / boundary edges of the output. topology: watertight with the "
+              "truth's Euler characteristic. faces gone: input faces missing from the output (a tool that "
+              "re-triangulated the rim). RMS: added faces to the true "
               f"surface, ‰ of the bounding-box diagonal. ×best: ours over the best peer that closed every hole "
               f"(median). A case over {SLOW_SECONDS:g} s for ours is flagged SLOW.", "",
               "## Totals per tool", "",
-              "| tool | ok | holes closed | fill rate | cases all closed | watertight | si+ | cases with si+ "
-              "| orig changed | nm edges | bd edges | total s | max s | cases > 10 s | median RMS ‰ | RMS × best peer "
-              "| not ok |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| tool | ok | holes closed | fill rate | cases all closed | watertight | right topology | si+ "
+              "| cases with si+ | orig changed | nm edges | bd edges | total s | max s | cases > 10 s | median RMS ‰ "
+              "| RMS × best peer | not ok |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in result["summary"]:
         lines.append(
             f"| {s['tool']} | {s['ok']}/{s['cases']} | {s['holes_closed']}/{s['holes']} | {_pct(s['fill_rate'])} "
-            f"| {s['cases_all_closed']} | {s['cases_watertight']} | {s['si_added']} | {s['cases_with_si']} "
+            f"| {s['cases_all_closed']} | {s['cases_watertight']} | {s['cases_topology_ok']} | {s['si_added']} "
+            f"| {s['cases_with_si']} "
             f"| {s['orig_changed']} | {s['nonmanifold_edges']} | {s['boundary_edges']} | {_num(s['total_seconds'])} "
             f"| {_num(s['max_seconds'])} | {s['slow_cases']} | {_num(s['median_rms_permille'])} "
             f"| {_num(s['median_rms_x_best_peer'])} | {', '.join(f'{k} {v}' for k, v in s['not_ok'].items()) or '–'} |")
@@ -897,8 +932,9 @@ def markdown(result):
             c, h, k = by_fam[fam]
             lines.append(f"| {fam} | {c} | {k}/{h} | {_pct(k / h if h else None)} |")
     lines += ["", "## Every case", "",
-              "| case | description | loops (borders) | tool | status | holes closed | si+ | orig | nm | bd | s | RMS ‰ |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| case | description | loops (borders) | tool | status | holes closed | si+ | orig | nm | bd | topology "
+              "| faces gone | s | RMS ‰ |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in result["cases"]:
         for r in result["rows"]:
             if r["case"] != c["name"]:
@@ -906,17 +942,21 @@ def markdown(result):
             head = (f"| {c['name']} | {c['description']} | {c['loops']} ({c['loops'] - c['holes']}) "
                     if r["tool"] == result["tools"][0] else "| | | ")
             if r.get("status") != "ok":
-                lines.append(head + f"| {r['tool']} | **{r.get('status')}** | 0/{r.get('holes')} | – | – | – | – "
+                lines.append(head + f"| {r['tool']} | **{r.get('status')}** | 0/{r.get('holes')} | – | – | – | – | – | – "
                              f"| {_num(r.get('seconds'))} | {str(r.get('error', ''))[:70]} |")
                 continue
             lines.append(head + f"| {r['tool']} | ok | {r['holes_closed']}/{r['holes']} | {r['si_added']} "
                          f"| {r['orig_changed']} | {r['nonmanifold_edges']} | {r['boundary_edges']} "
-                         f"| {_num(r['seconds'])}{' **SLOW**' if r.get('slow') else ''} | {_num(r.get('rms_permille'))} |")
-    fails = [r for r in result["rows"] if r["tool"] == OURS and r.get("statuses")]
+                         f"| {'yes' if r.get('topology_ok') else '**no**'} (χ {r.get('euler')} / {r.get('euler_truth')}) "
+                         f"| {r.get('input_faces_missing')} | {_num(r['seconds'])}{' **SLOW**' if r.get('slow') else ''} | {_num(r.get('rms_permille'))} |")
+    fails = [r for r in result["rows"] if r["tool"] == OURS
+             and (r.get("status") != "ok" or any(k != "filled" for k in (r.get("statuses") or {})))]
     if fails:
         lines += ["", "## Why ours left holes open", ""]
         for r in fails:
-            lines.append(f"- {r['case']}: " + "; ".join(f"{k} ×{v}" for k, v in r["statuses"].items()))
+            why = ([f"{r.get('status')}: {r.get('error')}"] if r.get("status") != "ok" else
+                   [f"{k} ×{v}" for k, v in r["statuses"].items() if k != "filled"])
+            lines.append(f"- {r['case']}: " + "; ".join(why))
     borders = [c for c in result["cases"] if c.get("border_reasons")]
     if borders:
         lines += ["", "## Loops classed border (all are holes of a closed truth)", ""]
