@@ -87,6 +87,7 @@ import os
 import sys
 import time
 from functools import lru_cache
+from itertools import chain
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -602,8 +603,9 @@ def triangle_pairs_added(V, F, added):
 
     Vertices at the same position are one corner (so two faces meeting at a
     duplicated vertex share it). Candidates are faces whose bounding
-    spheres meet; the few faces much larger than the rest are tried
-    against every added face.
+    spheres meet, found with k-d trees of face centres: the added faces
+    look up the ordinary faces, and the largest 1 % of the faces (a scan's
+    flat base can have huge ones) look up the added faces.
 
     Returns
     -------
@@ -624,19 +626,19 @@ def triangle_pairs_added(V, F, added):
     small = np.flatnonzero(R <= r_cut)
     big = np.flatnonzero(R > r_cut)
     tree = cKDTree(C[small])
+    slack = 1e-12 * (1.0 + float(np.abs(C).max()))
     ai, bj = [], []
-    step = 20000
-    for s in range(0, added.size, step):
-        a = added[s:s + step]
-        lists = tree.query_ball_point(C[a], R[a] + r_cut + 1e-12 * (1 + np.abs(C[a]).max()), return_sorted=False)
-        cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+    for s in range(0, added.size, 20000):
+        a = added[s:s + 20000]
+        lists = tree.query_ball_point(C[a], R[a] + r_cut + slack, return_sorted=False)
+        cnt = np.fromiter(map(len, lists), np.int64, len(lists))
         ai.append(np.repeat(a, cnt))
-        bj.append(small[np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))])
-        if big.size:
-            d2 = ((C[a][:, None, :] - C[big][None, :, :]) ** 2).sum(axis=2)
-            x, y = np.nonzero(d2 <= (R[a][:, None] + R[big][None, :]) ** 2 * (1 + 1e-9))
-            ai.append(a[x])
-            bj.append(big[y])
+        bj.append(small[np.fromiter(chain.from_iterable(lists), np.int64, int(cnt.sum()))])
+    if big.size:  # each large face against the added faces near it
+        lists = cKDTree(C[added]).query_ball_point(C[big], R[big] + R[added].max() + slack, return_sorted=False)
+        cnt = np.fromiter(map(len, lists), np.int64, len(lists))
+        ai.append(added[np.fromiter(chain.from_iterable(lists), np.int64, int(cnt.sum()))])
+        bj.append(np.repeat(big, cnt))
     ai, bj = np.concatenate(ai), np.concatenate(bj)
     is_added = np.zeros(len(F), bool)
     is_added[added] = True
@@ -899,7 +901,8 @@ def markdown(result):
              "Versions: " + ", ".join(f"{k} {v}" for k, v in mi["versions"].items()), ""]
     lines += [f"- {n}" for n in result.get("notes", [])]
     lines += ["", "Holes: loops classed `hole` by `detect_holes` (every loop of these inputs is truly a hole; "
-              "`borders` are the rest). A loop is closed when each of its edges has exactly two faces in the output. "
+              "`borders` are the rest). A loop is closed when each of its edges still in the output has exactly two "
+              "faces, and no boundary or non-manifold output edge touches an edge of it that a tool re-triangulated. "
               "si+: intersecting face pairs involving an added face. orig: input vertices not bit-identical in "
               "the output. nm / bd: non-manifold / boundary edges of the output. topology: watertight with the "
               "truth's Euler characteristic. faces gone: input faces missing from the output (a tool that "
