@@ -922,18 +922,20 @@ def markdown(result):
             f"| {s['orig_changed']} | {s['nonmanifold_edges']} | {s['boundary_edges']} | {_num(s['total_seconds'])} "
             f"| {_num(s['max_seconds'])} | {s['slow_cases']} | {_num(s['median_rms_permille'])} "
             f"| {_num(s['median_rms_x_best_peer'])} | {', '.join(f'{k} {v}' for k, v in s['not_ok'].items()) or '–'} |")
-    by_fam = {}
-    for r in result["rows"]:
-        if r["tool"] == OURS:
-            f = by_fam.setdefault(r["family"], [0, 0, 0])
-            f[0] += 1
-            f[1] += int(r.get("holes") or 0)
-            f[2] += int(r.get("holes_closed") or 0)
-    lines += ["", "## Ours per family", "", "| family | cases | holes closed | fill rate |", "|---|---|---|---|"]
+    tools = result["tools"]
+    lines += ["", "## Holes closed per family", "",
+              "| family | cases | " + " | ".join(tools) + " |", "|---|---|" + "---|" * len(tools)]
     for fam in FAMILIES:
-        if fam in by_fam:
-            c, h, k = by_fam[fam]
-            lines.append(f"| {fam} | {c} | {k}/{h} | {_pct(k / h if h else None)} |")
+        cells = []
+        for t in tools:
+            rs = [r for r in result["rows"] if r["family"] == fam and r["tool"] == t]
+            h = sum(int(r.get("holes") or 0) for r in rs)
+            k = sum(int(r.get("holes_closed") or 0) for r in rs)
+            topo = sum(1 for r in rs if r.get("topology_ok"))
+            cells.append(f"{k}/{h} ({_pct(k / h if h else None)}), topology {topo}/{len(rs)}")
+        n_fam = sum(1 for c in result["cases"] if c.get("family") == fam)
+        if n_fam:
+            lines.append(f"| {fam} | {n_fam} | " + " | ".join(cells) + " |")
     lines += ["", "## Every case", "",
               "| case | description | loops (borders) | tool | status | holes closed | si+ | orig | nm | bd | topology "
               "| faces gone | s | RMS ‰ |",
