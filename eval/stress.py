@@ -60,7 +60,9 @@ tool's own report):
 * ``orig changed``: input vertices not present bit for bit in the output
   (must be 0);
 * ``nm edges`` / ``bd edges``: non-manifold and boundary edges of the
-  output; ``topology``: watertight with the truth's Euler characteristic
+  output, its vertices welded by position (a tool that duplicates a vertex
+  to glue two sheets at one edge shows the non-manifold edge it made; the
+  counts by index are in the JSON); ``topology``: watertight with the truth's Euler characteristic
   (a band capped on both sides instead of joined by a tube is closed but
   has the wrong topology);
 * ``s``: the tool's fill call; a case over ``SLOW_SECONDS`` (10 s) for ours
@@ -654,47 +656,44 @@ def triangle_pairs_added(V, F, added):
     return n
 
 
-def closed_loops(loops, n_in, F_out, out_to_in):
+def closed_loops(loops, in_to_out, F_out):
     """Which input loops are closed in the output.
 
-    Output vertices are matched to input ones by position (``out_to_in``,
-    -1 for a new vertex). A loop is closed when each of its edges that is
-    still in the output is an edge of exactly two faces, and each edge that
-    is gone (a tool that re-triangulated the faces along the rim) has no
-    boundary or non-manifold output edge at either end. So a rim edge left
-    open, or given a third face, leaves its loop open.
+    A loop is closed when each of its edges that is still in the output is
+    an edge of exactly two faces, and each edge that is gone (a tool that
+    re-triangulated the faces along the rim) has no boundary or
+    non-manifold output edge at either end. So a rim edge left open, or
+    given a third face, leaves its loop open; so does a loop vertex missing
+    from the output.
 
     Parameters
     ----------
     loops : list of (k,) int64 arrays
         Input vertex indices of each loop.
-    n_in : int
-        Number of input vertices.
+    in_to_out : (n,) int64
+        The output vertex at each input vertex's position, -1 if none.
     F_out : (q,3) int64
-    out_to_in : (p,) int64
+        Output faces (on vertices welded by position, without collapsed
+        faces, as :func:`measure` passes them).
 
     Returns
     -------
     closed : (len(loops),) bool
     """
-    n = np.int64(max(int(n_in), 1))
-    G = out_to_in[np.asarray(F_out, np.int64)]
-    E = np.concatenate([G[:, [0, 1]], G[:, [1, 2]], G[:, [2, 0]]])
-    E = E[(E >= 0).all(axis=1)]
-    E.sort(axis=1)
+    F_out = np.asarray(F_out, np.int64)
+    n = np.int64(max(int(F_out.max(initial=0)) + 1, 1))
+    E = np.sort(np.concatenate([F_out[:, [0, 1]], F_out[:, [1, 2]], F_out[:, [2, 0]]]), axis=1)
     keys, counts = np.unique(E[:, 0] * n + E[:, 1], return_counts=True)
-    # input vertices at an end of an output edge with one face or more than two
-    Fo = np.asarray(F_out, np.int64)
-    Eo = np.sort(np.concatenate([Fo[:, [0, 1]], Fo[:, [1, 2]], Fo[:, [2, 0]]]), axis=1)
-    eo, co = np.unique(Eo, axis=0, return_counts=True)
-    bad_out = np.unique(eo[co != 2])
-    bad_in = np.zeros(int(n), bool)
-    m = out_to_in[bad_out]
-    bad_in[m[m >= 0]] = True
+    bad = np.zeros(int(n), bool)  # ends of output edges with one face or more than two
+    odd = keys[counts != 2]
+    bad[odd // n] = True
+    bad[odd % n] = True
     out = np.zeros(len(loops), bool)
     for i, lp in enumerate(loops):
-        lp = np.asarray(lp, np.int64)
-        e = np.sort(np.column_stack([lp, np.roll(lp, -1)]), axis=1)
+        w = in_to_out[np.asarray(lp, np.int64)]
+        if (w < 0).any():
+            continue
+        e = np.sort(np.column_stack([w, np.roll(w, -1)]), axis=1)
         k = e[:, 0] * n + e[:, 1]
         if len(keys):
             pos = np.minimum(np.searchsorted(keys, k), len(keys) - 1)
@@ -702,8 +701,7 @@ def closed_loops(loops, n_in, F_out, out_to_in):
             cnt = np.where(found, counts[pos], 0)
         else:
             found, cnt = np.zeros(len(k), bool), np.zeros(len(k), np.int64)
-        gone_ok = ~bad_in[e[:, 0]] & ~bad_in[e[:, 1]]
-        out[i] = bool(np.all(np.where(found, cnt == 2, gone_ok)))
+        out[i] = bool(np.all(np.where(found, cnt == 2, ~bad[e[:, 0]] & ~bad[e[:, 1]])))
     return out
 
 
@@ -732,9 +730,17 @@ def measure(case, facts, V_out, F_out, *, n_samples=N_SAMPLES, seed=0):
     truth = facts["truth"]
     tol = metrics.MATCH_TOL * truth.diag
     added, missing, out_to_in, shift, exact = metrics.added_faces(case.V, case.F, V_out, F_out, tol)
-    closed = closed_loops(facts["loops"], len(case.V), F_out, out_to_in)
     is_hole = facts["is_hole"]
-    chk = metrics.mesh_checks(V_out, F_out)
+    # topology by position: vertices at one position are one vertex, so two
+    # sheets glued along duplicated vertices show as the non-manifold edge they are
+    Vw, weld = np.unique(V_out, axis=0, return_inverse=True)
+    Fw = weld.reshape(-1)[F_out]
+    proper = (Fw[:, 0] != Fw[:, 1]) & (Fw[:, 1] != Fw[:, 2]) & (Fw[:, 2] != Fw[:, 0])
+    Fw = Fw[proper]  # faces collapsed to a segment or a point by position are no surface
+    chk = metrics.mesh_checks(Vw, Fw)
+    d, j = cKDTree(Vw).query(case.V, k=1)
+    closed = closed_loops(facts["loops"], np.where(d <= tol, j, -1), Fw)
+    raw = metrics.mesh_checks(V_out, F_out)
     m = {
         "loops": int(len(is_hole)),
         "holes": int(is_hole.sum()),
@@ -747,7 +753,11 @@ def measure(case, facts, V_out, F_out, *, n_samples=N_SAMPLES, seed=0):
         "boundary_edges": int(chk["boundary_edges"]),
         "loops_after": int(chk["loops"]),
         "watertight": bool(chk["watertight"]),
-        "euler": euler_characteristic(F_out, len(V_out)),
+        "euler": euler_characteristic(Fw, len(Vw)),
+        "duplicate_positions": int(len(V_out) - len(Vw)),
+        "faces_collapsed": int(len(F_out) - len(Fw)),
+        "nonmanifold_edges_by_index": int(raw["nonmanifold_edges"]),
+        "boundary_edges_by_index": int(raw["boundary_edges"]),
         "euler_truth": int(facts["euler_truth"]),
         "faces_added": int(added.sum()),
         "si_added": triangle_pairs_added(V_out, F_out, added),
@@ -904,9 +914,10 @@ def markdown(result):
               "`borders` are the rest). A loop is closed when each of its edges still in the output has exactly two "
               "faces, and no boundary or non-manifold output edge touches an edge of it that a tool re-triangulated. "
               "si+: intersecting face pairs involving an added face. orig: input vertices not bit-identical in "
-              "the output. nm / bd: non-manifold / boundary edges of the output. topology: watertight with the "
+              "the output. nm / bd: non-manifold / boundary edges of the output, vertices welded by position. topology: watertight with the "
               "truth's Euler characteristic. faces gone: input faces missing from the output (a tool that "
-              "re-triangulated the rim). RMS: added faces to the true "
+              "re-triangulated the rim). collapsed: output faces whose corners share a position (no surface; left out of "
+              "the topology). RMS: added faces to the true "
               f"surface, ‰ of the bounding-box diagonal. ×best: ours over the best peer that closed every hole "
               f"(median). A case over {SLOW_SECONDS:g} s for ours is flagged SLOW.", "",
               "## Totals per tool", "",
@@ -938,8 +949,8 @@ def markdown(result):
             lines.append(f"| {fam} | {n_fam} | " + " | ".join(cells) + " |")
     lines += ["", "## Every case", "",
               "| case | description | loops (borders) | tool | status | holes closed | si+ | orig | nm | bd | topology "
-              "| faces gone | s | RMS ‰ |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| faces gone | collapsed | s | RMS ‰ |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in result["cases"]:
         for r in result["rows"]:
             if r["case"] != c["name"]:
@@ -947,13 +958,13 @@ def markdown(result):
             head = (f"| {c['name']} | {c['description']} | {c['loops']} ({c['loops'] - c['holes']}) "
                     if r["tool"] == result["tools"][0] else "| | | ")
             if r.get("status") != "ok":
-                lines.append(head + f"| {r['tool']} | **{r.get('status')}** | 0/{r.get('holes')} | – | – | – | – | – | – "
+                lines.append(head + f"| {r['tool']} | **{r.get('status')}** | 0/{r.get('holes')} | – | – | – | – | – | – | – "
                              f"| {_num(r.get('seconds'))} | {str(r.get('error', ''))[:70]} |")
                 continue
             lines.append(head + f"| {r['tool']} | ok | {r['holes_closed']}/{r['holes']} | {r['si_added']} "
                          f"| {r['orig_changed']} | {r['nonmanifold_edges']} | {r['boundary_edges']} "
                          f"| {'yes' if r.get('topology_ok') else '**no**'} (χ {r.get('euler')} / {r.get('euler_truth')}) "
-                         f"| {r.get('input_faces_missing')} | {_num(r['seconds'])}{' **SLOW**' if r.get('slow') else ''} | {_num(r.get('rms_permille'))} |")
+                         f"| {r.get('input_faces_missing')} | {r.get('faces_collapsed')} | {_num(r['seconds'])}{' **SLOW**' if r.get('slow') else ''} | {_num(r.get('rms_permille'))} |")
     fails = [r for r in result["rows"] if r["tool"] == OURS
              and (r.get("status") != "ok" or any(k != "filled" for k in (r.get("statuses") or {})))]
     if fails:

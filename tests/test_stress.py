@@ -79,11 +79,15 @@ def test_closed_loops_tells_a_filled_hole_from_an_open_one():
     fan = np.column_stack([np.roll(lp, -1), lp, np.full(len(lp), c)])
     Vo = np.vstack([V2, V2[lp].mean(axis=0)])
     Fo = np.vstack([F2, fan])
-    out_to_in = np.r_[np.arange(len(V2)), -1]
-    assert stress.closed_loops(loops, len(V2), Fo, out_to_in).tolist() == [True, False]
+    in_to_out = np.arange(len(V2))
+    assert stress.closed_loops(loops, in_to_out, Fo).tolist() == [True, False]
     # a third face on a rim edge leaves the loop open (non-manifold)
     extra = np.array([[lp[1], lp[0], c]])
-    assert stress.closed_loops(loops, len(V2), np.vstack([Fo, extra]), out_to_in).tolist() == [False, False]
+    assert stress.closed_loops(loops, in_to_out, np.vstack([Fo, extra])).tolist() == [False, False]
+    # a loop vertex missing from the output leaves it open
+    gone = in_to_out.copy()
+    gone[lp[0]] = -1
+    assert stress.closed_loops(loops, gone, Fo).tolist() == [False, False]
 
 
 def test_cases_are_reproducible_from_seed_and_index():
