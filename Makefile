@@ -12,7 +12,7 @@ SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 # python3 -m venv needs ensurepip, which Debian ships apart
 VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
 
-.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance
+.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance stress
 
 # `make setup` forces the install; every target that runs the package
 # depends on the stamp, so a fresh clone installs on its first command and
@@ -96,3 +96,11 @@ clean:
 appearance: $(STAMP)
 	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the run records them as missing"
 	$(PY) eval/appearance.py
+
+# randomized stress: N cases drawn from SEED (seeds < 1000 for development,
+# >= 1000 kept for validation), ours against CGAL and MeshLib when installed
+N    ?= 12
+SEED ?= 1000
+stress: $(STAMP)
+	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the stress suite records them as missing"
+	$(PY) eval/stress.py --n $(N) --seed $(SEED)

@@ -1,0 +1,179 @@
+"""A seeded slice of the stress suite (eval/stress.py), and its measuring tools.
+
+The slice takes a few cheap procedural cases (coarse meshes, ``quick=True``)
+of design seeds (below 1000; the suite's validation seeds start at 1000)
+and asserts what issue 13 asks of every case: original vertices
+bit-identical, no self-intersection added, every loop classed ``hole``
+closed, and, since the truths are closed, every loop classed ``hole`` and
+the truth's topology restored. A property that the current fill does not
+meet on a case is marked ``xfail(strict=False)`` with the failure it shows,
+so it is flipped (the mark removed) when the fix lands.
+
+The measuring functions are tested first on meshes whose answer is known,
+so a failing slice test is the fill's failure, not the suite's.
+"""
+
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+from eval import stress
+from shellrepair import shapes
+
+
+# --------------------------------------------------------------------------
+# the measuring tools
+# --------------------------------------------------------------------------
+def _tri_pair(B):
+    """Triangle A in z = 0 and triangle B as given, as one mesh; B is 'added'."""
+    V = np.vstack([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], B]).astype(float)
+    F = np.array([[0, 1, 2], [3, 4, 5]], np.int64)
+    return V, F, np.array([False, True])
+
+
+def test_a_triangle_piercing_another_is_one_pair():
+    V, F, added = _tri_pair([[0.2, 0.2, -1], [0.3, 0.2, 1], [0.2, 0.3, 1]])
+    assert stress.triangle_pairs_added(V, F, added) == 1
+
+
+def test_triangles_touching_or_apart_are_no_pair():
+    # a corner of B on A's interior (touching), and B above A
+    V, F, added = _tri_pair([[0.2, 0.2, 0], [0.3, 0.2, 1], [0.2, 0.3, 1]])
+    assert stress.triangle_pairs_added(V, F, added) == 0
+    V, F, added = _tri_pair([[0.2, 0.2, 0.1], [0.3, 0.2, 1], [0.2, 0.3, 1]])
+    assert stress.triangle_pairs_added(V, F, added) == 0
+
+
+def test_pairs_of_original_faces_only_are_not_counted():
+    V, F, added = _tri_pair([[0.2, 0.2, -1], [0.3, 0.2, 1], [0.2, 0.3, 1]])
+    assert stress.triangle_pairs_added(V, F, np.zeros(2, bool)) == 0
+
+
+def test_a_face_folded_onto_its_neighbour_is_a_pair_and_a_hinge_is_not():
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.5, 0.5, 0.0]], float)
+    folded = np.array([[0, 1, 2], [0, 3, 1]], np.int64)  # the same side of edge 0-1, flat
+    assert stress.triangle_pairs_added(V, folded, np.array([False, True])) == 1
+    V2 = V.copy()
+    V2[3] = [0.5, -0.5, 0.3]  # the other side of the edge: an ordinary hinge
+    assert stress.triangle_pairs_added(V2, folded, np.array([False, True])) == 0
+
+
+def test_a_crossing_beside_a_duplicated_shared_corner_is_one_pair():
+    # B shares A's corner (0,0,0) through a duplicate vertex; its opposite edge pierces A
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0], [0.3, 0.3, -0.5], [0.3, 0.3, 0.5]], float)
+    F = np.array([[0, 1, 2], [3, 4, 5]], np.int64)
+    assert stress.triangle_pairs_added(V, F, np.array([False, True])) == 1
+
+
+def test_closed_loops_tells_a_filled_hole_from_an_open_one():
+    V, F = shapes.icosphere(2)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.5, seed=1)
+    from shellrepair.holes import boundary_loops
+
+    loops, _ = boundary_loops(F2, len(V2))
+    assert len(loops) == 2
+    # fill the first loop with a fan around a new centre vertex
+    lp = loops[0]
+    c = len(V2)
+    fan = np.column_stack([np.roll(lp, -1), lp, np.full(len(lp), c)])
+    Vo = np.vstack([V2, V2[lp].mean(axis=0)])
+    Fo = np.vstack([F2, fan])
+    in_to_out = np.arange(len(V2))
+    assert stress.closed_loops(loops, in_to_out, Fo).tolist() == [True, False]
+    # a third face on a rim edge leaves the loop open (non-manifold)
+    extra = np.array([[lp[1], lp[0], c]])
+    assert stress.closed_loops(loops, in_to_out, np.vstack([Fo, extra])).tolist() == [False, False]
+    # a loop vertex missing from the output leaves it open
+    gone = in_to_out.copy()
+    gone[lp[0]] = -1
+    assert stress.closed_loops(loops, gone, Fo).tolist() == [False, False]
+
+
+def test_cases_are_reproducible_from_seed_and_index():
+    a = stress.stress_case(3, 7, quick=True, family="slit", shape="bumpy")
+    b = stress.stress_case(3, 7, quick=True, family="slit", shape="bumpy")
+    c = stress.stress_case(4, 7, quick=True, family="slit", shape="bumpy")
+    assert np.array_equal(a.V, b.V) and np.array_equal(a.F, b.F) and a.params == b.params
+    assert not (len(a.F) == len(c.F) and np.array_equal(a.V, c.V))
+
+
+def test_scanner_cases_keep_the_unseen_area_in_their_range():
+    for fam in ("scanner", "scanner-hard"):
+        case = stress.stress_case(0, 11, quick=True, family=fam, shape="torus-0.3")
+        lo, hi = stress.UNSEEN[fam]
+        assert lo < case.params["unseen_area_pct"] / 100 <= hi, case.params
+        assert 3 <= case.params["views"] <= 16
+
+
+def test_every_family_is_drawn_once_in_six_cases():
+    assert sorted(stress.family_of(i, 1000) for i in range(6)) == sorted(stress.FAMILIES)
+
+
+# --------------------------------------------------------------------------
+# the slice: ours on a few seeded cases
+# --------------------------------------------------------------------------
+#: (family, shape, index, seed) -> the properties the current fill misses there
+SLICE = {
+    ("band", "torus-0.5", 1, 2): {},
+    ("slit", "torus-0.5", 0, 0): {},
+    ("scanner", "genus2", 1, 0): {},
+    ("base", "bumpy", 0, 1): {},
+    ("band", "torus-0.15", 5, 3): {
+        "topology": "a band across the thin (r/R 0.15) torus's tube is capped on both sides (Euler 2, truth 0), "
+                    "not joined by a tube"},
+    ("scanner-hard", "bumpy", 3, 2): {
+        "classed": "the one loop of a bumpy sphere 42 % unseen from a ring at 55° is classed border "
+                   "(outer edge: 74 % of the piece within the opening)",
+        "topology": "the loop classed border stays open"},
+}
+
+
+@lru_cache(maxsize=None)
+def _outcome(key):
+    from eval import peers
+
+    family, shape, index, seed = key
+    case = stress.stress_case(index, seed, quick=True, family=family, shape=shape)
+    facts = stress.input_facts(case)
+    V, F, info = peers.run_tool("ours-o2", case.V, case.F)
+    return case, facts, stress.measure(case, facts, V, F, n_samples=2000), info
+
+
+def _params(prop):
+    out = []
+    for key, fails in SLICE.items():
+        marks = [pytest.mark.xfail(strict=False, reason=fails[prop])] if prop in fails else []
+        out.append(pytest.param(key, marks=marks, id="-".join(map(str, key))))
+    return out
+
+
+@pytest.mark.parametrize("key", _params("originals"))
+def test_slice_keeps_original_vertices_bit_identical(key):
+    _, _, m, _ = _outcome(key)
+    assert m["orig_changed"] == 0
+
+
+@pytest.mark.parametrize("key", _params("intersections"))
+def test_slice_adds_no_self_intersection(key):
+    _, _, m, _ = _outcome(key)
+    assert m["si_added"] == 0
+
+
+@pytest.mark.parametrize("key", _params("closed"))
+def test_slice_closes_every_hole_loop(key):
+    _, _, m, info = _outcome(key)
+    assert m["holes_closed"] == m["holes"], info["statuses"]
+    assert m["nonmanifold_edges"] == 0
+
+
+@pytest.mark.parametrize("key", _params("classed"))
+def test_slice_classes_every_loop_of_a_closed_truth_hole(key):
+    _, facts, _, _ = _outcome(key)
+    assert facts["is_hole"].all(), facts["border_reasons"]
+
+
+@pytest.mark.parametrize("key", _params("topology"))
+def test_slice_restores_the_truths_topology(key):
+    _, _, m, _ = _outcome(key)
+    assert m["watertight"] and m["euler"] == m["euler_truth"], (m["euler"], m["euler_truth"], m["boundary_edges"])
