@@ -316,6 +316,7 @@ def _render(args):
         except (ValueError, AssertionError):
             raise MeshError(f"--view must be AZ,EL in degrees, got '{args.view}'") from None
     out = Path(args.output)
+    rd.image_format(out)  # an unknown image extension is refused before the work
     from .io import check_output_path
     check_output_path(out, what="output")
     if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
@@ -340,7 +341,7 @@ def _render(args):
                   and mesh.face_filled.any() else None)
         img = rd.render_mesh(mesh.V, mesh.F, filled=mesh.face_filled, highlight_filled=args.highlight_filled,
                              vertex_colors=mesh.vertex_colors, legend=legend, info=info, **kw)
-    rd.save_png(out, img)
+    rd.save_image(out, img)
     choice = info["model"]
     print(f"unit: {unit} ({unit_reason})")
     print(f"pixel footprint {info['footprint_um']:.3g} um: {choice.model} model ({choice.reason})")

@@ -44,6 +44,7 @@ __all__ = [
     "render_mesh",
     "render_side_by_side",
     "save_png",
+    "save_image",
     "infer_unit",
     "draw_label",
     "draw_legend",
@@ -758,8 +759,28 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     return np.concatenate([panels["before"], sep, panels["after"]], axis=1)
 
 
-def save_png(path, image):
-    """Write an RGB image as PNG atomically.
+#: Image formats by file extension (Pillow's names).
+IMAGE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".tif": "TIFF", ".tiff": "TIFF"}
+
+
+def image_format(path):
+    """Pillow's format name for an image path, from its extension.
+
+    Raises
+    ------
+    MeshError
+        For an extension that is not PNG, JPEG or TIFF.
+    """
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext not in IMAGE_FORMATS:
+        raise _InputError("unknown image extension '%s' (expected one of %s)"
+                          % (ext, ", ".join(sorted(IMAGE_FORMATS))))
+    return IMAGE_FORMATS[ext]
+
+
+def save_image(path, image):
+    """Write an RGB image atomically, in the format its extension names
+    (PNG, JPEG at quality 92, TIFF).
 
     Parameters
     ----------
@@ -768,29 +789,31 @@ def save_png(path, image):
 
     Notes
     -----
-    The PNG is written to a temporary file in the target folder and moved
+    The image is written to a temporary file in the target folder and moved
     into place with ``os.replace``, so a failure leaves no partial file.
 
     Raises
     ------
     ValueError
-        If image is not (H,W,3) uint8.
+        If image is not (H,W,3) uint8, or the extension is unknown.
     OSError
         If the folder does not exist or is not writable.
     """
     from PIL import Image
 
+    fmt = image_format(path)
     img = np.asarray(image)
     if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
         raise ValueError("image must be an (H,W,3) uint8 array, got %s %s" % (img.shape, img.dtype))
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".png")
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.splitext(path)[1])
     try:
         from .io import new_file_mode
         os.fchmod(fd, new_file_mode())  # as a plain open() would, not mkstemp's 0600
         with os.fdopen(fd, "wb") as fh:
-            Image.fromarray(img, "RGB").save(fh, format="PNG")
+            kw = {"quality": 92} if fmt == "JPEG" else {}
+            Image.fromarray(img, "RGB").save(fh, format=fmt, **kw)
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -798,3 +821,8 @@ def save_png(path, image):
         except OSError:
             pass
         raise
+
+
+def save_png(path, image):
+    """Write an RGB image (the format from the extension; see :func:`save_image`)."""
+    save_image(path, image)

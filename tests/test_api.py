@@ -45,3 +45,26 @@ def test_version_on_the_command_line(capsys):
         main(["--version"])
     assert exc.value.code == 0
     assert capsys.readouterr().out.strip() == f"shellrepair {shellrepair.__version__}"
+
+
+@pytest.mark.parametrize("ext, magic", [(".jpg", b"\xff\xd8\xff"), (".png", b"\x89PNG"), (".tiff", b"II*\x00")])
+def test_render_writes_the_format_its_extension_names(tmp_path, ext, magic):
+    from shellrepair.cli import main
+
+    V, F = _open_sphere()
+    scan = tmp_path / "s.ply"
+    shellrepair.write_mesh(scan, shellrepair.Mesh(V=V, F=F))
+    out = tmp_path / ("view" + ext)
+    assert main(["render", str(scan), "-o", str(out), "--size", "64x48"]) == 0
+    assert out.read_bytes()[:len(magic)] == magic
+
+
+def test_render_refuses_an_unknown_image_extension_before_the_work(tmp_path, capsys):
+    from shellrepair.cli import main
+
+    V, F = _open_sphere()
+    scan = tmp_path / "s.ply"
+    shellrepair.write_mesh(scan, shellrepair.Mesh(V=V, F=F))
+    assert main(["render", str(scan), "-o", str(tmp_path / "view.gif")]) == 2
+    assert "unknown image extension '.gif'" in capsys.readouterr().err
+    assert not (tmp_path / "view.gif").exists()
