@@ -138,6 +138,19 @@ class Mesh:
     fixes: dict = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
+    def __repr__(self):
+        """One line: sizes and what the mesh carries, never the arrays."""
+        extra = []
+        if self.vertex_colors is not None:
+            extra.append("colours")
+        if self.face_filled is not None:
+            extra.append(f"{int(np.count_nonzero(self.face_filled))} filled faces")
+        if self.vertex_props:
+            extra.append("props " + ",".join(sorted(self.vertex_props)))
+        where = f" from {Path(self.path).name!r}" if self.path else ""
+        more = ("; " + "; ".join(extra)) if extra else ""
+        return f"Mesh({self.n_vertices:,} vertices, {self.n_faces:,} faces{more}{where})"
+
     def cached(self, name):
         """Whole-mesh data :func:`read_mesh` computed on its way, or None
         (when it computed none, or ``V`` or ``F`` has changed since).

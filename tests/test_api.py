@@ -68,3 +68,9 @@ def test_render_refuses_an_unknown_image_extension_before_the_work(tmp_path, cap
     assert main(["render", str(scan), "-o", str(tmp_path / "view.gif")]) == 2
     assert "unknown image extension '.gif'" in capsys.readouterr().err
     assert not (tmp_path / "view.gif").exists()
+
+
+def test_a_mesh_prints_as_one_short_line():
+    V, F = icosphere(5)
+    text = repr(shellrepair.Mesh(V=V, F=F))
+    assert text == f"Mesh({len(V):,} vertices, {len(F):,} faces)" and "\n" not in text
