@@ -13,10 +13,11 @@ from .errors import MeshError
 from .io import Mesh, read_mesh, write_mesh
 from .holes import detect_holes, boundary_loops
 from .convert import as_mesh, to_open3d, to_trimesh
+from .options import RepairOptions
 
 __version__ = "0.1.0"
 __all__ = ["MeshError", "Mesh", "read_mesh", "write_mesh", "detect_holes", "boundary_loops", "repair_mesh",
-           "render_mesh", "as_mesh", "to_open3d", "to_trimesh", "__version__"]
+           "render_mesh", "as_mesh", "to_open3d", "to_trimesh", "RepairOptions", "__version__"]
 
 
 def __getattr__(name):

@@ -121,7 +121,7 @@ def _repair_one(scan, out, report_path, options, progress, picture=None):
     t0 = time.perf_counter()
     mesh = read_mesh(scan, progress=progress)
     row = {"vertices": mesh.n_vertices, "faces": mesh.n_faces}
-    repaired, report = repair_mesh(mesh, progress=progress, **options)
+    repaired, report = repair_mesh(mesh, progress=progress, **options)  # options: RepairOptions.as_dict()
     report["file"] = str(scan)
     report["output"] = str(out)
     report["notes"] = list(repaired.notes)
@@ -157,8 +157,7 @@ def _totals(rows):
             "rate": interpolation_rate(before, after) if before else None}
 
 
-def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_borders=False, method="fair",
-                  bridge="auto", jobs=1, progress=None, on_scan=None, html=False, closed=None):
+def repair_folder(folder, outdir, options=None, *, progress=None, on_scan=None, html=False, **changes):
     """Repair every scan of ``folder`` into ``outdir``.
 
     Parameters
@@ -167,8 +166,11 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
         Where the scans are (not searched recursively).
     outdir : str or Path
         Where outputs go; created if missing (its parent must exist).
-    order, smooth, max_hole, fill_borders, method, bridge, jobs, closed
-        Passed to :func:`shellrepair.repair.repair_mesh` for every scan.
+    options : RepairOptions, optional
+        The repair options for every scan
+        (:class:`shellrepair.options.RepairOptions`); default: the defaults.
+    **changes
+        Any option by name, applied over ``options``.
     progress : bool, optional
         Draw progress bars on stderr; default: when stderr is a terminal.
     on_scan : callable, optional
@@ -200,14 +202,9 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
     from .io import atomic_write
     from .progress import Progress, prefix, progress_enabled
 
-    if int(jobs) < 1:
-        raise MeshError(f"--jobs must be at least 1, got {jobs}")
-    if smooth < 0:
-        raise MeshError(f"--smooth must be 0 or more, got {smooth}")
-    if max_hole is not None and max_hole < 1:
-        raise MeshError(f"--max-hole must be at least 1, got {max_hole}")
-    if order not in (1, 2, 3, "auto"):
-        raise MeshError(f"order must be 1, 2, 3 or 'auto', got {order!r}")
+    from .options import RepairOptions
+
+    opts = RepairOptions.make(options, **changes)  # checked once, before any scan
     folder = Path(folder)
     same = False
     if Path(outdir).is_dir() and folder.is_dir():
@@ -216,8 +213,7 @@ def repair_folder(folder, outdir, *, order=2, smooth=0, max_hole=None, fill_bord
     if not scans:
         raise MeshError(f"no scans ({', '.join('*' + e for e in SCAN_EXTENSIONS)}) in the folder", folder)
     outdir = _prepare_outdir(outdir)
-    options = dict(order=order, smooth=smooth, max_hole=max_hole, fill_borders=fill_borders, method=method,
-                   bridge=bridge, jobs=int(jobs), closed=closed)
+    options = opts.as_dict()
     draw = progress_enabled() if progress is None else bool(progress)
     summary = {"folder": str(folder), "outdir": str(outdir), "options": options, "complete": False,
                "scans": []}

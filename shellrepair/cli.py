@@ -179,6 +179,16 @@ def main(argv=None):
         return 1
 
 
+def _options(args):
+    """The repair options of the command line, checked once
+    (:class:`shellrepair.options.RepairOptions`)."""
+    from .options import RepairOptions
+
+    return RepairOptions(order=args.order, smooth=args.smooth, max_hole=args.max_hole,
+                         fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
+                         bridge=args.bridge, closed=_closed(args))
+
+
 def _closed(args):
     """--closed as detect_holes takes it."""
     return {"auto": None, "yes": True, "no": False}[args.closed]
@@ -189,6 +199,9 @@ def _holes(args):
     from .io import read_mesh
     from .report import holes_dict, holes_table
 
+    from .options import RepairOptions
+
+    RepairOptions(max_hole=args.max_hole, fill_borders=args.fill_borders, closed=_closed(args))  # checked first
     mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
     scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders,
                         closed=_closed(args),
@@ -238,17 +251,10 @@ def _repair(args):
         check_output_path(page, what="page")
         if any(_same_file(page, p) for p in (args.scan, out, report_path)):
             raise MeshError("the page would overwrite the scan, the output or the report", page)
-    if args.jobs < 1:
-        raise MeshError(f"--jobs must be at least 1, got {args.jobs}")
-    if args.smooth < 0:
-        raise MeshError(f"--smooth must be 0 or more, got {args.smooth}")
-    if args.max_hole is not None and args.max_hole < 1:
-        raise MeshError(f"--max-hole must be at least 1, got {args.max_hole}")
+    opts = _options(args)  # every check that needs no reading happens before the work
     t0 = time.perf_counter()
     mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
-    repaired, report = repair_mesh(mesh, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
-                                   fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
-                                   progress=sys.stderr.isatty(), bridge=args.bridge, closed=_closed(args))
+    repaired, report = repair_mesh(mesh, opts, progress=sys.stderr.isatty())
     report["file"] = str(args.scan)
     report["output"] = str(out)
     report["notes"] = list(mesh.notes)
@@ -258,8 +264,7 @@ def _repair(args):
     if page is not None:
         from .htmlreport import figure, file_sha256, scan_page
 
-        options = dict(order=args.order, smooth=args.smooth, max_hole=args.max_hole, fill_borders=args.fill_borders,
-                       method=args.method, jobs=args.jobs, bridge=args.bridge, closed=args.closed)
+        options = opts.as_dict()
         items.append((page, scan_page(report, figure(mesh, repaired, report), options=options,
                                       sha256=file_sha256(args.scan))))
     # mesh, report (and page) appear together or not at all
@@ -283,9 +288,7 @@ def _batch(args):
                     else f"error: {row['error']}")
             print(f"{row['file']}: {what} ({row['seconds']:.1f} s)", flush=True)
 
-    summary = repair_folder(args.dir, args.outdir, order=args.order, smooth=args.smooth, max_hole=args.max_hole,
-                            fill_borders=args.fill_borders, method=args.method, bridge=args.bridge,
-                            jobs=args.jobs, on_scan=line, html=args.html, closed=_closed(args))
+    summary = repair_folder(args.dir, args.outdir, _options(args), on_scan=line, html=args.html)
     if args.json:
         print(json.dumps(summary, indent=1))
     else:

@@ -1005,38 +1005,22 @@ def _edges_of(T):
     return np.sort(E, axis=1)
 
 
-def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, method="fair",
-                jobs=1, progress=False, bridge="auto", closed=None):
+def repair_mesh(mesh, options=None, *, progress=False, **changes):
     """Fill the holes of a mesh.
 
     Parameters
     ----------
     mesh : Mesh, (V, F), open3d or trimesh mesh, or path
         See :func:`shellrepair.convert.as_mesh`.
-    order : {1, 2, 3, "auto"}
-        Fairing order: harmonic, bilaplacian (default), curvature-continuous.
-    smooth : int
-        Non-shrinking smoothing passes of each patch after fairing (for
-        ``method="seed"``: passes over the whole duplicate, default 10).
-    max_hole : int, optional
-        Loops with more edges stay open.
-    fill_borders : bool
-        Fill borders too.
-    method : {"fair", "seed"}
-    closed : bool or None
-        How each piece is read (see :func:`shellrepair.holes.detect_holes`):
-        None infers it from the piece's normals, True reads every piece as
-        part of a closed object (every loop a hole), False as a single view
-        (its outer rim a border).
-    jobs : int
-        Processes building patches; the output is the same for any value.
+    options : RepairOptions, optional
+        How holes are found and filled (:class:`shellrepair.options.RepairOptions`:
+        ``order``, ``smooth``, ``max_hole``, ``fill_borders``, ``method``,
+        ``jobs``, ``bridge``, ``closed``); default: the defaults.
     progress : bool
         Print progress to stderr.
-    bridge : {"auto", "never", "always"}
-        Missing bands between two facing loops: ``auto`` builds the tube
-        and the two caps and keeps the one with the lower thin-plate
-        energy; ``always`` keeps a valid tube; ``never`` caps every loop
-        (see :mod:`shellrepair.bridge`).
+    **changes
+        Any option by name, applied over ``options``
+        (``repair_mesh(mesh, order="auto", jobs=2)``).
 
     Returns
     -------
@@ -1049,15 +1033,12 @@ def repair_mesh(mesh, *, order=2, smooth=0, max_hole=None, fill_borders=False, m
     """
     from .convert import as_mesh
 
+    from .options import RepairOptions
+
+    opts = RepairOptions.make(options, **changes)  # checked once, messages name the option
+    order, smooth, max_hole, fill_borders = opts.order, opts.smooth, opts.max_hole, opts.fill_borders
+    method, jobs, bridge, closed = opts.method, opts.jobs, opts.bridge, opts.closed
     mesh = as_mesh(mesh)  # a (V, F) pair, an open3d or trimesh mesh, or a path
-    if order not in (1, 2, 3, "auto"):
-        raise MeshError(f"order must be 1, 2, 3 or 'auto', got {order!r}")
-    if method not in ("fair", "seed"):
-        raise MeshError(f"method must be 'fair' or 'seed', got {method!r}")
-    if bridge not in ("auto", "never", "always"):
-        raise MeshError(f"bridge must be 'auto', 'never' or 'always', got {bridge!r}")
-    if closed not in (None, True, False):
-        raise MeshError(f"closed must be None, True or False, got {closed!r}")
     t0 = time.perf_counter()
     _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
     known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh

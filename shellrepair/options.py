@@ -1,0 +1,111 @@
+"""The options of a repair, checked once.
+
+:class:`RepairOptions` is what :func:`shellrepair.repair.repair_mesh`,
+:func:`shellrepair.batch.repair_folder` and the command line share: one
+frozen record, validated when it is made, whose messages name the option
+(``jobs must be at least 1, got 0``), not a command-line flag.
+
+>>> RepairOptions(order="auto", jobs=2).order
+'auto'
+>>> RepairOptions(smooth=-1)
+Traceback (most recent call last):
+...
+shellrepair.errors.MeshError: smooth must be a whole number, 0 or more, got -1
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import numbers
+from dataclasses import dataclass
+
+from .errors import MeshError
+
+__all__ = ["RepairOptions"]
+
+_ORDERS = (1, 2, 3, "auto")
+_METHODS = ("fair", "seed")
+_BRIDGES = ("auto", "never", "always")
+
+
+def _whole(x):
+    return isinstance(x, numbers.Integral) and not isinstance(x, bool)
+
+
+@dataclass(frozen=True)
+class RepairOptions:
+    """How holes are found and filled.
+
+    Attributes
+    ----------
+    order : {1, 2, 3, "auto"}
+        Fairing order: harmonic, bilaplacian (default), curvature-continuous;
+        ``"auto"`` keeps order 3 where it moves the order-2 patch little.
+    smooth : int
+        Non-shrinking smoothing passes of each patch after fairing (for
+        ``method="seed"``: passes over the whole duplicate).
+    max_hole : int or None
+        Loops with more edges stay open (borders).
+    fill_borders : bool
+        Fill borders too.
+    method : {"fair", "seed"}
+        The faired shells, or the paper's simple shape model.
+    jobs : int
+        Processes building patches; the output is the same for any value.
+    bridge : {"auto", "never", "always"}
+        Bands between two loops: tube or caps by energy, caps only, or any
+        valid tube.
+    closed : bool or None
+        How each piece is read: None infers it from its normals, True reads
+        every piece as part of a closed object, False as a single view.
+    """
+
+    order: object = 2
+    smooth: int = 0
+    max_hole: int | None = None
+    fill_borders: bool = False
+    method: str = "fair"
+    jobs: int = 1
+    bridge: str = "auto"
+    closed: bool | None = None
+
+    def __post_init__(self):
+        if isinstance(self.order, bool) or self.order not in _ORDERS:
+            raise MeshError(f"order must be 1, 2, 3 or 'auto', got {self.order!r}")
+        if not _whole(self.smooth) or self.smooth < 0:
+            raise MeshError(f"smooth must be a whole number, 0 or more, got {self.smooth!r}")
+        if self.max_hole is not None and (not _whole(self.max_hole) or self.max_hole < 1):
+            raise MeshError(f"max_hole must be a whole number, at least 1, got {self.max_hole!r}")
+        if not isinstance(self.fill_borders, bool):
+            raise MeshError(f"fill_borders must be True or False, got {self.fill_borders!r}")
+        if self.method not in _METHODS:
+            raise MeshError(f"method must be 'fair' or 'seed', got {self.method!r}")
+        if not _whole(self.jobs) or self.jobs < 1:
+            raise MeshError(f"jobs must be a whole number, at least 1, got {self.jobs!r}")
+        if self.bridge not in _BRIDGES:
+            raise MeshError(f"bridge must be 'auto', 'never' or 'always', got {self.bridge!r}")
+        if self.closed not in (None, True, False):
+            raise MeshError(f"closed must be None, True or False, got {self.closed!r}")
+        # NumPy integers in, plain ints kept (reports are JSON)
+        for name in ("smooth", "jobs") + (("max_hole",) if self.max_hole is not None else ()) + \
+                (("order",) if self.order != "auto" else ()):
+            object.__setattr__(self, name, int(getattr(self, name)))
+
+    def replace(self, **changes):
+        """A copy with some options changed (validated again)."""
+        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise MeshError(f"unknown repair option(s): {', '.join(sorted(unknown))}")
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self):
+        """The options as a plain dict (for reports and summaries)."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def make(cls, options=None, **changes):
+        """``options`` (or the defaults) with ``changes`` applied."""
+        base = cls() if options is None else options
+        if not isinstance(base, cls):
+            raise MeshError(f"options must be a RepairOptions, got {type(base).__name__}")
+        return base.replace(**changes) if changes else base

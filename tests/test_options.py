@@ -1,0 +1,54 @@
+"""One options object for the library, the batch and the command line."""
+
+import numpy as np
+import pytest
+
+from shellrepair import MeshError
+from shellrepair.options import RepairOptions
+from shellrepair.repair import repair_mesh
+from shellrepair.shapes import icosphere
+
+
+@pytest.mark.parametrize("bad, word", [(dict(order=4), "order"), (dict(order=True), "order"),
+                                       (dict(smooth=-1), "smooth"), (dict(smooth=1.5), "smooth"),
+                                       (dict(max_hole=0), "max_hole"), (dict(jobs=0), "jobs"),
+                                       (dict(method="x"), "method"), (dict(bridge="x"), "bridge"),
+                                       (dict(closed="yes"), "closed"), (dict(fill_borders=1), "fill_borders")])
+def test_a_bad_option_is_one_error_that_names_the_option_not_a_flag(bad, word):
+    with pytest.raises(MeshError) as exc:
+        RepairOptions(**bad)
+    assert str(exc.value).startswith(word + " must") and "--" not in str(exc.value)
+
+
+def test_options_and_keywords_give_the_same_repair_bit_for_bit():
+    V, F = icosphere(3)
+    F = F[12:]
+    a, ra = repair_mesh((V, F), RepairOptions(order="auto", jobs=1))
+    b, rb = repair_mesh((V, F), order="auto")
+    c, rc = repair_mesh((V, F), RepairOptions(order=2), order="auto")   # keywords over options
+    for m in (b, c):
+        assert np.array_equal(a.V, m.V) and np.array_equal(a.F, m.F)
+    drop = lambda rows: [{k: v for k, v in h.items() if k != "seconds"} for h in rows]
+    assert drop(ra["holes"]) == drop(rb["holes"])
+
+
+def test_unknown_options_and_numpy_integers():
+    with pytest.raises(MeshError, match="unknown repair option"):
+        RepairOptions().replace(colour="red")
+    o = RepairOptions(jobs=np.int64(2), max_hole=np.int32(50))
+    assert type(o.jobs) is int and type(o.max_hole) is int and o.as_dict()["jobs"] == 2
+
+
+def test_batch_and_the_command_line_take_order_auto_and_refuse_bad_values(tmp_path, capsys):
+    from shellrepair.cli import main
+    from shellrepair.io import Mesh, write_mesh
+
+    V, F = icosphere(2)
+    (tmp_path / "in").mkdir()
+    write_mesh(tmp_path / "in" / "s.ply", Mesh(V=V, F=F[4:]))
+    assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--order", "auto", "--no-html"]) == 0
+    capsys.readouterr()
+    assert main(["holes", str(tmp_path / "in" / "s.ply"), "--max-hole", "-5"]) == 2
+    assert "max_hole must be" in capsys.readouterr().err
+    assert main(["repair", str(tmp_path / "in" / "s.ply"), "--jobs", "0"]) == 2
+    assert "jobs must be" in capsys.readouterr().err
