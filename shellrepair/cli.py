@@ -51,21 +51,21 @@ def _parser():
     from . import __version__
 
     p = argparse.ArgumentParser(prog="shellrepair", description="Fill the holes of 3D scans with smooth shells.")
-    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors (default: one line)")
     p.add_argument("--version", action="version", version=f"shellrepair {__version__}")
     sub = p.add_subparsers(dest="cmd", required=True)
 
     h = sub.add_parser("holes", help="list the boundary loops of a scan, classed hole or border")
-    h.add_argument("scan")
-    h.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    h.add_argument("scan", help="the scan: PLY, OBJ, OFF or STL")
+    h.add_argument("--json", action="store_true", help="print JSON instead of a table (default: the table)")
     _hole_options(h)
 
     r = sub.add_parser("repair", help="fill the holes and write the repaired scan and a report")
-    r.add_argument("scan")
+    r.add_argument("scan", help="the scan: PLY, OBJ, OFF or STL (never modified)")
     r.add_argument("-o", "--output", help="output mesh (default: SCAN.repaired.ply)")
     r.add_argument("--report", help="JSON report (default: beside the output, .report.json)")
     _repair_options(r)
-    r.add_argument("--json", action="store_true", help="print the JSON report instead of the table")
+    r.add_argument("--json", action="store_true", help="print the JSON report instead of the table (default: the table)")
     r.add_argument("--html", metavar="PAGE.html", default=None,
                    help="also write a self-contained HTML page: Table 1, a before | after picture, the holes, "
                         "provenance (default: none)")
@@ -83,19 +83,24 @@ def _parser():
     b.add_argument("-o", "--outdir", metavar="OUTDIR", required=True,
                    help="output folder, created if missing (its parent must exist)")
     _repair_options(b)
-    b.add_argument("--json", action="store_true", help="print the JSON summary instead of the table")
+    b.add_argument("--json", action="store_true", help="print the JSON summary instead of the table (default: the table)")
     b.add_argument("--no-html", dest="html", action="store_false",
                    help="do not write OUTDIR/index.html and the pictures beside it (default: write them)")
     _hole_options(b)
 
     v = sub.add_parser("render", help="render a mesh with the aged-metal shading")
-    v.add_argument("mesh")
-    v.add_argument("-o", "--output", required=True)
-    v.add_argument("--size", default="1024x768")
-    v.add_argument("--material", default="aged-bronze", choices=("aged-bronze", "gilt", "bronze"))
-    v.add_argument("--highlight-filled", action="store_true")
-    v.add_argument("--view", default=None, help="AZ,EL in degrees")
-    v.add_argument("--before", default=None, help="also render this mesh and put it on the left")
+    v.add_argument("mesh", help="the mesh to render (a repaired PLY shows its filled faces)")
+    v.add_argument("-o", "--output", required=True,
+                   help="the image: .png, .jpg or .tif, its format from the extension")
+    v.add_argument("--size", default="1024x768", help="WIDTHxHEIGHT of each panel in pixels (default: 1024x768)")
+    v.add_argument("--material", default="aged-bronze", choices=("aged-bronze", "gilt", "bronze"),
+                   help="the material (default: aged-bronze)")
+    v.add_argument("--highlight-filled", action="store_true",
+                   help="tint the faces the repair synthesized and face the camera to them (default: off)")
+    v.add_argument("--view", default=None,
+                   help="AZ,EL in degrees (default: 25,15, or facing the filled faces with --highlight-filled)")
+    v.add_argument("--before", default=None,
+                   help="also render this mesh (the scan as read) on the left, with one camera (default: none)")
     v.add_argument("--unit", choices=("mm", "cm", "m"), default=None,
                    help="length unit of the mesh (default: inferred from its size, said in the output); "
                         "sets the pixel footprint and so the reflectance model")
@@ -128,17 +133,17 @@ def _repair_options(p):
     p.add_argument("--order", type=_order, default=2, metavar="{1,2,3,auto}",
                    help="fairing order: 1 harmonic, 2 bilaplacian (default), 3 curvature-continuous, "
                         "auto: 3 where it stays close to 2, else 2")
-    p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch")
+    p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch (default: 0)")
     p.add_argument("--method", choices=("fair", "seed"), default="fair",
                    help="fair: local faired shells (default); seed: the paper's smoothed-copy method")
-    p.add_argument("--jobs", type=int, default=1, help="fill holes on N cores (same output for any N)")
+    p.add_argument("--jobs", type=int, default=1, help="fill holes on N cores, same output for any N (default: 1)")
     p.add_argument("--bridge", choices=("auto", "never", "always"), default="auto",
                    help="two facing loops bounding a missing band: tube or caps (default auto: lower energy)")
 
 
 def _hole_options(p):
-    p.add_argument("--max-hole", type=int, default=None, help="loops with more edges than N are left open")
-    p.add_argument("--fill-borders", action="store_true", help="treat borders (outer edges) as holes too")
+    p.add_argument("--max-hole", type=int, default=None, help="loops with more edges than N are left open (default: no limit)")
+    p.add_argument("--fill-borders", action="store_true", help="treat borders (outer edges) as holes too (default: off)")
     p.add_argument("--closed", choices=("auto", "yes", "no"), default="auto",
                    help="how to read each piece: auto (default) from its normals, yes: part of a closed "
                         "object (every loop a hole, its base included), no: a single view (its outer rim "

@@ -52,3 +52,17 @@ def test_batch_and_the_command_line_take_order_auto_and_refuse_bad_values(tmp_pa
     assert "max_hole must be" in capsys.readouterr().err
     assert main(["repair", str(tmp_path / "in" / "s.ply"), "--jobs", "0"]) == 2
     assert "jobs must be" in capsys.readouterr().err
+
+
+def test_every_option_of_every_command_says_what_it_does_and_its_default():
+    from shellrepair.cli import _parser
+
+    p = _parser()
+    subs = next(a for a in p._actions if a.__class__.__name__ == "_SubParsersAction")
+    for name, sub in subs.choices.items():
+        for a in sub._actions:
+            if a.dest == "help":
+                continue
+            assert a.help, (name, a.dest)
+            if a.option_strings and not a.required:
+                assert "default" in a.help, (name, a.option_strings)
