@@ -123,6 +123,9 @@ class Mesh:
     fixes : dict
         What :func:`manifold_mesh` did (see
         :data:`shellrepair.clean.FIX_COUNTS`); empty when it did not run.
+    comments : list of str
+        A PLY header's ``comment`` and ``obj_info`` lines as read (each with
+        its keyword), written back before shellrepair's own comment.
     """
 
     V: np.ndarray
@@ -135,6 +138,7 @@ class Mesh:
     path: str | None = None
     notes: list = field(default_factory=list)
     F_out: np.ndarray | None = None
+    comments: list = field(default_factory=list)
     fixes: dict = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
@@ -364,7 +368,8 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
             topo = None
     out = Mesh(V=Vx, F=F, vertex_colors=mesh.vertex_colors, vertex_filled=mesh.vertex_filled,
                face_filled=face_filled, vertex_props=dict(mesh.vertex_props), vertex_dtype=mesh.vertex_dtype,
-               path=mesh.path, notes=notes, fixes={k: int(fixes.get(k, 0)) for k in FIX_COUNTS})
+               path=mesh.path, notes=notes, fixes={k: int(fixes.get(k, 0)) for k in FIX_COUNTS},
+               comments=list(getattr(mesh, "comments", [])))
     if Ffile is not None:
         out.F_out, seam_src = _seam_faces(mesh, res.rep, Ffile, F, n + len(src))
         if out.F_out is not None:
@@ -1034,6 +1039,14 @@ _PLY_COLOR_NAMES = (("red", "green", "blue", "alpha"),
 _PLY_INDEX_NAMES = ("vertex_indices", "vertex_index")
 
 
+def _ply_comments(data):
+    """The header's ``comment`` and ``obj_info`` lines, keyword included."""
+    end = data.find(b"end_header")
+    lines = data[:max(end, 0)].decode("ascii", errors="replace").splitlines()
+    return [ln.strip() for ln in lines if ln.split()[:1] in (["comment"], ["obj_info"])
+            and ln.strip() != "comment written by shellrepair"]
+
+
 def _read_ply(data):
     fmt, elements, pos = _parse_ply_header(data)
     names = [e["name"] for e in elements]
@@ -1090,6 +1103,7 @@ def _read_ply(data):
     if others:
         notes.append(f"PLY: elements skipped: {', '.join(others)}")
     mesh.notes.extend(notes)
+    mesh.comments = _ply_comments(data)
     return mesh
 
 
@@ -1416,6 +1430,7 @@ def _ply_bytes(mesh, binary=True):
     if mesh.face_filled is not None:
         ffields.append(("filled", "u1"))
     head = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
+            *[c for c in getattr(mesh, "comments", []) if c.isascii() and "\n" not in c and "\r" not in c],
             "comment written by shellrepair", f"element vertex {n}"]
     head += [f"property {_PLY_NAMES[dt[-2:]]} {name}" for name, dt in vfields]
     head += [f"element face {m}", "property list uchar int vertex_indices"]

@@ -1261,7 +1261,8 @@ def _merge(mesh, V, F, patches):
     V2 = np.vstack([V] + newP) if newP else V.copy()
     F2 = np.vstack([F] + newF) if newF else F.copy()
     out = Mesh(V=V2, F=F2.astype(np.int64, copy=False), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
-               notes=list(mesh.notes), F_out=getattr(mesh, "F_out", None), fixes=dict(getattr(mesh, "fixes", {})))
+               notes=list(mesh.notes), F_out=getattr(mesh, "F_out", None), fixes=dict(getattr(mesh, "fixes", {})),
+               comments=list(getattr(mesh, "comments", [])))
     if mesh.vertex_colors is not None:
         out.vertex_colors = np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)
     out.vertex_props = {k: np.concatenate([np.asarray(mesh.vertex_props[k])] + v) for k, v in props.items()}
@@ -1285,7 +1286,7 @@ def _as_mesh(mesh):
                 vertex_colors=getattr(mesh, "vertex_colors", None), vertex_props=dict(getattr(mesh, "vertex_props", {})),
                 vertex_dtype=getattr(mesh, "vertex_dtype", "f8"), path=getattr(mesh, "path", None),
                 vertex_filled=getattr(mesh, "vertex_filled", None), face_filled=getattr(mesh, "face_filled", None),
-                notes=list(getattr(mesh, "notes", [])))
+                notes=list(getattr(mesh, "notes", [])), comments=list(getattr(mesh, "comments", [])))
 
 
 def _seed_patches(ctx, holes, passes, results):

@@ -468,3 +468,20 @@ def test_stl_weld_joins_equal_corners_in_order_of_appearance(monkeypatch, collid
     assert np.array_equal(m.V[m.F.reshape(-1)], P + 0.0)
     _, first = np.unique(P + 0.0, axis=0, return_index=True)
     assert np.array_equal(m.V, (P + 0.0)[np.sort(first)])
+
+
+def test_ply_comments_are_kept_through_a_repair(tmp_path):
+    from shellrepair.repair import repair_mesh
+    from shellrepair.shapes import icosphere
+
+    V, F = icosphere(2)
+    src = tmp_path / "s.ply"
+    write_mesh(src, Mesh(V=V, F=F[3:], comments=["comment scanned by the museum, 2024", "obj_info units mm"]))
+    head = src.read_bytes().split(b"end_header")[0].decode()
+    assert "comment scanned by the museum, 2024\n" in head and "obj_info units mm\n" in head
+    m = read_mesh(src)
+    assert m.comments == ["comment scanned by the museum, 2024", "obj_info units mm"]
+    R, _ = repair_mesh(m)
+    out = tmp_path / "r.ply"
+    write_mesh(out, R)
+    assert read_mesh(out).comments == m.comments     # shellrepair's own line is not taken for the scan's
