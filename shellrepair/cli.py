@@ -330,6 +330,9 @@ def _render(args):
     if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
         raise MeshError("output would overwrite an input mesh", out)
     mesh = read_mesh(args.mesh)
+    if args.highlight_filled and (mesh.face_filled is None or not mesh.face_filled.any()):
+        print(f"warning: {args.mesh}: no face is flagged filled, so --highlight-filled shows nothing "
+              "(render the output of shellrepair repair)", file=sys.stderr)
     axis = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}[args.up[-1]]
     up = tuple(-a for a in axis) if args.up.startswith("-") else axis
     if view is None and args.highlight_filled and mesh.face_filled is not None and mesh.face_filled.any():

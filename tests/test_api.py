@@ -74,3 +74,13 @@ def test_a_mesh_prints_as_one_short_line():
     V, F = icosphere(5)
     text = repr(shellrepair.Mesh(V=V, F=F))
     assert text == f"Mesh({len(V):,} vertices, {len(F):,} faces)" and "\n" not in text
+
+
+def test_highlight_filled_on_a_mesh_without_flags_says_so(tmp_path, capsys):
+    from shellrepair.cli import main
+
+    V, F = _open_sphere()
+    scan = tmp_path / "s.ply"
+    shellrepair.write_mesh(scan, shellrepair.Mesh(V=V, F=F))
+    assert main(["render", str(scan), "-o", str(tmp_path / "v.png"), "--size", "48x32", "--highlight-filled"]) == 0
+    assert "no face is flagged filled" in capsys.readouterr().err
