@@ -619,6 +619,26 @@ def _hard(kind):
             rem = band_mask(V, F, start=rng.uniform(0, 2 * np.pi), width=0.35)
             return make_case(name, "hard", "torus", "a band across the tube: two loops the true surface "
                              "joins", V, F, rem, seed=s, notes=notes)
+        if kind == "torus-hole-band":
+            V, F, notes = ground_truth("torus", quick=quick)
+            rho = np.hypot(V[:, 0], V[:, 1])
+            R, r = 0.5 * (rho.max() + rho.min()), 0.5 * (rho.max() - rho.min())
+            rng = np.random.default_rng(s)
+            theta = np.radians(rng.uniform(35.0, 55.0))   # half-width of the band around the inner equator
+            C = V[F].mean(axis=1)
+            rem = np.hypot(C[:, 0], C[:, 1]) < R - r * np.cos(theta)
+            return make_case(name, "hard", "torus", "the band around the torus's central hole (its inner "
+                             f"side within {np.degrees(theta):.0f}° of the inner equator): two coaxial loops",
+                             V, F, rem, seed=s, notes=notes)
+        if kind == "bust-base":
+            V, F, notes = ground_truth("nefertiti", quick=quick)
+            rng = np.random.default_rng(s)
+            frac = rng.uniform(0.06, 0.12)
+            C = V[F].mean(axis=1)
+            lo, hi = V[:, 2].min(), V[:, 2].max()          # the bust stands along z
+            rem = C[:, 2] < lo + frac * (hi - lo)
+            return make_case(name, "hard", "nefertiti", f"the bust's base: its bottom {100 * frac:.0f} % cut "
+                             "off, as a scan that never saw it", V, F, rem, seed=s, notes=notes)
         if kind == "30pct":
             V, F, notes = ground_truth("ellipsoid", quick=quick)
             rem = area_fraction_mask(V, F, 0.30, seed=s)
@@ -649,6 +669,8 @@ SUITE = {
     "hard-slivers": _hard("slivers"),
     "hard-band": _hard("band"),
     "hard-30pct": _hard("30pct"),
+    "hard-torus-hole-band": _hard("torus-hole-band"),
+    "hard-bust-base": _hard("bust-base"),
 }
 
 
