@@ -159,6 +159,7 @@ def range_scan(V, F, seed, res=160, noise=0.0):
     t = scene.cast_rays(o3d.core.Tensor(R))["t_hit"].numpy().astype(np.float64)
     ok = np.isfinite(t)
     t = t + noise * np.linalg.norm(eye - c) * rng.normal(size=t.shape)
+    t[~ok] = 0.0          # missed rays: no sample (their points are never used)
     P = eye + t[..., None] * rays
     idx = np.full(ok.shape, -1, np.int64)
     idx[ok] = np.arange(np.count_nonzero(ok))
