@@ -56,16 +56,6 @@ def file_sha256(path, chunk=1 << 20):
 # --------------------------------------------------------------------------
 # the picture
 # --------------------------------------------------------------------------
-def _open_edges(F):
-    """Edges (e,2) used by exactly one face (the boundary left open)."""
-    F = np.asarray(F, np.int64)
-    if len(F) == 0:
-        return np.zeros((0, 2), np.int64)
-    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    u, c = np.unique(E, axis=0, return_counts=True)
-    return u[c == 1]
-
-
 def _project(cam, P):
     """Pixel coordinates (col, row) and depth of points P seen by ``cam``."""
     right, up, back = cam.basis()
@@ -107,8 +97,11 @@ def draw_open_edges(image, cam, V, F, color=OPEN_EDGE_COLOR, width=2):
     """
     import open3d as o3d
 
+    from .topology import edge_topology
+
     V = np.asarray(V, np.float64)
-    E = _open_edges(F)
+    topo = edge_topology(np.asarray(F, np.int64), len(V))
+    E = topo.edges[topo.edge_count == 1]   # the boundary left open
     if len(E) == 0:
         return 0
     a, b = V[E[:, 0]], V[E[:, 1]]
@@ -182,17 +175,15 @@ def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-br
     from . import render as rd
 
     filled = repaired.face_filled
-    view = None
+    view, info = None, {}
     if filled is not None and np.any(filled):
         view = rd.view_towards(repaired.V, repaired.F, filled)
     img = rd.render_side_by_side(before.V, before.F, repaired.V, repaired.F, size=size, material=material,
                                  filled=filled, highlight_filled=filled is not None, view=view,
                                  vertex_colors_before=before.vertex_colors,
-                                 vertex_colors_after=repaired.vertex_colors, unit=unit, up=up)
+                                 vertex_colors_after=repaired.vertex_colors, unit=unit, up=up, info=info)
     img = np.array(img, copy=True)
-    # the camera render_side_by_side used: framed on both meshes
-    cam = rd.frame_camera(np.concatenate([np.asarray(before.V, np.float64), np.asarray(repaired.V, np.float64)]),
-                          size, view, up=up)
+    cam = info["after"]["camera"]   # one camera for both panels
     W = cam.width
     n_before = draw_open_edges(img[:, :W], cam, before.V, before.F)
     right = img[:, img.shape[1] - W:]

@@ -615,6 +615,20 @@ def _text_px(image):
     return int(np.clip(round(image.shape[0] / 22), 10, 40))
 
 
+def _text_box(image, text):
+    """What drawing ``text`` on ``image`` needs: a Pillow image and its
+    drawing context, the font, its pixel size, the padding, and the text's
+    box ``(x0, y0, width, height)``."""
+    from PIL import Image, ImageDraw
+
+    im = Image.fromarray(np.ascontiguousarray(image), "RGB")
+    dr = ImageDraw.Draw(im)
+    px = _text_px(image)
+    font = _font(px)
+    x0, y0, x1, y1 = dr.textbbox((0, 0), text, font=font)
+    return im, dr, font, px, max(2, px // 3), (x0, y0, x1 - x0, y1 - y0)
+
+
 def draw_label(image, text, *, where="top-left"):
     """Write a short label on an image (on a dark box), returning a new image.
 
@@ -628,15 +642,7 @@ def draw_label(image, text, *, where="top-left"):
     -------
     image : (H,W,3) uint8 array
     """
-    from PIL import Image, ImageDraw
-
-    im = Image.fromarray(np.ascontiguousarray(image), "RGB")
-    dr = ImageDraw.Draw(im)
-    px = _text_px(image)
-    font = _font(px)
-    pad = max(2, px // 3)
-    x0, y0, x1, y1 = dr.textbbox((0, 0), text, font=font)
-    w, h = x1 - x0, y1 - y0
+    im, dr, font, px, pad, (x0, y0, w, h) = _text_box(image, text)
     x = pad
     y = pad if where == "top-left" else image.shape[0] - h - 3 * pad
     dr.rectangle([x - pad // 2, y - pad // 2, x + w + pad, y + h + pad + y0], fill=_TEXT_SHADE)
@@ -657,15 +663,7 @@ def draw_legend(image, text, swatch=None):
     -------
     image : (H,W,3) uint8 array
     """
-    from PIL import Image, ImageDraw
-
-    im = Image.fromarray(np.ascontiguousarray(image), "RGB")
-    dr = ImageDraw.Draw(im)
-    px = _text_px(image)
-    font = _font(px)
-    pad = max(2, px // 3)
-    x0, y0, x1, y1 = dr.textbbox((0, 0), text, font=font)
-    w, h = x1 - x0, y1 - y0
+    im, dr, font, px, pad, (x0, y0, w, h) = _text_box(image, text)
     sw = px if swatch is not None else 0
     y = image.shape[0] - h - 3 * pad
     dr.rectangle([pad // 2, y - pad // 2, pad + sw + pad + w + pad, y + h + pad + y0], fill=_TEXT_SHADE)
