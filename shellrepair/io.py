@@ -1201,6 +1201,12 @@ def _ply_binary_lists(data, pos, el, endian):
     return _ply_binary_walk(data, pos, el, endian)
 
 
+def _gather(b, at, dt):
+    """Values of dtype ``dt`` stored at byte offsets ``at`` of the bytes ``b``
+    (one value per offset, any alignment)."""
+    return b[at[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt)
+
+
 def _ply_binary_walk(data, pos, el, endian):
     """Element with list properties of varying length: walk the records, then gather."""
     import struct
@@ -1242,7 +1248,7 @@ def _ply_binary_walk(data, pos, el, endian):
         at = np.asarray(where[j], np.int64)
         if p[1] == "scalar":
             dt = np.dtype(endian + p[2])
-            scalars[p[0]] = b[at[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt)
+            scalars[p[0]] = _gather(b, at, dt)
             continue
         if p[3][0] == "f":
             continue  # float lists (texture coordinates) are not kept
@@ -1250,7 +1256,7 @@ def _ply_binary_walk(data, pos, el, endian):
         k = np.asarray(lens[j], np.int64)
         start = np.repeat(at - np.concatenate([[0], np.cumsum(k)[:-1]]) * dt.itemsize, k)
         item = start + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
-        flat = b[item[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt).astype(np.int64)
+        flat = _gather(b, item, dt).astype(np.int64)
         lists[p[0]] = (k, flat)
     return _ply_list_table(props, scalars, lists, count), pos
 
@@ -1290,7 +1296,7 @@ def _ply_binary_walk_one(data, pos, el, endian, j0):
         at = rec + sum(sizes[:j]) + (k * isz if j > j0 else 0)
         if j != j0:
             dt = np.dtype(endian + p[2])
-            scalars[p[0]] = b[at[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt)
+            scalars[p[0]] = _gather(b, at, dt)
             continue
         if p[3][0] == "f":
             continue  # float lists (texture coordinates) are not kept
@@ -1298,7 +1304,7 @@ def _ply_binary_walk_one(data, pos, el, endian, j0):
         first = np.zeros(count, np.int64)
         np.cumsum(k[:-1], out=first[1:])
         item = np.repeat(at + sizes[j0] - first * dt.itemsize, k) + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
-        lists[p[0]] = (k, b[item[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt).astype(np.int64))
+        lists[p[0]] = (k, _gather(b, item, dt).astype(np.int64))
     return _ply_list_table(props, scalars, lists, count), end
 
 
