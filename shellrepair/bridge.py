@@ -43,7 +43,7 @@ arcs (:func:`guide_tube`), refined to the rim's edge length, and then
 either faired with both loops' rings fixed or kept on the arcs, whichever
 valid one has the lower curvature-variation energy; every option is
 checked like a cap: it must cross neither the scan nor itself, nor repeat
-an edge of the scan. Then (see :func:`shellrepair.repair._fill_pair`):
+an edge of the scan. Then (see :func:`shellrepair.fill._fill_pair`):
 
 * loops that see each other both ways keep a valid tube (the surface
   continues from each into the other; the caps are not built);
@@ -561,3 +561,40 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach):
     ids.append(order + ka)
     T = np.vstack([_zip(params[r], params[r + 1], ids[r], ids[r + 1]) for r in range(M + 1)])
     return np.vstack(rings), T
+
+def _find_bands(ctx, scan):
+    """Pairs of ``hole`` loops whose continuation arcs land on each other.
+
+    Only loops classed ``hole`` are paired (a border is never bridged);
+    borders still stop arcs. Only loops with another loop within reach of
+    their arcs (``MAX_REACH`` diameters) have their arcs followed. Loops
+    that share a vertex are never paired. Sets ``ctx.bands_mutual``.
+    """
+    loops = scan.loops
+    hole = np.array([L.kind == "hole" for L in loops], bool)
+    if hole.sum() < 2:
+        return []
+    ids = np.flatnonzero(hole)
+    centres = np.array([ctx.V[loops[i].vertices].mean(axis=0) for i in ids])
+    radius = np.array([0.5 * loops[i].diameter for i in ids])
+    reach = radius + MAX_REACH * 2 * radius
+    tree = cKDTree(centres)
+    cand = []
+    for a, i in enumerate(ids):     # holes with another hole within reach of their arcs
+        near = np.asarray(tree.query_ball_point(centres[a], reach[a] + radius.max()), np.int64)
+        near = near[(near != a) & (np.linalg.norm(centres[near] - centres[a], axis=1) <= reach[a] + radius[near])]
+        if near.size:
+            cand.append(int(i))
+    if not cand:
+        return []
+    sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], candidates=cand)
+    # loops that touch (share a vertex, e.g. the pinched pieces of a slit)
+    # are one opening split at a pinch, not the two ends of a band
+    for a, (counts, m) in sights.items():
+        for b in np.flatnonzero(counts):
+            if b != a and np.intersect1d(loops[a].vertices, loops[b].vertices).size:
+                counts[b] = 0
+    pairs = band_pairs(sights, hole)
+    # pairs whose loops each send most of their arcs to the other: read by _fill_pair
+    ctx.bands_mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, mutual in pairs if mutual}
+    return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]

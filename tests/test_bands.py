@@ -312,7 +312,8 @@ def test_a_real_single_view_range_scan_pairs_no_border():
     """The range scan's outer edge and its floating debris are borders; a
     pair, if any, joins two holes."""
     from shellrepair import read_mesh
-    from shellrepair.repair import _Context, _find_bands
+    from shellrepair.bridge import _find_bands
+    from shellrepair.patch import _Context
 
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
     scan = detect_holes(m.V, m.F)

@@ -6,7 +6,7 @@ import numpy as np
 from shellrepair import shapes
 from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, _independent_flips, _relax, _unfolded, refine_patch,
                                 refine_patches)
-from shellrepair.repair import _rim_data, _local_frame, _Context
+from shellrepair.patch import _Context, _local_frame, _rim_data
 from shellrepair.io import Mesh, read_mesh, write_mesh
 from shellrepair.report import holes_dict
 from shellrepair.holes import detect_holes

@@ -1,0 +1,559 @@
+"""Fill one hole or one band: attempts, checks and retries (step 4).
+
+:func:`_fill_one` builds a patch with :func:`~shellrepair.patch.build_patch`,
+checks it against the scan, itself and the edges the mesh has
+(:func:`_check_patch`) and, when it crosses, re-routes chords near the
+crossing, pins vertices near it to the flat triangulation, then tries the
+harmonic patch and the checked flat triangulation, within a time budget of
+``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE`` per rim edge. :func:`_fill_pair`
+offers two loops facing each other across a band a tube
+(:mod:`~shellrepair.bridge`) and keeps the tube or the two caps by their
+curvature-variation energy. :func:`_run_chunk` fills a run of holes (their
+first attempts batched); :func:`_seed_patches` is the paper's simple shape
+model (``method="seed"``).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .fair import umbrella_smooth
+from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index
+
+from .merge import _Accepted, _edges_of, _scan_edges
+from .patch import PatchError, _corners, _meets_edge_on, _prefill, _rim_data, build_patch
+
+
+#: Smoothing passes of the paper's seed method when ``smooth`` is not given.
+SEED_SMOOTH_PASSES = 10
+
+
+def _check_patch(ctx, patch):
+    """Why the patch cannot be used (or None), and the patch triangles at fault."""
+    C, ids = _corners(ctx, patch)
+    if not np.isfinite(C).all():
+        return "non-finite patch positions", np.zeros(0, np.int64)
+    bad = patch_vs_index(C, ids, ctx.index, return_faces=True)
+    if bad.size:
+        return f"patch would cross the scan ({bad.size} triangles)", bad
+    # the patch against itself: a disc that projects one-to-one cannot
+    # cross itself; otherwise test its triangles pair by pair
+    if len(C) > 1 and not (patch.disc and embeds_by_projection(
+            np.vstack([ctx.V[patch.loop], patch.P]), patch.T, len(patch.loop))):
+        pairs = crossing_pairs(C - ctx.index.origin, ids)
+        if len(pairs):
+            return f"patch would cross itself ({len(pairs)} triangle pairs)", np.unique(pairs.ravel())
+    return None, np.zeros(0, np.int64)
+
+
+def _chords_near(ctx, patch, bad):
+    """Chords of the unrefined triangulation nearest to the faulty triangles."""
+    k = len(patch.loop)
+    C, _ = _corners(ctx, patch)
+    P0 = ctx.V[patch.loop]
+    c0 = P0[patch.T0].mean(axis=1)
+    near = np.unique(cKDTree(c0).query(C[bad].mean(axis=1))[1])
+    out = set()
+    for t in patch.T0[near]:
+        for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+            a, b = int(min(a, b)), int(max(a, b))
+            if b - a > 1 and not (a == 0 and b == k - 1):
+                out.add((a, b))
+    return out
+
+
+#: A loop at most this planar (RMS distance to its plane over its diameter;
+#: float32 round-off of a flat CAD face is ~1e-7) whose flat triangulation
+#: covers its outline one-to-one is a plane region: every flat
+#: triangulation covers the same region, so scan faces crossing it away
+#: from the loop cross them all, and re-routing chords is futile.
+BLOCKED_PLANARITY = 1e-6
+
+
+def _blocked_in_plane(ctx, hole_id, flat, bad):
+    """How many scan faces cross a planar opening's region away from its
+    loop (so that every flat triangulation crosses them), or 0 when that
+    cannot be shown (the loop is not planar, its outline not simple, or
+    every crossing face touches the loop, where another chord may help)."""
+    from .holes import loop_stats
+
+    loop = flat.loop
+    if not flat.disc or len(flat.P) or bad.size == 0:
+        return 0
+    planarity = ctx.planarity.get(hole_id)
+    if planarity is None:
+        planarity = loop_stats(ctx.V, loop)["planarity"]
+    if planarity > BLOCKED_PLANARITY or not embeds_by_projection(ctx.V[loop], flat.T, len(loop)):
+        return 0
+    C, ids = _corners(ctx, flat)
+    pairs = patch_vs_index(C[bad], ids[bad], ctx.index, return_pairs=True)
+    faces = np.unique(pairs[:, 1])
+    touching = np.isin(ctx.F[faces], loop).any(axis=1)
+    return int(faces.size) if faces.size and not touching.any() else 0
+
+
+#: Rounds of re-triangulation when the flat triangulation crosses the scan.
+FLAT_RETRIES = 12
+#: Rounds of re-triangulation when the faired patch crosses the scan.
+FAIRED_RETRIES = 3
+#: Rounds of growing the region held on the flat triangulation around a crossing.
+PIN_ROUNDS = 3
+#: Time budget of one hole, seconds: no new attempt starts after
+#: ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges``.
+HOLE_SECONDS = 3.0
+HOLE_SECONDS_PER_EDGE = 0.004
+
+
+#: How each option is named in the report.
+OPTION_NAMES = {"faired": "faired order {order}", "harmonic": "harmonic (order 1)",
+                "flat cap": "flat cap: a planar opening the scan meets edge-on (order 1)"}
+
+
+def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth):
+    """A flat cap that crosses slanting rim faces: let the cap bend (order
+    2) only near the crossing, the rest held flat; grow that region up to
+    ``PIN_ROUNDS`` times."""
+    free = None
+    n_new = len(patch.P)
+    for _ in range(PIN_ROUNDS):
+        free = _pin_region(patch, bad, free)
+        pinned = np.setdiff1d(np.arange(n_new), free)
+        try:
+            p = build_patch(ctx, hole_id, loop, order=2, smooth=smooth, initial=T0, pinned=pinned)
+        except PatchError:
+            return None
+        why, b2 = _check_patch(ctx, p)
+        if why is None:
+            p.option = (f"flat cap: a planar opening the scan meets edge-on, bent (order 2) along "
+                        f"{len(free)} vertices where rim faces slant across it")
+            return p
+        if len(p.T) == len(patch.T):
+            bad = np.union1d(bad, b2)
+    return None
+
+
+def _pin_region(patch, bad, pinned):
+    """New vertices of the faulty triangles and two rings around them
+    (grown by two more rings each call), 0-based among the new vertices."""
+    k = len(patch.loop)
+    T = patch.T
+    mark = np.zeros(k + len(patch.P), bool)
+    if pinned is not None:
+        mark[k + np.asarray(pinned)] = True
+    mark[T[bad].ravel()] = True
+    for _ in range(2):
+        mark[T[mark[T].any(axis=1)].ravel()] = True
+    return np.flatnonzero(mark[k:])
+
+
+#: ``order="auto"``: order 3 is kept where it moves the order-2 patch by at
+#: most this fraction of the hole's diameter (RMS). Where curvature
+#: extrapolates stably (smooth and finely relieved surfaces) the two agree
+#: closely and order 3 is the better guess; where order 3 departs far from
+#: order 2 (jagged rims, large holes in complex shapes) it is extrapolating
+#: noise. Chosen on the benchmark suite (see BENCHMARKS.md).
+AUTO_TAU = 0.035
+
+
+def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
+    """Fill one hole; ``order="auto"`` picks 2 or 3 (see ``AUTO_TAU``)."""
+    if order != "auto":
+        return _fill_one_order(ctx, hole_id, loop, order, smooth, energy)
+    t0 = time.perf_counter()
+    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy)
+    if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
+        return patch, reason, time.perf_counter() - t0, reasons
+    diameter = float(np.linalg.norm(ctx.V[loop].max(axis=0) - ctx.V[loop].min(axis=0)))
+    try:
+        p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy)
+    except PatchError:
+        return patch, reason, time.perf_counter() - t0, reasons
+    if len(p3.P) == len(patch.P):
+        rel = float(np.sqrt(np.mean(np.sum((p3.P - patch.P) ** 2, axis=1)))) / max(diameter, 1e-300)
+        if rel <= AUTO_TAU and _check_patch(ctx, p3)[0] is None:
+            p3.option = patch.option.replace("order 2", "order 3") + f" (auto: {100 * rel:.1f}% of the diameter from order 2)"
+            return p3, reason, time.perf_counter() - t0, reasons
+        patch.option += f" (auto: order 3 would move it {100 * rel:.1f}% of the diameter)"
+    return patch, reason, time.perf_counter() - t0, reasons
+
+
+def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
+    """Fill one hole, trying the options in turn.
+
+    0. Triangulate, refine and fair; done if the patch crosses nothing.
+    1. Otherwise check the flat triangulation against the
+       scan; where it crosses (a peninsula of scan next to the rim),
+       triangulate again with only triangles that cross no scan face
+       (``scan_aware``: the search over the loop's Delaunay triangles drops
+       each triangle the scan rejects); if that still crosses, forbid the
+       chords near the crossing and triangulate again.
+    2. Refine and fair that triangulation (order ``order``, then harmonic);
+       if the faired patch crosses the scan, re-route the chords near the
+       crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
+    3. Otherwise keep the checked flat triangulation, if there is one.
+
+    No new round starts after ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * k``
+    seconds; the hole then keeps the checked flat triangulation or fails
+    saying so.
+
+    Returns (patch or None, reason, seconds, reasons tried).
+    """
+    t0 = time.perf_counter()
+    reasons = []
+    avoid = set()
+    flat_ok = None
+    options = [("faired", order)] + ([("harmonic", 1)] if order != 1 else [])
+    pre = ctx.pre_for(hole_id, loop)
+    edge_on = pre.edge_on if pre is not None and pre.edge_on is not None \
+        else (order != 1 and _meets_edge_on(ctx, loop, hole_id))
+    if order != 1 and edge_on:
+        options = [("flat cap", 1)] + options
+    faired_rounds = 0
+    first = True
+    scan_aware = False
+    budget = HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * len(loop)
+    for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 2):
+        if time.perf_counter() - t0 > budget:
+            reasons.append(f"gave up after {time.perf_counter() - t0:.1f} s (budget {budget:.1f} s for "
+                           f"{len(loop)} edges), {len(avoid)} chords re-routed")
+            break
+        try:
+            flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid,
+                               scan_aware=scan_aware)
+        except PatchError as exc:
+            if avoid:
+                reasons.append(f"no triangulation avoids crossing the scan ({len(avoid)} chords re-routed)")
+            else:
+                reasons.append(f"triangulation: {exc}")
+            break
+        if first:  # the common case: the first option on the first triangulation is fine
+            first = False
+            name0, order0 = options[0]
+            try:
+                patch = build_patch(ctx, hole_id, loop, order=order0, smooth=smooth, initial=flat.T0,
+                                    energy=energy)
+                why0, bad0 = _check_patch(ctx, patch)
+                if why0 is None:
+                    patch.option = OPTION_NAMES[name0].format(order=order0)
+                    return patch, "", time.perf_counter() - t0, reasons
+                if name0 == "flat cap" and bad0.size:
+                    rolled = _roll_rim(ctx, hole_id, loop, flat.T0, patch, bad0, smooth)
+                    if rolled is not None:
+                        return rolled, "", time.perf_counter() - t0, reasons
+                    reasons.append(f"flat cap: {why0}")
+            except PatchError:
+                pass
+        why, bad = _check_patch(ctx, flat)
+        if why is not None and not scan_aware:
+            scan_aware = True  # again, with only triangles that cross no scan face
+            continue
+        if why is not None:
+            blocked = _blocked_in_plane(ctx, hole_id, flat, bad)
+            if blocked:
+                reasons.append(f"flat: {why}; {blocked} scan faces cross the opening's own plane inside it, "
+                               f"so no flat triangulation avoids them")
+                break
+            more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
+            if not more:
+                reasons.append(f"flat: {why}")
+                break
+            avoid |= more
+            continue
+        flat_ok = flat
+        retry = False
+        for name, o in options:
+            try:
+                patch = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
+                                    energy=energy)
+            except PatchError as exc:
+                reasons.append(f"{name}: {exc}")
+                continue
+            why, bad = _check_patch(ctx, patch)
+            pinned = None
+            for _grow in range(PIN_ROUNDS if why is not None and bad.size else 0):
+                # hold the new vertices around the crossing on the flat triangulation
+                pinned = _pin_region(patch, bad, pinned)
+                try:
+                    pp = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
+                                     energy=energy, pinned=pinned)
+                except PatchError:
+                    break
+                w2, b2 = _check_patch(ctx, pp)
+                if w2 is None:
+                    patch, why = pp, None
+                    break
+                bad = np.union1d(bad, b2) if len(pp.T) == len(patch.T) else bad
+            if why is None:
+                patch.option = OPTION_NAMES[name].format(order=o)
+                if avoid:
+                    patch.option += f", {len(avoid)} chords re-routed"
+                if pinned is not None:
+                    patch.option += f", {len(pinned)} vertices held on the flat triangulation"
+                return patch, "", time.perf_counter() - t0, reasons
+            more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
+            if name == "faired" and more and faired_rounds < FAIRED_RETRIES:
+                faired_rounds += 1
+                avoid |= more
+                retry = True
+                break
+            reasons.append(f"{name}: {why}")
+        if not retry:
+            break
+    else:
+        reasons.append(f"the triangulation still crosses the scan after re-routing {len(avoid)} chords")
+    if flat_ok is not None:
+        flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
+        return flat_ok, "", time.perf_counter() - t0, reasons
+    return None, "; ".join(reasons), time.perf_counter() - t0, reasons
+
+
+#: Which energy decides tube against caps: 0 thin plate ∫(2H)², 1 curvature
+#: variation ∫|∇(2Hn)|². The thin-plate energy of a thin torus's inner band is
+#: higher than that of two flat caps, so it picks caps where the band is
+#: missing; the curvature variation measures how well each option continues
+#: the surrounding surface's curvature and picks the tube (tested on tori of
+#: tube radius 0.2–0.5 and cut angles 70–150°).
+ENERGY = 1
+
+
+def _fill_pair(ctx, A, B, order, smooth, mode):
+    """A missing region bounded by loops A and B: a tube, or a cap on each.
+
+    The tube starts from :func:`~shellrepair.bridge.guide_tube` (rings
+    along both loops' continuation arcs; the plain zip of the two loops if
+    that fails), is refined and faired like a cap with both loops' rings
+    fixed, and is checked against the scan and itself; the faired tube and
+    the tube held on the arcs are both tried and the valid one with the
+    lower energy (``ENERGY``) is kept. Only for loops that see each other
+    both ways are crossings retried (vertices held around them). The caps
+    are checked against the scan and against each other. When each loop's
+    arcs land on the other the valid tube is kept without building caps;
+    otherwise an option that fails its checks loses, and if both pass the
+    lower energy wins. While a valid tube is in hand each cap gets one
+    attempt (no re-routing): a cap that crosses something there is not
+    needed.
+
+    Returns (outcomes, record): outcomes as for :func:`_fill_one` per loop
+    (the tube patch is given with A, B refers to it), record for the report.
+    """
+    from .bridge import MAX_REACH, continuation_arcs, guide_tube, tube_triangles
+
+    t0 = time.perf_counter()
+    loop = np.concatenate([A.vertices, B.vertices])
+    order = 2 if order == "auto" else order
+    PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
+    arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
+    try:
+        sigma = _rim_data(ctx, loop)[0]      # the rim's edge length, as refinement reads it
+        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=float(np.mean(sigma)),
+                            reach=MAX_REACH * max(A.diameter, B.diameter))
+    except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
+        Pg, Tg = np.zeros((0, 3)), None
+    mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
+    tube, why_tube = None, ""
+    # edges the scan has between the two loops' vertices (other than the
+    # loops' own edges): a tube that made one again would be non-manifold
+    Fl = ctx.F[ctx.faces_of(loop)]
+    scan_edges = {tuple(e) for e in _edges_of(Fl).tolist()}
+    own = {tuple(sorted(e)) for L in (A, B) for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
+    scan_edges -= own
+
+    def attempt(first, init, o, fair=True, pinned=None):
+        """(the patch if it passes its checks, the faulty triangles, the patch built)"""
+        nonlocal why_tube
+        try:
+            p = build_patch(ctx, A.id, loop, order=o, smooth=smooth if fair else 0, initial=init,
+                            energy=fair, fair=fair, pinned=pinned)
+        except PatchError as exc:
+            why_tube = str(exc)
+            return None, np.zeros(0, np.int64), None
+        why, bad = _check_patch(ctx, p)
+        if why is None and any(e in scan_edges for e in _scan_edges(p)):
+            why = "the tube would repeat an edge of the scan"
+        if why is None:
+            how = f"faired order {o}" if fair else "refined, not faired"
+            if pinned is not None:
+                how += f", {len(pinned)} vertices held on the first tube"
+            p.option = f"tube to loop {B.id} ({first}), {how}"
+            return p, bad, p
+        why_tube = f"{first}: {why}"
+        return None, bad, p
+
+    def caps_crossing(caps):
+        """Why the two caps cannot both be used, or ''."""
+        why = "; ".join(f"cap of loop {L.id}: {c[1] or 'failed'}" for L, c in zip((A, B), caps) if c[0] is None)
+        if not why:
+            acc = _Accepted()
+            acc.add(caps[0][0], *_corners(ctx, caps[0][0]))
+            if acc.conflict(ctx, caps[1][0])[0]:
+                why = "the two caps cross each other"
+        return why
+
+    # loops that see each other one way only (an island and its surround, or
+    # a loop whose arcs happen to reach a neighbour): the caps first; while
+    # they stand, the tube gets one attempt, for the energy comparison
+    caps = None
+    lean = False
+    if not mutual and mode != "always":
+        caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+        lean = not caps_crossing(caps)
+    if len(Pg) and np.isfinite(Pg).all():
+        first, init = "along the continuation arcs", (Pg, Tg)
+        faired, bad, built = attempt(first, init, order)
+        # the first tube itself (refined, every vertex held): the arcs carry
+        # the scan's curvature across the gap, which fairing can flatten;
+        # the fairer of the two valid options is kept
+        held = None
+        q = len(built.P) if built is not None and not lean else 0
+        if q:
+            held, hbad, hp = attempt(first, init, order, pinned=np.arange(q))
+            free = None
+            for _ in range(PIN_ROUNDS if mutual and faired is None and held is None and hbad.size and hp is not None
+                           else 0):
+                # a fold of the arcs (at a jag of a rim): fair only around it
+                free = _pin_region(hp, hbad, free)
+                held, b2, _ = attempt(first, init, order, pinned=np.setdiff1d(np.arange(q), free))
+                if held is not None:
+                    break
+                hbad = np.union1d(hbad, b2) if b2.size else hbad
+            if held is not None:
+                held.option = f"tube to loop {B.id} ({first}), refined, held on the arcs" + (
+                    f" except {len(free)} vertices faired (order {order}) around a fold" if free is not None else "")
+        valid = [p for p in (faired, held) if p is not None]
+        if valid:
+            tube = min(valid, key=lambda p: p.energy[ENERGY] if p.energy is not None else np.inf)
+        elif mutual and bad.size and built is not None:
+            # hold the vertices near the crossing on the arcs (as for a cap)
+            pinned = None
+            for _ in range(PIN_ROUNDS):
+                pinned = _pin_region(built, bad, pinned)
+                tube, b2, _ = attempt(first, init, order, pinned=pinned)
+                if tube is not None:
+                    break
+                bad = np.union1d(bad, b2) if b2.size else bad
+    if tube is None and not lean:
+        tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
+    seen_both_ways = tube is not None and mutual and mode != "always"
+    if caps is None and not seen_both_ways:   # (seen both ways: the tube continues the surface)
+        if tube is not None:    # one attempt per cap
+            caps = []
+            for L in (A, B):
+                t1 = time.perf_counter()
+                try:
+                    c = build_patch(ctx, L.id, L.vertices, order=order, smooth=smooth, energy=True)
+                    why, _ = _check_patch(ctx, c)
+                except PatchError as exc:
+                    c, why = None, str(exc)
+                if why is not None:
+                    c = None
+                else:
+                    c.option = OPTION_NAMES["faired"].format(order=order)
+                caps.append((c, why or "", time.perf_counter() - t1, []))
+        else:
+            caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+    if caps is None:
+        secs = time.perf_counter() - t0
+        e_tube = tube.energy[ENERGY] if tube.energy is not None else None
+        record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
+                  "tube_energy": None if e_tube is None else round(float(e_tube), 6), "caps_energy": None,
+                  "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
+        tube.hole_id = A.id
+        return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
+    why_caps = caps_crossing(caps)
+    e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
+    caps_ok = not why_caps
+    e_caps = sum(c[0].energy[ENERGY] if c[0] is not None and c[0].energy is not None else np.inf
+                 for c in caps) if caps_ok else np.inf
+    record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
+              "tube_energy": None if not np.isfinite(e_tube) else round(float(e_tube), 6),
+              "caps_energy": None if not np.isfinite(e_caps) else round(float(e_caps), 6)}
+    use_tube = tube is not None and (mode == "always" or not caps_ok or e_tube < e_caps)
+    secs = time.perf_counter() - t0
+    if use_tube:
+        record["chosen"] = "tube"
+        record["reason"] = ("--bridge always" if mode == "always" else
+                            f"caps failed: {why_caps}" if not caps_ok else
+                            f"tube energy {e_tube:.4g} < caps energy {e_caps:.4g}")
+        tube.hole_id = A.id
+        return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
+    record["chosen"] = "caps"
+    if tube is None:
+        record["reason"] = f"tube failed: {why_tube}"
+    elif not np.isfinite(e_tube):
+        record["reason"] = "no faired tube energy to compare (tube without interior vertices)"
+    else:
+        record["reason"] = f"caps energy {e_caps:.4g} <= tube energy {e_tube:.4g}"
+    out = []
+    for L, c in zip((A, B), caps):
+        if L.kind != "hole":
+            out.append((None, "border", secs, []))
+        else:
+            out.append(c)
+    return out, record
+
+
+_WORKER_CTX = None
+
+
+def _run_unit(ctx, unit):
+    kind, args = unit
+    if kind == "one":
+        return [_fill_one(ctx, *args)], None
+    return _fill_pair(ctx, *args)
+
+
+def _run_chunk(ctx, chunk, on_unit=None):
+    """Fill a run of consecutive units (their first attempts batched);
+    ``on_unit()`` is called after each."""
+    try:
+        _prefill(ctx, chunk)
+        out = []
+        for u in chunk:
+            out.append(_run_unit(ctx, u))
+            if on_unit is not None:
+                on_unit()
+        return out
+    finally:
+        ctx.pre = {}
+
+
+def _worker(chunk):
+    return _run_chunk(_WORKER_CTX, chunk)
+
+
+def _seed_patches(ctx, holes, passes, results):
+    """The paper's method: close, smooth a duplicate of the whole mesh, take the filled region."""
+    built = []
+    for h in holes:
+        try:
+            p = build_patch(ctx, h.id, h.vertices, order=1, smooth=0, refine=True, fair=False)
+            built.append(p)
+        except PatchError as exc:
+            results[h.id] = f"seed: {exc}"
+    n = ctx.n
+    newP = [p.P for p in built]
+    base = n
+    Fs = [ctx.F]
+    for p in built:
+        Fs.append(p.global_faces(base))
+        base += len(p.P)
+    X = np.vstack([ctx.V] + newP) if newP else ctx.V.copy()
+    Fall = np.vstack(Fs)
+    if base > n:
+        origin = ctx.V.mean(axis=0)
+        X = umbrella_smooth(X - origin, Fall, passes, (0.5,)) + origin  # the whole duplicate
+    out = {}
+    base = n
+    for p in built:
+        p.P = X[base:base + len(p.P)]
+        base += len(p.P)
+        why, _ = _check_patch(ctx, p)
+        if why is None:
+            p.option = f"seed, {passes} smoothing passes"
+            out[p.hole_id] = p
+        else:
+            results[p.hole_id] = f"seed: {why}"
+    return out

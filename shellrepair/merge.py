@@ -1,0 +1,103 @@
+"""Append accepted patches to the scan (step 5): originals untouched.
+
+:class:`_Accepted` keeps the patches accepted so far so that a later patch
+can be checked against them; :func:`_merge` appends their vertices and faces
+after the scan's own (original indices and values bit-identical), flags them
+``filled`` and interpolates vertex properties harmonically from the rim.
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .geometry import bounding_spheres
+from .intersect import ball_pairs, pair_intersections
+from .io import Mesh
+from .patch import _corners
+
+
+def _edges_of(T):
+    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    return np.sort(E, axis=1)
+
+
+def _scan_edges(patch):
+    """Edges the patch creates between scan vertices, as (a, b) with a < b."""
+    k = len(patch.loop)
+    E = _edges_of(np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -1))
+    return [tuple(e) for e in E[(E >= 0).all(axis=1)].tolist()]
+
+
+class _Accepted:
+    """Patches accepted so far, with their corners and boxes cached."""
+
+    def __init__(self):
+        self.items = []
+        self.lo = np.zeros((0, 3))
+        self.hi = np.zeros((0, 3))
+        self.edges = set()
+
+    def add(self, patch, C, ids):
+        oid = np.where(ids < 0, ids - 10 ** 12 * (len(self.items) + 1), ids)  # new vertices differ per patch
+        c, r = bounding_spheres(C)
+        self.items.append((patch, C, oid, c, r))
+        P = C.reshape(-1, 3)
+        self.lo = np.vstack([self.lo, P.min(axis=0)])
+        self.hi = np.vstack([self.hi, P.max(axis=0)])
+        self.edges.update(_scan_edges(patch))
+
+    def conflict(self, ctx, patch):
+        """Why the patch clashes with an accepted one, or None."""
+        if any(e in self.edges for e in _scan_edges(patch)):
+            return "an earlier patch already created an edge this patch needs", None
+        C, ids = _corners(ctx, patch)
+        if self.items:
+            P = C.reshape(-1, 3)
+            lo, hi = P.min(axis=0), P.max(axis=0)
+            near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
+            c1, r1 = bounding_spheres(C)
+            for j in near:
+                other, D, oid, c2, r2 = self.items[j]
+                ai, bi = ball_pairs(cKDTree(c2), c1, r1 + r2.max())
+                if ai.size and pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
+                    return f"patch would cross the patch of hole {other.hole_id}", None
+        return None, (C, ids)
+
+
+def _merge(mesh, V, F, patches):
+    """Append patches; originals unchanged, additions flagged."""
+    n = len(V)
+    newP, newF, newC = [], [], []
+    props = {k: [] for k in mesh.vertex_props}
+    base = n
+    for p in patches:
+        newP.append(p.P)
+        newF.append(p.global_faces(base))
+        if mesh.vertex_colors is not None:
+            newC.append(p.colors if p.colors is not None else
+                        np.zeros((len(p.P), mesh.vertex_colors.shape[1]), np.uint8))
+        for name in props:
+            arr = np.asarray(mesh.vertex_props[name])
+            props[name].append(p.props.get(name, np.zeros(len(p.P), arr.dtype)))
+        base += len(p.P)
+    q = base - n
+    V2 = np.vstack([V] + newP) if newP else V.copy()
+    F2 = np.vstack([F] + newF) if newF else F.copy()
+    out = Mesh(V=V2, F=F2.astype(np.int64, copy=False), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
+               notes=list(mesh.notes), F_out=getattr(mesh, "F_out", None), fixes=dict(getattr(mesh, "fixes", {})),
+               comments=list(getattr(mesh, "comments", [])))
+    if mesh.vertex_colors is not None:
+        out.vertex_colors = np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)
+    out.vertex_props = {k: np.concatenate([np.asarray(mesh.vertex_props[k])] + v) for k, v in props.items()}
+    vf = np.zeros(n + q, bool)
+    vf[n:] = True
+    if mesh.vertex_filled is not None:
+        vf[:n] = mesh.vertex_filled
+    ff = np.zeros(len(F2), bool)
+    ff[len(F):] = True
+    if mesh.face_filled is not None:
+        ff[:len(F)] = mesh.face_filled
+    out.vertex_filled, out.face_filled = vf, ff
+    return out

@@ -1,0 +1,418 @@
+"""One hole's shell patch: triangulate, refine, fair (steps 1-3 of the fill).
+
+:func:`build_patch` turns one boundary loop into a :class:`Patch`: the loop
+triangulated (:mod:`~shellrepair.triangulate`), refined to the rim's density
+(:mod:`~shellrepair.refine`) and faired with the scan's rings around it held
+fixed (:mod:`~shellrepair.fair`), or a flat cap where the scan meets a planar
+opening edge-on (:func:`_meets_edge_on`). :class:`_Context` holds the
+whole-mesh structures the per-hole work reads (edges, vertex-to-face lists,
+the faces near a box), built once; :func:`_prefill` does a run of holes'
+first attempts at once.
+
+The retries, the checks and the choice among attempts are in
+:mod:`~shellrepair.fill`; the merge into the scan in :mod:`~shellrepair.merge`;
+the orchestration in :mod:`~shellrepair.repair`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import MeshError
+from .geometry import concat_ranges, cross, uniq
+from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth, thin_plate_energy, uniform_laplacian)
+from .intersect import NearFaces, patch_vs_index
+from .refine import refine_patch, refine_patches
+from .topology import vertex_faces
+from .triangulate import triangulate_loop
+
+
+class PatchError(Exception):
+    """A patch option that cannot be used; the message is the reason."""
+
+
+@dataclass
+class Patch:
+    """A hole's shell patch, before merging.
+
+    Attributes
+    ----------
+    hole_id : int
+    loop : (k,) int64
+        Global loop vertex indices.
+    P : (q,3) float64
+        New vertex positions.
+    T : (t,3) int64
+        Triangles: index i < k is ``loop[i]``, index k + j is new vertex j.
+    T0 : (k-2,3) int64
+        The loop's triangulation before refinement (loop positions).
+    colors : (q,c) uint8 or None
+    props : dict of name -> (q,) array
+    option : str
+        Which option was accepted.
+    disc : bool
+        The triangles form one disc bounded by ``loop`` (k − 2 triangles
+        before refinement); False for a tube between two loops.
+    """
+
+    hole_id: int
+    loop: np.ndarray
+    P: np.ndarray
+    T: np.ndarray
+    colors: np.ndarray | None = None
+    props: dict = field(default_factory=dict)
+    option: str = ""
+    T0: np.ndarray | None = None
+    energy: tuple | None = None
+    order: int | None = None
+    disc: bool = False
+
+    def global_faces(self, base):
+        """Faces with new vertex j at index ``base + j``."""
+        k = len(self.loop)
+        G = np.where(self.T < k, self.loop[np.minimum(self.T, k - 1)], base + self.T - k)
+        return G.astype(np.int64)
+
+
+class _Context:
+    """Whole-mesh structures built once; per-hole work only reads them."""
+
+    def __init__(self, mesh):
+        self.V = mesh.V
+        self.F = mesh.F
+        self.n = len(mesh.V)
+        self.colors = mesh.vertex_colors
+        self.props = {k: v for k, v in mesh.vertex_props.items()
+                      if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
+        self.vf_order, self.vf_start = vertex_faces(self.F, self.n)
+        self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
+        self._fmark = np.zeros(len(self.F), bool)
+        self.planarity = {}  # loop id -> planarity measured by detect_holes
+        self.topo = None     # the mesh's EdgeTopology, when the caller has it
+        self._index = None
+        self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
+
+    @property
+    def index(self):
+        if self._index is None:
+            self._index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=(self.vf_order, self.vf_start),
+                                    topo=self.topo)
+        return self._index
+
+    def pre_for(self, hole_id, loop):
+        """The batch's first-attempt work for this hole and loop, or None."""
+        pre = self.pre.get(hole_id)
+        return pre if pre is not None and np.array_equal(pre.loop, loop) else None
+
+    def faces_of(self, verts):
+        verts = np.asarray(verts, np.int64)
+        s = self.vf_start[verts]
+        return uniq(self.vf_order[concat_ranges(s, self.vf_start[verts + 1] - s)] // 3)
+
+    def ring_faces(self, verts, rings):
+        """Faces within ``rings`` rings of ``verts`` (sorted)."""
+        vm, fm = self._vmark, self._fmark
+        front = uniq(verts)
+        vm[front] = True
+        marked_v, found = [front], []
+        try:
+            for _ in range(max(1, int(rings))):
+                f = self.faces_of(front)
+                f = f[~fm[f]]
+                fm[f] = True
+                found.append(f)
+                vs = uniq(self.F[f])
+                front = vs[~vm[vs]]
+                vm[front] = True
+                marked_v.append(front)
+                if front.size == 0:
+                    break
+        finally:
+            for a in marked_v:
+                vm[a] = False
+            for a in found:
+                fm[a] = False
+        return np.sort(np.concatenate(found)) if found else np.zeros(0, np.int64)
+
+
+def _rim_data(ctx, loop):
+    """Scale σ per loop vertex, scan normals across loop edges, forbidden chords."""
+    k = len(loop)
+    pos = {int(v): i for i, v in enumerate(loop)}
+    f1 = ctx.faces_of(loop)
+    T = ctx.F[f1]
+    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    ln = np.linalg.norm(ctx.V[E[:, 0]] - ctx.V[E[:, 1]], axis=1)
+    sig_sum = np.zeros(k)
+    sig_cnt = np.zeros(k)
+    edge_normals = np.zeros((k, 3))
+    forbidden = set()
+    nrm = np.cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    nl = np.linalg.norm(nrm, axis=1, keepdims=True)
+    nrm = np.divide(nrm, nl, out=np.zeros_like(nrm), where=nl > 0)
+    m = len(T)
+    for r, ((a, b), L) in enumerate(zip(E.tolist(), ln.tolist())):
+        ia, ib = pos.get(a), pos.get(b)
+        if ia is not None:
+            sig_sum[ia] += L
+            sig_cnt[ia] += 1
+        if ib is not None:
+            sig_sum[ib] += L
+            sig_cnt[ib] += 1
+        if ia is not None and ib is not None:
+            if ib == (ia + 1) % k:
+                edge_normals[ia] = nrm[r % m]
+            elif ia != (ib + 1) % k:
+                forbidden.add((min(ia, ib), max(ia, ib)))
+    sigma = sig_sum / np.maximum(sig_cnt, 1)
+    loop_len = np.linalg.norm(ctx.V[np.roll(loop, -1)] - ctx.V[loop], axis=1)
+    sigma = np.where(sig_cnt > 0, sigma, loop_len)
+    return sigma, edge_normals, forbidden
+
+
+def _submesh(ctx, loop, Pl, T, rings):
+    """Local submesh: scan faces within ``rings`` of the loop, plus the patch.
+
+    Returns X (fixed scan vertices first, then new), Fs, g (global ids of
+    the fixed vertices)."""
+    k = len(loop)
+    rf = ctx.ring_faces(loop, rings)
+    g = uniq(ctx.F[rf])
+    remap = {int(v): i for i, v in enumerate(g.tolist())}
+    Fr = np.searchsorted(g, ctx.F[rf])
+    loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
+    nf = len(g)
+    Tp = np.where(T < k, loc_loop[np.minimum(T, k - 1)], nf + T - k)
+    return g, np.vstack([Fr, Tp]).astype(np.int64), nf, loc_loop
+
+
+def _local_frame(ctx, loop, sigma):
+    """Origin, scale and scaled loop positions of a hole's local frame:
+    centred on the loop, in units of its mean rim edge."""
+    P = ctx.V[loop]
+    origin = P.mean(axis=0)
+    scale = float(np.mean(sigma))
+    if not np.isfinite(scale) or scale <= 0:
+        scale = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))) or 1.0
+    return origin, scale, (P - origin) / scale
+
+
+@dataclass
+class _Pre:
+    """A hole's first attempt up to refinement, done in a batch."""
+
+    loop: np.ndarray
+    rim: tuple
+    T0: np.ndarray | None = None
+    refined: tuple | None = None
+    edge_on: bool | None = None     # _meets_edge_on, when the unit's order asked for it
+
+
+#: Holes whose first triangulation is refined together (see ``refine_patches``).
+BATCH = 24
+#: Loops longer than this are refined on their own.
+BATCH_MAX_LOOP = 400
+
+
+def _prefill(ctx, units):
+    """Rim data, triangulation and refinement of the single holes among
+    ``units``, the refinement as one batch (results identical to doing it
+    hole by hole); stored in ``ctx.pre`` for :func:`build_patch`."""
+    items, ids = [], []
+    for kind, args in units:
+        if kind != "one":
+            continue
+        hole_id, loop, order = args[0], np.asarray(args[1], np.int64), args[2]
+        rim = _rim_data(ctx, loop)
+        pre = _Pre(loop=loop, rim=rim)
+        ctx.pre[hole_id] = pre
+        if order != 1:
+            pre.edge_on = _meets_edge_on(ctx, loop, hole_id)
+        sigma, edge_normals, forbidden = rim
+        _, scale, Pl = _local_frame(ctx, loop, sigma)
+        try:
+            pre.T0 = triangulate_loop(Pl, edge_normals, forbidden)
+        except MeshError:
+            continue  # build_patch meets the same error and reports it
+        if len(loop) <= BATCH_MAX_LOOP:
+            items.append((Pl, pre.T0, sigma / scale, len(loop), forbidden))
+            ids.append(hole_id)
+    for hole_id, refined in zip(ids, refine_patches(items)):
+        ctx.pre[hole_id].refined = refined
+
+
+def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
+                energy=False, pinned=None, scan_aware=False):
+    """Build one hole's patch (no checks against the scan).
+
+    Parameters
+    ----------
+    ctx : _Context
+    hole_id : int
+    loop : (k,) int64
+    order : {1, 2, 3}
+    smooth : int
+        Taubin passes after fairing.
+    refine, fair : bool
+    avoid : set of (int, int)
+        More loop-position pairs the triangulation must not join (chords
+        whose triangles crossed the scan in an earlier attempt).
+    initial : (t,3) int64 or ((q,3) float64, (t,3) int64), optional
+        A first triangulation over the loop positions to use instead of
+        triangulating ``loop`` (a tube between two loops given as one
+        concatenated ``loop``); with positions, a first mesh whose vertex
+        ``k + j`` is ``P[j]``.
+    energy : bool
+        Also measure the faired patch's energies (``patch.energy``: thin
+        plate, curvature variation).
+    pinned : array of int, optional
+        New vertices (0-based among the new ones) kept where refinement put
+        them, on the flat triangulation, instead of being faired.
+    scan_aware : bool
+        Triangulate with only triangles that cross no scan face near the
+        hole (:func:`_scan_allowed`).
+
+    Returns
+    -------
+    patch : Patch
+
+    Raises
+    ------
+    PatchError
+    """
+    loop = np.asarray(loop, np.int64)
+    k = len(loop)
+    pre = ctx.pre_for(hole_id, loop)
+    sigma, edge_normals, forbidden = pre.rim if pre is not None else _rim_data(ctx, loop)
+    origin, scale, Pl = _local_frame(ctx, loop, sigma)
+    forbidden = forbidden | set(avoid)
+    fresh = pre is not None and not avoid and not scan_aware  # the batch's first attempt applies
+    if initial is not None:
+        if isinstance(initial, tuple):  # a first tube with vertices inside (bridge.guide_tube)
+            P_in, initial = initial
+            Pl = np.vstack([Pl, (np.asarray(P_in, np.float64) - origin) / scale])
+        T = np.asarray(initial, np.int64)
+    elif fresh and pre.T0 is not None:
+        T = pre.T0
+    else:
+        try:
+            T = triangulate_loop(Pl, edge_normals, forbidden,
+                                 allowed=_scan_allowed(ctx, loop) if scan_aware else None)
+        except MeshError as exc:
+            raise PatchError(str(exc)) from None
+    T0 = T
+    if refine:
+        if fresh and pre.refined is not None and np.array_equal(T, pre.T0):
+            Pl, T = pre.refined
+        else:
+            Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
+    q = len(Pl) - k
+    colors = None
+    props = {}
+    new_local = Pl[k:]
+    patch_energy = None
+    if q > 0 and (fair or smooth or ctx.colors is not None or ctx.props):
+        g, Fs, nf, loc_loop = _submesh(ctx, loop, Pl, T, rings=max(order, 1))
+        X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
+        K = None
+        if fair:
+            Xu, K = fair_patch(X, Fs, nf, order=order, pinned=pinned)
+            X[nf:] = Xu
+            if energy:
+                # vertices with complete neighbourhoods: patch, loop and ring 1
+                ring1 = np.searchsorted(g, np.unique(ctx.F[ctx.faces_of(loop)]))
+                S = np.unique(np.concatenate([ring1, np.arange(nf, len(X))]))
+                patch_energy = (thin_plate_energy(X, Fs, np.concatenate([loc_loop, np.arange(nf, len(X))])),
+                                curvature_variation_energy(X, Fs, S) / scale ** 2)
+        if smooth:
+            Xs = taubin_smooth(X, Fs, nf, smooth)
+            if pinned is not None and len(pinned):
+                Xs[pinned] = X[nf:][pinned]
+            X[nf:] = Xs
+        new_local = X[nf:]
+        if ctx.colors is not None or ctx.props:
+            if K is None:
+                K = uniform_laplacian(Fs, len(X))
+            if ctx.colors is not None:
+                c = harmonic_interpolate(K, ctx.colors[g].astype(np.float64), nf)
+                colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
+            for name, arr in ctx.props.items():
+                vals = harmonic_interpolate(K, np.asarray(arr, np.float64)[g][:, None], nf)[:, 0]
+                props[name] = vals.astype(np.asarray(arr).dtype) if np.issubdtype(np.asarray(arr).dtype, np.floating) \
+                    else np.round(vals).astype(np.asarray(arr).dtype)
+    if not np.isfinite(new_local).all():
+        raise PatchError("the fairing solve did not converge (non-finite positions)")
+    Pn = origin + scale * new_local
+    return Patch(hole_id=hole_id, loop=loop, P=Pn, T=T, colors=colors, props=props, T0=T0, disc=len(T0) == k - 2,
+                 energy=patch_energy, order=order if fair else None)
+
+
+def _scan_allowed(ctx, loop):
+    """``allowed(T)`` for :func:`triangulate_loop`: True for the triangles
+    (loop positions) that cross no scan face."""
+    loop = np.asarray(loop, np.int64)
+
+    def allowed(T):
+        T = np.asarray(T, np.int64)
+        ok = np.ones(len(T), bool)
+        if len(T):
+            ok[patch_vs_index(ctx.V[loop[T]], loop[T], ctx.index, return_faces=True)] = False
+        return ok
+
+    return allowed
+
+
+def _corners(ctx, patch):
+    k = len(patch.loop)
+    allp = np.vstack([ctx.V[patch.loop], patch.P])
+    ids = np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -(1 + patch.T - k))
+    return allp[patch.T], ids.astype(np.int64)
+#: A loop at most this planar (RMS distance to its plane over its diameter) ...
+EDGE_ON_PLANARITY = 0.02
+#: ... whose surrounding faces (``EDGE_ON_RINGS`` rings) have normals with a
+#: mean |cos| to its axis of at most this is an opening the scan meets
+#: edge-on: a statue's base, a foot's sole, the cut of a bust or a pipe's
+#: end. The walls stand across the opening's plane; a faired patch would
+#: continue them into a dome, while the surface they bound is flat.
+EDGE_ON_COS = 0.35
+EDGE_ON_RINGS = 6
+
+
+#: A loop planar to this (RMS over diameter; round-off of float32 CAD
+#: coordinates is ~1e-7, scans are far from it) is a CAD face's outline,
+#: judged by its first ring of faces alone (the first with any area, past
+#: zero-area faces an exporter left on the rim): edge-on as soon as one of
+#: them stands across its plane (a crease along part of the rim). On a coarse
+#: CAD part six rings reach far beyond the rim, and large faces there
+#: outvote it either way: the plate around a pocket hides the pocket's
+#: walls, a capsule's long walls make the ring at its dome's pole look
+#: edge-on.
+EDGE_ON_CAD_PLANARITY = 1e-6
+
+
+def _meets_edge_on(ctx, loop, hole_id=None):
+    """Is the loop a planar opening whose surrounding walls stand across its plane?"""
+    from .holes import loop_stats
+
+    if ctx.planarity.get(hole_id, 0.0) > EDGE_ON_PLANARITY:  # measured already: not planar
+        return False
+    st = loop_stats(ctx.V, loop)
+    if st["planarity"] > EDGE_ON_PLANARITY:
+        return False
+    if st["planarity"] <= EDGE_ON_CAD_PLANARITY:
+        for rings in range(1, EDGE_ON_RINGS + 1):   # past rings of zero-area faces only
+            T = ctx.F[ctx.ring_faces(loop, rings)]
+            n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+            ln = np.linalg.norm(n, axis=1)
+            if np.any(ln > 0):
+                return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
+        return False
+    T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
+    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    a = 0.5 * np.linalg.norm(n, axis=1)
+    if a.sum() <= 0:
+        return False
+    cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
+    return float(np.sum(a * cosines) / a.sum()) <= EDGE_ON_COS
