@@ -8,7 +8,8 @@ import pytest
 
 from shellrepair import MeshError, Mesh, read_mesh, write_mesh
 from shellrepair import shapes
-from shellrepair import io as io_module
+from shellrepair import clean as clean_module
+from shellrepair.formats import ply as ply_module, polygons, stl as stl_module
 from shellrepair.io import clean_faces
 
 
@@ -93,7 +94,7 @@ def test_clean_faces_drops_exactly_the_later_copies_of_a_vertex_set(monkeypatch,
     F = rng.integers(0, 40, size=(3000, 3))
     F = np.vstack([F, F[rng.integers(0, 3000, 500)][:, [2, 0, 1]]])
     if colliding:   # a hash with many collisions must not change the result
-        monkeypatch.setattr(io_module, "_triple_hash", lambda G: (G.min(axis=1) % 3).astype(np.uint64))
+        monkeypatch.setattr(clean_module, "_triple_hash", lambda G: (G.min(axis=1) % 3).astype(np.uint64))
     Fc, kept, notes = clean_faces(F)
     ok = np.flatnonzero((F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2]))
     _, first = np.unique(np.sort(F[ok], axis=1), axis=0, return_index=True)
@@ -419,7 +420,7 @@ def test_polygons_of_every_size_keep_their_place(tmp_path):
     V = np.column_stack([np.cos(ang), np.sin(ang), np.zeros(9)])  # a convex 9-gon
     polys = [sorted(rng.choice(9, size=k, replace=False).tolist()) for k in rng.integers(1, 10, size=40)]
     notes = []
-    F = io_module._polygons_to_triangles(polys, notes, V)
+    F = polygons.polygons_to_triangles(polys, notes, V)
     assert len(F) == sum(max(len(p) - 2, 0) for p in polys)
     at = 0
     for p in polys:
@@ -437,7 +438,7 @@ def test_polygons_of_every_size_keep_their_place(tmp_path):
     assert f"{n_small} faces with fewer than 3 corners dropped" in notes
     # the same from (counts, flat) arrays
     flat = np.concatenate([np.asarray(p) for p in polys])
-    assert np.array_equal(io_module._polygons_to_triangles(([len(p) for p in polys], flat), [], V), F)
+    assert np.array_equal(polygons.polygons_to_triangles(([len(p) for p in polys], flat), [], V), F)
 
 
 @pytest.mark.filterwarnings("error")
@@ -450,8 +451,8 @@ def test_ply_face_records_with_scalars_around_a_list_of_varying_length(tmp_path,
     assert m.F.tolist() == [[1, 4, 2], [0, 1, 2], [0, 2, 3], [0, 2, 3]]
     assert any("face properties not kept: flags, quality" in n for n in m.notes)
     data = _ply(fmt, XYZ, SQ, fprops, faces)
-    fmt_, elements, pos = io_module._parse_ply_header(data)
-    face = io_module._ply_binary_body(data, pos, elements, ">" if "big" in fmt else "<")["face"]
+    fmt_, elements, pos = ply_module._parse_ply_header(data)
+    face = ply_module._ply_binary_body(data, pos, elements, ">" if "big" in fmt else "<")["face"]
     assert face["flags"].tolist() == [7, 8, 9] and face["quality"].tolist() == [0.5, 1.5, 2.5]
     with pytest.raises(MeshError, match="truncated"):
         _read_bytes(tmp_path, "t.ply", _ply(fmt, XYZ, SQ, fprops, faces)[:-3])
@@ -466,8 +467,8 @@ def test_stl_weld_joins_equal_corners_in_order_of_appearance(monkeypatch, collid
     P = rng.integers(-3, 4, (3000, 3)).astype(np.float64)
     P[rng.random(P.shape) < 0.2] *= -1  # some zeros become -0.0
     if colliding:
-        monkeypatch.setattr(io_module, "_row_hash", lambda bits: (bits[:, 0] % np.uint64(3)))
-    m = io_module._weld(P, "f8")
+        monkeypatch.setattr(stl_module, "_row_hash", lambda bits: (bits[:, 0] % np.uint64(3)))
+    m = stl_module._weld(P, "f8")
     assert np.array_equal(m.V[m.F.reshape(-1)], P + 0.0)
     _, first = np.unique(P + 0.0, axis=0, return_index=True)
     assert np.array_equal(m.V, (P + 0.0)[np.sort(first)])
