@@ -89,7 +89,7 @@ __all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path",
 MAX_ABS_COORDINATE = 1e100
 
 
-def read_mesh(path, *, clean=True, orient=True, progress=False):
+def read_mesh(path, *, clean=True, orient=True, progress=None):
     """Read a triangle mesh from a PLY, OBJ, OFF or STL file.
 
     Parameters
@@ -105,10 +105,12 @@ def read_mesh(path, *, clean=True, orient=True, progress=False):
         outward (see :func:`shellrepair.clean.orient_faces`). Only the corner
         order of some faces changes; vertices and face order never do.
         Default True.
-    progress : bool
-        Show the loading stages (parse, clean, orient, measure) as a bar on
-        stderr when it is a terminal; the line is left open for the next
-        bar (see :func:`shellrepair.progress.step`).
+    progress : callable, optional
+        Called as ``progress(label, done, total)`` with the label
+        ``"loading <file name>"`` as each of the 4 stages (parse, clean,
+        orient, measure) ends, and with ``done = 0`` first (the protocol of
+        :mod:`shellrepair.progress`). Default None: nothing is reported.
+        ``True`` draws the terminal bar, as it did before the callback.
 
     Returns
     -------
@@ -358,18 +360,21 @@ def _append_copies(out, V, mesh, src):
                         for k, a in mesh.vertex_props.items()}
 
 
-def _stages(on, label, n):
-    """A callable that reports one more of ``n`` stages done (nothing when off)."""
-    if not on:
+def _stages(progress, label, n):
+    """A callable that reports one more of ``n`` stages done to ``progress``
+    (a callback of :mod:`shellrepair.progress`; nothing when None); the
+    start (0 of ``n``) is reported now."""
+    if progress is None or progress is False:
         return lambda: None
-    from .progress import step
+    from .progress import as_callback
 
+    report = as_callback(progress)
     done = [0]
-    step(label, 0, n)
+    report(label, 0, n)
 
     def stage():
         done[0] += 1
-        step(label, done[0], n)
+        report(label, done[0], n)
 
     return stage
 
@@ -390,7 +395,7 @@ def mesh_bytes(path, mesh, *, binary=True):
     return writer(mesh, binary)
 
 
-def write_mesh(path, mesh, *, binary=True):
+def write_mesh(path, mesh, *, binary=True, progress=None):
     """Write a mesh; PLY keeps colours and the ``filled`` flags.
 
     Parameters
@@ -400,6 +405,10 @@ def write_mesh(path, mesh, *, binary=True):
     mesh : Mesh
     binary : bool
         For PLY and STL, write binary (default) or ascii.
+    progress : callable, optional
+        Called as ``progress("writing <file name>", done, 2)``: 0 at the
+        start, 1 when the bytes are made, 2 when they are on disk (the
+        protocol of :mod:`shellrepair.progress`). Default None.
 
     Notes
     -----
@@ -407,9 +416,12 @@ def write_mesh(path, mesh, *, binary=True):
     into place, so a failure leaves no partial output.
     """
     path = Path(path)
+    stage = _stages(progress, f"writing {path.name}", 2)
     payload = mesh_bytes(path, mesh, binary=binary)
+    stage()
     check_output_path(path)
     atomic_write(path, payload)
+    stage()
 
 
 def _validate(mesh):

@@ -717,3 +717,33 @@ def test_golden_cases_are_the_recorded_ones(golden_now):
 @pytest.mark.parametrize("key", sorted(GOLDEN))
 def test_every_format_reads_and_writes_the_bytes_it_did_before_the_split(golden_now, key):
     assert golden_now[key] == GOLDEN[key], f"{key}: the reader or writer changed its output"
+
+
+# ---------------------------------------------------------------------------
+# progress: reading and writing report to a callback and draw nothing
+# ---------------------------------------------------------------------------
+def test_reading_and_writing_report_their_stages_to_a_callback(tmp_path, capsys):
+    calls = []
+    m = _mesh()
+    write_mesh(tmp_path / "a.ply", m, progress=lambda *a: calls.append(a))
+    read_mesh(tmp_path / "a.ply", progress=lambda *a: calls.append(a))
+    assert calls == [("writing a.ply", 0, 2), ("writing a.ply", 1, 2), ("writing a.ply", 2, 2),
+                     ("loading a.ply", 0, 4), ("loading a.ply", 1, 4), ("loading a.ply", 2, 4),
+                     ("loading a.ply", 3, 4), ("loading a.ply", 4, 4)]
+    assert capsys.readouterr() == ("", "")  # the library draws nothing itself
+
+
+def test_a_callback_that_raises_cancels_the_write_and_leaves_no_file(tmp_path):
+    def cancel(label, done, total):
+        if done == 1:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        write_mesh(tmp_path / "a.ply", _mesh(), progress=cancel)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_progress_that_is_not_a_callback_is_refused(tmp_path):
+    write_mesh(tmp_path / "a.ply", _mesh())
+    with pytest.raises(TypeError, match="progress must be None, True, False or a callable"):
+        read_mesh(tmp_path / "a.ply", progress="yes")
