@@ -316,14 +316,18 @@ def _repair(args):
 def _batch(args):
     from .batch import repair_folder, summary_table
 
+    bar = terminal_bar(args.quiet)
+
     def line(row):  # one line per finished scan, unless the JSON is wanted or -q
         if not args.json and not args.quiet:
+            if bar is not None:
+                bar.clear()  # the line starts at column 0, the bars go on below it
             what = (f"{row['holes_before']} -> {row['holes_after']} holes" if row["status"] == "ok"
                     else f"error: {row['error']}")
             print(f"{row['file']}: {what} ({row['seconds']:.1f} s)", flush=True)
 
     summary = repair_folder(args.dir, args.outdir, _options(args), on_scan=line, html=args.html,
-                            progress=terminal_bar(args.quiet) or False)
+                            progress=bar or False)
     if args.json:
         print(json.dumps(summary, indent=1))
     elif not args.quiet:

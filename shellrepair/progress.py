@@ -101,7 +101,21 @@ class TerminalBar:
     def __call__(self, label, done, total):
         step(label, done, total)
 
+    def clear(self):
+        """Wipe the bar's line, so that a line printed now starts at column 0
+        (the next call draws the bar again, below it)."""
+        global _open
+        if not _open:
+            return
+        _open = False
+        try:
+            sys.stderr.write("\r" + CLEAR_EOL)
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+
     def end(self):
+        """End the bars' line (:func:`end_line`)."""
         end_line()
 
 

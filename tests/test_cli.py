@@ -127,3 +127,23 @@ def test_quiet_batch_still_names_each_failed_scan_on_stderr_and_exits_2(tmp_path
     assert main(args + ["-q"]) == 2
     out, err = capsys.readouterr()
     assert out == "" and err == f"error: {tmp_path / 'in' / 'bad.stl'}: not an STL file\n"
+
+
+def test_the_terminal_bar_is_made_only_for_a_terminal_and_not_when_quiet(monkeypatch):
+    from shellrepair.progress import TerminalBar, terminal_bar
+
+    monkeypatch.setattr("sys.stderr", io.StringIO())
+    assert terminal_bar() is None
+    tty = _Tty()
+    monkeypatch.setattr("sys.stderr", tty)
+    assert terminal_bar(quiet=True) is None
+    bar = terminal_bar()
+    assert isinstance(bar, TerminalBar)
+    bar("loading a.ply", 0, 4)
+    bar("loading a.ply", 4, 4)
+    assert tty.getvalue().split("\r")[-1].startswith("loading a.ply [") and "4/4 100%" in tty.getvalue()
+    bar.clear()  # wiped: what is printed next starts at column 0
+    assert tty.getvalue().endswith("\r\x1b[K")
+    bar("writing a.ply", 1, 2)
+    bar.end()
+    assert tty.getvalue().endswith("\n") and "writing a.ply [" in tty.getvalue()
