@@ -9,7 +9,7 @@ Every long library call takes ``progress=None``: a callable, called as
 * ``label`` (str): what is being done, e.g. ``"loading bunny.ply"``,
   ``"finding holes"``, ``"filling holes"``, ``"writing out.ply"``;
 * ``done`` (int): items of this label finished, ``0 <= done <= total``;
-  ``0`` announces the start, ``done == total`` the end;
+  ``0`` (when sent) announces the start, ``done == total`` the end;
 * ``total`` (int): items of this label, ``>= 1``.
 
 The calls come from the thread that called the library function, in order;
