@@ -12,7 +12,7 @@ SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 # python3 -m venv needs ensurepip, which Debian ships apart
 VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
 
-.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance stress
+.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance stress docs
 
 # `make setup` forces the install; every target that runs the package
 # depends on the stamp, so a fresh clone installs on its first command and
@@ -85,6 +85,17 @@ bench-scale-profile: $(STAMP)
 
 table1: $(STAMP)
 	$(PY) eval/table1.py
+
+# the API reference from the docstrings (pdoc, the docs extra) into docs/api/
+# (not committed); every module and subpackage, found by walking the package
+# (its __all__ would hide the submodules from pdoc). The worked example is
+# docs/example.md; tests/test_docs.py runs its code.
+docs: $(STAMP)
+	$(PY) -c "import pdoc" 2>/dev/null || $(PY) -m pip install -q -e '.[docs]'
+	rm -rf docs/api
+	$(PY) -m pdoc --docformat numpy -o docs/api shellrepair \
+	  $$($(PY) -c "import pkgutil, shellrepair; print(' '.join(m.name for m in pkgutil.walk_packages(shellrepair.__path__, 'shellrepair.')))")
+	@echo "wrote docs/api/index.html (start at docs/api/shellrepair.html)"
 
 clean:
 	rm -rf .pytest_cache .hypothesis build *.egg-info data/*.repaired.ply data/*.report.json data/*.png data/repaired

@@ -44,6 +44,12 @@ Which way round
   consistent) is reported; it is wound along a spanning tree of its faces,
   so only the faces along one seam disagree, and its faces keep the
   majority winding.
+
+Repeated and duplicate faces (:func:`clean_faces`)
+--------------------------------------------------
+Before all of this, reading drops faces that repeat a vertex and faces
+that repeat another face's three vertices (in any order), keeping the
+first, in file order.
 """
 
 from __future__ import annotations
@@ -354,7 +360,7 @@ def make_manifold(V, F, topo=None):
         Never changed; new vertices are copies of old ones (``src``).
     F : (m,3) int64 array
         Faces with no repeated vertex and no duplicate (as
-        :func:`shellrepair.io.clean_faces` leaves them).
+        :func:`clean_faces` leaves them).
     topo : EdgeTopology, optional
         Of ``F``, if already built.
 
@@ -385,8 +391,6 @@ def make_manifold(V, F, topo=None):
        largest fan keeps the vertex, each other fan gets a copy of it
        (appended, same position and attributes). Nothing is moved.
     """
-    from .io import clean_faces  # io imports this module lazily
-
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
     n = len(V)
@@ -576,3 +580,73 @@ def _folded_faces(F, topo, left):
     ec = topo.edge_count[topo.edge_of_he].reshape(-1, 3)
     n_open = (ec == 1).sum(axis=1)
     return np.flatnonzero((n_left >= 2) & (n_left + n_open == 3))
+
+
+def clean_faces(F):
+    """Drop faces that repeat a vertex and exact duplicate faces.
+
+    Parameters
+    ----------
+    F : (m,3) int64 array
+
+    Returns
+    -------
+    F_clean : (k,3) int64 array
+        Kept faces, in their original order.
+    kept : (k,) int64 array
+        Indices into ``F`` of the kept faces.
+    notes : list of str
+        One line per kind of face dropped.
+    """
+    F = np.asarray(F, dtype=np.int64)
+    notes = []
+    ok = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
+    n_degen = int((~ok).sum())
+    idx = np.flatnonzero(ok)
+    # duplicates share their sorted vertex triple, hence its hash; only the
+    # faces whose hash value repeats (all duplicates, and rare collisions)
+    # are grouped exactly, so a scan without duplicates sorts one array
+    h = _triple_hash(F if n_degen == 0 else F[idx])
+    hs = np.sort(h)
+    rep = np.unique(hs[1:][hs[1:] == hs[:-1]])
+    del hs
+    keep = np.ones(len(idx), bool)
+    if rep.size:
+        cand = np.flatnonzero(rep[np.minimum(np.searchsorted(rep, h), rep.size - 1)] == h)
+        S = np.sort(F[idx[cand]], axis=1)
+        # stable: the first face of a group of duplicates comes first
+        order = np.lexsort((S[:, 2], S[:, 1], S[:, 0]))
+        Ss = S[order]
+        later = np.zeros(len(Ss), bool)
+        later[1:] = (Ss[1:] == Ss[:-1]).all(axis=1)
+        keep[cand[order[later]]] = False
+    kept = idx[keep] if rep.size or n_degen else idx
+    n_dup = len(idx) - len(kept)
+    if n_degen:
+        notes.append(f"{n_degen} faces with a repeated vertex dropped")
+    if n_dup:
+        notes.append(f"{n_dup} duplicate faces dropped")
+    return F[kept], kept, notes
+
+
+def _triple_hash(F):
+    """A 64-bit hash of each row's vertex set (equal for equal sets in any order)."""
+    x, y, z = F[:, 0], F[:, 1], F[:, 2]
+    a = np.minimum(x, y)
+    np.minimum(a, z, out=a)
+    c = np.maximum(x, y)
+    np.maximum(c, z, out=c)
+    b = x + y
+    b += z
+    b -= a
+    b -= c
+    # in place, as unsigned 64-bit words (products wrap around)
+    h, b, c = a.view(np.uint64), b.view(np.uint64), c.view(np.uint64)
+    h *= np.uint64(0x9E3779B97F4A7C15)
+    b *= np.uint64(0xC2B2AE3D27D4EB4F)
+    h ^= b
+    c *= np.uint64(0x165667B19E3779F9)
+    h ^= c
+    del b, c
+    h ^= h >> np.uint64(29)
+    return h

@@ -12,6 +12,13 @@
 Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
 exit status 2; no traceback, no output file. ``batch`` goes on past a bad
 scan, lists it in the summary and exits 2 at the end.
+
+Every subcommand takes ``-q/--quiet``: no progress bar, and nothing on
+stdout but the JSON that ``--json`` asks for; errors and warnings still go
+to stderr, one line each, and the exit status is the same. Without it, the
+progress bars are drawn on stderr when it is a terminal: this module is the
+only place that draws them (the library reports to a callback, see
+:mod:`shellrepair.progress`).
 """
 
 from __future__ import annotations
@@ -23,7 +30,7 @@ import time
 from pathlib import Path
 
 from .errors import MeshError
-from .progress import end_line
+from .progress import end_line, terminal_bar
 
 __all__ = ["main", "quiet_hugepages"]
 
@@ -59,6 +66,7 @@ def _parser():
     h.add_argument("scan", help="the scan: PLY, OBJ, OFF or STL")
     h.add_argument("--json", action="store_true", help="print JSON instead of a table (default: the table)")
     _hole_options(h)
+    _quiet(h)
 
     r = sub.add_parser("repair", help="fill the holes and write the repaired scan and a report")
     r.add_argument("scan", help="the scan: PLY, OBJ, OFF or STL (never modified)")
@@ -70,6 +78,7 @@ def _parser():
                    help="also write a self-contained HTML page: Table 1, a before | after picture, the holes, "
                         "provenance (default: none)")
     _hole_options(r)
+    _quiet(r)
 
     b = sub.add_parser(
         "batch", help="repair every scan of a folder; a report per scan and a summary table",
@@ -87,6 +96,7 @@ def _parser():
     b.add_argument("--no-html", dest="html", action="store_false",
                    help="do not write OUTDIR/index.html and the pictures beside it (default: write them)")
     _hole_options(b)
+    _quiet(b)
 
     v = sub.add_parser("render", help="render a mesh with the aged-metal shading")
     v.add_argument("mesh", help="the mesh to render (a repaired PLY shows its filled faces)")
@@ -108,7 +118,14 @@ def _parser():
                    help="aging in [0, 1]: 0 all gilt, 1 all corroded (default 0.5)")
     v.add_argument("--up", default="y", choices=("x", "y", "z", "-x", "-y", "-z"),
                    help="world up axis: camera up and where rain comes from (default y)")
+    _quiet(v)
     return p
+
+
+def _quiet(p):
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress bar and nothing on stdout but what --json asks for; errors and warnings "
+                        "still on stderr, exit status unchanged (default: off)")
 
 
 def _age(text):
@@ -207,13 +224,17 @@ def _holes(args):
     from .options import RepairOptions
 
     RepairOptions(max_hole=args.max_hole, fill_borders=args.fill_borders, closed=_closed(args))  # checked first
-    mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
+    bar = terminal_bar(args.quiet)
+    mesh = read_mesh(args.scan, progress=bar)
     scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders,
                         closed=_closed(args),
                         topo=mesh.cached("topology"), pieces=mesh.cached("pieces"), areas=mesh.cached("face_areas"))
     end_line()  # the loading bar's
     d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)
-    print(json.dumps(d, indent=1) if args.json else holes_table(d))
+    if args.json:
+        print(json.dumps(d, indent=1))
+    elif not args.quiet:
+        print(holes_table(d))
     return 0
 
 
@@ -258,12 +279,17 @@ def _repair(args):
             raise MeshError("the page would overwrite the scan, the output or the report", page)
     opts = _options(args)  # every check that needs no reading happens before the work
     t0 = time.perf_counter()
-    mesh = read_mesh(args.scan, progress=sys.stderr.isatty())
-    repaired, report = repair_mesh(mesh, opts, progress=sys.stderr.isatty())
+    bar = terminal_bar(args.quiet)
+    mesh = read_mesh(args.scan, progress=bar)
+    repaired, report = repair_mesh(mesh, opts, progress=bar)
     report["file"] = str(args.scan)
     report["output"] = str(out)
     report["notes"] = list(mesh.notes)
+    if bar is not None:
+        bar(f"writing {out.name}", 0, 2)
     payload = mesh_bytes(out, repaired)
+    if bar is not None:
+        bar(f"writing {out.name}", 1, 2)
     report["seconds_total"] = round(time.perf_counter() - t0, 4)
     items = [(out, payload), (report_path, json.dumps(report, indent=1) + "\n")]
     if page is not None:
@@ -274,9 +300,12 @@ def _repair(args):
                                       sha256=file_sha256(args.scan))))
     # mesh, report (and page) appear together or not at all
     atomic_write_many(items)
+    if bar is not None:
+        bar(f"writing {out.name}", 2, 2)
+    end_line()
     if args.json:
         print(json.dumps(report, indent=1))
-    else:
+    elif not args.quiet:
         print(table1_text(report))
         for n in mesh.notes:
             print(f"  note: {n}")
@@ -287,16 +316,21 @@ def _repair(args):
 def _batch(args):
     from .batch import repair_folder, summary_table
 
-    def line(row):  # one line per finished scan, unless the JSON is wanted
-        if not args.json:
+    bar = terminal_bar(args.quiet)
+
+    def line(row):  # one line per finished scan, unless the JSON is wanted or -q
+        if not args.json and not args.quiet:
+            if bar is not None:
+                bar.clear()  # the line starts at column 0, the bars go on below it
             what = (f"{row['holes_before']} -> {row['holes_after']} holes" if row["status"] == "ok"
                     else f"error: {row['error']}")
             print(f"{row['file']}: {what} ({row['seconds']:.1f} s)", flush=True)
 
-    summary = repair_folder(args.dir, args.outdir, _options(args), on_scan=line, html=args.html)
+    summary = repair_folder(args.dir, args.outdir, _options(args), on_scan=line, html=args.html,
+                            progress=bar or False)
     if args.json:
         print(json.dumps(summary, indent=1))
-    else:
+    elif not args.quiet:
         print()
         print(summary_table(summary, errors=False))  # the errors go to stderr below
         print(f"  wrote {summary['n_ok']} repaired scans with their reports, and "
@@ -329,7 +363,9 @@ def _render(args):
     check_output_path(out, what="output")
     if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
         raise MeshError("output would overwrite an input mesh", out)
-    mesh = read_mesh(args.mesh)
+    bar = terminal_bar(args.quiet)
+    mesh = read_mesh(args.mesh, progress=bar)
+    end_line()
     if args.highlight_filled and (mesh.face_filled is None or not mesh.face_filled.any()):
         print(f"warning: {args.mesh}: no face is flagged filled, so --highlight-filled shows nothing "
               "(render the output of shellrepair repair)", file=sys.stderr)
@@ -341,7 +377,8 @@ def _render(args):
     kw = dict(size=(w, h), material=args.material, view=view, unit=unit, age=args.age, up=up)
     info = {}
     if args.before:  # one camera for both panels
-        before = read_mesh(args.before)
+        before = read_mesh(args.before, progress=bar)
+        end_line()
         img = rd.render_side_by_side(before.V, before.F, mesh.V, mesh.F, filled=mesh.face_filled,
                                      highlight_filled=args.highlight_filled,
                                      vertex_colors_before=before.vertex_colors,
@@ -353,6 +390,8 @@ def _render(args):
         img = rd.render_mesh(mesh.V, mesh.F, filled=mesh.face_filled, highlight_filled=args.highlight_filled,
                              vertex_colors=mesh.vertex_colors, legend=legend, info=info, **kw)
     rd.save_image(out, img)
+    if args.quiet:
+        return 0
     choice = info["model"]
     print(f"unit: {unit} ({unit_reason})")
     print(f"pixel footprint {info['footprint_um']:.3g} um: {choice.model} model ({choice.reason})")

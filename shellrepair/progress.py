@@ -1,4 +1,40 @@
-"""A tiny progress bar for long work, drawn on stderr only when it is a terminal.
+"""Progress: the callback the library reports to, and the bar the command line draws.
+
+The protocol
+------------
+Every long library call takes ``progress=None``: a callable, called as
+
+    progress(label, done, total)
+
+* ``label`` (str): what is being done, e.g. ``"loading bunny.ply"``,
+  ``"finding holes"``, ``"filling holes"``, ``"writing out.ply"``;
+* ``done`` (int): items of this label finished, ``0 <= done <= total``;
+  ``0`` (when sent) announces the start, ``done == total`` the end;
+* ``total`` (int): items of this label, ``>= 1``.
+
+The calls come from the thread that called the library function, in order;
+``done`` never goes down within one label. One call may start a new label
+(a new loop) at any time. The library draws nothing, ends no line and
+ignores what the callback returns; an exception the callback raises stops
+the work and reaches the caller (a way to cancel). ``None`` (or ``False``)
+reports nothing. ``True`` is kept for older callers: it draws the bar below
+on stderr when that is a terminal, as ``progress=True`` always did.
+
+>>> seen = []
+>>> from shellrepair.progress import as_callback
+>>> report = as_callback(lambda label, done, total: seen.append((label, done, total)))
+>>> report("loading a.ply", 0, 4); report("loading a.ply", 4, 4)
+>>> seen
+[('loading a.ply', 0, 4), ('loading a.ply', 4, 4)]
+>>> as_callback(None) is None and as_callback(False) is None
+True
+
+The bar
+-------
+The command line (:mod:`shellrepair.cli`) is the one place that draws:
+it passes :func:`terminal_bar` (``None`` with ``-q`` or when stderr is not a
+terminal) as the callback. A tiny progress bar for long work, drawn on
+stderr only when it is a terminal.
 
     with Progress("filling holes", total=len(units)) as bar:
         for u in units:
@@ -17,8 +53,76 @@ from __future__ import annotations
 
 import sys
 import time
+from typing import Callable, Optional, Union
 
-__all__ = ["Progress", "progress_enabled", "step", "end_line"]
+__all__ = ["ProgressCallback", "as_callback", "terminal_bar", "TerminalBar", "Progress", "progress_enabled",
+           "step", "end_line"]
+
+#: The type of a progress callback: ``progress(label, done, total)``.
+ProgressCallback = Callable[[str, int, int], None]
+
+
+def as_callback(progress: Union[None, bool, ProgressCallback]) -> Optional[ProgressCallback]:
+    """The callback a library function reports to, from its ``progress`` argument.
+
+    Parameters
+    ----------
+    progress : None, bool or callable
+        ``None`` / ``False``: nothing; a callable ``(label, done, total)``:
+        itself; ``True`` (older callers): :func:`step`, the bar drawn on
+        stderr when it is a terminal.
+
+    Returns
+    -------
+    callback : callable or None
+
+    Raises
+    ------
+    TypeError
+        For anything else (a number, a string).
+    """
+    if progress is None or progress is False:
+        return None
+    if progress is True:
+        return step
+    if callable(progress):
+        return progress
+    raise TypeError(f"progress must be None, True, False or a callable (label, done, total), "
+                    f"not {type(progress).__name__}")
+
+
+class TerminalBar:
+    """The drawn callback: a bar per label on stderr (:func:`step`).
+
+    Calling it reports progress (the protocol above); :meth:`end` ends the
+    bars' line so that a table or an error starts on a line of its own.
+    """
+
+    def __call__(self, label, done, total):
+        step(label, done, total)
+
+    def clear(self):
+        """Wipe the bar's line, so that a line printed now starts at column 0
+        (the next call draws the bar again, below it)."""
+        global _open
+        if not _open:
+            return
+        _open = False
+        try:
+            sys.stderr.write("\r" + CLEAR_EOL)
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+
+    def end(self):
+        """End the bars' line (:func:`end_line`)."""
+        end_line()
+
+
+def terminal_bar(quiet=False):
+    """A :class:`TerminalBar` when stderr is a terminal and not ``quiet``, else None."""
+    return None if quiet or not progress_enabled() else TerminalBar()
+
 
 #: Seconds between two redraws; updates in between only count.
 MIN_INTERVAL = 0.1

@@ -1,8 +1,10 @@
 """The command line, driven through main([...])."""
 
+import io
 import json
 
 import numpy as np
+import pytest
 
 from shellrepair import Mesh, write_mesh, shapes
 from shellrepair.cli import main
@@ -50,3 +52,98 @@ def test_repair_table_says_how_holes_were_filled(tmp_path, capsys):
     write_mesh(p, Mesh(V=V2, F=F2))
     assert main(["repair", str(p), "-o", str(tmp_path / "o.ply")]) == 0
     assert "filled by: faired order 2 ×2" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------------------
+# -q / --quiet: no bar, nothing on stdout but asked-for JSON, errors unchanged
+# ---------------------------------------------------------------------------
+class _Tty(io.StringIO):
+    """A stderr that says it is a terminal, so the bars would be drawn."""
+
+    def isatty(self):
+        return True
+
+
+def _commands(tmp_path):
+    """One successful run of each subcommand (the arguments after the subcommand name)."""
+    scan = _perforated(tmp_path)
+    folder = tmp_path / "in"
+    folder.mkdir()
+    _perforated(folder, "a.ply")
+    return {"holes": ["holes", str(scan)],
+            "repair": ["repair", str(scan), "-o", str(tmp_path / "o.ply")],
+            "batch": ["batch", str(folder), "-o", str(tmp_path / "out"), "--no-html"],
+            "render": ["render", str(scan), "-o", str(tmp_path / "v.png"), "--size", "48x32"]}
+
+
+@pytest.mark.parametrize("cmd", ["holes", "repair", "batch", "render"])
+def test_quiet_prints_nothing_and_draws_no_bar_on_a_terminal(tmp_path, monkeypatch, capsys, cmd):
+    args = _commands(tmp_path)[cmd]
+    tty = _Tty()
+    monkeypatch.setattr("sys.stderr", tty)
+    assert main(args) == 0
+    loud_out, loud_err = capsys.readouterr().out, tty.getvalue()
+    assert loud_out.strip() and "[" in loud_err  # without -q: a table on stdout, bars on the terminal
+    tty.seek(0)
+    tty.truncate()
+    assert main(args + ["-q"]) == 0
+    assert capsys.readouterr().out == "" and tty.getvalue() == ""
+    assert main(args + ["--quiet"]) == 0
+    assert capsys.readouterr().out == "" and tty.getvalue() == ""
+
+
+def test_quiet_still_writes_the_outputs(tmp_path, capsys):
+    args = _commands(tmp_path)
+    assert main(args["repair"] + ["-q"]) == 0
+    assert main(args["batch"] + ["-q"]) == 0
+    assert main(args["render"] + ["-q"]) == 0
+    assert (tmp_path / "o.ply").stat().st_size > 0 and (tmp_path / "o.report.json").stat().st_size > 0
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["n_ok"] == 1
+    assert (tmp_path / "v.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert capsys.readouterr().out == ""
+
+
+def test_quiet_keeps_the_json_that_is_asked_for(tmp_path, capsys):
+    assert main(_commands(tmp_path)["holes"] + ["-q", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["holes"] == 2
+
+
+@pytest.mark.parametrize("cmd", ["holes", "repair", "render"])
+def test_quiet_errors_are_still_one_line_with_the_same_exit_status(tmp_path, capsys, cmd):
+    bad = tmp_path / "bad.ply"
+    bad.write_bytes(b"ply\nformat ascii 1.0\nelement vertex 3\n")
+    args = {"holes": ["holes", str(bad)], "repair": ["repair", str(bad)],
+            "render": ["render", str(bad), "-o", str(tmp_path / "v.png")]}[cmd]
+    assert main(args) == 2
+    loud = capsys.readouterr().err
+    assert main(args + ["-q"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == loud and err.count("\n") == 1 and err.startswith(f"error: {bad}: ")
+
+
+def test_quiet_batch_still_names_each_failed_scan_on_stderr_and_exits_2(tmp_path, capsys):
+    args = _commands(tmp_path)["batch"]
+    (tmp_path / "in" / "bad.stl").write_bytes(b"not an stl")
+    assert main(args + ["-q"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == f"error: {tmp_path / 'in' / 'bad.stl'}: not an STL file\n"
+
+
+def test_the_terminal_bar_is_made_only_for_a_terminal_and_not_when_quiet(monkeypatch):
+    from shellrepair.progress import TerminalBar, terminal_bar
+
+    monkeypatch.setattr("sys.stderr", io.StringIO())
+    assert terminal_bar() is None
+    tty = _Tty()
+    monkeypatch.setattr("sys.stderr", tty)
+    assert terminal_bar(quiet=True) is None
+    bar = terminal_bar()
+    assert isinstance(bar, TerminalBar)
+    bar("loading a.ply", 0, 4)
+    bar("loading a.ply", 4, 4)
+    assert tty.getvalue().split("\r")[-1].startswith("loading a.ply [") and "4/4 100%" in tty.getvalue()
+    bar.clear()  # wiped: what is printed next starts at column 0
+    assert tty.getvalue().endswith("\r\x1b[K")
+    bar("writing a.ply", 1, 2)
+    bar.end()
+    assert tty.getvalue().endswith("\n") and "writing a.ply [" in tty.getvalue()

@@ -1,11 +1,15 @@
 """Loading and writing scans: exact values, colours, flags, clean failure."""
 
+import hashlib
+import struct as _struct
+
 import numpy as np
 import pytest
 
 from shellrepair import MeshError, Mesh, read_mesh, write_mesh
 from shellrepair import shapes
-from shellrepair import io as io_module
+from shellrepair import clean as clean_module
+from shellrepair.formats import ply as ply_module, polygons, stl as stl_module
 from shellrepair.io import clean_faces
 
 
@@ -90,7 +94,7 @@ def test_clean_faces_drops_exactly_the_later_copies_of_a_vertex_set(monkeypatch,
     F = rng.integers(0, 40, size=(3000, 3))
     F = np.vstack([F, F[rng.integers(0, 3000, 500)][:, [2, 0, 1]]])
     if colliding:   # a hash with many collisions must not change the result
-        monkeypatch.setattr(io_module, "_triple_hash", lambda G: (G.min(axis=1) % 3).astype(np.uint64))
+        monkeypatch.setattr(clean_module, "_triple_hash", lambda G: (G.min(axis=1) % 3).astype(np.uint64))
     Fc, kept, notes = clean_faces(F)
     ok = np.flatnonzero((F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2]))
     _, first = np.unique(np.sort(F[ok], axis=1), axis=0, return_index=True)
@@ -416,7 +420,7 @@ def test_polygons_of_every_size_keep_their_place(tmp_path):
     V = np.column_stack([np.cos(ang), np.sin(ang), np.zeros(9)])  # a convex 9-gon
     polys = [sorted(rng.choice(9, size=k, replace=False).tolist()) for k in rng.integers(1, 10, size=40)]
     notes = []
-    F = io_module._polygons_to_triangles(polys, notes, V)
+    F = polygons.polygons_to_triangles(polys, notes, V)
     assert len(F) == sum(max(len(p) - 2, 0) for p in polys)
     at = 0
     for p in polys:
@@ -434,7 +438,7 @@ def test_polygons_of_every_size_keep_their_place(tmp_path):
     assert f"{n_small} faces with fewer than 3 corners dropped" in notes
     # the same from (counts, flat) arrays
     flat = np.concatenate([np.asarray(p) for p in polys])
-    assert np.array_equal(io_module._polygons_to_triangles(([len(p) for p in polys], flat), [], V), F)
+    assert np.array_equal(polygons.polygons_to_triangles(([len(p) for p in polys], flat), [], V), F)
 
 
 @pytest.mark.filterwarnings("error")
@@ -447,8 +451,8 @@ def test_ply_face_records_with_scalars_around_a_list_of_varying_length(tmp_path,
     assert m.F.tolist() == [[1, 4, 2], [0, 1, 2], [0, 2, 3], [0, 2, 3]]
     assert any("face properties not kept: flags, quality" in n for n in m.notes)
     data = _ply(fmt, XYZ, SQ, fprops, faces)
-    fmt_, elements, pos = io_module._parse_ply_header(data)
-    face = io_module._ply_binary_body(data, pos, elements, ">" if "big" in fmt else "<")["face"]
+    fmt_, elements, pos = ply_module._parse_ply_header(data)
+    face = ply_module._ply_binary_body(data, pos, elements, ">" if "big" in fmt else "<")["face"]
     assert face["flags"].tolist() == [7, 8, 9] and face["quality"].tolist() == [0.5, 1.5, 2.5]
     with pytest.raises(MeshError, match="truncated"):
         _read_bytes(tmp_path, "t.ply", _ply(fmt, XYZ, SQ, fprops, faces)[:-3])
@@ -463,8 +467,8 @@ def test_stl_weld_joins_equal_corners_in_order_of_appearance(monkeypatch, collid
     P = rng.integers(-3, 4, (3000, 3)).astype(np.float64)
     P[rng.random(P.shape) < 0.2] *= -1  # some zeros become -0.0
     if colliding:
-        monkeypatch.setattr(io_module, "_row_hash", lambda bits: (bits[:, 0] % np.uint64(3)))
-    m = io_module._weld(P, "f8")
+        monkeypatch.setattr(stl_module, "_row_hash", lambda bits: (bits[:, 0] % np.uint64(3)))
+    m = stl_module._weld(P, "f8")
     assert np.array_equal(m.V[m.F.reshape(-1)], P + 0.0)
     _, first = np.unique(P + 0.0, axis=0, return_index=True)
     assert np.array_equal(m.V, (P + 0.0)[np.sort(first)])
@@ -485,3 +489,261 @@ def test_ply_comments_are_kept_through_a_repair(tmp_path):
     out = tmp_path / "r.ply"
     write_mesh(out, R)
     assert read_mesh(out).comments == m.comments     # shellrepair's own line is not taken for the scan's
+
+
+# ---------------------------------------------------------------------------
+# Bytes fixed before io.py was split into mesh / files / formats (issue 16)
+# ---------------------------------------------------------------------------
+#: (extension, binary) pairs: every writer, both variants where there are two.
+_WRITERS = ((".ply", True), (".ply", False), (".obj", True), (".off", True), (".stl", True), (".stl", False))
+
+
+def _grid(nx, ny, scale=1.0, offset=0.0):
+    """A bent nx x ny grid; every coordinate a short binary fraction (exact in float32)."""
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    V = np.column_stack([i.ravel() * 0.125, j.ravel() * 0.25, ((i * j) % 7).ravel() * 0.0625]) * scale + offset
+    a = (i[:-1, :-1] * ny + j[:-1, :-1]).ravel()
+    F = np.concatenate([np.column_stack([a, a + ny, a + 1]), np.column_stack([a + 1, a + ny, a + ny + 1])])
+    return V, F.astype(np.int64)
+
+
+def _golden_written():
+    """Meshes built in memory, as a repair hands them to the writers."""
+    V, F = _grid(6, 5, scale=8.0, offset=1000.0)
+    full = Mesh(V=V, F=F, vertex_dtype="f4", comments=["comment scanned by hand", "obj_info rig 7"])
+    full.vertex_colors = (np.arange(len(V) * 4).reshape(-1, 4) * 37 % 256).astype(np.uint8)
+    full.vertex_props = {"quality": (np.arange(len(V)) * 0.5).astype(np.float32),
+                         "label": (np.arange(len(V)) % 3).astype(np.int32)}
+    full.vertex_filled = np.arange(len(V)) % 4 == 0
+    full.face_filled = np.arange(len(F)) % 5 == 0
+    V, F = _grid(4, 7, scale=3.0, offset=1e6)
+    far = Mesh(V=V + 1.0 / 3.0, F=F, vertex_dtype="f8")  # not exact in float32: written as double
+    V, F = _grid(3, 3)
+    seam = Mesh(V=np.vstack([V, V[4:5]]), F=F.copy())
+    seam.F_out = F.copy()
+    seam.F_out[F == 4] = 9  # corners of vertex 4 written with its copy (a colour seam)
+    seam.vertex_colors = np.zeros((10, 3), np.uint8)
+    seam.vertex_colors[9] = 200
+    return {"full": full, "far": far, "seam": seam}
+
+
+def _golden_files():
+    """Files in each format and its variants, as other tools write them."""
+    files = {}
+    files["polygons.obj"] = (
+        b"# polygons\nmtllib x.mtl\nv 0 0 0 1 0 0\nv 2 0 0 0 1 0\nv 2 2 0 0 0 1\nv 1 1 0 .5 .5 .5\n"
+        b"v 0 2 0 1 1 1\nv -1 1 0 0 0 0\nvt 0 0\nvn 0 0 1\n"
+        b"f 1/1/1 2/1/1 3/1/1 4/1/1 5/1/1 6/1/1\nf -3 -2 \\\n -1\ng part\nf 1//1 3//1 5//1\nl 1 2\n")
+    files["colours.off"] = (b"COFF\n# comment\n6 3 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n1 1 0 0 0 255 255\n"
+                            b"0 1 0 9 9 9 255\n0.5 1.5 0.25 1 2 3 255\n-0.5 0.5 0.5 4 5 6 255\n"
+                            b"5 0 1 2 4 3\n3 0 3 5 1 0 0\n3 3 2 4\n")
+    files["quads_ascii.ply"] = (b"ply\nformat ascii 1.0\ncomment from a scanner\nelement vertex 6\n"
+                                b"property float x\nproperty float y\nproperty float z\nproperty float confidence\n"
+                                b"element face 2\nproperty list uchar int vertex_indices\nproperty uchar flags\n"
+                                b"element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n"
+                                b"0 0 0 .5\n1 0 0 .25\n1 1 0 1\n0 1 0 0\n2 0 0.5 1\n2 1 0.5 1\n"
+                                b"4 0 1 2 3 7\n4 1 4 5 2 1\n0 1\n")
+    V, F = _grid(4, 4, scale=2.0)
+    recs = []
+    for k, f in enumerate(F.tolist()):  # mixed: triangles and, every third record, a degenerate quad
+        idx = f + [f[2]] if k % 3 == 0 else f
+        recs.append(_struct.pack(">B%di" % len(idx), len(idx), *idx) + _struct.pack(">f", k * 0.5))
+    head = (f"ply\nformat binary_big_endian 1.0\nelement vertex {len(V)}\nproperty double x\nproperty double y\n"
+            f"property double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+            f"element face {len(F)}\nproperty list uchar int vertex_indices\nproperty float q\nend_header\n")
+    vb = b"".join(_struct.pack(">dddBBB", *p, k % 256, 7, 9) for k, p in enumerate(V.tolist()))
+    files["mixed_big.ply"] = head.encode() + vb + b"".join(recs)
+    rec = np.dtype([("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    T = np.zeros(len(F), rec)
+    T["v"] = V[F]
+    files["soup.stl"] = b"solid but binary".ljust(80, b" ") + np.uint32(len(F)).tobytes() + T.tobytes()
+    files["soup_ascii.stl"] = ("solid s\n" + "".join(
+        "facet normal 0 0 1\nouter loop\n" + "".join(f"vertex {x!r} {y!r} {z!r}\n" for x, y, z in V[f].tolist())
+        + "endloop\nendfacet\n" for f in F[::2]) + "endsolid s\n").encode()
+    # a triangle soup whose coincident corners carry different colours: written with F_out
+    P = V[F].reshape(-1, 3)
+    C = np.repeat((np.arange(len(F)) % 2 * 200)[:, None], 9, axis=1).reshape(-1, 3)
+    lines = [f"{x!r} {y!r} {z!r} {r} {g} {b}" for (x, y, z), (r, g, b) in zip(P.tolist(), C.tolist())]
+    files["seams.ply"] = ("ply\nformat ascii 1.0\n"
+                          f"element vertex {len(P)}\nproperty double x\nproperty double y\nproperty double z\n"
+                          "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+                          f"element face {len(F)}\nproperty list uchar int vertex_indices\nend_header\n"
+                          + "\n".join(lines) + "\n"
+                          + "".join(f"3 {3 * k} {3 * k + 1} {3 * k + 2}\n" for k in range(len(F)))).encode()
+    # little-endian, ushort counts and a texture-coordinate list of varying length: the general walk
+    recs = b"".join(_struct.pack("<H3i", 3, *f) + _struct.pack("<B%df" % (k % 3), k % 3, *([0.5] * (k % 3)))
+                    for k, f in enumerate(F.tolist()))
+    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(V)}\nproperty float x\nproperty float y\n"
+            f"property float z\nelement face {len(F)}\nproperty list ushort int vertex_indices\n"
+            "property list uchar float texcoord\nend_header\n")
+    files["texcoords_le.ply"] = head.encode() + V.astype("<f4").tobytes() + recs
+    from shellrepair.io import mesh_bytes
+
+    files["full.ply"] = mesh_bytes("full.ply", _golden_written()["full"])  # what a repair writes, read again
+    return files
+
+
+def _sha(*parts):
+    h = hashlib.sha256()
+    for p in parts:
+        h.update(p.encode("utf-8") if isinstance(p, str) else bytes(p))
+        h.update(b"|")
+    return h.hexdigest()[:16]
+
+
+def _read_digest(m):
+    """Everything reading gives, as one hash."""
+    arrays = [m.V, m.F, m.F_out, m.vertex_colors, m.vertex_filled, m.face_filled]
+    parts = [repr(None) if a is None else (str(a.dtype) + str(a.shape)) for a in arrays]
+    parts += [np.ascontiguousarray(a).tobytes() for a in arrays if a is not None]
+    parts += [f"{k}:{np.asarray(a).dtype}" for k, a in sorted(m.vertex_props.items())]
+    parts += [np.ascontiguousarray(a).tobytes() for _, a in sorted(m.vertex_props.items())]
+    parts += [m.vertex_dtype, "\n".join(m.notes), "\n".join(m.comments), repr(sorted(m.fixes.items()))]
+    return _sha(*parts)
+
+
+def _golden_digests(tmp_path):
+    """name -> hash: each read file's content, each mesh written by every writer."""
+    from shellrepair.io import mesh_bytes
+
+    out = {}
+    meshes = dict(_golden_written())
+    for name, data in _golden_files().items():
+        p = tmp_path / name
+        p.write_bytes(data)
+        meshes[name] = m = read_mesh(p)
+        out[f"read {name}"] = _read_digest(m)
+    for name, m in meshes.items():
+        for ext, binary in _WRITERS:
+            out[f"write {name} {ext}{'' if binary else ' ascii'}"] = _sha(mesh_bytes("x" + ext, m, binary=binary))
+    return out
+
+
+#: Recorded with the code before the split (io.py of commit f4b9ef4): the test fails if any byte changes.
+GOLDEN = {
+    'read polygons.obj': 'f5d4bd286979eb0d',
+    'read colours.off': '6ea5f6f1c9727063',
+    'read quads_ascii.ply': 'a2f8613b4a21e0de',
+    'read mixed_big.ply': '4a52fb919bf13612',
+    'read soup.stl': 'ad69478515775c7d',
+    'read soup_ascii.stl': '36f706277a6baa78',
+    'read seams.ply': '347f79b4173765c7',
+    'read texcoords_le.ply': '057f0fc8c9b86b7d',
+    'read full.ply': '67496105fc6dfab5',
+    'write full .ply': 'ef2e443b9583379d',
+    'write full .ply ascii': 'afa2ae0e1481e3ee',
+    'write full .obj': '88ffe97ce39ff5e1',
+    'write full .off': '11d5b62a4a00fe25',
+    'write full .stl': '0ae59f661399f118',
+    'write full .stl ascii': '2e14921999ab6c93',
+    'write far .ply': '788c7a3f352c7963',
+    'write far .ply ascii': 'c1ec4a73bb3f8014',
+    'write far .obj': '54f444aa968122a6',
+    'write far .off': '597bf1a29726c776',
+    'write far .stl': '7fc67b6e626d35c7',
+    'write far .stl ascii': 'e290e1fad6a6bf1d',
+    'write seam .ply': 'c9010612f5eb0fe3',
+    'write seam .ply ascii': 'a118ec37bc2c3771',
+    'write seam .obj': 'f7e82b6874a6fef6',
+    'write seam .off': '271e4444e66ed79d',
+    'write seam .stl': '6b4146b463229061',
+    'write seam .stl ascii': '197fbad2ffd1f588',
+    'write polygons.obj .ply': 'f53e923f737263ce',
+    'write polygons.obj .ply ascii': '8024e2ad2e1c42ef',
+    'write polygons.obj .obj': 'b78ec598fafcdd06',
+    'write polygons.obj .off': '919b89d7f3749c97',
+    'write polygons.obj .stl': 'a239ddba95388db1',
+    'write polygons.obj .stl ascii': '11bc819791b5a9ba',
+    'write colours.off .ply': '5e35d147fa4b53d5',
+    'write colours.off .ply ascii': 'bc8536a51ddfc498',
+    'write colours.off .obj': 'b728c4fd0b56e1f7',
+    'write colours.off .off': 'ada7aed1981ead88',
+    'write colours.off .stl': '7e420b9603a39bef',
+    'write colours.off .stl ascii': 'c8f39992637c493c',
+    'write quads_ascii.ply .ply': '09008d4f64f00295',
+    'write quads_ascii.ply .ply ascii': 'f82d26b345562cde',
+    'write quads_ascii.ply .obj': '76c4baa35dba844c',
+    'write quads_ascii.ply .off': 'f0329af75bd88be3',
+    'write quads_ascii.ply .stl': '3813d1057ce3f019',
+    'write quads_ascii.ply .stl ascii': 'd9b0e4d495d4eb82',
+    'write mixed_big.ply .ply': '4f5cfcf359ca69b9',
+    'write mixed_big.ply .ply ascii': 'edec6895640874ad',
+    'write mixed_big.ply .obj': '7077784387be0d72',
+    'write mixed_big.ply .off': '4d4f8cc782c1d29c',
+    'write mixed_big.ply .stl': 'a1f5644e935e4445',
+    'write mixed_big.ply .stl ascii': '1b9809a889272ed7',
+    'write soup.stl .ply': 'acc8a1f1b73f8a0c',
+    'write soup.stl .ply ascii': 'a7c5c4303dd20ad2',
+    'write soup.stl .obj': '5eaf6db21f76defc',
+    'write soup.stl .off': 'b46c7d3f956b832e',
+    'write soup.stl .stl': 'a1f5644e935e4445',
+    'write soup.stl .stl ascii': '1b9809a889272ed7',
+    'write soup_ascii.stl .ply': '953469652cf074df',
+    'write soup_ascii.stl .ply ascii': '80ac923e4e1868b2',
+    'write soup_ascii.stl .obj': 'aa50e6b8e52d4def',
+    'write soup_ascii.stl .off': '7b81193660e8611d',
+    'write soup_ascii.stl .stl': 'c84d12e8873fd8d4',
+    'write soup_ascii.stl .stl ascii': '22566dc657fcc0fd',
+    'write seams.ply .ply': '643b76a66faf480f',
+    'write seams.ply .ply ascii': '59a52eef2527553d',
+    'write seams.ply .obj': 'ce6d292ffe64e7ee',
+    'write seams.ply .off': 'da26bad072994cfb',
+    'write seams.ply .stl': 'a1f5644e935e4445',
+    'write seams.ply .stl ascii': '1b9809a889272ed7',
+    'write texcoords_le.ply .ply': 'e6d6c957f47265d6',
+    'write texcoords_le.ply .ply ascii': 'd5e9f22eb5a4259b',
+    'write texcoords_le.ply .obj': 'a69e56fc7ec209c1',
+    'write texcoords_le.ply .off': '4d4f8cc782c1d29c',
+    'write texcoords_le.ply .stl': 'a1f5644e935e4445',
+    'write texcoords_le.ply .stl ascii': '1b9809a889272ed7',
+    'write full.ply .ply': 'ef2e443b9583379d',
+    'write full.ply .ply ascii': 'afa2ae0e1481e3ee',
+    'write full.ply .obj': '88ffe97ce39ff5e1',
+    'write full.ply .off': '11d5b62a4a00fe25',
+    'write full.ply .stl': '0ae59f661399f118',
+    'write full.ply .stl ascii': '2e14921999ab6c93',
+}
+
+
+@pytest.fixture(scope="module")
+def golden_now(tmp_path_factory):
+    return _golden_digests(tmp_path_factory.mktemp("golden"))
+
+
+def test_golden_cases_are_the_recorded_ones(golden_now):
+    assert sorted(golden_now) == sorted(GOLDEN)
+
+
+@pytest.mark.parametrize("key", sorted(GOLDEN))
+def test_every_format_reads_and_writes_the_bytes_it_did_before_the_split(golden_now, key):
+    assert golden_now[key] == GOLDEN[key], f"{key}: the reader or writer changed its output"
+
+
+# ---------------------------------------------------------------------------
+# progress: reading and writing report to a callback and draw nothing
+# ---------------------------------------------------------------------------
+def test_reading_and_writing_report_their_stages_to_a_callback(tmp_path, capsys):
+    calls = []
+    m = _mesh()
+    write_mesh(tmp_path / "a.ply", m, progress=lambda *a: calls.append(a))
+    read_mesh(tmp_path / "a.ply", progress=lambda *a: calls.append(a))
+    assert calls == [("writing a.ply", 0, 2), ("writing a.ply", 1, 2), ("writing a.ply", 2, 2),
+                     ("loading a.ply", 0, 4), ("loading a.ply", 1, 4), ("loading a.ply", 2, 4),
+                     ("loading a.ply", 3, 4), ("loading a.ply", 4, 4)]
+    assert capsys.readouterr() == ("", "")  # the library draws nothing itself
+
+
+def test_a_callback_that_raises_cancels_the_write_and_leaves_no_file(tmp_path):
+    def cancel(label, done, total):
+        if done == 1:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        write_mesh(tmp_path / "a.ply", _mesh(), progress=cancel)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_progress_that_is_not_a_callback_is_refused(tmp_path):
+    write_mesh(tmp_path / "a.ply", _mesh())
+    with pytest.raises(TypeError, match="progress must be None, True, False or a callable"):
+        read_mesh(tmp_path / "a.ply", progress="yes")

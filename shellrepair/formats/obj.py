@@ -1,0 +1,211 @@
+"""Wavefront OBJ: positions (with optional ``w`` or vertex colours) and faces.
+
+Corners ``v``, ``v/vt``, ``v//vn`` and ``v/vt/vn``, relative indices, line
+continuations, comments and CRLF are read; what a triangle mesh does not
+hold is skipped, with a note for what carries geometry.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ..errors import MeshError
+from ..mesh import Mesh, written_faces
+from .polygons import polygons_to_triangles
+from .text import WS, colors_to_uint8, parse_numbers, token_counts, token_starts
+
+__all__ = ["read_obj", "obj_bytes"]
+
+
+#: OBJ statements that hold nothing a triangle mesh keeps (grouping, materials,
+#: display and render attributes): skipped without a note.
+_OBJ_QUIET = {b"o", b"g", b"s", b"mg", b"usemtl", b"mtllib", b"usemap", b"maplib", b"lod", b"bevel",
+              b"c_interp", b"d_interp", b"shadow_obj", b"trace_obj", b"call", b"csh"}
+
+#: Free-form curve and surface statements (cstype ... end).
+_OBJ_FREEFORM = {b"cstype", b"deg", b"bmat", b"step", b"curv", b"curv2", b"surf", b"parm", b"trim",
+                 b"hole", b"scrv", b"sp", b"end", b"con", b"ctech", b"stech", b"vp"}
+
+
+def _obj_text(data):
+    """OBJ bytes with comments removed and continued lines joined.
+
+    A line ending in a backslash continues on the next; the joined line
+    takes the place of the first and the lines it swallowed stay as empty
+    lines, so line numbers still count physical lines.
+    """
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    if b"\n" not in data and b"\r" in data:  # old Mac line ends
+        data = data.replace(b"\r", b"\n")
+    if b"#" in data:
+        data = re.sub(rb"#[^\n]*", b"", data)
+    if b"\\" in data:
+        def join(m):
+            s = m.group()
+            return re.sub(rb"\\[ \t\r]*\n", b" ", s) + b"\n" * s.count(b"\n")
+
+        data = re.sub(rb"(?m)^(?:[^\n]*\\[ \t\r]*\n)+[^\n]*", join, data)
+        data = re.sub(rb"\\[ \t\r]*$", b"", data)  # a backslash on the very last line continues nothing
+    return data
+
+
+def _obj_lines_of(mask, buf, starts, ends):
+    """The bytes of the lines in ``mask``, one per line (runs of adjacent lines are sliced at once)."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    first, stop = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    return b"\n".join(buf[s:e] for s, e in zip(starts[first].tolist(), ends[stop - 1].tolist()))
+
+
+def read_obj(data):
+    """Wavefront OBJ: ``v`` (with optional ``w`` or ``r g b`` colour) and ``f``
+    lines; ``v/vt/vn``, ``v//vn``, ``v/vt`` corners and negative (relative)
+    indices; line continuations, comments and CRLF. Everything else is
+    skipped, with a note for what carries geometry (``vt``, ``vn``, ``l``, ...).
+    """
+    data = _obj_text(data)
+    b = np.frombuffer(data, np.uint8)
+    nl = np.flatnonzero(b == 10)
+    starts = np.concatenate([[0], nl + 1])
+    ends = np.concatenate([nl, [len(b)]])
+    buf = np.concatenate([b, np.full(3, 32, np.uint8)])  # writable, padded for the look-ahead
+    key = starts.copy()  # where each line's first token starts
+    lead = np.flatnonzero(WS[buf[starts]] & (ends > starts))
+    blank = ends == starts
+    for i in lead.tolist():  # lines that start with white space
+        s = data[starts[i]:ends[i]]
+        t = s.lstrip()
+        if t.strip():
+            key[i] += len(s) - len(t)
+        else:
+            blank[i] = True
+    c0, c1, c2 = buf[key], buf[key + 1], buf[key + 2]
+    is_v = (c0 == ord("v")) & WS[c1] & ~blank
+    is_f = (c0 == ord("f")) & WS[c1] & ~blank
+    is_vt = (c0 == ord("v")) & (c1 == ord("t")) & WS[c2]
+    is_vn = (c0 == ord("v")) & (c1 == ord("n")) & WS[c2]
+    other = np.flatnonzero(~(is_v | is_f | is_vt | is_vn | blank))
+    notes = []
+    skipped = {}
+    for i in other.tolist():
+        k = data[key[i]:ends[i]].split(None, 1)[0]
+        skipped[k] = skipped.get(k, 0) + 1
+    if not is_v.any():
+        raise MeshError("no vertices")
+    buf[key[is_v | is_f]] = 32  # blank the 'v' and 'f' keywords: what is left are values
+    mv = buf.tobytes()
+    v_line = np.flatnonzero(is_v)
+    f_line = np.flatnonzero(is_f)
+
+    # vertices: x y z, x y z w, or x y z r g b (MeshLab's vertex colours)
+    text = _obj_lines_of(is_v, mv, starts, ends)
+    cnt = token_counts(text)
+    if cnt.min() < 3:
+        i = int(np.flatnonzero(cnt < 3)[0])
+        raise MeshError(f"line {v_line[i] + 1}: vertex needs 3 coordinates")
+    voff = np.zeros(len(cnt), np.int64)
+    np.cumsum(cnt[:-1], out=voff[1:])
+    vals = parse_numbers(text, np.float64, int(cnt.sum()), lambda j, t: (
+        f"line {v_line[np.searchsorted(voff, j, side='right') - 1] + 1}: bad number '{t}'"))
+    if (cnt == 3).all():
+        V = vals.reshape(-1, 3)
+    else:
+        V = vals[voff[:, None] + np.arange(3)]
+    mesh = Mesh(V=V, F=np.zeros((0, 3), np.int64))
+    with_w = cnt == 4
+    if with_w.any():
+        w = vals[voff[with_w] + 3]
+        if (w != 1).any():
+            notes.append(f"OBJ: w coordinates ignored ({int((w != 1).sum())} vertices have w other than 1)")
+    with_c = cnt >= 6
+    if with_c.all():
+        mesh.vertex_colors = colors_to_uint8(vals[voff[:, None] + np.arange(3, 6)], notes, "OBJ")
+        if (cnt > 6).any():
+            notes.append(f"OBJ: values after x y z r g b ignored on {int((cnt > 6).sum())} vertices")
+    elif with_c.any():
+        notes.append(f"OBJ: vertex colours dropped: only {int(with_c.sum())} of {len(cnt)} vertices have one")
+    if (cnt == 5).any():
+        notes.append(f"OBJ: values after x y z ignored on {int((cnt == 5).sum())} vertices")
+
+    # faces: corners 'v', 'v/vt', 'v//vn' or 'v/vt/vn'; the position index comes first
+    text = _obj_lines_of(is_f, mv, starts, ends)
+    slashed = b"/" in text
+    if slashed:
+        text = text.replace(b"//", b"/0/")  # an empty texture slot
+    x = np.frombuffer(text, np.uint8)
+    tstart = np.flatnonzero(token_starts(x)) if x.size else np.zeros(0, np.int64)
+    cnt = token_counts(text, tstart) if f_line.size else np.zeros(0, np.int64)
+    foff = np.zeros(len(cnt), np.int64)
+    np.cumsum(cnt[:-1], out=foff[1:])
+
+    def line_of_corner(j):
+        return int(f_line[np.searchsorted(foff, j, side="right") - 1] + 1)
+
+    if slashed:
+        slash = np.flatnonzero(x == ord("/"))
+        parts = np.diff(np.searchsorted(slash, np.append(tstart, x.size))) + 1  # per corner
+        pstart = np.zeros(len(parts), np.int64)
+        np.cumsum(parts[:-1], out=pstart[1:])
+        vals = parse_numbers(text.replace(b"/", b" "), np.int64, int(parts.sum()), lambda j, t: (
+            f"line {line_of_corner(np.searchsorted(pstart, j, side='right') - 1)}: bad face index '{t}'"))
+        if vals.size != parts.sum():  # an empty part: '1/', '/2', '1///2'
+            for j, t in enumerate(text.split()):
+                if b"" in t.split(b"/"):
+                    raise MeshError(f"line {line_of_corner(j)}: bad face corner "
+                                    f"'{t.decode('utf-8', errors='replace')[:40]}'")
+            raise MeshError("bad face corners")  # not reached: some corner has an empty part
+        idx = vals[::int(parts[0])] if (parts == parts[0]).all() else vals[pstart]
+    else:
+        idx = parse_numbers(text, np.int64, int(cnt.sum()),
+                            lambda j, t: f"line {line_of_corner(j)}: bad face index '{t}'")
+    idx = np.array(idx, np.int64)  # own, writable
+    if idx.size and idx.min() <= 0:
+        zero = np.flatnonzero(idx == 0)
+        if zero.size:
+            raise MeshError(f"line {line_of_corner(int(zero[0]))}: face index 0 (OBJ indices start at 1)")
+        # a negative index counts back from the last vertex read before its line
+        seen = np.searchsorted(v_line, f_line)  # vertices above each face line
+        neg = np.flatnonzero(idx < 0)
+        rel = np.repeat(seen, cnt)[neg] + idx[neg]
+        if rel.min() < 0:
+            j = int(neg[np.argmin(rel)])
+            raise MeshError(f"line {line_of_corner(j)}: relative index {int(idx[j])} out of range "
+                            f"({int(np.repeat(seen, cnt)[j])} vertices before this line)")
+        idx[neg] = rel + 1
+    idx -= 1
+    mesh.F = polygons_to_triangles((cnt, idx), notes, V)
+
+    n_vt, n_vn = int(is_vt.sum()), int(is_vn.sum())
+    if n_vt or n_vn:
+        what = [f"{n} {name}" for n, name in ((n_vt, "texture coordinates (vt)"), (n_vn, "normals (vn)")) if n]
+        notes.append(f"OBJ: {' and '.join(what)} not kept (shellrepair keeps positions and vertex colours)")
+    for k, name in ((b"l", "polylines (l)"), (b"p", "points (p)")):
+        if k in skipped:
+            notes.append(f"OBJ: {skipped.pop(k)} {name} ignored")
+    ff = sum(skipped.pop(k) for k in list(skipped) if k in _OBJ_FREEFORM)
+    if ff:
+        notes.append(f"OBJ: {ff} free-form curve and surface statements ignored")
+    unknown = {k: n for k, n in skipped.items() if k not in _OBJ_QUIET}
+    if unknown:
+        notes.append("OBJ: unknown statements ignored: "
+                     + ", ".join(f"'{k.decode('utf-8', errors='replace')[:20]}' ({n})"
+                                 for k, n in sorted(unknown.items())[:5]))
+    mesh.notes.extend(notes)
+    return mesh
+
+
+def obj_bytes(mesh, binary=True):
+    V = np.asarray(mesh.V, np.float64)
+    lines = ["# written by shellrepair"]
+    vs = "v " + np.char.mod("%.17g", V[:, 0]) + " " + np.char.mod("%.17g", V[:, 1]) + " " + np.char.mod("%.17g", V[:, 2])
+    if mesh.vertex_colors is not None:
+        C = np.asarray(mesh.vertex_colors)[:, :3].astype(np.float64) / 255.0
+        for j in range(3):
+            vs = vs + " " + np.char.mod("%.6g", C[:, j])
+    lines += vs.tolist()
+    F = written_faces(mesh) + 1
+    lines += ("f " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
+              + np.char.mod("%d", F[:, 2])).tolist()
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,524 @@
+"""PLY: ascii and both binary byte orders, any list count and index types.
+
+:func:`read_ply` keeps the vertex coordinates at the width the file stored
+them (float is widened to float64 exactly and written back as float), vertex
+colours, the ``filled`` flags, other scalar vertex properties and the
+header's comments; :func:`ply_bytes` writes them back. Binary bodies are read
+as NumPy structured arrays when every face record has the same length, else
+by one walk over the records' lengths and a vectorised gather.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import MeshError
+from ..mesh import Mesh, written_faces
+from .polygons import polygons_to_triangles
+from .text import colors_to_uint8, parse_numbers, token_counts
+
+__all__ = ["read_ply", "ply_bytes"]
+
+
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+
+_PLY_NAMES = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort",
+              "i4": "int", "u4": "uint", "f4": "float", "f8": "double"}
+
+
+def _parse_ply_header(data):
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply"):
+        raise MeshError("not a PLY file (missing 'ply' magic)")
+    if end < 0:
+        raise MeshError("PLY header has no 'end_header'")
+    nl = data.find(b"\n", end)
+    body_start = len(data) if nl < 0 else nl + 1
+    lines = data[:end].decode("ascii", errors="replace").splitlines()
+    fmt = None
+    elements = []
+    for lineno, raw in enumerate(lines, 1):
+        tok = raw.split()
+        if not tok or tok[0] in ("ply", "comment", "obj_info"):
+            continue
+        if tok[0] == "format":
+            if len(tok) < 2 or tok[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                raise MeshError(f"PLY header line {lineno}: unknown format '{raw.strip()}'")
+            fmt = tok[1]
+        elif tok[0] == "element":
+            if len(tok) != 3 or not tok[2].lstrip("-").isdigit():
+                raise MeshError(f"PLY header line {lineno}: bad element line '{raw.strip()}'")
+            count = int(tok[2])
+            if count < 0:
+                raise MeshError(f"PLY header line {lineno}: negative element count")
+            elements.append({"name": tok[1], "count": count, "props": []})
+        elif tok[0] == "property":
+            if not elements:
+                raise MeshError(f"PLY header line {lineno}: property before any element")
+            if len(tok) > 1 and tok[1] == "list":
+                if len(tok) != 5 or tok[2] not in _PLY_TYPES or tok[3] not in _PLY_TYPES:
+                    raise MeshError(f"PLY header line {lineno}: bad list property '{raw.strip()}'")
+                if _PLY_TYPES[tok[2]][0] == "f":
+                    raise MeshError(f"PLY header line {lineno}: list length of type '{tok[2]}' "
+                                    "(must be an integer type)")
+                elements[-1]["props"].append((tok[4], "list", _PLY_TYPES[tok[2]], _PLY_TYPES[tok[3]]))
+            else:
+                if len(tok) != 3 or tok[1] not in _PLY_TYPES:
+                    raise MeshError(f"PLY header line {lineno}: bad property '{raw.strip()}'")
+                elements[-1]["props"].append((tok[2], "scalar", _PLY_TYPES[tok[1]], None))
+        else:
+            raise MeshError(f"PLY header line {lineno}: unknown keyword '{tok[0]}'")
+    if fmt is None:
+        raise MeshError("PLY header has no 'format' line")
+    return fmt, elements, body_start
+
+
+#: Names of vertex colour channels, in the order they are looked for.
+_PLY_COLOR_NAMES = (("red", "green", "blue", "alpha"),
+                    ("diffuse_red", "diffuse_green", "diffuse_blue", "diffuse_alpha"),
+                    ("r", "g", "b", "a"))
+
+#: Names of the face element's vertex index list.
+_PLY_INDEX_NAMES = ("vertex_indices", "vertex_index")
+
+
+def _ply_comments(data):
+    """The header's ``comment`` and ``obj_info`` lines, keyword included."""
+    end = data.find(b"end_header")
+    lines = data[:max(end, 0)].decode("ascii", errors="replace").splitlines()
+    return [ln.strip() for ln in lines if ln.split()[:1] in (["comment"], ["obj_info"])
+            and ln.strip() != "comment written by shellrepair"]
+
+
+def read_ply(data):
+    fmt, elements, pos = _parse_ply_header(data)
+    names = [e["name"] for e in elements]
+    if "vertex" not in names:
+        raise MeshError("PLY has no vertex element")
+    if "face" not in names:
+        raise MeshError("no faces: this is a point cloud, not a surface mesh")
+    notes = []
+    if fmt == "ascii":
+        tables = _ply_ascii_body(data[pos:], elements, notes)
+    else:
+        endian = "<" if fmt == "binary_little_endian" else ">"
+        tables = _ply_binary_body(data, pos, elements, endian)
+    vert = tables["vertex"]
+    for c in "xyz":
+        if c not in vert:
+            raise MeshError(f"PLY vertex element has no '{c}' property")
+    # float coordinates keep their width; anything else is written back as double
+    vdt = "f4" if all(vert[c].dtype.kind == "f" and vert[c].dtype.itemsize == 4 for c in "xyz") else "f8"
+    V = np.column_stack([vert[c].astype(np.float64) for c in "xyz"])
+    mesh = Mesh(V=V, F=np.zeros((0, 3), np.int64), vertex_dtype=vdt)
+    skip = {"x", "y", "z", "filled"}
+    for cn in _PLY_COLOR_NAMES:
+        if all(c in vert for c in cn[:3]):
+            cn = cn if cn[3] in vert else cn[:3]
+            cols = [vert[c] for c in cn]
+            if all(c.dtype == np.uint8 for c in cols):
+                mesh.vertex_colors = np.column_stack(cols)
+            else:
+                kind = "f" if any(c.dtype.kind == "f" for c in cols) else "i"
+                C = np.column_stack([c.astype(np.float64 if kind == "f" else np.int64) for c in cols])
+                mesh.vertex_colors = colors_to_uint8(C, notes, "PLY", unit=True)
+            skip.update(cn)
+            break
+    for name, arr in vert.items():
+        if name not in skip and not name.startswith("__") and arr.ndim == 1:
+            mesh.vertex_props[name] = arr
+    if "filled" in vert:
+        mesh.vertex_filled = vert["filled"].astype(bool)
+    face = tables["face"]
+    if "__F__" not in face and "__polys__" not in face:
+        raise MeshError("PLY face element has no vertex index list")
+    if "__polys__" in face:
+        mesh.F = polygons_to_triangles(face["__polys__"], notes, V)
+    else:
+        mesh.F = np.asarray(face["__F__"], dtype=np.int64).reshape(-1, 3)
+        if "filled" in face:
+            mesh.face_filled = face["filled"].astype(bool)
+    dropped = [p[0] for p in next(e for e in elements if e["name"] == "face")["props"]
+               if p[0] not in _PLY_INDEX_NAMES and not (p[0] == "filled" and "__polys__" not in face)]
+    if dropped:
+        notes.append(f"PLY: face properties not kept: {', '.join(dropped)}")
+    others = [f"{e['name']} ({e['count']})" for e in elements if e["name"] not in ("vertex", "face")]
+    if others:
+        notes.append(f"PLY: elements skipped: {', '.join(others)}")
+    mesh.notes.extend(notes)
+    mesh.comments = _ply_comments(data)
+    return mesh
+
+
+def _ply_binary_body(data, pos, elements, endian):
+    tables = {}
+    for el in elements:
+        props, count, name = el["props"], el["count"], el["name"]
+        if all(p[1] == "scalar" for p in props):
+            dt = np.dtype([(p[0], endian + p[2]) for p in props])
+            need = dt.itemsize * count
+            if pos + need > len(data):
+                raise MeshError(f"truncated: {name} data needs {need} bytes, "
+                                f"{max(0, len(data) - pos)} left")
+            arr = np.frombuffer(data, dtype=dt, count=count, offset=pos)
+            pos += need
+            tables[name] = {p[0]: arr[p[0]] for p in props}
+            continue
+        tab, pos = _ply_binary_lists(data, pos, el, endian)
+        tables[name] = tab
+    if pos < len(data) and data[pos:].strip(b"\x00\r\n\t ") and len(data) - pos > 0:
+        # trailing bytes are tolerated but only if they are whitespace/padding
+        raise MeshError(f"header disagrees with body: {len(data) - pos} bytes after the last element")
+    return tables
+
+
+_STRUCT_CODES = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I", "f4": "f", "f8": "d"}
+
+
+def _ply_list_table(props, scalars, lists, count):
+    """The table of an element with list properties: scalars by name, the
+    vertex index list as ``__F__`` (all triangles) or ``__polys__`` (counts, flat)."""
+    tab = dict(scalars)
+    idx_name = next((p[0] for p in props if p[1] == "list" and p[0] in _PLY_INDEX_NAMES), None)
+    if idx_name is None:
+        return tab
+    counts, flat = lists[idx_name]
+    if np.ndim(counts) == 0:  # every record has this many corners
+        counts = int(counts)
+        if counts == 3:
+            tab["__F__"] = flat.reshape(-1, 3)
+            return tab
+        counts = np.full(count, counts, np.int64)
+    if counts.size == count and (counts == 3).all():
+        tab["__F__"] = flat.reshape(-1, 3)
+    else:
+        tab["__polys__"] = (counts, flat)
+    return tab
+
+
+def _ply_binary_lists(data, pos, el, endian):
+    """Element with list properties.
+
+    When every record has the list lengths of the first (all triangles, all
+    quads, a fixed-length texcoord list...), the element is one structured
+    array; otherwise records are walked one by one to find where each starts.
+    """
+    props, count, name = el["props"], el["count"], el["name"]
+    if count == 0:
+        return _ply_list_table(props, {p[0]: np.zeros(0, endian + p[2]) for p in props if p[1] == "scalar"},
+                               {p[0]: (np.zeros(0, np.int64), np.zeros(0, np.int64)) for p in props
+                                if p[1] == "list"}, 0), pos
+    # lengths of the first record's lists
+    first, at = [], pos
+    for p in props:
+        if p[1] == "scalar":
+            at += np.dtype(p[2]).itemsize
+            continue
+        cdt = np.dtype(endian + p[2])
+        if at + cdt.itemsize > len(data):
+            raise MeshError(f"truncated: {name} 0 of {count} is cut off")
+        k = int(np.frombuffer(data, cdt, 1, at)[0])
+        if k < 0:
+            raise MeshError(f"{name} 0: negative list length {k}")
+        first.append(k)
+        at += cdt.itemsize + k * np.dtype(p[3]).itemsize
+    fields, j = [], 0
+    for p in props:
+        if p[1] == "scalar":
+            fields.append((p[0], endian + p[2]))
+        else:
+            fields += [(f"__n{j}__", endian + p[2]), (p[0], endian + p[3], (first[j],))]
+            j += 1
+    dt = np.dtype(fields)
+    need = dt.itemsize * count
+    avail = min(count, max(0, len(data) - pos) // dt.itemsize)
+    arr = np.frombuffer(data, dtype=dt, count=avail, offset=pos)
+    same = all((arr[f"__n{j}__"] == k).all() for j, k in enumerate(first))
+    if same and avail < count:
+        raise MeshError(f"truncated: {name} data needs {need} bytes, {max(0, len(data) - pos)} left")
+    if same:
+        scalars = {p[0]: arr[p[0]] for p in props if p[1] == "scalar"}
+        lists = {p[0]: (first[j], arr[p[0]].reshape(-1).astype(np.int64))
+                 for j, p in enumerate(p for p in props if p[1] == "list") if p[3][0] != "f"}
+        return _ply_list_table(props, scalars, lists, count), pos + need
+    return _ply_binary_walk(data, pos, el, endian)
+
+
+def _gather(b, at, dt):
+    """Values of dtype ``dt`` stored at byte offsets ``at`` of the bytes ``b``
+    (one value per offset, any alignment)."""
+    return b[at[:, None] + np.arange(dt.itemsize)].reshape(-1).view(dt)
+
+
+def _ply_binary_walk(data, pos, el, endian):
+    """Element with list properties of varying length: walk the records, then gather."""
+    import struct
+
+    props, count, name = el["props"], el["count"], el["name"]
+    plan = []
+    for p in props:
+        if p[1] == "scalar":
+            plan.append((np.dtype(p[2]).itemsize, None, 0))
+        else:
+            plan.append((np.dtype(p[2]).itemsize, struct.Struct(endian + _STRUCT_CODES[p[2]]).unpack_from,
+                         np.dtype(p[3]).itemsize))
+    where = [[] for _ in props]   # byte offset of each scalar / of each list's first item
+    lens = [[] for _ in props]
+    n = len(data)
+    one = [j for j, p in enumerate(props) if p[1] == "list"]
+    if len(one) == 1 and props[one[0]][2] in ("u1", "i1") and count:
+        return _ply_binary_walk_one(data, pos, el, endian, one[0])
+    for i in range(count):
+        for j, (size, unpack, isz) in enumerate(plan):
+            if pos + size > n:
+                raise MeshError(f"truncated: {name} {i} of {count} is cut off")
+            if unpack is None:
+                where[j].append(pos)
+                pos += size
+                continue
+            k = unpack(data, pos)[0]
+            if k < 0:
+                raise MeshError(f"{name} {i}: negative list length {k}")
+            pos += size
+            where[j].append(pos)
+            lens[j].append(k)
+            pos += k * isz
+            if pos > n:
+                raise MeshError(f"truncated: {name} {i} of {count} is cut off")
+    b = np.frombuffer(data, np.uint8)
+    scalars, lists = {}, {}
+    for j, p in enumerate(props):
+        at = np.asarray(where[j], np.int64)
+        if p[1] == "scalar":
+            dt = np.dtype(endian + p[2])
+            scalars[p[0]] = _gather(b, at, dt)
+            continue
+        if p[3][0] == "f":
+            continue  # float lists (texture coordinates) are not kept
+        dt = np.dtype(endian + p[3])
+        k = np.asarray(lens[j], np.int64)
+        start = np.repeat(at - np.concatenate([[0], np.cumsum(k)[:-1]]) * dt.itemsize, k)
+        item = start + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
+        flat = _gather(b, item, dt).astype(np.int64)
+        lists[p[0]] = (k, flat)
+    return _ply_list_table(props, scalars, lists, count), pos
+
+
+def _ply_binary_walk_one(data, pos, el, endian, j0):
+    """:func:`_ply_binary_walk` for the usual face record: one list, whose
+    length is one byte; the walk reads just that byte of each record."""
+    props, count, name = el["props"], el["count"], el["name"]
+    sizes = [np.dtype(p[2]).itemsize for p in props]
+    before = sum(sizes[:j0])
+    step = sum(sizes)  # a record's bytes less its list items
+    isz = np.dtype(props[j0][3]).itemsize
+    ks = []
+    at = pos + before
+    try:
+        for _ in range(count):
+            k = data[at]
+            ks.append(k)
+            at += step + k * isz
+    except IndexError:
+        raise MeshError(f"truncated: {name} {len(ks)} of {count} is cut off") from None
+    k = np.array(ks, np.int64)
+    if props[j0][2] == "i1":
+        k = k.astype(np.uint8).view(np.int8).astype(np.int64)
+        if (k < 0).any():
+            i = int(np.flatnonzero(k < 0)[0])
+            raise MeshError(f"{name} {i}: negative list length {int(k[i])}")
+    rec = np.zeros(count, np.int64)  # where each record starts
+    np.cumsum(step + k[:-1] * isz, out=rec[1:])
+    rec += pos
+    end = int(rec[-1]) + step + int(k[-1]) * isz
+    if end > len(data):
+        raise MeshError(f"truncated: {name} {count - 1} of {count} is cut off")
+    b = np.frombuffer(data, np.uint8)
+    scalars, lists = {}, {}
+    for j, p in enumerate(props):
+        at = rec + sum(sizes[:j]) + (k * isz if j > j0 else 0)
+        if j != j0:
+            dt = np.dtype(endian + p[2])
+            scalars[p[0]] = _gather(b, at, dt)
+            continue
+        if p[3][0] == "f":
+            continue  # float lists (texture coordinates) are not kept
+        dt = np.dtype(endian + p[3])
+        first = np.zeros(count, np.int64)
+        np.cumsum(k[:-1], out=first[1:])
+        item = np.repeat(at + sizes[j0] - first * dt.itemsize, k) + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
+        lists[p[0]] = (k, _gather(b, item, dt).astype(np.int64))
+    return _ply_list_table(props, scalars, lists, count), end
+
+
+def _ply_ascii_cast(col, code, name, prop, notes):
+    """An ascii column (float64) as PLY type ``code``; integers that are not numbers or
+    out of the type's range are set to 0 or clipped, with a note."""
+    dt = np.dtype(code)
+    if dt.kind == "f":
+        with np.errstate(over="ignore"):
+            return col.astype(dt)
+    info = np.iinfo(dt)
+    bad = ~np.isfinite(col)
+    if bad.any():
+        notes.append(f"PLY: {name} property '{prop}': {int(bad.sum())} values are not numbers, read as 0")
+        col = np.where(bad, 0.0, col)
+    out = (col < info.min) | (col > info.max)
+    if out.any():
+        notes.append(f"PLY: {name} property '{prop}': {int(out.sum())} values outside "
+                     f"{info.min}..{info.max} clipped")
+        col = np.clip(col, info.min, info.max)
+    return col.astype(dt)
+
+
+def _ply_ascii_body(body, elements, notes):
+    """The elements of an ascii PLY body: one line per record, blank lines skipped."""
+    x = np.frombuffer(body, np.uint8)
+    at = np.concatenate([[0], np.flatnonzero(x == 10) + 1, [x.size]])
+    cnt = token_counts(body)
+    rows = np.flatnonzero(cnt)
+    total = sum(el["count"] for el in elements)
+    if len(rows) != total:
+        announced = ", ".join(f"{el['count']} {el['name']}" for el in elements)
+        raise MeshError(f"header disagrees with body: header announces {announced} lines "
+                        f"({total}), body has {len(rows)}")
+    tables = {}
+    done = 0
+    for el in elements:
+        r = rows[done:done + el["count"]]
+        done += el["count"]
+        text = body[at[r[0]]:at[r[-1] + 1]] if len(r) else b""
+        tables[el["name"]] = _ply_ascii_element(text, cnt[r], el["props"], el["count"], el["name"], notes)
+    return tables
+
+
+def _ply_ascii_element(text, per_line, props, count, name, notes):
+    """One element of an ascii PLY body.
+
+    Parameters
+    ----------
+    text : bytes
+        Its ``count`` lines (and any blank lines between them).
+    per_line : (count,) int64 array
+        Values on each of those lines.
+
+    Notes
+    -----
+    All values are parsed at once; then each property is taken from every
+    record together, a cursor per record moving past scalars and lists, so
+    records of different lengths (triangles and quads, texture coordinate
+    lists) need no loop over records.
+    """
+    if count == 0:
+        return _ply_list_table(props, {p[0]: np.zeros(0, p[2]) for p in props if p[1] == "scalar"},
+                               {p[0]: (np.zeros(0, np.int64), np.zeros(0, np.int64)) for p in props
+                                if p[1] == "list"}, 0)
+    if all(p[1] == "scalar" for p in props) and (per_line != len(props)).any():
+        raise MeshError(f"header disagrees with body: {name} lines should have {len(props)} values each")
+    off = np.zeros(count, np.int64)
+    np.cumsum(per_line[:-1], out=off[1:])
+    end = off + per_line
+    vals = parse_numbers(text, np.float64, int(per_line.sum()), lambda j, t: (
+        f"{name} {np.searchsorted(off, j, side='right') - 1}: bad number '{t}'"))
+    cur = off.copy()
+    scalars, lists = {}, {}
+    for p in props:
+        short = np.flatnonzero(cur >= end)
+        if short.size:
+            raise MeshError(f"{name} {int(short[0])}: missing {'value' if p[1] == 'scalar' else 'list'} '{p[0]}'")
+        if p[1] == "scalar":
+            scalars[p[0]] = _ply_ascii_cast(vals[cur], p[2], name, p[0], notes)
+            cur += 1
+            continue
+        k = vals[cur]
+        bad = np.flatnonzero(~(k >= 0) | (k != np.floor(k)))
+        if bad.size:
+            raise MeshError(f"{name} {int(bad[0])}: bad list length '{k[bad[0]]:g}'")
+        k = k.astype(np.int64)
+        over = np.flatnonzero(cur + 1 + k > end)
+        if over.size:
+            i = int(over[0])
+            raise MeshError(f"{name} {i}: list announces {int(k[i])} values, has {int(end[i] - cur[i] - 1)}")
+        if p[3][0] != "f":  # float lists (texture coordinates) are not kept
+            first = np.zeros(count, np.int64)
+            np.cumsum(k[:-1], out=first[1:])
+            L = vals[np.repeat(cur + 1 - first, k) + np.arange(int(k.sum()))]
+            if not (L == np.round(L)).all():  # NaN fails too
+                raise MeshError(f"{name}: list '{p[0]}' holds values that are not integers")
+            lists[p[0]] = (int(k[0]) if (k == k[0]).all() else k, L.astype(np.int64))
+        cur += 1 + k
+    extra = np.flatnonzero(cur < end)
+    if extra.size:
+        i = int(extra[0])
+        raise MeshError(f"{name} {i}: {int(end[i] - cur[i])} values more than the header announces")
+    return _ply_list_table(props, scalars, lists, count)
+
+
+def ply_bytes(mesh, binary=True):
+    V = np.asarray(mesh.V, dtype=np.float64)
+    F = written_faces(mesh)
+    n, m = len(V), len(F)
+    vdt = mesh.vertex_dtype if mesh.vertex_dtype in ("f4", "f8") else "f8"
+    endian = "<"
+    vfields = [(c, endian + vdt) for c in "xyz"]
+    vcols = {c: V[:, j] for j, c in enumerate("xyz")}
+    for name, arr in mesh.vertex_props.items():
+        arr = np.asarray(arr)
+        if arr.shape == (n,) and arr.dtype.str[1:] in _PLY_NAMES:
+            vfields.append((name, endian + arr.dtype.str[1:]))
+            vcols[name] = arr
+    if mesh.vertex_colors is not None:
+        C = np.asarray(mesh.vertex_colors, dtype=np.uint8)
+        for j, c in enumerate(("red", "green", "blue", "alpha")[:C.shape[1]]):
+            vfields.append((c, "u1"))
+            vcols[c] = C[:, j]
+    if mesh.vertex_filled is not None:
+        vfields.append(("filled", "u1"))
+        vcols["filled"] = np.asarray(mesh.vertex_filled, dtype=np.uint8)
+    ffields = [("n", "u1"), ("i", endian + "i4", (3,))]
+    if mesh.face_filled is not None:
+        ffields.append(("filled", "u1"))
+    head = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
+            *[c for c in getattr(mesh, "comments", []) if c.isascii() and "\n" not in c and "\r" not in c],
+            "comment written by shellrepair", f"element vertex {n}"]
+    head += [f"property {_PLY_NAMES[dt[-2:]]} {name}" for name, dt in vfields]
+    head += [f"element face {m}", "property list uchar int vertex_indices"]
+    if mesh.face_filled is not None:
+        head.append("property uchar filled")
+    head.append("end_header")
+    header = ("\n".join(head) + "\n").encode("ascii")
+    if binary:
+        va = np.empty(n, dtype=np.dtype(vfields))
+        for name, _ in vfields:
+            va[name] = vcols[name]
+        fa = np.empty(m, dtype=np.dtype(ffields))
+        fa["n"] = 3
+        fa["i"] = F
+        if mesh.face_filled is not None:
+            fa["filled"] = np.asarray(mesh.face_filled, dtype=np.uint8)
+        return header + va.tobytes() + fa.tobytes()
+    out = [header.decode()]
+    cols = []
+    for name, dt in vfields:
+        a = vcols[name]
+        if dt[-2] == "f":
+            cols.append(np.char.mod("%.17g" if dt[-2:] == "f8" else "%.9g", a.astype(np.float64)))
+        else:
+            cols.append(np.char.mod("%d", a.astype(np.int64)))
+    if n:
+        rows = cols[0]
+        for c in cols[1:]:
+            rows = np.char.add(np.char.add(rows, " "), c)
+        out.append("\n".join(rows.tolist()) + "\n")
+    if m:
+        fl = ("3 " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
+              + np.char.mod("%d", F[:, 2]))
+        if mesh.face_filled is not None:
+            fl = fl + " " + np.char.mod("%d", np.asarray(mesh.face_filled, np.int64))
+        out.append("\n".join(fl.tolist()) + "\n")
+    return "".join(out).encode("ascii")

@@ -1,0 +1,142 @@
+"""The triangle mesh type, with the per-element data a scan carries.
+
+:class:`Mesh` holds positions, faces, colours, the ``filled`` flags of a
+repair, other PLY vertex properties and what loading noted; it caches the
+whole-mesh data reading computed on its way (edge topology, pieces, face
+areas) so that hole detection and repair need not build it again.
+:func:`written_faces` gives the faces as a file gets them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Mesh", "written_faces", "CACHE_SAMPLE"]
+
+
+#: Rows of ``V`` and of ``F`` sampled to notice in-place edits (:meth:`Mesh.cached`).
+CACHE_SAMPLE = 4096
+
+
+@dataclass
+class Mesh:
+    """A triangle mesh with the per-element data a scan carries.
+
+    Attributes
+    ----------
+    V : (n,3) float64 array
+        Vertex positions.
+    F : (m,3) int64 array
+        Triangle corner indices into ``V``.
+    vertex_colors : (n,3) or (n,4) uint8 array or None
+        Per-vertex colour, if the file has it.
+    vertex_filled, face_filled : (n,) / (m,) bool arrays or None
+        True for elements synthesized by a repair.
+    vertex_props : dict of str -> (n,) array
+        Other scalar vertex properties of a PLY (normals, quality, ...),
+        kept so that writing loses nothing.
+    vertex_dtype : str
+        ``'f4'`` or ``'f8'``: how the file stored coordinates; used when
+        writing so original values round-trip exactly.
+    path : str or None
+        Where it was read from.
+    notes : list of str
+        What loading changed (polygons split, faces dropped, ...).
+    F_out : (k,3) int64 array or None
+        How the first ``k`` faces are written, when that differs from ``F``:
+        ``F`` joins coincident vertices for the topology, ``F_out`` keeps a
+        corner's own vertex where its attributes differ (a seam). Faces
+        after the first ``k`` (added by a repair) are written as in ``F``.
+        Code that replaces ``F`` with other faces sets it to None.
+    fixes : dict
+        What :func:`manifold_mesh` did (see
+        :data:`shellrepair.clean.FIX_COUNTS`); empty when it did not run.
+    comments : list of str
+        A PLY header's ``comment`` and ``obj_info`` lines as read (each with
+        its keyword), written back before shellrepair's own comment.
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    vertex_colors: np.ndarray | None = None
+    vertex_filled: np.ndarray | None = None
+    face_filled: np.ndarray | None = None
+    vertex_props: dict = field(default_factory=dict)
+    vertex_dtype: str = "f8"
+    path: str | None = None
+    notes: list = field(default_factory=list)
+    F_out: np.ndarray | None = None
+    comments: list = field(default_factory=list)
+    fixes: dict = field(default_factory=dict)
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __repr__(self):
+        """One line: sizes and what the mesh carries, never the arrays."""
+        extra = []
+        if self.vertex_colors is not None:
+            extra.append("colours")
+        if self.face_filled is not None:
+            extra.append(f"{int(np.count_nonzero(self.face_filled))} filled faces")
+        if self.vertex_props:
+            extra.append("props " + ",".join(sorted(self.vertex_props)))
+        where = f" from {Path(self.path).name!r}" if self.path else ""
+        more = ("; " + "; ".join(extra)) if extra else ""
+        return f"Mesh({self.n_vertices:,} vertices, {self.n_faces:,} faces{more}{where})"
+
+    def cached(self, name):
+        """Whole-mesh data :func:`read_mesh` computed on its way, or None
+        (when it computed none, or ``V`` or ``F`` has changed since).
+
+        ``name``: ``"topology"`` (:func:`shellrepair.topology.edge_topology`),
+        ``"pieces"`` (``(n_pieces, face_piece)`` as
+        :func:`shellrepair.topology.face_pieces` gives them) or
+        ``"face_areas"``. A change is noticed when ``V`` or ``F`` is
+        replaced, or edited in place on any of the evenly spaced rows kept
+        as a sample (a unit conversion or a shift of the whole scan is); an
+        in-place edit of a few rows may not be: then clear ``mesh._cache``.
+        """
+        entry = self._cache.get(name)
+        if entry is None or entry[0] is not self.V or entry[1] is not self.F:
+            return None
+        if not all(np.array_equal(a[rows], sample) for a, rows, sample in zip((self.V, self.F), *entry[3])):
+            return None
+        return entry[2]
+
+    def remember(self, name, value):
+        """Keep ``value`` as :meth:`cached` ``name`` for the current ``V`` and ``F``."""
+        rows = [np.linspace(0, len(a) - 1, min(len(a), CACHE_SAMPLE)).astype(np.int64) for a in (self.V, self.F)]
+        self._cache[name] = (self.V, self.F, value, (rows, [a[r] for a, r in zip((self.V, self.F), rows)]))
+
+    @property
+    def n_vertices(self):
+        return int(self.V.shape[0])
+
+    @property
+    def n_faces(self):
+        return int(self.F.shape[0])
+
+
+def written_faces(mesh):
+    """The faces as a file gets them: ``mesh.F_out`` where set, else ``mesh.F``.
+
+    Parameters
+    ----------
+    mesh : Mesh
+
+    Returns
+    -------
+    F : (m,3) int64 array
+    """
+    F = np.asarray(mesh.F, np.int64)
+    W = getattr(mesh, "F_out", None)
+    if W is None:
+        return F
+    W = np.asarray(W, np.int64)
+    k = len(W)
+    V = np.asarray(mesh.V)
+    if k > len(F) or W.size and (W.max() >= len(V) or not np.array_equal(V[W], V[F[:k]])):
+        return F  # F was replaced since: F_out no longer describes it
+    return np.vstack([W, F[k:]]) if k < len(F) else W
