@@ -77,7 +77,7 @@ from .patch import BATCH, Patch, _Context, build_patch
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
 
 
-def repair_mesh(mesh, options=None, *, progress=False, **changes):
+def repair_mesh(mesh, options=None, *, progress=None, **changes):
     """Fill the holes of a mesh.
 
     Parameters
@@ -88,8 +88,11 @@ def repair_mesh(mesh, options=None, *, progress=False, **changes):
         How holes are found and filled (:class:`shellrepair.options.RepairOptions`:
         ``order``, ``smooth``, ``max_hole``, ``fill_borders``, ``method``,
         ``jobs``, ``bridge``, ``closed``); default: the defaults.
-    progress : bool
-        Print progress to stderr.
+    progress : callable, optional
+        Called as ``progress(label, done, total)`` (the protocol of
+        :mod:`shellrepair.progress`): ``"finding holes"`` 0..2, then
+        ``"filling holes"`` once per hole or band filled. Default None:
+        nothing. ``True`` draws the terminal bar, as before.
     **changes
         Any option by name, applied over ``options``
         (``repair_mesh(mesh, order="auto", jobs=2)``).
@@ -108,6 +111,10 @@ def repair_mesh(mesh, options=None, *, progress=False, **changes):
     from .options import RepairOptions
 
     opts = RepairOptions.make(options, **changes)  # checked once, messages name the option
+    from .progress import as_callback
+
+    legacy_bar = progress is True
+    progress = as_callback(progress)
     order, smooth, max_hole, fill_borders = opts.order, opts.smooth, opts.max_hole, opts.fill_borders
     method, jobs, bridge, closed = opts.method, opts.jobs, opts.bridge, opts.closed
     mesh = as_mesh(mesh)  # a (V, F) pair, an open3d or trimesh mesh, or a path
@@ -194,7 +201,7 @@ def repair_mesh(mesh, options=None, *, progress=False, **changes):
 
             for chunk in chunks:
                 unit_out.extend(_run_chunk(ctx, chunk, tick))
-    if progress:  # end the bars' line (if they drew one)
+    if legacy_bar:  # progress=True: the terminal bar this call drew ends its line
         from .progress import end_line
 
         end_line()
@@ -262,11 +269,10 @@ def repair_mesh(mesh, options=None, *, progress=False, **changes):
     return repaired, report
 
 
-def _progress(on, i, n, label="filling holes"):
-    if on:  # a throttled bar on stderr when it is a terminal (shellrepair.progress)
-        from .progress import step
-
-        step(label, i, n)
+def _progress(report, i, n, label="filling holes"):
+    """Report ``i`` of ``n`` to the progress callback ``report`` (None: nothing)."""
+    if report is not None:
+        report(label, i, n)
 
 
 def _as_mesh(mesh):
