@@ -31,7 +31,7 @@ threshold below was set from the sphere, not from these; the numbers are
 from seeds not looked at while designing, see tests/test_border_classes.py).
 
 1. ``max_hole``: a loop with more edges than this is a *border*
-   ("larger than --max-hole").
+   ("larger than max_hole").
 2. *Wraps around*: when ``min_d P−/P+ ≥ WRAP_RATIO`` (0.05: a sphere
    missing less than 39 % of its area) the piece's normals cover clearly
    more than a hemisphere; it is part of a closed object and every loop of
@@ -622,7 +622,7 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, closed=None, topo=N
             f"from its best view {100 * L.back_ratio:.1f}% as much surface faces away as towards it"
             + ("; --closed no" if closed is False else ""))
         if max_hole is not None and L.edges > int(max_hole):
-            L.kind, L.reason = "border", f"larger than --max-hole {int(max_hole)} edges"
+            L.kind, L.reason = "border", f"larger than max_hole ({int(max_hole)} edges)"
         elif fill_borders:
             L.kind, L.reason = "hole", "--fill-borders"
         elif wraps:
