@@ -5,6 +5,7 @@ another in this process."""
 import io
 import json
 import logging
+import os
 import re
 
 import numpy as np
@@ -156,3 +157,25 @@ def test_unreachable_scheduler_is_one_line_exit_2(scans, tmp_path, capsys, monke
     assert err.startswith("error: cannot reach the Dask scheduler at tcp://127.0.0.1:1 within 1 s")
     assert "\n" not in err
     assert not out.exists()  # nothing written, not even the folder
+
+
+def test_a_scan_that_kills_its_worker_is_a_failed_row(tmp_path, monkeypatch):
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    V, F = holed_sphere(2, 1, 6)
+    for name in ("a.ply", "boom.ply", "c.ply"):
+        write_mesh(folder / name, Mesh(V=V, F=F))
+
+    def dies_on_boom(task, options, progress=False):  # sent by value: the workers keep the real task
+        if task["name"] == "boom.ply":
+            os._exit(3)  # as a segfault or the out-of-memory killer would end it
+        from shellrepair.batch import repair_scan_task
+        return repair_scan_task(task, options, progress)
+
+    monkeypatch.setattr(batch, "repair_scan_task", dies_on_boom)
+    s = repair_folder(folder, tmp_path / "out", jobs=2, progress=False)
+    assert s["runner"]["kind"] == "local-cluster"
+    assert [r["status"] for r in s["scans"]] == ["ok", "error", "ok"]
+    assert s["scans"][1]["error"].startswith("a worker died repairing it")
+    assert s["complete"] and s["holes_after"] == 0 and s["n_failed"] == 1
+    assert not list((tmp_path / "out").glob("boom.*"))
