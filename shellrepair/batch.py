@@ -460,9 +460,10 @@ def _run_on_dask(tasks, options, finished, *, client=None, workers=None):
     with contextlib.ExitStack() as stack:
         if client is None:
             with dask.config.set({"distributed.scheduler.allowed-failures": RETRIES_AFTER_DEATH}):
-                # memory_limit=0: a scan may use the memory it would use in this process
+                # memory_limit=0: a scan may use the memory it would use in this process;
+                # dashboard on a free port, so that a second batch does not warn
                 cluster = stack.enter_context(distributed.LocalCluster(
-                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                     memory_limit=0, silence_logs=logging.ERROR))
             client = stack.enter_context(distributed.Client(cluster, set_as_default=False))
         # the biggest files first, so that a big scan does not start last

@@ -114,7 +114,7 @@ class _Tty(io.StringIO):
 @pytest.fixture(scope="module")
 def cluster():
     """An existing cluster: two worker processes of one thread."""
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
                                   silence_logs=logging.ERROR) as c:
         yield c
 
