@@ -91,8 +91,9 @@ def _parser():
                         "shellrepair[cluster]), else one scan on N cores; the same output for any N "
                         f"(default: the cores there are, {default_jobs()})")
     b.add_argument("--scheduler", metavar="ADDRESS", default=None,
-                   help="run one task per scan on an existing Dask cluster (tcp://host:8786); its workers "
-                        "must see DIR and OUTDIR at the same paths (default: local processes)")
+                   help="run one task per scan on an existing Dask cluster (tcp://host:8786; --jobs is then "
+                        "not used); its workers must import shellrepair and see DIR and OUTDIR at the same "
+                        "paths (default: local processes)")
     b.add_argument("--json", action="store_true", help="print the JSON summary instead of the table (default: the table)")
     b.add_argument("--no-html", dest="html", action="store_false",
                    help="do not write OUTDIR/index.html and the pictures beside it (default: write them)")
