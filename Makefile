@@ -7,7 +7,8 @@ OUT     ?= $(basename $(SCAN)).repaired.ply
 REPORT  ?= $(basename $(SCAN)).report.json
 DIR     ?= data
 OUTDIR  ?= $(DIR)/repaired
-JOBS    ?= 1
+JOBS    ?=
+SCHEDULER ?=
 SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 # python3 -m venv needs ensurepip, which Debian ships apart
 VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
@@ -58,9 +59,13 @@ holes: $(STAMP)
 repair: $(STAMP)
 	$(PY) -m shellrepair.cli repair $(SCAN) -o $(OUT) --report $(REPORT)
 
-# every scan of a folder: make batch DIR=scans OUTDIR=scans/repaired JOBS=2
+# every scan of a folder, on all cores (Dask worker processes; installed here
+# when missing): make batch DIR=scans OUTDIR=scans/repaired [JOBS=2]
+# [SCHEDULER=tcp://host:8786 for an existing Dask cluster]
 batch: $(STAMP)
-	$(PY) -m shellrepair.cli batch $(DIR) -o $(OUTDIR) --jobs $(JOBS)
+	@$(PY) -c 'import distributed' 2>/dev/null || $(PY) -m pip install -q -e '.[cluster]' \
+	  || echo "Dask did not install: scans run one at a time"
+	$(PY) -m shellrepair.cli batch $(DIR) -o $(OUTDIR) $(if $(JOBS),--jobs $(JOBS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
 
 render: $(STAMP)
 	test -f $(OUT) || $(MAKE) repair SCAN=$(SCAN)

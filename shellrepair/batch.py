@@ -9,7 +9,7 @@ sorted name order:
 
 1. read it (:func:`shellrepair.io.read_mesh`);
 2. fill its holes (:func:`shellrepair.repair.repair_mesh`, the same options
-   for every scan; ``jobs`` processes per scan);
+   for every scan);
 3. write ``OUTDIR/<stem>.repaired.ply`` and ``OUTDIR/<stem>.report.json``
    together, atomically (both or neither).
 
@@ -22,17 +22,46 @@ Naming: two scans with the same stem (``bust.ply`` and ``bust.obj``) would
 write the same outputs, so for them the whole file name is used
 (``bust.obj.repaired.ply``). When ``OUTDIR`` is the scan folder itself,
 earlier outputs (``*.repaired.*``) are not taken for scans.
+
+Where the scans run
+-------------------
+Each scan is one task: a function of its file paths that reads, repairs and
+writes the scan and returns its summary row (a few numbers), so only paths
+and rows travel, never the mesh arrays. The tasks run
+
+- **in this process**, one scan after another, when one scan runs at a time
+  (``jobs=1``, a folder of one scan, or Dask not installed): the scan then
+  gets the ``jobs`` cores itself, its holes filled by ``jobs`` processes
+  (:class:`~shellrepair.options.RepairOptions` ``jobs``). This is the path
+  that needs nothing beyond the package.
+- **on a local Dask cluster** when ``jobs > 1``, the folder has more than one
+  scan and ``dask.distributed`` is installed (``pip install
+  'shellrepair[cluster]'``): ``min(jobs, scans)`` worker processes of one
+  thread each, each scan filled by one process.
+- **on an existing Dask cluster** with ``scheduler="tcp://host:8786"``: its
+  workers must import ``shellrepair`` and see the scan and output folders at
+  the same paths as this machine (a shared file system); paths are sent
+  absolute. Each scan is filled by one process.
+
+The outputs do not depend on where the scans ran: meshes, pictures and
+reports are the same bytes, except the timing fields (``seconds``,
+``seconds_total``) and a report's ``jobs`` (the hole processes its scan had).
+This process writes ``summary.json`` and ``index.html`` as scans finish,
+the rows always in sorted name order. A worker that dies (a crash, the
+kernel's out-of-memory killer) makes its scan a failed row, not a failed
+batch.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
 
 from .errors import MeshError
 
-__all__ = ["repair_folder", "list_scans", "summary_table", "SUMMARY_NAME"]
+__all__ = ["repair_folder", "list_scans", "summary_table", "default_jobs", "SUMMARY_NAME"]
 
 #: The folder summary written into OUTDIR.
 SUMMARY_NAME = "summary.json"
@@ -40,6 +69,24 @@ SUMMARY_NAME = "summary.json"
 SCAN_EXTENSIONS = (".ply", ".obj", ".off", ".stl")
 #: Longest error message kept in a summary row (characters).
 MAX_MESSAGE = 300
+#: Seconds to wait for an existing Dask scheduler to answer, and for it to
+#: have at least one worker.
+CONNECT_TIMEOUT = 10.0
+#: Times the local cluster runs a scan again after its worker died (a
+#: transient death gets one more chance; a scan that kills every worker it
+#: meets is not tried over and over).
+RETRIES_AFTER_DEATH = 1
+#: What to install for the Dask paths.
+CLUSTER_EXTRA = "pip install 'shellrepair[cluster]'"
+
+
+def default_jobs():
+    """The cores this process may run on (its CPU affinity where the system
+    says, else ``os.cpu_count()``), at least 1."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # no affinity on this system
+        return max(1, os.cpu_count() or 1)
 
 
 def list_scans(folder, *, skip_outputs=False):
@@ -112,18 +159,19 @@ def _message(exc):
     return msg[:MAX_MESSAGE]
 
 
-def _repair_one(scan, out, report_path, options, progress, picture=None):
+def _repair_one(task, options, progress):
     """Read, repair and write one scan; returns its summary row fields.
-    With ``picture`` (a path), also its before | after picture there."""
+    With ``task["picture"]`` (a path), also its before | after picture there."""
     from .io import atomic_write_many, mesh_bytes, read_mesh
     from .repair import repair_mesh
 
+    scan, out, report_path, picture = task["scan"], task["out"], task["report"], task["picture"]
     t0 = time.perf_counter()
     mesh = read_mesh(scan, progress=progress)
     row = {"vertices": mesh.n_vertices, "faces": mesh.n_faces}
     repaired, report = repair_mesh(mesh, progress=progress, **options)  # options: RepairOptions.as_dict()
-    report["file"] = str(scan)
-    report["output"] = str(out)
+    report["file"] = task["shown_scan"]
+    report["output"] = task["shown_out"]
     report["notes"] = list(repaired.notes)
     items = []
     if picture is not None:
@@ -142,7 +190,60 @@ def _repair_one(scan, out, report_path, options, progress, picture=None):
     row.update(holes_before=int(report["holes_before"]), holes_after=int(report["holes_after"]),
                rate=report["interpolation_rate"], borders=int(report.get("borders", 0) or 0),
                vertices_after=int(report.get("vertices_after", 0)), faces_after=int(report.get("faces_after", 0)),
-               report=str(report_path), output=str(out))
+               report=task["shown_report"], output=task["shown_out"])
+    return row
+
+
+def _empty_row(name):
+    return {"file": name, "status": "ok", "error": None, "vertices": None, "faces": None,
+            "holes_before": None, "holes_after": None, "rate": None, "seconds": None}
+
+
+def repair_scan_task(task, options, progress=None):
+    """One scan, start to end: the task a worker runs.
+
+    Parameters
+    ----------
+    task : dict
+        ``name`` (the scan's file name), ``scan``, ``out``, ``report``,
+        ``picture`` (absolute paths; ``picture`` None for none) and
+        ``shown_scan``, ``shown_out``, ``shown_report`` (the paths as the
+        reports and the summary give them).
+    options : dict
+        :meth:`RepairOptions.as_dict <shellrepair.options.RepairOptions.as_dict>`.
+    progress : callable, optional
+        This scan's progress callback ``(label, done, total)`` (in-process
+        runs; see :mod:`shellrepair.progress`); None or False: nothing.
+
+    Returns
+    -------
+    row : dict
+        The scan's summary row, plain JSON values; a scan that failed has
+        ``status`` ``"error"`` and ``error`` its one-line message (the
+        function itself raises only on KeyboardInterrupt and the like).
+    """
+    row = _empty_row(task["name"])
+    t0 = time.perf_counter()
+    try:
+        row.update(_repair_one(task, options, progress))
+    except Exception as exc:  # noqa: BLE001 - one bad scan is a row, the rest go on
+        row.update(status="error", error=_message(exc))
+    row["seconds"] = round(time.perf_counter() - t0, 3)
+    return row
+
+
+def _lost_row(name, exc):
+    """The row of a scan whose task did not come back (its worker died, the
+    scheduler went away, the worker could not run the function)."""
+    kind = type(exc).__name__
+    if kind == "KilledWorker":
+        msg = "a worker died repairing it (a crash, or out of memory), also when tried again"
+    elif kind in ("CancelledError", "FutureCancelledError"):
+        msg = "its task was cancelled (the Dask scheduler or its worker went away)"
+    else:
+        msg = f"its task failed on the cluster: {kind}: {exc}"
+    row = _empty_row(name)
+    row.update(status="error", error=" ".join(msg.split())[:MAX_MESSAGE])
     return row
 
 
@@ -157,7 +258,30 @@ def _totals(rows):
             "rate": interpolation_rate(before, after) if before else None}
 
 
-def repair_folder(folder, outdir, options=None, *, progress=None, on_scan=None, html=False, **changes):
+def _import_distributed():
+    """``dask.distributed``, or None when it is not installed."""
+    try:
+        import distributed
+    except ImportError:
+        return None
+    return distributed
+
+
+def _runner(n_scans, jobs, scheduler):
+    """Where the scans run: (kind, workers, hole processes per scan, note)."""
+    if scheduler is not None:
+        return "scheduler", None, 1, None
+    workers = min(jobs, n_scans)
+    if workers > 1:
+        if _import_distributed() is not None:
+            return "local-cluster", workers, 1, None
+        return "in-process", 1, jobs, f"dask.distributed is not installed, so scans run one at a time " \
+                                      f"(each on {jobs} cores); for {workers} at once: {CLUSTER_EXTRA}"
+    return "in-process", 1, jobs, None
+
+
+def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, progress=None, on_scan=None,
+                  html=False, connect_timeout=None, **changes):
     """Repair every scan of ``folder`` into ``outdir``.
 
     Parameters
@@ -169,23 +293,45 @@ def repair_folder(folder, outdir, options=None, *, progress=None, on_scan=None, 
     options : RepairOptions, optional
         The repair options for every scan
         (:class:`shellrepair.options.RepairOptions`); default: the defaults.
+        Its ``jobs`` is set by the batch (below).
     **changes
         Any option by name, applied over ``options``.
-    progress : bool, optional
-        Draw progress bars on stderr; default: when stderr is a terminal.
+    jobs : int, optional
+        Cores to use (default: :func:`default_jobs`, the cores there are).
+        More than one scan: ``min(jobs, scans)`` scans at once on a local
+        Dask cluster, one process each (in this process, one at a time, when
+        Dask is not installed). One scan at a time: its holes on ``jobs``
+        processes. The meshes are the same bytes for any ``jobs``.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``): one task
+        per scan on its workers (``jobs`` is then not used).
+    progress : callable, optional
+        Called as ``progress(label, done, total)`` (the protocol of
+        :mod:`shellrepair.progress`): ``"scans"`` 0..n, and, for scans
+        repaired in this process, each scan's reading and repair stages with
+        ``"<i>/<n> <file>: "`` in front of their labels. Default None:
+        nothing is reported or drawn; ``True`` draws the terminal bars.
+        Scans run in this process draw their own bars too.
     on_scan : callable, optional
-        Called with each finished summary row (the CLI prints a line).
+        Called with each finished summary row, in the order scans finish
+        (the CLI prints a line).
     html : bool
         Also write ``outdir/index.html`` (:func:`shellrepair.htmlreport.collection_page`):
         Table 1 of the collection and of each scan, each scan's holes,
         notes and provenance, and its before | after picture
         (``outdir/<name>.view.png``, linked from the page). Rewritten after
         every scan, like the summary.
+    connect_timeout : float, optional
+        Seconds to wait for ``scheduler`` to answer and to have a worker
+        (default :data:`CONNECT_TIMEOUT`).
 
     Returns
     -------
     summary : dict
-        ``folder``, ``outdir``, ``options``, ``scans`` (one row per scan:
+        ``folder``, ``outdir``, ``options`` (those of each scan), ``runner``
+        (``kind`` in-process / local-cluster / scheduler, ``workers``,
+        ``scheduler``, ``jobs_per_scan``, and a ``note`` when Dask was
+        wanted but missing), ``scans`` (one row per scan, in name order:
         ``file``, ``status`` ok / error, ``error``, ``vertices``, ``faces``,
         ``holes_before``, ``holes_after``, ``rate``, ``seconds``, ``output``,
         ``report``), the totals ``n_scans``, ``n_ok``, ``n_failed``,
@@ -196,15 +342,21 @@ def repair_folder(folder, outdir, options=None, *, progress=None, on_scan=None, 
     ------
     MeshError
         Only for problems with the folders themselves (missing folder, no
-        scans in it, output folder cannot be made) and bad options; a bad
-        scan is a row, not an exception.
+        scans in it, output folder cannot be made), bad options, and a
+        ``scheduler`` that cannot be used (Dask not installed, not reached
+        within ``connect_timeout``, no workers); a bad scan is a row, not an
+        exception.
     """
     from .io import atomic_write
-    from .progress import Progress, prefix, progress_enabled
+    from .progress import as_callback
 
     from .options import RepairOptions
 
     opts = RepairOptions.make(options, **changes)  # checked once, before any scan
+    if jobs is None:
+        jobs = default_jobs()
+    RepairOptions(jobs=jobs)  # the same check and message as the option's
+    jobs = int(jobs)
     folder = Path(folder)
     same = False
     if Path(outdir).is_dir() and folder.is_dir():
@@ -212,47 +364,138 @@ def repair_folder(folder, outdir, options=None, *, progress=None, on_scan=None, 
     scans = list_scans(folder, skip_outputs=same)
     if not scans:
         raise MeshError(f"no scans ({', '.join('*' + e for e in SCAN_EXTENSIONS)}) in the folder", folder)
-    outdir = _prepare_outdir(outdir)
-    options = opts.as_dict()
-    draw = progress_enabled() if progress is None else bool(progress)
-    summary = {"folder": str(folder), "outdir": str(outdir), "options": options, "complete": False,
-               "scans": []}
+    kind, workers, per_scan, note = _runner(len(scans), jobs, scheduler)
+    if kind == "scheduler":  # before any output
+        client = _connect(scheduler, CONNECT_TIMEOUT if connect_timeout is None else float(connect_timeout))
+    else:
+        client = None
+    try:
+        outdir = _prepare_outdir(outdir)
+    except MeshError:
+        if client is not None:
+            client.close()
+        raise
+    options = opts.replace(jobs=per_scan).as_dict()
+    report = as_callback(progress)
+    tasks = []
+    for scan, name in zip(scans, _output_names(scans)):
+        out = outdir / f"{name}.repaired.ply"
+        picture = outdir / f"{name}.view.png" if html else None
+        tasks.append({"name": scan.name, "scan": str(scan.resolve()), "out": str(out.resolve()),
+                      "report": str((outdir / f"{name}.report.json").resolve()),
+                      "picture": None if picture is None else str(picture.resolve()),
+                      "shown_scan": str(scan), "shown_out": str(out),
+                      "shown_report": str(outdir / f"{name}.report.json")})
+    if client is not None:
+        workers = len(client.scheduler_info().get("workers", {}))
+    runner = {"kind": kind, "workers": workers, "scheduler": scheduler, "jobs_per_scan": per_scan}
+    if note:
+        runner["note"] = note
+    summary = {"folder": str(folder), "outdir": str(outdir), "options": options, "runner": runner,
+               "complete": False, "scans": []}
     summary_path = outdir / SUMMARY_NAME
     t_all = time.perf_counter()
-    rows = summary["scans"]
-    bar = Progress("scans", len(scans), enabled=draw)
+    done = {}  # scan index -> row
+    if report is not None:
+        report("scans", 0, len(scans))
+
+    def finished(i, row):
+        done[i] = row
+        if on_scan is not None:
+            on_scan(row)
+        if report is not None:
+            report("scans", len(done), len(scans))
+        summary["scans"] = [done[k] for k in sorted(done)]  # name order, whatever order they finish in
+        summary.update(_totals(summary["scans"]), seconds=round(time.perf_counter() - t_all, 3))
+        atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
+        if html:
+            _write_index(summary, outdir)
+
     try:
-        for i, (scan, name) in enumerate(zip(scans, _output_names(scans))):
-            out = outdir / f"{name}.repaired.ply"
-            report_path = outdir / f"{name}.report.json"
-            row = {"file": scan.name, "status": "ok", "error": None, "vertices": None, "faces": None,
-                   "holes_before": None, "holes_after": None, "rate": None, "seconds": None}
-            bar.update(0, note=f"reading {scan.name}", force=True)
-            t0 = time.perf_counter()
-            try:
-                with prefix(f"{i + 1}/{len(scans)} {scan.name}"):
-                    row.update(_repair_one(scan, out, report_path, options, draw,
-                                           picture=outdir / f"{name}.view.png" if html else None))
-            except Exception as exc:  # noqa: BLE001 - one bad scan is a row, the rest go on
-                row.update(status="error", error=_message(exc))
-            row["seconds"] = round(time.perf_counter() - t0, 3)
-            rows.append(row)
-            if on_scan is not None:
-                bar.clear()  # the caller's line starts at column 0, the bar follows it
-                on_scan(row)
-            bar.update(1, note=f"{scan.name} {row['status']}", force=True)
-            summary.update(_totals(rows), seconds=round(time.perf_counter() - t_all, 3))
-            atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
-            if html:
-                _write_index(summary, outdir)
+        if kind == "in-process":
+            for i, task in enumerate(tasks):
+                row = repair_scan_task(task, options, _prefixed(report, f"{i + 1}/{len(tasks)} {task['name']}: "))
+                finished(i, row)
+        else:
+            _run_on_dask(tasks, options, finished, client=client, workers=workers)
     finally:
-        bar.close()
+        if client is not None:
+            client.close()
     summary["complete"] = True
-    summary.update(_totals(rows), seconds=round(time.perf_counter() - t_all, 3))
+    summary.update(_totals(summary["scans"]), seconds=round(time.perf_counter() - t_all, 3))
     atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
     if html:
         _write_index(summary, outdir)
     return summary
+
+
+def _prefixed(report, text):
+    """``report`` with ``text`` in front of every label (None stays None)."""
+    if report is None:
+        return None
+    return lambda label, done, total: report(text + label, done, total)
+
+
+def _connect(address, timeout):
+    """A Dask client of the scheduler at ``address`` with at least one
+    worker, or a one-line MeshError."""
+    distributed = _import_distributed()
+    if distributed is None:
+        raise MeshError(f"a Dask scheduler needs dask.distributed, which is not installed ({CLUSTER_EXTRA})")
+    try:
+        client = distributed.Client(address, timeout=timeout, set_as_default=False)
+    except Exception as exc:  # noqa: BLE001 - a refused, unknown or silent address: one line
+        why = " ".join(str(exc).split())[:MAX_MESSAGE // 2] or type(exc).__name__
+        raise MeshError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s ({why})") from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except Exception:  # noqa: BLE001 - dask raises TimeoutError
+        client.close()
+        raise MeshError(f"the Dask scheduler at {address} has no workers (waited {timeout:g} s)") from None
+    return client
+
+
+def _run_on_dask(tasks, options, finished, *, client=None, workers=None):
+    """Run one :func:`repair_scan_task` per scan on ``client``'s cluster, or on
+    a local cluster of ``workers`` processes made here; ``finished(i, row)``
+    as each comes back."""
+    import contextlib
+    import logging
+    import uuid
+
+    import dask
+
+    distributed = _import_distributed()
+    with contextlib.ExitStack() as stack:
+        if client is None:
+            with dask.config.set({"distributed.scheduler.allowed-failures": RETRIES_AFTER_DEATH}):
+                # memory_limit=0: a scan may use the memory it would use in this process;
+                # dashboard on a free port, so that a second batch does not warn
+                cluster = stack.enter_context(distributed.LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                    memory_limit=0, silence_logs=logging.ERROR))
+            client = stack.enter_context(distributed.Client(cluster, set_as_default=False))
+        # the biggest files first, so that a big scan does not start last
+        order = sorted(range(len(tasks)), key=lambda i: (-_size(tasks[i]["scan"]), i))
+        futures = {}
+        for i in order:
+            key = f"shellrepair-scan-{i}-{uuid.uuid4().hex}"  # names the scan in Dask's dashboard
+            futures[client.submit(repair_scan_task, tasks[i], options, key=key)] = i
+        for fut in distributed.as_completed(list(futures), loop=client.loop):
+            i = futures[fut]
+            try:
+                row = fut.result()
+            except Exception as exc:  # noqa: BLE001 - the task did not come back: a row, the rest go on
+                row = _lost_row(tasks[i]["name"], exc)
+            finished(i, row)
+            fut.release()
+
+
+def _size(path):
+    try:
+        return os.path.getsize(path)
+    except OSError:
+        return 0
 
 
 #: The collection page written into OUTDIR.

@@ -4,8 +4,8 @@
     shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3] [--smooth N]
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
                        [--bridge auto|never|always]
-    shellrepair batch DIR -o OUTDIR [--jobs N] [--order 1|2|3] [--max-hole N] [--fill-borders]
-                      [--bridge auto|never|always] [--json]
+    shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
+                      [--fill-borders] [--bridge auto|never|always] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
                        [--before MESH] [--unit mm|cm|m] [--age A] [--up AXIS]
 
@@ -87,11 +87,22 @@ def _parser():
                     "OUTDIR/summary.json, and prints a table: holes before / after and rate per scan. "
                     "A scan that fails is reported (status error, one line) and the others go on.",
         epilog="exit status: 0 when every scan was repaired, 2 when any scan failed (or DIR / OUTDIR "
-               "cannot be used).")
+               "cannot be used, or the scheduler cannot be reached).",
+        conflict_handler="resolve")  # --jobs below replaces the repair's
     b.add_argument("dir", metavar="DIR", help="folder of scans (not searched recursively)")
     b.add_argument("-o", "--outdir", metavar="OUTDIR", required=True,
                    help="output folder, created if missing (its parent must exist)")
     _repair_options(b)
+    from .batch import default_jobs
+
+    b.add_argument("--jobs", type=int, default=default_jobs(), metavar="N",
+                   help="cores to use: N scans at once in local worker processes (with Dask, "
+                        "shellrepair[cluster]), else one scan on N cores; the same output for any N "
+                        f"(default: the cores there are, {default_jobs()})")
+    b.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="run one task per scan on an existing Dask cluster (tcp://host:8786; --jobs is then "
+                        "not used); its workers must import shellrepair and see DIR and OUTDIR at the same "
+                        "paths (default: local processes)")
     b.add_argument("--json", action="store_true", help="print the JSON summary instead of the table (default: the table)")
     b.add_argument("--no-html", dest="html", action="store_false",
                    help="do not write OUTDIR/index.html and the pictures beside it (default: write them)")
@@ -326,8 +337,10 @@ def _batch(args):
                     else f"error: {row['error']}")
             print(f"{row['file']}: {what} ({row['seconds']:.1f} s)", flush=True)
 
-    summary = repair_folder(args.dir, args.outdir, _options(args), on_scan=line, html=args.html,
-                            progress=bar or False)
+    summary = repair_folder(args.dir, args.outdir, _options(args), jobs=args.jobs, scheduler=args.scheduler,
+                            on_scan=line, html=args.html, progress=bar or False)
+    if summary["runner"].get("note") and not args.quiet:
+        print(f"note: {summary['runner']['note']}", file=sys.stderr)
     if args.json:
         print(json.dumps(summary, indent=1))
     elif not args.quiet:

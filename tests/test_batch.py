@@ -3,14 +3,16 @@ and the progress bar that only a terminal sees."""
 
 import io
 import json
+import os
 
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
 from shellrepair import shapes
-from shellrepair.batch import list_scans, repair_folder, summary_table
-from shellrepair.cli import main
+from shellrepair import batch
+from shellrepair.batch import default_jobs, list_scans, repair_folder, summary_table
+from shellrepair.cli import _parser, main
 from shellrepair.io import Mesh, read_mesh, write_mesh
 from shellrepair.progress import Progress, prefix, step
 from shellrepair.topology import edge_topology
@@ -97,6 +99,40 @@ def test_all_good_exits_0_and_json_summary(tmp_path, capsys):
     assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--json"]) == 0
     s = json.loads(capsys.readouterr().out)
     assert s["n_failed"] == 0 and s["scans"][0]["holes_before"] == 2 and s["scans"][0]["holes_after"] == 0
+
+
+def test_without_dask_scans_run_one_at_a_time_on_all_the_cores(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(batch, "_import_distributed", lambda: None)  # as where dask is not installed
+    V, F = shapes.icosphere(2)
+    _write_scans(tmp_path / "in", {"p.ply": ball_perforate(V, F, 1, 0.3, seed=0),
+                                   "q.ply": ball_perforate(V, F, 2, 0.25, seed=1)})
+    assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--jobs", "2", "--no-html"]) == 0
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("note: dask.distributed is not installed") and "shellrepair[cluster]" in err
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert s["runner"]["kind"] == "in-process" and s["runner"]["jobs_per_scan"] == 2
+    assert s["n_ok"] == 2 and s["holes_after"] == 0
+    assert json.loads((tmp_path / "out" / "q.report.json").read_text())["jobs"] == 2  # the holes had the cores
+
+
+def test_scheduler_without_dask_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(batch, "_import_distributed", lambda: None)
+    V, F = shapes.icosphere(2)
+    _write_scans(tmp_path / "in", {"p.ply": (V, F)})
+    assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--scheduler", "tcp://x:8786"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "shellrepair[cluster]" in err and "\n" not in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_jobs_default_to_the_cores_there_are(tmp_path, capsys):
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert default_jobs() == cores >= 1
+    assert _parser().parse_args(["batch", "in", "-o", "out"]).jobs == cores
+    assert _parser().parse_args(["repair", "s.ply"]).jobs == 1  # the repair's own --jobs is unchanged
+    (tmp_path / "in").mkdir()
+    assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--jobs", "0"]) == 2
+    assert "jobs must be a whole number, at least 1, got 0" in capsys.readouterr().err
 
 
 def test_same_stem_gets_distinct_outputs(tmp_path):
@@ -206,13 +242,18 @@ def test_step_hook_uses_prefix_and_restarts_per_loop(monkeypatch):
 
 
 def test_batch_bars_on_a_terminal_leave_each_scan_on_its_own_line(tmp_path, monkeypatch, capsys):
+    from shellrepair.progress import TerminalBar
+
     V, F = shapes.icosphere(2)
     _write_scans(tmp_path / "in", {"p.ply": ball_perforate(V, F, 1, 0.3, seed=0),
                                    "q.ply": ball_perforate(V, F, 2, 0.25, seed=1)})
     tty = _Tty()
     monkeypatch.setattr("sys.stderr", tty)
     lines = []
-    repair_folder(tmp_path / "in", tmp_path / "out", progress=True, on_scan=lambda r: lines.append(tty.tell()))
+    # one scan at a time in this process: each scan draws its own bars
+    # the caller wipes the bar's line before its own, as the command line does
+    repair_folder(tmp_path / "in", tmp_path / "out", jobs=1, progress=True,
+                  on_scan=lambda r: (TerminalBar().clear(), lines.append(tty.tell())))
     drawn = tty.getvalue()
     assert "1/2 p.ply: filling holes [" in drawn and "2/2 q.ply: filling holes [" in drawn
     assert drawn.rstrip("\n").split("\r")[-1].startswith("scans [") and "2/2 100%" in drawn
