@@ -45,6 +45,7 @@ sys.path.insert(0, os.path.abspath(os.path.join(os.path.dirname(__file__), "..")
 from shellrepair import materials as mt  # noqa: E402
 from shellrepair import render as rd  # noqa: E402
 from shellrepair import shading as sh  # noqa: E402
+from shellrepair.reflectance import albedo  # noqa: E402
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 
@@ -183,11 +184,11 @@ def bench_table(n_samples):
     with tempfile.TemporaryDirectory() as d:
         old = os.environ.get("SHELLREPAIR_CACHE_DIR")
         os.environ["SHELLREPAIR_CACHE_DIR"] = d
-        sh._TABLE = None
+        albedo._TABLE = None
         t = time.perf_counter()
         sh.rho_dt_table()
         build = time.perf_counter() - t
-        sh._TABLE = None
+        albedo._TABLE = None
         t = time.perf_counter()
         sh.rho_dt_table()
         load = time.perf_counter() - t
