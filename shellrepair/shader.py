@@ -21,10 +21,12 @@ References
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
 from . import reflectance as sh
+from .reflectance import _dispatch
 from .reflectance import albedo as _albedo
 from .materials import get_material, layer_thicknesses, substrate_reflectance, surface_params
 
@@ -231,33 +233,33 @@ class MaterialShader:
         f : (..., 3) float64 array
             Or ``(f_spec, f_diffuse)`` when ``parts`` is true.
         """
-        wi, wo, n = (np.asarray(a, dtype=np.float64) for a in (wi, wo, n))
-        c = np.asarray(coverage, dtype=np.float64)
-        g = np.asarray(gild, dtype=np.float64)
-        dd = np.asarray(crust, dtype=np.float64)
+        K = _dispatch.kernels()
+        if K is None:
+            return _material_shader_np(self, wi, wo, n, coverage, gild, crust, parts=parts)
+        wi, wo, n, c, g, dd = _dispatch.as_float(wi, wo, n, coverage, gild, crust)
         shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape, g.shape,
                                     dd.shape)
         P = int(np.prod(shape))
-        wi = np.broadcast_to(wi, shape + (3,)).reshape(P, 3)
-        wo = np.broadcast_to(wo, shape + (3,)).reshape(P, 3)
-        n = np.broadcast_to(n, shape + (3,)).reshape(P, 3)
-        c = np.broadcast_to(c, shape).reshape(P)
-        g = np.broadcast_to(g, shape).reshape(P)
-        dd = np.broadcast_to(dd, shape).reshape(P)
         spec = np.empty((P, 3), dtype=np.float64)
-        diff = np.zeros((P, 3), dtype=np.float64) if parts else None
-        for s in range(0, P, self.chunk):
-            sl = slice(s, s + self.chunk)
-            fs, fd = self._eval(wi[sl], wo[sl], n[sl], c[sl], g[sl], dd[sl])
-            if parts:
-                spec[sl] = fs
-                if fd is not None:
-                    diff[sl] = fd
-            else:
-                spec[sl] = fs if fd is None else fs + fd
+        diff = np.empty((P, 3), dtype=np.float64) if parts else spec
+        if P:
+            vec = [_dispatch._rows(a, shape, P) for a in (wi, wo, n)]
+            par = [_dispatch._param(a, shape, P) for a in (c, g, dd)]
+            K.run(K.material_shader, P, *vec, *par, *self._kernel_tables, spec, diff, not parts)
         if parts:
             return spec.reshape(shape + (3,)), diff.reshape(shape + (3,))
         return spec.reshape(shape + (3,))
+
+    @functools.cached_property
+    def _kernel_tables(self):
+        """The lookup tables as ``_kernels.material_shader`` takes them."""
+        if self.corrodes:
+            rho4, nu, nc, R4, nrc, nrd = self._rho4, self._nu, self._nc, self._R4, self._nrc, self._nrd
+        else:  # never read
+            rho4, nu, nc, R4, nrc, nrd = np.zeros((1, 4)), 2, 2, np.zeros((1, 12)), 2, 2
+        return (float(self._m0), float(self._dm), int(self.n_lut), np.ascontiguousarray(self._Fpack),
+                bool(self.corrodes), np.ascontiguousarray(rho4), int(nu), int(nc), np.ascontiguousarray(R4),
+                int(nrc), int(nrd))
 
     def ambient(self, cos_o, coverage, gild=1.0, crust=0.0):
         """Reflectance weights under a distant environment.
@@ -345,6 +347,40 @@ class MaterialShader:
         r0 = g[:, 0] + b * (g[:, 1] - g[:, 0])
         r1 = g[:, 2] + b * (g[:, 3] - g[:, 2])
         return r0 + a * (r1 - r0)
+
+
+def _material_shader_np(shader, wi, wo, n, coverage, gild=1.0, crust=0.0, *, parts=False):
+    """NumPy version of :meth:`MaterialShader.__call__` (the test oracle of the compiled kernel).
+
+    Evaluates ``shader._eval`` on chunks of ``shader.chunk`` points.
+    """
+    wi, wo, n = (np.asarray(a, dtype=np.float64) for a in (wi, wo, n))
+    c = np.asarray(coverage, dtype=np.float64)
+    g = np.asarray(gild, dtype=np.float64)
+    dd = np.asarray(crust, dtype=np.float64)
+    shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape, g.shape,
+                                dd.shape)
+    P = int(np.prod(shape))
+    wi = np.broadcast_to(wi, shape + (3,)).reshape(P, 3)
+    wo = np.broadcast_to(wo, shape + (3,)).reshape(P, 3)
+    n = np.broadcast_to(n, shape + (3,)).reshape(P, 3)
+    c = np.broadcast_to(c, shape).reshape(P)
+    g = np.broadcast_to(g, shape).reshape(P)
+    dd = np.broadcast_to(dd, shape).reshape(P)
+    spec = np.empty((P, 3), dtype=np.float64)
+    diff = np.zeros((P, 3), dtype=np.float64) if parts else None
+    for s in range(0, P, shader.chunk):
+        sl = slice(s, s + shader.chunk)
+        fs, fd = shader._eval(wi[sl], wo[sl], n[sl], c[sl], g[sl], dd[sl])
+        if parts:
+            spec[sl] = fs
+            if fd is not None:
+                diff[sl] = fd
+        else:
+            spec[sl] = fs if fd is None else fs + fd
+    if parts:
+        return spec.reshape(shape + (3,)), diff.reshape(shape + (3,))
+    return spec.reshape(shape + (3,))
 
 
 # --------------------------------------------------------------------------

@@ -38,6 +38,9 @@ def test_shading_facade_names_are_the_package_objects():
         obj = getattr(shading, name)
         assert obj is getattr(reflectance, name), name
         homes = [m for m in SUBMODULES if name in m.__all__]
+        if not homes:  # the package's own (warm_up)
+            assert obj.__module__ == "shellrepair.reflectance", name
+            continue
         assert len(homes) == 1, (name, homes)  # exported by exactly one module
         assert obj is vars(homes[0])[name]
         if callable(obj):
@@ -151,7 +154,8 @@ def pin_outputs(sh, mt):
     return out
 
 
-def test_reference_outputs_unchanged_by_the_split():
+def test_reference_outputs_unchanged_by_the_split(monkeypatch):
+    monkeypatch.setenv("SHELLREPAIR_NO_JIT", "1")  # the NumPy versions; the kernels are held to them elsewhere
     pins = np.load(PINS)
     with np.errstate(all="ignore"):
         now = pin_outputs(shading, materials)

@@ -109,4 +109,54 @@ __all__ = [
     "dipole_profile",
     "km_to_transport",
     "local_brdf",
+    "warm_up",
 ]
+
+
+def warm_up():
+    """Compile the shading kernels now (or load them from Numba's cache).
+
+    Calls every public function, and :class:`shellrepair.shader.MaterialShader`
+    and :func:`shellrepair.shader.shade_reference` for each preset, with
+    small inputs in the layouts the library uses (arrays of points, one
+    light direction for all points, one roughness or index for all), so
+    that each kernel specialisation is compiled once and cached on disk.
+    ``make setup`` runs it, so no later run waits for the JIT.
+
+    Returns
+    -------
+    n : int
+        Number of compiled specialisations (0 when the kernels are off:
+        ``SHELLREPAIR_NO_JIT=1`` or Numba missing).
+    """
+    import numpy as np
+
+    from . import _dispatch
+
+    K = _dispatch.kernels()
+    if K is None:
+        return 0
+    from .. import shader
+
+    rng = np.random.default_rng(0)
+    P = 8
+    d = rng.normal(size=(3, P, 3)) * [0.3, 0.3, 1.0]
+    wi, wo, n = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    c, m, eta, R = rng.uniform(0.1, 0.9, P), rng.uniform(0.05, 1.0, P), rng.uniform(1.1, 2.0, P), rng.uniform(0, 1, P)
+    R3 = rng.uniform(0, 1, (P, 3))
+    nk = (np.array([0.2, 1.0, 1.2]), np.array([3.7, 2.6, 2.4]))
+    for e in (eta, 1.75):  # per point, and one index for all points
+        beckmann_D(c, m), fresnel_dielectric(c, e), diffuse_transmittance(c, m, e)
+        mean_transmittance(m, e), internal_reflectance(m, e), layered_diffuse(c, c, m, e, R3)
+        torrance_sparrow(wi, wo, n, m, e), local_brdf(wi, wo, n, m, e, R3), dipole_rd(R, e)
+        dipole_tail_fraction(c, m, R, e), dipole_profile(c, m, R, e)
+    v_cavity_G(c, c, c, c), fresnel_conductor(c, m, eta), fresnel_conductor(c[:, None], *nk)
+    torrance_sparrow_conductor(wi, wo, n, m, *nk), km_r_inf(c, m)
+    km_reflectance(c, m, eta, R), km_reflectance(c[:, None], m[:, None], eta[:, None], R3)
+    km_reflectance(c[:, None], m[:, None], eta[:, None], nk[0])
+    dipole_tail_fraction(1.0, c, m, 1.75), dipole_profile(c, 0.1, 0.2, 1.75)
+    for name in ("aged-bronze", "gilt", "bronze"):
+        f = shader.MaterialShader(name)
+        f(wi, wo, n, c, c, c), f(wi[0], wo, n, c, c, c, parts=True)
+        shader.shade_reference(wi, wo, n, c, name, c, c), shader.choose_model(100.0, name)
+    return sum(len(getattr(K, k).signatures) for k in K.KERNELS)

@@ -32,7 +32,8 @@ import threading
 
 import numpy as np
 
-from .microfacet import COS_EPS, M_MIN, _TINY, fresnel_dielectric
+from ._dispatch import elementwise, kernels
+from .microfacet import COS_EPS, M_MIN, _TINY, _fresnel_dielectric_np
 
 __all__ = [
     "RHO_DT_M_RANGE",
@@ -189,7 +190,7 @@ def specular_albedo(cos_theta, m, eta, *, n_t=64, n_phi=64):
     for s in range(0, c.size, step):
         sl = slice(s, s + step)
         w, oh = _albedo_geometry(c[sl], mm[sl], n_t, n_phi)
-        out[sl] = np.sum(w * fresnel_dielectric(oh, ee[sl, None]), axis=-1)
+        out[sl] = np.sum(w * _fresnel_dielectric_np(oh, ee[sl, None]), axis=-1)
     return out.reshape(shape)
 
 
@@ -311,6 +312,20 @@ class RhoDtTable:
             out[2, :, k] = (wq * ~below * 2.0 * uq ** 3) @ T
         return out
 
+    @functools.cached_property
+    def kernel_args(self):
+        """The table as the compiled kernels read it (``_kernels.rho_dt_1``, ``mean_1``).
+
+        ``(values (Nu*Nm*Nk,), kappa, u0, du, Nu, log_m0, dlog_m, Nm,
+        mean_values, P, Q0, Q1)``, C-contiguous float64, with the axis
+        origins and steps formed exactly as :func:`_stencil` forms them.
+        """
+        U, L, Kp = self.u, self.log_m, self.kappa
+        f = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+        P, Q0, Q1 = self.tir_moments
+        return (f(self.values).reshape(-1), f(Kp), float(U[0]), float(U[1] - U[0]), int(U.size),
+                float(L[0]), float(L[1] - L[0]), int(L.size), f(self.mean_values), f(P), f(Q0), f(Q1))
+
     def slice_eta(self, eta):
         """2-D table ``(Nu, Nm)`` for one fixed eta (linear in kappa)."""
         kap = float(_kappa(float(eta)))
@@ -366,7 +381,7 @@ def _rule_albedo(cos_theta, m, eta):
     eta = np.atleast_1d(np.asarray(eta, dtype=np.float64))
     n_t, n_phi = _TABLE_QUAD
     cg = np.linspace(0.0, 1.0, _TABLE_N_C)
-    Fg = fresnel_dielectric(cg[:, None], eta[None, :])  # (Nc, K)
+    Fg = _fresnel_dielectric_np(cg[:, None], eta[None, :])  # (Nc, K)
     out = np.empty((c.size, eta.size), dtype=np.float64)
     step = 64
     for s0 in range(0, c.size, step):
@@ -665,6 +680,14 @@ def diffuse_transmittance(cos_theta, m, eta):
     >>> float(diffuse_transmittance(0.5, 0.3, 1.0))   # index-matched: no reflection
     1.0
     """
+    K = kernels()
+    if K is not None:
+        return elementwise(K.diffuse_transmittance, (cos_theta, m, eta), rho_dt_table().kernel_args[:8])
+    return _diffuse_transmittance_np(cos_theta, m, eta)
+
+
+def _diffuse_transmittance_np(cos_theta, m, eta):
+    """NumPy version of :func:`diffuse_transmittance` (the test oracle of the compiled kernel)."""
     return np.clip(rho_dt_table()(cos_theta, m, eta), 0.0, 1.0)
 
 
@@ -695,6 +718,15 @@ def mean_transmittance(m, eta):
     :func:`layered_diffuse` integrated over incidence returns exactly
     ``rho_dt(o) R (1 - r_i) / (1 - r_i R) <= rho_dt(o)``.
     """
+    K = kernels()
+    if K is not None:
+        a = rho_dt_table().kernel_args
+        return elementwise(K.mean_transmittance, (m, eta), (a[1],) + a[5:])
+    return _mean_transmittance_np(m, eta)
+
+
+def _mean_transmittance_np(m, eta):
+    """NumPy version of :func:`mean_transmittance` (the test oracle of the compiled kernel)."""
     table = rho_dt_table()
     m, eta = np.broadcast_arrays(np.asarray(m, dtype=np.float64), np.asarray(eta, dtype=np.float64))
     L, Kp = table.log_m, table.kappa
@@ -746,6 +778,15 @@ def internal_reflectance(m, eta):
     at eta = 1.5 this gives r_i ~ 0.60, the classical value.  Clamped to
     [0, 1 - 1e-9] so that ``1 / (1 - r_i R)`` stays finite.
     """
+    K = kernels()
+    if K is not None:
+        a = rho_dt_table().kernel_args
+        return elementwise(K.internal_reflectance, (m, eta), (a[1],) + a[5:] + RHO_DT_ETA_RANGE)
+    return _internal_reflectance_np(m, eta)
+
+
+def _internal_reflectance_np(m, eta):
+    """NumPy version of :func:`internal_reflectance` (the test oracle of the compiled kernel)."""
     m, eta = np.broadcast_arrays(np.asarray(m, dtype=np.float64), np.asarray(eta, dtype=np.float64))
     e = np.clip(eta, RHO_DT_ETA_RANGE[0], RHO_DT_ETA_RANGE[1])
-    return np.clip(1.0 - mean_transmittance(m, eta) / (e * e), 0.0, 1.0 - 1e-9)
+    return np.clip(1.0 - _mean_transmittance_np(m, eta) / (e * e), 0.0, 1.0 - 1e-9)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._dispatch import elementwise, kernels
 from .microfacet import _TINY
 
 __all__ = ["dipole_rd", "dipole_tail_fraction", "dipole_profile"]
@@ -61,6 +62,14 @@ def dipole_rd(alpha_prime, eta):
     >>> float(dipole_rd(0.0, 1.3))
     0.0
     """
+    K = kernels()
+    if K is not None:
+        return elementwise(K.dipole_rd, (alpha_prime, eta))
+    return _dipole_rd_np(alpha_prime, eta)
+
+
+def _dipole_rd_np(alpha_prime, eta):
+    """NumPy version of :func:`dipole_rd` (the test oracle of the compiled kernel)."""
     a = np.clip(np.asarray(alpha_prime, dtype=np.float64), 0.0, 1.0)
     A = _dipole_A(eta)
     s = np.sqrt(3.0 * (1.0 - a))
@@ -93,6 +102,14 @@ def dipole_tail_fraction(r, sigma_a, sigma_s_prime, eta):
     Used by :func:`shellrepair.shader.choose_model` as the error of
     treating transport as local within a pixel footprint.
     """
+    K = kernels()
+    if K is not None:
+        return elementwise(K.dipole_tail_fraction, (r, sigma_a, sigma_s_prime, eta))
+    return _dipole_tail_fraction_np(r, sigma_a, sigma_s_prime, eta)
+
+
+def _dipole_tail_fraction_np(r, sigma_a, sigma_s_prime, eta):
+    """NumPy version of :func:`dipole_tail_fraction` (the test oracle of the compiled kernel)."""
     sa = np.maximum(np.asarray(sigma_a, dtype=np.float64), _TINY)
     ss = np.maximum(np.asarray(sigma_s_prime, dtype=np.float64), 0.0)
     r = np.maximum(np.asarray(r, dtype=np.float64), 0.0)
@@ -135,6 +152,14 @@ def dipole_profile(r, sigma_a, sigma_s_prime, eta):
     with s = sigma_tr = sqrt(3 sigma_a sigma_t'), z_r = 1/sigma_t',
     z_v = z_r (1 + 4A/3), d = sqrt(r^2 + z^2).
     """
+    K = kernels()
+    if K is not None:
+        return elementwise(K.dipole_profile, (r, sigma_a, sigma_s_prime, eta))
+    return _dipole_profile_np(r, sigma_a, sigma_s_prime, eta)
+
+
+def _dipole_profile_np(r, sigma_a, sigma_s_prime, eta):
+    """NumPy version of :func:`dipole_profile` (the test oracle of the compiled kernel)."""
     sa = np.maximum(np.asarray(sigma_a, dtype=np.float64), _TINY)
     ss = np.maximum(np.asarray(sigma_s_prime, dtype=np.float64), 0.0)
     r = np.maximum(np.asarray(r, dtype=np.float64), 0.0)

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._dispatch import elementwise, kernels
+
 __all__ = ["km_r_inf", "km_reflectance", "km_layers", "km_mix", "km_to_transport"]
 
 # --------------------------------------------------------------------------
@@ -67,6 +69,14 @@ def km_r_inf(K, S):
     >>> float(km_r_inf(0.0, 1.0)), float(km_r_inf(1.0, 0.0))
     (1.0, 0.0)
     """
+    K_ = kernels()
+    if K_ is not None:
+        return elementwise(K_.km_r_inf, (K, S))
+    return _km_r_inf_np(K, S)
+
+
+def _km_r_inf_np(K, S):
+    """NumPy version of :func:`km_r_inf` (the test oracle of the compiled kernel)."""
     K = np.asarray(K, dtype=np.float64)
     S = np.asarray(S, dtype=np.float64)
     return _km_core(K, S)[2]
@@ -124,6 +134,14 @@ def km_reflectance(K, S, X, Rg):
     >>> round(float(km_reflectance(0.0, 1.0, 1.0, 0.0)), 12)   # SX / (1 + SX)
     0.5
     """
+    K_ = kernels()
+    if K_ is not None:
+        return elementwise(K_.km_reflectance, (K, S, X, Rg))
+    return _km_reflectance_np(K, S, X, Rg)
+
+
+def _km_reflectance_np(K, S, X, Rg):
+    """NumPy version of :func:`km_reflectance` (the test oracle of the compiled kernel)."""
     K, S, X, Rg = np.broadcast_arrays(
         np.asarray(K, dtype=np.float64),
         np.asarray(S, dtype=np.float64),

@@ -20,8 +20,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .albedo import diffuse_transmittance, internal_reflectance, mean_transmittance
-from .microfacet import COS_EPS, _TINY, _dot, torrance_sparrow
+from ._dispatch import directional, kernels, with_rows
+from .albedo import (
+    RHO_DT_ETA_RANGE,
+    _diffuse_transmittance_np,
+    _internal_reflectance_np,
+    _mean_transmittance_np,
+    rho_dt_table,
+)
+from .microfacet import COS_EPS, _TINY, _dot, _torrance_sparrow_np
 
 __all__ = ["layered_diffuse", "local_brdf"]
 
@@ -69,13 +76,22 @@ def layered_diffuse(cos_i, cos_o, m, eta, R_km):
     with eta = 1 it is Lambert's R / pi.  Without the correction a white stack under an
     eta = 1.75 interface reflects only rho_bar ~ 0.9 of what enters.
     """
+    K = kernels()
+    if K is not None:
+        return with_rows(K.layered_diffuse, (cos_i, cos_o, m, eta), R_km,
+                         rho_dt_table().kernel_args + RHO_DT_ETA_RANGE)
+    return _layered_diffuse_np(cos_i, cos_o, m, eta, R_km)
+
+
+def _layered_diffuse_np(cos_i, cos_o, m, eta, R_km):
+    """NumPy version of :func:`layered_diffuse` (the test oracle of the compiled kernel)."""
     ci = np.asarray(cos_i, dtype=np.float64)
     co = np.asarray(cos_o, dtype=np.float64)
     above = (ci > COS_EPS) & (co > COS_EPS)
-    t_i = diffuse_transmittance(ci, m, eta)  # eq 3 at wi
-    t_o = diffuse_transmittance(co, m, eta)  # eq 3 at wo
-    rho_bar = mean_transmittance(m, eta)
-    r_i = internal_reflectance(m, eta)
+    t_i = _diffuse_transmittance_np(ci, m, eta)  # eq 3 at wi
+    t_o = _diffuse_transmittance_np(co, m, eta)  # eq 3 at wo
+    rho_bar = _mean_transmittance_np(m, eta)
+    r_i = _internal_reflectance_np(m, eta)
     R = np.asarray(R_km, dtype=np.float64)
     # eq 2, local form; (1 - r_i) / rho_bar = 1 / eta^2 where reciprocity holds
     scale = np.where(above, t_i * t_o * (1.0 - r_i) / (np.pi * np.maximum(rho_bar, _TINY)), 0.0)
@@ -119,9 +135,20 @@ def local_brdf(wi, wo, n, m, eta, R_km):
     ``A + (1 - A) R_eff <= 1`` where ``R_eff = R (1 - r_i) / (1 - r_i R) <= 1``
     (= 1 for a white stack).
     """
+    K = kernels()
+    if K is not None:
+        f = directional(K.local_brdf, (wi, wo, n), (m, eta), rows=R_km,
+                        extra=rho_dt_table().kernel_args + RHO_DT_ETA_RANGE)
+        if f is not None:
+            return f
+    return _local_brdf_np(wi, wo, n, m, eta, R_km)
+
+
+def _local_brdf_np(wi, wo, n, m, eta, R_km):
+    """NumPy version of :func:`local_brdf` (the test oracle of the compiled kernel)."""
     wi = np.asarray(wi, dtype=np.float64)
     wo = np.asarray(wo, dtype=np.float64)
     n = np.asarray(n, dtype=np.float64)
-    spec = torrance_sparrow(wi, wo, n, m, eta)  # eq 8
-    diff = layered_diffuse(_dot(n, wi), _dot(n, wo), m, eta, R_km)  # eq 2 + Saunderson
+    spec = _torrance_sparrow_np(wi, wo, n, m, eta)  # eq 8
+    diff = _layered_diffuse_np(_dot(n, wi), _dot(n, wo), m, eta, R_km)  # eq 2 + Saunderson
     return spec[..., None] + diff

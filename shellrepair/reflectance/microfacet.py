@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._dispatch import directional, elementwise, kernels
+
 __all__ = [
     "M_MIN",
     "COS_EPS",
@@ -116,6 +118,14 @@ def beckmann_D(cos_theta_h, m):
     >>> round(float(beckmann_D(1.0, 0.5)), 6)   # 1 / (pi m^2)
     1.27324
     """
+    K = kernels()
+    if K is not None:
+        return elementwise(K.beckmann_D, (cos_theta_h, m))
+    return _beckmann_D_np(cos_theta_h, m)
+
+
+def _beckmann_D_np(cos_theta_h, m):
+    """NumPy version of :func:`beckmann_D` (the test oracle of the compiled kernel)."""
     c = np.clip(np.asarray(cos_theta_h, dtype=np.float64), 0.0, 1.0)
     m = np.maximum(np.asarray(m, dtype=np.float64), M_MIN)
     ok = c > COS_EPS
@@ -158,6 +168,14 @@ def v_cavity_G(n_dot_h, n_dot_i, n_dot_o, o_dot_h):
     >>> float(v_cavity_G(1.0, 1.0, 1.0, 1.0))
     1.0
     """
+    K = kernels()
+    if K is not None:
+        return elementwise(K.v_cavity_G, (n_dot_h, n_dot_i, n_dot_o, o_dot_h))
+    return _v_cavity_G_np(n_dot_h, n_dot_i, n_dot_o, o_dot_h)
+
+
+def _v_cavity_G_np(n_dot_h, n_dot_i, n_dot_o, o_dot_h):
+    """NumPy version of :func:`v_cavity_G` (the test oracle of the compiled kernel)."""
     nh = np.clip(np.asarray(n_dot_h, dtype=np.float64), 0.0, 1.0)
     ni = np.clip(np.asarray(n_dot_i, dtype=np.float64), 0.0, 1.0)
     no = np.clip(np.asarray(n_dot_o, dtype=np.float64), 0.0, 1.0)
@@ -200,6 +218,14 @@ def fresnel_dielectric(cos_i, eta):
     >>> round(float(fresnel_dielectric(1.0, 1.5)), 6)   # ((n-1)/(n+1))^2
     0.04
     """
+    K = kernels()
+    if K is not None:
+        return elementwise(K.fresnel_dielectric, (cos_i, eta))
+    return _fresnel_dielectric_np(cos_i, eta)
+
+
+def _fresnel_dielectric_np(cos_i, eta):
+    """NumPy version of :func:`fresnel_dielectric` (the test oracle of the compiled kernel)."""
     c = np.clip(np.abs(np.asarray(cos_i, dtype=np.float64)), 0.0, 1.0)
     eta = np.asarray(eta, dtype=np.float64)
     g2 = eta * eta + c * c - 1.0
@@ -251,6 +277,14 @@ def fresnel_conductor(cos_i, n, k):
     >>> round(float(fresnel_conductor(1.0, 0.43, 2.455)), 4)  # gold, 549 nm
     0.7869
     """
+    K = kernels()
+    if K is not None:
+        return elementwise(K.fresnel_conductor, (cos_i, n, k))
+    return _fresnel_conductor_np(cos_i, n, k)
+
+
+def _fresnel_conductor_np(cos_i, n, k):
+    """NumPy version of :func:`fresnel_conductor` (the test oracle of the compiled kernel)."""
     c = np.clip(np.abs(np.asarray(cos_i, dtype=np.float64)), 0.0, 1.0)
     n = np.asarray(n, dtype=np.float64)
     k = np.asarray(k, dtype=np.float64)
@@ -292,7 +326,7 @@ def _microfacet_geometry(wi, wo, n, m):
     ohs = np.maximum(oh, COS_EPS)
     # G / (ni no) with G = min(1, 2 nh no / oh, 2 nh ni / oh)   (eq 11)
     g_over = np.minimum(1.0 / (nis * nos), 2.0 * nh / (ohs * np.maximum(nis, nos)))
-    D = beckmann_D(nh, m)  # eq 13 (normalised)
+    D = _beckmann_D_np(nh, m)  # eq 13 (normalised)
     DG4 = np.where(valid, 0.25 * D * g_over, 0.0)  # eq 8 without F
     return DG4, oh, valid
 
@@ -336,8 +370,18 @@ def torrance_sparrow(wi, wo, n, m, eta):
     ----------
     Cook & Torrance 1982; source paper eqs 8-13.
     """
+    K = kernels()
+    if K is not None:
+        f = directional(K.torrance_sparrow, (wi, wo, n), (m, eta))
+        if f is not None:
+            return f
+    return _torrance_sparrow_np(wi, wo, n, m, eta)
+
+
+def _torrance_sparrow_np(wi, wo, n, m, eta):
+    """NumPy version of :func:`torrance_sparrow` (the test oracle of the compiled kernel)."""
     DG4, oh, _ = _microfacet_geometry(wi, wo, n, m)
-    return DG4 * fresnel_dielectric(oh, eta)  # eq 8
+    return DG4 * _fresnel_dielectric_np(oh, eta)  # eq 8
 
 
 def torrance_sparrow_conductor(wi, wo, n, m, n_metal, k_metal):
@@ -361,6 +405,18 @@ def torrance_sparrow_conductor(wi, wo, n, m, n_metal, k_metal):
     -----
     Eq 8 with F replaced by :func:`fresnel_conductor` (gold leaf, bronze).
     """
+    K = kernels()
+    nm, km = np.asarray(n_metal, dtype=np.float64), np.asarray(k_metal, dtype=np.float64)
+    if K is not None and nm.ndim <= 1 and nm.shape == km.shape:
+        nm, km = np.ascontiguousarray(nm.reshape(-1)), np.ascontiguousarray(km.reshape(-1))
+        f = directional(K.torrance_sparrow_conductor, (wi, wo, n), (m,), extra=(nm, km), C=nm.size)
+        if f is not None:
+            return f
+    return _torrance_sparrow_conductor_np(wi, wo, n, m, n_metal, k_metal)
+
+
+def _torrance_sparrow_conductor_np(wi, wo, n, m, n_metal, k_metal):
+    """NumPy version of :func:`torrance_sparrow_conductor` (the test oracle of the compiled kernel)."""
     DG4, oh, _ = _microfacet_geometry(wi, wo, n, m)
-    F = fresnel_conductor(oh[..., None], n_metal, k_metal)
+    F = _fresnel_conductor_np(oh[..., None], n_metal, k_metal)
     return DG4[..., None] * F
