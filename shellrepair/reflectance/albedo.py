@@ -314,16 +314,25 @@ class RhoDtTable:
 
     @functools.cached_property
     def kernel_args(self):
-        """The table as the compiled kernels read it (``_kernels.rho_dt_1``, ``mean_1``).
+        """The table as the compiled kernels read it, or None if its kappa axis is not the grid's.
 
-        ``(values (Nu*Nm*Nk,), kappa, u0, du, Nu, log_m0, dlog_m, Nm,
-        mean_values, P, Q0, Q1)``, C-contiguous float64, with the axis
+        ``(values (Nu*Nm*Nk,), kappa, dk, k0, u0, du, Nu, log_m0, dlog_m,
+        Nm, mean_values, P, Q0, Q1)``, C-contiguous float64, with the axis
         origins and steps formed exactly as :func:`_stencil` forms them.
+        ``kappa[k] == dk * (k - k0)`` bit for bit (checked), which the
+        kernels use instead of reading kappa.
         """
         U, L, Kp = self.u, self.log_m, self.kappa
         f = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+        zero = np.flatnonzero(Kp == 0.0)
+        if zero.size != 1 or zero[0] + 1 >= Kp.size:
+            return None
+        k0 = int(zero[0])
+        dk = float(Kp[k0 + 1])  # = dk * 1, exactly
+        if not np.array_equal(dk * np.arange(-k0, Kp.size - k0), Kp):
+            return None
         P, Q0, Q1 = self.tir_moments
-        return (f(self.values).reshape(-1), f(Kp), float(U[0]), float(U[1] - U[0]), int(U.size),
+        return (f(self.values).reshape(-1), f(Kp), dk, k0, float(U[0]), float(U[1] - U[0]), int(U.size),
                 float(L[0]), float(L[1] - L[0]), int(L.size), f(self.mean_values), f(P), f(Q0), f(Q1))
 
     def slice_eta(self, eta):
@@ -681,8 +690,9 @@ def diffuse_transmittance(cos_theta, m, eta):
     1.0
     """
     K = kernels()
-    if K is not None:
-        return elementwise(K.diffuse_transmittance, (cos_theta, m, eta), rho_dt_table().kernel_args[:8])
+    a = rho_dt_table().kernel_args if K is not None else None
+    if a is not None:
+        return elementwise(K.diffuse_transmittance, (cos_theta, m, eta), a[:10])
     return _diffuse_transmittance_np(cos_theta, m, eta)
 
 
@@ -719,9 +729,9 @@ def mean_transmittance(m, eta):
     ``rho_dt(o) R (1 - r_i) / (1 - r_i R) <= rho_dt(o)``.
     """
     K = kernels()
-    if K is not None:
-        a = rho_dt_table().kernel_args
-        return elementwise(K.mean_transmittance, (m, eta), (a[1],) + a[5:])
+    a = rho_dt_table().kernel_args if K is not None else None
+    if a is not None:
+        return elementwise(K.mean_transmittance, (m, eta), a[1:4] + a[7:])
     return _mean_transmittance_np(m, eta)
 
 
@@ -779,9 +789,9 @@ def internal_reflectance(m, eta):
     [0, 1 - 1e-9] so that ``1 / (1 - r_i R)`` stays finite.
     """
     K = kernels()
-    if K is not None:
-        a = rho_dt_table().kernel_args
-        return elementwise(K.internal_reflectance, (m, eta), (a[1],) + a[5:] + RHO_DT_ETA_RANGE)
+    a = rho_dt_table().kernel_args if K is not None else None
+    if a is not None:
+        return elementwise(K.internal_reflectance, (m, eta), a[1:4] + a[7:] + RHO_DT_ETA_RANGE)
     return _internal_reflectance_np(m, eta)
 
 

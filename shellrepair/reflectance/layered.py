@@ -77,9 +77,9 @@ def layered_diffuse(cos_i, cos_o, m, eta, R_km):
     eta = 1.75 interface reflects only rho_bar ~ 0.9 of what enters.
     """
     K = kernels()
-    if K is not None:
-        return with_rows(K.layered_diffuse, (cos_i, cos_o, m, eta), R_km,
-                         rho_dt_table().kernel_args + RHO_DT_ETA_RANGE)
+    a = rho_dt_table().kernel_args if K is not None else None
+    if a is not None:
+        return with_rows(K.layered_diffuse, (cos_i, cos_o, m, eta), R_km, a + RHO_DT_ETA_RANGE)
     return _layered_diffuse_np(cos_i, cos_o, m, eta, R_km)
 
 
@@ -136,9 +136,9 @@ def local_brdf(wi, wo, n, m, eta, R_km):
     (= 1 for a white stack).
     """
     K = kernels()
-    if K is not None:
-        f = directional(K.local_brdf, (wi, wo, n), (m, eta), rows=R_km,
-                        extra=rho_dt_table().kernel_args + RHO_DT_ETA_RANGE)
+    a = rho_dt_table().kernel_args if K is not None else None
+    if a is not None:
+        f = directional(K.local_brdf, (wi, wo, n), (m, eta), rows=R_km, extra=a + RHO_DT_ETA_RANGE)
         if f is not None:
             return f
     return _local_brdf_np(wi, wo, n, m, eta, R_km)
