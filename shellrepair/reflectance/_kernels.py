@@ -542,7 +542,7 @@ def _slice_cell(dk0, k0, U0, dU, NU, x, kap_c, k):
 
 
 @_inline
-def rho_index(x, m, eta, Kp, dk0, k0, U0, dU, NU, L0, dL, NL):
+def rho_index(x, m, eta, K_first, K_step, K_last, NK, dk0, k0, U0, dU, NU, L0, dL, NL):
     """The trilinear read of albedo._stencil as two base indices and four weights.
 
     Returns ``(i0, i1, wu0, wu1, wj, wk)``: node (iu, j, k) of slice k at
@@ -553,9 +553,8 @@ def rho_index(x, m, eta, Kp, dk0, k0, U0, dU, NU, L0, dL, NL):
     lm = vlog(max(m, M_MIN))
     kap = _kappa_1(max(eta, _TINY))
     j, wj = _axis(lm, L0, dL, NL)
-    NK = Kp.shape[0]
-    k, wk = _axis(kap, Kp[0], Kp[1] - Kp[0], NK)
-    kap_c = _clip(kap, Kp[0], Kp[NK - 1])
+    k, wk = _axis(kap, K_first, K_step, NK)  # kappa axis as _stencil forms it: Kp[0], Kp[1] - Kp[0]
+    kap_c = _clip(kap, K_first, K_last)
     wk = _next_to_one_1(kap_c, _node(dk0, k0, k), _node(dk0, k0, min(k + 1, NK - 1)), wk)
     iu0, wu0 = _slice_cell(dk0, k0, U0, dU, NU, x, kap_c, k)
     iu1, wu1 = _slice_cell(dk0, k0, U0, dU, NU, x, kap_c, k + 1)
@@ -582,19 +581,13 @@ def rho_combine(vals, NL, NK, i0, i1, wu0, wu1, wj, wk):
     return ((t0 + t1) + (t2 + t3)) + ((t4 + t5) + (t6 + t7))
 
 
-@_inline
-def rho_dt_1(x, m, eta, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL):
-    """albedo._trilinear at one point."""
-    i0, i1, wu0, wu1, wj, wk = rho_index(x, m, eta, Kp, dk0, k0, U0, dU, NU, L0, dL, NL)
-    return rho_combine(vals, NL, Kp.shape[0], i0, i1, wu0, wu1, wj, wk)
-
-
 @jit
 def diffuse_transmittance(lo, hi, c, m, eta, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL, out):
     """Per block: indices and weights (arithmetic, vectorised), then the 8 reads per point."""
     ix = np.empty((2, BLOCK), dtype=np.int64)
     wt = np.empty((4, BLOCK))
     NK = Kp.shape[0]
+    K_first, K_step, K_last = Kp[0], Kp[1] - Kp[0], Kp[NK - 1]
     old = _ftz_enter()
     for b0 in range(lo, hi, BLOCK):
         bn = min(BLOCK, hi - b0)
@@ -602,8 +595,8 @@ def diffuse_transmittance(lo, hi, c, m, eta, vals, Kp, dk0, k0, U0, dU, NU, L0, 
         mb = _slp(m, b0, b0 + bn)
         eb = _slp(eta, b0, b0 + bn)
         for t in range(bn):
-            i0, i1, wu0, wu1, wj, wk = rho_index(_at(cb, t), _at(mb, t), _at(eb, t), Kp, dk0, k0, U0, dU, NU, L0,
-                                                 dL, NL)
+            i0, i1, wu0, wu1, wj, wk = rho_index(_at(cb, t), _at(mb, t), _at(eb, t), K_first, K_step, K_last, NK,
+                                                 dk0, k0, U0, dU, NU, L0, dL, NL)
             ix[0, t] = i0
             ix[1, t] = i1
             wt[0, t] = wu0
@@ -617,21 +610,26 @@ def diffuse_transmittance(lo, hi, c, m, eta, vals, Kp, dk0, k0, U0, dU, NU, L0, 
 
 
 @_inline
-def mean_1(m, eta, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1):
-    """albedo.mean_transmittance at one point (the same sum order)."""
+def mean_index(m, eta, K_first, K_step, K_last, NK, dk0, k0, L0, dL, NL):
+    """Cell and weights of albedo.mean_transmittance's bilinear read: (j, k, wj, wk, cq, kap_c)."""
     j, wj = _axis(vlog(max(m, M_MIN)), L0, dL, NL)
     kap = _kappa_1(max(eta, _TINY))
-    NK = Kp.shape[0]
-    k, wk = _axis(kap, Kp[0], Kp[1] - Kp[0], NK)
-    kap_c = _clip(kap, Kp[0], Kp[NK - 1])
+    k, wk = _axis(kap, K_first, K_step, NK)
+    kap_c = _clip(kap, K_first, K_last)
     wk = _next_to_one_1(kap_c, _node(dk0, k0, k), _node(dk0, k0, min(k + 1, NK - 1)), wk)
-    cq = -min(kap_c, 0.0)
+    return j, k, wj, wk, -min(kap_c, 0.0), kap_c
+
+
+@_inline
+def mean_combine(j, k, wj, wk, cq, kap_c, dk0, k0, M, P, Q0, Q1):
+    """The four node means (shifted to the query's critical angle for eta < 1), in NumPy's sum order."""
     out = 0.0
     for dk in range(2):
         ak = 1.0 - wk if dk == 0 else wk
         kk = k + dk
-        cn = -min(Kp[kk], 0.0)
-        tir = (kap_c < 0.0) & (Kp[kk] < 0.0)
+        kn = _node(dk0, k0, kk)
+        cn = -min(kn, 0.0)
+        tir = (kap_c < 0.0) & (kn < 0.0)
         cns = cn if tir else 1.0
         cqs = cq if tir else 1.0
         r = (1.0 - cqs) / max(1.0 - cns, _TINY)
@@ -647,62 +645,119 @@ def mean_1(m, eta, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1):
 
 
 @_inline
-def internal_1(m, eta, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi):
-    e = _clip(eta, e_lo, e_hi)
-    return _clip(1.0 - mean_1(m, eta, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1) / (e * e), 0.0, 1.0 - 1e-9)
+def _mean_block(m, eta, b0, bn, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1, ix, wt, res):
+    """albedo.mean_transmittance of points b0 .. b0 + bn - 1 into res[:bn]: indices (vectorised), then the reads."""
+    NK = Kp.shape[0]
+    K_first, K_step, K_last = Kp[0], Kp[1] - Kp[0], Kp[NK - 1]
+    mb = _slp(m, b0, b0 + bn)
+    eb = _slp(eta, b0, b0 + bn)
+    for t in range(bn):
+        j, k, wj, wk, cq, kap_c = mean_index(_at(mb, t), _at(eb, t), K_first, K_step, K_last, NK, dk0, k0,
+                                             L0, dL, NL)
+        ix[0, t] = j
+        ix[1, t] = k
+        wt[0, t] = wj
+        wt[1, t] = wk
+        wt[2, t] = cq
+        wt[3, t] = kap_c
+    for t in range(bn):
+        res[t] = mean_combine(ix[0, t], ix[1, t], wt[0, t], wt[1, t], wt[2, t], wt[3, t], dk0, k0, M, P, Q0, Q1)
 
 
 @jit
 def mean_transmittance(lo, hi, m, eta, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1, out):
-    m = _slp(m, lo, hi)
-    eta = _slp(eta, lo, hi)
-    out = out[lo:hi]
+    ix = np.empty((2, BLOCK), dtype=np.int64)
+    wt = np.empty((4, BLOCK))
     old = _ftz_enter()
-    for i in range(hi - lo):
-        out[i] = mean_1(_at(m, i), _at(eta, i), Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1)
+    for b0 in range(lo, hi, BLOCK):
+        bn = min(BLOCK, hi - b0)
+        _mean_block(m, eta, b0, bn, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1, ix, wt, out[b0:b0 + bn])
     _ftz_exit(old)
 
 
 @jit
 def internal_reflectance(lo, hi, m, eta, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi, out):
-    m = _slp(m, lo, hi)
-    eta = _slp(eta, lo, hi)
-    out = out[lo:hi]
+    ix = np.empty((2, BLOCK), dtype=np.int64)
+    wt = np.empty((4, BLOCK))
+    res = np.empty(BLOCK)
     old = _ftz_enter()
-    for i in range(hi - lo):
-        out[i] = internal_1(_at(m, i), _at(eta, i), Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi)
+    for b0 in range(lo, hi, BLOCK):
+        bn = min(BLOCK, hi - b0)
+        _mean_block(m, eta, b0, bn, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1, ix, wt, res)
+        eb = _slp(eta, b0, b0 + bn)
+        for t in range(bn):
+            e = _clip(_at(eb, t), e_lo, e_hi)
+            out[b0 + t] = _clip(1.0 - res[t] / (e * e), 0.0, 1.0 - 1e-9)
     _ftz_exit(old)
 
 
 @_inline
-def _layered_scale(ci, co, m, eta, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi):
-    above = (ci > COS_EPS) & (co > COS_EPS)
-    t_i = _clip(rho_dt_1(ci, m, eta, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL), 0.0, 1.0)  # eq 3 at wi
-    t_o = _clip(rho_dt_1(co, m, eta, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL), 0.0, 1.0)  # eq 3 at wo
-    rho_bar = mean_1(m, eta, Kp, dk0, k0, L0, dL, NL, M, P, Q0, Q1)
-    e = _clip(eta, e_lo, e_hi)
-    r_i = _clip(1.0 - rho_bar / (e * e), 0.0, 1.0 - 1e-9)
-    scale = t_i * t_o * (1.0 - r_i) / (PI * max(rho_bar, _TINY)) if above else 0.0
-    return scale, r_i
+def _layered_block(ci, co, m, eta, bn, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi,
+                   ix, wt, sc):
+    """layered_diffuse's per-point factors of a block into sc[0] (scale) and sc[1] (r_i).
+
+    ci, co, m, eta: the block's values (rows of length bn, or scalars).
+    Indices and weights of the two rho_dt reads and the rho_bar read
+    first (vectorised), then the reads.
+    """
+    NK = Kp.shape[0]
+    K_first, K_step, K_last = Kp[0], Kp[1] - Kp[0], Kp[NK - 1]
+    for t in range(bn):
+        mt = _at(m, t)
+        et = _at(eta, t)
+        i0, i1, wu0, wu1, wj, wk = rho_index(_at(ci, t), mt, et, K_first, K_step, K_last, NK, dk0, k0, U0, dU,
+                                             NU, L0, dL, NL)
+        ix[0, t] = i0
+        ix[1, t] = i1
+        wt[0, t] = wu0
+        wt[1, t] = wu1
+        wt[2, t] = wj
+        wt[3, t] = wk
+        i0, i1, wu0, wu1, wj, wk = rho_index(_at(co, t), mt, et, K_first, K_step, K_last, NK, dk0, k0, U0, dU,
+                                             NU, L0, dL, NL)
+        ix[2, t] = i0
+        ix[3, t] = i1
+        wt[4, t] = wu0
+        wt[5, t] = wu1
+        wt[6, t] = wj
+        wt[7, t] = wk
+        j, k, wj, wk, cq, kap_c = mean_index(mt, et, K_first, K_step, K_last, NK, dk0, k0, L0, dL, NL)
+        ix[4, t] = j
+        ix[5, t] = k
+        wt[8, t] = wj
+        wt[9, t] = wk
+        wt[10, t] = cq
+        wt[11, t] = kap_c
+    for t in range(bn):
+        t_i = _clip(rho_combine(vals, NL, NK, ix[0, t], ix[1, t], wt[0, t], wt[1, t], wt[2, t], wt[3, t]),
+                    0.0, 1.0)  # eq 3 at wi
+        t_o = _clip(rho_combine(vals, NL, NK, ix[2, t], ix[3, t], wt[4, t], wt[5, t], wt[6, t], wt[7, t]),
+                    0.0, 1.0)  # eq 3 at wo
+        rho_bar = mean_combine(ix[4, t], ix[5, t], wt[8, t], wt[9, t], wt[10, t], wt[11, t], dk0, k0,
+                               M, P, Q0, Q1)
+        e = _clip(_at(eta, t), e_lo, e_hi)
+        r_i = _clip(1.0 - rho_bar / (e * e), 0.0, 1.0 - 1e-9)
+        above = (_at(ci, t) > COS_EPS) & (_at(co, t) > COS_EPS)
+        sc[0, t] = t_i * t_o * (1.0 - r_i) / (PI * max(rho_bar, _TINY)) if above else 0.0
+        sc[1, t] = r_i
 
 
 @jit
 def layered_diffuse(lo, hi, ci, co, m, eta, R, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi,
                     out):
     C = out.shape[1]
-    R = _slv(R, lo, hi)
-    ci = _slp(ci, lo, hi)
-    co = _slp(co, lo, hi)
-    m = _slp(m, lo, hi)
-    eta = _slp(eta, lo, hi)
-    out = out[lo:hi]
+    ix = np.empty((6, BLOCK), dtype=np.int64)
+    wt = np.empty((12, BLOCK))
+    sc = np.empty((2, BLOCK))
     old = _ftz_enter()
-    for i in range(hi - lo):
-        scale, r_i = _layered_scale(_at(ci, i), _at(co, i), _at(m, i), _at(eta, i), vals, Kp, dk0, k0, U0, dU,
-                                    NU, L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi)
-        for ch in range(C):
-            Rc = _vec(R, i, ch)
-            out[i, ch] = scale * Rc / (1.0 - r_i * Rc)  # eq 2 with internal reflections
+    for b0 in range(lo, hi, BLOCK):
+        bn = min(BLOCK, hi - b0)
+        _layered_block(_slp(ci, b0, b0 + bn), _slp(co, b0, b0 + bn), _slp(m, b0, b0 + bn), _slp(eta, b0, b0 + bn),
+                       bn, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi, ix, wt, sc)
+        for t in range(bn):
+            for ch in range(C):
+                Rc = _vec(R, b0 + t, ch)
+                out[b0 + t, ch] = sc[0, t] * Rc / (1.0 - sc[1, t] * Rc)  # eq 2 with internal reflections
     _ftz_exit(old)
 
 
@@ -712,6 +767,9 @@ def local_brdf(lo, hi, wi, wo, n, m, eta, R, vals, Kp, dk0, k0, U0, dU, NU, L0, 
     C = out.shape[1]
     a = np.empty((9, BLOCK))
     g = np.empty((3, BLOCK))
+    ix = np.empty((6, BLOCK), dtype=np.int64)
+    wt = np.empty((12, BLOCK))
+    sc = np.empty((2, BLOCK))
     old = _ftz_enter()
     for i0 in range(lo, hi, BLOCK):
         bn = min(BLOCK, hi - i0)
@@ -725,12 +783,12 @@ def local_brdf(lo, hi, wi, wo, n, m, eta, R, vals, Kp, dk0, k0, U0, dU, NU, L0, 
             g[0, t] = DG4 * fresnel_dielectric_1(oh, _at(eb, t))  # eq 8
             g[1, t] = ni
             g[2, t] = no
+        _layered_block(g[1, :bn], g[2, :bn], mb, eb, bn, vals, Kp, dk0, k0, U0, dU, NU, L0, dL, NL, M, P, Q0, Q1,
+                       e_lo, e_hi, ix, wt, sc)
         for t in range(bn):
-            scale, r_i = _layered_scale(g[1, t], g[2, t], _at(mb, t), _at(eb, t), vals, Kp, dk0, k0, U0, dU, NU,
-                                        L0, dL, NL, M, P, Q0, Q1, e_lo, e_hi)
             for ch in range(C):
                 Rc = _vec(R, i0 + t, ch)
-                out[i0 + t, ch] = g[0, t] + scale * Rc / (1.0 - r_i * Rc)
+                out[i0 + t, ch] = g[0, t] + sc[0, t] * Rc / (1.0 - sc[1, t] * Rc)
     _ftz_exit(old)
 
 
