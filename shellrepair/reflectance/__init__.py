@@ -157,6 +157,7 @@ def warm_up():
     dipole_tail_fraction(1.0, c, m, 1.75), dipole_profile(c, 0.1, 0.2, 1.75)
     for name in ("aged-bronze", "gilt", "bronze"):
         f = shader.MaterialShader(name)
-        f(wi, wo, n, c, c, c), f(wi[0], wo, n, c, c, c, parts=True)
+        f(wi, wo, n, c, c, c), f(wi[0], wo, n, c, c, c, parts=True)  # per point; one light (the renderer)
+        f(wi, wo, n, c), f(wi[0], wo, n, c)  # default gilding and crust
         shader.shade_reference(wi, wo, n, c, name, c, c), shader.choose_model(100.0, name)
     return sum(len(getattr(K, k).signatures) for k in K.KERNELS)
