@@ -23,9 +23,18 @@ Measures, in one run on this machine:
    limit 1 - F by angle, the table's error for eta < 1 and the worst
    white-furnace albedo.
 
-Prints a table and writes eval/results/bench_shading.json.
+6. each public shading function and ``MaterialShader`` on 1e6 random
+   points against a plain vectorised NumPy version of it (written below:
+   the formulas as array expressions, the rho_dt table read by a
+   vectorised trilinear lookup) and against the library's own NumPy
+   version (the kernels' test oracle): times, the ratio plain / ours
+   (goal >= 10x, issue 14 item 4) and the largest relative difference from
+   the oracle.  ``--functions-only`` runs just this part (~2 minutes).
 
-Usage: ``python eval/bench_shading.py [--points N] [--faces N] [--quick]``
+Prints a table and writes eval/results/bench_shading.json
+(eval/results/bench_shading_functions.json with ``--functions-only``).
+
+Usage: ``python eval/bench_shading.py [--points N] [--faces N] [--quick] [--functions-only]``
 """
 
 from __future__ import annotations
