@@ -30,6 +30,8 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q -e '.[test]'
 	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"
 	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
+	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"
+	$(PY) -c "from shellrepair.reflectance import warm_up; warm_up()"
 	touch $(STAMP)
 
 # open3d's wheel needs libusb (and libgomp); install them from Debian if missing.

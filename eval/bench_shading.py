@@ -23,9 +23,18 @@ Measures, in one run on this machine:
    limit 1 - F by angle, the table's error for eta < 1 and the worst
    white-furnace albedo.
 
-Prints a table and writes eval/results/bench_shading.json.
+6. each public shading function and ``MaterialShader`` on 1e6 random
+   points against a plain vectorised NumPy version of it (written below:
+   the formulas as array expressions, the rho_dt table read by a
+   vectorised trilinear lookup) and against the library's own NumPy
+   version (the kernels' test oracle): times, the ratio plain / ours
+   (goal >= 10x, issue 14 item 4) and the largest relative difference from
+   the oracle.  ``--functions-only`` runs just this part (~2 minutes).
 
-Usage: ``python eval/bench_shading.py [--points N] [--faces N] [--quick]``
+Prints a table and writes eval/results/bench_shading.json
+(eval/results/bench_shading_functions.json with ``--functions-only``).
+
+Usage: ``python eval/bench_shading.py [--points N] [--faces N] [--quick] [--functions-only]``
 """
 
 from __future__ import annotations
@@ -45,6 +54,7 @@ sys.path.insert(0, os.path.abspath(os.path.join(os.path.dirname(__file__), "..")
 from shellrepair import materials as mt  # noqa: E402
 from shellrepair import render as rd  # noqa: E402
 from shellrepair import shading as sh  # noqa: E402
+from shellrepair.reflectance import albedo  # noqa: E402
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 
@@ -118,6 +128,263 @@ def naive_shade(wi, wo, n, c, mat, interp, gild=1.0, crust=0.0):
     return np.where(ok[:, None], f, 0.0)
 
 
+# --------------------------------------------------------------------------
+# Plain vectorised NumPy versions of each public function (the baseline of
+# issue 14 item 4): the formulas written as a user would, one array
+# expression per term, the rho_dt table read by a vectorised trilinear
+# lookup.  No guards beyond what the formula needs on the benchmark's
+# inputs (all strictly inside the valid ranges), no chunking.
+# --------------------------------------------------------------------------
+
+
+def plain_dot(a, b):
+    return np.sum(a * b, axis=-1)
+
+
+def plain_beckmann(c, m):
+    c2 = c * c
+    return np.exp(-(1.0 - c2) / (c2 * m * m)) / (np.pi * m * m * c2 * c2)
+
+
+def plain_G(nh, ni, no, oh):
+    return np.minimum(1.0, np.minimum(2.0 * nh * no / oh, 2.0 * nh * ni / oh))
+
+
+def plain_fresnel_dielectric(c, eta):
+    g = np.sqrt(np.maximum(eta * eta + c * c - 1.0, 0.0))
+    a = (g - c) / (g + c)
+    b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    return 0.5 * a * a * (1.0 + b * b)
+
+
+def plain_fresnel_conductor(c, n, k):
+    c2 = c * c
+    s2 = 1.0 - c2
+    t = n * n - k * k - s2
+    a2b2 = np.sqrt(t * t + 4.0 * n * n * k * k)
+    a = np.sqrt(0.5 * (a2b2 + t))
+    Rs = (a2b2 - 2.0 * a * c + c2) / (a2b2 + 2.0 * a * c + c2)
+    Rp = Rs * (c2 * a2b2 - 2.0 * a * c * s2 + s2 * s2) / (c2 * a2b2 + 2.0 * a * c * s2 + s2 * s2)
+    return 0.5 * (Rs + Rp)
+
+
+def plain_geometry(wi, wo, n):
+    h = wi + wo
+    h = h / np.linalg.norm(h, axis=-1, keepdims=True)
+    return plain_dot(n, wi), plain_dot(n, wo), plain_dot(n, h), plain_dot(wo, h)
+
+
+def plain_torrance_sparrow(wi, wo, n, m, eta):
+    ni, no, nh, oh = plain_geometry(wi, wo, n)
+    f = plain_beckmann(nh, m) * plain_G(nh, ni, no, oh) * plain_fresnel_dielectric(oh, eta) / (4.0 * ni * no)
+    return np.where((ni > 0) & (no > 0), f, 0.0)
+
+
+def plain_torrance_sparrow_conductor(wi, wo, n, m, n_metal, k_metal):
+    ni, no, nh, oh = plain_geometry(wi, wo, n)
+    base = plain_beckmann(nh, m) * plain_G(nh, ni, no, oh) / (4.0 * ni * no)
+    F = plain_fresnel_conductor(oh[:, None], n_metal, k_metal)
+    return np.where(((ni > 0) & (no > 0))[:, None], base[:, None] * F, 0.0)
+
+
+def plain_km_r_inf(K, S):
+    a = K / S
+    return 1.0 + a - np.sqrt(a * a + 2.0 * a)  # eq 6
+
+
+def plain_km_reflectance(K, S, X, Rg):
+    Ri = plain_km_r_inf(K, S)
+    E = np.exp(S * X * (1.0 / Ri - Ri))  # eq 5
+    return ((1.0 / Ri) * (Rg - Ri) - Ri * (Rg - 1.0 / Ri) * E) / ((Rg - Ri) - (Rg - 1.0 / Ri) * E)
+
+
+class PlainTable:
+    """The library's rho_dt table read by a plain vectorised trilinear lookup."""
+
+    def __init__(self, table):
+        self.t = table
+        self.v = table.values
+
+    def _cell(self, x, ax):
+        f = np.clip((x - ax[0]) / (ax[1] - ax[0]), 0.0, ax.size - 1.0)
+        i = np.minimum(f.astype(np.intp), ax.size - 2)
+        return i, f - i
+
+    def rho(self, cos_theta, m, eta):
+        i, a = self._cell(np.sqrt(np.clip(cos_theta, 0.0, 1.0)), self.t.u)
+        j, b = self._cell(np.log(m), self.t.log_m)
+        e2 = eta * eta - 1.0
+        k, c = self._cell(np.sign(e2) * np.sqrt(np.abs(e2)), self.t.kappa)
+        v = self.v
+        return ((1 - a) * ((1 - b) * ((1 - c) * v[i, j, k] + c * v[i, j, k + 1])
+                           + b * ((1 - c) * v[i, j + 1, k] + c * v[i, j + 1, k + 1]))
+                + a * ((1 - b) * ((1 - c) * v[i + 1, j, k] + c * v[i + 1, j, k + 1])
+                       + b * ((1 - c) * v[i + 1, j + 1, k] + c * v[i + 1, j + 1, k + 1])))
+
+    def mean(self, m, eta):
+        j, b = self._cell(np.log(m), self.t.log_m)
+        e2 = eta * eta - 1.0
+        k, c = self._cell(np.sign(e2) * np.sqrt(np.abs(e2)), self.t.kappa)
+        M = self.t.mean_values
+        return ((1 - b) * ((1 - c) * M[j, k] + c * M[j, k + 1])
+                + b * ((1 - c) * M[j + 1, k] + c * M[j + 1, k + 1]))
+
+
+def plain_layered_diffuse(ci, co, m, eta, R, pt):
+    rho_bar = pt.mean(m, eta)
+    r_i = 1.0 - rho_bar / (eta * eta)
+    f = (pt.rho(ci, m, eta) * pt.rho(co, m, eta) * (1.0 - r_i) / (np.pi * rho_bar))[:, None] * R / (
+        1.0 - r_i[:, None] * R)
+    return np.where(((ci > 0) & (co > 0))[:, None], f, 0.0)
+
+
+def plain_local_brdf(wi, wo, n, m, eta, R, pt):
+    spec = plain_torrance_sparrow(wi, wo, n, m, eta)
+    return spec[:, None] + plain_layered_diffuse(plain_dot(n, wi), plain_dot(n, wo), m, eta, R, pt)
+
+
+def plain_dipole_A(eta):
+    F = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
+    return (1.0 + F) / (1.0 - F)
+
+
+def plain_dipole_rd(a, eta):
+    s = np.sqrt(3.0 * (1.0 - a))
+    return 0.5 * a * (1.0 + np.exp(-(4.0 / 3.0) * plain_dipole_A(eta) * s)) * np.exp(-s)
+
+
+def plain_dipole_poles(r, sa, ss, eta):
+    st = sa + ss
+    s_tr = np.sqrt(3.0 * sa * st)
+    zr = 1.0 / st
+    zv = zr * (1.0 + 4.0 / 3.0 * plain_dipole_A(eta))
+    return ss / st, s_tr, zr, zv, np.sqrt(r * r + zr * zr), np.sqrt(r * r + zv * zv)
+
+
+def plain_dipole_tail_fraction(r, sa, ss, eta):
+    _, s, zr, zv, dr, dv = plain_dipole_poles(r, sa, ss, eta)
+    return ((zr * np.exp(-s * dr) / dr + zv * np.exp(-s * dv) / dv)
+            / (np.exp(-s * zr) + np.exp(-s * zv)))
+
+
+def plain_dipole_profile(r, sa, ss, eta):
+    al, s, zr, zv, dr, dv = plain_dipole_poles(r, sa, ss, eta)
+    return al / (4.0 * np.pi) * (zr * (1.0 + s * dr) * np.exp(-s * dr) / dr ** 3
+                                 + zv * (1.0 + s * dv) * np.exp(-s * dv) / dv ** 3)
+
+
+def plain_shade(wi, wo, n, c, mat, pt, gild, crust):
+    """The full aged-metal model, plain vectorised NumPy with the table lookup."""
+    ni, no, nh, oh = plain_geometry(wi, wo, n)
+    m = mat.m_exposed + (mat.m_rust - mat.m_exposed) * c
+    nfi = np.maximum(ni, sh.MU_FLOOR)
+    nfo = np.maximum(no, sh.MU_FLOOR)
+    base = plain_beckmann(nh, m) * plain_G(nh, nfi, nfo, oh) / (4.0 * nfi * nfo)
+    Fg = plain_fresnel_conductor(oh[:, None], np.asarray(mat.exposed.n), np.asarray(mat.exposed.k))
+    Fb = plain_fresnel_conductor(oh[:, None], np.asarray(mat.substrate.n), np.asarray(mat.substrate.k))
+    f_metal = base[:, None] * (gild[:, None] * Fg + (1.0 - gild[:, None]) * Fb)
+    eta = np.full_like(m, mat.eta_top)
+    f_spec = base * plain_fresnel_dielectric(oh, eta)
+    R = np.broadcast_to(mt.substrate_reflectance(mat), (len(c), 3))
+    for li, (L, xmax, c0, c1) in enumerate(mat.layers):
+        K = np.asarray(L.K)
+        S = np.asarray(L.S)
+        if li == len(mat.layers) - 1 and mat.crust is not None:  # eq 7: dark crust in the top layer
+            p = (crust * mat.crust[1])[:, None]
+            K = (1 - p) * K + p * np.asarray(mat.crust[0].K)
+            S = (1 - p) * S + p * np.asarray(mat.crust[0].S)
+        X = (xmax * np.clip((c - c0) / (c1 - c0), 0, 1))[:, None]
+        R = plain_km_reflectance(K, S, X, R)
+    f_rust = f_spec[:, None] + plain_layered_diffuse(ni, no, m, eta, R, pt)
+    f = (1 - c)[:, None] * f_metal + c[:, None] * f_rust
+    return np.where(((ni > 0) & (no > 0))[:, None], f, 0.0)
+
+
+def bench_functions(N, repeat):
+    """Each public function and MaterialShader against its plain NumPy version, on N points.
+
+    Returns per function: our seconds, the plain version's, the library's
+    NumPy version's (the kernels' test oracle), the ratio plain / ours and
+    the largest relative difference from the oracle and from the plain
+    version.
+    """
+    from shellrepair.reflectance import _dispatch, albedo as al, dipole as dp, km, layered as ly
+    from shellrepair.reflectance import microfacet as mf
+    from shellrepair import shader as sd
+
+    rng = np.random.default_rng(42)
+    wi, wo, n, cov, gild, crust = random_points(N, seed=7)
+    m = np.exp(rng.uniform(np.log(0.02), 0.0, N))
+    eta = rng.uniform(1.1, 2.5, N)
+    c = rng.uniform(0.01, 1.0, N)
+    c2 = rng.uniform(0.01, 1.0, N)
+    K, S = rng.uniform(0.01, 3.0, N), rng.uniform(0.01, 3.0, N)
+    X, Rg = rng.uniform(0.0, 100.0, N), rng.uniform(0.0, 1.0, N)
+    R3 = rng.uniform(0.0, 1.0, (N, 3))
+    nm, km_ = np.asarray(mt.BRONZE.n), np.asarray(mt.BRONZE.k)
+    nh, ni, no, oh = plain_geometry(wi, wo, n)
+    pt = PlainTable(sh.rho_dt_table())
+    mat = mt.get_material("aged-bronze")
+    shader = mt.MaterialShader(mat)
+    cases = [
+        ("beckmann_D", sh.beckmann_D, mf._beckmann_D_np, plain_beckmann, (c, m)),
+        ("v_cavity_G", sh.v_cavity_G, mf._v_cavity_G_np, plain_G, (nh, ni, no, oh)),
+        ("fresnel_dielectric", sh.fresnel_dielectric, mf._fresnel_dielectric_np, plain_fresnel_dielectric, (c, eta)),
+        ("fresnel_conductor", sh.fresnel_conductor, mf._fresnel_conductor_np, plain_fresnel_conductor,
+         (c, eta, K)),
+        ("torrance_sparrow", sh.torrance_sparrow, mf._torrance_sparrow_np, plain_torrance_sparrow,
+         (wi, wo, n, m, eta)),
+        ("torrance_sparrow_conductor", sh.torrance_sparrow_conductor, mf._torrance_sparrow_conductor_np,
+         plain_torrance_sparrow_conductor, (wi, wo, n, m, nm, km_)),
+        ("diffuse_transmittance", sh.diffuse_transmittance, al._diffuse_transmittance_np, pt.rho, (c, m, eta)),
+        ("mean_transmittance", sh.mean_transmittance, al._mean_transmittance_np, pt.mean, (m, eta)),
+        ("internal_reflectance", sh.internal_reflectance, al._internal_reflectance_np,
+         lambda m_, e_: 1.0 - pt.mean(m_, e_) / (e_ * e_), (m, eta)),
+        ("layered_diffuse", sh.layered_diffuse, ly._layered_diffuse_np,
+         lambda *a: plain_layered_diffuse(*a, pt), (c, c2, m, eta, R3)),
+        ("local_brdf", sh.local_brdf, ly._local_brdf_np, lambda *a: plain_local_brdf(*a, pt),
+         (wi, wo, n, m, eta, R3)),
+        ("km_r_inf", sh.km_r_inf, km._km_r_inf_np, plain_km_r_inf, (K, S)),
+        ("km_reflectance", sh.km_reflectance, km._km_reflectance_np, plain_km_reflectance, (K, S, X, Rg)),
+        ("dipole_rd", sh.dipole_rd, dp._dipole_rd_np, plain_dipole_rd, (Rg, eta)),
+        ("dipole_tail_fraction", sh.dipole_tail_fraction, dp._dipole_tail_fraction_np,
+         plain_dipole_tail_fraction, (X, K, S, eta)),
+        ("dipole_profile", sh.dipole_profile, dp._dipole_profile_np, plain_dipole_profile, (X, K, S, eta)),
+        ("MaterialShader", lambda *a: shader(*a), lambda *a: sd._material_shader_np(shader, *a),
+         lambda wi_, wo_, n_, c_, g_, d_: plain_shade(wi_, wo_, n_, c_, mat, pt, g_, d_),
+         (wi, wo, n, cov, gild, crust)),
+    ]
+    for _, fn, _, _, args in cases:  # compile (or load the cache) outside the timing
+        fn(*[a[:64] if isinstance(a, np.ndarray) and a.ndim and a.shape[0] == N else a for a in args])
+    out = {}
+    for name, fn, oracle, plain, args in cases:
+        with np.errstate(all="ignore"):
+            t_ours, f = best_of(lambda: fn(*args), repeat)
+            t_plain, fp = best_of(lambda: plain(*args), repeat)
+            t_oracle, fo = best_of(lambda: oracle(*args), max(1, repeat // 2))
+        ok = np.isfinite(fo) & np.isfinite(fp)
+        out[name] = {
+            "ours_ms": 1e3 * t_ours, "plain_numpy_ms": 1e3 * t_plain, "numpy_oracle_ms": 1e3 * t_oracle,
+            "ratio_plain_over_ours": t_plain / t_ours,
+            # values below 1e-250 are compared absolutely: the kernels flush subnormals to 0
+            "max_rel_diff_vs_oracle": float(np.max(np.abs(f[ok] - fo[ok]) / np.maximum(np.abs(fo[ok]), 1e-250))),
+            "max_abs_diff_vs_plain": float(np.max(np.abs(f[ok] - fp[ok]))),
+        }
+    return {"points": N, "threads": _dispatch.kernels().n_threads() if _dispatch.kernels() else 0,
+            "jit": _dispatch.kernels() is not None, "functions": out}
+
+
+def print_functions(res):
+    print("per function, %d points, %s (%d threads) vs plain vectorised NumPy (goal >= 10x)"
+          % (res["points"], "compiled kernels" if res["jit"] else "NumPy (no JIT)", res["threads"]))
+    print("  %-28s %9s %9s %9s %8s %11s" % ("function", "ours ms", "plain ms", "oracle ms", "ratio",
+                                          "vs oracle"))
+    for name, r in res["functions"].items():
+        print("  %-28s %9.2f %9.2f %9.2f %7.1fx %11.1e" % (name, r["ours_ms"], r["plain_numpy_ms"],
+                                                      r["numpy_oracle_ms"], r["ratio_plain_over_ours"],
+                                                      r["max_rel_diff_vs_oracle"]))
+
+
 def random_points(N, seed=0):
     rng = np.random.default_rng(seed)
 
@@ -183,11 +450,11 @@ def bench_table(n_samples):
     with tempfile.TemporaryDirectory() as d:
         old = os.environ.get("SHELLREPAIR_CACHE_DIR")
         os.environ["SHELLREPAIR_CACHE_DIR"] = d
-        sh._TABLE = None
+        albedo._TABLE = None
         t = time.perf_counter()
         sh.rho_dt_table()
         build = time.perf_counter() - t
-        sh._TABLE = None
+        albedo._TABLE = None
         t = time.perf_counter()
         sh.rho_dt_table()
         load = time.perf_counter() - t
@@ -333,11 +600,21 @@ def main(argv=None):
     ap.add_argument("--size", default="1024x1024")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="small sizes, for a smoke run")
+    ap.add_argument("--functions-only", action="store_true",
+                    help="only the per-function ratios against plain NumPy (1e6 points by default)")
     args = ap.parse_args(argv)
+    if args.functions_only:
+        res = bench_functions(args.points, args.repeat)
+        print_functions(res)
+        os.makedirs(RESULTS, exist_ok=True)
+        with open(os.path.join(RESULTS, "bench_shading_functions.json"), "w") as fh:
+            json.dump(res, fh, indent=2)
+        return 0
     if args.quick:
         args.points, args.faces, args.size, args.repeat = 100_000, 50_000, "256x256", 1
     size = tuple(int(x) for x in args.size.lower().split("x"))
 
+    functions = bench_functions(1_000_000, args.repeat)
     table = bench_table(400 if not args.quick else 60)
     shading = bench_shading(args.points, args.repeat)
     render = bench_render(args.faces, size)
@@ -349,6 +626,7 @@ def main(argv=None):
                     "processor": platform.processor() or platform.machine(),
                     "cpus": os.cpu_count()},
         "shading": shading,
+        "functions": functions,
         "rho_dt_table": table,
         "render": render,
         "aging_map": aging,
@@ -371,6 +649,7 @@ def main(argv=None):
                                           s["naive_evals_per_s"], "%.1e" % s["max_rel_diff_naive_vs_reference"]))
     print("  speedup: %.1fx vs straightforward, %.1fx vs term-by-term (goal 10x)"
           % (s["speedup_vs_naive"], s["speedup_vs_reference"]))
+    print_functions(functions)
     t = table
     print("rho_dt table: built in %.2f s, loaded in %.3f s; max |error| %.2e (p99 %.1e) over %d samples,"
           " stated bound %.0e; worst at theta=%.1f m=%.3f eta=%.2f"

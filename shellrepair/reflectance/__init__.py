@@ -1,0 +1,163 @@
+"""Reflectance model for aged gilt bronze (Yamamoto, Shiba & Okada, section 4).
+
+One module per model:
+
+- :mod:`.microfacet`: Beckmann D, V-cavity G, Fresnel F, Torrance-Sparrow (eqs 8-13);
+- :mod:`.albedo`: the lobe's directional albedo and the rho_dt table (eq 3);
+- :mod:`.km`: Kubelka-Munk layers (eqs 4-7);
+- :mod:`.dipole`: dipole diffusion (Jensen et al. 2001), for the model choice;
+- :mod:`.layered`: the local layered BRDF that joins them (eq 2).
+
+
+The surface of a gilt-bronze statue after centuries is a rough interface
+(Torrance-Sparrow microfacets, paper eqs 8-13) over a stack of corrosion
+layers (cuprite, green basic copper salts) on bronze, whose diffuse
+reflectance follows Kubelka-Munk theory (eqs 4-7).  Light that enters the
+layers is attenuated on the way in and out by the rough interface's
+diffuse transmittance rho_dt (eq 3), which gives the local form of the
+diffusion BSSRDF of eq 2::
+
+    f(wi, wo) = f_spec(wi, wo) + rho_dt(wi) R_KM rho_dt(wo) / pi
+
+Parameters of every function, defaults and valid ranges
+--------------------------------------------------------
+- directions ``(..., 3)`` unit vectors that broadcast against each other;
+  all arithmetic is float64.
+- Beckmann roughness ``m``: RMS microfacet slope, > 0; values below
+  :data:`M_MIN` are clamped to it (a smooth surface is a delta that no
+  array can hold).
+- relative refractive index ``eta`` of a dielectric, > 0 (``eta < 1`` gives
+  total internal reflection past the critical angle).
+- conductor index ``n + i k`` with ``n > 0, k >= 0``.
+- Kubelka-Munk absorption ``K`` and scattering ``S`` (1/um), thickness
+  ``X`` (um), background reflectance ``Rg`` in [0, 1].
+
+Numerical guards (grazing cosines, K -> 0, S -> 0, S X -> inf, m -> 0)
+live in the modules, not in the tests; each is named where it is applied.
+
+References
+----------
+.. [1] Yamamoto, Shiba, Okada, "A Reflection Model for Representation of
+   Gilt Bronze Statues with Aging Degradation" (the source paper), eqs 1-13.
+.. [2] R. L. Cook and K. E. Torrance, "A Reflectance Model for Computer
+   Graphics", ACM TOG 1(1), 1982 (Beckmann D, V-cavity G, Fresnel).
+.. [3] P. Kubelka and F. Munk, "Ein Beitrag zur Optik der Farbanstriche",
+   Z. techn. Physik 12, 593-601, 1931.
+.. [4] H. W. Jensen, S. R. Marschner, M. Levoy, P. Hanrahan, "A Practical
+   Model for Subsurface Light Transport", SIGGRAPH 2001.
+.. [5] C. Donner and H. W. Jensen, "Light Diffusion in Multi-Layered
+   Translucent Materials", SIGGRAPH 2005.
+"""
+
+from __future__ import annotations
+
+from . import albedo, dipole, km, layered, microfacet
+from .albedo import (
+    RHO_DT_ETA_RANGE,
+    RHO_DT_M_RANGE,
+    RHO_DT_MAX_ERROR,
+    RhoDtTable,
+    diffuse_transmittance,
+    internal_reflectance,
+    mean_transmittance,
+    rho_dt_table,
+    specular_albedo,
+    u_mean_weights,
+)
+from .dipole import dipole_profile, dipole_rd, dipole_tail_fraction
+from .km import km_layers, km_mix, km_r_inf, km_reflectance, km_to_transport
+from .layered import layered_diffuse, local_brdf
+from .microfacet import (
+    COS_EPS,
+    M_MIN,
+    MU_FLOOR,
+    beckmann_D,
+    fresnel_conductor,
+    fresnel_dielectric,
+    torrance_sparrow,
+    torrance_sparrow_conductor,
+    v_cavity_G,
+)
+
+__all__ = [
+    "M_MIN",
+    "COS_EPS",
+    "MU_FLOOR",
+    "RHO_DT_M_RANGE",
+    "RHO_DT_ETA_RANGE",
+    "RHO_DT_MAX_ERROR",
+    "beckmann_D",
+    "v_cavity_G",
+    "fresnel_dielectric",
+    "fresnel_conductor",
+    "torrance_sparrow",
+    "torrance_sparrow_conductor",
+    "specular_albedo",
+    "diffuse_transmittance",
+    "mean_transmittance",
+    "internal_reflectance",
+    "layered_diffuse",
+    "RhoDtTable",
+    "u_mean_weights",
+    "rho_dt_table",
+    "km_r_inf",
+    "km_reflectance",
+    "km_layers",
+    "km_mix",
+    "dipole_rd",
+    "dipole_tail_fraction",
+    "dipole_profile",
+    "km_to_transport",
+    "local_brdf",
+    "warm_up",
+]
+
+
+def warm_up():
+    """Compile the shading kernels now (or load them from Numba's cache).
+
+    Calls every public function, and :class:`shellrepair.shader.MaterialShader`
+    and :func:`shellrepair.shader.shade_reference` for each preset, with
+    small inputs in the layouts the library uses (arrays of points, one
+    light direction for all points, one roughness or index for all), so
+    that each kernel specialisation is compiled once and cached on disk.
+    ``make setup`` runs it, so no later run waits for the JIT.
+
+    Returns
+    -------
+    n : int
+        Number of compiled specialisations (0 when the kernels are off:
+        ``SHELLREPAIR_NO_JIT=1`` or Numba missing).
+    """
+    import numpy as np
+
+    from . import _dispatch
+
+    K = _dispatch.kernels()
+    if K is None:
+        return 0
+    from .. import shader
+
+    rng = np.random.default_rng(0)
+    P = 8
+    d = rng.normal(size=(3, P, 3)) * [0.3, 0.3, 1.0]
+    wi, wo, n = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    c, m, eta, R = rng.uniform(0.1, 0.9, P), rng.uniform(0.05, 1.0, P), rng.uniform(1.1, 2.0, P), rng.uniform(0, 1, P)
+    R3 = rng.uniform(0, 1, (P, 3))
+    nk = (np.array([0.2, 1.0, 1.2]), np.array([3.7, 2.6, 2.4]))
+    for e in (eta, 1.75):  # per point, and one index for all points
+        beckmann_D(c, m), fresnel_dielectric(c, e), diffuse_transmittance(c, m, e)
+        mean_transmittance(m, e), internal_reflectance(m, e), layered_diffuse(c, c, m, e, R3)
+        torrance_sparrow(wi, wo, n, m, e), local_brdf(wi, wo, n, m, e, R3), dipole_rd(R, e)
+        dipole_tail_fraction(c, m, R, e), dipole_profile(c, m, R, e)
+    v_cavity_G(c, c, c, c), fresnel_conductor(c, m, eta), fresnel_conductor(c[:, None], *nk)
+    torrance_sparrow_conductor(wi, wo, n, m, *nk), km_r_inf(c, m)
+    km_reflectance(c, m, eta, R), km_reflectance(c[:, None], m[:, None], eta[:, None], R3)
+    km_reflectance(c[:, None], m[:, None], eta[:, None], nk[0])
+    dipole_tail_fraction(1.0, c, m, 1.75), dipole_profile(c, 0.1, 0.2, 1.75)
+    for name in ("aged-bronze", "gilt", "bronze"):
+        f = shader.MaterialShader(name)
+        f(wi, wo, n, c, c, c), f(wi[0], wo, n, c, c, c, parts=True)  # per point; one light (the renderer)
+        f(wi, wo, n, c), f(wi[0], wo, n, c)  # default gilding and crust
+        shader.shade_reference(wi, wo, n, c, name, c, c), shader.choose_model(100.0, name)
+    return sum(len(getattr(K, k).signatures) for k in K.KERNELS)

@@ -1,0 +1,216 @@
+"""The compiled shading kernels against their NumPy versions (the oracles).
+
+Stated tolerances (each asserted below):
+
+- every public function of shellrepair.reflectance: ``|f - f_np| <= 1e-12 |f_np| + 1e-250``.
+  The kernels apply the same operations in the same order; exp and log
+  are our own vectorisable versions (within 1 ulp of libm's,
+  :func:`test_exp_expm1_log_within_one_ulp_of_libm`).  The 1e-250 floor
+  is for subnormals, which the kernels flush to zero (FTZ/DAZ): a value
+  NumPy gives as 1e-310 is 0 here, and at most a factor ~1e48 (1/cos^4
+  of the smallest cosine) can lift such a value before it is returned.
+- MaterialShader: ``rtol 1e-11``.  Its dot products are summed in another
+  order than ``np.einsum``'s, and the Beckmann exponent (up to ~745 in
+  magnitude) multiplies an ulp of the cosine by that much.
+- the NumPy versions stay exactly what they were: with
+  ``SHELLREPAIR_NO_JIT=1`` the public functions return the oracle's arrays
+  bit for bit, and tests/test_reflectance_split.py pins those values.
+"""
+
+import numpy as np
+import pytest
+
+from shellrepair import materials as mt
+from shellrepair import shader as sd
+from shellrepair.reflectance import _dispatch
+from shellrepair.reflectance import albedo as al
+from shellrepair.reflectance import dipole as dp
+from shellrepair.reflectance import km
+from shellrepair.reflectance import layered as ly
+from shellrepair.reflectance import microfacet as mf
+
+K = _dispatch.kernels()
+pytestmark = pytest.mark.skipif(K is None, reason="Numba kernels off (SHELLREPAIR_NO_JIT or numba missing)")
+
+RTOL, ATOL = 1e-12, 1e-250
+RTOL_SHADER = 1e-11
+
+
+def unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def hard_inputs(N=3000, seed=3):
+    """Random points plus the cases each guard is for."""
+    rng = np.random.default_rng(seed)
+    wi = unit(rng.normal(size=(N, 3)))
+    wo = unit(rng.normal(size=(N, 3)))
+    n = unit(rng.normal(size=(N, 3)) * 0.3 + [0, 0, 1])
+    g = unit(np.array([1.0, 0.0, 1e-9]))
+    wi[0], wo[0], n[0] = g, g * [-1, 1, 1], (0, 0, 1)  # mirror pair grazing the horizon
+    wi[1], wo[1], n[1] = (0, 0, 1), (0, 0, 1), (0, 0, 1)  # normal incidence
+    wi[2], wo[2] = unit([1, 0, 1]), unit([-1, 0, -1])  # i = -o: no half vector
+    wi[3], wo[3], n[3] = unit([1, 0, 1e-13]), unit([0, 1, 1e-13]), (0, 0, 1)  # at the horizon
+    c = rng.uniform(-0.1, 1.1, N)
+    c[:6] = (0.0, 1e-13, 1e-12, 1.0, 0.5, -0.3)
+    m = np.exp(rng.uniform(np.log(1e-4), np.log(2.0), N))
+    m[:4] = (0.0, 1e-9, 1e-3, 1.5)  # m -> 0
+    eta = rng.uniform(0.2, 3.5, N)
+    eta[:5] = (1.0, 0.5, 1.75, 0.3, 3.0)
+    Kc, S = rng.uniform(0, 3, N), rng.uniform(0, 3, N)
+    X, Rg = rng.uniform(0, 100, N), rng.uniform(0, 1, N)
+    Kc[:4] = 0.0  # conservative layer
+    S[4:8] = 0.0  # pure absorption
+    Kc[8:10], S[8:10] = 0.0, 0.0  # empty layer
+    X[10:14], X[14:18] = np.inf, 0.0
+    S[18:24], X[18:24], Kc[18:21] = 1e4, 1e3, 0.0  # huge S X, conservative and not
+    X[24:26], Kc[24:26], S[24:26] = 1e-9, 1e-9, 1e-9  # tiny z: the series branches
+    R3 = rng.uniform(0, 1, (N, 3))
+    R3[:3] = (0.0, 1.0, 0.5)
+    return dict(wi=wi, wo=wo, n=n, c=c, m=m, eta=eta, K=Kc, S=S, X=X, Rg=Rg, R3=R3)
+
+
+def cases():
+    p = hard_inputs()
+    wi, wo, n, c, m, eta = p["wi"], p["wo"], p["n"], p["c"], p["m"], p["eta"]
+    Kc, S, X, Rg, R3 = p["K"], p["S"], p["X"], p["Rg"], p["R3"]
+    nk = (np.array([0.22, 1.02, 1.24]), np.array([3.747, 2.577, 2.397]))
+    up = np.array([0.0, 0.0, 1.0])
+    return {
+        "beckmann_D": (mf.beckmann_D, mf._beckmann_D_np, (c, m)),
+        "beckmann_D broadcast": (mf.beckmann_D, mf._beckmann_D_np, (c[:40, None], m[None, :50])),
+        "v_cavity_G": (mf.v_cavity_G, mf._v_cavity_G_np, (c, c[::-1], np.abs(c), c - 0.2)),
+        "fresnel_dielectric": (mf.fresnel_dielectric, mf._fresnel_dielectric_np, (c, eta)),
+        "fresnel_conductor": (mf.fresnel_conductor, mf._fresnel_conductor_np, (c, eta, Kc)),
+        "fresnel_conductor per channel": (mf.fresnel_conductor, mf._fresnel_conductor_np, (c[:, None],) + nk),
+        "torrance_sparrow": (mf.torrance_sparrow, mf._torrance_sparrow_np, (wi, wo, n, m, eta)),
+        "torrance_sparrow one normal, scalars": (mf.torrance_sparrow, mf._torrance_sparrow_np,
+                                                 (wi, wo, up, 0.3, 1.75)),
+        "torrance_sparrow_conductor": (mf.torrance_sparrow_conductor, mf._torrance_sparrow_conductor_np,
+                                       (wi, wo, n, m) + nk),
+        "diffuse_transmittance": (al.diffuse_transmittance, al._diffuse_transmittance_np, (c, m, eta)),
+        "diffuse_transmittance one index": (al.diffuse_transmittance, al._diffuse_transmittance_np,
+                                            (c, m, 0.8)),
+        "mean_transmittance": (al.mean_transmittance, al._mean_transmittance_np, (m, eta)),
+        "internal_reflectance": (al.internal_reflectance, al._internal_reflectance_np, (m, eta)),
+        "layered_diffuse": (ly.layered_diffuse, ly._layered_diffuse_np, (c, c[::-1], m, eta, R3)),
+        "layered_diffuse one stack": (ly.layered_diffuse, ly._layered_diffuse_np, (c, c[::-1], m, 1.75, R3[5])),
+        "local_brdf": (ly.local_brdf, ly._local_brdf_np, (wi, wo, n, m, eta, R3)),
+        "local_brdf scalars": (ly.local_brdf, ly._local_brdf_np, (wi, wo, up, 0.3, 1.75, R3[7])),
+        "km_r_inf": (km.km_r_inf, km._km_r_inf_np, (Kc, S)),
+        "km_reflectance": (km.km_reflectance, km._km_reflectance_np, (Kc, S, X, Rg)),
+        "km_reflectance per channel": (km.km_reflectance, km._km_reflectance_np,
+                                       (Kc[:, None], S[:, None], X[:, None], R3)),
+        "dipole_rd": (dp.dipole_rd, dp._dipole_rd_np, (Rg, eta)),
+        "dipole_tail_fraction": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np, (X, Kc, S, eta)),
+        "dipole_profile": (dp.dipole_profile, dp._dipole_profile_np, (X, Kc + 1e-3, S, eta)),
+    }
+
+
+CASES = cases()
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_kernel_matches_numpy_oracle(name):
+    fast, oracle, args = CASES[name]
+    with np.errstate(all="ignore"):
+        a = fast(*args)
+        b = oracle(*args)
+    assert a.shape == b.shape and a.dtype == np.float64
+    np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
+    np.testing.assert_array_equal(np.isinf(a), np.isinf(b))
+    ok = np.isfinite(b)
+    np.testing.assert_allclose(a[ok], b[ok], rtol=RTOL, atol=ATOL)
+
+
+def test_scalar_inputs_give_0d_arrays_like_numpy():
+    for f, g, args in [(mf.beckmann_D, mf._beckmann_D_np, (1.0, 0.5)),
+                       (km.km_reflectance, km._km_reflectance_np, (0.0, 1.0, 1.0, 0.0)),
+                       (al.diffuse_transmittance, al._diffuse_transmittance_np, (0.5, 0.3, 1.0))]:
+        a, b = f(*args), g(*args)
+        assert np.shape(a) == np.shape(b) == ()
+        assert float(a) == pytest.approx(float(b), rel=RTOL)
+
+
+def test_empty_inputs():
+    assert mf.torrance_sparrow(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)), 0.3, 1.5).shape == (0,)
+    assert km.km_reflectance(np.zeros(0), 1.0, 1.0, 0.5).shape == (0,)
+
+
+@pytest.mark.parametrize("name", ["aged-bronze", "gilt", "bronze"])
+def test_material_shader_matches_numpy_oracle(name):
+    p = hard_inputs(seed=11)
+    rng = np.random.default_rng(2)
+    g, d = rng.uniform(-0.2, 1.2, len(p["c"])), rng.uniform(-0.2, 1.2, len(p["c"]))
+    shader = mt.MaterialShader(name)
+    args = (p["wi"], p["wo"], p["n"], p["c"], g, d)
+    f = shader(*args)
+    f_np = sd._material_shader_np(shader, *args)
+    assert f.shape == f_np.shape == (len(p["c"]), 3) and np.all(np.isfinite(f))
+    np.testing.assert_allclose(f, f_np, rtol=RTOL_SHADER, atol=ATOL)
+    spec, diff = shader(*args, parts=True)
+    spec_np, diff_np = sd._material_shader_np(shader, *args, parts=True)
+    np.testing.assert_allclose(spec, spec_np, rtol=RTOL_SHADER, atol=ATOL)
+    np.testing.assert_allclose(diff, diff_np, rtol=RTOL_SHADER, atol=ATOL)
+    # one light for all points, scalar coverage (the renderer's call)
+    one = shader(p["wi"][5], p["wo"], p["n"], 0.4, 0.7, 0.2, parts=True)
+    one_np = sd._material_shader_np(shader, p["wi"][5], p["wo"], p["n"], 0.4, 0.7, 0.2, parts=True)
+    for a, b in zip(one, one_np):
+        np.testing.assert_allclose(a, b, rtol=RTOL_SHADER, atol=ATOL)
+
+
+def test_exp_expm1_log_within_one_ulp_of_libm():
+    rng = np.random.default_rng(0)
+    x = np.concatenate([rng.uniform(-745, 709, 200000), rng.uniform(-1, 1, 100000),
+                        rng.uniform(-1e-6, 1e-6, 10000), [0.0, -0.0, 1e-300, 0.3465, 0.3466, -0.3466, 709.7]])
+    e, em1, lg = np.empty_like(x), np.empty_like(x), np.empty_like(x)
+    K._math_check(x, e, em1, lg)
+    with np.errstate(all="ignore"):
+        ref_e, ref_m, ref_l = np.exp(x), np.expm1(x), np.log(np.abs(x))
+    ulp = np.finfo(np.float64).eps
+    normal = ref_e > np.finfo(np.float64).tiny
+    assert np.all(np.abs(e[normal] - ref_e[normal]) <= 2 * ulp * ref_e[normal])
+    assert np.all(np.abs(em1 - ref_m) <= 2 * ulp * np.abs(ref_m))
+    pos = np.abs(x) >= np.finfo(np.float64).tiny
+    assert np.all(np.abs(lg[pos] - ref_l[pos]) <= 2 * ulp * np.maximum(np.abs(ref_l[pos]), 1.0))
+    assert e[x == 709.7][0] == pytest.approx(np.exp(709.7), rel=2 * ulp)
+
+
+def test_no_jit_gives_the_numpy_versions_bit_for_bit(monkeypatch):
+    monkeypatch.setenv("SHELLREPAIR_NO_JIT", "1")
+    assert _dispatch.kernels() is None
+    for name in ("torrance_sparrow", "km_reflectance", "diffuse_transmittance", "local_brdf"):
+        fast, oracle, args = CASES[name]
+        with np.errstate(all="ignore"):
+            np.testing.assert_array_equal(fast(*args), oracle(*args))
+    shader = mt.MaterialShader("aged-bronze")
+    p = hard_inputs(N=500)
+    args = (p["wi"], p["wo"], p["n"], p["c"], 1.0, 0.0)
+    np.testing.assert_array_equal(shader(*args), sd._material_shader_np(shader, *args))
+
+
+def test_threads_give_the_same_bits_as_one(monkeypatch):
+    p = hard_inputs(N=20000, seed=5)
+    args = (p["wi"], p["wo"], p["n"], p["m"], p["eta"])
+    monkeypatch.setenv("SHELLREPAIR_THREADS", "1")
+    one = mf.torrance_sparrow(*args)
+    shader = mt.MaterialShader("aged-bronze")
+    s_one = shader(p["wi"], p["wo"], p["n"], p["c"])
+    monkeypatch.setenv("SHELLREPAIR_THREADS", "3")
+    monkeypatch.setattr(K, "MIN_POINTS_PER_THREAD", 1000)
+    np.testing.assert_array_equal(mf.torrance_sparrow(*args), one)
+    np.testing.assert_array_equal(shader(p["wi"], p["wo"], p["n"], p["c"]), s_one)
+
+
+def test_flush_to_zero_does_not_leak_out_of_the_kernels():
+    mf.beckmann_D(np.linspace(0.0, 1.0, 1000), 0.01)  # results underflow inside the kernel
+    tiny = np.float64(1e-300) * np.float64(1e-10)  # NumPy after the call: still subnormal
+    assert 0.0 < tiny < np.finfo(np.float64).tiny
+
+
+def test_warm_up_compiles_every_kernel():
+    from shellrepair.reflectance import warm_up
+
+    n = warm_up()
+    assert n >= len(K.KERNELS)
+    assert all(len(getattr(K, k).signatures) >= 1 for k in K.KERNELS)

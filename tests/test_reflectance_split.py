@@ -1,0 +1,169 @@
+"""The reflectance package and the materials split behind their façades.
+
+``shellrepair.shading`` and ``shellrepair.materials`` are façades over
+``shellrepair.reflectance`` (microfacet, albedo, km, dipole, layered),
+``shellrepair.coverage`` and ``shellrepair.shader``.  These tests pin that
+
+- every public name of a façade IS the package's object (not a copy or a
+  wrapper), so the rest of the code and the existing reference tests in
+  tests/test_shading.py exercise the package itself;
+- either module may be imported first (materials <-> shader);
+- the NumPy reference implementations give the values they gave before the
+  split: ``tests/data/reflectance_pins.npz`` holds the outputs of
+  :func:`pin_outputs` computed by the single-file modules of commit f4b9ef4
+  (``np.savez_compressed(path, **pin_outputs(shading, materials))`` with that
+  commit's package imported).  They must agree to 1e-13 relative (ulps of libm's
+  exp/log/sqrt may differ between CPUs; any change of a formula or a guard
+  moves them by far more).
+"""
+
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from shellrepair import coverage, materials, reflectance, shader, shading
+from shellrepair.reflectance import albedo, dipole, km, layered, microfacet
+
+PINS = pathlib.Path(__file__).parent / "data" / "reflectance_pins.npz"
+
+SUBMODULES = (microfacet, albedo, km, dipole, layered)
+
+
+def test_shading_facade_names_are_the_package_objects():
+    assert sorted(shading.__all__) == sorted(reflectance.__all__)
+    for name in shading.__all__:
+        obj = getattr(shading, name)
+        assert obj is getattr(reflectance, name), name
+        homes = [m for m in SUBMODULES if name in m.__all__]
+        if not homes:  # the package's own (warm_up)
+            assert obj.__module__ == "shellrepair.reflectance", name
+            continue
+        assert len(homes) == 1, (name, homes)  # exported by exactly one module
+        assert obj is vars(homes[0])[name]
+        if callable(obj):
+            assert obj.__module__ == homes[0].__name__, name
+
+
+def test_shading_facade_private_names_resolve_to_their_module():
+    assert shading._rule_albedo is albedo._rule_albedo
+    assert shading._albedo_geometry is albedo._albedo_geometry
+    assert shading._dipole_A is dipole._dipole_A
+    assert shading._TINY == microfacet._TINY
+    with pytest.raises(AttributeError):
+        shading.no_such_name  # noqa: B018
+
+
+def test_materials_facade_names_are_the_split_modules_objects():
+    for name in materials.__all__:
+        obj = getattr(materials, name)
+        if name in shader.__all__:
+            assert obj is getattr(shader, name), name
+        elif name in coverage.__all__:
+            assert obj is getattr(coverage, name), name
+        else:
+            assert name in vars(materials), name
+    assert materials.vertex_normals is coverage.vertex_normals
+    assert shader.MaterialShader.__module__ == "shellrepair.shader"
+    assert coverage.rust_coverage.__module__ == "shellrepair.coverage"
+
+
+@pytest.mark.parametrize("first", ["shellrepair.shader", "shellrepair.materials", "shellrepair.coverage",
+                                   "shellrepair.shading", "shellrepair.reflectance.layered"])
+def test_any_module_can_be_imported_first(first):
+    code = ("import %s; from shellrepair.materials import *; from shellrepair.shading import *; "
+            "import shellrepair.shader as s; assert MaterialShader is s.MaterialShader" % first)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+
+
+def pin_inputs(seed=20261130, N=64):
+    """Seeded inputs with the hard cases each guard is for."""
+    rng = np.random.default_rng(seed)
+
+    def unit(v):
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    wi = unit(rng.normal(size=(N, 3)))
+    wo = unit(rng.normal(size=(N, 3)))
+    n = unit(rng.normal(size=(N, 3)) * 0.3 + [0, 0, 1])
+    wi[0], wo[0], n[0] = unit([1, 0, 1e-9]), unit([-1, 0, 1e-9]), (0, 0, 1)  # grazing mirror pair
+    wi[1], wo[1], n[1] = (0, 0, 1), (0, 0, 1), (0, 0, 1)  # normal incidence
+    wi[2], wo[2] = unit([1, 0, 1]), unit([-1, 0, -1])  # i = -o: no half vector
+    c = rng.uniform(-0.1, 1.1, N)
+    c[:4] = (0.0, 1e-13, 1.0, 0.5)
+    m = np.exp(rng.uniform(np.log(1e-4), np.log(2.0), N))
+    m[:3] = (0.0, 1e-6, 0.3)  # m -> 0
+    eta = rng.uniform(0.2, 3.5, N)
+    eta[:3] = (1.0, 0.5, 1.75)
+    K = rng.uniform(0, 3, N)
+    S = rng.uniform(0, 3, N)
+    X = rng.uniform(0, 100, N)
+    Rg = rng.uniform(0, 1, N)
+    K[:4], S[4:8], X[8:12], X[12:16] = 0.0, 0.0, np.inf, 0.0  # K -> 0, S -> 0, X = inf, X = 0
+    S[16:20], X[16:20], K[16:18] = 1e4, 1e3, 0.0  # huge S X, conservative and not
+    cov = rng.uniform(-0.1, 1.1, N)
+    gild = rng.uniform(0, 1, N)
+    crust = rng.uniform(0, 1, N)
+    R3 = rng.uniform(0, 1, (N, 3))
+    return dict(wi=wi, wo=wo, n=n, c=c, m=m, eta=eta, K=K, S=S, X=X, Rg=Rg, cov=cov, gild=gild,
+                crust=crust, R3=R3)
+
+
+def pin_outputs(sh, mt):
+    """The NumPy reference outputs that the split must not change."""
+    p = pin_inputs()
+    wi, wo, n, c, m, eta = p["wi"], p["wo"], p["n"], p["c"], p["m"], p["eta"]
+    K, S, X, Rg, R3 = p["K"], p["S"], p["X"], p["Rg"], p["R3"]
+    nk = (np.array([0.22, 1.02, 1.24]), np.array([3.747, 2.577, 2.397]))
+    out = {
+        "beckmann_D": sh.beckmann_D(c, m),
+        "v_cavity_G": sh.v_cavity_G(c, c[::-1], np.abs(c), c - 0.2),
+        "fresnel_dielectric": sh.fresnel_dielectric(c, eta),
+        "fresnel_conductor": sh.fresnel_conductor(c, eta, K),
+        "torrance_sparrow": sh.torrance_sparrow(wi, wo, n, m, eta),
+        "torrance_sparrow_conductor": sh.torrance_sparrow_conductor(wi, wo, n, m, *nk),
+        "specular_albedo": sh.specular_albedo(np.abs(c[:16]), m[:16], eta[:16], n_t=16, n_phi=24),
+        "diffuse_transmittance": sh.diffuse_transmittance(c, m, eta),
+        "mean_transmittance": sh.mean_transmittance(m, eta),
+        "internal_reflectance": sh.internal_reflectance(m, eta),
+        "layered_diffuse": sh.layered_diffuse(c, c[::-1], m, eta, R3),
+        "local_brdf": sh.local_brdf(wi, wo, n, m, eta, R3),
+        "km_r_inf": sh.km_r_inf(K, S),
+        "km_reflectance": sh.km_reflectance(K, S, X, Rg),
+        "km_layers": sh.km_layers([(K, S, X), (S, K, X[::-1])], Rg),
+        "km_mix": np.array(sh.km_mix(np.stack([K, S]), np.stack([S, K]), [0.3, 0.7])),
+        "dipole_rd": sh.dipole_rd(Rg, eta),
+        "dipole_tail_fraction": sh.dipole_tail_fraction(X[20:], K[20:] + 0.01, S[20:], eta[20:]),
+        "dipole_profile": sh.dipole_profile(X[20:], K[20:] + 0.01, S[20:], eta[20:]),
+        "km_to_transport": np.array(sh.km_to_transport(K, S)),
+    }
+    for name in ("aged-bronze", "gilt", "bronze"):
+        out["shade_reference/" + name] = mt.shade_reference(wi, wo, n, p["cov"], name, p["gild"], p["crust"])
+        spec, diff = mt.MaterialShader(name)(wi, wo, n, p["cov"], p["gild"], p["crust"], parts=True)
+        out["MaterialShader.spec/" + name] = spec
+        out["MaterialShader.diffuse/" + name] = diff
+        out["MaterialShader.ambient/" + name] = np.concatenate(
+            mt.MaterialShader(name).ambient(np.abs(c), np.clip(p["cov"], 0, 1), p["gild"], p["crust"]))
+    out["choose_model"] = np.array([mt.choose_model(f, "aged-bronze").error_estimate
+                                    for f in (10.0, 100.0, 1000.0)])
+    out["rust_coverage_from_colors"] = mt.rust_coverage_from_colors(
+        np.random.default_rng(1).integers(0, 256, (64, 3)).astype(np.uint8))
+    return out
+
+
+def test_reference_outputs_unchanged_by_the_split(monkeypatch):
+    monkeypatch.setenv("SHELLREPAIR_NO_JIT", "1")  # the NumPy versions; the kernels are held to them elsewhere
+    pins = np.load(PINS)
+    with np.errstate(all="ignore"):
+        now = pin_outputs(shading, materials)
+    assert sorted(now) == sorted(pins.files)
+    for name in pins.files:
+        a, b = pins[name], now[name]
+        assert a.shape == b.shape, name
+        np.testing.assert_array_equal(np.isfinite(a), np.isfinite(b), err_msg=name)
+        ok = np.isfinite(a)
+        np.testing.assert_allclose(b[ok], a[ok], rtol=1e-13, atol=1e-300, err_msg=name)
+
