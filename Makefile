@@ -29,6 +29,8 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q -e '.[test]'
 	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"
 	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
+	@echo "compiling the fill's kernels (once; cached beside shellrepair/kernels.py)"
+	$(PY) -c "from shellrepair.kernels import warm_up; warm_up()"
 	touch $(STAMP)
 
 # open3d's wheel needs libusb (and libgomp); install them from Debian if missing.

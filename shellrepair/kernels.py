@@ -1,0 +1,357 @@
+"""Compiled kernels for the per-hole work (Numba, cached on disk).
+
+Each kernel does what a NumPy (or plain Python) function of the package
+does, with the same floating-point operations in the same order, so its
+result is the same to the bit; that function stays as the test oracle
+(``tests/test_kernels.py`` asserts equality on seeded random and degenerate
+inputs). The kernels exist because the per-hole work is many small steps:
+in NumPy each costs a few microseconds of dispatch whatever its size, and
+loops of rounds (edge flips) pay it hundreds of times a hole.
+
+* :func:`vertex_faces`: vertex-to-face lists by one counting sort
+  (:func:`shellrepair.topology.vertex_faces`);
+* :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
+  cotangents and areas of the result
+  (:func:`shellrepair.intrinsic._flip_to_delaunay`);
+* :func:`rim_edges`: a loop's rim scale and scan normals from the faces
+  around it (:func:`shellrepair.patch._rim_data`).
+
+Compilation is cached (``cache=True``, under ``__pycache__`` beside this
+file); :func:`warm_up` compiles every kernel on tiny inputs, and
+``make setup`` calls it once so no user run waits for the compiler. When
+Numba is missing (``SHELLREPAIR_NO_NUMBA=1`` forces that too), ``ENABLED`` is
+False and callers use the NumPy versions.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+__all__ = ["ENABLED", "vertex_faces", "intrinsic_flips", "rim_edges", "warm_up"]
+
+try:
+    if os.environ.get("SHELLREPAIR_NO_NUMBA"):
+        raise ImportError("disabled by SHELLREPAIR_NO_NUMBA")
+    from numba import njit
+    ENABLED = True
+except ImportError:  # the NumPy versions run instead
+    ENABLED = False
+
+    def njit(*args, **kwargs):
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+
+# --------------------------------------------------------------------------
+# whole mesh: vertex-to-face lists
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _vertex_faces(flat, n):
+    start = np.zeros(n + 1, np.int64)
+    for v in flat:
+        start[v + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    order = np.empty(flat.size, np.int64)
+    for i in range(flat.size):
+        v = flat[i]
+        order[fill[v]] = i
+        fill[v] += 1
+    return order, start
+
+
+def vertex_faces(F, n_vertices):
+    """Vertex-to-face lists (as :func:`shellrepair.topology.vertex_faces`).
+
+    Parameters
+    ----------
+    F : (m,3) int64
+    n_vertices : int
+
+    Returns
+    -------
+    order : (3m,) int64
+        Positions in ``F.ravel()`` grouped by vertex, in order within a
+        vertex; ``order // 3`` are the faces.
+    start : (n+1,) int64
+    """
+    flat = np.ascontiguousarray(np.asarray(F, np.int64).ravel())
+    return _vertex_faces(flat, int(n_vertices))
+
+
+# --------------------------------------------------------------------------
+# intrinsic Delaunay flips
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _cot_area(L, cot, A):
+    """:func:`shellrepair.intrinsic._cotangents` into ``cot``, ``A``."""
+    for f in range(L.shape[0]):
+        x, y, z = L[f, 0], L[f, 1], L[f, 2]
+        # sides sorted a >= b >= c (the values, as np.sort gives them)
+        if x < y:
+            x, y = y, x
+        if y < z:
+            y, z = z, y
+        if x < y:
+            x, y = y, x
+        a, b, c = x, y, z
+        q = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c))
+        area = 0.25 * np.sqrt(max(q, 0.0))
+        A[f] = area
+        den = 4.0 * max(area, 1e-300)
+        for i in range(3):
+            lb = L[f, (i + 1) % 3]
+            lc = L[f, (i + 2) % 3]
+            li = L[f, i]
+            cot[f, i] = (lb * lb + lc * lc - li * li) / den
+
+
+@njit(cache=True, nogil=True)
+def _manifold_twins(T, n, twin, start, slot):
+    """Twin half-edges of the edges with exactly two half-edges, else −1
+    (:func:`shellrepair.intrinsic._twins`): half-edges bucketed by their
+    smaller vertex (a counting sort), then paired inside each bucket."""
+    m3 = 3 * T.shape[0]
+    start[:] = 0
+    for f in range(T.shape[0]):
+        for i in range(3):
+            start[min(T[f, i], T[f, (i + 1) % 3]) + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    hi = np.empty(m3, np.int64)         # bucketed: the larger vertex of each half-edge
+    for f in range(T.shape[0]):
+        for i in range(3):
+            a, b = T[f, i], T[f, (i + 1) % 3]
+            v = min(a, b)
+            slot[fill[v]] = 3 * f + i
+            hi[fill[v]] = max(a, b)
+            fill[v] += 1
+    twin[:m3] = -1
+    for v in range(n):
+        s, e = start[v], start[v + 1]
+        for p in range(s, e):
+            w = hi[p]
+            other = -1
+            count = 0
+            for q in range(s, e):
+                if hi[q] == w:
+                    count += 1
+                    if q != p:
+                        other = slot[q]
+            if count == 2:
+                twin[slot[p]] = other
+
+
+@njit(cache=True, nogil=True)
+def _flips(T, L, n, max_rounds, flip_tol):
+    t = T.shape[0]
+    twin = np.empty(3 * t, np.int64)
+    start = np.empty(n + 1, np.int64)
+    slot = np.empty(3 * t, np.int64)
+    cot = np.empty((t, 3))
+    A = np.empty(t)
+    best = np.empty(t)
+    taken = np.zeros(t, np.bool_)
+    seen = np.zeros(t, np.bool_)
+    cand = np.empty(3 * t, np.int64)
+    exc = np.empty(3 * t)
+    for _ in range(max_rounds):
+        _manifold_twins(T, n, twin, start, slot)
+        _cot_area(L, cot, A)
+        # bad edges, each once (its smaller half-edge), in half-edge order
+        nb = 0
+        for h in range(3 * t):
+            h2 = twin[h]
+            if h2 <= h:
+                continue
+            f1, i1 = h // 3, h % 3
+            f2, i2 = h2 // 3, h2 % 3
+            s = cot[f1, i1] + cot[f2, i2]
+            c, d = T[f1, (i1 + 2) % 3], T[f2, (i2 + 2) % 3]
+            if s < -flip_tol and c != d and np.isfinite(s):
+                cand[nb] = h
+                exc[nb] = -s
+                nb += 1
+        if nb == 0:
+            return True, cot, A
+        # refine._independent_flips: each the worst edge of both its faces;
+        # of ties the first keeps a face
+        for j in range(nb):
+            h = cand[j]
+            best[h // 3] = -np.inf
+            best[twin[h] // 3] = -np.inf
+        for j in range(nb):
+            h = cand[j]
+            g1, g2 = h // 3, twin[h] // 3
+            if exc[j] > best[g1]:
+                best[g1] = exc[j]
+            if exc[j] > best[g2]:
+                best[g2] = exc[j]
+        keep = np.zeros(nb, np.bool_)
+        for j in range(nb):
+            h = cand[j]
+            g1, g2 = h // 3, twin[h] // 3
+            if best[g1] == exc[j] and best[g2] == exc[j] and not seen[g1]:
+                seen[g1] = True
+                keep[j] = True
+        for j in range(nb):
+            if keep[j]:
+                taken[cand[j] // 3] = True
+        for j in range(nb):
+            if keep[j]:
+                g1, g2 = cand[j] // 3, twin[cand[j]] // 3
+                if taken[g2] and g2 != g1:
+                    keep[j] = False
+        k = 0
+        for j in range(nb):
+            h = cand[j]
+            seen[h // 3] = False
+            taken[h // 3] = False
+            if keep[j]:
+                cand[k] = h
+                k += 1
+        # every new row from the old triangulation first, then the writes
+        # (f1 rows, then f2 rows), as the vectorised assignment does
+        rows = np.empty((k, 4, 3), np.int64)
+        lens = np.empty((k, 2, 3))
+        for j in range(k):
+            h = cand[j]
+            h2 = twin[h]
+            F1, I1, F2, I2 = h // 3, h % 3, h2 // 3, h2 % 3
+            a, b = T[F1, I1], T[F1, (I1 + 1) % 3]
+            C, D = T[F1, (I1 + 2) % 3], T[F2, (I2 + 2) % 3]
+            lab, lbc, lca = L[F1, I1], L[F1, (I1 + 1) % 3], L[F1, (I1 + 2) % 3]
+            lad, ldb = L[F2, (I2 + 1) % 3], L[F2, (I2 + 2) % 3]
+            # lay (a, b, c) and (b, a, d) flat: a at the origin, b on +x
+            cx = (lab * lab + lca * lca - lbc * lbc) / (2.0 * lab)
+            cy = np.sqrt(max(lca * lca - cx * cx, 0.0))
+            dx = (lab * lab + lad * lad - ldb * ldb) / (2.0 * lab)
+            dy = -np.sqrt(max(lad * lad - dx * dx, 0.0))
+            lcd = np.hypot(cx - dx, cy - dy)
+            rows[j, 0, 0], rows[j, 0, 1], rows[j, 0, 2] = C, a, D
+            rows[j, 1, 0], rows[j, 1, 1], rows[j, 1, 2] = D, b, C
+            rows[j, 2, 0], rows[j, 2, 1] = F1, F2
+            lens[j, 0, 0], lens[j, 0, 1], lens[j, 0, 2] = lca, lad, lcd
+            lens[j, 1, 0], lens[j, 1, 1], lens[j, 1, 2] = ldb, lbc, lcd
+        for j in range(k):
+            F1 = rows[j, 2, 0]
+            for i in range(3):
+                T[F1, i] = rows[j, 0, i]
+                L[F1, i] = lens[j, 0, i]
+        for j in range(k):
+            F2 = rows[j, 2, 1]
+            for i in range(3):
+                T[F2, i] = rows[j, 1, i]
+                L[F2, i] = lens[j, 1, i]
+    return False, cot, A
+
+
+def intrinsic_flips(T, L, n, max_rounds, flip_tol):
+    """Intrinsic Delaunay flips in rounds (as :func:`shellrepair.intrinsic._flip_to_delaunay`).
+
+    Parameters
+    ----------
+    T : (m,3) int64
+        Triangles; flipped in place.
+    L : (m,3) float64
+        ``L[f,i]``: length of side ``T[f,i] -> T[f,(i+1)%3]``; updated in place.
+    n : int
+        Vertex count.
+    max_rounds : int
+    flip_tol : float
+        An edge flips when its opposite cotangents sum below ``-flip_tol``.
+
+    Returns
+    -------
+    settled : bool
+    cot : (m,3) float64, A : (m,) float64
+        Cotangents and areas of the final triangulation (meaningful when settled).
+    """
+    return _flips(T, L, int(n), int(max_rounds), float(flip_tol))
+
+
+# --------------------------------------------------------------------------
+# a loop's rim data
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _rim_edges(k, ia_all, ib_all, ln, nrm):
+    sig_sum = np.zeros(k)
+    sig_cnt = np.zeros(k)
+    edge_normals = np.zeros((k, 3))
+    forb = np.empty((ia_all.size, 2), np.int64)
+    nf = 0
+    m = nrm.shape[0]
+    for r in range(ia_all.size):
+        ia, ib = ia_all[r], ib_all[r]
+        L = ln[r]
+        if ia >= 0:
+            sig_sum[ia] += L
+            sig_cnt[ia] += 1
+        if ib >= 0:
+            sig_sum[ib] += L
+            sig_cnt[ib] += 1
+        if ia >= 0 and ib >= 0:
+            if ib == (ia + 1) % k:
+                for j in range(3):
+                    edge_normals[ia, j] = nrm[r % m, j]
+            elif ia != (ib + 1) % k:
+                forb[nf, 0] = min(ia, ib)
+                forb[nf, 1] = max(ia, ib)
+                nf += 1
+    return sig_sum, sig_cnt, edge_normals, forb[:nf]
+
+
+def rim_edges(loop, E, ln, nrm):
+    """The edge walk of :func:`shellrepair.patch._rim_data`.
+
+    Parameters
+    ----------
+    loop : (k,) int64
+        Loop vertices (a vertex listed twice counts at its last position).
+    E : (3m,2) int64
+        The sides of the m faces around the loop: ``T[:, [0,1]]``, then
+        ``[1,2]``, then ``[2,0]``.
+    ln : (3m,) float64
+        Side lengths.
+    nrm : (m,3) float64
+        Unit face normals.
+
+    Returns
+    -------
+    sig_sum, sig_cnt : (k,) float64
+        Sum and count of scan edge lengths at each loop vertex.
+    edge_normals : (k,3) float64
+        Normal of the scan face across loop edge i (the last seen).
+    forbidden : (f,2) int64
+        Loop-position pairs the scan joins by an edge other than a loop
+        edge, as (smaller, larger), with repeats.
+    """
+    loop = np.asarray(loop, np.int64)
+    k = loop.size
+    # loop position of each side's ends (-1: not on the loop); the last of repeats
+    order = np.argsort(loop, kind="stable")
+    sl = loop[order]
+    p = np.searchsorted(sl, E, side="right") - 1
+    pc = np.maximum(p, 0)
+    where = np.where((p >= 0) & (sl[pc] == E), order[pc], -1)
+    return _rim_edges(k, np.ascontiguousarray(where[:, 0]), np.ascontiguousarray(where[:, 1]),
+                      np.ascontiguousarray(ln, np.float64), np.ascontiguousarray(nrm, np.float64))
+
+
+# --------------------------------------------------------------------------
+def warm_up():
+    """Compile (or load from the on-disk cache) every kernel on tiny inputs."""
+    if not ENABLED:
+        return False
+    T = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
+    vertex_faces(T, 4)
+    L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
+    intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
+    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    rim_edges(np.array([0, 1, 3, 2], np.int64), E, np.ones(len(E)), np.zeros((2, 3)))
+    return True

@@ -1,0 +1,104 @@
+"""The compiled kernels give the NumPy versions' results to the bit.
+
+Each kernel in :mod:`shellrepair.kernels` replaces a NumPy or Python
+function that stays in the package as its oracle; these tests run both on
+seeded random, slivered and degenerate inputs and compare with
+``np.array_equal`` (no tolerance)."""
+
+import numpy as np
+import pytest
+
+from shellrepair import intrinsic, kernels, shapes, topology
+from shellrepair.io import Mesh
+from shellrepair.patch import _Context, _rim_data, _rim_data_numpy
+
+pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
+
+
+def _slivered(k, seed):
+    """A jittered grid whose every third interior edge is split at 2 %."""
+    from test_intrinsic import _slivered_grid
+
+    return _slivered_grid(k, seed)
+
+
+def _same_flips(X, F, max_rounds=intrinsic.MAX_ROUNDS):
+    a = intrinsic._flip_to_delaunay_numpy(X, F, max_rounds)
+    b = intrinsic._flip_to_delaunay(X, F, max_rounds)
+    assert a[2] == b[2]
+    assert np.array_equal(a[0], b[0])
+    assert np.array_equal(a[1], b[1])
+    assert (a[3] is None) == (b[3] is None)
+    if a[3] is not None:
+        assert np.array_equal(a[3][0], b[3][0]) and np.array_equal(a[3][1], b[3][1])
+    return a
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_intrinsic_flips_equal_the_numpy_rounds_on_slivered_grids(seed):
+    T, _, settled, _ = _same_flips(*_slivered(9, seed))
+    assert settled
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_intrinsic_flips_equal_the_numpy_rounds_on_noisy_closed_and_open_meshes(seed):
+    rng = np.random.default_rng(seed)
+    V, F = shapes.icosphere(2)
+    _same_flips(V + rng.normal(scale=0.08, size=V.shape), F)
+    V, F = shapes.grid(9, 7)
+    T = _same_flips(V + rng.normal(scale=0.06, size=V.shape) * [1, 1, 0.3], F)[0]
+    assert not np.array_equal(T, F)  # the noise made it flip
+
+
+def test_intrinsic_flips_equal_when_rounds_run_out_and_on_degenerate_input():
+    V, F = _slivered(9, 3)
+    for rounds in (0, 1, 2, 3):
+        assert _same_flips(V, F, rounds)[2] is False or rounds > 0
+    # zero-area triangles (collinear corners and a repeated position), and no faces
+    W = V.copy()
+    W[F[5, 2]] = 0.5 * (W[F[5, 0]] + W[F[5, 1]])
+    W[F[20, 1]] = W[F[20, 0]]
+    _same_flips(W, F)
+    _same_flips(V, F[:0])
+
+
+def test_intrinsic_flips_equal_on_a_mesh_with_a_nonmanifold_edge():
+    V, F = shapes.grid(6, 6)
+    rng = np.random.default_rng(1)
+    V = V + rng.normal(scale=0.05, size=V.shape) * [1, 1, 0]
+    a, b = F[10, 0], F[10, 1]                       # a third face on one interior edge
+    V = np.vstack([V, [V[a] + V[b]] * np.array([[0.5, 0.5, 0.0]]) + [0, 0, 0.3]])
+    F = np.vstack([F, [[a, b, len(V) - 1]]])
+    _same_flips(V, F)
+
+
+@pytest.mark.parametrize("sub", [2, 3])
+def test_vertex_faces_equal_the_sparse_counting_sort(sub):
+    V, F = shapes.icosphere(sub)
+    rng = np.random.default_rng(sub)
+    F = F[rng.permutation(len(F))]
+    for n in (len(V), len(V) + 5):  # with unused vertices at the end
+        o1, s1 = topology.vertex_faces(F, n)
+        o2, s2 = kernels.vertex_faces(F, n)
+        assert o2.dtype == np.int64 and s2.dtype == np.int64
+        assert np.array_equal(o1, o2) and np.array_equal(s1, s2)
+
+
+def test_rim_data_equals_the_python_walk():
+    V, F = shapes.bumpy_sphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.3, seed=4)
+    from shellrepair.holes import detect_holes
+
+    ctx = _Context(Mesh(V=V2, F=F2))
+    loops = [h.vertices for h in detect_holes(V2, F2).holes]
+    assert len(loops) == 3
+    # a loop through a vertex twice (a pinch): the last position counts in both
+    loops.append(np.concatenate([loops[0][:5], loops[0][2:3], loops[0][5:]]))
+    for loop in loops:
+        s1, n1, f1 = _rim_data_numpy(ctx, np.asarray(loop, np.int64))
+        s2, n2, f2 = _rim_data(ctx, np.asarray(loop, np.int64))
+        assert np.array_equal(s1, s2) and np.array_equal(n1, n2) and f1 == f2
+
+
+def test_warm_up_compiles_every_kernel():
+    assert kernels.warm_up() is True
