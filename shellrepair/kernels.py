@@ -14,7 +14,10 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
 * :func:`rim_edges`: a loop's rim scale and scan normals from the faces
-  around it (:func:`shellrepair.patch._rim_data`).
+  around it (:func:`shellrepair.patch._rim_data`);
+* :func:`fair_small`: a small patch's whole fairing
+  (:func:`shellrepair.fair.fair_patch`), the solves dense: equal to
+  round-off, not to the bit (the one kernel with a tolerance, stated there).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -29,7 +32,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "intrinsic_flips", "rim_edges", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -344,6 +347,285 @@ def rim_edges(loop, E, ln, nrm):
 
 
 # --------------------------------------------------------------------------
+# fairing of a small patch (dense normal equations)
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _laplacian_rows(T, W, n, binary):
+    """K = D − A as CSR rows (diagonal included, unsorted columns).
+
+    ``binary``: A is the 0/1 adjacency of the edges of ``T`` (the uniform
+    Laplacian of :func:`shellrepair.fair.uniform_laplacian`); else
+    ``A_ij`` sums ``W[f,s]`` over the sides s of T joining i and j (the
+    cotangent Laplacian of :func:`shellrepair.intrinsic.intrinsic_laplacian`
+    with W = ½ cot)."""
+    m = T.shape[0]
+    cnt = np.ones(n + 1, np.int64)      # the diagonal, plus two entries a side
+    cnt[n] = 0
+    for f in range(m):
+        for s in range(3):
+            cnt[T[f, s]] += 1
+            cnt[T[f, (s + 1) % 3]] += 1
+    ptr = np.zeros(n + 1, np.int64)
+    for v in range(n):
+        ptr[v + 1] = ptr[v] + cnt[v]
+    col = np.empty(ptr[n], np.int64)
+    val = np.zeros(ptr[n])
+    fill = ptr[:-1].copy()
+    where = np.full(n, -1, np.int64)    # column -> slot in the row being built
+    # rows built one vertex at a time from its half-edges: bucket them first
+    hs = np.zeros(n + 1, np.int64)
+    for f in range(m):
+        for s in range(3):
+            hs[T[f, s] + 1] += 1
+            hs[T[f, (s + 1) % 3] + 1] += 1
+    for v in range(n):
+        hs[v + 1] += hs[v]
+    hf = hs[:-1].copy()
+    other = np.empty(hs[n], np.int64)
+    wt = np.empty(hs[n])
+    for f in range(m):
+        for s in range(3):
+            a, b = T[f, s], T[f, (s + 1) % 3]
+            w = 1.0 if binary else W[f, s]
+            other[hf[a]] = b
+            wt[hf[a]] = w
+            hf[a] += 1
+            other[hf[b]] = a
+            wt[hf[b]] = w
+            hf[b] += 1
+    for v in range(n):
+        d = fill[v]
+        col[d] = v
+        fill[v] += 1
+        diag = 0.0
+        for p in range(hs[v], hs[v + 1]):
+            j = other[p]
+            if j == v:
+                continue
+            q = where[j]
+            if q < 0:
+                q = fill[v]
+                fill[v] += 1
+                col[q] = j
+                where[j] = q
+                val[q] = -wt[p] if not binary else -1.0
+            elif not binary:
+                val[q] -= wt[p]
+        for q in range(d + 1, fill[v]):
+            diag -= val[q]
+            where[col[q]] = -1
+        val[d] = diag
+        ptr_end = fill[v]
+        for q in range(ptr_end, ptr[v + 1]):
+            col[q] = v                  # unused slots: zeros on the diagonal
+            val[q] = 0.0
+    return ptr, col, val
+
+
+@njit(cache=True, nogil=True)
+def _matvec(ptr, col, val, x):
+    y = np.zeros_like(x)
+    for v in range(ptr.size - 1):
+        for q in range(ptr[v], ptr[v + 1]):
+            for c in range(x.shape[1]):
+                y[v, c] += val[q] * x[col[q], c]
+    return y
+
+
+@njit(cache=True, nogil=True)
+def _cholesky_solve(Q, B):
+    """Solve Q x = B (Q symmetric positive definite) by Cholesky; ok False
+    when a pivot is not positive."""
+    n = Q.shape[0]
+    Lc = np.zeros((n, n))
+    for j in range(n):
+        s = Q[j, j]
+        for k in range(j):
+            s -= Lc[j, k] * Lc[j, k]
+        if not s > 0.0:
+            return B, False
+        d = np.sqrt(s)
+        Lc[j, j] = d
+        for i in range(j + 1, n):
+            s = Q[i, j]
+            for k in range(j):
+                s -= Lc[i, k] * Lc[j, k]
+            Lc[i, j] = s / d
+    X = B.copy()
+    for c in range(B.shape[1]):
+        for i in range(n):
+            s = X[i, c]
+            for k in range(i):
+                s -= Lc[i, k] * X[k, c]
+            X[i, c] = s / Lc[i, i]
+        for i in range(n - 1, -1, -1):
+            s = X[i, c]
+            for k in range(i + 1, n):
+                s -= Lc[k, i] * X[k, c]
+            X[i, c] = s / Lc[i, i]
+    return X, True
+
+
+@njit(cache=True, nogil=True)
+def _fair_round(ptr, col, val, D, order, X, fixed, unk_pos, unk):
+    """Minimise xᵀQx, Q = K (D K)^(order−1), over the unknown rows of X."""
+    n = X.shape[0]
+    nu = unk.size
+    Xf = X.copy()
+    for i in range(nu):
+        Xf[unk[i]] = 0.0
+    y = _matvec(ptr, col, val, Xf)
+    for _ in range(order - 1):
+        for v in range(n):
+            y[v] *= D[v]
+        y = _matvec(ptr, col, val, y)
+    B = np.empty((nu, 3))
+    for i in range(nu):
+        B[i] = -y[unk[i]]
+    # Q restricted to the unknowns: G = K[:, u] (n x nu), then (order − 1)
+    # times G <- K D G, and Quu = K[u, :] D G (order 1: Quu = G[u])
+    G = np.zeros((n, nu))
+    for v in range(n):
+        for q in range(ptr[v], ptr[v + 1]):
+            p = unk_pos[col[q]]
+            if p >= 0:
+                G[v, p] += val[q]
+    for _ in range(order - 2):
+        H = np.zeros((n, nu))
+        for v in range(n):
+            for q in range(ptr[v], ptr[v + 1]):
+                w = val[q] * D[col[q]]
+                j = col[q]
+                for p in range(nu):
+                    H[v, p] += w * G[j, p]
+        G = H
+    Q = np.zeros((nu, nu))
+    if order == 1:
+        for i in range(nu):
+            Q[i] = G[unk[i]]
+    else:
+        for v in range(n):
+            for q in range(ptr[v], ptr[v + 1]):
+                j = col[q]                    # K[v, j] = K[j, v]: row j of K[u, :]
+                p = unk_pos[j]
+                if p >= 0:
+                    w = val[q] * D[v]
+                    for r in range(nu):
+                        Q[p, r] += w * G[v, r]
+    for i in range(nu):                       # symmetric in exact arithmetic
+        for j in range(i):
+            a = 0.5 * (Q[i, j] + Q[j, i])
+            Q[i, j] = a
+            Q[j, i] = a
+    return _cholesky_solve(Q, B)
+
+
+@njit(cache=True, nogil=True)
+def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds):
+    n = X.shape[0]
+    m = F.shape[0]
+    unk_pos = np.full(n, -1, np.int64)
+    nu = 0
+    for v in range(n):
+        if not fixed[v]:
+            unk_pos[v] = nu
+            nu += 1
+    unk = np.empty(nu, np.int64)
+    for v in range(n):
+        if unk_pos[v] >= 0:
+            unk[unk_pos[v]] = v
+    X = X.copy()
+    ones = np.ones(n)
+    ptr, col, val = _laplacian_rows(F, np.zeros((0, 3)), n, True)
+    Xu, ok = _fair_round(ptr, col, val, ones, order, X, fixed, unk_pos, unk)
+    if not ok:
+        return X, False, ptr, col, val
+    for i in range(nu):
+        X[unk[i]] = Xu[i]
+    for _ in range(rounds):
+        finite = True
+        amin = np.inf
+        for v in range(n):
+            for c in range(3):
+                if not np.isfinite(X[v, c]):
+                    finite = False
+        for f in range(m):
+            a, b, c = F[f, 0], F[f, 1], F[f, 2]
+            ux, uy, uz = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
+            vx, vy, vz = X[c, 0] - X[a, 0], X[c, 1] - X[a, 1], X[c, 2] - X[a, 2]
+            cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            ar = 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
+            if ar < amin:
+                amin = ar
+        if not finite or not amin > degenerate_area:
+            break
+        T = F.copy()
+        L = np.empty((m, 3))
+        for f in range(m):
+            for s in range(3):
+                a, b = T[f, s], T[f, (s + 1) % 3]
+                dx, dy, dz = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
+                L[f, s] = np.sqrt(dx * dx + dy * dy + dz * dz)
+        settled, cot, A = _flips(T, L, n, flip_rounds, flip_tol)
+        if not settled:
+            _cot_area(L, cot, A)
+        W = 0.5 * cot
+        M = np.zeros(n)
+        for f in range(m):
+            for s in range(3):
+                M[T[f, s]] += A[f] / 3.0
+        ptr2, col2, val2 = _laplacian_rows(T, W, n, False)
+        if not (np.isfinite(val2).all() and np.isfinite(M).all()):
+            break
+        floor = degenerate_area + 1e-3 * np.median(M)
+        D = 1.0 / np.maximum(M, floor)
+        Xn, ok = _fair_round(ptr2, col2, val2, D, order, X, fixed, unk_pos, unk)
+        if not ok or not np.isfinite(Xn).all():
+            break
+        for i in range(nu):
+            X[unk[i]] = Xn[i]
+        ptr, col, val = ptr2, col2, val2
+    return X, True, ptr, col, val
+
+
+def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds):
+    """:func:`shellrepair.fair.fair_patch` for a small patch, compiled.
+
+    The same rounds (a uniform-weight solve, then cotangent rounds on the
+    intrinsic Delaunay triangulation, the same stopping tests), with the
+    normal equations of the unknowns assembled dense and solved by a
+    Cholesky factorisation instead of libigl's sparse one: equal to
+    ``fair_patch`` to round-off (tests/test_kernels.py bounds the
+    difference), for patches of up to a few hundred unknowns.
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+    fixed : (n,) bool
+        Rows held (the scan's, and pinned new vertices).
+    order : {1, 2, 3}
+    rounds : int
+    degenerate_area, flip_tol : float
+    flip_rounds : int
+        As in :mod:`shellrepair.fair` and :mod:`shellrepair.intrinsic`.
+
+    Returns
+    -------
+    X2 : (n,3) float64
+    ok : bool
+        False when the first solve's matrix is not positive definite
+        (then use the sparse path).
+    ptr, col, val : CSR arrays
+        The order-1 operator of the last round used (``fair_patch``'s K;
+        unused slots hold zeros on the diagonal).
+    """
+    return _fair_small(np.ascontiguousarray(X, np.float64), np.ascontiguousarray(F, np.int64),
+                       np.ascontiguousarray(fixed, np.bool_), int(order), int(rounds), float(degenerate_area),
+                       float(flip_tol), int(flip_rounds))
+
+
+# --------------------------------------------------------------------------
 def warm_up():
     """Compile (or load from the on-disk cache) every kernel on tiny inputs."""
     if not ENABLED:
@@ -354,4 +636,7 @@ def warm_up():
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
     rim_edges(np.array([0, 1, 3, 2], np.int64), E, np.ones(len(E)), np.zeros((2, 3)))
+    X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
+    for order in (1, 2, 3):
+        fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
     return True
