@@ -46,6 +46,8 @@ Robust Geometric Predicates", 1997.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
@@ -608,7 +610,7 @@ def ball_pairs(tree, X, radius):
     lists = tree.query_ball_point(X, radius, return_sorted=False)
     cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
     ai = np.repeat(np.arange(len(X)), cnt)
-    bj = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
+    bj = np.fromiter(itertools.chain.from_iterable(lists), np.int64, int(cnt.sum()))  # C-level walk
     return ai, bj
 
 
