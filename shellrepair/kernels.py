@@ -10,6 +10,8 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 
 * :func:`vertex_faces`: vertex-to-face lists by one counting sort
   (:func:`shellrepair.topology.vertex_faces`);
+* :func:`ring_faces`: the faces within some rings of a vertex set
+  (:meth:`shellrepair.patch._Context.ring_faces`);
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
@@ -32,7 +34,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "ring_faces", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -84,6 +86,85 @@ def vertex_faces(F, n_vertices):
     """
     flat = np.ascontiguousarray(np.asarray(F, np.int64).ravel())
     return _vertex_faces(flat, int(n_vertices))
+
+
+@njit(cache=True, nogil=True)
+def _grow(a, size):
+    if size < a.size:
+        return a
+    b = np.empty(2 * a.size + 16, a.dtype)
+    b[:a.size] = a
+    return b
+
+
+@njit(cache=True, nogil=True)
+def _ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
+    marked = np.empty(max(verts.size, 16), np.int64)
+    nm = 0
+    front = np.empty(max(verts.size, 16), np.int64)
+    nfr = 0
+    for v in verts:
+        if not vmark[v]:
+            vmark[v] = True
+            marked = _grow(marked, nm)
+            marked[nm] = v
+            nm += 1
+            front[nfr] = v
+            nfr += 1
+    found = np.empty(64, np.int64)
+    nf = 0
+    for _ in range(max(1, rings)):
+        f0 = nf
+        for i in range(nfr):
+            v = front[i]
+            for p in range(vf_start[v], vf_start[v + 1]):
+                f = vf_order[p] // 3
+                if not fmark[f]:
+                    fmark[f] = True
+                    found = _grow(found, nf)
+                    found[nf] = f
+                    nf += 1
+        nfr = 0
+        for j in range(f0, nf):
+            for c in range(3):
+                w = F[found[j], c]
+                if not vmark[w]:
+                    vmark[w] = True
+                    marked = _grow(marked, nm)
+                    marked[nm] = w
+                    nm += 1
+                    front = _grow(front, nfr)
+                    front[nfr] = w
+                    nfr += 1
+        if nfr == 0:
+            break
+    for i in range(nm):
+        vmark[marked[i]] = False
+    for j in range(nf):
+        fmark[found[j]] = False
+    return np.sort(found[:nf])
+
+
+def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
+    """Faces within ``rings`` rings of ``verts``, sorted (as
+    :meth:`shellrepair.patch._Context.ring_faces`).
+
+    Parameters
+    ----------
+    verts : (k,) int64
+    rings : int
+        At least one ring is taken.
+    vf_order, vf_start : int64 arrays
+        Vertex-to-face lists (:func:`vertex_faces`).
+    F : (m,3) int64
+    vmark : (n,) bool, fmark : (m,) bool
+        Scratch marks, all False; left all False.
+
+    Returns
+    -------
+    faces : (r,) int64
+    """
+    return _ring_faces(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F, vmark, fmark)
 
 
 # --------------------------------------------------------------------------
@@ -631,7 +712,8 @@ def warm_up():
     if not ENABLED:
         return False
     T = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
-    vertex_faces(T, 4)
+    order, start = vertex_faces(T, 4)
+    ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
     L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])

@@ -102,3 +102,18 @@ def test_rim_data_equals_the_python_walk():
 
 def test_warm_up_compiles_every_kernel():
     assert kernels.warm_up() is True
+
+
+@pytest.mark.parametrize("rings", [1, 2, 3, 6])
+def test_ring_faces_equal_the_numpy_walk_and_leave_the_marks_clear(rings):
+    V, F = shapes.torus(1.0, 0.35, 40, 16)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=1)
+    ctx = _Context(Mesh(V=V2, F=F2))
+    rng = np.random.default_rng(rings)
+    for verts in (rng.integers(0, len(V2), 5), np.array([3, 3, 7]), np.zeros(0, np.int64)):
+        a = ctx._ring_faces_numpy(verts, rings)
+        b = ctx.ring_faces(verts, rings)
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+        assert not ctx._vmark.any() and not ctx._fmark.any()
+    # rings past the whole component: every face of it, then the walk stops
+    assert np.array_equal(ctx.ring_faces(np.array([0]), 500), ctx._ring_faces_numpy(np.array([0]), 500))
