@@ -114,6 +114,13 @@ class _Context:
 
     def ring_faces(self, verts, rings):
         """Faces within ``rings`` rings of ``verts`` (sorted)."""
+        if kernels.ENABLED:
+            F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
+            return kernels.ring_faces(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
+        return self._ring_faces_numpy(verts, rings)
+
+    def _ring_faces_numpy(self, verts, rings):
+        """:meth:`ring_faces` in NumPy (the compiled walk's test oracle)."""
         vm, fm = self._vmark, self._fmark
         front = uniq(verts)
         vm[front] = True
