@@ -12,6 +12,10 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   (:func:`shellrepair.topology.vertex_faces`);
 * :func:`ring_faces`: the faces within some rings of a vertex set
   (:meth:`shellrepair.patch._Context.ring_faces`);
+* :func:`box_pairs`: candidate triangle pairs for the crossing tests
+  (a superset of the crossing pairs, like the bounding-sphere pairs of
+  :mod:`shellrepair.intersect` it replaces, so the tests' results are
+  the same);
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
@@ -34,7 +38,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "ring_faces", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "ring_faces", "box_pairs", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -165,6 +169,129 @@ def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
     faces : (r,) int64
     """
     return _ring_faces(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F, vmark, fmark)
+
+
+# --------------------------------------------------------------------------
+# candidate pairs for the crossing tests
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _box_pairs(Amin, Amax, Bmin, Bmax, self_pairs):
+    na, nb = Amin.shape[0], Bmin.shape[0]
+    ai = np.empty(0, np.int64)
+    if na == 0 or nb == 0:
+        return ai, ai.copy()
+    lo = np.empty(3)
+    hi = np.empty(3)
+    ext = 0.0
+    for c in range(3):
+        lo[c] = Bmin[0, c]
+        hi[c] = Bmax[0, c]
+    for j in range(nb):
+        e = 0.0
+        for c in range(3):
+            lo[c] = min(lo[c], Bmin[j, c])
+            hi[c] = max(hi[c], Bmax[j, c])
+            e = max(e, Bmax[j, c] - Bmin[j, c])
+        ext += e
+    # a grid over B's boxes: cells about twice B's mean extent, at most 64 a side
+    h = 2.0 * ext / nb
+    dims = np.ones(3, np.int64)
+    cell = np.empty(3)
+    for c in range(3):
+        span = hi[c] - lo[c]
+        k = 1
+        if h > 0 and span > 0:
+            k = min(64, max(1, int(span / h)))
+        dims[c] = k
+        cell[c] = span / k if span > 0 else 1.0
+    ncell = dims[0] * dims[1] * dims[2]
+    rng = np.empty((nb, 6), np.int64)
+    count = np.zeros(ncell + 1, np.int64)
+    for j in range(nb):
+        for c in range(3):
+            i0 = int((Bmin[j, c] - lo[c]) / cell[c])
+            i1 = int((Bmax[j, c] - lo[c]) / cell[c])
+            rng[j, c] = min(max(i0, 0), dims[c] - 1)
+            rng[j, 3 + c] = min(max(i1, 0), dims[c] - 1)
+        for x in range(rng[j, 0], rng[j, 3] + 1):
+            for y in range(rng[j, 1], rng[j, 4] + 1):
+                for z in range(rng[j, 2], rng[j, 5] + 1):
+                    count[(x * dims[1] + y) * dims[2] + z + 1] += 1
+    for q in range(ncell):
+        count[q + 1] += count[q]
+    fill = count[:-1].copy()
+    items = np.empty(count[ncell], np.int64)
+    for j in range(nb):
+        for x in range(rng[j, 0], rng[j, 3] + 1):
+            for y in range(rng[j, 1], rng[j, 4] + 1):
+                for z in range(rng[j, 2], rng[j, 5] + 1):
+                    q = (x * dims[1] + y) * dims[2] + z
+                    items[fill[q]] = j
+                    fill[q] += 1
+    stamp = np.full(nb, -1, np.int64)
+    out_a = np.empty(16, np.int64)
+    out_b = np.empty(16, np.int64)
+    npair = 0
+    r = np.empty(6, np.int64)
+    for i in range(na):
+        skip = False
+        for c in range(3):
+            if Amax[i, c] < lo[c] or Amin[i, c] > hi[c]:
+                skip = True
+        if skip:
+            continue
+        for c in range(3):
+            r[c] = min(max(int((Amin[i, c] - lo[c]) / cell[c]), 0), dims[c] - 1)
+            r[3 + c] = min(max(int((Amax[i, c] - lo[c]) / cell[c]), 0), dims[c] - 1)
+        for x in range(r[0], r[3] + 1):
+            for y in range(r[1], r[4] + 1):
+                for z in range(r[2], r[5] + 1):
+                    q = (x * dims[1] + y) * dims[2] + z
+                    for p in range(count[q], count[q + 1]):
+                        j = items[p]
+                        if stamp[j] == i or (self_pairs and j <= i):
+                            continue
+                        stamp[j] = i
+                        if (Amin[i, 0] <= Bmax[j, 0] and Bmin[j, 0] <= Amax[i, 0]
+                                and Amin[i, 1] <= Bmax[j, 1] and Bmin[j, 1] <= Amax[i, 1]
+                                and Amin[i, 2] <= Bmax[j, 2] and Bmin[j, 2] <= Amax[i, 2]):
+                            out_a = _grow(out_a, npair)
+                            out_b = _grow(out_b, npair)
+                            out_a[npair] = i
+                            out_b[npair] = j
+                            npair += 1
+    return out_a[:npair], out_b[:npair]
+
+
+def box_pairs(Amin, Amax, Bmin=None, Bmax=None):
+    """Pairs (i, j) of boxes of A and of B that overlap (closed, on every axis).
+
+    Parameters
+    ----------
+    Amin, Amax : (a,3) float64
+        Box corners, finite.
+    Bmin, Bmax : (b,3) float64, optional
+        Without them, pairs within A with ``i < j``.
+
+    Returns
+    -------
+    ai, bj : (p,) int64
+        Sorted by ``i``, then in an order fixed by the input.
+
+    Notes
+    -----
+    B's boxes are bucketed in a uniform grid (cells about twice their mean
+    extent, at most 64 a side); each A box is tested against the boxes in
+    the cells it covers. Every overlapping pair is reported once; the
+    crossing tests then decide exactly, so this set replaces any other
+    superset of the crossing pairs (bounding spheres, say) without
+    changing a result.
+    """
+    self_pairs = Bmin is None
+    if self_pairs:
+        Bmin, Bmax = Amin, Amax
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    return _box_pairs(c(Amin), c(Amax), c(Bmin), c(Bmax), self_pairs)
 
 
 # --------------------------------------------------------------------------
@@ -718,6 +845,8 @@ def warm_up():
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
     rim_edges(np.array([0, 1, 3, 2], np.int64), E, np.ones(len(E)), np.zeros((2, 3)))
+    box_pairs(np.zeros((2, 3)), np.ones((2, 3)))
+    box_pairs(np.zeros((2, 3)), np.ones((2, 3)), np.zeros((1, 3)), np.ones((1, 3)))
     X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)

@@ -117,3 +117,48 @@ def test_ring_faces_equal_the_numpy_walk_and_leave_the_marks_clear(rings):
         assert not ctx._vmark.any() and not ctx._fmark.any()
     # rings past the whole component: every face of it, then the walk stops
     assert np.array_equal(ctx.ring_faces(np.array([0]), 500), ctx._ring_faces_numpy(np.array([0]), 500))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_box_pairs_are_exactly_the_overlapping_boxes(seed):
+    rng = np.random.default_rng(seed)
+    A = rng.random((300, 3))
+    Amax = A + rng.random((300, 3)) * [0.05, 0.1, 0.02]
+    B = rng.random((700, 3)) * 1.2 - 0.1
+    Bmax = B + rng.random((700, 3)) * 0.04
+    B[:3] = -0.5
+    Bmax[:3] = 1.5                                   # a few boxes spanning everything
+    ai, bj = kernels.box_pairs(A, Amax, B, Bmax)
+    M = np.all((A[:, None] <= Bmax[None]) & (B[None] <= Amax[:, None]), axis=2)
+    assert sorted(zip(ai.tolist(), bj.tolist())) == sorted(zip(*map(np.ndarray.tolist, np.nonzero(M))))
+    i, j = kernels.box_pairs(A, Amax)
+    S = np.triu(np.all((A[:, None] <= Amax[None]) & (A[None] <= Amax[:, None]), axis=2), 1)
+    assert sorted(zip(i.tolist(), j.tolist())) == sorted(zip(*map(np.ndarray.tolist, np.nonzero(S))))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_crossing_tests_give_the_same_answers_with_the_box_candidates(seed, monkeypatch):
+    """A crumpled patch over a scan: the crossing count, faces and pairs
+    (against the scan) and the self-crossing pairs are those of the
+    bounding-sphere candidates."""
+    from shellrepair.intersect import NearFaces, crossing_pairs, patch_vs_index
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.05, seed=seed)
+    rng = np.random.default_rng(seed)
+    P = rng.normal(size=(60, 3)) * 0.3 + [0.0, 0.0, 0.9]
+    T = np.array([rng.choice(60, 3, replace=False) for _ in range(80)])
+    Pt, ids = P[T], -1 - T
+    Pt[:5] = V[F[:5]]                              # five coincide with scan faces
+    ids[:5] = F[:5]
+    index = NearFaces(V, F, origin=V.mean(axis=0))
+    out = {}
+    for on in (True, False):
+        monkeypatch.setattr(kernels, "ENABLED", on)
+        pairs = patch_vs_index(Pt, ids, index, return_pairs=True)
+        self_pairs = crossing_pairs(Pt - index.origin, ids)
+        out[on] = (patch_vs_index(Pt, ids, index), patch_vs_index(Pt, ids, index, return_faces=True),
+                   sorted(map(tuple, pairs.tolist())), sorted(map(tuple, self_pairs.tolist())))
+    assert out[True][0] > 0 and len(out[True][3]) > 0
+    assert out[True][0] == out[False][0]
+    assert np.array_equal(out[True][1], out[False][1])
+    assert out[True][2] == out[False][2] and out[True][3] == out[False][3]
