@@ -52,6 +52,7 @@ import numpy as np
 
 from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
 from .predicates import EPS, TINY, orient2d, orient3d
+from . import kernels
 from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
@@ -656,15 +657,26 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
     if len(Pt) == 0 or len(index.F) == 0:
         return none
     Q = Pt - index.origin
-    ai, bi = index.candidate_pairs(*bounding_spheres(Q))
+    if kernels.ENABLED and hasattr(index, "faces_near") and np.isfinite(Q).all():
+        # the near faces' boxes against the patch's (kernels.box_pairs): a
+        # superset of the crossing pairs, as the sphere pairs below are
+        qmin, qmax = Q.min(axis=1), Q.max(axis=1)
+        f = index.faces_near(qmin.min(axis=0) + index.origin, qmax.max(axis=0) + index.origin)
+        Tf = index.V[index.F[f]] - index.origin
+        ai, bj = kernels.box_pairs(qmin, qmax, Tf.min(axis=1), Tf.max(axis=1))
+        bi, T = f[bj], Tf[bj]
+    else:
+        ai, bi = index.candidate_pairs(*bounding_spheres(Q))
+        if ai.size == 0:
+            return none
+        T = index.V[index.F[bi]] - index.origin
+        # bounding-box filter before the exact tests
+        amin, amax = Q[ai].min(axis=1), Q[ai].max(axis=1)
+        bmin, bmax = T.min(axis=1), T.max(axis=1)
+        keep = np.all((amin <= bmax) & (bmin <= amax), axis=1)
+        ai, bi, T = ai[keep], bi[keep], T[keep]
     if ai.size == 0:
         return none
-    T = index.V[index.F[bi]] - index.origin
-    # bounding-box filter before the exact tests
-    amin, amax = Q[ai].min(axis=1), Q[ai].max(axis=1)
-    bmin, bmax = T.min(axis=1), T.max(axis=1)
-    keep = np.all((amin <= bmax) & (bmin <= amax), axis=1)
-    ai, bi, T = ai[keep], bi[keep], T[keep]
     hit = np.zeros(len(ai), bool)
     for s in range(0, len(ai), 200_000):
         sl = slice(s, s + 200_000)
@@ -699,6 +711,30 @@ def crossing_pairs(C, ids):
     none = np.zeros((0, 2), np.int64)
     if len(C) < 2:
         return none
+    if kernels.ENABLED and len(C) <= KERNEL_PAIRS_MAX and np.isfinite(C).all():
+        # overlapping boxes (kernels.box_pairs): a superset of the crossing
+        # pairs, as the sphere pairs below are; the exact tests decide
+        i, j = kernels.box_pairs(C.min(axis=1), C.max(axis=1))
+        P = np.column_stack([i, j])
+    else:
+        P = _sphere_box_pairs(C)
+    if len(P) == 0:
+        return none
+    hit = np.zeros(len(P), bool)
+    for s in range(0, len(P), 200_000):
+        a, b = P[s:s + 200_000, 0], P[s:s + 200_000, 1]
+        hit[s:s + 200_000] = pair_intersections(C[a], ids[a], C[b], ids[b])
+    return P[hit]
+
+
+#: Largest triangle set whose candidate pairs :func:`crossing_pairs` finds
+#: with the compiled box grid (the k-d tree above it: whole meshes).
+KERNEL_PAIRS_MAX = 200_000
+
+
+def _sphere_box_pairs(C):
+    """Pairs i < j of C whose bounding spheres meet and boxes overlap."""
+    none = np.zeros((0, 2), np.int64)
     c, r = bounding_spheres(C)
     r_cut = min(float(r.max()), 4 * float(np.median(r)))
     tree = cKDTree(c)
@@ -717,12 +753,7 @@ def crossing_pairs(C, ids):
     near = np.sum((c[i] - c[j]) ** 2, axis=1) <= (r[i] + r[j]) ** 2 * (1 + 1e-9)
     lo, hi = C.min(axis=1), C.max(axis=1)
     near &= np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
-    P = P[near]
-    hit = np.zeros(len(P), bool)
-    for s in range(0, len(P), 200_000):
-        a, b = P[s:s + 200_000, 0], P[s:s + 200_000, 1]
-        hit[s:s + 200_000] = pair_intersections(C[a], ids[a], C[b], ids[b])
-    return P[hit]
+    return P[near]
 
 
 def self_intersections(V, F):
