@@ -38,7 +38,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "ring_faces", "box_pairs", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "ring_faces", "faces_in_box", "box_pairs", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -169,6 +169,61 @@ def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
     faces : (r,) int64
     """
     return _ring_faces(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F, vmark, fmark)
+
+
+@njit(cache=True, nogil=True)
+def _faces_in_box(vkey, vorder, V, vf_order, vf_start, big, lo2, h, ny, lo, hi, fmark):
+    c00 = max(np.floor((lo[0] - lo2[0]) / h), 0.0)
+    c01 = max(np.floor((lo[1] - lo2[1]) / h), 0.0)
+    c10 = np.floor((hi[0] - lo2[0]) / h)
+    c11 = min(np.floor((hi[1] - lo2[1]) / h), ny - 1.0)
+    found = np.empty(64, np.int64)
+    nf = 0
+    if not (c10 < c00 or c11 < c01):
+        for row in range(int(c00), int(c10) + 1):
+            a = np.searchsorted(vkey, row * ny + int(c01), side="left")
+            b = np.searchsorted(vkey, row * ny + int(c11), side="right")
+            for p in range(a, b):
+                v = vorder[p]
+                if (lo[0] <= V[v, 0] <= hi[0] and lo[1] <= V[v, 1] <= hi[1]
+                        and lo[2] <= V[v, 2] <= hi[2]):
+                    for q in range(vf_start[v], vf_start[v + 1]):
+                        f = vf_order[q] // 3
+                        if not fmark[f]:
+                            fmark[f] = True
+                            found = _grow(found, nf)
+                            found[nf] = f
+                            nf += 1
+    for f in big:
+        if not fmark[f]:
+            fmark[f] = True
+            found = _grow(found, nf)
+            found[nf] = f
+            nf += 1
+    for j in range(nf):
+        fmark[found[j]] = False
+    return np.sort(found[:nf])
+
+
+def faces_in_box(index, lo, hi, fmark):
+    """:meth:`shellrepair.intersect.NearFaces.faces_near`'s walk, compiled.
+
+    Parameters
+    ----------
+    index : NearFaces
+    lo, hi : (3,) float64
+        The box, already grown by ``index.grow``.
+    fmark : (m,) bool
+        Scratch marks, all False; left all False.
+
+    Returns
+    -------
+    faces : (r,) int64
+        Sorted, distinct: the faces of the vertices in the box, and the big faces.
+    """
+    return _faces_in_box(index.vkey, index.vorder, index.V, index.vf_order, index.vf_start,
+                         np.ascontiguousarray(index.big, np.int64), np.asarray(index.lo2, np.float64),
+                         float(index.h), int(index.ny), np.asarray(lo, np.float64), np.asarray(hi, np.float64), fmark)
 
 
 # --------------------------------------------------------------------------

@@ -162,3 +162,22 @@ def test_crossing_tests_give_the_same_answers_with_the_box_candidates(seed, monk
     assert out[True][0] == out[False][0]
     assert np.array_equal(out[True][1], out[False][1])
     assert out[True][2] == out[False][2] and out[True][3] == out[False][3]
+
+
+def test_faces_near_equals_the_numpy_walk(monkeypatch):
+    from shellrepair.intersect import NearFaces
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.05)
+    F = np.vstack([F, [[0, 100, 200]]])            # one long face: in every answer ("big")
+    index = NearFaces(V, F, origin=V.mean(axis=0))
+    assert index.big.size
+    rng = np.random.default_rng(0)
+    boxes = [(c - w, c + w) for c, w in zip(rng.normal(size=(20, 3)) * 0.7, rng.random((20, 1)) * 0.3)]
+    boxes += [(np.full(3, 5.0), np.full(3, 6.0)), (np.full(3, -2.0), np.full(3, 2.0))]
+    for lo, hi in boxes:
+        monkeypatch.setattr(kernels, "ENABLED", False)
+        a = index.faces_near(lo, hi)
+        monkeypatch.setattr(kernels, "ENABLED", True)
+        b = index.faces_near(lo, hi)
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+        assert not index._fmark.any()
