@@ -542,6 +542,10 @@ class NearFaces:
         """Faces that may meet the box ``[lo, hi]`` (absolute coordinates)."""
         lo = np.asarray(lo, np.float64) - self.grow
         hi = np.asarray(hi, np.float64) + self.grow
+        if kernels.ENABLED and self.vf_order.dtype == np.int64:
+            if getattr(self, "_fmark", None) is None:
+                self._fmark = np.zeros(len(self.F), bool)   # scratch, left all False
+            return kernels.faces_in_box(self, lo, hi, self._fmark)
         c0 = np.maximum(np.floor((lo[:2] - self.lo2) / self.h), 0).astype(np.int64)
         c1 = np.floor((hi[:2] - self.lo2) / self.h).astype(np.int64)
         c1[1] = min(c1[1], self.ny - 1)
