@@ -12,6 +12,8 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   (:func:`shellrepair.topology.vertex_faces`);
 * :func:`ring_faces`: the faces within some rings of a vertex set
   (:meth:`shellrepair.patch._Context.ring_faces`);
+* :func:`grid_sort`, :func:`faces_in_box`: the vertex grid of
+  :class:`shellrepair.intersect.NearFaces` and its box query;
 * :func:`box_pairs`: candidate triangle pairs for the crossing tests
   (a superset of the crossing pairs, like the bounding-sphere pairs of
   :mod:`shellrepair.intersect` it replaces, so the tests' results are
@@ -38,7 +40,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "ring_faces", "faces_in_box", "box_pairs", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "ring_faces", "grid_sort", "faces_in_box", "box_pairs", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -224,6 +226,90 @@ def faces_in_box(index, lo, hi, fmark):
     return _faces_in_box(index.vkey, index.vorder, index.V, index.vf_order, index.vf_start,
                          np.ascontiguousarray(index.big, np.int64), np.asarray(index.lo2, np.float64),
                          float(index.h), int(index.ny), np.asarray(lo, np.float64), np.asarray(hi, np.float64), fmark)
+
+
+@njit(cache=True, nogil=True)
+def _xy_bounds(V):
+    lo = np.full(2, np.inf)
+    hi = np.full(2, -np.inf)
+    for v in range(V.shape[0]):
+        for c in range(2):
+            x = V[v, c]
+            if x < lo[c]:
+                lo[c] = x
+            if x > hi[c]:
+                hi[c] = x
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
+def _grid_sort(V, lo, h):
+    n = V.shape[0]
+    ix = np.empty(n, np.int64)
+    iy = np.empty(n, np.int64)
+    nx = 1
+    ny = 1
+    for v in range(n):
+        ix[v] = np.int64(np.floor((V[v, 0] - lo[0]) / h))
+        iy[v] = np.int64(np.floor((V[v, 1] - lo[1]) / h))
+        nx = max(nx, ix[v] + 1)
+        ny = max(ny, iy[v] + 1)
+    # least significant digit first: by row, then (stably) by column
+    tmp = np.empty(n, np.int64)
+    order = np.empty(n, np.int64)
+    count = np.zeros(ny + 1, np.int64)
+    for v in range(n):
+        count[iy[v] + 1] += 1
+    for b in range(ny):
+        count[b + 1] += count[b]
+    for v in range(n):
+        tmp[count[iy[v]]] = v
+        count[iy[v]] += 1
+    count = np.zeros(nx + 1, np.int64)
+    for v in range(n):
+        count[ix[v] + 1] += 1
+    for b in range(nx):
+        count[b + 1] += count[b]
+    for p in range(n):
+        v = tmp[p]
+        order[count[ix[v]]] = v
+        count[ix[v]] += 1
+    key = np.empty(n, np.int64)
+    for p in range(n):
+        v = order[p]
+        key[p] = ix[v] * ny + iy[v]
+    return order, key, ny
+
+
+def grid_sort(V, h=None, grow=0.0):
+    """The vertex grid of :class:`shellrepair.intersect.NearFaces`, by two
+    counting sorts instead of one comparison sort.
+
+    Parameters
+    ----------
+    V : (n,3) float64, n >= 1, finite
+    grow : float
+        The index's longest ordinary edge: columns are
+        ``h = max(4 grow, span / 4096, 1e-300)`` wide, ``span`` the larger
+        side of V's bounding box in x and y.
+
+    Returns
+    -------
+    lo : (2,) float64
+        Corner of the grid (V's smallest x and y).
+    h : float
+    order : (n,) int64
+        Vertices sorted by column key (within a key, by vertex id).
+    key : (n,) int64
+        Their keys ``i * ny + j``, ascending.
+    ny : int
+    """
+    V = np.asarray(V, np.float64)
+    lo, hi = _xy_bounds(V)
+    span = float(np.max(hi - lo))
+    h = max(4 * grow, span / 4096, 1e-300)
+    order, key, ny = _grid_sort(V, lo, h)
+    return lo, h, order, key, int(ny)
 
 
 # --------------------------------------------------------------------------
@@ -901,6 +987,7 @@ def warm_up():
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
     rim_edges(np.array([0, 1, 3, 2], np.int64), E, np.ones(len(E)), np.zeros((2, 3)))
     box_pairs(np.zeros((2, 3)), np.ones((2, 3)))
+    grid_sort(np.array([[0.0, 0, 0], [1, 2, 3]]), grow=0.5)
     box_pairs(np.zeros((2, 3)), np.ones((2, 3)), np.zeros((1, 3)), np.ones((1, 3)))
     X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
     for order in (1, 2, 3):

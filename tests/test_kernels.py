@@ -181,3 +181,19 @@ def test_faces_near_equals_the_numpy_walk(monkeypatch):
         b = index.faces_near(lo, hi)
         assert a.dtype == b.dtype and np.array_equal(a, b)
         assert not index._fmark.any()
+
+
+def test_the_vertex_grid_has_the_same_keys_and_cells(monkeypatch):
+    from shellrepair.intersect import NearFaces
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.05)
+    V = V * [3.0, 1.0, 1.0] + 1e6                  # far from the origin, not square
+    idx = {}
+    for on in (False, True):
+        monkeypatch.setattr(kernels, "ENABLED", on)
+        idx[on] = NearFaces(V, F, origin=V.mean(axis=0))
+    a, b = idx[False], idx[True]
+    assert np.array_equal(a.lo2, b.lo2) and a.h == b.h and a.ny == b.ny
+    assert np.array_equal(a.vkey, b.vkey)           # order within a cell is free
+    assert np.array_equal(np.sort(a.vorder), np.arange(len(V)))
+    assert np.array_equal(a.vkey[np.argsort(a.vorder)], b.vkey[np.argsort(b.vorder)])
