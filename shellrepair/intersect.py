@@ -525,6 +525,10 @@ class NearFaces:
             self.big = np.flatnonzero(big)
             self.grow = float(np.sqrt(longest[~big].max(initial=0.0)))
             del longest
+        if kernels.ENABLED and len(V):   # the same grid by two counting sorts (kernels.grid_sort)
+            self.lo2, self.h, self.vorder, self.vkey, self.ny = kernels.grid_sort(V, grow=self.grow)
+            self.vf_order, self.vf_start = (kernels.vertex_faces(F, len(V)) if vf is None else vf)
+            return
         lo = V[:, :2].min(axis=0) if len(V) else np.zeros(2)
         span = float(np.ptp(V[:, :2], axis=0).max()) if len(V) else 0.0
         # columns of about four longest edges, at most ~4096 a side
