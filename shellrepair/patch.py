@@ -87,6 +87,8 @@ class _Context:
         self.colors = mesh.vertex_colors
         self.props = {k: v for k, v in mesh.vertex_props.items()
                       if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
+        if kernels.ENABLED:
+            kernels.warm_up()   # compiled or loaded before any hole's time budget starts
         self.vf_order, self.vf_start = (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
