@@ -197,3 +197,64 @@ def test_the_vertex_grid_has_the_same_keys_and_cells(monkeypatch):
     assert np.array_equal(a.vkey, b.vkey)           # order within a cell is free
     assert np.array_equal(np.sort(a.vorder), np.arange(len(V)))
     assert np.array_equal(a.vkey[np.argsort(a.vorder)], b.vkey[np.argsort(b.vorder)])
+
+
+#: The compiled dense fairing (kernels.fair_small) against libigl's sparse
+#: solve: positions in units of the mean edge.
+FAIR_TOLERANCE = 1e-9
+
+
+def _submesh_with_free_middle(k, seed, jitter=0.15):
+    """A jittered, bumpy k x k grid; the vertices two rings from its border
+    and beyond are free; returned with the fixed vertices first."""
+    V, F = shapes.grid(k, k)
+    rng = np.random.default_rng(seed)
+    V = V + rng.normal(scale=jitter / k, size=V.shape) * [1, 1, 0]
+    V[:, 2] = 0.1 * np.sin(5 * V[:, 0]) * np.cos(4 * V[:, 1])
+    ij = np.rint(V[:, :2] * (k - 1) / V[:, :2].max(axis=0))
+    fixed = np.any((ij < 3) | (ij > k - 4), axis=1)
+    order = np.concatenate([np.flatnonzero(fixed), np.flatnonzero(~fixed)])
+    inv = np.empty_like(order)
+    inv[order] = np.arange(len(order))
+    X = V[order] / np.mean(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1))
+    X[fixed.sum():] += rng.normal(scale=0.3, size=(len(X) - fixed.sum(), 3))   # an initial guess off the surface
+    return X, inv[F], int(fixed.sum())
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+@pytest.mark.parametrize("seed", range(3))
+def test_the_dense_fairing_equals_the_sparse_solve_to_round_off(order, seed, monkeypatch):
+    from shellrepair import fair
+
+    X, F, nf = _submesh_with_free_middle(10 + 2 * seed, seed)
+    assert 0 < len(X) - nf <= fair.SMALL_UNKNOWNS
+    pinned = np.array([0, 3]) if seed == 2 else None
+    monkeypatch.setattr(kernels, "ENABLED", False)
+    ref, Kref = fair.fair_patch(X, F, nf, order=order, pinned=pinned)
+    monkeypatch.setattr(kernels, "ENABLED", True)
+    got, K = fair.fair_patch(X, F, nf, order=order, pinned=pinned)
+    assert np.abs(got - ref).max() <= FAIR_TOLERANCE
+    assert abs(K - Kref).max() <= FAIR_TOLERANCE * abs(Kref).max()
+    assert np.abs(got - X[nf:]).max() > 0.01        # it did move the free vertices
+    if pinned is not None:
+        assert np.array_equal(got[pinned], X[nf:][pinned])
+
+
+def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypatch):
+    """Same faces and flags, original vertices bit-identical, new vertices
+    within FAIR_TOLERANCE mean edges (the dense fairing is the one kernel
+    that is not bit-exact)."""
+    from shellrepair.repair import repair_mesh
+
+    V, F = shapes.bumpy_sphere(4, amplitude=0.02, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=8, radius=0.12, seed=3)
+    out = {}
+    for on in (False, True):
+        monkeypatch.setattr(kernels, "ENABLED", on)
+        out[on] = repair_mesh(Mesh(V=V2, F=F2))
+    (a, ra), (b, rb) = out[False], out[True]
+    assert ra["holes_after"] == rb["holes_after"] == 0
+    assert np.array_equal(a.F, b.F) and np.array_equal(a.face_filled, b.face_filled)
+    assert np.array_equal(a.V[:len(V2)], b.V[:len(V2)]) and np.array_equal(b.V[:len(V2)], V2)
+    edge = np.linalg.norm(V2[F2[:, 0]] - V2[F2[:, 1]], axis=1).mean()
+    assert len(a.V) > len(V2) and np.abs(a.V - b.V).max() <= FAIR_TOLERANCE * edge
