@@ -21,6 +21,8 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
+* :func:`relax`: a patch's Delaunay edge flips
+  (:func:`shellrepair.refine._relax`), the angles still NumPy's;
 * :func:`rim_edges`: a loop's rim scale and scan normals from the faces
   around it (:func:`shellrepair.patch._rim_data`);
 * :func:`fair_small`: a small patch's whole fairing
@@ -40,7 +42,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "ring_faces", "grid_sort", "faces_in_box", "box_pairs", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -696,6 +698,280 @@ def rim_edges(loop, E, ln, nrm):
 
 
 # --------------------------------------------------------------------------
+# Delaunay relaxation of a patch (refine._relax): the bookkeeping compiled,
+# the angles left to NumPy (its arctan2 is not libm's to the last bit)
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _relax_gather(T, twin, active, n):
+    m = active.size
+    h1 = active.copy()
+    h2 = np.empty(m, np.int64)
+    kab = np.empty(m, np.int64)
+    for j in range(m):
+        h = h1[j]
+        h2[j] = twin[h]
+        a, b = T[h // 3, h % 3], T[h // 3, (h % 3 + 1) % 3]
+        kab[j] = min(a, b) * n + max(a, b)
+    srt = np.argsort(kab, kind="mergesort")       # stable: edge-key order, as a full pass lists them
+    out = np.empty((m, 8), np.int64)              # h1, h2, a, b, c, d, f1, f2
+    for j in range(m):
+        h, g = h1[srt[j]], h2[srt[j]]
+        f1, i1, f2, i2 = h // 3, h % 3, g // 3, g % 3
+        out[j, 0], out[j, 1] = h, g
+        out[j, 2], out[j, 3], out[j, 4] = T[f1, i1], T[f1, (i1 + 1) % 3], T[f1, (i1 + 2) % 3]
+        out[j, 5] = T[f2, (i2 + 2) % 3]
+        out[j, 6], out[j, 7] = f1, f2
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _in_sorted(keys, x):
+    if keys.size == 0:
+        return False
+    p = min(np.searchsorted(keys, x), keys.size - 1)
+    return keys[p] == x
+
+
+@njit(cache=True, nogil=True)
+def _relax_apply(T, twin, changed, is_loop, forb, edge_keys, ck_keys, ck_vals, g, excess, unfolded, flip_eps, n):
+    """One round of refine._relax after its angles: returns (status, active);
+    status 0: flipped, go on; 1: settled; 2: faces shared by two flips of
+    the round (a tie NumPy's vectorised writes resolve by order: the caller
+    redoes the whole relaxation in NumPy). ``ck_keys`` (sorted) and
+    ``ck_vals``: edges flips made (True) or removed (False); returned
+    updated."""
+    m = g.shape[0]
+    nt = T.shape[0]
+    none = np.empty(0, np.int64)
+    geo = np.empty(m, np.int64)
+    ng = 0
+    for j in range(m):
+        if excess[j] > flip_eps and g[j, 4] != g[j, 5]:
+            geo[ng] = j
+            ng += 1
+    if ng == 0:
+        return 1, none, ck_keys, ck_vals
+    cand = np.empty(ng, np.int64)
+    ncd = np.zeros(m, np.int64)
+    nc = 0
+    for q in range(ng):
+        j = geo[q]
+        c, d = g[j, 4], g[j, 5]
+        key = min(c, d) * n + max(c, d)
+        exists = _in_sorted(edge_keys, key)
+        if ck_keys.size:
+            p = min(np.searchsorted(ck_keys, key), ck_keys.size - 1)
+            if ck_keys[p] == key:
+                exists = ck_vals[p]
+        ok = not exists
+        if forb.size and is_loop[c] and is_loop[d] and _in_sorted(forb, key):
+            ok = False
+        if ok and unfolded[j]:
+            cand[nc] = j
+            ncd[j] = key
+            nc += 1
+    if nc == 0:
+        return 1, none, ck_keys, ck_vals
+    # refine._independent_flips
+    best = np.empty(nt)
+    for q in range(nc):
+        j = cand[q]
+        best[g[j, 6]] = -np.inf
+        best[g[j, 7]] = -np.inf
+    for q in range(nc):
+        j = cand[q]
+        best[g[j, 6]] = max(best[g[j, 6]], excess[j])
+        best[g[j, 7]] = max(best[g[j, 7]], excess[j])
+    seen = np.zeros(nt, np.bool_)
+    taken = np.zeros(nt, np.bool_)
+    keep = np.zeros(nc, np.bool_)
+    for q in range(nc):
+        j = cand[q]
+        g1, g2 = g[j, 6], g[j, 7]
+        if best[g1] == excess[j] and best[g2] == excess[j] and not seen[g1]:
+            seen[g1] = True
+            keep[q] = True
+            taken[g1] = True
+    kept = np.empty(nc, np.int64)
+    nk = 0
+    for q in range(nc):
+        j = cand[q]
+        if keep[q] and (not taken[g[j, 7]] or g[j, 7] == g[j, 6]):
+            kept[nk] = j
+            nk += 1
+    if nk == 0:
+        return 1, none, ck_keys, ck_vals
+    # of flips making the same new edge the first; in new-edge order
+    keys = np.empty(nk, np.int64)
+    for q in range(nk):
+        keys[q] = ncd[kept[q]]
+    by = np.argsort(keys, kind="mergesort")
+    flips = np.empty(nk, np.int64)
+    nf = 0
+    for q in range(nk):
+        if q == 0 or keys[by[q]] != keys[by[q - 1]]:
+            flips[nf] = kept[by[q]]
+            nf += 1
+    flips = flips[:nf]
+    if nf == 0:
+        return 1, none, ck_keys, ck_vals
+    used = np.zeros(nt, np.bool_)
+    for q in range(nf):
+        j = flips[q]
+        for f in (g[j, 6], g[j, 7]):
+            if used[f]:
+                return 2, none, ck_keys, ck_vals
+            used[f] = True
+    # flip: f1 = (a,b,c) -> (c,a,d), f2 = (b,a,d) -> (d,b,c); outer half-edges move slots
+    slot_new = np.full(3 * nt, -1, np.int64)
+    old = np.empty((4, nf), np.int64)
+    new = np.empty((4, nf), np.int64)
+    for q in range(nf):
+        j = flips[q]
+        h1, h2 = g[j, 0], g[j, 1]
+        F1, I1, F2, I2 = h1 // 3, h1 % 3, h2 // 3, h2 % 3
+        old[0, q], old[1, q] = 3 * F1 + (I1 + 2) % 3, 3 * F2 + (I2 + 1) % 3
+        old[2, q], old[3, q] = 3 * F2 + (I2 + 2) % 3, 3 * F1 + (I1 + 1) % 3
+        new[0, q], new[1, q], new[2, q], new[3, q] = 3 * F1, 3 * F1 + 1, 3 * F2, 3 * F2 + 1
+    outer = np.empty((4, nf), np.int64)
+    for r in range(4):
+        for q in range(nf):
+            outer[r, q] = twin[old[r, q]]
+            slot_new[old[r, q]] = new[r, q]
+    for q in range(nf):
+        j = flips[q]
+        F1, F2 = g[j, 6], g[j, 7]
+        A, B, C, D = g[j, 2], g[j, 3], g[j, 4], g[j, 5]
+        T[F1, 0], T[F1, 1], T[F1, 2] = C, A, D
+        T[F2, 0], T[F2, 1], T[F2, 2] = D, B, C
+        changed[F1] = True
+        changed[F2] = True
+        twin[3 * F1 + 2] = 3 * F2 + 2
+        twin[3 * F2 + 2] = 3 * F1 + 2
+    for r in range(4):
+        for q in range(nf):
+            o = outer[r, q]
+            if o >= 0:
+                ro = slot_new[o] if slot_new[o] >= 0 else o
+                twin[new[r, q]] = ro
+            else:
+                twin[new[r, q]] = -1
+    for r in range(4):
+        for q in range(nf):
+            o = outer[r, q]
+            if o >= 0:
+                ro = slot_new[o] if slot_new[o] >= 0 else o
+                twin[ro] = new[r, q]
+    # the made edges (True), then the removed ones (False): the last write of a key counts
+    uk = np.empty(2 * nf, np.int64)
+    uv = np.empty(2 * nf, np.bool_)
+    for q in range(nf):
+        j = flips[q]
+        uk[q], uv[q] = ncd[j], True
+        A, B = g[j, 2], g[j, 3]
+        uk[nf + q], uv[nf + q] = min(A, B) * n + max(A, B), False
+    by = np.argsort(uk, kind="mergesort")
+    nk2 = ck_keys.size + 2 * nf
+    mk = np.empty(nk2, np.int64)
+    mv = np.empty(nk2, np.bool_)
+    p, t = 0, 0
+    for q in range(2 * nf):
+        if q + 1 < 2 * nf and uk[by[q + 1]] == uk[by[q]]:
+            continue                       # a later write of the same key follows
+        key, val = uk[by[q]], uv[by[q]]
+        while p < ck_keys.size and ck_keys[p] < key:
+            mk[t], mv[t] = ck_keys[p], ck_vals[p]
+            p += 1
+            t += 1
+        if p < ck_keys.size and ck_keys[p] == key:
+            p += 1
+        mk[t], mv[t] = key, val
+        t += 1
+    while p < ck_keys.size:
+        mk[t], mv[t] = ck_keys[p], ck_vals[p]
+        p += 1
+        t += 1
+    ck_keys, ck_vals = mk[:t], mv[:t]
+    # next round: the edges of the changed faces and the unflipped candidates
+    flipped = np.zeros(m, np.bool_)
+    for q in range(nf):
+        flipped[flips[q]] = True
+    nxt = np.empty(ng + 6 * nf, np.int64)
+    k = 0
+    for q in range(ng):
+        j = geo[q]
+        if flipped[j]:
+            continue
+        h = g[j, 0]
+        if used[h // 3]:
+            continue
+        nxt[k] = min(h, twin[h])
+        k += 1
+    for q in range(nf):
+        j = flips[q]
+        for f in (g[j, 6], g[j, 7]):
+            for i in range(3):
+                h = 3 * f + i
+                if twin[h] >= 0:
+                    nxt[k] = min(h, twin[h])
+                    k += 1
+    return 0, np.unique(nxt[:k]), ck_keys, ck_vals
+
+
+def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
+    """:func:`shellrepair.refine._relax` with its bookkeeping compiled.
+
+    The same rounds, choices and results; the opposite angles and the fold
+    test stay NumPy's own (``angle``, ``unfolded``: refine's functions),
+    so every decision sees the same numbers.
+
+    Returns
+    -------
+    T, changed, settled : as ``_relax``; or None when two flips of a round
+        share a face (a tie between equal excesses), for the caller to
+        redo in NumPy.
+    """
+    n = len(P)
+    nt = len(T)
+    changed = np.zeros(nt, bool)
+    if nt < 2:
+        return T, changed, True
+    T = np.array(T, np.int64)
+    forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
+    src = T.ravel()
+    dst = T[:, [1, 2, 0]].ravel()
+    key = np.minimum(src, dst) * n + np.maximum(src, dst)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    pair = np.flatnonzero(ks[1:] == ks[:-1])
+    twin = np.full(3 * nt, -1, np.int64)
+    twin[order[pair]] = order[pair + 1]
+    twin[order[pair + 1]] = order[pair]
+    active = order[pair]
+    if dirty is not None:
+        active = active[dirty[active // 3] | dirty[twin[active] // 3]]
+    ck_keys, ck_vals = np.zeros(0, np.int64), np.zeros(0, np.bool_)
+    is_loop = np.ascontiguousarray(is_loop, np.bool_)
+    settled = False
+    for _ in range(max_rounds):
+        if active.size == 0:
+            settled = True
+            break
+        g = _relax_gather(T, twin, np.ascontiguousarray(active, np.int64), n)
+        pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
+        excess = angle(pa - pc, pb - pc) + angle(pa - pd, pb - pd) - np.pi
+        unf = np.ascontiguousarray(unfolded(pa, pb, pc, pd), np.bool_)
+        status, active, ck_keys, ck_vals = _relax_apply(T, twin, changed, is_loop, forb, ks, ck_keys, ck_vals, g,
+                                                        np.ascontiguousarray(excess), unf, float(flip_eps), n)
+        if status == 2:
+            return None
+        if status == 1:
+            settled = True
+            break
+    return T, changed, settled
+
+
+# --------------------------------------------------------------------------
 # fairing of a small patch (dense normal equations)
 # --------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
@@ -1005,6 +1281,10 @@ def warm_up():
                   np.zeros(2, np.bool_))
     box_pairs(np.zeros((2, 3)), np.ones((2, 3)), np.zeros((1, 3)), np.ones((1, 3)))
     X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
+    from .refine import FLIP_EPS, _angle, _unfolded   # (refine imports this module)
+
+    relax(X * [1.0, 1.0, 0.0] + [[0, 0, 0], [0, 0, 0], [0, 0, 0], [-0.6, -0.6, 0]], T, np.ones(4, np.bool_),
+          np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
     _WARM = True
