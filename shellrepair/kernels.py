@@ -18,6 +18,8 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   (a superset of the crossing pairs, like the bounding-sphere pairs of
   :mod:`shellrepair.intersect` it replaces, so the tests' results are
   the same);
+* :func:`separated`: pairs a certified plane test rules out before the
+  exact crossing tests;
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
@@ -42,7 +44,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -435,6 +437,72 @@ def box_pairs(Amin, Amax, Bmin=None, Bmax=None):
         Bmin, Bmax = Amin, Amax
     c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
     return _box_pairs(c(Amin), c(Amax), c(Bmin), c(Bmax), self_pairs)
+
+
+@njit(cache=True, nogil=True)
+def _strict_side(T, P, side_bound, tiny):
+    """+1 / -1 when all three points P are certainly on one side of T's
+    plane (intersect._plane_signs' error bound), else 0."""
+    e1x, e1y, e1z = T[1, 0] - T[0, 0], T[1, 1] - T[0, 1], T[1, 2] - T[0, 2]
+    e2x, e2y, e2z = T[2, 0] - T[0, 0], T[2, 1] - T[0, 1], T[2, 2] - T[0, 2]
+    n0, n1, n2 = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    m0 = abs(e1y * e2z) + abs(e1z * e2y)
+    m1 = abs(e1z * e2x) + abs(e1x * e2z)
+    m2 = abs(e1x * e2y) + abs(e1y * e2x)
+    side = 0
+    for i in range(3):
+        w0, w1, w2 = P[i, 0] - T[0, 0], P[i, 1] - T[0, 1], P[i, 2] - T[0, 2]
+        det = n0 * w0 + n1 * w1 + n2 * w2
+        perm = m0 * abs(w0) + m1 * abs(w1) + m2 * abs(w2)
+        if not (abs(det) > side_bound * perm and perm >= tiny and np.isfinite(perm)):
+            return 0
+        s = 1 if det > 0 else -1
+        if i == 0:
+            side = s
+        elif s != side:
+            return 0
+    return side
+
+
+@njit(cache=True, nogil=True)
+def _separated(A, Aid, ai, B, Bid, bj, side_bound, tiny):
+    out = np.zeros(ai.size, np.bool_)
+    for q in range(ai.size):
+        i, j = ai[q], bj[q]
+        common = False
+        for x in range(3):
+            for y in range(3):
+                if Aid[i, x] == Bid[j, y]:
+                    common = True
+        if common:
+            continue
+        if _strict_side(A[i], B[j], side_bound, tiny) != 0 or _strict_side(B[j], A[i], side_bound, tiny) != 0:
+            out[q] = True
+    return out
+
+
+def separated(A, Aid, ai, B, Bid, bj, side_bound, tiny):
+    """Pairs (A[ai], B[bj]) that certainly cannot cross: one triangle's
+    corners all strictly on one side of the other's plane, as the
+    error-bounded plane test of :func:`shellrepair.intersect._plane_signs`
+    certifies it (pairs sharing a vertex id are never claimed). The crossing
+    test answers False for every such pair, so it need not see them.
+
+    Parameters
+    ----------
+    A, B : (a,3,3), (b,3,3) float64
+    Aid, Bid : (a,3), (b,3) int64
+    ai, bj : (p,) int64
+    side_bound, tiny : float
+        The filter's error factor and smallest trusted permanent.
+
+    Returns
+    -------
+    sep : (p,) bool
+    """
+    c = np.ascontiguousarray
+    return _separated(c(A, np.float64), c(Aid, np.int64), c(ai, np.int64), c(B, np.float64), c(Bid, np.int64),
+                      c(bj, np.int64), float(side_bound), float(tiny))
 
 
 # --------------------------------------------------------------------------
@@ -1280,6 +1348,9 @@ def warm_up():
     _faces_in_box(vkey, vorder, P, order, start, np.zeros(0, np.int64), lo2, h, ny, np.zeros(3), np.ones(3),
                   np.zeros(2, np.bool_))
     box_pairs(np.zeros((2, 3)), np.ones((2, 3)), np.zeros((1, 3)), np.ones((1, 3)))
+    Tr = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
+    separated(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 1.0, np.array([[3, 4, 5]]),
+              np.zeros(1, np.int64), 1e-15, 1e-280)
     X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
     from .refine import FLIP_EPS, _angle, _unfolded   # (refine imports this module)
 

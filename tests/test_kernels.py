@@ -290,3 +290,28 @@ def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
             b = refine._relax(Pj, T2.copy(), is_loop, fb, rounds, d)
         assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2]
         assert d is not None or rounds < 100 or a[1].any()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_plane_separated_pairs_never_cross_and_most_far_pairs_are_found(seed):
+    """The prefilter only rules out pairs the exact test calls apart: on
+    random, nearly coplanar, touching and offset (1e6) triangle pairs."""
+    from shellrepair.intersect import SIDE_BOUND, TINY, triangles_cross
+
+    rng = np.random.default_rng(seed)
+    p = 4000
+    A = rng.normal(size=(p, 3, 3))
+    B = A[rng.permutation(p)] * 0.5 + rng.normal(scale=0.3, size=(p, 1, 3))
+    flat = rng.random(p) < 0.3                       # a third in (nearly) one plane
+    A[flat, :, 2] = 0.0
+    B[flat, :, 2] = rng.choice([0.0, 1e-17, -1e-300], size=(int(flat.sum()), 1))
+    touch = rng.random(p) < 0.1                      # corners on the other's plane
+    B[touch, 0] = A[touch].mean(axis=1)
+    if seed == 3:
+        A, B = A + 1e6, B + 1e6
+    ai = bj = np.arange(p)
+    Aid, Bid = np.arange(3 * p).reshape(p, 3), 3 * p + np.arange(3 * p).reshape(p, 3)
+    sep = kernels.separated(A, Aid, ai, B, Bid, bj, SIDE_BOUND, TINY)
+    hit = triangles_cross(A, B)
+    assert not (sep & hit).any()
+    assert sep.sum() > 0.3 * (~hit).sum()
