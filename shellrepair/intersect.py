@@ -672,6 +672,8 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
         f = index.faces_near(qmin.min(axis=0) + index.origin, qmax.max(axis=0) + index.origin)
         Tf = index.V[index.F[f]] - index.origin
         ai, bj = kernels.box_pairs(qmin, qmax, Tf.min(axis=1), Tf.max(axis=1))
+        keep = ~kernels.separated(Q, Pid, ai, Tf, index.F[f], bj, SIDE_BOUND, TINY)   # plane-separated pairs never cross
+        ai, bj = ai[keep], bj[keep]
         bi, T = f[bj], Tf[bj]
     else:
         ai, bi = index.candidate_pairs(*bounding_spheres(Q))
@@ -723,7 +725,8 @@ def crossing_pairs(C, ids):
         # overlapping boxes (kernels.box_pairs): a superset of the crossing
         # pairs, as the sphere pairs below are; the exact tests decide
         i, j = kernels.box_pairs(C.min(axis=1), C.max(axis=1))
-        P = np.column_stack([i, j])
+        keep = ~kernels.separated(C, ids, i, C, ids, j, SIDE_BOUND, TINY)   # plane-separated pairs never cross
+        P = np.column_stack([i[keep], j[keep]])
     else:
         P = _sphere_box_pairs(C)
     if len(P) == 0:
