@@ -95,6 +95,8 @@ def vertex_faces(F, n_vertices):
     start : (n+1,) int64
     """
     flat = np.ascontiguousarray(np.asarray(F, np.int64).ravel())
+    if flat.size and (flat.min() < 0 or flat.max() >= n_vertices):   # the kernel does not check bounds
+        raise ValueError(f"face indices must lie in [0, {n_vertices}), got {flat.min()}..{flat.max()}")
     return _vertex_faces(flat, int(n_vertices))
 
 
@@ -291,7 +293,7 @@ def grid_sort(V, h=None, grow=0.0):
 
     Parameters
     ----------
-    V : (n,3) float64, n >= 1, finite
+    V : (n,3) float64, n >= 1, x and y finite (else ValueError)
     grow : float
         The index's longest ordinary edge: columns are
         ``h = max(4 grow, span / 4096, 1e-300)`` wide, ``span`` the larger
@@ -310,6 +312,8 @@ def grid_sort(V, h=None, grow=0.0):
     """
     V = np.asarray(V, np.float64)
     lo, hi = _xy_bounds(V)
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all() and np.isfinite(V[:, :2]).all()):
+        raise ValueError("grid_sort needs finite x and y")
     span = float(np.max(hi - lo))
     h = max(4 * grow, span / 4096, 1e-300)
     order, key, ny = _grid_sort(V, lo, h)
