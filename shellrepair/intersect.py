@@ -525,7 +525,7 @@ class NearFaces:
             self.big = np.flatnonzero(big)
             self.grow = float(np.sqrt(longest[~big].max(initial=0.0)))
             del longest
-        if kernels.ENABLED and len(V):   # the same grid by two counting sorts (kernels.grid_sort)
+        if kernels.ENABLED and len(V) and np.isfinite(V[:, :2]).all():   # the same grid by two counting sorts
             self.lo2, self.h, self.vorder, self.vkey, self.ny = kernels.grid_sort(V, grow=self.grow)
             self.vf_order, self.vf_start = (kernels.vertex_faces(F, len(V)) if vf is None else vf)
             return
@@ -546,7 +546,7 @@ class NearFaces:
         """Faces that may meet the box ``[lo, hi]`` (absolute coordinates)."""
         lo = np.asarray(lo, np.float64) - self.grow
         hi = np.asarray(hi, np.float64) + self.grow
-        if kernels.ENABLED and self.vf_order.dtype == np.int64:
+        if kernels.ENABLED and self.vf_order.dtype == np.int64 and np.isfinite(lo).all() and np.isfinite(hi).all():
             if getattr(self, "_fmark", None) is None:
                 self._fmark = np.zeros(len(self.F), bool)   # scratch, left all False
             return kernels.faces_in_box(self, lo, hi, self._fmark)
