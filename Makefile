@@ -32,6 +32,8 @@ $(STAMP): pyproject.toml
 	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
 	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"
 	$(PY) -c "from shellrepair.reflectance import warm_up; warm_up()"
+	@echo "compiling the fill's kernels (once; cached beside shellrepair/kernels.py)"
+	$(PY) -c "from shellrepair.kernels import warm_up; warm_up()"
 	touch $(STAMP)
 
 # open3d's wheel needs libusb (and libgomp); install them from Debian if missing.

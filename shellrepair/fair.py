@@ -41,6 +41,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from . import kernels
 from .intrinsic import intrinsic_laplacian
 
 __all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
@@ -49,6 +50,11 @@ __all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "umbrella_smooth"
 COTAN_ROUNDS = 2
 #: Triangles with area below this (in units of the squared mean rim edge) are degenerate.
 DEGENERATE_AREA = 1e-10
+#: Patches with at most this many unknowns (and unknowns × submesh vertices
+#: at most ``SMALL_WORK``) are faired by the compiled dense solve
+#: (:func:`shellrepair.kernels.fair_small`; equal to round-off).
+SMALL_UNKNOWNS = 200
+SMALL_WORK = 200_000
 #: Taubin λ|μ smoothing factors (non-shrinking pass band).
 TAUBIN_LAMBDA = 0.5
 TAUBIN_MU = -0.53
@@ -145,6 +151,12 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     unknown = np.flatnonzero(~pin)
     if unknown.size == 0:
         return X[n_fixed:], uniform_laplacian(F, n)
+    if kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK:
+        from .intrinsic import FLIP_TOL, MAX_ROUNDS
+
+        Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL, MAX_ROUNDS)
+        if ok:
+            return Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
     K = uniform_laplacian(F, n)
     X[unknown] = _solve(_energy(K, None, order), fixed, unknown, X)
     for _ in range(int(rounds)):

@@ -46,10 +46,13 @@ Robust Geometric Predicates", 1997.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
 from .predicates import EPS, TINY, orient2d, orient3d
+from . import kernels
 from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
@@ -522,6 +525,10 @@ class NearFaces:
             self.big = np.flatnonzero(big)
             self.grow = float(np.sqrt(longest[~big].max(initial=0.0)))
             del longest
+        if kernels.ENABLED and len(V) and np.isfinite(V[:, :2]).all():   # the same grid by two counting sorts
+            self.lo2, self.h, self.vorder, self.vkey, self.ny = kernels.grid_sort(V, grow=self.grow)
+            self.vf_order, self.vf_start = (kernels.vertex_faces(F, len(V)) if vf is None else vf)
+            return
         lo = V[:, :2].min(axis=0) if len(V) else np.zeros(2)
         span = float(np.ptp(V[:, :2], axis=0).max()) if len(V) else 0.0
         # columns of about four longest edges, at most ~4096 a side
@@ -539,6 +546,10 @@ class NearFaces:
         """Faces that may meet the box ``[lo, hi]`` (absolute coordinates)."""
         lo = np.asarray(lo, np.float64) - self.grow
         hi = np.asarray(hi, np.float64) + self.grow
+        if kernels.ENABLED and self.vf_order.dtype == np.int64 and np.isfinite(lo).all() and np.isfinite(hi).all():
+            if getattr(self, "_fmark", None) is None:
+                self._fmark = np.zeros(len(self.F), bool)   # scratch, left all False
+            return kernels.faces_in_box(self, lo, hi, self._fmark)
         c0 = np.maximum(np.floor((lo[:2] - self.lo2) / self.h), 0).astype(np.int64)
         c1 = np.floor((hi[:2] - self.lo2) / self.h).astype(np.int64)
         c1[1] = min(c1[1], self.ny - 1)
@@ -608,7 +619,7 @@ def ball_pairs(tree, X, radius):
     lists = tree.query_ball_point(X, radius, return_sorted=False)
     cnt = np.fromiter((len(x) for x in lists), np.int64, len(lists))
     ai = np.repeat(np.arange(len(X)), cnt)
-    bj = np.fromiter((j for x in lists for j in x), np.int64, int(cnt.sum()))
+    bj = np.fromiter(itertools.chain.from_iterable(lists), np.int64, int(cnt.sum()))  # C-level walk
     return ai, bj
 
 
@@ -654,15 +665,28 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
     if len(Pt) == 0 or len(index.F) == 0:
         return none
     Q = Pt - index.origin
-    ai, bi = index.candidate_pairs(*bounding_spheres(Q))
+    if kernels.ENABLED and hasattr(index, "faces_near") and np.isfinite(Q).all():
+        # the near faces' boxes against the patch's (kernels.box_pairs): a
+        # superset of the crossing pairs, as the sphere pairs below are
+        qmin, qmax = Q.min(axis=1), Q.max(axis=1)
+        f = index.faces_near(qmin.min(axis=0) + index.origin, qmax.max(axis=0) + index.origin)
+        Tf = index.V[index.F[f]] - index.origin
+        ai, bj = kernels.box_pairs(qmin, qmax, Tf.min(axis=1), Tf.max(axis=1))
+        keep = ~kernels.separated(Q, Pid, ai, Tf, index.F[f], bj, SIDE_BOUND, TINY)   # plane-separated pairs never cross
+        ai, bj = ai[keep], bj[keep]
+        bi, T = f[bj], Tf[bj]
+    else:
+        ai, bi = index.candidate_pairs(*bounding_spheres(Q))
+        if ai.size == 0:
+            return none
+        T = index.V[index.F[bi]] - index.origin
+        # bounding-box filter before the exact tests
+        amin, amax = Q[ai].min(axis=1), Q[ai].max(axis=1)
+        bmin, bmax = T.min(axis=1), T.max(axis=1)
+        keep = np.all((amin <= bmax) & (bmin <= amax), axis=1)
+        ai, bi, T = ai[keep], bi[keep], T[keep]
     if ai.size == 0:
         return none
-    T = index.V[index.F[bi]] - index.origin
-    # bounding-box filter before the exact tests
-    amin, amax = Q[ai].min(axis=1), Q[ai].max(axis=1)
-    bmin, bmax = T.min(axis=1), T.max(axis=1)
-    keep = np.all((amin <= bmax) & (bmin <= amax), axis=1)
-    ai, bi, T = ai[keep], bi[keep], T[keep]
     hit = np.zeros(len(ai), bool)
     for s in range(0, len(ai), 200_000):
         sl = slice(s, s + 200_000)
@@ -697,6 +721,31 @@ def crossing_pairs(C, ids):
     none = np.zeros((0, 2), np.int64)
     if len(C) < 2:
         return none
+    if kernels.ENABLED and len(C) <= KERNEL_PAIRS_MAX and np.isfinite(C).all():
+        # overlapping boxes (kernels.box_pairs): a superset of the crossing
+        # pairs, as the sphere pairs below are; the exact tests decide
+        i, j = kernels.box_pairs(C.min(axis=1), C.max(axis=1))
+        keep = ~kernels.separated(C, ids, i, C, ids, j, SIDE_BOUND, TINY)   # plane-separated pairs never cross
+        P = np.column_stack([i[keep], j[keep]])
+    else:
+        P = _sphere_box_pairs(C)
+    if len(P) == 0:
+        return none
+    hit = np.zeros(len(P), bool)
+    for s in range(0, len(P), 200_000):
+        a, b = P[s:s + 200_000, 0], P[s:s + 200_000, 1]
+        hit[s:s + 200_000] = pair_intersections(C[a], ids[a], C[b], ids[b])
+    return P[hit]
+
+
+#: Largest triangle set whose candidate pairs :func:`crossing_pairs` finds
+#: with the compiled box grid (the k-d tree above it: whole meshes).
+KERNEL_PAIRS_MAX = 200_000
+
+
+def _sphere_box_pairs(C):
+    """Pairs i < j of C whose bounding spheres meet and boxes overlap."""
+    none = np.zeros((0, 2), np.int64)
     c, r = bounding_spheres(C)
     r_cut = min(float(r.max()), 4 * float(np.median(r)))
     tree = cKDTree(c)
@@ -715,12 +764,7 @@ def crossing_pairs(C, ids):
     near = np.sum((c[i] - c[j]) ** 2, axis=1) <= (r[i] + r[j]) ** 2 * (1 + 1e-9)
     lo, hi = C.min(axis=1), C.max(axis=1)
     near &= np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
-    P = P[near]
-    hit = np.zeros(len(P), bool)
-    for s in range(0, len(P), 200_000):
-        a, b = P[s:s + 200_000, 0], P[s:s + 200_000, 1]
-        hit[s:s + 200_000] = pair_intersections(C[a], ids[a], C[b], ids[b])
-    return P[hit]
+    return P[near]
 
 
 def self_intersections(V, F):

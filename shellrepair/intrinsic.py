@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from . import kernels
 from .refine import _independent_flips
 from .topology import edge_topology, manifold_pairs
 
@@ -99,7 +100,22 @@ def intrinsic_delaunay(X, F, max_rounds=MAX_ROUNDS):
 
 def _flip_to_delaunay(X, F, max_rounds=MAX_ROUNDS):
     """:func:`intrinsic_delaunay`, plus the cotangents and areas of the result
-    (from its last round) when settled, else None."""
+    (from its last round) when settled, else None. Compiled
+    (:func:`shellrepair.kernels.intrinsic_flips`, the same bits) when Numba
+    is there, else :func:`_flip_to_delaunay_numpy`."""
+    if not kernels.ENABLED:
+        return _flip_to_delaunay_numpy(X, F, max_rounds)
+    X = np.asarray(X, np.float64)
+    T = np.array(F, np.int64)
+    P = X[T]
+    L = np.linalg.norm(P[:, [1, 2, 0]] - P, axis=2)
+    settled, cot, A = kernels.intrinsic_flips(T, L, len(X), max_rounds, FLIP_TOL)
+    return T, L, settled, ((cot, A) if settled else None)
+
+
+def _flip_to_delaunay_numpy(X, F, max_rounds=MAX_ROUNDS):
+    """:func:`_flip_to_delaunay` in NumPy: rounds of vectorised flips (the
+    compiled kernel's test oracle)."""
     X = np.asarray(X, np.float64)
     T = np.array(F, np.int64)
     P = X[T]

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import kernels
 from .errors import MeshError
 from .geometry import concat_ranges, cross, uniq
 from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth, thin_plate_energy, uniform_laplacian)
@@ -86,7 +87,9 @@ class _Context:
         self.colors = mesh.vertex_colors
         self.props = {k: v for k, v in mesh.vertex_props.items()
                       if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
-        self.vf_order, self.vf_start = vertex_faces(self.F, self.n)
+        if kernels.ENABLED:
+            kernels.warm_up()   # compiled or loaded before any hole's time budget starts
+        self.vf_order, self.vf_start = (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
         self.planarity = {}  # loop id -> planarity measured by detect_holes
@@ -113,6 +116,13 @@ class _Context:
 
     def ring_faces(self, verts, rings):
         """Faces within ``rings`` rings of ``verts`` (sorted)."""
+        if kernels.ENABLED:
+            F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
+            return kernels.ring_faces(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
+        return self._ring_faces_numpy(verts, rings)
+
+    def _ring_faces_numpy(self, verts, rings):
+        """:meth:`ring_faces` in NumPy (the compiled walk's test oracle)."""
         vm, fm = self._vmark, self._fmark
         front = uniq(verts)
         vm[front] = True
@@ -139,20 +149,41 @@ class _Context:
 
 def _rim_data(ctx, loop):
     """Scale σ per loop vertex, scan normals across loop edges, forbidden chords."""
-    k = len(loop)
-    pos = {int(v): i for i, v in enumerate(loop)}
-    f1 = ctx.faces_of(loop)
-    T = ctx.F[f1]
+    if not kernels.ENABLED:
+        return _rim_data_numpy(ctx, loop)
+    E, ln, nrm = _rim_faces(ctx, loop)
+    sig_sum, sig_cnt, edge_normals, forb = kernels.rim_edges(loop, E, ln, nrm)
+    forbidden = set(zip(forb[:, 0].tolist(), forb[:, 1].tolist()))
+    return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
+
+
+def _rim_faces(ctx, loop):
+    """The sides (3m,2), side lengths and unit normals of the faces at the loop."""
+    T = ctx.F[ctx.faces_of(loop)]
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
     ln = np.linalg.norm(ctx.V[E[:, 0]] - ctx.V[E[:, 1]], axis=1)
+    nrm = np.cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    nl = np.linalg.norm(nrm, axis=1, keepdims=True)
+    nrm = np.divide(nrm, nl, out=np.zeros_like(nrm), where=nl > 0)
+    return E, ln, nrm
+
+
+def _rim_sigma(ctx, loop, sig_sum, sig_cnt):
+    sigma = sig_sum / np.maximum(sig_cnt, 1)
+    loop_len = np.linalg.norm(ctx.V[np.roll(loop, -1)] - ctx.V[loop], axis=1)
+    return np.where(sig_cnt > 0, sigma, loop_len)
+
+
+def _rim_data_numpy(ctx, loop):
+    """:func:`_rim_data` in Python (the compiled walk's test oracle)."""
+    k = len(loop)
+    pos = {int(v): i for i, v in enumerate(loop)}
+    E, ln, nrm = _rim_faces(ctx, loop)
     sig_sum = np.zeros(k)
     sig_cnt = np.zeros(k)
     edge_normals = np.zeros((k, 3))
     forbidden = set()
-    nrm = np.cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-    nl = np.linalg.norm(nrm, axis=1, keepdims=True)
-    nrm = np.divide(nrm, nl, out=np.zeros_like(nrm), where=nl > 0)
-    m = len(T)
+    m = len(nrm)
     for r, ((a, b), L) in enumerate(zip(E.tolist(), ln.tolist())):
         ia, ib = pos.get(a), pos.get(b)
         if ia is not None:
@@ -166,10 +197,7 @@ def _rim_data(ctx, loop):
                 edge_normals[ia] = nrm[r % m]
             elif ia != (ib + 1) % k:
                 forbidden.add((min(ia, ib), max(ia, ib)))
-    sigma = sig_sum / np.maximum(sig_cnt, 1)
-    loop_len = np.linalg.norm(ctx.V[np.roll(loop, -1)] - ctx.V[loop], axis=1)
-    sigma = np.where(sig_cnt > 0, sigma, loop_len)
-    return sigma, edge_normals, forbidden
+    return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
 
 
 def _submesh(ctx, loop, Pl, T, rings):

@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from . import kernels
 from .geometry import cross
 
 __all__ = ["refine_patch", "refine_patches", "relax_edges", "DENSITY_ALPHA"]
@@ -195,6 +196,16 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
 
 
 def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
+    """:func:`_relax_numpy`, its bookkeeping compiled (:func:`shellrepair.kernels.relax`,
+    the same result) when Numba is there."""
+    if kernels.ENABLED:
+        out = kernels.relax(P, T, is_loop, forb, max_rounds, dirty, _angle, _unfolded, FLIP_EPS)
+        if out is not None:   # None: a tie the vectorised writes order; redone below
+            return out
+    return _relax_numpy(P, T, is_loop, forb, max_rounds, dirty)
+
+
+def _relax_numpy(P, T, is_loop, forb, max_rounds=100, dirty=None):
     """Body of :func:`relax_edges` (``forb`` (f,2) forbidden chords).
 
     Returns ``(T, changed, settled)``: the triangles, which of them flips

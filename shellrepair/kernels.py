@@ -1,0 +1,1366 @@
+"""Compiled kernels for the per-hole work (Numba, cached on disk).
+
+Each kernel does what a NumPy (or plain Python) function of the package
+does, with the same floating-point operations in the same order, so its
+result is the same to the bit; that function stays as the test oracle
+(``tests/test_kernels.py`` asserts equality on seeded random and degenerate
+inputs). The kernels exist because the per-hole work is many small steps:
+in NumPy each costs a few microseconds of dispatch whatever its size, and
+loops of rounds (edge flips) pay it hundreds of times a hole.
+
+* :func:`vertex_faces`: vertex-to-face lists by one counting sort
+  (:func:`shellrepair.topology.vertex_faces`);
+* :func:`ring_faces`: the faces within some rings of a vertex set
+  (:meth:`shellrepair.patch._Context.ring_faces`);
+* :func:`grid_sort`, :func:`faces_in_box`: the vertex grid of
+  :class:`shellrepair.intersect.NearFaces` and its box query;
+* :func:`box_pairs`: candidate triangle pairs for the crossing tests
+  (a superset of the crossing pairs, like the bounding-sphere pairs of
+  :mod:`shellrepair.intersect` it replaces, so the tests' results are
+  the same);
+* :func:`separated`: pairs a certified plane test rules out before the
+  exact crossing tests;
+* :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
+  cotangents and areas of the result
+  (:func:`shellrepair.intrinsic._flip_to_delaunay`);
+* :func:`relax`: a patch's Delaunay edge flips
+  (:func:`shellrepair.refine._relax`), the angles still NumPy's;
+* :func:`rim_edges`: a loop's rim scale and scan normals from the faces
+  around it (:func:`shellrepair.patch._rim_data`);
+* :func:`fair_small`: a small patch's whole fairing
+  (:func:`shellrepair.fair.fair_patch`), the solves dense: equal to
+  round-off, not to the bit (the one kernel with a tolerance, stated there).
+
+Compilation is cached (``cache=True``, under ``__pycache__`` beside this
+file); :func:`warm_up` compiles every kernel on tiny inputs, and
+``make setup`` calls it once so no user run waits for the compiler. When
+Numba is missing (``SHELLREPAIR_NO_NUMBA=1`` forces that too), ``ENABLED`` is
+False and callers use the NumPy versions.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+__all__ = ["ENABLED", "vertex_faces", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+
+try:
+    if os.environ.get("SHELLREPAIR_NO_NUMBA"):
+        raise ImportError("disabled by SHELLREPAIR_NO_NUMBA")
+    from numba import njit
+    ENABLED = True
+except ImportError:  # the NumPy versions run instead
+    ENABLED = False
+
+    def njit(*args, **kwargs):
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+
+# --------------------------------------------------------------------------
+# whole mesh: vertex-to-face lists
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _vertex_faces(flat, n):
+    start = np.zeros(n + 1, np.int64)
+    for v in flat:
+        start[v + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    order = np.empty(flat.size, np.int64)
+    for i in range(flat.size):
+        v = flat[i]
+        order[fill[v]] = i
+        fill[v] += 1
+    return order, start
+
+
+def vertex_faces(F, n_vertices):
+    """Vertex-to-face lists (as :func:`shellrepair.topology.vertex_faces`).
+
+    Parameters
+    ----------
+    F : (m,3) int64
+    n_vertices : int
+
+    Returns
+    -------
+    order : (3m,) int64
+        Positions in ``F.ravel()`` grouped by vertex, in order within a
+        vertex; ``order // 3`` are the faces.
+    start : (n+1,) int64
+    """
+    flat = np.ascontiguousarray(np.asarray(F, np.int64).ravel())
+    if flat.size and (flat.min() < 0 or flat.max() >= n_vertices):   # the kernel does not check bounds
+        raise ValueError(f"face indices must lie in [0, {n_vertices}), got {flat.min()}..{flat.max()}")
+    return _vertex_faces(flat, int(n_vertices))
+
+
+@njit(cache=True, nogil=True)
+def _grow(a, size):
+    if size < a.size:
+        return a
+    b = np.empty(2 * a.size + 16, a.dtype)
+    b[:a.size] = a
+    return b
+
+
+@njit(cache=True, nogil=True)
+def _ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
+    marked = np.empty(max(verts.size, 16), np.int64)
+    nm = 0
+    front = np.empty(max(verts.size, 16), np.int64)
+    nfr = 0
+    for v in verts:
+        if not vmark[v]:
+            vmark[v] = True
+            marked = _grow(marked, nm)
+            marked[nm] = v
+            nm += 1
+            front[nfr] = v
+            nfr += 1
+    found = np.empty(64, np.int64)
+    nf = 0
+    for _ in range(max(1, rings)):
+        f0 = nf
+        for i in range(nfr):
+            v = front[i]
+            for p in range(vf_start[v], vf_start[v + 1]):
+                f = vf_order[p] // 3
+                if not fmark[f]:
+                    fmark[f] = True
+                    found = _grow(found, nf)
+                    found[nf] = f
+                    nf += 1
+        nfr = 0
+        for j in range(f0, nf):
+            for c in range(3):
+                w = F[found[j], c]
+                if not vmark[w]:
+                    vmark[w] = True
+                    marked = _grow(marked, nm)
+                    marked[nm] = w
+                    nm += 1
+                    front = _grow(front, nfr)
+                    front[nfr] = w
+                    nfr += 1
+        if nfr == 0:
+            break
+    for i in range(nm):
+        vmark[marked[i]] = False
+    for j in range(nf):
+        fmark[found[j]] = False
+    return np.sort(found[:nf])
+
+
+def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
+    """Faces within ``rings`` rings of ``verts``, sorted (as
+    :meth:`shellrepair.patch._Context.ring_faces`).
+
+    Parameters
+    ----------
+    verts : (k,) int64
+    rings : int
+        At least one ring is taken.
+    vf_order, vf_start : int64 arrays
+        Vertex-to-face lists (:func:`vertex_faces`).
+    F : (m,3) int64
+    vmark : (n,) bool, fmark : (m,) bool
+        Scratch marks, all False; left all False.
+
+    Returns
+    -------
+    faces : (r,) int64
+    """
+    return _ring_faces(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F, vmark, fmark)
+
+
+@njit(cache=True, nogil=True)
+def _faces_in_box(vkey, vorder, V, vf_order, vf_start, big, lo2, h, ny, lo, hi, fmark):
+    c00 = max(np.floor((lo[0] - lo2[0]) / h), 0.0)
+    c01 = max(np.floor((lo[1] - lo2[1]) / h), 0.0)
+    c10 = np.floor((hi[0] - lo2[0]) / h)
+    c11 = min(np.floor((hi[1] - lo2[1]) / h), ny - 1.0)
+    found = np.empty(64, np.int64)
+    nf = 0
+    if not (c10 < c00 or c11 < c01):
+        for row in range(int(c00), int(c10) + 1):
+            a = np.searchsorted(vkey, row * ny + int(c01), side="left")
+            b = np.searchsorted(vkey, row * ny + int(c11), side="right")
+            for p in range(a, b):
+                v = vorder[p]
+                if (lo[0] <= V[v, 0] <= hi[0] and lo[1] <= V[v, 1] <= hi[1]
+                        and lo[2] <= V[v, 2] <= hi[2]):
+                    for q in range(vf_start[v], vf_start[v + 1]):
+                        f = vf_order[q] // 3
+                        if not fmark[f]:
+                            fmark[f] = True
+                            found = _grow(found, nf)
+                            found[nf] = f
+                            nf += 1
+    for f in big:
+        if not fmark[f]:
+            fmark[f] = True
+            found = _grow(found, nf)
+            found[nf] = f
+            nf += 1
+    for j in range(nf):
+        fmark[found[j]] = False
+    return np.sort(found[:nf])
+
+
+def faces_in_box(index, lo, hi, fmark):
+    """:meth:`shellrepair.intersect.NearFaces.faces_near`'s walk, compiled.
+
+    Parameters
+    ----------
+    index : NearFaces
+    lo, hi : (3,) float64
+        The box, already grown by ``index.grow``.
+    fmark : (m,) bool
+        Scratch marks, all False; left all False.
+
+    Returns
+    -------
+    faces : (r,) int64
+        Sorted, distinct: the faces of the vertices in the box, and the big faces.
+    """
+    return _faces_in_box(index.vkey, index.vorder, index.V, index.vf_order, index.vf_start,
+                         np.ascontiguousarray(index.big, np.int64), np.asarray(index.lo2, np.float64),
+                         float(index.h), int(index.ny), np.asarray(lo, np.float64), np.asarray(hi, np.float64), fmark)
+
+
+@njit(cache=True, nogil=True)
+def _xy_bounds(V):
+    lo = np.full(2, np.inf)
+    hi = np.full(2, -np.inf)
+    for v in range(V.shape[0]):
+        for c in range(2):
+            x = V[v, c]
+            if x < lo[c]:
+                lo[c] = x
+            if x > hi[c]:
+                hi[c] = x
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
+def _grid_sort(V, lo, h):
+    n = V.shape[0]
+    ix = np.empty(n, np.int64)
+    iy = np.empty(n, np.int64)
+    nx = 1
+    ny = 1
+    for v in range(n):
+        ix[v] = np.int64(np.floor((V[v, 0] - lo[0]) / h))
+        iy[v] = np.int64(np.floor((V[v, 1] - lo[1]) / h))
+        nx = max(nx, ix[v] + 1)
+        ny = max(ny, iy[v] + 1)
+    # least significant digit first: by row, then (stably) by column
+    tmp = np.empty(n, np.int64)
+    order = np.empty(n, np.int64)
+    count = np.zeros(ny + 1, np.int64)
+    for v in range(n):
+        count[iy[v] + 1] += 1
+    for b in range(ny):
+        count[b + 1] += count[b]
+    for v in range(n):
+        tmp[count[iy[v]]] = v
+        count[iy[v]] += 1
+    count = np.zeros(nx + 1, np.int64)
+    for v in range(n):
+        count[ix[v] + 1] += 1
+    for b in range(nx):
+        count[b + 1] += count[b]
+    for p in range(n):
+        v = tmp[p]
+        order[count[ix[v]]] = v
+        count[ix[v]] += 1
+    key = np.empty(n, np.int64)
+    for p in range(n):
+        v = order[p]
+        key[p] = ix[v] * ny + iy[v]
+    return order, key, ny
+
+
+def grid_sort(V, h=None, grow=0.0):
+    """The vertex grid of :class:`shellrepair.intersect.NearFaces`, by two
+    counting sorts instead of one comparison sort.
+
+    Parameters
+    ----------
+    V : (n,3) float64, n >= 1, x and y finite (else ValueError)
+    grow : float
+        The index's longest ordinary edge: columns are
+        ``h = max(4 grow, span / 4096, 1e-300)`` wide, ``span`` the larger
+        side of V's bounding box in x and y.
+
+    Returns
+    -------
+    lo : (2,) float64
+        Corner of the grid (V's smallest x and y).
+    h : float
+    order : (n,) int64
+        Vertices sorted by column key (within a key, by vertex id).
+    key : (n,) int64
+        Their keys ``i * ny + j``, ascending.
+    ny : int
+    """
+    V = np.asarray(V, np.float64)
+    lo, hi = _xy_bounds(V)
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all() and np.isfinite(V[:, :2]).all()):
+        raise ValueError("grid_sort needs finite x and y")
+    span = float(np.max(hi - lo))
+    h = max(4 * grow, span / 4096, 1e-300)
+    order, key, ny = _grid_sort(V, lo, h)
+    return lo, h, order, key, int(ny)
+
+
+# --------------------------------------------------------------------------
+# candidate pairs for the crossing tests
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _box_pairs(Amin, Amax, Bmin, Bmax, self_pairs):
+    na, nb = Amin.shape[0], Bmin.shape[0]
+    ai = np.empty(0, np.int64)
+    if na == 0 or nb == 0:
+        return ai, ai.copy()
+    lo = np.empty(3)
+    hi = np.empty(3)
+    ext = 0.0
+    for c in range(3):
+        lo[c] = Bmin[0, c]
+        hi[c] = Bmax[0, c]
+    for j in range(nb):
+        e = 0.0
+        for c in range(3):
+            lo[c] = min(lo[c], Bmin[j, c])
+            hi[c] = max(hi[c], Bmax[j, c])
+            e = max(e, Bmax[j, c] - Bmin[j, c])
+        ext += e
+    # a grid over B's boxes: cells about twice B's mean extent, at most 64 a side
+    h = 2.0 * ext / nb
+    dims = np.ones(3, np.int64)
+    cell = np.empty(3)
+    for c in range(3):
+        span = hi[c] - lo[c]
+        k = 1
+        if h > 0 and span > 0:
+            k = min(64, max(1, int(span / h)))
+        dims[c] = k
+        cell[c] = span / k if span > 0 else 1.0
+    ncell = dims[0] * dims[1] * dims[2]
+    rng = np.empty((nb, 6), np.int64)
+    count = np.zeros(ncell + 1, np.int64)
+    for j in range(nb):
+        for c in range(3):
+            i0 = int((Bmin[j, c] - lo[c]) / cell[c])
+            i1 = int((Bmax[j, c] - lo[c]) / cell[c])
+            rng[j, c] = min(max(i0, 0), dims[c] - 1)
+            rng[j, 3 + c] = min(max(i1, 0), dims[c] - 1)
+        for x in range(rng[j, 0], rng[j, 3] + 1):
+            for y in range(rng[j, 1], rng[j, 4] + 1):
+                for z in range(rng[j, 2], rng[j, 5] + 1):
+                    count[(x * dims[1] + y) * dims[2] + z + 1] += 1
+    for q in range(ncell):
+        count[q + 1] += count[q]
+    fill = count[:-1].copy()
+    items = np.empty(count[ncell], np.int64)
+    for j in range(nb):
+        for x in range(rng[j, 0], rng[j, 3] + 1):
+            for y in range(rng[j, 1], rng[j, 4] + 1):
+                for z in range(rng[j, 2], rng[j, 5] + 1):
+                    q = (x * dims[1] + y) * dims[2] + z
+                    items[fill[q]] = j
+                    fill[q] += 1
+    stamp = np.full(nb, -1, np.int64)
+    out_a = np.empty(16, np.int64)
+    out_b = np.empty(16, np.int64)
+    npair = 0
+    r = np.empty(6, np.int64)
+    for i in range(na):
+        skip = False
+        for c in range(3):
+            if Amax[i, c] < lo[c] or Amin[i, c] > hi[c]:
+                skip = True
+        if skip:
+            continue
+        for c in range(3):
+            r[c] = min(max(int((Amin[i, c] - lo[c]) / cell[c]), 0), dims[c] - 1)
+            r[3 + c] = min(max(int((Amax[i, c] - lo[c]) / cell[c]), 0), dims[c] - 1)
+        for x in range(r[0], r[3] + 1):
+            for y in range(r[1], r[4] + 1):
+                for z in range(r[2], r[5] + 1):
+                    q = (x * dims[1] + y) * dims[2] + z
+                    for p in range(count[q], count[q + 1]):
+                        j = items[p]
+                        if stamp[j] == i or (self_pairs and j <= i):
+                            continue
+                        stamp[j] = i
+                        if (Amin[i, 0] <= Bmax[j, 0] and Bmin[j, 0] <= Amax[i, 0]
+                                and Amin[i, 1] <= Bmax[j, 1] and Bmin[j, 1] <= Amax[i, 1]
+                                and Amin[i, 2] <= Bmax[j, 2] and Bmin[j, 2] <= Amax[i, 2]):
+                            out_a = _grow(out_a, npair)
+                            out_b = _grow(out_b, npair)
+                            out_a[npair] = i
+                            out_b[npair] = j
+                            npair += 1
+    return out_a[:npair], out_b[:npair]
+
+
+def box_pairs(Amin, Amax, Bmin=None, Bmax=None):
+    """Pairs (i, j) of boxes of A and of B that overlap (closed, on every axis).
+
+    Parameters
+    ----------
+    Amin, Amax : (a,3) float64
+        Box corners, finite.
+    Bmin, Bmax : (b,3) float64, optional
+        Without them, pairs within A with ``i < j``.
+
+    Returns
+    -------
+    ai, bj : (p,) int64
+        Sorted by ``i``, then in an order fixed by the input.
+
+    Notes
+    -----
+    B's boxes are bucketed in a uniform grid (cells about twice their mean
+    extent, at most 64 a side); each A box is tested against the boxes in
+    the cells it covers. Every overlapping pair is reported once; the
+    crossing tests then decide exactly, so this set replaces any other
+    superset of the crossing pairs (bounding spheres, say) without
+    changing a result.
+    """
+    self_pairs = Bmin is None
+    if self_pairs:
+        Bmin, Bmax = Amin, Amax
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    return _box_pairs(c(Amin), c(Amax), c(Bmin), c(Bmax), self_pairs)
+
+
+@njit(cache=True, nogil=True)
+def _strict_side(T, P, side_bound, tiny):
+    """+1 / -1 when all three points P are certainly on one side of T's
+    plane (intersect._plane_signs' error bound), else 0."""
+    e1x, e1y, e1z = T[1, 0] - T[0, 0], T[1, 1] - T[0, 1], T[1, 2] - T[0, 2]
+    e2x, e2y, e2z = T[2, 0] - T[0, 0], T[2, 1] - T[0, 1], T[2, 2] - T[0, 2]
+    n0, n1, n2 = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    m0 = abs(e1y * e2z) + abs(e1z * e2y)
+    m1 = abs(e1z * e2x) + abs(e1x * e2z)
+    m2 = abs(e1x * e2y) + abs(e1y * e2x)
+    side = 0
+    for i in range(3):
+        w0, w1, w2 = P[i, 0] - T[0, 0], P[i, 1] - T[0, 1], P[i, 2] - T[0, 2]
+        det = n0 * w0 + n1 * w1 + n2 * w2
+        perm = m0 * abs(w0) + m1 * abs(w1) + m2 * abs(w2)
+        if not (abs(det) > side_bound * perm and perm >= tiny and np.isfinite(perm)):
+            return 0
+        s = 1 if det > 0 else -1
+        if i == 0:
+            side = s
+        elif s != side:
+            return 0
+    return side
+
+
+@njit(cache=True, nogil=True)
+def _separated(A, Aid, ai, B, Bid, bj, side_bound, tiny):
+    out = np.zeros(ai.size, np.bool_)
+    for q in range(ai.size):
+        i, j = ai[q], bj[q]
+        common = False
+        for x in range(3):
+            for y in range(3):
+                if Aid[i, x] == Bid[j, y]:
+                    common = True
+        if common:
+            continue
+        if _strict_side(A[i], B[j], side_bound, tiny) != 0 or _strict_side(B[j], A[i], side_bound, tiny) != 0:
+            out[q] = True
+    return out
+
+
+def separated(A, Aid, ai, B, Bid, bj, side_bound, tiny):
+    """Pairs (A[ai], B[bj]) that certainly cannot cross: one triangle's
+    corners all strictly on one side of the other's plane, as the
+    error-bounded plane test of :func:`shellrepair.intersect._plane_signs`
+    certifies it (pairs sharing a vertex id are never claimed). The crossing
+    test answers False for every such pair, so it need not see them.
+
+    Parameters
+    ----------
+    A, B : (a,3,3), (b,3,3) float64
+    Aid, Bid : (a,3), (b,3) int64
+    ai, bj : (p,) int64
+    side_bound, tiny : float
+        The filter's error factor and smallest trusted permanent.
+
+    Returns
+    -------
+    sep : (p,) bool
+    """
+    c = np.ascontiguousarray
+    return _separated(c(A, np.float64), c(Aid, np.int64), c(ai, np.int64), c(B, np.float64), c(Bid, np.int64),
+                      c(bj, np.int64), float(side_bound), float(tiny))
+
+
+# --------------------------------------------------------------------------
+# intrinsic Delaunay flips
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _cot_area(L, cot, A):
+    """:func:`shellrepair.intrinsic._cotangents` into ``cot``, ``A``."""
+    for f in range(L.shape[0]):
+        x, y, z = L[f, 0], L[f, 1], L[f, 2]
+        # sides sorted a >= b >= c (the values, as np.sort gives them)
+        if x < y:
+            x, y = y, x
+        if y < z:
+            y, z = z, y
+        if x < y:
+            x, y = y, x
+        a, b, c = x, y, z
+        q = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c))
+        area = 0.25 * np.sqrt(max(q, 0.0))
+        A[f] = area
+        den = 4.0 * max(area, 1e-300)
+        for i in range(3):
+            lb = L[f, (i + 1) % 3]
+            lc = L[f, (i + 2) % 3]
+            li = L[f, i]
+            cot[f, i] = (lb * lb + lc * lc - li * li) / den
+
+
+@njit(cache=True, nogil=True)
+def _manifold_twins(T, n, twin, start, slot):
+    """Twin half-edges of the edges with exactly two half-edges, else −1
+    (:func:`shellrepair.intrinsic._twins`): half-edges bucketed by their
+    smaller vertex (a counting sort), then paired inside each bucket."""
+    m3 = 3 * T.shape[0]
+    start[:] = 0
+    for f in range(T.shape[0]):
+        for i in range(3):
+            start[min(T[f, i], T[f, (i + 1) % 3]) + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    hi = np.empty(m3, np.int64)         # bucketed: the larger vertex of each half-edge
+    for f in range(T.shape[0]):
+        for i in range(3):
+            a, b = T[f, i], T[f, (i + 1) % 3]
+            v = min(a, b)
+            slot[fill[v]] = 3 * f + i
+            hi[fill[v]] = max(a, b)
+            fill[v] += 1
+    twin[:m3] = -1
+    for v in range(n):
+        s, e = start[v], start[v + 1]
+        for p in range(s, e):
+            w = hi[p]
+            other = -1
+            count = 0
+            for q in range(s, e):
+                if hi[q] == w:
+                    count += 1
+                    if q != p:
+                        other = slot[q]
+            if count == 2:
+                twin[slot[p]] = other
+
+
+@njit(cache=True, nogil=True)
+def _flips(T, L, n, max_rounds, flip_tol):
+    t = T.shape[0]
+    twin = np.empty(3 * t, np.int64)
+    start = np.empty(n + 1, np.int64)
+    slot = np.empty(3 * t, np.int64)
+    cot = np.empty((t, 3))
+    A = np.empty(t)
+    best = np.empty(t)
+    taken = np.zeros(t, np.bool_)
+    seen = np.zeros(t, np.bool_)
+    cand = np.empty(3 * t, np.int64)
+    exc = np.empty(3 * t)
+    for _ in range(max_rounds):
+        _manifold_twins(T, n, twin, start, slot)
+        _cot_area(L, cot, A)
+        # bad edges, each once (its smaller half-edge), in half-edge order
+        nb = 0
+        for h in range(3 * t):
+            h2 = twin[h]
+            if h2 <= h:
+                continue
+            f1, i1 = h // 3, h % 3
+            f2, i2 = h2 // 3, h2 % 3
+            s = cot[f1, i1] + cot[f2, i2]
+            c, d = T[f1, (i1 + 2) % 3], T[f2, (i2 + 2) % 3]
+            if s < -flip_tol and c != d and np.isfinite(s):
+                cand[nb] = h
+                exc[nb] = -s
+                nb += 1
+        if nb == 0:
+            return True, cot, A
+        # refine._independent_flips: each the worst edge of both its faces;
+        # of ties the first keeps a face
+        for j in range(nb):
+            h = cand[j]
+            best[h // 3] = -np.inf
+            best[twin[h] // 3] = -np.inf
+        for j in range(nb):
+            h = cand[j]
+            g1, g2 = h // 3, twin[h] // 3
+            if exc[j] > best[g1]:
+                best[g1] = exc[j]
+            if exc[j] > best[g2]:
+                best[g2] = exc[j]
+        keep = np.zeros(nb, np.bool_)
+        for j in range(nb):
+            h = cand[j]
+            g1, g2 = h // 3, twin[h] // 3
+            if best[g1] == exc[j] and best[g2] == exc[j] and not seen[g1]:
+                seen[g1] = True
+                keep[j] = True
+        for j in range(nb):
+            if keep[j]:
+                taken[cand[j] // 3] = True
+        for j in range(nb):
+            if keep[j]:
+                g1, g2 = cand[j] // 3, twin[cand[j]] // 3
+                if taken[g2] and g2 != g1:
+                    keep[j] = False
+        k = 0
+        for j in range(nb):
+            h = cand[j]
+            seen[h // 3] = False
+            taken[h // 3] = False
+            if keep[j]:
+                cand[k] = h
+                k += 1
+        # every new row from the old triangulation first, then the writes
+        # (f1 rows, then f2 rows), as the vectorised assignment does
+        rows = np.empty((k, 4, 3), np.int64)
+        lens = np.empty((k, 2, 3))
+        for j in range(k):
+            h = cand[j]
+            h2 = twin[h]
+            F1, I1, F2, I2 = h // 3, h % 3, h2 // 3, h2 % 3
+            a, b = T[F1, I1], T[F1, (I1 + 1) % 3]
+            C, D = T[F1, (I1 + 2) % 3], T[F2, (I2 + 2) % 3]
+            lab, lbc, lca = L[F1, I1], L[F1, (I1 + 1) % 3], L[F1, (I1 + 2) % 3]
+            lad, ldb = L[F2, (I2 + 1) % 3], L[F2, (I2 + 2) % 3]
+            # lay (a, b, c) and (b, a, d) flat: a at the origin, b on +x
+            cx = (lab * lab + lca * lca - lbc * lbc) / (2.0 * lab)
+            cy = np.sqrt(max(lca * lca - cx * cx, 0.0))
+            dx = (lab * lab + lad * lad - ldb * ldb) / (2.0 * lab)
+            dy = -np.sqrt(max(lad * lad - dx * dx, 0.0))
+            lcd = np.hypot(cx - dx, cy - dy)
+            rows[j, 0, 0], rows[j, 0, 1], rows[j, 0, 2] = C, a, D
+            rows[j, 1, 0], rows[j, 1, 1], rows[j, 1, 2] = D, b, C
+            rows[j, 2, 0], rows[j, 2, 1] = F1, F2
+            lens[j, 0, 0], lens[j, 0, 1], lens[j, 0, 2] = lca, lad, lcd
+            lens[j, 1, 0], lens[j, 1, 1], lens[j, 1, 2] = ldb, lbc, lcd
+        for j in range(k):
+            F1 = rows[j, 2, 0]
+            for i in range(3):
+                T[F1, i] = rows[j, 0, i]
+                L[F1, i] = lens[j, 0, i]
+        for j in range(k):
+            F2 = rows[j, 2, 1]
+            for i in range(3):
+                T[F2, i] = rows[j, 1, i]
+                L[F2, i] = lens[j, 1, i]
+    return False, cot, A
+
+
+def intrinsic_flips(T, L, n, max_rounds, flip_tol):
+    """Intrinsic Delaunay flips in rounds (as :func:`shellrepair.intrinsic._flip_to_delaunay`).
+
+    Parameters
+    ----------
+    T : (m,3) int64
+        Triangles; flipped in place.
+    L : (m,3) float64
+        ``L[f,i]``: length of side ``T[f,i] -> T[f,(i+1)%3]``; updated in place.
+    n : int
+        Vertex count.
+    max_rounds : int
+    flip_tol : float
+        An edge flips when its opposite cotangents sum below ``-flip_tol``.
+
+    Returns
+    -------
+    settled : bool
+    cot : (m,3) float64, A : (m,) float64
+        Cotangents and areas of the final triangulation (meaningful when settled).
+    """
+    return _flips(T, L, int(n), int(max_rounds), float(flip_tol))
+
+
+# --------------------------------------------------------------------------
+# a loop's rim data
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _rim_edges(k, ia_all, ib_all, ln, nrm):
+    sig_sum = np.zeros(k)
+    sig_cnt = np.zeros(k)
+    edge_normals = np.zeros((k, 3))
+    forb = np.empty((ia_all.size, 2), np.int64)
+    nf = 0
+    m = nrm.shape[0]
+    for r in range(ia_all.size):
+        ia, ib = ia_all[r], ib_all[r]
+        L = ln[r]
+        if ia >= 0:
+            sig_sum[ia] += L
+            sig_cnt[ia] += 1
+        if ib >= 0:
+            sig_sum[ib] += L
+            sig_cnt[ib] += 1
+        if ia >= 0 and ib >= 0:
+            if ib == (ia + 1) % k:
+                for j in range(3):
+                    edge_normals[ia, j] = nrm[r % m, j]
+            elif ia != (ib + 1) % k:
+                forb[nf, 0] = min(ia, ib)
+                forb[nf, 1] = max(ia, ib)
+                nf += 1
+    return sig_sum, sig_cnt, edge_normals, forb[:nf]
+
+
+def rim_edges(loop, E, ln, nrm):
+    """The edge walk of :func:`shellrepair.patch._rim_data`.
+
+    Parameters
+    ----------
+    loop : (k,) int64
+        Loop vertices (a vertex listed twice counts at its last position).
+    E : (3m,2) int64
+        The sides of the m faces around the loop: ``T[:, [0,1]]``, then
+        ``[1,2]``, then ``[2,0]``.
+    ln : (3m,) float64
+        Side lengths.
+    nrm : (m,3) float64
+        Unit face normals.
+
+    Returns
+    -------
+    sig_sum, sig_cnt : (k,) float64
+        Sum and count of scan edge lengths at each loop vertex.
+    edge_normals : (k,3) float64
+        Normal of the scan face across loop edge i (the last seen).
+    forbidden : (f,2) int64
+        Loop-position pairs the scan joins by an edge other than a loop
+        edge, as (smaller, larger), with repeats.
+    """
+    loop = np.asarray(loop, np.int64)
+    k = loop.size
+    # loop position of each side's ends (-1: not on the loop); the last of repeats
+    order = np.argsort(loop, kind="stable")
+    sl = loop[order]
+    p = np.searchsorted(sl, E, side="right") - 1
+    pc = np.maximum(p, 0)
+    where = np.where((p >= 0) & (sl[pc] == E), order[pc], -1)
+    return _rim_edges(k, np.ascontiguousarray(where[:, 0]), np.ascontiguousarray(where[:, 1]),
+                      np.ascontiguousarray(ln, np.float64), np.ascontiguousarray(nrm, np.float64))
+
+
+# --------------------------------------------------------------------------
+# Delaunay relaxation of a patch (refine._relax): the bookkeeping compiled,
+# the angles left to NumPy (its arctan2 is not libm's to the last bit)
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _relax_gather(T, twin, active, n):
+    m = active.size
+    h1 = active.copy()
+    h2 = np.empty(m, np.int64)
+    kab = np.empty(m, np.int64)
+    for j in range(m):
+        h = h1[j]
+        h2[j] = twin[h]
+        a, b = T[h // 3, h % 3], T[h // 3, (h % 3 + 1) % 3]
+        kab[j] = min(a, b) * n + max(a, b)
+    srt = np.argsort(kab, kind="mergesort")       # stable: edge-key order, as a full pass lists them
+    out = np.empty((m, 8), np.int64)              # h1, h2, a, b, c, d, f1, f2
+    for j in range(m):
+        h, g = h1[srt[j]], h2[srt[j]]
+        f1, i1, f2, i2 = h // 3, h % 3, g // 3, g % 3
+        out[j, 0], out[j, 1] = h, g
+        out[j, 2], out[j, 3], out[j, 4] = T[f1, i1], T[f1, (i1 + 1) % 3], T[f1, (i1 + 2) % 3]
+        out[j, 5] = T[f2, (i2 + 2) % 3]
+        out[j, 6], out[j, 7] = f1, f2
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _in_sorted(keys, x):
+    if keys.size == 0:
+        return False
+    p = min(np.searchsorted(keys, x), keys.size - 1)
+    return keys[p] == x
+
+
+@njit(cache=True, nogil=True)
+def _relax_apply(T, twin, changed, is_loop, forb, edge_keys, ck_keys, ck_vals, g, excess, unfolded, flip_eps, n):
+    """One round of refine._relax after its angles: returns (status, active);
+    status 0: flipped, go on; 1: settled; 2: faces shared by two flips of
+    the round (a tie NumPy's vectorised writes resolve by order: the caller
+    redoes the whole relaxation in NumPy). ``ck_keys`` (sorted) and
+    ``ck_vals``: edges flips made (True) or removed (False); returned
+    updated."""
+    m = g.shape[0]
+    nt = T.shape[0]
+    none = np.empty(0, np.int64)
+    geo = np.empty(m, np.int64)
+    ng = 0
+    for j in range(m):
+        if excess[j] > flip_eps and g[j, 4] != g[j, 5]:
+            geo[ng] = j
+            ng += 1
+    if ng == 0:
+        return 1, none, ck_keys, ck_vals
+    cand = np.empty(ng, np.int64)
+    ncd = np.zeros(m, np.int64)
+    nc = 0
+    for q in range(ng):
+        j = geo[q]
+        c, d = g[j, 4], g[j, 5]
+        key = min(c, d) * n + max(c, d)
+        exists = _in_sorted(edge_keys, key)
+        if ck_keys.size:
+            p = min(np.searchsorted(ck_keys, key), ck_keys.size - 1)
+            if ck_keys[p] == key:
+                exists = ck_vals[p]
+        ok = not exists
+        if forb.size and is_loop[c] and is_loop[d] and _in_sorted(forb, key):
+            ok = False
+        if ok and unfolded[j]:
+            cand[nc] = j
+            ncd[j] = key
+            nc += 1
+    if nc == 0:
+        return 1, none, ck_keys, ck_vals
+    # refine._independent_flips
+    best = np.empty(nt)
+    for q in range(nc):
+        j = cand[q]
+        best[g[j, 6]] = -np.inf
+        best[g[j, 7]] = -np.inf
+    for q in range(nc):
+        j = cand[q]
+        best[g[j, 6]] = max(best[g[j, 6]], excess[j])
+        best[g[j, 7]] = max(best[g[j, 7]], excess[j])
+    seen = np.zeros(nt, np.bool_)
+    taken = np.zeros(nt, np.bool_)
+    keep = np.zeros(nc, np.bool_)
+    for q in range(nc):
+        j = cand[q]
+        g1, g2 = g[j, 6], g[j, 7]
+        if best[g1] == excess[j] and best[g2] == excess[j] and not seen[g1]:
+            seen[g1] = True
+            keep[q] = True
+            taken[g1] = True
+    kept = np.empty(nc, np.int64)
+    nk = 0
+    for q in range(nc):
+        j = cand[q]
+        if keep[q] and (not taken[g[j, 7]] or g[j, 7] == g[j, 6]):
+            kept[nk] = j
+            nk += 1
+    if nk == 0:
+        return 1, none, ck_keys, ck_vals
+    # of flips making the same new edge the first; in new-edge order
+    keys = np.empty(nk, np.int64)
+    for q in range(nk):
+        keys[q] = ncd[kept[q]]
+    by = np.argsort(keys, kind="mergesort")
+    flips = np.empty(nk, np.int64)
+    nf = 0
+    for q in range(nk):
+        if q == 0 or keys[by[q]] != keys[by[q - 1]]:
+            flips[nf] = kept[by[q]]
+            nf += 1
+    flips = flips[:nf]
+    if nf == 0:
+        return 1, none, ck_keys, ck_vals
+    used = np.zeros(nt, np.bool_)
+    for q in range(nf):
+        j = flips[q]
+        for f in (g[j, 6], g[j, 7]):
+            if used[f]:
+                return 2, none, ck_keys, ck_vals
+            used[f] = True
+    # flip: f1 = (a,b,c) -> (c,a,d), f2 = (b,a,d) -> (d,b,c); outer half-edges move slots
+    slot_new = np.full(3 * nt, -1, np.int64)
+    old = np.empty((4, nf), np.int64)
+    new = np.empty((4, nf), np.int64)
+    for q in range(nf):
+        j = flips[q]
+        h1, h2 = g[j, 0], g[j, 1]
+        F1, I1, F2, I2 = h1 // 3, h1 % 3, h2 // 3, h2 % 3
+        old[0, q], old[1, q] = 3 * F1 + (I1 + 2) % 3, 3 * F2 + (I2 + 1) % 3
+        old[2, q], old[3, q] = 3 * F2 + (I2 + 2) % 3, 3 * F1 + (I1 + 1) % 3
+        new[0, q], new[1, q], new[2, q], new[3, q] = 3 * F1, 3 * F1 + 1, 3 * F2, 3 * F2 + 1
+    outer = np.empty((4, nf), np.int64)
+    for r in range(4):
+        for q in range(nf):
+            outer[r, q] = twin[old[r, q]]
+            slot_new[old[r, q]] = new[r, q]
+    for q in range(nf):
+        j = flips[q]
+        F1, F2 = g[j, 6], g[j, 7]
+        A, B, C, D = g[j, 2], g[j, 3], g[j, 4], g[j, 5]
+        T[F1, 0], T[F1, 1], T[F1, 2] = C, A, D
+        T[F2, 0], T[F2, 1], T[F2, 2] = D, B, C
+        changed[F1] = True
+        changed[F2] = True
+        twin[3 * F1 + 2] = 3 * F2 + 2
+        twin[3 * F2 + 2] = 3 * F1 + 2
+    for r in range(4):
+        for q in range(nf):
+            o = outer[r, q]
+            if o >= 0:
+                ro = slot_new[o] if slot_new[o] >= 0 else o
+                twin[new[r, q]] = ro
+            else:
+                twin[new[r, q]] = -1
+    for r in range(4):
+        for q in range(nf):
+            o = outer[r, q]
+            if o >= 0:
+                ro = slot_new[o] if slot_new[o] >= 0 else o
+                twin[ro] = new[r, q]
+    # the made edges (True), then the removed ones (False): the last write of a key counts
+    uk = np.empty(2 * nf, np.int64)
+    uv = np.empty(2 * nf, np.bool_)
+    for q in range(nf):
+        j = flips[q]
+        uk[q], uv[q] = ncd[j], True
+        A, B = g[j, 2], g[j, 3]
+        uk[nf + q], uv[nf + q] = min(A, B) * n + max(A, B), False
+    by = np.argsort(uk, kind="mergesort")
+    nk2 = ck_keys.size + 2 * nf
+    mk = np.empty(nk2, np.int64)
+    mv = np.empty(nk2, np.bool_)
+    p, t = 0, 0
+    for q in range(2 * nf):
+        if q + 1 < 2 * nf and uk[by[q + 1]] == uk[by[q]]:
+            continue                       # a later write of the same key follows
+        key, val = uk[by[q]], uv[by[q]]
+        while p < ck_keys.size and ck_keys[p] < key:
+            mk[t], mv[t] = ck_keys[p], ck_vals[p]
+            p += 1
+            t += 1
+        if p < ck_keys.size and ck_keys[p] == key:
+            p += 1
+        mk[t], mv[t] = key, val
+        t += 1
+    while p < ck_keys.size:
+        mk[t], mv[t] = ck_keys[p], ck_vals[p]
+        p += 1
+        t += 1
+    ck_keys, ck_vals = mk[:t], mv[:t]
+    # next round: the edges of the changed faces and the unflipped candidates
+    flipped = np.zeros(m, np.bool_)
+    for q in range(nf):
+        flipped[flips[q]] = True
+    nxt = np.empty(ng + 6 * nf, np.int64)
+    k = 0
+    for q in range(ng):
+        j = geo[q]
+        if flipped[j]:
+            continue
+        h = g[j, 0]
+        if used[h // 3]:
+            continue
+        nxt[k] = min(h, twin[h])
+        k += 1
+    for q in range(nf):
+        j = flips[q]
+        for f in (g[j, 6], g[j, 7]):
+            for i in range(3):
+                h = 3 * f + i
+                if twin[h] >= 0:
+                    nxt[k] = min(h, twin[h])
+                    k += 1
+    return 0, np.unique(nxt[:k]), ck_keys, ck_vals
+
+
+def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
+    """:func:`shellrepair.refine._relax` with its bookkeeping compiled.
+
+    The same rounds, choices and results; the opposite angles and the fold
+    test stay NumPy's own (``angle``, ``unfolded``: refine's functions),
+    so every decision sees the same numbers.
+
+    Returns
+    -------
+    T, changed, settled : as ``_relax``; or None when two flips of a round
+        share a face (a tie between equal excesses), for the caller to
+        redo in NumPy.
+    """
+    n = len(P)
+    nt = len(T)
+    changed = np.zeros(nt, bool)
+    if nt < 2:
+        return T, changed, True
+    T = np.array(T, np.int64)
+    forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
+    src = T.ravel()
+    dst = T[:, [1, 2, 0]].ravel()
+    key = np.minimum(src, dst) * n + np.maximum(src, dst)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    pair = np.flatnonzero(ks[1:] == ks[:-1])
+    twin = np.full(3 * nt, -1, np.int64)
+    twin[order[pair]] = order[pair + 1]
+    twin[order[pair + 1]] = order[pair]
+    active = order[pair]
+    if dirty is not None:
+        active = active[dirty[active // 3] | dirty[twin[active] // 3]]
+    ck_keys, ck_vals = np.zeros(0, np.int64), np.zeros(0, np.bool_)
+    is_loop = np.ascontiguousarray(is_loop, np.bool_)
+    settled = False
+    for _ in range(max_rounds):
+        if active.size == 0:
+            settled = True
+            break
+        g = _relax_gather(T, twin, np.ascontiguousarray(active, np.int64), n)
+        pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
+        excess = angle(pa - pc, pb - pc) + angle(pa - pd, pb - pd) - np.pi
+        unf = np.ascontiguousarray(unfolded(pa, pb, pc, pd), np.bool_)
+        status, active, ck_keys, ck_vals = _relax_apply(T, twin, changed, is_loop, forb, ks, ck_keys, ck_vals, g,
+                                                        np.ascontiguousarray(excess), unf, float(flip_eps), n)
+        if status == 2:
+            return None
+        if status == 1:
+            settled = True
+            break
+    return T, changed, settled
+
+
+# --------------------------------------------------------------------------
+# fairing of a small patch (dense normal equations)
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _laplacian_rows(T, W, n, binary):
+    """K = D − A as CSR rows (diagonal included, unsorted columns).
+
+    ``binary``: A is the 0/1 adjacency of the edges of ``T`` (the uniform
+    Laplacian of :func:`shellrepair.fair.uniform_laplacian`); else
+    ``A_ij`` sums ``W[f,s]`` over the sides s of T joining i and j (the
+    cotangent Laplacian of :func:`shellrepair.intrinsic.intrinsic_laplacian`
+    with W = ½ cot)."""
+    m = T.shape[0]
+    cnt = np.ones(n + 1, np.int64)      # the diagonal, plus two entries a side
+    cnt[n] = 0
+    for f in range(m):
+        for s in range(3):
+            cnt[T[f, s]] += 1
+            cnt[T[f, (s + 1) % 3]] += 1
+    ptr = np.zeros(n + 1, np.int64)
+    for v in range(n):
+        ptr[v + 1] = ptr[v] + cnt[v]
+    col = np.empty(ptr[n], np.int64)
+    val = np.zeros(ptr[n])
+    fill = ptr[:-1].copy()
+    where = np.full(n, -1, np.int64)    # column -> slot in the row being built
+    # rows built one vertex at a time from its half-edges: bucket them first
+    hs = np.zeros(n + 1, np.int64)
+    for f in range(m):
+        for s in range(3):
+            hs[T[f, s] + 1] += 1
+            hs[T[f, (s + 1) % 3] + 1] += 1
+    for v in range(n):
+        hs[v + 1] += hs[v]
+    hf = hs[:-1].copy()
+    other = np.empty(hs[n], np.int64)
+    wt = np.empty(hs[n])
+    for f in range(m):
+        for s in range(3):
+            a, b = T[f, s], T[f, (s + 1) % 3]
+            w = 1.0 if binary else W[f, s]
+            other[hf[a]] = b
+            wt[hf[a]] = w
+            hf[a] += 1
+            other[hf[b]] = a
+            wt[hf[b]] = w
+            hf[b] += 1
+    for v in range(n):
+        d = fill[v]
+        col[d] = v
+        fill[v] += 1
+        diag = 0.0
+        for p in range(hs[v], hs[v + 1]):
+            j = other[p]
+            if j == v:
+                continue
+            q = where[j]
+            if q < 0:
+                q = fill[v]
+                fill[v] += 1
+                col[q] = j
+                where[j] = q
+                val[q] = -wt[p] if not binary else -1.0
+            elif not binary:
+                val[q] -= wt[p]
+        for q in range(d + 1, fill[v]):
+            diag -= val[q]
+            where[col[q]] = -1
+        val[d] = diag
+        ptr_end = fill[v]
+        for q in range(ptr_end, ptr[v + 1]):
+            col[q] = v                  # unused slots: zeros on the diagonal
+            val[q] = 0.0
+    return ptr, col, val
+
+
+@njit(cache=True, nogil=True)
+def _matvec(ptr, col, val, x):
+    y = np.zeros_like(x)
+    for v in range(ptr.size - 1):
+        for q in range(ptr[v], ptr[v + 1]):
+            for c in range(x.shape[1]):
+                y[v, c] += val[q] * x[col[q], c]
+    return y
+
+
+@njit(cache=True, nogil=True)
+def _cholesky_solve(Q, B):
+    """Solve Q x = B (Q symmetric positive definite) by Cholesky; ok False
+    when a pivot is not positive."""
+    n = Q.shape[0]
+    Lc = np.zeros((n, n))
+    for j in range(n):
+        s = Q[j, j]
+        for k in range(j):
+            s -= Lc[j, k] * Lc[j, k]
+        if not s > 0.0:
+            return B, False
+        d = np.sqrt(s)
+        Lc[j, j] = d
+        for i in range(j + 1, n):
+            s = Q[i, j]
+            for k in range(j):
+                s -= Lc[i, k] * Lc[j, k]
+            Lc[i, j] = s / d
+    X = B.copy()
+    for c in range(B.shape[1]):
+        for i in range(n):
+            s = X[i, c]
+            for k in range(i):
+                s -= Lc[i, k] * X[k, c]
+            X[i, c] = s / Lc[i, i]
+        for i in range(n - 1, -1, -1):
+            s = X[i, c]
+            for k in range(i + 1, n):
+                s -= Lc[k, i] * X[k, c]
+            X[i, c] = s / Lc[i, i]
+    return X, True
+
+
+@njit(cache=True, nogil=True)
+def _fair_round(ptr, col, val, D, order, X, fixed, unk_pos, unk):
+    """Minimise xᵀQx, Q = K (D K)^(order−1), over the unknown rows of X."""
+    n = X.shape[0]
+    nu = unk.size
+    Xf = X.copy()
+    for i in range(nu):
+        Xf[unk[i]] = 0.0
+    y = _matvec(ptr, col, val, Xf)
+    for _ in range(order - 1):
+        for v in range(n):
+            y[v] *= D[v]
+        y = _matvec(ptr, col, val, y)
+    B = np.empty((nu, 3))
+    for i in range(nu):
+        B[i] = -y[unk[i]]
+    # Q restricted to the unknowns: G = K[:, u] (n x nu), then (order − 1)
+    # times G <- K D G, and Quu = K[u, :] D G (order 1: Quu = G[u])
+    G = np.zeros((n, nu))
+    for v in range(n):
+        for q in range(ptr[v], ptr[v + 1]):
+            p = unk_pos[col[q]]
+            if p >= 0:
+                G[v, p] += val[q]
+    for _ in range(order - 2):
+        H = np.zeros((n, nu))
+        for v in range(n):
+            for q in range(ptr[v], ptr[v + 1]):
+                w = val[q] * D[col[q]]
+                j = col[q]
+                for p in range(nu):
+                    H[v, p] += w * G[j, p]
+        G = H
+    Q = np.zeros((nu, nu))
+    if order == 1:
+        for i in range(nu):
+            Q[i] = G[unk[i]]
+    else:
+        for v in range(n):
+            for q in range(ptr[v], ptr[v + 1]):
+                j = col[q]                    # K[v, j] = K[j, v]: row j of K[u, :]
+                p = unk_pos[j]
+                if p >= 0:
+                    w = val[q] * D[v]
+                    for r in range(nu):
+                        Q[p, r] += w * G[v, r]
+    for i in range(nu):                       # symmetric in exact arithmetic
+        for j in range(i):
+            a = 0.5 * (Q[i, j] + Q[j, i])
+            Q[i, j] = a
+            Q[j, i] = a
+    return _cholesky_solve(Q, B)
+
+
+@njit(cache=True, nogil=True)
+def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds):
+    n = X.shape[0]
+    m = F.shape[0]
+    unk_pos = np.full(n, -1, np.int64)
+    nu = 0
+    for v in range(n):
+        if not fixed[v]:
+            unk_pos[v] = nu
+            nu += 1
+    unk = np.empty(nu, np.int64)
+    for v in range(n):
+        if unk_pos[v] >= 0:
+            unk[unk_pos[v]] = v
+    X = X.copy()
+    ones = np.ones(n)
+    ptr, col, val = _laplacian_rows(F, np.zeros((0, 3)), n, True)
+    Xu, ok = _fair_round(ptr, col, val, ones, order, X, fixed, unk_pos, unk)
+    if not ok:
+        return X, False, ptr, col, val
+    for i in range(nu):
+        X[unk[i]] = Xu[i]
+    for _ in range(rounds):
+        finite = True
+        amin = np.inf
+        for v in range(n):
+            for c in range(3):
+                if not np.isfinite(X[v, c]):
+                    finite = False
+        for f in range(m):
+            a, b, c = F[f, 0], F[f, 1], F[f, 2]
+            ux, uy, uz = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
+            vx, vy, vz = X[c, 0] - X[a, 0], X[c, 1] - X[a, 1], X[c, 2] - X[a, 2]
+            cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            ar = 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
+            if ar < amin:
+                amin = ar
+        if not finite or not amin > degenerate_area:
+            break
+        T = F.copy()
+        L = np.empty((m, 3))
+        for f in range(m):
+            for s in range(3):
+                a, b = T[f, s], T[f, (s + 1) % 3]
+                dx, dy, dz = X[b, 0] - X[a, 0], X[b, 1] - X[a, 1], X[b, 2] - X[a, 2]
+                L[f, s] = np.sqrt(dx * dx + dy * dy + dz * dz)
+        settled, cot, A = _flips(T, L, n, flip_rounds, flip_tol)
+        if not settled:
+            _cot_area(L, cot, A)
+        W = 0.5 * cot
+        M = np.zeros(n)
+        for f in range(m):
+            for s in range(3):
+                M[T[f, s]] += A[f] / 3.0
+        ptr2, col2, val2 = _laplacian_rows(T, W, n, False)
+        if not (np.isfinite(val2).all() and np.isfinite(M).all()):
+            break
+        floor = degenerate_area + 1e-3 * np.median(M)
+        D = 1.0 / np.maximum(M, floor)
+        Xn, ok = _fair_round(ptr2, col2, val2, D, order, X, fixed, unk_pos, unk)
+        if not ok or not np.isfinite(Xn).all():
+            break
+        for i in range(nu):
+            X[unk[i]] = Xn[i]
+        ptr, col, val = ptr2, col2, val2
+    return X, True, ptr, col, val
+
+
+def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds):
+    """:func:`shellrepair.fair.fair_patch` for a small patch, compiled.
+
+    The same rounds (a uniform-weight solve, then cotangent rounds on the
+    intrinsic Delaunay triangulation, the same stopping tests), with the
+    normal equations of the unknowns assembled dense and solved by a
+    Cholesky factorisation instead of libigl's sparse one: equal to
+    ``fair_patch`` to round-off (tests/test_kernels.py bounds the
+    difference), for patches of up to a few hundred unknowns.
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+    fixed : (n,) bool
+        Rows held (the scan's, and pinned new vertices).
+    order : {1, 2, 3}
+    rounds : int
+    degenerate_area, flip_tol : float
+    flip_rounds : int
+        As in :mod:`shellrepair.fair` and :mod:`shellrepair.intrinsic`.
+
+    Returns
+    -------
+    X2 : (n,3) float64
+    ok : bool
+        False when the first solve's matrix is not positive definite
+        (then use the sparse path).
+    ptr, col, val : CSR arrays
+        The order-1 operator of the last round used (``fair_patch``'s K;
+        unused slots hold zeros on the diagonal).
+    """
+    return _fair_small(np.ascontiguousarray(X, np.float64), np.ascontiguousarray(F, np.int64),
+                       np.ascontiguousarray(fixed, np.bool_), int(order), int(rounds), float(degenerate_area),
+                       float(flip_tol), int(flip_rounds))
+
+
+# --------------------------------------------------------------------------
+_WARM = False
+
+
+def warm_up():
+    """Compile (or load from the on-disk cache) every kernel on tiny inputs.
+
+    Called by ``make setup`` (the compile, once per machine) and before a
+    repair's first hole (loading from the cache, a fraction of a second per
+    process; once compiled, never again), so no hole's time budget pays
+    for it. Returns whether the kernels are in use.
+    """
+    global _WARM
+    if not ENABLED:
+        return False
+    if _WARM:
+        return True
+    T = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
+    order, start = vertex_faces(T, 4)
+    ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
+    L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
+    intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
+    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    rim_edges(np.array([0, 1, 3, 2], np.int64), E, np.ones(len(E)), np.zeros((2, 3)))
+    box_pairs(np.zeros((2, 3)), np.ones((2, 3)))
+    P = np.array([[0.0, 0, 0], [1, 2, 3], [0, 1, 0], [1, 1, 1]])
+    lo2, h, vorder, vkey, ny = grid_sort(P, grow=0.5)
+    _faces_in_box(vkey, vorder, P, order, start, np.zeros(0, np.int64), lo2, h, ny, np.zeros(3), np.ones(3),
+                  np.zeros(2, np.bool_))
+    box_pairs(np.zeros((2, 3)), np.ones((2, 3)), np.zeros((1, 3)), np.ones((1, 3)))
+    Tr = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
+    separated(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 1.0, np.array([[3, 4, 5]]),
+              np.zeros(1, np.int64), 1e-15, 1e-280)
+    X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
+    from .refine import FLIP_EPS, _angle, _unfolded   # (refine imports this module)
+
+    relax(X * [1.0, 1.0, 0.0] + [[0, 0, 0], [0, 0, 0], [0, 0, 0], [-0.6, -0.6, 0]], T, np.ones(4, np.bool_),
+          np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
+    for order in (1, 2, 3):
+        fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
+    _WARM = True
+    return True

@@ -1,0 +1,317 @@
+"""The compiled kernels give the NumPy versions' results to the bit.
+
+Each kernel in :mod:`shellrepair.kernels` replaces a NumPy or Python
+function that stays in the package as its oracle; these tests run both on
+seeded random, slivered and degenerate inputs and compare with
+``np.array_equal`` (no tolerance)."""
+
+import numpy as np
+import pytest
+
+from shellrepair import intrinsic, kernels, shapes, topology
+from shellrepair.io import Mesh
+from shellrepair.patch import _Context, _rim_data, _rim_data_numpy
+
+pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
+
+
+def _slivered(k, seed):
+    """A jittered grid whose every third interior edge is split at 2 %."""
+    from test_intrinsic import _slivered_grid
+
+    return _slivered_grid(k, seed)
+
+
+def _same_flips(X, F, max_rounds=intrinsic.MAX_ROUNDS):
+    a = intrinsic._flip_to_delaunay_numpy(X, F, max_rounds)
+    b = intrinsic._flip_to_delaunay(X, F, max_rounds)
+    assert a[2] == b[2]
+    assert np.array_equal(a[0], b[0])
+    assert np.array_equal(a[1], b[1])
+    assert (a[3] is None) == (b[3] is None)
+    if a[3] is not None:
+        assert np.array_equal(a[3][0], b[3][0]) and np.array_equal(a[3][1], b[3][1])
+    return a
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_intrinsic_flips_equal_the_numpy_rounds_on_slivered_grids(seed):
+    T, _, settled, _ = _same_flips(*_slivered(9, seed))
+    assert settled
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_intrinsic_flips_equal_the_numpy_rounds_on_noisy_closed_and_open_meshes(seed):
+    rng = np.random.default_rng(seed)
+    V, F = shapes.icosphere(2)
+    _same_flips(V + rng.normal(scale=0.08, size=V.shape), F)
+    V, F = shapes.grid(9, 7)
+    T = _same_flips(V + rng.normal(scale=0.06, size=V.shape) * [1, 1, 0.3], F)[0]
+    assert not np.array_equal(T, F)  # the noise made it flip
+
+
+def test_intrinsic_flips_equal_when_rounds_run_out_and_on_degenerate_input():
+    V, F = _slivered(9, 3)
+    for rounds in (0, 1, 2, 3):
+        assert _same_flips(V, F, rounds)[2] is False or rounds > 0
+    # zero-area triangles (collinear corners and a repeated position), and no faces
+    W = V.copy()
+    W[F[5, 2]] = 0.5 * (W[F[5, 0]] + W[F[5, 1]])
+    W[F[20, 1]] = W[F[20, 0]]
+    _same_flips(W, F)
+    _same_flips(V, F[:0])
+
+
+def test_intrinsic_flips_equal_on_a_mesh_with_a_nonmanifold_edge():
+    V, F = shapes.grid(6, 6)
+    rng = np.random.default_rng(1)
+    V = V + rng.normal(scale=0.05, size=V.shape) * [1, 1, 0]
+    a, b = F[10, 0], F[10, 1]                       # a third face on one interior edge
+    V = np.vstack([V, [V[a] + V[b]] * np.array([[0.5, 0.5, 0.0]]) + [0, 0, 0.3]])
+    F = np.vstack([F, [[a, b, len(V) - 1]]])
+    _same_flips(V, F)
+
+
+@pytest.mark.parametrize("sub", [2, 3])
+def test_vertex_faces_equal_the_sparse_counting_sort(sub):
+    V, F = shapes.icosphere(sub)
+    rng = np.random.default_rng(sub)
+    F = F[rng.permutation(len(F))]
+    for n in (len(V), len(V) + 5):  # with unused vertices at the end
+        o1, s1 = topology.vertex_faces(F, n)
+        o2, s2 = kernels.vertex_faces(F, n)
+        assert o2.dtype == np.int64 and s2.dtype == np.int64
+        assert np.array_equal(o1, o2) and np.array_equal(s1, s2)
+
+
+def test_rim_data_equals_the_python_walk():
+    V, F = shapes.bumpy_sphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.3, seed=4)
+    from shellrepair.holes import detect_holes
+
+    ctx = _Context(Mesh(V=V2, F=F2))
+    loops = [h.vertices for h in detect_holes(V2, F2).holes]
+    assert len(loops) == 3
+    # a loop through a vertex twice (a pinch): the last position counts in both
+    loops.append(np.concatenate([loops[0][:5], loops[0][2:3], loops[0][5:]]))
+    for loop in loops:
+        s1, n1, f1 = _rim_data_numpy(ctx, np.asarray(loop, np.int64))
+        s2, n2, f2 = _rim_data(ctx, np.asarray(loop, np.int64))
+        assert np.array_equal(s1, s2) and np.array_equal(n1, n2) and f1 == f2
+
+
+def test_warm_up_compiles_every_kernel():
+    assert kernels.warm_up() is True
+
+
+@pytest.mark.parametrize("rings", [1, 2, 3, 6])
+def test_ring_faces_equal_the_numpy_walk_and_leave_the_marks_clear(rings):
+    V, F = shapes.torus(1.0, 0.35, 40, 16)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=1)
+    ctx = _Context(Mesh(V=V2, F=F2))
+    rng = np.random.default_rng(rings)
+    for verts in (rng.integers(0, len(V2), 5), np.array([3, 3, 7]), np.zeros(0, np.int64)):
+        a = ctx._ring_faces_numpy(verts, rings)
+        b = ctx.ring_faces(verts, rings)
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+        assert not ctx._vmark.any() and not ctx._fmark.any()
+    # rings past the whole component: every face of it, then the walk stops
+    assert np.array_equal(ctx.ring_faces(np.array([0]), 500), ctx._ring_faces_numpy(np.array([0]), 500))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_box_pairs_are_exactly_the_overlapping_boxes(seed):
+    rng = np.random.default_rng(seed)
+    A = rng.random((300, 3))
+    Amax = A + rng.random((300, 3)) * [0.05, 0.1, 0.02]
+    B = rng.random((700, 3)) * 1.2 - 0.1
+    Bmax = B + rng.random((700, 3)) * 0.04
+    B[:3] = -0.5
+    Bmax[:3] = 1.5                                   # a few boxes spanning everything
+    ai, bj = kernels.box_pairs(A, Amax, B, Bmax)
+    M = np.all((A[:, None] <= Bmax[None]) & (B[None] <= Amax[:, None]), axis=2)
+    assert sorted(zip(ai.tolist(), bj.tolist())) == sorted(zip(*map(np.ndarray.tolist, np.nonzero(M))))
+    i, j = kernels.box_pairs(A, Amax)
+    S = np.triu(np.all((A[:, None] <= Amax[None]) & (A[None] <= Amax[:, None]), axis=2), 1)
+    assert sorted(zip(i.tolist(), j.tolist())) == sorted(zip(*map(np.ndarray.tolist, np.nonzero(S))))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_crossing_tests_give_the_same_answers_with_the_box_candidates(seed, monkeypatch):
+    """A crumpled patch over a scan: the crossing count, faces and pairs
+    (against the scan) and the self-crossing pairs are those of the
+    bounding-sphere candidates."""
+    from shellrepair.intersect import NearFaces, crossing_pairs, patch_vs_index
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.05, seed=seed)
+    rng = np.random.default_rng(seed)
+    P = rng.normal(size=(60, 3)) * 0.3 + [0.0, 0.0, 0.9]
+    T = np.array([rng.choice(60, 3, replace=False) for _ in range(80)])
+    Pt, ids = P[T], -1 - T
+    Pt[:5] = V[F[:5]]                              # five coincide with scan faces
+    ids[:5] = F[:5]
+    index = NearFaces(V, F, origin=V.mean(axis=0))
+    out = {}
+    for on in (True, False):
+        monkeypatch.setattr(kernels, "ENABLED", on)
+        pairs = patch_vs_index(Pt, ids, index, return_pairs=True)
+        self_pairs = crossing_pairs(Pt - index.origin, ids)
+        out[on] = (patch_vs_index(Pt, ids, index), patch_vs_index(Pt, ids, index, return_faces=True),
+                   sorted(map(tuple, pairs.tolist())), sorted(map(tuple, self_pairs.tolist())))
+    assert out[True][0] > 0 and len(out[True][3]) > 0
+    assert out[True][0] == out[False][0]
+    assert np.array_equal(out[True][1], out[False][1])
+    assert out[True][2] == out[False][2] and out[True][3] == out[False][3]
+
+
+def test_faces_near_equals_the_numpy_walk(monkeypatch):
+    from shellrepair.intersect import NearFaces
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.05)
+    F = np.vstack([F, [[0, 100, 200]]])            # one long face: in every answer ("big")
+    index = NearFaces(V, F, origin=V.mean(axis=0))
+    assert index.big.size
+    rng = np.random.default_rng(0)
+    boxes = [(c - w, c + w) for c, w in zip(rng.normal(size=(20, 3)) * 0.7, rng.random((20, 1)) * 0.3)]
+    boxes += [(np.full(3, 5.0), np.full(3, 6.0)), (np.full(3, -2.0), np.full(3, 2.0))]
+    for lo, hi in boxes:
+        monkeypatch.setattr(kernels, "ENABLED", False)
+        a = index.faces_near(lo, hi)
+        monkeypatch.setattr(kernels, "ENABLED", True)
+        b = index.faces_near(lo, hi)
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+        assert not index._fmark.any()
+
+
+def test_the_vertex_grid_has_the_same_keys_and_cells(monkeypatch):
+    from shellrepair.intersect import NearFaces
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.05)
+    V = V * [3.0, 1.0, 1.0] + 1e6                  # far from the origin, not square
+    idx = {}
+    for on in (False, True):
+        monkeypatch.setattr(kernels, "ENABLED", on)
+        idx[on] = NearFaces(V, F, origin=V.mean(axis=0))
+    a, b = idx[False], idx[True]
+    assert np.array_equal(a.lo2, b.lo2) and a.h == b.h and a.ny == b.ny
+    assert np.array_equal(a.vkey, b.vkey)           # order within a cell is free
+    assert np.array_equal(np.sort(a.vorder), np.arange(len(V)))
+    assert np.array_equal(a.vkey[np.argsort(a.vorder)], b.vkey[np.argsort(b.vorder)])
+
+
+#: The compiled dense fairing (kernels.fair_small) against libigl's sparse
+#: solve: positions in units of the mean edge.
+FAIR_TOLERANCE = 1e-9
+
+
+def _submesh_with_free_middle(k, seed, jitter=0.15):
+    """A jittered, bumpy k x k grid; the vertices two rings from its border
+    and beyond are free; returned with the fixed vertices first."""
+    V, F = shapes.grid(k, k)
+    rng = np.random.default_rng(seed)
+    V = V + rng.normal(scale=jitter / k, size=V.shape) * [1, 1, 0]
+    V[:, 2] = 0.1 * np.sin(5 * V[:, 0]) * np.cos(4 * V[:, 1])
+    ij = np.rint(V[:, :2] * (k - 1) / V[:, :2].max(axis=0))
+    fixed = np.any((ij < 3) | (ij > k - 4), axis=1)
+    order = np.concatenate([np.flatnonzero(fixed), np.flatnonzero(~fixed)])
+    inv = np.empty_like(order)
+    inv[order] = np.arange(len(order))
+    X = V[order] / np.mean(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1))
+    X[fixed.sum():] += rng.normal(scale=0.3, size=(len(X) - fixed.sum(), 3))   # an initial guess off the surface
+    return X, inv[F], int(fixed.sum())
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+@pytest.mark.parametrize("seed", range(3))
+def test_the_dense_fairing_equals_the_sparse_solve_to_round_off(order, seed, monkeypatch):
+    from shellrepair import fair
+
+    X, F, nf = _submesh_with_free_middle(10 + 2 * seed, seed)
+    assert 0 < len(X) - nf <= fair.SMALL_UNKNOWNS
+    pinned = np.array([0, 3]) if seed == 2 else None
+    monkeypatch.setattr(kernels, "ENABLED", False)
+    ref, Kref = fair.fair_patch(X, F, nf, order=order, pinned=pinned)
+    monkeypatch.setattr(kernels, "ENABLED", True)
+    got, K = fair.fair_patch(X, F, nf, order=order, pinned=pinned)
+    assert np.abs(got - ref).max() <= FAIR_TOLERANCE
+    assert abs(K - Kref).max() <= FAIR_TOLERANCE * abs(Kref).max()
+    assert np.abs(got - X[nf:]).max() > 0.01        # it did move the free vertices
+    if pinned is not None:
+        assert np.array_equal(got[pinned], X[nf:][pinned])
+
+
+def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypatch):
+    """Same faces and flags, original vertices bit-identical, new vertices
+    within FAIR_TOLERANCE mean edges (the dense fairing is the one kernel
+    that is not bit-exact)."""
+    from shellrepair.repair import repair_mesh
+
+    V, F = shapes.bumpy_sphere(4, amplitude=0.02, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=8, radius=0.12, seed=3)
+    out = {}
+    for on in (False, True):
+        monkeypatch.setattr(kernels, "ENABLED", on)
+        out[on] = repair_mesh(Mesh(V=V2, F=F2))
+    (a, ra), (b, rb) = out[False], out[True]
+    assert ra["holes_after"] == rb["holes_after"] == 0
+    assert np.array_equal(a.F, b.F) and np.array_equal(a.face_filled, b.face_filled)
+    assert np.array_equal(a.V[:len(V2)], b.V[:len(V2)]) and np.array_equal(b.V[:len(V2)], V2)
+    edge = np.linalg.norm(V2[F2[:, 0]] - V2[F2[:, 1]], axis=1).mean()
+    assert len(a.V) > len(V2) and np.abs(a.V - b.V).max() <= FAIR_TOLERANCE * edge
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
+    """Delaunay flips of a patch (refine._relax): the same triangles, the
+    same changed faces, the same verdict, with forbidden chords, dirty
+    faces, a round cap and the symmetric ties of a regular fan."""
+    from shellrepair import refine, triangulate
+
+    rng = np.random.default_rng(seed)
+    k = 24 + 4 * seed
+    t = np.sort(rng.uniform(0, 2 * np.pi, k))
+    P = np.column_stack([np.cos(t) * (1 + 0.3 * seed), np.sin(t), 0.2 * np.sin(3 * t)])
+    if seed == 5:                                  # a regular polygon: exact ties in the angles
+        t = np.linspace(0, 2 * np.pi, k, endpoint=False)
+        P = np.column_stack([np.cos(t), np.sin(t), np.zeros(k)])
+    T = triangulate.triangulate_loop(P)
+    P2, T2 = refine.refine_patch(P, T, np.full(k, 0.15), k)
+    T2 = T2.copy()
+    T2[:, [1, 2]] = T2[:, [2, 1]] if seed == 4 else T2[:, [1, 2]]   # either winding
+    forb = np.array([[0, k // 2], [1, k // 3]], np.int64)
+    is_loop = np.arange(len(P2)) < k
+    dirty = rng.random(len(T2)) < 0.3
+    for rounds, d, fb in ((100, None, forb), (2, None, forb), (100, dirty, np.zeros((0, 2), np.int64))):
+        # a jitter so that there is something to flip
+        Pj = P2 + rng.normal(scale=0.03, size=P2.shape) * (~is_loop)[:, None]
+        a = refine._relax_numpy(Pj, T2.copy(), is_loop, fb, rounds, d)
+        b = kernels.relax(Pj, T2.copy(), is_loop, fb, rounds, d, refine._angle, refine._unfolded, refine.FLIP_EPS)
+        if b is None:                              # a face shared by two flips of a round: NumPy redoes it
+            b = refine._relax(Pj, T2.copy(), is_loop, fb, rounds, d)
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2]
+        assert d is not None or rounds < 100 or a[1].any()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_plane_separated_pairs_never_cross_and_most_far_pairs_are_found(seed):
+    """The prefilter only rules out pairs the exact test calls apart: on
+    random, nearly coplanar, touching and offset (1e6) triangle pairs."""
+    from shellrepair.intersect import SIDE_BOUND, TINY, triangles_cross
+
+    rng = np.random.default_rng(seed)
+    p = 4000
+    A = rng.normal(size=(p, 3, 3))
+    B = A[rng.permutation(p)] * 0.5 + rng.normal(scale=0.3, size=(p, 1, 3))
+    flat = rng.random(p) < 0.3                       # a third in (nearly) one plane
+    A[flat, :, 2] = 0.0
+    B[flat, :, 2] = rng.choice([0.0, 1e-17, -1e-300], size=(int(flat.sum()), 1))
+    touch = rng.random(p) < 0.1                      # corners on the other's plane
+    B[touch, 0] = A[touch].mean(axis=1)
+    if seed == 3:
+        A, B = A + 1e6, B + 1e6
+    ai = bj = np.arange(p)
+    Aid, Bid = np.arange(3 * p).reshape(p, 3), 3 * p + np.arange(3 * p).reshape(p, 3)
+    sep = kernels.separated(A, Aid, ai, B, Bid, bj, SIDE_BOUND, TINY)
+    hit = triangles_cross(A, B)
+    assert not (sep & hit).any()
+    assert sep.sum() > 0.3 * (~hit).sum()
