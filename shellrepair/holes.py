@@ -194,8 +194,9 @@ def boundary_loops(F, n_vertices, topo=None):
     bhe = topo.boundary_he
     if bhe.size == 0:
         return [], []
-    src = topo.he[bhe, 0]
-    dst = topo.he[bhe, 1]
+    ends = topo.ends(bhe)
+    src = ends[:, 0]
+    dst = ends[:, 1]
     n = int(n_vertices)
     out_count = np.bincount(src, minlength=n)
     order = np.argsort(src, kind="stable")
@@ -563,7 +564,7 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, closed=None, topo=N
     A = face_areas(V, F) if areas is None else areas
     piece_area = np.bincount(fpiece, weights=A, minlength=n_piece)
     bhe = topo.boundary_he
-    he_face = dict(zip(map(tuple, topo.he[bhe].tolist()), (bhe // 3).tolist()))
+    he_face = dict(zip(map(tuple, topo.ends(bhe).tolist()), (bhe // 3).tolist()))
     nv_used = int(np.count_nonzero(vcomp >= 0))
     scan = HoleScan(loops=[], open_chains=chains, n_components=n_comp,
                     n_boundary_edges=topo.n_boundary_edges,
