@@ -158,7 +158,7 @@ def orient_faces(F, V=None, topo=None):
     n = int(F.max()) + 1 if V is None else max(int(F.max()) + 1, len(V))
     if topo is None:
         topo = edge_topology(F, n)
-    if fastmesh.AVAILABLE and topo.he_order is not None:
+    if fastmesh.enabled(m):
         # the usual case, consistent already, in one union-find pass; else the search below
         n_pieces, piece, first, differ_any = fastmesh.face_pieces_labels(topo, F, m, manifold_only=True)
         if not differ_any:
@@ -261,7 +261,7 @@ def _signed_volumes(V, F, flip, piece, n_pieces):
     Taking each piece about the mean of its face centroids keeps the triple
     products small for scans far from the origin (millimetres at 1e6).
     """
-    if fastmesh.AVAILABLE:
+    if fastmesh.enabled(len(F)):
         return fastmesh.piece_signed_volumes(V, F, flip, piece, n_pieces)
     m = len(F)
     cnt = np.maximum(np.bincount(piece, minlength=n_pieces), 1)

@@ -2,71 +2,99 @@
 
 Each kernel here is one linear pass (or a few) over the faces, in place of
 NumPy code that sorts or builds a sparse matrix: the half-edge topology by
-a counting sort on the lower vertex of each edge, pieces by union-find,
-face areas and signed volumes in one fused loop. They give exactly what
-their NumPy versions in :mod:`shellrepair.topology` and
-:mod:`shellrepair.clean` give (those stay as the reference and as the
-fallback when Numba is missing; ``tests/test_scale_structures.py``
+counting sorts on each edge's lower vertex, pieces by union-find, face
+areas, signed volumes and vertex-face lists in one loop each. They give
+exactly what their NumPy versions in :mod:`shellrepair.topology` and
+:mod:`shellrepair.clean` give (those stay as the reference, and as the
+path taken when Numba is missing; ``tests/test_scale_structures.py``
 compares the two).
 
-Kernels are compiled with ``cache=True`` (the machine code is kept beside
-this file in ``__pycache__``) and release the GIL (``nogil``).
-:func:`warm_up` compiles them all on a tiny mesh, for ``make setup``.
+Numba is imported, and the kernels compiled or loaded from their cache
+(``cache=True``: machine code kept beside this file in ``__pycache__``),
+on first use only, and only for meshes of at least ``MIN_FACES`` faces
+(:func:`enabled`): loading them costs about half a second once per
+process, more than they save on a small mesh. :func:`warm_up` compiles
+them all (``make setup`` calls it), so that no user run waits on the
+compiler. Kernels release the GIL (``nogil``).
 
-``AVAILABLE`` is False when Numba cannot be imported; callers then take
-their NumPy path. Setting the environment variable
-``SHELLREPAIR_NO_NUMBA=1`` forces that path (for tests and comparisons).
+The environment variable ``SHELLREPAIR_NO_NUMBA=1`` turns them off.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
+from types import SimpleNamespace
 
 import numpy as np
 
-try:  # pragma: no cover - depends on the environment
-    if os.environ.get("SHELLREPAIR_NO_NUMBA"):
-        raise ImportError("SHELLREPAIR_NO_NUMBA is set")
-    import numba
-except ImportError:  # pragma: no cover
-    numba = None
+#: True when Numba can be imported (and SHELLREPAIR_NO_NUMBA is not set).
+AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get("SHELLREPAIR_NO_NUMBA")
 
-#: True when the compiled kernels can be used.
-AVAILABLE = numba is not None
+#: Faces from which the whole-mesh steps use the kernels. Below it NumPy's
+#: versions take well under the half second that loading the kernels
+#: costs once per process (measured: edge topology plus orientation of a
+#: 1M-face scan ~0.7 s with NumPy, ~0.2 s compiled).
+MIN_FACES = 400_000
 
-__all__ = ["AVAILABLE", "edge_topology_arrays", "face_pieces_labels", "face_areas", "vertex_faces",
-           "piece_signed_volumes", "warm_up"]
+__all__ = ["AVAILABLE", "MIN_FACES", "enabled", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
+           "face_areas", "vertex_faces", "piece_signed_volumes", "warm_up"]
 
 #: Runs of slots shorter than this are sorted by insertion (a vertex's
-#: edges: about six on a scan); longer ones by a merge sort.
+#: edges: about six on a scan); longer ones by np.sort.
 _INSERTION_MAX = 24
+#: Bits of the half-edge id in a packed (higher vertex, half-edge) word.
+_HE_BITS = 32
+#: Lower vertices per bucket, as a power of two: a bucket's entries (about
+#: six per vertex, 8 bytes each) stay within the core's cache.
+_BUCKET_SHIFT = 12
+
+_K = None
 
 
-def _njit(f):
-    if numba is None:
-        return None
-    return numba.njit(cache=True, nogil=True)(f)
+def enabled(n_faces):
+    """True when a whole-mesh step on ``n_faces`` faces should use the kernels."""
+    return AVAILABLE and n_faces >= MIN_FACES
+
+
+def _kernels():
+    """The compiled kernels (Numba imported and the kernels compiled or
+    loaded from the cache on the first call)."""
+    global _K
+    if _K is None:
+        import numba
+
+        jit = numba.njit(cache=True, nogil=True)
+        _K = SimpleNamespace(edge=jit(_edge_kernel), edge_ids=jit(_edge_ids_kernel), pieces=jit(_pieces_kernel),
+                             areas=jit(_areas_kernel), volumes=jit(_volumes_kernel),
+                             vertex_faces=jit(_vertex_faces_kernel))
+    return _K
 
 
 # --------------------------------------------------------------------------
 # half-edge topology
 # --------------------------------------------------------------------------
-def _edge_kernel(F, n, other):
+def _edge_kernel(F, n, shift):
     m = F.shape[0]
     m3 = 3 * m
-    # counting sort of the half-edges by their edge's lower vertex
-    start = np.zeros(n + 1, np.int64)
+    low = (np.int64(1) << shift) - 1
+    # 1. half-edges per bucket of 2**shift lower vertices
+    nb = (n >> shift) + 1
+    bstart = np.zeros(nb + 1, np.int64)
     for f in range(m):
         for c in range(3):
             u = F[f, c]
             if u < 0 or u >= n:
                 raise ValueError("a face refers to a vertex outside [0, n_vertices)")
             v = F[f, c + 1] if c < 2 else F[f, 0]
-            start[(u if u < v else v) + 1] += 1
-    for i in range(n):
-        start[i + 1] += start[i]
-    pos = start[:n].copy()
-    order = np.empty(m3, np.int64)
+            bstart[((u if u < v else v) >> shift) + 1] += 1
+    for i in range(nb):
+        bstart[i + 1] += bstart[i]
+    # 2. into the buckets (few write streams: they stay in cache): the
+    #    higher vertex and the half-edge packed in one word, the lower apart
+    key = np.empty(m3, np.int64)
+    lowv = np.empty(m3, np.int32)
+    bpos = bstart[:nb].copy()
     for f in range(m):
         for c in range(3):
             u = F[f, c]
@@ -75,73 +103,101 @@ def _edge_kernel(F, n, other):
                 a, b = u, v
             else:
                 a, b = v, u
-            p = pos[a]
-            pos[a] = p + 1
-            order[p] = 3 * f + c
-            other[p] = b
-    # within each lower vertex: by the higher vertex, stably (half-edge order)
+            k = a >> shift
+            p = bpos[k]
+            bpos[k] = p + 1
+            key[p] = (b << _HE_BITS) | (3 * f + c)
+            lowv[p] = a & low
+    # 3. each bucket by its lower vertex (a counting sort within the bucket),
+    #    then each vertex's entries by packed key: by higher vertex, then half-edge
+    slot = np.empty(m3, np.int64)
+    vstart = np.empty(n + 1, np.int64)
+    cnt = np.zeros((np.int64(1) << shift) + 1, np.int64)
     n_edges = 0
-    n_single = 0
-    for a in range(n):
-        s = start[a]
-        e = start[a + 1]
-        k = e - s
-        if k > _INSERTION_MAX:
-            perm = np.argsort(other[s:e], kind="mergesort")
-            ob = other[s:e][perm]
-            oh = order[s:e][perm]
-            other[s:e] = ob
-            order[s:e] = oh
-        elif k > 1:
-            for i in range(s + 1, e):
-                bv = other[i]
-                hv = order[i]
-                j = i - 1
-                while j >= s and other[j] > bv:
-                    other[j + 1] = other[j]
-                    order[j + 1] = order[j]
-                    j -= 1
-                other[j + 1] = bv
-                order[j + 1] = hv
-        run = 0
-        for i in range(s, e):
-            if i == s or other[i] != other[i - 1]:
-                if run == 1:
-                    n_single += 1
-                n_edges += 1
-                run = 0
-            run += 1
-        if run == 1:
-            n_single += 1
+    for k in range(nb):
+        s0 = bstart[k]
+        s1 = bstart[k + 1]
+        a0 = k << shift
+        na = min(n - a0, low + 1)
+        cnt[:na + 1] = 0
+        for i in range(s0, s1):
+            cnt[lowv[i] + 1] += 1
+        cnt[0] = s0
+        for j in range(na):
+            cnt[j + 1] += cnt[j]
+        for j in range(na):
+            vstart[a0 + j] = cnt[j]
+        for i in range(s0, s1):
+            j = lowv[i]
+            slot[cnt[j]] = key[i]
+            cnt[j] += 1
+        for j in range(na):
+            s = vstart[a0 + j]
+            e = cnt[j]
+            if e - s > _INSERTION_MAX:
+                slot[s:e] = np.sort(slot[s:e])
+            else:
+                for i in range(s + 1, e):
+                    x = slot[i]
+                    q = i - 1
+                    while q >= s and slot[q] > x:
+                        slot[q + 1] = slot[q]
+                        q -= 1
+                    slot[q + 1] = x
+            prev = -1
+            for i in range(s, e):
+                b = slot[i] >> _HE_BITS
+                if b != prev:
+                    n_edges += 1
+                    prev = b
+    vstart[n] = m3
+    # 4. edges, counts; the slots become the half-edge ids
     edges = np.empty((n_edges, 2), np.int64)
     count = np.zeros(n_edges, np.int64)
-    edge_of_he = np.empty(m3, np.int64)
-    single = np.empty(n_single, np.int64)
+    mask = (np.int64(1) << _HE_BITS) - 1
     ei = -1
-    si = 0
+    n_single = 0
     for a in range(n):
-        for i in range(start[a], start[a + 1]):
-            if i == start[a] or other[i] != other[i - 1]:
+        prev = -1
+        for i in range(vstart[a], vstart[a + 1]):
+            b = slot[i] >> _HE_BITS
+            if b != prev:
                 if ei >= 0 and count[ei] == 1:
-                    single[si] = order[i - 1]
-                    si += 1
+                    n_single += 1
                 ei += 1
                 edges[ei, 0] = a
-                edges[ei, 1] = other[i]
+                edges[ei, 1] = b
+                prev = b
             count[ei] += 1
-            edge_of_he[order[i]] = ei
+            slot[i] = slot[i] & mask
     if ei >= 0 and count[ei] == 1:
-        single[si] = order[m3 - 1]
-        si += 1
+        n_single += 1
+    single = np.empty(n_single, np.int64)
+    j = 0
+    i = 0
+    for e in range(n_edges):
+        if count[e] == 1:
+            single[j] = slot[i]
+            j += 1
+        i += count[e]
     single.sort()
-    return order, edge_of_he, edges, count, single
+    return slot, edges, count, single
 
 
-_edge_kernel_jit = _njit(_edge_kernel)
+
+def _edge_ids_kernel(he_order, edge_count):
+    out = np.empty(he_order.size, np.int64)
+    i = 0
+    for e in range(edge_count.size):
+        for _ in range(edge_count[e]):
+            out[he_order[i]] = e
+            i += 1
+    return out
+
 
 
 def edge_topology_arrays(F, n):
-    """The arrays of :class:`shellrepair.topology.EdgeTopology`, by a counting sort.
+    """The arrays of :class:`shellrepair.topology.EdgeTopology`, by counting sorts.
 
     Parameters
     ----------
@@ -155,39 +211,40 @@ def edge_topology_arrays(F, n):
     he_order : (3m,) int64
         Half-edge ids grouped by undirected edge in edge order; within an
         edge, in increasing half-edge id.
-    edge_of_he : (3m,) int64
     edges : (e,2) int64
         Sorted by ``(edges[:,0], edges[:,1])``, ``edges[:,0] < edges[:,1]``.
     edge_count : (e,) int64
     boundary_he : (b,) int64
         Sorted.
+    Or None when the ids do not fit the packing (``n >= 2**31`` or
+    ``3m >= 2**32``): use the NumPy version then.
 
     Notes
     -----
-    Every half-edge ``u -> v`` is filed under ``min(u, v)`` (one counting
-    pass and one scatter), then each vertex's few entries are sorted by
-    ``max(u, v)``: O(m) work and no global sort. The higher vertex of
-    each entry is kept in 32 bits when ids fit.
+    Every half-edge ``u -> v`` is filed under its lower vertex
+    ``min(u, v)`` in two steps that each stay in cache: first into buckets
+    of ``2**12`` lower vertices (a few thousand write streams), then, bucket
+    by bucket, by the lower vertex itself; each vertex's few entries are
+    then sorted by ``(max(u, v), half-edge)`` packed in one 64-bit word.
+    O(m) work, no global sort, no random access outside a bucket.
     """
     F = np.ascontiguousarray(F, np.int64)
     n = int(n)
-    other = np.empty(3 * len(F), np.int32 if n < 2 ** 31 else np.int64)
-    return _edge_kernel_jit(F, n, other)
+    if n >= 2 ** 31 or 3 * len(F) >= 2 ** _HE_BITS:
+        return None
+    shift = max(1, min(_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
+    return _kernels().edge(F, n, shift)
+
+
+def edge_ids(he_order, edge_count):
+    """``edge_of_he``: the edge of each half-edge, (3m,) int64, from the
+    grouping :func:`edge_topology_arrays` gives."""
+    return _kernels().edge_ids(np.ascontiguousarray(he_order, np.int64), np.ascontiguousarray(edge_count, np.int64))
 
 
 # --------------------------------------------------------------------------
 # pieces
 # --------------------------------------------------------------------------
-def _find(parent, x):
-    while parent[x] != x:
-        parent[x] = parent[parent[x]]   # path halving
-        x = parent[x]
-    return x
-
-
-_find_jit = _njit(_find)
-
-
 def _pieces_kernel(he_order, edge_count, tails, m, manifold_only):
     parent = np.arange(m)
     differ = False
@@ -196,8 +253,14 @@ def _pieces_kernel(he_order, edge_count, tails, m, manifold_only):
         c = edge_count[e]
         if c == 2 or (c > 2 and not manifold_only):
             for i in range(s, s + c - 1):
-                ra = _find_jit(parent, he_order[i] // 3)
-                rb = _find_jit(parent, he_order[i + 1] // 3)
+                ra = he_order[i] // 3
+                while parent[ra] != ra:
+                    parent[ra] = parent[parent[ra]]   # path halving
+                    ra = parent[ra]
+                rb = he_order[i + 1] // 3
+                while parent[rb] != rb:
+                    parent[rb] = parent[parent[rb]]
+                    rb = parent[rb]
                 # the lower root wins: a root is its piece's lowest face
                 if ra < rb:
                     parent[rb] = ra
@@ -209,7 +272,10 @@ def _pieces_kernel(he_order, edge_count, tails, m, manifold_only):
     label = np.empty(m, np.int64)
     n_pieces = 0
     for f in range(m):
-        r = _find_jit(parent, f)
+        r = parent[f]          # a lower face, labelled already: its root is final
+        while parent[r] != r:
+            r = parent[r]
+        parent[f] = r
         if r == f:
             label[f] = n_pieces
             n_pieces += 1
@@ -223,8 +289,6 @@ def _pieces_kernel(he_order, edge_count, tails, m, manifold_only):
             k += 1
     return n_pieces, label, first, differ
 
-
-_pieces_kernel_jit = _njit(_pieces_kernel)
 
 
 def face_pieces_labels(topo, F, m, *, manifold_only):
@@ -256,7 +320,7 @@ def face_pieces_labels(topo, F, m, *, manifold_only):
         both (a flip is needed).
     """
     tails = np.ascontiguousarray(F, np.int64).reshape(-1)
-    n, label, first, differ = _pieces_kernel_jit(topo.he_order, topo.edge_count, tails, int(m), bool(manifold_only))
+    n, label, first, differ = _kernels().pieces(topo.he_order, topo.edge_count, tails, int(m), bool(manifold_only))
     return int(n), label, first, bool(differ)
 
 
@@ -282,14 +346,12 @@ def _areas_kernel(V, F, out):
         out[f] = 0.5 * np.sqrt((cx * cx + cz * cz) + cy * cy)
 
 
-_areas_kernel_jit = _njit(_areas_kernel)
-
 
 def face_areas(V, F):
     """Triangle areas, (m,) float64: ``0.5 |(b - a) × (c - a)|``, bit for bit
     as :func:`shellrepair.topology.face_areas` computes them."""
     out = np.empty(len(F))
-    _areas_kernel_jit(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64), out)
+    _kernels().areas(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64), out)
     return out
 
 
@@ -324,14 +386,12 @@ def _volumes_kernel(V, F, flip, piece, n_pieces):
     return vol
 
 
-_volumes_kernel_jit = _njit(_volumes_kernel)
-
 
 def piece_signed_volumes(V, F, flip, piece, n_pieces):
     """Signed volume of each piece with ``flip`` applied, about the mean of
     its face centroids; the sums of :func:`shellrepair.clean._signed_volumes`
     in the same order (one pass for the centroids, one for the volumes)."""
-    return _volumes_kernel_jit(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64),
+    return _kernels().volumes(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64),
                                np.ascontiguousarray(flip, np.bool_), np.ascontiguousarray(piece, np.int64),
                                int(n_pieces))
 
@@ -354,24 +414,22 @@ def _vertex_faces_kernel(flat, n):
     return order, start
 
 
-_vertex_faces_kernel_jit = _njit(_vertex_faces_kernel)
-
 
 def vertex_faces(F, n):
     """:func:`shellrepair.topology.vertex_faces` by one counting sort."""
-    return _vertex_faces_kernel_jit(np.ascontiguousarray(F, np.int64).reshape(-1), int(n))
+    return _kernels().vertex_faces(np.ascontiguousarray(F, np.int64).reshape(-1), int(n))
 
 
 def warm_up():
-    """Compile (or load from the cache) every kernel on a two-triangle mesh."""
+    """Compile (or load from the cache) every kernel on a two-triangle mesh;
+    False when Numba is missing."""
     if not AVAILABLE:
         return False
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
     F = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
-    from .topology import edge_topology
-
-    topo = edge_topology(F, 4)
-    face_pieces_labels(topo, F, 2, manifold_only=True)
+    order, edges, count, _ = edge_topology_arrays(F, 4)
+    edge_ids(order, count)
+    face_pieces_labels(SimpleNamespace(he_order=order, edge_count=count), F, 2, manifold_only=True)
     face_areas(V, F)
     piece_signed_volumes(V, F, np.zeros(2, bool), np.zeros(2, np.int64), 1)
     vertex_faces(F, 4)

@@ -32,8 +32,6 @@ class EdgeTopology:
 
     Attributes
     ----------
-    edge_of_he : (3m,) int64
-        Undirected edge id of each half-edge.
     edges : (e,2) int64
         Undirected edges, ``edges[:,0] < edges[:,1]``, sorted by
         ``(edges[:,0], edges[:,1])``.
@@ -50,19 +48,32 @@ class EdgeTopology:
     faces : (m,3) int64
         The faces it was built on (the caller's array, not a copy: it must
         not be edited in place while the topology is in use).
+    edge_of_he : (3m,) int64
+        Undirected edge id of each half-edge (built on first use).
     he : (3m,2) int64
         Directed half-edges (tail, head), built from ``faces`` on first use;
         most callers need only a few (:meth:`ends`).
     """
 
-    edge_of_he: np.ndarray
     edges: np.ndarray
     edge_count: np.ndarray
     boundary_he: np.ndarray
     nonmanifold_edges: np.ndarray
-    he_order: np.ndarray | None = None
-    faces: np.ndarray | None = None
+    he_order: np.ndarray
+    faces: np.ndarray
+    _edge_of_he: np.ndarray | None = field(default=None, repr=False)
     _he: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def edge_of_he(self):
+        if self._edge_of_he is None:
+            if fastmesh.enabled(self.he_order.size // 3):
+                self._edge_of_he = fastmesh.edge_ids(self.he_order, self.edge_count)
+            else:
+                e = np.empty(self.he_order.size, np.int64)
+                e[self.he_order] = np.repeat(np.arange(self.edge_count.size), self.edge_count)
+                self._edge_of_he = e
+        return self._edge_of_he
 
     @property
     def n_boundary_edges(self):
@@ -105,12 +116,14 @@ def edge_topology(F, n_vertices=None):
     """
     F = np.ascontiguousarray(F, dtype=np.int64)
     n = int(F.max()) + 1 if n_vertices is None else int(n_vertices)
-    if fastmesh.AVAILABLE:
-        order, edge_of_he, edges, count, boundary_he = fastmesh.edge_topology_arrays(F, n)
+    got = fastmesh.edge_topology_arrays(F, n) if fastmesh.enabled(len(F)) else None
+    if got is not None:
+        order, edges, count, boundary_he = got
+        edge_of_he = None   # built when asked for
     else:
         order, edge_of_he, edges, count, boundary_he = _edge_topology_numpy(F, n)
-    return EdgeTopology(edge_of_he=edge_of_he, edges=edges, edge_count=count, boundary_he=boundary_he,
-                        nonmanifold_edges=edges[count > 2], he_order=order, faces=F)
+    return EdgeTopology(edges=edges, edge_count=count, boundary_he=boundary_he, nonmanifold_edges=edges[count > 2],
+                        he_order=order, faces=F, _edge_of_he=edge_of_he)
 
 
 def _edge_topology_numpy(F, n):
@@ -318,7 +331,7 @@ def vertex_faces(F, n_vertices):
     start : (n+1,) int64
         Vertex v's entries are ``order[start[v]:start[v+1]]``.
     """
-    if fastmesh.AVAILABLE:
+    if fastmesh.enabled(len(F)):
         return fastmesh.vertex_faces(F, n_vertices)
     flat = np.asarray(F, np.int64).ravel()
     n = int(n_vertices)
@@ -340,7 +353,7 @@ def face_pieces(topo, n_faces):
     n_pieces : int
     face_piece : (m,) int64
     """
-    if fastmesh.AVAILABLE and topo.faces is not None:   # union-find, labels as SciPy numbers them
+    if fastmesh.enabled(n_faces):   # union-find, labels as SciPy numbers them
         n, lab, _, _ = fastmesh.face_pieces_labels(topo, topo.faces, n_faces, manifold_only=False)
         return n, lab
     order = topo.he_order  # half-edges grouped by edge (in edge order), from edge_topology
@@ -370,7 +383,7 @@ def _face_cross_chunks(V, F):
 
 def face_areas(V, F):
     """Triangle areas, (m,) float64: ``0.5 |(b - a) × (c - a)|``."""
-    if fastmesh.AVAILABLE:
+    if fastmesh.enabled(len(F)):
         return fastmesh.face_areas(V, F)
     out = np.empty(len(F))
     for s, c in _face_cross_chunks(V, F):
