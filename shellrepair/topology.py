@@ -287,8 +287,10 @@ def components_of_pieces(F, n_vertices, face_piece, n_pieces):
     m = len(F)
     flat = F.ravel()
     if n_pieces == 1:  # one piece (the usual scan): one component
-        vertex_comp = np.full(n, -1, np.int64)
-        vertex_comp[flat] = 0
+        used = np.zeros(n, bool)
+        used[flat] = True                   # one byte a vertex: the scatter stays in cache
+        vertex_comp = used.astype(np.int64)
+        vertex_comp -= 1
         return 1, vertex_comp, np.zeros(m, np.int64)
     corner_piece = np.repeat(np.asarray(face_piece, np.int64), 3)
     some_piece = np.full(n, -1, np.int64)
