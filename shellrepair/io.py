@@ -641,7 +641,8 @@ def clean_faces(F):
     Returns
     -------
     F_clean : (k,3) int64 array
-        Kept faces, in their original order.
+        Kept faces, in their original order (``F`` itself when none is
+        dropped).
     kept : (k,) int64 array
         Indices into ``F`` of the kept faces.
     notes : list of str
@@ -675,6 +676,8 @@ def clean_faces(F):
         notes.append(f"{n_degen} faces with a repeated vertex dropped")
     if n_dup:
         notes.append(f"{n_dup} duplicate faces dropped")
+    if len(kept) == len(F):   # nothing dropped (the usual scan): no copy of F
+        return F, kept, notes
     return F[kept], kept, notes
 
 
@@ -728,6 +731,8 @@ def _validate(mesh):
         # nothing refers to them: they are kept, like every unreferenced vertex
         mesh.notes.append(f"{int(bad.sum())} unreferenced vertices with NaN or infinite coordinates "
                           "kept as they are")
+    if not bad.any() and -MAX_ABS_COORDINATE <= V.min() and V.max() <= MAX_ABS_COORDINATE:
+        return   # the usual scan: all finite, none too large (two passes, no temporaries)
     with np.errstate(invalid="ignore"):
         huge = (np.abs(V) > MAX_ABS_COORDINATE).any(axis=1) & ~bad  # finite but too large
     if huge.any():
