@@ -38,7 +38,7 @@ AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get
 MIN_FACES = 400_000
 
 __all__ = ["AVAILABLE", "MIN_FACES", "enabled", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
-           "face_areas", "vertex_faces", "piece_signed_volumes", "warm_up"]
+           "face_areas", "edge_sq_lengths", "vertex_faces", "piece_signed_volumes", "warm_up"]
 
 #: Runs of slots shorter than this are sorted by insertion (a vertex's
 #: edges: about six on a scan); longer ones by np.sort.
@@ -66,7 +66,7 @@ def _kernels():
 
         jit = numba.njit(cache=True, nogil=True)
         _K = SimpleNamespace(edge=jit(_edge_kernel), edge_ids=jit(_edge_ids_kernel), pieces=jit(_pieces_kernel),
-                             areas=jit(_areas_kernel), volumes=jit(_volumes_kernel),
+                             areas=jit(_areas_kernel), edge_sq=jit(_edge_sq_kernel), volumes=jit(_volumes_kernel),
                              vertex_faces=jit(_vertex_faces_kernel))
     return _K
 
@@ -355,6 +355,24 @@ def face_areas(V, F):
     return out
 
 
+def _edge_sq_kernel(V, E, out):
+    for e in range(E.shape[0]):
+        a = E[e, 0]
+        b = E[e, 1]
+        dx = V[a, 0] - V[b, 0]
+        dy = V[a, 1] - V[b, 1]
+        dz = V[a, 2] - V[b, 2]
+        out[e] = (dx * dx + dz * dz) + dy * dy     # einsum("ij,ij->i")'s order, as in _areas_kernel
+
+
+def edge_sq_lengths(V, E):
+    """Squared lengths of the edges ``E`` (k,2), (k,) float64: one pass, no
+    (k,3) temporaries; the sums of ``einsum("ij,ij->i", d, d)`` here."""
+    out = np.empty(len(E))
+    _kernels().edge_sq(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(E, np.int64), out)
+    return out
+
+
 def _volumes_kernel(V, F, flip, piece, n_pieces):
     m = F.shape[0]
     cnt = np.zeros(n_pieces, np.int64)
@@ -431,6 +449,7 @@ def warm_up():
     edge_ids(order, count)
     face_pieces_labels(SimpleNamespace(he_order=order, edge_count=count), F, 2, manifold_only=True)
     face_areas(V, F)
+    edge_sq_lengths(V, edges)
     piece_signed_volumes(V, F, np.zeros(2, bool), np.zeros(2, np.int64), 1)
     vertex_faces(F, 4)
     return True
