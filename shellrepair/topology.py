@@ -335,6 +335,10 @@ def vertex_faces(F, n_vertices):
     """
     if fastmesh.enabled(len(F)):
         return fastmesh.vertex_faces(F, n_vertices)
+    return _vertex_faces_scipy(F, n_vertices)
+
+
+def _vertex_faces_scipy(F, n_vertices):
     flat = np.asarray(F, np.int64).ravel()
     n = int(n_vertices)
     # a counting sort by vertex: SciPy's COO -> CSR conversion, stable within a row
