@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import threading
 from types import SimpleNamespace
 
 import numpy as np
@@ -37,7 +38,7 @@ AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get
 #: 1M-face scan ~0.7 s with NumPy, ~0.2 s compiled).
 MIN_FACES = 400_000
 
-__all__ = ["AVAILABLE", "MIN_FACES", "enabled", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
+__all__ = ["AVAILABLE", "MIN_FACES", "enabled", "preload", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
            "face_areas", "edge_sq_lengths", "vertex_faces", "piece_signed_volumes", "warm_up"]
 
 #: Runs of slots shorter than this are sorted by insertion (a vertex's
@@ -50,6 +51,7 @@ _HE_BITS = 32
 _BUCKET_SHIFT = 12
 
 _K = None
+_LOCK = threading.Lock()
 
 
 def enabled(n_faces):
@@ -61,7 +63,11 @@ def _kernels():
     """The compiled kernels (Numba imported and the kernels compiled or
     loaded from the cache on the first call)."""
     global _K
-    if _K is None:
+    if _K is not None:
+        return _K
+    with _LOCK:   # one thread loads them (see preload); the others wait for it
+        if _K is not None:
+            return _K
         import numba
 
         jit = numba.njit(cache=True, nogil=True)
@@ -471,6 +477,15 @@ def vertex_faces(F, n):
         return _vertex_faces_scipy(F, n)
     shift = max(1, min(_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
     return _kernels().vertex_faces(np.ascontiguousarray(F, np.int64).reshape(-1), n, shift)
+
+
+def preload(n_faces):
+    """Start loading the kernels in a background thread when a mesh of
+    ``n_faces`` faces will use them (:func:`enabled`), so that importing
+    Numba and reading the cached machine code overlap the reading of the
+    file (NumPy's work there runs without the GIL). Returns at once."""
+    if enabled(n_faces) and _K is None:
+        threading.Thread(target=warm_up, name="shellrepair-kernels", daemon=True).start()
 
 
 def warm_up():
