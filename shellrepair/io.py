@@ -64,6 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MeshError
+from . import fastmesh
 from .topology import edge_topology, face_areas
 
 __all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path", "clean_faces", "manifold_mesh",
@@ -238,6 +239,9 @@ def read_mesh(path, *, clean=True, orient=True, progress=False):
         raise MeshError(f"cannot read: {exc.strerror or exc}", path) from None
     if len(data) == 0:
         raise MeshError("empty file", path)
+    # a large scan: the compiled kernels load in the background while it is parsed
+    # (a binary PLY holds about 19 bytes a face; text formats more)
+    fastmesh.preload(len(data) // 19)
     reader = {".ply": _read_ply, ".obj": _read_obj, ".off": _read_off, ".stl": _read_stl}[ext]
     stage = _stages(progress, f"loading {path.name}", 4)
     try:
