@@ -251,8 +251,10 @@ def edge_ids(he_order, edge_count):
 # --------------------------------------------------------------------------
 # pieces
 # --------------------------------------------------------------------------
-def _pieces_kernel(he_order, edge_count, tails, m, manifold_only):
-    parent = np.arange(m)
+def _pieces_kernel(he_order, edge_count, tails, parent, manifold_only):
+    m = parent.size
+    for f in range(m):
+        parent[f] = f
     differ = False
     s = 0
     for e in range(edge_count.size):
@@ -326,7 +328,9 @@ def face_pieces_labels(topo, F, m, *, manifold_only):
         both (a flip is needed).
     """
     tails = np.ascontiguousarray(F, np.int64).reshape(-1)
-    n, label, first, differ = _kernels().pieces(topo.he_order, topo.edge_count, tails, int(m), bool(manifold_only))
+    # 32-bit parents where face ids fit: half the memory the random accesses roam
+    parent = np.empty(int(m), np.int32 if m < 2 ** 31 else np.int64)
+    n, label, first, differ = _kernels().pieces(topo.he_order, topo.edge_count, tails, parent, bool(manifold_only))
     return int(n), label, first, bool(differ)
 
 
