@@ -32,10 +32,11 @@ import numpy as np
 #: True when Numba can be imported (and SHELLREPAIR_NO_NUMBA is not set).
 AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get("SHELLREPAIR_NO_NUMBA")
 
-#: Faces from which the whole-mesh steps use the kernels. Below it NumPy's
-#: versions take well under the half second that loading the kernels
-#: costs once per process (measured: edge topology plus orientation of a
-#: 1M-face scan ~0.7 s with NumPy, ~0.2 s compiled).
+#: Faces from which the whole-mesh steps use the kernels. Below it they
+#: save less than the half second that loading them costs once per process
+#: (measured on the 1M-face scale case: edge topology, orientation, areas
+#: and vertex-face lists 0.71-0.78 s CPU with NumPy, 0.22-0.29 s compiled;
+#: :func:`preload` overlaps the loading with the reading of the file).
 MIN_FACES = 400_000
 
 __all__ = ["AVAILABLE", "MIN_FACES", "enabled", "preload", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
@@ -190,7 +191,6 @@ def _edge_kernel(F, n, shift):
     return slot, edges, count, single
 
 
-
 def _edge_ids_kernel(he_order, edge_count):
     out = np.empty(he_order.size, np.int64)
     i = 0
@@ -199,7 +199,6 @@ def _edge_ids_kernel(he_order, edge_count):
             out[he_order[i]] = e
             i += 1
     return out
-
 
 
 def edge_topology_arrays(F, n):
@@ -298,7 +297,6 @@ def _pieces_kernel(he_order, edge_count, tails, parent, manifold_only):
     return n_pieces, label, first, differ
 
 
-
 def face_pieces_labels(topo, F, m, *, manifold_only):
     """Faces joined across shared edges, labelled as SciPy's
     ``connected_components`` labels them.
@@ -356,7 +354,6 @@ def _areas_kernel(V, F, out):
         out[f] = 0.5 * np.sqrt((cx * cx + cz * cz) + cy * cy)
 
 
-
 def face_areas(V, F):
     """Triangle areas, (m,) float64: ``0.5 |(b - a) × (c - a)|``, bit for bit
     as :func:`shellrepair.topology.face_areas` computes them."""
@@ -412,7 +409,6 @@ def _volumes_kernel(V, F, flip, piece, n_pieces):
         det = (ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)) / 6.0
         vol[p] += -det if flip[f] else det
     return vol
-
 
 
 def piece_signed_volumes(V, F, flip, piece, n_pieces):
