@@ -40,7 +40,7 @@ AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get
 MIN_FACES = 400_000
 
 __all__ = ["AVAILABLE", "MIN_FACES", "enabled", "preload", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
-           "face_areas", "edge_sq_lengths", "vertex_faces", "piece_signed_volumes", "warm_up"]
+           "face_areas", "edge_sq_lengths", "triple_hash", "vertex_faces", "piece_signed_volumes", "warm_up"]
 
 #: Runs of slots shorter than this are sorted by insertion (a vertex's
 #: edges: about six on a scan); longer ones by np.sort.
@@ -74,6 +74,7 @@ def _kernels():
         jit = numba.njit(cache=True, nogil=True)
         _K = SimpleNamespace(edge=jit(_edge_kernel), edge_ids=jit(_edge_ids_kernel), pieces=jit(_pieces_kernel),
                              areas=jit(_areas_kernel), edge_sq=jit(_edge_sq_kernel), volumes=jit(_volumes_kernel),
+                             triple_hash=jit(_triple_hash_kernel),
                              vertex_faces=jit(_vertex_faces_kernel))
     return _K
 
@@ -380,6 +381,28 @@ def edge_sq_lengths(V, E):
     return out
 
 
+def _triple_hash_kernel(F, out):
+    for f in range(F.shape[0]):
+        x = F[f, 0]
+        y = F[f, 1]
+        z = F[f, 2]
+        a = min(min(x, y), z)
+        c = max(max(x, y), z)
+        b = x + y + z - a - c
+        h = np.uint64(a) * np.uint64(0x9E3779B97F4A7C15)
+        h ^= np.uint64(b) * np.uint64(0xC2B2AE3D27D4EB4F)
+        h ^= np.uint64(c) * np.uint64(0x165667B19E3779F9)
+        out[f] = h ^ (h >> np.uint64(29))
+
+
+def triple_hash(F):
+    """The 64-bit hash of each row's vertex set that
+    :func:`shellrepair.io._triple_hash` computes, (m,) uint64, in one pass."""
+    out = np.empty(len(F), np.uint64)
+    _kernels().triple_hash(np.ascontiguousarray(F, np.int64), out)
+    return out
+
+
 def _volumes_kernel(V, F, flip, piece, n_pieces):
     m = F.shape[0]
     cnt = np.zeros(n_pieces, np.int64)
@@ -500,6 +523,7 @@ def warm_up():
     face_pieces_labels(SimpleNamespace(he_order=order, edge_count=count), F, 2, manifold_only=True)
     face_areas(V, F)
     edge_sq_lengths(V, edges)
+    triple_hash(F)
     piece_signed_volumes(V, F, np.zeros(2, bool), np.zeros(2, np.int64), 1)
     vertex_faces(F, 4)
     return True

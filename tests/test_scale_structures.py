@@ -310,6 +310,7 @@ def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypat
     import scipy.sparse as sp
 
     from shellrepair import fastmesh
+    from shellrepair import io as io_module
     from shellrepair.topology import _edge_topology_numpy
 
     for name, V, F in _kernel_meshes():
@@ -319,6 +320,8 @@ def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypat
         got = (order, fastmesh.edge_ids(order, count), edges, count, bhe)
         for g, w, what in zip(got, want, ("he_order", "edge_of_he", "edges", "edge_count", "boundary_he")):
             assert g.dtype == np.int64 and np.array_equal(g, w), (name, what)
+        # the duplicate-face hash of clean_faces (the hash of each face's vertex set)
+        assert np.array_equal(fastmesh.triple_hash(F), io_module._triple_hash(np.asarray(F, np.int64))), name
         # pieces: SciPy's connected components of the faces joined across edges
         topo = edge_topology(F, n)
         for manifold_only in (True, False):
