@@ -660,7 +660,9 @@ def clean_faces(F):
     # duplicates share their sorted vertex triple, hence its hash; only the
     # faces whose hash value repeats (all duplicates, and rare collisions)
     # are grouped exactly, so a scan without duplicates sorts one array
-    h = _triple_hash(F if n_degen == 0 else F[idx])
+    G = F if n_degen == 0 else F[idx]
+    h = fastmesh.triple_hash(G) if fastmesh.enabled(len(G)) else _triple_hash(G)
+    del G
     hs = np.sort(h)
     rep = np.unique(hs[1:][hs[1:] == hs[:-1]])
     del hs
