@@ -45,8 +45,11 @@ __all__ = ["AVAILABLE", "MIN_FACES", "enabled", "preload", "edge_topology_arrays
 #: Runs of slots shorter than this are sorted by insertion (a vertex's
 #: edges: about six on a scan); longer ones by np.sort.
 _INSERTION_MAX = 24
-#: Bits of the half-edge id in a packed (higher vertex, half-edge) word.
+#: Bits of a half-edge (or corner) id in a packed word.
 _HE_BITS = 32
+#: Where the higher vertex starts in the edge kernel's packed (higher
+#: vertex, half-edge, direction) word.
+_KEY_SHIFT = _HE_BITS + 1
 #: Lower vertices per bucket, as a power of two: a bucket's entries (about
 #: six per vertex, 8 bytes each) stay within the core's cache.
 _BUCKET_SHIFT = 12
@@ -99,7 +102,8 @@ def _edge_kernel(F, n, shift):
     for i in range(nb):
         bstart[i + 1] += bstart[i]
     # 2. into the buckets (few write streams: they stay in cache): the
-    #    higher vertex and the half-edge packed in one word, the lower apart
+    #    higher vertex, the half-edge and its direction (1: from the higher
+    #    vertex) packed in one word, the lower vertex apart
     key = np.empty(m3, np.int64)
     lowv = np.empty(m3, np.int32)
     bpos = bstart[:nb].copy()
@@ -114,7 +118,7 @@ def _edge_kernel(F, n, shift):
             k = a >> shift
             p = bpos[k]
             bpos[k] = p + 1
-            key[p] = (b << _HE_BITS) | (3 * f + c)
+            key[p] = (b << _KEY_SHIFT) | ((3 * f + c) << 1) | (1 if u > v else 0)
             lowv[p] = a & low
     # 3. each bucket by its lower vertex (a counting sort within the bucket),
     #    then each vertex's entries by packed key: by higher vertex, then half-edge
@@ -154,32 +158,46 @@ def _edge_kernel(F, n, shift):
                     slot[q + 1] = x
             prev = -1
             for i in range(s, e):
-                b = slot[i] >> _HE_BITS
+                b = slot[i] >> _KEY_SHIFT
                 if b != prev:
                     n_edges += 1
                     prev = b
     vstart[n] = m3
-    # 4. edges, counts; the slots become the half-edge ids
+    # 4. edges, counts, whether an edge with two faces has both half-edges
+    #    one way; the slots become the half-edge ids
     edges = np.empty((n_edges, 2), np.int64)
     count = np.zeros(n_edges, np.int64)
     mask = (np.int64(1) << _HE_BITS) - 1
     ei = -1
     n_single = 0
+    consistent = True
+    first_dir = 0
+    same_dir = False
     for a in range(n):
         prev = -1
         for i in range(vstart[a], vstart[a + 1]):
-            b = slot[i] >> _HE_BITS
+            b = slot[i] >> _KEY_SHIFT
+            d = slot[i] & 1
             if b != prev:
-                if ei >= 0 and count[ei] == 1:
-                    n_single += 1
+                if ei >= 0:
+                    if count[ei] == 1:
+                        n_single += 1
+                    elif count[ei] == 2 and same_dir:
+                        consistent = False
                 ei += 1
                 edges[ei, 0] = a
                 edges[ei, 1] = b
                 prev = b
+                first_dir = d
+            elif count[ei] == 1:
+                same_dir = d == first_dir
             count[ei] += 1
-            slot[i] = slot[i] & mask
-    if ei >= 0 and count[ei] == 1:
-        n_single += 1
+            slot[i] = (slot[i] >> 1) & mask
+    if ei >= 0:
+        if count[ei] == 1:
+            n_single += 1
+        elif count[ei] == 2 and same_dir:
+            consistent = False
     single = np.empty(n_single, np.int64)
     j = 0
     i = 0
@@ -189,7 +207,7 @@ def _edge_kernel(F, n, shift):
             j += 1
         i += count[e]
     single.sort()
-    return slot, edges, count, single
+    return slot, edges, count, single, consistent
 
 
 def _edge_ids_kernel(he_order, edge_count):
@@ -222,7 +240,10 @@ def edge_topology_arrays(F, n):
     edge_count : (e,) int64
     boundary_he : (b,) int64
         Sorted.
-    Or None when the ids do not fit the packing (``n >= 2**31`` or
+    consistent : bool
+        No edge with two faces has both half-edges in one direction (no
+        face needs a flip to agree with its neighbours).
+    Or None when the ids do not fit the packing (``n >= 2**30`` or
     ``3m >= 2**32``): use the NumPy version then.
 
     Notes
@@ -231,12 +252,13 @@ def edge_topology_arrays(F, n):
     ``min(u, v)`` in two steps that each stay in cache: first into buckets
     of ``2**12`` lower vertices (a few thousand write streams), then, bucket
     by bucket, by the lower vertex itself; each vertex's few entries are
-    then sorted by ``(max(u, v), half-edge)`` packed in one 64-bit word.
+    then sorted by ``(max(u, v), half-edge)`` packed in one 64-bit word
+    (with the half-edge's direction in the lowest bit).
     O(m) work, no global sort, no random access outside a bucket.
     """
     F = np.ascontiguousarray(F, np.int64)
     n = int(n)
-    if n >= 2 ** 31 or 3 * len(F) >= 2 ** _HE_BITS:
+    if n >= 2 ** (63 - _KEY_SHIFT) or 3 * len(F) >= 2 ** _HE_BITS:
         return None
     shift = max(1, min(_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
     return _kernels().edge(F, n, shift)
@@ -251,7 +273,7 @@ def edge_ids(he_order, edge_count):
 # --------------------------------------------------------------------------
 # pieces
 # --------------------------------------------------------------------------
-def _pieces_kernel(he_order, edge_count, tails, parent, manifold_only):
+def _pieces_kernel(he_order, edge_count, tails, parent, manifold_only, check):
     m = parent.size
     for f in range(m):
         parent[f] = f
@@ -274,7 +296,7 @@ def _pieces_kernel(he_order, edge_count, tails, parent, manifold_only):
                     parent[rb] = ra
                 elif rb < ra:
                     parent[ra] = rb
-            if c == 2 and tails[he_order[s]] == tails[he_order[s + 1]]:
+            if check and c == 2 and tails[he_order[s]] == tails[he_order[s + 1]]:
                 differ = True
         s += c
     label = np.empty(m, np.int64)
@@ -329,8 +351,10 @@ def face_pieces_labels(topo, F, m, *, manifold_only):
     tails = np.ascontiguousarray(F, np.int64).reshape(-1)
     # 32-bit parents where face ids fit: half the memory the random accesses roam
     parent = np.empty(int(m), np.int32 if m < 2 ** 31 else np.int64)
-    n, label, first, differ = _kernels().pieces(topo.he_order, topo.edge_count, tails, parent, bool(manifold_only))
-    return int(n), label, first, bool(differ)
+    known = getattr(topo, "consistent", None)   # found by the edge kernel: no per-edge lookups
+    n, label, first, differ = _kernels().pieces(topo.he_order, topo.edge_count, tails, parent, bool(manifold_only),
+                                                known is None)
+    return int(n), label, first, bool(differ) if known is None else not known
 
 
 # --------------------------------------------------------------------------
@@ -518,7 +542,7 @@ def warm_up():
         return False
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
     F = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
-    order, edges, count, _ = edge_topology_arrays(F, 4)
+    order, edges, count, _, _ = edge_topology_arrays(F, 4)
     edge_ids(order, count)
     face_pieces_labels(SimpleNamespace(he_order=order, edge_count=count), F, 2, manifold_only=True)
     face_areas(V, F)

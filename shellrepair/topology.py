@@ -50,6 +50,10 @@ class EdgeTopology:
         not be edited in place while the topology is in use).
     edge_of_he : (3m,) int64
         Undirected edge id of each half-edge (built on first use).
+    consistent : bool or None
+        True when no edge with two faces has both its half-edges in one
+        direction (every face agrees with its neighbours), False when one
+        has; None when not found on the way (the NumPy path).
     he : (3m,2) int64
         Directed half-edges (tail, head), built from ``faces`` on first use;
         most callers need only a few (:meth:`ends`).
@@ -61,6 +65,7 @@ class EdgeTopology:
     nonmanifold_edges: np.ndarray
     he_order: np.ndarray
     faces: np.ndarray
+    consistent: bool | None = None
     _edge_of_he: np.ndarray | None = field(default=None, repr=False)
     _he: np.ndarray | None = field(default=None, repr=False)
 
@@ -118,12 +123,13 @@ def edge_topology(F, n_vertices=None):
     n = int(F.max()) + 1 if n_vertices is None else int(n_vertices)
     got = fastmesh.edge_topology_arrays(F, n) if fastmesh.enabled(len(F)) else None
     if got is not None:
-        order, edges, count, boundary_he = got
+        order, edges, count, boundary_he, consistent = got
         edge_of_he = None   # built when asked for
     else:
         order, edge_of_he, edges, count, boundary_he = _edge_topology_numpy(F, n)
+        consistent = None
     return EdgeTopology(edges=edges, edge_count=count, boundary_he=boundary_he, nonmanifold_edges=edges[count > 2],
-                        he_order=order, faces=F, _edge_of_he=edge_of_he)
+                        he_order=order, faces=F, consistent=consistent, _edge_of_he=edge_of_he)
 
 
 def _edge_topology_numpy(F, n):

@@ -315,11 +315,16 @@ def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypat
 
     for name, V, F in _kernel_meshes():
         n = len(V)
-        order, edges, count, bhe = fastmesh.edge_topology_arrays(F, n)
+        order, edges, count, bhe, consistent = fastmesh.edge_topology_arrays(F, n)
         want = _edge_topology_numpy(np.ascontiguousarray(F, np.int64), n)
         got = (order, fastmesh.edge_ids(order, count), edges, count, bhe)
         for g, w, what in zip(got, want, ("he_order", "edge_of_he", "edges", "edge_count", "boundary_he")):
             assert g.dtype == np.int64 and np.array_equal(g, w), (name, what)
+        # consistent: no edge with two faces used twice in one direction
+        tail = np.asarray(F, np.int64).ravel()
+        start = np.cumsum(count) - count
+        two = start[count == 2]
+        assert consistent == (not (tail[order[two]] == tail[order[two + 1]]).any()), name
         # the duplicate-face hash of clean_faces (the hash of each face's vertex set)
         assert np.array_equal(fastmesh.triple_hash(F), io_module._triple_hash(np.asarray(F, np.int64))), name
         # pieces: SciPy's connected components of the faces joined across edges
