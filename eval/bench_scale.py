@@ -30,7 +30,37 @@ time is recorded as such and the rest go on:
 * ``fill-j1-hp``: ``fill-j1`` with NumPy's default huge-page advice left
   on (every other step turns it off, as the command line does: see
   :func:`shellrepair.cli.quiet_hugepages`);
-* ``write``: :func:`shellrepair.io.write_mesh` of the repaired mesh (binary PLY).
+* ``write``: :func:`shellrepair.io.write_mesh` of the repaired mesh (binary PLY);
+* ``cli``: the command line end to end, ``shellrepair repair scan.ply -o
+  out.ply`` (read to write, with its defaults), in a fresh interpreter:
+  ``seconds`` is the whole child process (start-up and imports included),
+  ``peak_rss_mb`` its peak. Inside it, the whole-mesh steps are timed as
+  they run: ``load`` (:func:`shellrepair.io.read_mesh`: parse, clean,
+  topology, orientation, areas), ``topology`` (the
+  :func:`shellrepair.topology.edge_topology` call within it), ``detection``
+  (:func:`shellrepair.holes.detect_holes`), ``merge`` (the patches appended
+  to the scan) and ``write`` (the output's bytes built and written).
+
+Bandwidth ratio
+---------------
+Each whole-mesh step of ``cli`` is set against the time this machine takes
+to touch the bytes the step must touch at the least, measured in the same
+run (in the parent, after the step): ``np.copyto`` of ``bytes / 2`` into an
+already touched buffer of ``bytes / 2`` (so ``bytes`` are read or written
+in all), best of five. The bytes a step must touch:
+
+* load: the file, read once, plus ``V`` and ``F`` written once
+  (``24 n + 24 m``);
+* topology: ``F`` read (``24 m``), the half-edges grouped by edge written
+  (``he_order``, ``24 m``), the edges and their counts written (``24 e``);
+* detection: ``F`` read once (``24 m``) and one 8-byte value per face read
+  (the face's piece) and per vertex written (its component);
+* merge: ``V`` and ``F`` copied into the output (read and written:
+  ``2 (24 n' + 24 m')``, the output sizes) and one flag per vertex and face;
+* write: ``V`` and ``F`` read (``24 n + 24 m``) and the output file written.
+
+``ratio`` is ``step seconds / reference seconds``: 1 would be a step that
+runs at memory speed.
 
 Per step: ``seconds`` is the wall time of the call alone (not the
 interpreter start or the loading of the step's input); ``peak_rss_mb`` is
@@ -266,6 +296,9 @@ def run_child(step, case_dir, out_json, profile=None):
         quiet_hugepages()  # as the command line does
 
     d = Path(case_dir)
+    if step == "cli":
+        Path(out_json).write_text(json.dumps(_run_cli_step(d)))
+        return
     if step == "read":
         pass
     elif step == "detect":
@@ -335,6 +368,121 @@ def run_child(step, case_dir, out_json, profile=None):
         np.savez(d / "repaired.npz", V=rep.V, F=rep.F, vf=rep.vertex_filled, ff=rep.face_filled)
     res["rss_before_mb"] = rss0 / MB
     Path(out_json).write_text(json.dumps(res))
+
+
+def _run_cli_step(d):
+    """``shellrepair repair`` on the case's scan, in this (fresh) process,
+    with the whole-mesh steps timed as they run and their sizes recorded."""
+    import functools
+
+    from shellrepair import cli, holes, io, repair, topology
+
+    steps = {}
+    depth = {"topology": 0}
+
+    def timed(mod, name, label, sizes=None):
+        f = getattr(mod, name, None)
+        if f is None:   # moved by a refactoring: that step goes unreported (the run still counts)
+            return None
+
+        @functools.wraps(f)
+        def g(*a, **k):
+            t = time.perf_counter()
+            out = f(*a, **k)
+            dt = time.perf_counter() - t
+            row = steps.setdefault(label, {"seconds": 0.0, "calls": 0})
+            row["seconds"] += dt
+            row["calls"] += 1
+            if sizes is not None:
+                row.update(sizes(a, k, out))
+            return out
+        setattr(mod, name, g)
+        return f
+
+    def first_topology(f):
+        @functools.wraps(f)
+        def g(F, *a, **k):       # the whole mesh's topology: the call inside read_mesh
+            if depth["topology"]:
+                return f(F, *a, **k)
+            depth["topology"] = 1
+            t = time.perf_counter()
+            out = f(F, *a, **k)
+            steps["topology"] = {"seconds": time.perf_counter() - t, "calls": 1, "faces": int(len(F)),
+                                 "edges": int(len(out.edges))}
+            return out
+        return g
+
+    timed(io, "read_mesh", "load", lambda a, k, m: {"faces": m.n_faces, "vertices": m.n_vertices,
+                                                     "file_bytes": Path(a[0]).stat().st_size})
+    topology.edge_topology = first_topology(topology.edge_topology)
+    io.edge_topology = topology.edge_topology   # read_mesh's own name for it
+    # the names repair_mesh calls them by, in the module it calls them from
+    timed(repair, "detect_holes", "detection", lambda a, k, scan: {"faces": int(len(a[1])),
+                                                                     "vertices": int(len(a[0]))})
+    timed(repair, "_merge", "merge", lambda a, k, m: {"faces": m.n_faces, "vertices": m.n_vertices})
+    timed(io, "mesh_bytes", "write", lambda a, k, b: {"faces": int(len(a[1].F)), "vertices": int(len(a[1].V)),
+                                                       "file_bytes": len(b)})
+    timed(io, "atomic_write_many", "write")
+    out = d / "cli_out.ply"
+    t0 = time.perf_counter()
+    rc = cli.main(["repair", str(d / "scan.ply"), "-o", str(out), "--report", str(d / "cli_out.report.json")])
+    secs = time.perf_counter() - t0
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(out, "rb") as fh:
+        for blk in iter(lambda: fh.read(1 << 24), b""):
+            h.update(blk)
+    rep = json.loads((d / "cli_out.report.json").read_text())
+    return {"step": "cli", "exit_code": rc, "main_seconds": secs, "whole_mesh": steps,
+            "holes_before": rep.get("holes_before"), "holes_after": rep.get("holes_after"),
+            "output_sha256": h.hexdigest()[:16], "ply_mb": round(out.stat().st_size / MB ** 2, 1)}
+
+
+def step_bytes(name, row):
+    """The bytes a whole-mesh step must touch at the least (the module docstring)."""
+    n, m = row.get("vertices", 0), row.get("faces", 0)
+    if name == "load":
+        return row.get("file_bytes", 0) + 24 * n + 24 * m
+    if name == "topology":
+        return 24 * m + 24 * m + 24 * row.get("edges", 0)
+    if name == "detection":
+        return 24 * m + 8 * m + 8 * n
+    if name == "merge":
+        return 2 * (24 * n + 24 * m) + n + m
+    if name == "write":
+        return 24 * n + 24 * m + row.get("file_bytes", 0)
+    return 0
+
+
+def touch_seconds(nbytes, repeat=5):
+    """Best time of ``np.copyto`` of ``nbytes / 2`` bytes between two
+    buffers already touched: the time to read or write ``nbytes`` here."""
+    half = max(int(nbytes) // 2 // 8, 1)
+    a = np.ones(half, np.int64)
+    b = np.zeros(half, np.int64)
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        np.copyto(b, a)
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def bandwidth_rows(row):
+    """Per whole-mesh step of a ``cli`` result: seconds, bytes, reference seconds, ratio."""
+    out = []
+    for name in ("load", "topology", "detection", "merge", "write"):
+        st = row.get("whole_mesh", {}).get(name)
+        if not st:
+            continue
+        nb = step_bytes(name, st)
+        ref = touch_seconds(nb) if nb else None
+        out.append({"step": name, "seconds": round(st["seconds"], 3), "bytes": int(nb),
+                    "touch_seconds": round(ref, 4) if ref else None,
+                    "gb_per_s": round(nb / ref / 1e9, 2) if ref else None,
+                    "ratio": round(st["seconds"] / ref, 1) if ref else None})
+    return out
 
 
 def _profile_rows(prof, n=25):
@@ -510,6 +658,9 @@ def markdown(result):
             elif r["step"].startswith("fill"):
                 what = (f"holes {r.get('holes_before')} → {r.get('holes_after')} ({_f(r.get('rate'))} %), "
                         f"output {r.get('output_sha256')}")
+            elif r["step"] == "cli":
+                what = (f"holes {r.get('holes_before')} → {r.get('holes_after')}, {r.get('ply_mb')} MB written, "
+                        f"output {r.get('output_sha256')}")
             else:
                 what = f"{r.get('ply_mb')} MB"
         else:
@@ -517,6 +668,18 @@ def markdown(result):
         L.append(f"| {r['case']} | {r['step']} | {r['status']} | {_f(r.get('seconds'), 2)} | "
                  f"{_f(r.get('peak_rss_mb'), 0)} | {_f(r.get('step_mb'), 0)} | {_f(r.get('workers_peak_mb'), 0)} | "
                  f"{what} |")
+    bw = [r for r in result["steps"] if r.get("bandwidth")]
+    if bw:
+        L += ["", "## Whole-mesh steps against memory speed", "",
+              "Timed inside the `cli` run; `touch s`: `np.copyto` moving the bytes the step must touch at the "
+              "least, on this machine in the same run (how: `eval/bench_scale.py`'s docstring); "
+              "`ratio` = step s / touch s.", "",
+              "| case | step | seconds | bytes touched (MB) | touch s | GB/s | ratio |",
+              "|---|---|---:|---:|---:|---:|---:|"]
+        for r in bw:
+            for b in r["bandwidth"]:
+                L.append(f"| {r['case']} | {b['step']} | {b['seconds']:.3f} | {b['bytes'] / 1e6:,.0f} | "
+                         f"{b['touch_seconds']:.3f} | {b['gb_per_s']:.1f} | {b['ratio']:.1f} |")
     same = result.get("jobs_identical")
     if same:
         L += ["", "Output identical for jobs 1 and 2: " + ", ".join(f"{k}: {'yes' if v else '**no**'}"
@@ -575,6 +738,13 @@ def targets(result):
             better = all(ours["rms_permille"] < p["rms_permille"] for p in acc)
             out["more accurate than both"] = (better, ", ".join(
                 f"{p['tool']} RMS {p['rms_permille'] / ours['rms_permille']:.2f}× ours" for p in acc))
+    e2e = [r for r in result["steps"] if r["case"] == "10M" and r["step"] == "cli"]
+    if e2e:
+        r = e2e[0]
+        ok = r["status"] == "ok"
+        out["10M end to end (shellrepair repair) within 15 s and 3 GB (issue 14)"] = (
+            ok and r["seconds"] <= 15.0 and r["peak_rss_mb"] <= 3 * 1024,
+            f"{r.get('seconds', 0):.1f} s, peak {r.get('peak_rss_mb', 0) / 1024:.2f} GB" if ok else r["status"])
     big = [r for r in result["steps"] if r["case"] == "10M"]
     if big:
         ok = all(r["status"] == "ok" for r in big)
@@ -588,7 +758,7 @@ def targets(result):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", default=",".join(SIZES), help=f"cases, comma-separated from {', '.join(SIZES)}")
-    ap.add_argument("--steps", default="read,detect,fill-j1,fill-j2,fill-j1-hp,write")
+    ap.add_argument("--steps", default="read,detect,fill-j1,fill-j2,fill-j1-hp,write,cli")
     ap.add_argument("--timeout", type=float, default=STEP_TIMEOUT, help="seconds per step")
     ap.add_argument("--peer-timeout", type=float, default=PEER_TIMEOUT)
     ap.add_argument("--no-peers", action="store_true")
@@ -633,11 +803,18 @@ def main(argv=None):
                                             "error": "no repaired mesh (fill-j1 did not finish)"})
                     continue
                 row = {"case": name, **run_step(step, d, args.timeout, profile=args.profile, log=log)}
+                if step == "cli" and row["status"] == "ok":
+                    row["seconds"] = row["wall_seconds"]   # the whole process: start-up to exit
+                    row["bandwidth"] = bandwidth_rows(row)
                 result["steps"].append(row)
                 msg = (f"{row.get('seconds', 0):8.2f} s  peak {row.get('peak_rss_mb', 0):7.0f} MB  "
                        f"step +{row.get('step_mb') or 0:6.0f} MB" if row["status"] == "ok"
                        else f"{row['status']}: {row.get('error')}")
                 log(f"  {name:4s} {step:8s} {msg}")
+                for b in row.get("bandwidth", []):
+                    log(f"         {b['step']:10s} {b['seconds']:7.3f} s  touches {b['bytes'] / 1e6:7.0f} MB "
+                        f"(memcpy speed here: {b['touch_seconds']:.3f} s, {b['gb_per_s']:.1f} GB/s)  "
+                        f"ratio {b['ratio']:5.1f}")
                 if args.profile and row.get("profile"):
                     for p in row["profile"]["by_tottime"][:8]:
                         log(f"      {p['tottime']:7.2f} s own {p['cumtime']:7.2f} s cum  {p['function']}")

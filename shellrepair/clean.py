@@ -60,7 +60,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
-from .geometry import cross, dot
+from . import fastmesh
+from .geometry import concat_ranges, cross, dot
 from .topology import CHUNK, corner_fans, edge_topology, manifold_pairs
 
 __all__ = ["OrientResult", "orient_faces", "describe_open_chains", "ManifoldResult", "make_manifold",
@@ -74,7 +75,8 @@ class OrientResult:
     Attributes
     ----------
     F : (m,3) int64 array
-        The faces, same order, some with corners 1 and 2 swapped.
+        The faces, same order, some with corners 1 and 2 swapped (the
+        input array itself when no face is flipped).
     flipped : (m,) bool array
         Which faces were flipped.
     n_pieces : int
@@ -118,7 +120,7 @@ def _manifold_face_pairs(F, topo):
         one of them must be flipped.
     """
     h1, h2 = manifold_pairs(topo)
-    tail = F.ravel()  # the tails of the half-edges (topo.he[:, 0]), a denser gather
+    tail = F.ravel()  # the tails of the half-edges (half-edge 3f+c leaves F[f,c])
     differ = tail[h1] == tail[h2]
     return h1 // 3, h2 // 3, differ
 
@@ -162,6 +164,11 @@ def orient_faces(F, V=None, topo=None):
     n = int(F.max()) + 1 if V is None else max(int(F.max()) + 1, len(V))
     if topo is None:
         topo = edge_topology(F, n)
+    if fastmesh.enabled(m):
+        # the usual case, consistent already, in one union-find pass; else the search below
+        n_pieces, piece, first, differ_any = fastmesh.face_pieces_labels(topo, F, m, manifold_only=True)
+        if not differ_any:
+            return _finish(F, V, topo, piece, first, n_pieces, np.zeros(m, bool), np.zeros(0, np.int64))
     f, g, differ = _manifold_face_pairs(F, topo)
 
     # pieces: faces joined across manifold edges
@@ -173,7 +180,7 @@ def orient_faces(F, V=None, topo=None):
     if not differ.any():  # already consistent (the usual case): no search needed
         flip = np.zeros(m, bool)
         nonorientable_pieces = np.zeros(0, np.int64)
-        return _finish(F, V, topo, f, g, piece, first, n_pieces, flip, nonorientable_pieces)
+        return _finish(F, V, topo, piece, first, n_pieces, flip, nonorientable_pieces)
 
     # spanning forest from a virtual root (node m) joined to each piece's first face
     rows = np.concatenate([f, g, np.full(n_pieces, m)])
@@ -204,38 +211,47 @@ def orient_faces(F, V=None, topo=None):
     # consistency check per piece: both faces of a manifold edge, after flipping
     bad = differ ^ (flip[f] ^ flip[g])
     nonorientable_pieces = np.unique(piece[f[bad]])
-    return _finish(F, V, topo, f, g, piece, first, n_pieces, flip, nonorientable_pieces)
+    return _finish(F, V, topo, piece, first, n_pieces, flip, nonorientable_pieces)
 
 
-def _finish(F, V, topo, f, g, piece, first, n_pieces, flip, nonorientable_pieces):
+def _finish(F, V, topo, piece, first, n_pieces, flip, nonorientable_pieces):
     """Choose each piece's overall winding and apply the flips."""
     # choose each piece's overall winding
-    count = np.bincount(piece, minlength=n_pieces)
-    n_flip = np.bincount(piece, weights=flip.astype(np.float64), minlength=n_pieces)
-    invert = n_flip > count - n_flip  # the majority rule: fewest flips
-    tie = n_flip == count - n_flip
-    invert &= ~tie
+    if flip.any():
+        count = np.bincount(piece, minlength=n_pieces)
+        n_flip = np.bincount(piece, weights=flip.astype(np.float64), minlength=n_pieces)
+        invert = n_flip > count - n_flip  # the majority rule: fewest flips
+        tie = n_flip == count - n_flip
+        invert &= ~tie
+    else:
+        invert = np.zeros(n_pieces, bool)
     if V is not None:
         V = np.asarray(V, np.float64)
         bface = topo.boundary_he // 3
         has_boundary = np.zeros(n_pieces, bool)
         has_boundary[piece[bface]] = True
-        nm_face = np.flatnonzero(topo.edge_count[topo.edge_of_he] > 2) // 3
-        has_boundary[piece[nm_face]] = True
+        nm = np.flatnonzero(topo.edge_count > 2)
+        if nm.size:
+            start = np.cumsum(topo.edge_count) - topo.edge_count
+            has_boundary[piece[topo.he_order[concat_ranges(start[nm], topo.edge_count[nm])] // 3]] = True
         closed = ~has_boundary
         closed[nonorientable_pieces] = False
         if closed.any():
             vol = _signed_volumes(V, F, flip, piece, n_pieces)
             decided = closed & (vol != 0)
             invert[decided] = vol[decided] < 0
-    flip ^= invert[piece]
+    if invert.any():
+        flip ^= invert[piece]
 
-    out = F.copy()
-    out[flip, 1], out[flip, 2] = F[flip, 2], F[flip, 1]
+    if flip.any():
+        out = F.copy()
+        out[flip, 1], out[flip, 2] = F[flip, 2], F[flip, 1]
+    else:
+        out = F  # nothing to flip: the faces as given
     res = OrientResult(F=out, flipped=flip, n_pieces=int(n_pieces),
                        nonorientable=[int(first[p]) for p in nonorientable_pieces],
                        topo=None if flip.any() else topo,
-                       piece=None if len(topo.nonmanifold_edges) else piece.astype(np.int64))
+                       piece=None if len(topo.nonmanifold_edges) else piece.astype(np.int64, copy=False))
     if res.n_flipped:
         res.notes.append(f"{res.n_flipped} faces flipped for consistent orientation")
     if res.nonorientable:
@@ -251,6 +267,8 @@ def _signed_volumes(V, F, flip, piece, n_pieces):
     Taking each piece about the mean of its face centroids keeps the triple
     products small for scans far from the origin (millimetres at 1e6).
     """
+    if fastmesh.enabled(len(F)):
+        return fastmesh.piece_signed_volumes(V, F, flip, piece, n_pieces)
     m = len(F)
     cnt = np.maximum(np.bincount(piece, minlength=n_pieces), 1)
     C = np.empty((m, 3))
@@ -405,7 +423,7 @@ def make_manifold(V, F, topo=None):
     if topo.boundary_he.size:
         from .topology import coincident_vertices
 
-        rep = coincident_vertices(V, topo.he[topo.boundary_he].ravel())
+        rep = coincident_vertices(V, topo.ends(topo.boundary_he).ravel())
     if rep is not None:
         used = np.zeros(n, bool)
         used[F.ravel()] = True
@@ -592,7 +610,8 @@ def clean_faces(F):
     Returns
     -------
     F_clean : (k,3) int64 array
-        Kept faces, in their original order.
+        Kept faces, in their original order (``F`` itself when none is
+        dropped).
     kept : (k,) int64 array
         Indices into ``F`` of the kept faces.
     notes : list of str
@@ -606,7 +625,9 @@ def clean_faces(F):
     # duplicates share their sorted vertex triple, hence its hash; only the
     # faces whose hash value repeats (all duplicates, and rare collisions)
     # are grouped exactly, so a scan without duplicates sorts one array
-    h = _triple_hash(F if n_degen == 0 else F[idx])
+    G = F if n_degen == 0 else F[idx]
+    h = fastmesh.triple_hash(G) if fastmesh.enabled(len(G)) else _triple_hash(G)
+    del G
     hs = np.sort(h)
     rep = np.unique(hs[1:][hs[1:] == hs[:-1]])
     del hs
@@ -626,6 +647,8 @@ def clean_faces(F):
         notes.append(f"{n_degen} faces with a repeated vertex dropped")
     if n_dup:
         notes.append(f"{n_dup} duplicate faces dropped")
+    if len(kept) == len(F):   # nothing dropped (the usual scan): no copy of F
+        return F, kept, notes
     return F[kept], kept, notes
 
 

@@ -194,12 +194,14 @@ def boundary_loops(F, n_vertices, topo=None):
     bhe = topo.boundary_he
     if bhe.size == 0:
         return [], []
-    src = topo.he[bhe, 0]
-    dst = topo.he[bhe, 1]
+    ends = topo.ends(bhe)
+    src = ends[:, 0]
+    dst = ends[:, 1]
     n = int(n_vertices)
     out_count = np.bincount(src, minlength=n)
     order = np.argsort(src, kind="stable")
-    start = np.searchsorted(src[order], np.arange(n + 1))
+    start = np.zeros(n + 1, np.int64)          # src[order][start[v]:start[v+1]] == v
+    np.cumsum(out_count, out=start[1:])
 
     nxt = np.full(bhe.size, -1, dtype=np.int64)
     single = out_count[dst] == 1
@@ -478,17 +480,28 @@ def piece_views(V, F, fpiece, which, *, max_faces=None):
     if k == 0:
         return view, np.zeros(0)
     max_faces = VIEW_SAMPLES if max_faces is None else int(max_faces)
-    rank = np.full(int(fpiece.max()) + 1 if fpiece.size else 1, -1, np.int64)
-    rank[which] = np.arange(k)
-    fr = rank[fpiece]
-    sel = fr >= 0
-    count = np.bincount(fr[sel], minlength=k)
+    whole = k == 1 and which[0] == 0 and int(fpiece.max(initial=0)) == 0
+    if whole:  # the usual scan: one piece, every face in it (no per-face lookups)
+        count = np.array([len(F)])
+        sel = None
+    else:
+        rank = np.full(int(fpiece.max()) + 1 if fpiece.size else 1, -1, np.int64)
+        rank[which] = np.arange(k)
+        fr = rank[fpiece]
+        sel = fr >= 0
+        count = np.bincount(fr[sel], minlength=k)
     if count.max(initial=0) > max_faces:  # large pieces: a fixed hashed subset of their faces
         keep = np.minimum(1.0, max_faces / np.maximum(count, 1))
-        h = (np.arange(len(F), dtype=np.uint64) * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
-        sel &= h < (keep[np.maximum(fr, 0)] * 2.0 ** 32)
-    sel = np.flatnonzero(sel)
-    fr = fr[sel]
+        h = np.arange(len(F), dtype=np.uint64)   # the hash of each face's index, in place
+        h *= np.uint64(2654435761)
+        h &= np.uint64(0xFFFFFFFF)
+        if sel is None:
+            sel = h < keep[0] * 2.0 ** 32
+        else:
+            sel &= h < (keep[np.maximum(fr, 0)] * 2.0 ** 32)
+        del h
+    sel = np.arange(len(F)) if sel is None else np.flatnonzero(sel)
+    fr = np.zeros(sel.size, np.int64) if whole else rank[fpiece[sel]]
     T = np.asarray(V, np.float64)[np.asarray(F, np.int64)[sel]]
     n = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
     del T
@@ -563,7 +576,7 @@ def detect_holes(V, F, *, max_hole=None, fill_borders=False, closed=None, topo=N
     A = face_areas(V, F) if areas is None else areas
     piece_area = np.bincount(fpiece, weights=A, minlength=n_piece)
     bhe = topo.boundary_he
-    he_face = dict(zip(map(tuple, topo.he[bhe].tolist()), (bhe // 3).tolist()))
+    he_face = dict(zip(map(tuple, topo.ends(bhe).tolist()), (bhe // 3).tolist()))
     nv_used = int(np.count_nonzero(vcomp >= 0))
     scan = HoleScan(loops=[], open_chains=chains, n_components=n_comp,
                     n_boundary_edges=topo.n_boundary_edges,

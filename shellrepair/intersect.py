@@ -53,6 +53,7 @@ import numpy as np
 from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
 from .predicates import EPS, TINY, orient2d, orient3d
 from . import kernels
+from . import fastmesh
 from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
@@ -507,14 +508,21 @@ class NearFaces:
         V, F = self.V, self.F
         if topo is not None and len(topo.edges):
             E = topo.edges
-            L2 = np.empty(len(E))   # squared, per edge; in chunks that stay in cache
-            for s in range(0, len(E), 1 << 16):
-                d = V[E[s:s + (1 << 16), 0]] - V[E[s:s + (1 << 16), 1]]
-                L2[s:s + (1 << 16)] = np.einsum("ij,ij->i", d, d)
+            if fastmesh.enabled(len(F)):
+                L2 = fastmesh.edge_sq_lengths(V, E)
+            else:
+                L2 = np.empty(len(E))   # squared, per edge; in chunks that stay in cache
+                for s in range(0, len(E), 1 << 16):
+                    d = V[E[s:s + (1 << 16), 0]] - V[E[s:s + (1 << 16), 1]]
+                    L2[s:s + (1 << 16)] = np.einsum("ij,ij->i", d, d)
             med = float(np.median(L2[:: max(1, len(L2) // 300_000)]))
-            big_edge = L2 > self.BIG ** 2 * med if med > 0 else np.zeros(len(L2), bool)
-            self.big = np.unique(np.flatnonzero(big_edge[topo.edge_of_he]) // 3)
-            self.grow = float(np.sqrt(L2[~big_edge].max(initial=0.0)))  # bounds every other face
+            big_e = np.flatnonzero(L2 > self.BIG ** 2 * med) if med > 0 else np.zeros(0, np.int64)
+            self.big = np.zeros(0, np.int64)
+            if big_e.size:   # the faces of the (few) big edges, from the half-edges grouped by edge
+                start = np.cumsum(topo.edge_count) - topo.edge_count
+                self.big = np.unique(topo.he_order[concat_ranges(start[big_e], topo.edge_count[big_e])] // 3)
+                L2[big_e] = 0.0
+            self.grow = float(np.sqrt(L2.max(initial=0.0)))  # bounds every other face
         else:
             longest = np.zeros(len(F))  # squared, per face
             for a, b in ((0, 1), (1, 2), (2, 0)):
@@ -529,17 +537,29 @@ class NearFaces:
             self.lo2, self.h, self.vorder, self.vkey, self.ny = kernels.grid_sort(V, grow=self.grow)
             self.vf_order, self.vf_start = (kernels.vertex_faces(F, len(V)) if vf is None else vf)
             return
-        lo = V[:, :2].min(axis=0) if len(V) else np.zeros(2)
-        span = float(np.ptp(V[:, :2], axis=0).max()) if len(V) else 0.0
+        # column by column: a reduction over axis 0 of the (n,2) view runs two values at a time
+        lo = np.array([V[:, 0].min(), V[:, 1].min()]) if len(V) else np.zeros(2)
+        span = float(max(V[:, 0].max() - lo[0], V[:, 1].max() - lo[1])) if len(V) else 0.0
         # columns of about four longest edges, at most ~4096 a side
         self.h = max(4 * self.grow, span / 4096, 1e-300)
         self.lo2 = lo
         ij = np.floor((V[:, :2] - lo) / self.h).astype(np.int64)
         self.ny = int(ij[:, 1].max(initial=0)) + 1
         key = ij[:, 0] * self.ny + ij[:, 1]
-        self.vorder = np.argsort(key)  # order within a column is immaterial: faces_near sorts its result
-        self.vkey = key[self.vorder]
-        del ij, key
+        del ij
+        if len(V) < 2 ** 32 and int(key.max(initial=0)) < 2 ** 31:
+            # one sort of (column, vertex) packed in a word: by column, by vertex within
+            # (order within a column is immaterial: faces_near sorts its result)
+            key <<= 32
+            key |= np.arange(len(V))
+            key.sort()
+            self.vorder = key & 0xFFFFFFFF
+            key >>= 32
+            self.vkey = key
+        else:
+            self.vorder = np.argsort(key)
+            self.vkey = key[self.vorder]
+        del key
         self.vf_order, self.vf_start = vertex_faces(F, len(V)) if vf is None else vf
 
     def faces_near(self, lo, hi):

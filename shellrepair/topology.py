@@ -6,12 +6,13 @@ faces or vertices), so it scales to scans of tens of millions of triangles.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from . import fastmesh
 from .geometry import cross
 
 #: Faces per chunk in per-face geometry over the whole mesh.
@@ -27,36 +28,82 @@ __all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components
 class EdgeTopology:
     """Half-edge facts of a triangle mesh.
 
+    Half-edge ``3f+c`` runs ``F[f,c] -> F[f,(c+1)%3]``.
+
     Attributes
     ----------
-    he : (3m,2) int64
-        Directed half-edges ``F[f,c] -> F[f,(c+1)%3]``; half-edge ``3f+c``.
-    edge_of_he : (3m,) int64
-        Undirected edge id of each half-edge.
     edges : (e,2) int64
-        Undirected edges, ``edges[:,0] < edges[:,1]``.
+        Undirected edges, ``edges[:,0] < edges[:,1]``, sorted by
+        ``(edges[:,0], edges[:,1])``.
     edge_count : (e,) int64
         How many faces use each undirected edge (1 boundary, 2 manifold,
         more: non-manifold).
     boundary_he : (b,) int64
-        Half-edge ids whose undirected edge has exactly one face.
+        Half-edge ids whose undirected edge has exactly one face, sorted.
     nonmanifold_edges : (k,2) int64
         Edges used by three or more faces.
     he_order : (3m,) int64
-        Half-edge ids ordered by their undirected edge.
+        Half-edge ids ordered by their undirected edge (within an edge, by
+        increasing id).
+    faces : (m,3) int64
+        The faces it was built on (the caller's array, not a copy: it must
+        not be edited in place while the topology is in use).
+    edge_of_he : (3m,) int64
+        Undirected edge id of each half-edge (built on first use).
+    consistent : bool or None
+        True when no edge with two faces has both its half-edges in one
+        direction (every face agrees with its neighbours), False when one
+        has; None when not found on the way (the NumPy path).
+    he : (3m,2) int64
+        Directed half-edges (tail, head), built from ``faces`` on first use;
+        most callers need only a few (:meth:`ends`).
     """
 
-    he: np.ndarray
-    edge_of_he: np.ndarray
     edges: np.ndarray
     edge_count: np.ndarray
     boundary_he: np.ndarray
     nonmanifold_edges: np.ndarray
-    he_order: np.ndarray | None = None
+    he_order: np.ndarray
+    faces: np.ndarray
+    consistent: bool | None = None
+    _edge_of_he: np.ndarray | None = field(default=None, repr=False)
+    _he: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def edge_of_he(self):
+        if self._edge_of_he is None:
+            if fastmesh.enabled(self.he_order.size // 3):
+                self._edge_of_he = fastmesh.edge_ids(self.he_order, self.edge_count)
+            else:
+                e = np.empty(self.he_order.size, np.int64)
+                e[self.he_order] = np.repeat(np.arange(self.edge_count.size), self.edge_count)
+                self._edge_of_he = e
+        return self._edge_of_he
 
     @property
     def n_boundary_edges(self):
         return int(self.boundary_he.size)
+
+    @property
+    def he(self):
+        if self._he is None:
+            F = self.faces
+            m = F.shape[0]
+            he = np.empty((3 * m, 2), np.int64)
+            he[:, 0].reshape(m, 3)[:] = F
+            nxt = he[:, 1].reshape(m, 3)
+            nxt[:, :2] = F[:, 1:]
+            nxt[:, 2] = F[:, 0]
+            self._he = he
+        return self._he
+
+    def ends(self, h):
+        """(k,2) int64: tail and head of the half-edges ``h`` (ids ``3f+c``)."""
+        h = np.asarray(h, np.int64)
+        flat = self.faces.reshape(-1)
+        nxt = h + 1
+        nxt[h % 3 == 2] -= 3
+        return np.column_stack([flat[h], flat[nxt]])
 
 
 def edge_topology(F, n_vertices=None):
@@ -72,11 +119,27 @@ def edge_topology(F, n_vertices=None):
     -------
     topo : EdgeTopology
     """
-    F = np.asarray(F, dtype=np.int64)
+    F = np.ascontiguousarray(F, dtype=np.int64)
     n = int(F.max()) + 1 if n_vertices is None else int(n_vertices)
+    got = fastmesh.edge_topology_arrays(F, n) if fastmesh.enabled(len(F)) else None
+    if got is not None:
+        order, edges, count, boundary_he, consistent = got
+        edge_of_he = None   # built when asked for
+    else:
+        order, edge_of_he, edges, count, boundary_he = _edge_topology_numpy(F, n)
+        consistent = None
+    return EdgeTopology(edges=edges, edge_count=count, boundary_he=boundary_he, nonmanifold_edges=edges[count > 2],
+                        he_order=order, faces=F, consistent=consistent, _edge_of_he=edge_of_he)
+
+
+def _edge_topology_numpy(F, n):
+    """:func:`edge_topology`'s arrays by one stable argsort of packed edge
+    keys (the reference for :func:`shellrepair.fastmesh.edge_topology_arrays`)."""
     nn = np.int64(max(n, 1))
     m = F.shape[0]
     m3 = 3 * m
+    if m and (F.min() < 0 or F.max() >= n):
+        raise ValueError("a face refers to a vertex outside [0, n_vertices)")
     # Large fresh arrays cost as much to fault in as to compute, so each
     # scratch array below is reused once its content is no longer needed.
     he = np.empty((m3, 2), np.int64)
@@ -88,9 +151,9 @@ def edge_topology(F, n_vertices=None):
     key *= nn
     buf = np.maximum(he[:, 0], he[:, 1])
     key += buf
-    # one (unstable) argsort gives the unique edges, their counts and the inverse,
-    # about twice as fast as np.unique(..., return_inverse=True, return_counts=True)
-    order = np.argsort(key)
+    del he, nxt
+    # one stable argsort gives the unique edges, their counts and the inverse
+    order = np.argsort(key, kind="stable")
     ks = np.take(key, order, out=buf)
     first = np.empty(m3, bool)
     first[:1] = True
@@ -111,9 +174,7 @@ def edge_topology(F, n_vertices=None):
     np.remainder(ukey, nn, out=edges[:, 1])
     # an edge with one face has its one half-edge at the head of its group
     boundary_he = np.sort(order[starts[count == 1]])
-    return EdgeTopology(he=he, edge_of_he=edge_of_he, edges=edges,
-                        edge_count=count, boundary_he=boundary_he,
-                        nonmanifold_edges=edges[count > 2], he_order=order)
+    return order, edge_of_he, edges, count, boundary_he
 
 
 def manifold_pairs(topo):
@@ -232,8 +293,10 @@ def components_of_pieces(F, n_vertices, face_piece, n_pieces):
     m = len(F)
     flat = F.ravel()
     if n_pieces == 1:  # one piece (the usual scan): one component
-        vertex_comp = np.full(n, -1, np.int64)
-        vertex_comp[flat] = 0
+        used = np.zeros(n, bool)
+        used[flat] = True                   # one byte a vertex: the scatter stays in cache
+        vertex_comp = used.astype(np.int64)
+        vertex_comp -= 1
         return 1, vertex_comp, np.zeros(m, np.int64)
     corner_piece = np.repeat(np.asarray(face_piece, np.int64), 3)
     some_piece = np.full(n, -1, np.int64)
@@ -276,6 +339,12 @@ def vertex_faces(F, n_vertices):
     start : (n+1,) int64
         Vertex v's entries are ``order[start[v]:start[v+1]]``.
     """
+    if fastmesh.enabled(len(F)):
+        return fastmesh.vertex_faces(F, n_vertices)
+    return _vertex_faces_scipy(F, n_vertices)
+
+
+def _vertex_faces_scipy(F, n_vertices):
     flat = np.asarray(F, np.int64).ravel()
     n = int(n_vertices)
     # a counting sort by vertex: SciPy's COO -> CSR conversion, stable within a row
@@ -296,6 +365,9 @@ def face_pieces(topo, n_faces):
     n_pieces : int
     face_piece : (m,) int64
     """
+    if fastmesh.enabled(n_faces):   # union-find, labels as SciPy numbers them
+        n, lab, _, _ = fastmesh.face_pieces_labels(topo, topo.faces, n_faces, manifold_only=False)
+        return n, lab
     order = topo.he_order  # half-edges grouped by edge (in edge order), from edge_topology
     # 32-bit face ids where they fit: half the memory traffic, and SciPy's graph code works in 32 bits
     f = (order // 3).astype(np.int32 if n_faces < 2 ** 31 - 1 else np.int64)
@@ -322,7 +394,9 @@ def _face_cross_chunks(V, F):
 
 
 def face_areas(V, F):
-    """Triangle areas, (m,) float64."""
+    """Triangle areas, (m,) float64: ``0.5 |(b - a) × (c - a)|``."""
+    if fastmesh.enabled(len(F)):
+        return fastmesh.face_areas(V, F)
     out = np.empty(len(F))
     for s, c in _face_cross_chunks(V, F):
         out[s:s + len(c)] = 0.5 * np.sqrt(np.einsum("ij,ij->i", c, c))

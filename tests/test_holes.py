@@ -66,7 +66,7 @@ def test_fill_borders_and_max_hole_override_the_class():
     V, F = shapes.icosphere(3)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=1, radius=0.4, seed=0)
     lp = detect_holes(V2, F2, max_hole=5).loops[0]
-    assert lp.kind == "border" and "max-hole" in lp.reason
+    assert lp.kind == "border" and "max_hole" in lp.reason
 
 
 def test_two_holes_touching_at_a_vertex_are_two_loops(two_pinched_holes):

@@ -2,6 +2,7 @@
 what their straightforward versions give."""
 
 import numpy as np
+import pytest
 
 from shellrepair import shapes
 from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, _independent_flips, _relax, _unfolded, refine_patch,
@@ -268,3 +269,145 @@ def test_refinement_that_tests_only_what_changed_equals_the_plain_one():
         assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
         sizes.append(len(got[1]))
     assert len(sizes) >= 3 and max(sizes) > 300   # holes large enough for many split rounds
+
+
+# --------------------------------------------------------------------------
+# compiled whole-mesh kernels (shellrepair.fastmesh) against the NumPy versions
+# --------------------------------------------------------------------------
+def _kernel_meshes():
+    """Seeded meshes of every kind the kernels meet: a closed sphere, one with
+    holes and flipped faces, random triangle soups (repeated edges, edges with
+    three or more faces, vertices no face uses), a fan of 100 faces on one
+    edge, two spheres apart."""
+    rng = np.random.default_rng(5)
+    V, F = shapes.icosphere(3)
+    out = [("sphere", V, F), ("sphere, holes", V, F[rng.random(len(F)) > 0.05])]
+    G = F.copy()
+    flip = rng.random(len(G)) < 0.2
+    G[flip] = G[flip][:, [0, 2, 1]]
+    out.append(("sphere, flipped faces", V, G))
+    for k in range(12):
+        n = int(rng.integers(4, 5000 if k % 2 else 40))
+        T = rng.integers(0, n, (int(rng.integers(1, 400)), 3))
+        T = T[(T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])]
+        if len(T):
+            out.append((f"soup {k}", rng.normal(size=(n + 3, 3)), T))
+    fan = np.column_stack([np.zeros(100, np.int64), np.ones(100, np.int64), np.arange(2, 102)])
+    out.append(("fan on one edge", rng.normal(size=(102, 3)), fan))
+    out.append(("two spheres", np.vstack([V, V + 3.0]), np.vstack([F, F + len(V)])))
+    return out
+
+
+def _numpy_only(monkeypatch):
+    from shellrepair import fastmesh
+
+    monkeypatch.setattr(fastmesh, "AVAILABLE", False)
+
+
+def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypatch):
+    pytest.importorskip("numba")
+    from scipy.sparse.csgraph import connected_components
+    import scipy.sparse as sp
+
+    from shellrepair import clean, fastmesh
+    from shellrepair import io as io_module
+    from shellrepair.topology import _edge_topology_numpy
+
+    # clean_faces' hash, wherever clean_faces lives (io before the io split, clean after)
+    triple_hash_numpy = getattr(clean, "_triple_hash", None) or io_module._triple_hash
+
+    for name, V, F in _kernel_meshes():
+        n = len(V)
+        order, edges, count, bhe, consistent = fastmesh.edge_topology_arrays(F, n)
+        want = _edge_topology_numpy(np.ascontiguousarray(F, np.int64), n)
+        got = (order, fastmesh.edge_ids(order, count), edges, count, bhe)
+        for g, w, what in zip(got, want, ("he_order", "edge_of_he", "edges", "edge_count", "boundary_he")):
+            assert g.dtype == np.int64 and np.array_equal(g, w), (name, what)
+        # consistent: no edge with two faces used twice in one direction
+        tail = np.asarray(F, np.int64).ravel()
+        start = np.cumsum(count) - count
+        two = start[count == 2]
+        assert consistent == (not (tail[order[two]] == tail[order[two + 1]]).any()), name
+        # the duplicate-face hash of clean_faces (the hash of each face's vertex set)
+        assert np.array_equal(fastmesh.triple_hash(F), triple_hash_numpy(np.asarray(F, np.int64))), name
+        # pieces: SciPy's connected components of the faces joined across edges
+        topo = edge_topology(F, n)
+        for manifold_only in (True, False):
+            k, lab, first, _ = fastmesh.face_pieces_labels(topo, F, len(F), manifold_only=manifold_only)
+            start = np.cumsum(count) - count
+            pairs = [(order[s + i] // 3, order[s + i + 1] // 3) for s, c in zip(start, count)
+                     if c == 2 or (c > 2 and not manifold_only) for i in range(c - 1)]
+            P = np.array(pairs, np.int64).reshape(-1, 2)
+            A = sp.csr_matrix((np.ones(len(P)), (P[:, 0], P[:, 1])), shape=(len(F), len(F)))
+            k_ref, lab_ref = connected_components(A, directed=False)
+            assert k == k_ref and np.array_equal(lab, lab_ref), (name, manifold_only)
+            assert np.array_equal(first, [np.flatnonzero(lab == p)[0] for p in range(k)])
+        # the same results through the public functions, kernels on and off
+        monkeypatch.setattr(fastmesh, "MIN_FACES", 0)
+        fast = (face_pieces(topo, len(F)), face_areas(V, F), vertex_faces(F, n + 2))
+        with monkeypatch.context() as mp:
+            _numpy_only(mp)
+            slow = (face_pieces(topo, len(F)), face_areas(V, F), vertex_faces(F, n + 2))
+        assert fast[0][0] == slow[0][0] and np.array_equal(fast[0][1], slow[0][1]), name
+        # areas: the same three products summed in einsum's order here; at most 1 ulp on other CPUs
+        np.testing.assert_array_max_ulp(fast[1], slow[1], maxulp=1)
+        assert all(np.array_equal(a, b) for a, b in zip(fast[2], slow[2])), name
+
+
+def test_orientation_with_kernels_equals_the_numpy_search(monkeypatch):
+    pytest.importorskip("numba")
+    from shellrepair import fastmesh
+    from shellrepair.clean import _signed_volumes, orient_faces
+
+    monkeypatch.setattr(fastmesh, "MIN_FACES", 0)
+    rng = np.random.default_rng(11)
+    for name, V, F in _kernel_meshes():
+        fast = orient_faces(F, V)
+        with monkeypatch.context() as mp:
+            _numpy_only(mp)
+            slow = orient_faces(F, V)
+            piece = face_pieces(edge_topology(F, len(V)), len(F))
+            flip = rng.random(len(F)) < 0.3
+            vol_ref = _signed_volumes(V, F, flip, piece[1], piece[0])
+        assert np.array_equal(fast.F, slow.F) and np.array_equal(fast.flipped, slow.flipped), name
+        assert (fast.n_pieces, fast.nonorientable, fast.notes) == (slow.n_pieces, slow.nonorientable, slow.notes)
+        assert (fast.piece is None) == (slow.piece is None)
+        assert fast.piece is None or np.array_equal(fast.piece, slow.piece)
+        # the volumes decide closed pieces' winding: the same sums in the same order
+        assert np.array_equal(_signed_volumes(V, F, flip, piece[1], piece[0]), vol_ref), name
+    # the sphere with flipped faces is wound outward again, with either path
+    V, F = shapes.icosphere(3)
+    G = F.copy()
+    G[::3] = G[::3][:, [0, 2, 1]]
+    assert np.array_equal(orient_faces(G, V).F, F)
+
+
+def test_a_read_scan_is_the_same_with_kernels_and_without(tmp_path, monkeypatch):
+    pytest.importorskip("numba")
+    from shellrepair import fastmesh
+
+    V, F = _pieces_and_pinches()
+    keep = np.ones(len(F), bool)
+    keep[[5, 40, 41, 200]] = False
+    F = F[keep].copy()
+    F[7] = F[7][[0, 2, 1]]
+    path = tmp_path / "scan.ply"
+    write_mesh(path, Mesh(V=V, F=F))
+    monkeypatch.setattr(fastmesh, "MIN_FACES", 0)
+    fast = read_mesh(path)
+    d_fast = holes_dict(detect_holes(fast.V, fast.F))
+    with monkeypatch.context() as mp:
+        _numpy_only(mp)
+        slow = read_mesh(path)
+        d_slow = holes_dict(detect_holes(slow.V, slow.F))
+    assert np.array_equal(fast.F, slow.F) and np.array_equal(fast.V, slow.V) and fast.notes == slow.notes
+    assert d_fast == d_slow and d_fast["holes"] >= 3
+
+
+def test_kernels_refuse_a_face_outside_the_vertices():
+    pytest.importorskip("numba")
+    from shellrepair import fastmesh
+
+    with pytest.raises(ValueError, match="outside"):
+        fastmesh.edge_topology_arrays(np.array([[0, 1, 5]]), 4)
+    assert fastmesh.warm_up() is True

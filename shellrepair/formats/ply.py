@@ -493,15 +493,20 @@ def ply_bytes(mesh, binary=True):
     head.append("end_header")
     header = ("\n".join(head) + "\n").encode("ascii")
     if binary:
-        va = np.empty(n, dtype=np.dtype(vfields))
+        # one buffer, the records written into it in place (no copies joined)
+        vdt, fdt = np.dtype(vfields), np.dtype(ffields)
+        buf = bytearray(len(header) + n * vdt.itemsize + m * fdt.itemsize)
+        buf[:len(header)] = header
+        va = np.frombuffer(buf, dtype=vdt, count=n, offset=len(header))
         for name, _ in vfields:
             va[name] = vcols[name]
-        fa = np.empty(m, dtype=np.dtype(ffields))
+        fa = np.frombuffer(buf, dtype=fdt, count=m, offset=len(header) + n * vdt.itemsize)
         fa["n"] = 3
         fa["i"] = F
         if mesh.face_filled is not None:
             fa["filled"] = np.asarray(mesh.face_filled, dtype=np.uint8)
-        return header + va.tobytes() + fa.tobytes()
+        del va, fa   # no view may outlive the function (the buffer stays resizable)
+        return buf
     out = [header.decode()]
     cols = []
     for name, dt in vfields:
