@@ -374,8 +374,10 @@ EDGE_ON_PLANARITY = 0.02
 #: ... whose surrounding faces (``EDGE_ON_RINGS`` rings) have normals with a
 #: mean |cos| to its axis of at most this is an opening the scan meets
 #: edge-on: a statue's base, a foot's sole, the cut of a bust or a pipe's
-#: end. The walls stand across the opening's plane; a faired patch would
-#: continue them into a dome, while the surface they bound is flat.
+#: end. The walls stand across the opening's plane; a faired patch
+#: continues them into a dome. On a scan it gets a flat cap only where the
+#: band test (:func:`shellrepair.selftest.flat_fits_best`) finds a flat
+#: fill continues the scan next to it better than the faired one.
 EDGE_ON_COS = 0.35
 EDGE_ON_RINGS = 6
 
@@ -415,4 +417,11 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     if a.sum() <= 0:
         return False
     cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
-    return float(np.sum(a * cosines) / a.sum()) <= EDGE_ON_COS
+    if float(np.sum(a * cosines) / a.sum()) > EDGE_ON_COS:
+        return False
+    # walls standing across the opening's plane may end at it (a real base)
+    # or run on beyond it (a cut through the object): the scan cannot show
+    # which, so ask it which fill continues it best next to the opening
+    from .selftest import flat_fits_best
+
+    return flat_fits_best(ctx, loop, hole_id)[0]
