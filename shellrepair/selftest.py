@@ -298,7 +298,7 @@ def scan_verdict(ctx, holes, candidates=CANDIDATES):
     return OrderTest(int(best), errors={o: total[o] / n for o in candidates}, rings=rings, shared=n)
 
 
-def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shared=True):
+def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shared=True, rings=None):
     """Pick the fairing order for one hole by the band test (module docstring).
 
     Parameters
@@ -313,6 +313,8 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
     shared : bool
         A small hole takes the scan's verdict (``ctx.auto_small``) when
         there is one.
+    rings : int, optional
+        Band width (default :func:`band_rings` of the rim's edges).
 
     Returns
     -------
@@ -331,7 +333,7 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
                          rings=verdict.rings, shared=verdict.shared)
     if k < MIN_EDGES:
         return OrderTest(DEFAULT_ORDER, why=f"{k} rim edges, not tested")
-    rings = band_rings(k)
+    rings = band_rings(k) if rings is None else int(rings)
     probe = None
     while probe is None and rings >= BAND_MIN:
         probe = probe_band(ctx, loop, rings)
