@@ -34,7 +34,8 @@ cheap to fill, so they are not tested one by one: the test runs on at most
 them (:func:`scan_verdict`). Holes with fewer than ``MIN_EDGES`` rim edges
 are never tested (a patch of a few triangles, where the orders differ by
 less than the scan's own noise). A hole whose band is not a clean annulus
-(it meets another hole or a border, or wraps around a thin part) keeps
+(it meets another hole or a border, or wraps around a thin part) takes
+the scan's verdict on its small holes when there is one, else
 ``DEFAULT_ORDER``.
 
 Cost: one local copy of the scan (``w + MARGIN_RINGS`` rings around the
@@ -55,7 +56,7 @@ from scipy.spatial import cKDTree
 from .fair import fair_patch
 from .geometry import uniq
 
-__all__ = ["choose_order", "scan_verdict", "flat_fits_best", "agrees", "probe_band", "point_mesh_distance", "OrderTest"]
+__all__ = ["choose_order", "scan_verdict", "agrees", "probe_band", "point_mesh_distance", "OrderTest"]
 
 #: Candidate orders, tried in this order (ties go to the first).
 CANDIDATES = (2, 3)
@@ -112,7 +113,7 @@ class OrderTest:
         errs = ", ".join(f"order {o} {e:.3g}" for o, e in sorted(self.errors.items()))
         if self.shared:
             return (f"auto: order {self.order}, the scan's verdict on its small holes (the band test on "
-                    f"{self.shared}; errors here {errs})")
+                    f"{self.shared}; errors here {errs})" + (f"; {self.why}" if self.why else ""))
         return f"auto: order {self.order}, self-test on a {self.rings}-ring band of scan: {errs}"
 
 
@@ -240,24 +241,6 @@ def _closest_on_triangles(P, A, B, C):
     return out
 
 
-def flat_fits_best(ctx, loop, hole_id=None):
-    """Does a flat cap continue the scan around a planar opening best?
-
-    The band test with the flat cap (order 1: a membrane, flat over a
-    planar loop) and the thin plate (order 2) as candidates, ties to the
-    thin plate: a real opening whose surroundings are flat next to it gets
-    a flat cap; walls that run on across the opening's plane get the faired
-    dome that continues them.
-
-    Returns
-    -------
-    flat : bool
-    test : OrderTest
-    """
-    test = choose_order(ctx, hole_id, loop, candidates=(2, 1), shared=False)
-    return test.order == 1 and bool(test.errors), test
-
-
 def _mean_edge(V, loop):
     return float(np.mean(np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1)))
 
@@ -340,6 +323,11 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
         if probe is None:
             rings -= 2 if rings > BAND_MIN + 1 else 1
     if probe is None:
+        if verdict is not None and shared and not relative:   # the scan's verdict, scaled to this rim
+            scale = _mean_edge(ctx.V, loop)
+            return OrderTest(verdict.order, errors={o: e * scale for o, e in verdict.errors.items()},
+                             rings=verdict.rings, shared=verdict.shared,
+                             why="no clean band of scan around the hole")
         return OrderTest(DEFAULT_ORDER, why="no clean band of scan around the hole")
     Vl, Fl, ploop, known = probe
     origin = Vl.mean(axis=0)        # a local frame: scans far from the origin keep their digits

@@ -130,27 +130,3 @@ def test_on_a_sculpted_bust_the_test_beats_either_order_everywhere():
             chosen.add(t.order)
     assert chosen == {2, 3}
     assert sq["test"] < min(sq[2], sq[3])
-
-
-def _walls_open_below(noise):
-    """A closed-top cylinder whose bottom was never scanned: its rim at z ≈ -1."""
-    V, F = shapes.cylinder(0.5, 2.0, 48, 40)
-    top = np.arange(48) * 41 + 40
-    c = len(V)
-    V = np.vstack([V, [[0.0, 0.0, 1.0]]])
-    F = np.vstack([F, np.column_stack([top, np.roll(top, -1), np.full(48, c)])])
-    rim = np.arange(48) * 41
-    V[rim, 2] += noise * np.random.default_rng(0).standard_normal(48)
-    return V, F, rim
-
-
-def test_walls_cut_across_a_scan_opening_are_continued_not_capped_flat():
-    # the scan cannot tell whether the walls end at the opening or run on:
-    # the band of wall next to it is continued best by the faired fill
-    V, F, rim = _walls_open_below(1e-3)
-    scan = detect_holes(V, F, fill_borders=True)
-    assert 1e-6 < scan.loops[0].planarity < 0.02
-    R, rep = repair_mesh(Mesh(V=V, F=F), fill_borders=True)
-    assert rep["holes_after"] == 0
-    assert rep["holes"][0]["option"].startswith("faired order 2")
-    assert R.V[R.vertex_filled][:, 2].max() < V[rim, 2].min()     # a dome below the rim
