@@ -20,7 +20,7 @@ every boundary loop is a hole):
 tool                 call
 ===================  ========================================================
 ours-o1/o2/o3        ``shellrepair.repair.repair_mesh(mesh, order=k)``
-ours-auto            ``repair_mesh(mesh, order="auto")`` (order 3 where it stays close to 2)
+ours-auto            ``repair_mesh(mesh, order="auto")`` (2 or 3 per hole by the band test, shellrepair.selftest)
 ours-seed            ``repair_mesh(mesh, method="seed")`` (the paper's method)
 pymeshlab            ``MeshSet.meshing_close_holes(maxholesize=<all boundary
                      edges + 1>)``, other parameters at their defaults

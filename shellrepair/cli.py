@@ -160,7 +160,7 @@ def _order(text):
 def _repair_options(p):
     p.add_argument("--order", type=_order, default=2, metavar="{1,2,3,auto}",
                    help="fairing order: 1 harmonic, 2 bilaplacian (default), 3 curvature-continuous, "
-                        "auto: 3 where it stays close to 2, else 2")
+                        "auto: 2 or 3 per hole, by refilling a band of scan around it")
     p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch (default: 0)")
     p.add_argument("--method", choices=("fair", "seed"), default="fair",
                    help="fair: local faired shells (default); seed: the paper's smoothed-copy method")

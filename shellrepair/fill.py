@@ -149,34 +149,33 @@ def _pin_region(patch, bad, pinned):
     return np.flatnonzero(mark[k:])
 
 
-#: ``order="auto"``: order 3 is kept where it moves the order-2 patch by at
-#: most this fraction of the hole's diameter (RMS). Where curvature
-#: extrapolates stably (smooth and finely relieved surfaces) the two agree
-#: closely and order 3 is the better guess; where order 3 departs far from
-#: order 2 (jagged rims, large holes in complex shapes) it is extrapolating
-#: noise. Chosen on the benchmark suite (see BENCHMARKS.md).
-AUTO_TAU = 0.035
-
-
 def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
-    """Fill one hole; ``order="auto"`` picks 2 or 3 (see ``AUTO_TAU``)."""
+    """Fill one hole; ``order="auto"`` picks 2 or 3 by a test on the scan
+    around the hole (:mod:`~shellrepair.selftest`)."""
     if order != "auto":
         return _fill_one_order(ctx, hole_id, loop, order, smooth, energy)
+    from .selftest import agrees, choose_order
+
     t0 = time.perf_counter()
+    test = choose_order(ctx, hole_id, loop)
     patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
         return patch, reason, time.perf_counter() - t0, reasons
-    diameter = float(np.linalg.norm(ctx.V[loop].max(axis=0) - ctx.V[loop].min(axis=0)))
-    try:
-        p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy)
-    except PatchError:
-        return patch, reason, time.perf_counter() - t0, reasons
-    if len(p3.P) == len(patch.P):
-        rel = float(np.sqrt(np.mean(np.sum((p3.P - patch.P) ** 2, axis=1)))) / max(diameter, 1e-300)
-        if rel <= AUTO_TAU and _check_patch(ctx, p3)[0] is None:
-            p3.option = patch.option.replace("order 2", "order 3") + f" (auto: {100 * rel:.1f}% of the diameter from order 2)"
-            return p3, reason, time.perf_counter() - t0, reasons
-        patch.option += f" (auto: order 3 would move it {100 * rel:.1f}% of the diameter)"
+    if test.order == 3:
+        try:
+            p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy)
+        except PatchError:
+            p3 = None
+        if p3 is not None:
+            ok, gap = agrees(test, ctx.V, patch, p3)
+            if ok and _check_patch(ctx, p3)[0] is None:
+                p3.option = patch.option.replace("order 2", "order 3") + f" ({test.describe()})"
+                return p3, reason, time.perf_counter() - t0, reasons
+            patch.option += (f" ({test.describe()}; but order 3 lies {gap:.3g} from order 2 here, more than "
+                             f"the two errors together: order 2 kept)" if not ok else
+                             f" ({test.describe()}; order 3 crosses the scan: order 2 kept)")
+            return patch, reason, time.perf_counter() - t0, reasons
+    patch.option += f" ({test.describe()})"
     return patch, reason, time.perf_counter() - t0, reasons
 
 

@@ -40,7 +40,8 @@ class RepairOptions:
     ----------
     order : {1, 2, 3, "auto"}
         Fairing order: harmonic, bilaplacian (default), curvature-continuous;
-        ``"auto"`` keeps order 3 where it moves the order-2 patch little.
+        ``"auto"`` picks 2 or 3 per hole by a test on the scan around it
+        (:mod:`shellrepair.selftest`).
     smooth : int
         Non-shrinking smoothing passes of each patch after fairing (for
         ``method="seed"``: passes over the whole duplicate).

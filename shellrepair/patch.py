@@ -402,8 +402,11 @@ EDGE_ON_PLANARITY = 0.02
 #: ... whose surrounding faces (``EDGE_ON_RINGS`` rings) have normals with a
 #: mean |cos| to its axis of at most this is an opening the scan meets
 #: edge-on: a statue's base, a foot's sole, the cut of a bust or a pipe's
-#: end. The walls stand across the opening's plane; a faired patch would
-#: continue them into a dome, while the surface they bound is flat.
+#: end. The walls stand across the opening's plane; a faired patch
+#: continues them into a dome. On a scan it gets a flat cap only where the
+#: walls turn into the opening's plane along most of its rim
+#: (:func:`_turns_into_opening`): a base the scan reached the edge of, not
+#: a cut through walls that run on.
 EDGE_ON_COS = 0.35
 EDGE_ON_RINGS = 6
 
@@ -443,4 +446,44 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     if a.sum() <= 0:
         return False
     cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
-    return float(np.sum(a * cosines) / a.sum()) <= EDGE_ON_COS
+    if float(np.sum(a * cosines) / a.sum()) > EDGE_ON_COS:
+        return False
+    return _turns_into_opening(ctx, loop)
+
+
+def _turns_into_opening(ctx, loop):
+    """Does the scan turn into the opening's plane along most of its rim?
+
+    Walls standing across a planar opening either end there (a statue's
+    real base: the scan's last faces bend into the base, along a fillet or
+    a chamfer of its edge, so they already face out through the opening)
+    or run on beyond it (a cut through the object: the last faces face
+    away from the opening, or straight across it). The test is per rim
+    vertex: the area-weighted mean of its first-ring faces' normals against
+    the opening's normal, which the loop's own orientation gives (Newell's
+    formula; the scan's faces run the other way round the rim). The
+    opening is a base, to be capped flat, when more than half of its rim
+    vertices turn into it; otherwise the faired fill continues the walls.
+    """
+    P = ctx.V[loop]
+    Q = np.roll(P, -1, axis=0)
+    axis = np.array([np.sum((P[:, 1] - Q[:, 1]) * (P[:, 2] + Q[:, 2])),
+                     np.sum((P[:, 2] - Q[:, 2]) * (P[:, 0] + Q[:, 0])),
+                     np.sum((P[:, 0] - Q[:, 0]) * (P[:, 1] + Q[:, 1]))])
+    length = float(np.linalg.norm(axis))
+    if not np.isfinite(length) or length == 0:
+        return False
+    axis /= length
+    T = ctx.F[ctx.faces_of(loop)]
+    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    pos = np.full(ctx.n, -1, np.int64)
+    pos[loop] = np.arange(len(loop))
+    num = np.zeros(len(loop))
+    den = np.zeros(len(loop))
+    for j in range(3):
+        at = pos[T[:, j]]
+        on = at >= 0
+        np.add.at(num, at[on], (n @ axis)[on])
+        np.add.at(den, at[on], np.linalg.norm(n, axis=1)[on])
+    turning = num < 0   # facing out through the opening (its normal points into the object)
+    return 2 * int(np.count_nonzero(turning & (den > 0))) > len(loop)

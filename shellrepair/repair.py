@@ -70,6 +70,7 @@ from .report import table1_dict
 from .topology import edge_count_delta, edge_topology
 from . import fill as _fill
 from .bridge import _find_bands
+from .selftest import scan_verdict
 from .fill import SEED_SMOOTH_PASSES, _run_chunk, _seed_patches, _worker
 from .merge import _Accepted, _merge
 from .patch import BATCH, Patch, _Context, build_patch
@@ -167,6 +168,8 @@ def repair_mesh(mesh, options=None, *, progress=None, **changes):
     _progress(progress, 2, 2, "finding holes")
     holes = scan.holes
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
+    if order == "auto" and method == "fair":    # one order for the small holes, tested on a few
+        ctx.auto_small = scan_verdict(ctx, holes)
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":

@@ -278,7 +278,9 @@ def test_auto_order_takes_order_3_on_a_smooth_sphere_and_says_so():
 
 
 def test_auto_order_keeps_order_2_where_order_3_departs_from_it():
-    # slivers along the rim make the rim's curvature noise: order 3 would amplify it
+    # a jagged rim is curvature noise that order 3 would amplify; the band of
+    # scan next to the hole does not share it, so the real fills disagree
+    # with the band test and order 2 is kept
     V, F = shapes.icosphere(4)
     top = int(np.argmax(V[:, 2]))
     V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[top], radius=0.5)
@@ -289,7 +291,7 @@ def test_auto_order_keeps_order_2_where_order_3_departs_from_it():
     V3[rim] += 0.02 * rng.standard_normal((len(rim), 3))   # a jagged rim
     R, rep = repair_mesh(Mesh(V=V3, F=F2), order="auto")
     opt = rep["holes"][0]["option"]
-    assert opt.startswith("faired order 2") and "auto: order 3 would move it" in opt
+    assert opt.startswith("faired order 2") and "more than the two errors together: order 2 kept" in opt
 
 
 def test_progress_moves_hole_by_hole_through_batched_runs(monkeypatch):

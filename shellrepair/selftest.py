@@ -1,0 +1,404 @@
+"""Choose a hole's fairing order by a test on the scan around it (``order="auto"``).
+
+Which fairing order continues a scan best depends on the surface: order 3
+(curvature continuous) extrapolates smooth and finely relieved surfaces
+best, order 2 (thin plate) is safer where the rim carries noise or sharp
+sculpted detail that order 3 would carry on into the hole. Instead of a
+constant chosen on a benchmark, :func:`choose_order` asks the scan itself:
+
+1. Remove a band of ``w`` rings of known scan around the hole
+   (:func:`probe_band`): together with the hole it is a larger hole, whose
+   rim is the band's outer edge.
+2. Fill that larger hole with each candidate order exactly as a hole is
+   filled (:func:`shellrepair.patch.build_patch`: triangulate, refine,
+   fair), on a local copy of the scan around it.
+3. Measure each fill against the band it replaced: the RMS distance of the
+   band's vertices (the scan that was removed, the hole's own rim included)
+   to the filled surface (:func:`point_mesh_distance`).
+4. The order with the lowest error fills the real hole, if the real fills
+   agree with the test (:func:`agrees`): were both candidates as close to
+   the true surface as the test found, they would lie within the sum of
+   their two errors of each other. Where they lie further apart, the test
+   did not represent this hole (a rim the band does not share, such as
+   slivers; a hole far larger than the band reaches) and the lower order,
+   whose error grows more slowly with the hole's size, is kept.
+
+The band is ``w = clip(round(BAND_FRACTION * k / 2π), BAND_MIN, BAND_MAX)``
+rings wide for a rim of ``k`` edges (``k / 2π`` is the hole's radius in rim
+edges): the test hole is about twice the real one across, so its centre
+lies on known scan next to the real hole, where the candidates differ most.
+Small holes (fewer than ``SMALL_EDGES`` rim edges) are many on a scan and
+cheap to fill, so they are not tested one by one: the test runs on at most
+``SMALL_SAMPLE`` of them, spread evenly over their ids, and its verdict
+(errors in units of each test hole's rim edge, summed) holds for all of
+them (:func:`scan_verdict`). Holes with fewer than ``MIN_EDGES`` rim edges
+are never tested (a patch of a few triangles, where the orders differ by
+less than the scan's own noise). A hole whose band is not a clean annulus
+(it meets another hole or a border, or wraps around a thin part) takes
+the scan's verdict on its small holes when there is one, else
+``DEFAULT_ORDER``.
+
+Cost: one local copy of the scan (``w + MARGIN_RINGS`` rings around the
+hole) and one fill per candidate of a hole about twice as large, i.e. a
+few times the cost of filling the hole itself; per-hole and local, never
+whole-mesh. The fairing reads ``order`` rings of the scan around the rim
+(every scan vertex is held fixed, so rings further out do not change the
+solve); the band width is what sets how far from the hole the test looks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .fair import fair_patch
+from .geometry import uniq
+
+__all__ = ["choose_order", "scan_verdict", "agrees", "probe_band", "point_mesh_distance", "OrderTest"]
+
+#: Candidate orders, tried in this order (ties go to the first).
+CANDIDATES = (2, 3)
+#: The order of holes that are not tested.
+DEFAULT_ORDER = 2
+#: Holes with fewer rim edges are not tested.
+MIN_EDGES = 8
+#: Holes with fewer rim edges share one verdict per scan ...
+SMALL_EDGES = 24
+#: ... from the test on at most this many of them.
+SMALL_SAMPLE = 8
+#: Band width as a fraction of the hole's radius in rim edges, and its bounds in rings.
+BAND_FRACTION = 0.5
+BAND_MIN = 2
+BAND_MAX = 6
+#: Rings of scan kept around the test hole (the fairing reads up to 3).
+MARGIN_RINGS = 4
+#: Cotangent rounds of the test's fairing (the fill itself uses
+#: ``fair.COTAN_ROUNDS``); fewer make the test cheaper.
+TEST_ROUNDS = 2
+#: Triangles nearest (by centroid) to each measured point searched for its closest point.
+NEAREST_TRIANGLES = 8
+
+
+@dataclass
+class OrderTest:
+    """What :func:`choose_order` found for one hole.
+
+    Attributes
+    ----------
+    order : int
+        The chosen order.
+    errors : dict of int -> float
+        RMS distance of the band's vertices to each candidate's fill, in the
+        scan's units (empty when the hole was not tested).
+    rings : int
+        Band width in rings (0 when not tested).
+    why : str
+        Why the hole was not tested, or ''.
+    shared : int
+        For a scan's verdict on its small holes: how many were tested.
+    """
+
+    order: int
+    errors: dict = field(default_factory=dict)
+    rings: int = 0
+    why: str = ""
+    shared: int = 0
+
+    def describe(self):
+        """One line for the report."""
+        if not self.errors:
+            return f"auto: order {self.order}, {self.why}"
+        errs = ", ".join(f"order {o} {e:.3g}" for o, e in sorted(self.errors.items()))
+        if self.shared:
+            return (f"auto: order {self.order}, the scan's verdict on its small holes (the band test on "
+                    f"{self.shared}; errors here {errs})" + (f"; {self.why}" if self.why else ""))
+        return f"auto: order {self.order}, self-test on a {self.rings}-ring band of scan: {errs}"
+
+
+def band_rings(k):
+    """Band width in rings for a rim of ``k`` edges."""
+    return int(np.clip(round(BAND_FRACTION * k / (2 * np.pi)), BAND_MIN, BAND_MAX))
+
+
+def probe_band(ctx, loop, rings):
+    """The band of ``rings`` rings of scan around a hole, as a larger hole.
+
+    Parameters
+    ----------
+    ctx : shellrepair.patch._Context
+    loop : (k,) int64
+        The hole's loop (global vertex ids).
+    rings : int
+
+    Returns
+    -------
+    probe : tuple or None
+        ``(V, F, probe_loop, known)`` of a local copy of the scan with the
+        band removed: positions (local), faces, the larger hole's loop
+        (local ids, boundary half-edge order) and the band's vertices not
+        on that loop (local ids: the known surface the fill should meet).
+        None when the band is not an annulus between the hole's loop and
+        one other simple loop (it touches another boundary, wraps around a
+        thin part or reaches the end of the scan).
+    """
+    from .holes import boundary_loops
+    from .topology import euler_characteristic
+
+    loop = np.asarray(loop, np.int64)
+    band = ctx.ring_faces(loop, rings)
+    region = ctx.ring_faces(loop, rings + MARGIN_RINGS)
+    if band.size == 0 or band.size == region.size:
+        return None
+    g = uniq(ctx.F[region])
+    Fl = np.searchsorted(g, ctx.F[region])
+    inband = np.isin(region, band)
+    Fb, Fk = Fl[inband], Fl[~inband]
+    n = len(g)
+    # the band must be an annulus: two boundary loops, one of them the hole's
+    if euler_characteristic(Fb, n) != 0:
+        return None
+    bl, chains = boundary_loops(Fb, n)
+    loc_loop = np.searchsorted(g, loop)
+    if len(bl) != 2 or chains:
+        return None
+    same = [set(b.tolist()) == set(loc_loop.tolist()) for b in bl]
+    if sum(same) != 1:
+        return None
+    outer = set(bl[same.index(False)].tolist())
+    # the same loop as a hole of the kept scan (its half-edge order)
+    kl, _ = boundary_loops(Fk, n)
+    probe = [b for b in kl if set(b.tolist()) == outer]
+    if len(probe) != 1:
+        return None
+    known = np.setdiff1d(uniq(Fb), probe[0])
+    return ctx.V[g], Fk, probe[0].astype(np.int64), known
+
+
+def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
+    """Distance of points to a small triangle mesh.
+
+    Each point is measured against the ``nearest`` triangles whose centroids
+    are closest to it (exact point-triangle distance), which is the true
+    distance for a patch of triangles of even size like a refined fill.
+
+    Parameters
+    ----------
+    Q : (p,3) float64
+    V : (n,3) float64
+    F : (m,3) int64
+
+    Returns
+    -------
+    d : (p,) float64
+    """
+    Q = np.asarray(Q, np.float64)
+    T = np.asarray(V, np.float64)[np.asarray(F, np.int64)]
+    if len(Q) == 0 or len(T) == 0:
+        return np.full(len(Q), np.inf)
+    kk = min(int(nearest), len(T))
+    _, idx = cKDTree(T.mean(axis=1)).query(Q, k=kk)
+    idx = np.asarray(idx).reshape(len(Q), kk)
+    P = np.repeat(Q, kk, axis=0)
+    Tn = T[idx.ravel()]
+    d = np.linalg.norm(P - _closest_on_triangles(P, Tn[:, 0], Tn[:, 1], Tn[:, 2]), axis=1)
+    return d.reshape(len(Q), kk).min(axis=1)
+
+
+def _closest_on_triangles(P, A, B, C):
+    """Closest point of triangle ABC to P, row by row.
+
+    The point is written as A + v (B − A) + w (C − A); the barycentric
+    coordinates of P's projection are clamped to the triangle, checking the
+    three edges where the projection falls outside (degenerate triangles
+    reduce to their longest edge's segment).
+    """
+    AB, AC = B - A, C - A
+    AP = P - A
+    d00 = np.einsum("ij,ij->i", AB, AB)
+    d01 = np.einsum("ij,ij->i", AB, AC)
+    d11 = np.einsum("ij,ij->i", AC, AC)
+    d20 = np.einsum("ij,ij->i", AP, AB)
+    d21 = np.einsum("ij,ij->i", AP, AC)
+    den = d00 * d11 - d01 * d01
+    ok = den > 1e-30 * np.maximum(d00 * d11, 1e-300)
+    inv = np.where(ok, 1.0 / np.where(ok, den, 1.0), 0.0)
+    v = (d11 * d20 - d01 * d21) * inv
+    w = (d00 * d21 - d01 * d20) * inv
+    inside = ok & (v >= 0) & (w >= 0) & (v + w <= 1)
+    X = A + v[:, None] * AB + w[:, None] * AC
+    best = np.where(inside, np.linalg.norm(P - X, axis=1), np.inf)
+    out = X.copy()
+    for S, E in ((A, B), (B, C), (C, A)):   # the edges, for points projecting outside
+        D = E - S
+        t = np.clip(np.einsum("ij,ij->i", P - S, D) / np.maximum(np.einsum("ij,ij->i", D, D), 1e-300), 0.0, 1.0)
+        Y = S + t[:, None] * D
+        dy = np.linalg.norm(P - Y, axis=1)
+        take = ~inside & (dy < best)
+        out[take] = Y[take]
+        best = np.where(take, dy, best)
+    return out
+
+
+def _mean_edge(V, loop):
+    return float(np.mean(np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1)))
+
+
+def scan_verdict(ctx, holes, candidates=CANDIDATES):
+    """One order for a scan's small holes, from the test on a few of them.
+
+    Parameters
+    ----------
+    ctx : shellrepair.patch._Context
+    holes : sequence of shellrepair.holes.Loop
+        The holes to fill (those with ``MIN_EDGES <= edges < SMALL_EDGES``
+        are the small ones).
+
+    Returns
+    -------
+    verdict : OrderTest or None
+        Errors in units of the test hole's mean rim edge (summed over the
+        tests); None when no small hole could be tested. Set it as
+        ``ctx.auto_small`` for :func:`choose_order` to use.
+    """
+    small = [h for h in holes if MIN_EDGES <= h.edges < SMALL_EDGES]
+    if not small:
+        return None
+    pick = np.unique(np.round(np.linspace(0, len(small) - 1, min(SMALL_SAMPLE, len(small)))).astype(int))
+    total = dict.fromkeys(candidates, 0.0)
+    n, rings = 0, 0
+    for i in pick:
+        t = choose_order(ctx, small[i].id, small[i].vertices, candidates, relative=True)
+        if len(t.errors) == len(candidates):
+            for o in candidates:
+                total[o] += t.errors[o]
+            n += 1
+            rings = max(rings, t.rings)
+    if n == 0:
+        return None
+    best = min(candidates, key=lambda o: (total[o], candidates.index(o)))
+    return OrderTest(int(best), errors={o: total[o] / n for o in candidates}, rings=rings, shared=n)
+
+
+def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shared=True, rings=None):
+    """Pick the fairing order for one hole by the band test (module docstring).
+
+    Parameters
+    ----------
+    ctx : shellrepair.patch._Context
+    hole_id : int
+    loop : (k,) int64
+    candidates : sequence of int
+    relative : bool
+        Errors in units of the test hole's mean rim edge (for
+        :func:`scan_verdict`); implies ``shared=False``.
+    shared : bool
+        A small hole takes the scan's verdict (``ctx.auto_small``) when
+        there is one.
+    rings : int, optional
+        Band width (default :func:`band_rings` of the rim's edges).
+
+    Returns
+    -------
+    test : OrderTest
+    """
+    from .errors import MeshError
+    from .io import Mesh
+    from .patch import PatchError, _Context
+
+    loop = np.asarray(loop, np.int64)
+    k = len(loop)
+    verdict = getattr(ctx, "auto_small", None)
+    if k < SMALL_EDGES and verdict is not None and shared and not relative:
+        scale = _mean_edge(ctx.V, loop)
+        return OrderTest(verdict.order, errors={o: e * scale for o, e in verdict.errors.items()},
+                         rings=verdict.rings, shared=verdict.shared)
+    if k < MIN_EDGES:
+        return OrderTest(DEFAULT_ORDER, why=f"{k} rim edges, not tested")
+    rings = band_rings(k) if rings is None else int(rings)
+    probe = None
+    while probe is None and rings >= BAND_MIN:
+        probe = probe_band(ctx, loop, rings)
+        if probe is None:
+            rings -= 2 if rings > BAND_MIN + 1 else 1
+    if probe is None:
+        if verdict is not None and shared and not relative:   # the scan's verdict, scaled to this rim
+            scale = _mean_edge(ctx.V, loop)
+            return OrderTest(verdict.order, errors={o: e * scale for o, e in verdict.errors.items()},
+                             rings=verdict.rings, shared=verdict.shared,
+                             why="no clean band of scan around the hole")
+        return OrderTest(DEFAULT_ORDER, why="no clean band of scan around the hole")
+    Vl, Fl, ploop, known = probe
+    origin = Vl.mean(axis=0)        # a local frame: scans far from the origin keep their digits
+    lctx = _Context(Mesh(V=Vl - origin, F=Fl))
+    Q = Vl[known] - origin
+    errors = {}
+    try:    # one triangulation and refinement, faired at each candidate order
+        P0, T = _refined(lctx, ploop, max(candidates))
+    except (MeshError, PatchError):
+        return OrderTest(DEFAULT_ORDER, rings=rings, why="the band could not be triangulated")
+    X0, Fs, nf, g, scale, org = P0
+    for o in candidates:
+        Xu, _ = fair_patch(X0, Fs, nf, order=o, rounds=TEST_ROUNDS)
+        X = org + scale * np.vstack([X0[:nf], Xu])
+        Tp = Fs[len(Fs) - len(T):]
+        d = point_mesh_distance(Q, X, Tp)
+        if np.isfinite(d).all():
+            errors[o] = float(np.sqrt(np.mean(d * d)))
+    if not errors:
+        return OrderTest(DEFAULT_ORDER, rings=rings, why="no candidate filled the band")
+    if relative:
+        scale = _mean_edge(Vl, ploop)
+        errors = {o: e / scale for o, e in errors.items()}
+    best = min(errors, key=lambda o: (errors[o], candidates.index(o)))
+    return OrderTest(int(best), errors=errors, rings=rings)
+
+
+def _refined(ctx, loop, rings):
+    """The test hole triangulated and refined as :func:`~shellrepair.patch.build_patch`
+    does, in the hole's local frame, with ``rings`` rings of scan around it.
+
+    Returns ((X, Fs, nf, g, scale, origin), T): the submesh positions
+    (fixed scan vertices first), its faces (the patch's last), the number
+    of fixed vertices, their ids in ``ctx``, the frame, and the patch
+    triangles.
+    """
+    from .patch import _local_frame, _rim_data, _submesh
+    from .refine import refine_patch
+    from .triangulate import triangulate_loop
+
+    k = len(loop)
+    sigma, edge_normals, forbidden = _rim_data(ctx, loop)
+    origin, scale, Pl = _local_frame(ctx, loop, sigma)
+    T = triangulate_loop(Pl, edge_normals, forbidden)
+    Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
+    g, Fs, nf, _ = _submesh(ctx, loop, Pl, T, rings=rings)
+    X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
+    return (X, Fs, nf, g, scale, origin), T
+
+
+def agrees(test, V, low, high):
+    """Do the real fills at two orders agree with the test's errors?
+
+    Parameters
+    ----------
+    test : OrderTest
+    V : (n,3) float64
+        The scan's positions (the patches' loops index it).
+    low, high : shellrepair.patch.Patch
+        The hole filled at the lower and the higher order.
+
+    Returns
+    -------
+    ok : bool
+        True when the RMS distance of ``high``'s new vertices to ``low``'s
+        surface is at most the sum of the two orders' test errors.
+    gap : float
+        That distance.
+    """
+    if not test.errors or low.order not in test.errors or high.order not in test.errors:
+        return False, float("nan")
+    d = point_mesh_distance(high.P, np.vstack([V[low.loop], low.P]), low.T)
+    gap = float(np.sqrt(np.mean(d * d))) if len(d) else 0.0
+    return gap <= test.errors[low.order] + test.errors[high.order], gap

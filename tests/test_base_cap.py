@@ -1,0 +1,49 @@
+"""A scan's planar opening met edge-on: a base the scan reached (flat cap)
+or a cut through walls that run on (faired fill) — patch._turns_into_opening."""
+
+import numpy as np
+
+from shellrepair import Mesh, detect_holes, shapes
+from shellrepair.repair import repair_mesh
+
+NU, NH = 48, 40
+
+
+def walls_open_below(fillet, noise=1e-3):
+    """A closed-top cylinder (radius 0.5, z in [-1, 1]) whose bottom was not
+    scanned: its rim at z ≈ -1. With ``fillet``, its last two rows of
+    vertices bend in towards the axis, as the scan of a base's rounded
+    edge does."""
+    V, F = shapes.cylinder(0.5, 2.0, NU, NH)
+    top = np.arange(NU) * (NH + 1) + NH
+    c = len(V)
+    V = np.vstack([V, [[0.0, 0.0, 1.0]]])
+    F = np.vstack([F, np.column_stack([top, np.roll(top, -1), np.full(NU, c)])])
+    rim = np.arange(NU) * (NH + 1)
+    if fillet:
+        for row, r in ((0, 0.40), (1, 0.47)):
+            i = rim + row
+            V[i, :2] *= r / 0.5
+    V[rim, 2] += noise * np.random.default_rng(0).standard_normal(NU)
+    return V, F, rim
+
+
+def test_walls_cut_across_an_opening_are_continued_below_it():
+    V, F, rim = walls_open_below(fillet=False)
+    scan = detect_holes(V, F, fill_borders=True)
+    assert 1e-6 < scan.loops[0].planarity < 0.02        # a scan's opening, not a CAD face
+    R, rep = repair_mesh(Mesh(V=V, F=F), fill_borders=True)
+    assert rep["holes_after"] == 0
+    assert rep["holes"][0]["option"].startswith("faired order 2")
+    assert R.V[R.vertex_filled][:, 2].max() < V[rim, 2].min()     # a dome below the rim
+
+
+def test_a_base_whose_edge_the_scan_rounds_into_gets_a_flat_cap():
+    V, F, rim = walls_open_below(fillet=True)
+    scan = detect_holes(V, F, fill_borders=True)
+    assert 1e-6 < scan.loops[0].planarity < 0.02
+    R, rep = repair_mesh(Mesh(V=V, F=F), fill_borders=True)
+    assert rep["holes_after"] == 0
+    assert rep["holes"][0]["option"].startswith("flat cap")
+    z = R.V[R.vertex_filled][:, 2]
+    assert np.abs(z - V[rim, 2].mean()).max() < 0.01           # in the opening's plane
