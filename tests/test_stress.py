@@ -120,6 +120,9 @@ SLICE = {
     ("scanner", "genus2", 1, 0): {},
     ("base", "bumpy", 0, 1): {},
     ("band", "torus-0.15", 5, 3): {},
+    # a star's arm cut off by a band: the tip a capped tube (back ratio 2.7 %,
+    # 62 % of it edge-on), read closed, joined to the arm by a tube
+    ("band", "star", 0, 5): {},
     ("scanner-hard", "bumpy", 3, 2): {
         "classed": "a bumpy sphere 42 % unseen from a ring at 55° is what one view of a ball records: past "
                    "~39 % unseen the piece reads as a single view and its loop as a border (documented; "
