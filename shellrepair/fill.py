@@ -343,6 +343,9 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
 
     t0 = time.perf_counter()
     loop = np.concatenate([A.vertices, B.vertices])
+    # past this the rounds holding vertices around a crossing are skipped
+    # (the harmonic tube is still tried)
+    budget = HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * len(loop)
     order = 2 if order == "auto" else order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
@@ -413,6 +416,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             free = None
             for _ in range(PIN_ROUNDS if mutual and faired is None and held is None and hbad.size and hp is not None
                            else 0):
+                if time.perf_counter() - t0 > budget:
+                    break
                 # a fold of the arcs (at a jag of a rim): fair only around it
                 free = _pin_region(hp, hbad, free)
                 held, b2, _ = attempt(first, init, order, pinned=np.setdiff1d(np.arange(q), free))
@@ -429,11 +434,18 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             # hold the vertices near the crossing on the arcs (as for a cap)
             pinned = None
             for _ in range(PIN_ROUNDS):
+                if time.perf_counter() - t0 > budget:
+                    break
                 pinned = _pin_region(built, bad, pinned)
                 tube, b2, _ = attempt(first, init, order, pinned=pinned)
                 if tube is not None:
                     break
                 bad = np.union1d(bad, b2) if b2.size else bad
+        if tube is None and mutual and order != 1:
+            # the harmonic tube (order 1, as caps fall back to): it keeps to
+            # the rim's own plane at a spike of the rim (a scan face with
+            # two rim edges), where order 2 overshoots across the spike
+            tube, _, _ = attempt(first, init, 1)
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
     seen_both_ways = tube is not None and mutual and mode != "always"
