@@ -364,15 +364,18 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     own = {tuple(sorted(e)) for L in (A, B) for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
     scan_edges -= own
 
-    def attempt(first, init, o, fair=True, pinned=None):
-        """(the patch if it passes its checks, the faulty triangles, the patch built)"""
+    def attempt(first, init, o, fair=True, pinned=None, built=None):
+        """(the patch if it passes its checks, the faulty triangles, the patch built);
+        ``built``: a patch already built with these arguments, only checked"""
         nonlocal why_tube
-        try:
-            p = build_patch(ctx, A.id, loop, order=o, smooth=smooth if fair else 0, initial=init,
-                            energy=fair, fair=fair, pinned=pinned)
-        except PatchError as exc:
-            why_tube = str(exc)
-            return None, np.zeros(0, np.int64), None
+        p = built
+        if p is None:
+            try:
+                p = build_patch(ctx, A.id, loop, order=o, smooth=smooth if fair else 0, initial=init,
+                                energy=fair, fair=fair, pinned=pinned)
+            except PatchError as exc:
+                why_tube = str(exc)
+                return None, np.zeros(0, np.int64), None
         why, bad = _check_patch(ctx, p)
         if why is None and any(e in scan_edges for e in _scan_edges(p)):
             why = "the tube would repeat an edge of the scan"
@@ -405,14 +408,33 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         lean = not caps_crossing(caps)
     if len(Pg) and np.isfinite(Pg).all():
         first, init = "along the continuation arcs", (Pg, Tg)
-        faired, bad, built = attempt(first, init, order)
-        # the first tube itself (refined, every vertex held): the arcs carry
-        # the scan's curvature across the gap, which fairing can flatten;
-        # the fairer of the two valid options is kept
-        held = None
+        # the faired tube, and the first tube itself (refined, every vertex
+        # held): the arcs carry the scan's curvature across the gap, which
+        # fairing can flatten; the fairer valid option is kept, so the two
+        # are checked in order of energy and the second only if the first fails
+        try:
+            built = build_patch(ctx, A.id, loop, order=order, smooth=smooth, initial=init, energy=True)
+        except PatchError as exc:
+            why_tube, built = str(exc), None
+        faired, bad, held, hbad, hp = None, np.zeros(0, np.int64), None, np.zeros(0, np.int64), None
         q = len(built.P) if built is not None and not lean else 0
         if q:
-            held, hbad, hp = attempt(first, init, order, pinned=np.arange(q))
+            try:
+                hp = build_patch(ctx, A.id, loop, order=order, smooth=smooth, initial=init, energy=True,
+                                 pinned=np.arange(q))
+            except PatchError as exc:
+                why_tube = str(exc)
+        energy_of = (lambda p: p.energy[ENERGY] if p.energy is not None else np.inf)
+        for p in sorted([x for x in (built, hp) if x is not None], key=energy_of):
+            if p is built:
+                faired, bad, _ = attempt(first, init, order, built=built)
+                if faired is not None:
+                    break
+            else:
+                held, hbad, _ = attempt(first, init, order, pinned=np.arange(q), built=hp)
+                if held is not None:
+                    break
+        if q:
             free = None
             for _ in range(PIN_ROUNDS if mutual and faired is None and held is None and hbad.size and hp is not None
                            else 0):
