@@ -216,6 +216,7 @@ def repair_mesh(mesh, options=None, *, progress=False, **changes):
                    "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
             if patch is not None:
                 conflict, corners = acc.conflict(ctx, patch)
+                if conflict:
                     row["reason"] = conflict
                     if record is not None and record.get("chosen") == "tube":
                         tube_rejected = conflict
