@@ -31,6 +31,48 @@ from .patch import PatchError, _corners, _meets_edge_on, _prefill, _rim_data, bu
 SEED_SMOOTH_PASSES = 10
 
 
+#: Two triangles on one edge whose far corners, seen along the edge, are
+#: less than this apart (degrees) are folded onto each other: the surface
+#: turns back on itself by more than 175° there, which no scanned surface
+#: does across one edge; the exact crossing tests count a fold only when the
+#: two are exactly coplanar, and a float32 flat part is not.
+FOLD_DEGREES = 5.0
+
+
+def _folds(ctx, patch, C, ids):
+    """Patch triangles folded onto a neighbour across an edge (``FOLD_DEGREES``):
+    another patch triangle, or the scan face across a rim edge."""
+    loop = patch.loop
+    Fr = ctx.F[ctx.faces_of(loop)]
+    Cs = ctx.V[Fr]
+    T = np.concatenate([C, Cs])                          # patch triangles, then scan faces at the rim
+    I = np.concatenate([ids, Fr])
+    tri = np.concatenate([np.arange(len(C)), -1 - np.arange(len(Fr))])
+    j = np.arange(3)
+    a, b, c = I[:, j].ravel(), I[:, (j + 1) % 3].ravel(), I[:, (j + 2) % 3].ravel()
+    t = np.repeat(tri, 3)
+    P, Q, R = T[:, j].reshape(-1, 3), T[:, (j + 1) % 3].reshape(-1, 3), T[:, (j + 2) % 3].reshape(-1, 3)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    order = np.lexsort((hi, lo))
+    lo, hi = lo[order], hi[order]
+    same = (lo[1:] == lo[:-1]) & (hi[1:] == hi[:-1])
+    x, y = order[:-1][same], order[1:][same]             # the two half-edges of one edge
+    keep = (t[x] >= 0) | (t[y] >= 0)                     # not two scan faces
+    x, y = x[keep], y[keep]
+    if x.size == 0:
+        return np.zeros(0, np.int64)
+    e = Q[x] - P[x]
+    e /= np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
+    u, w = R[x] - P[x], R[y] - P[x]
+    u -= np.sum(u * e, axis=1)[:, None] * e
+    w -= np.sum(w * e, axis=1)[:, None] * e
+    den = np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1)
+    fold = np.sum(u * w, axis=1) > np.cos(np.radians(FOLD_DEGREES)) * den
+    fold &= den > 0
+    hit = np.concatenate([t[x][fold], t[y][fold]])
+    return np.unique(hit[hit >= 0])
+
+
 def _check_patch(ctx, patch):
     """Why the patch cannot be used (or None), and the patch triangles at fault."""
     C, ids = _corners(ctx, patch)
@@ -39,6 +81,9 @@ def _check_patch(ctx, patch):
     bad = patch_vs_index(C, ids, ctx.index, return_faces=True)
     if bad.size:
         return f"patch would cross the scan ({bad.size} triangles)", bad
+    bad = _folds(ctx, patch, C, ids)
+    if bad.size:
+        return f"patch would fold onto itself or the scan ({bad.size} triangles)", bad
     # the patch against itself: a disc that projects one-to-one cannot
     # cross itself; otherwise test its triangles pair by pair
     if len(C) > 1 and not (patch.disc and embeds_by_projection(
