@@ -37,12 +37,12 @@ from seeds not looked at while designing, see tests/test_border_classes.py).
    more than a hemisphere; it is part of a closed object and every loop of
    it is a *hole*, the unscanned base of a bust included.
 3. *Seen edge-on*: a view records only surface turned towards it, and
-   none seen at grazing incidence: ``EDGE_ON_SHARE`` (half) or more of the
-   piece's area turned within ``EDGE_ON_DEGREES`` (10°) of edge-on from
-   its best view cannot have come from that view, nor from any other
-   (the best view is the one with the least surface turned away). Such a
-   piece was scanned from several sides: a closed object with holes, like
-   rule 2. A capped tube (a thin arm cut off by a missing band: its walls
+   none seen at grazing incidence: when ``EDGE_ON_SHARE`` (half) or more of
+   the piece's area is turned within ``EDGE_ON_DEGREES`` (10°) of edge-on
+   from every direction that reads it as one view (back ratio below
+   ``WRAP_RATIO``; :func:`edge_on_share`), no single view recorded it. Such
+   a piece was scanned from several sides: a closed object with holes,
+   like rule 2. A capped tube (a thin arm cut off by a missing band: its walls
    stand along the view that sees its tip) or a can with its lid is read
    so; a bowl, a dome or a flat island of debris is not (a hemisphere has
    17 % of its area within 10° of edge-on). Single-view range scans of the
@@ -84,6 +84,8 @@ WRAP_RATIO = 0.05
 #: incidence limit, see the module docstring).
 EDGE_ON_SHARE = 0.5
 EDGE_ON_DEGREES = 10.0
+#: Faces per piece read for rule 3 (a larger piece: a fixed hashed subset).
+EDGE_ON_SAMPLES = 5000
 #: Faces sampled per single-view piece to find its outer rim.
 OUTER_SAMPLES = 20000
 #: Cells per axis of the cube over normal space in which a piece's normals
@@ -546,16 +548,18 @@ def piece_views(V, F, fpiece, which, *, max_faces=None):
     return view, ratio
 
 
-def edge_on_share(V, F, fpiece, which, views):
-    """Share of each piece's area turned within ``EDGE_ON_DEGREES`` of edge-on
-    from its view and from its mean normal, whichever is less.
+def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
+    """Least share of each piece's area turned within ``EDGE_ON_DEGREES`` of
+    edge-on, over the directions from which the piece looks like one view.
 
     A piece without back-facing surface has a whole cone of best views (a
-    range scan: every direction near the camera's); measured from an
-    arbitrary one of them, a narrow strip seen at an angle would look
-    edge-on. Its mean normal (the direction of its summed vector area, the
-    view that sees the most of it) is a second, stable reading: a capped
-    tube is edge-on from both (its walls' normals cancel), a strip is not.
+    range scan: every direction near the camera's); from an arbitrary one of
+    them a narrow strip seen at a slant would look edge-on. So the share is
+    taken from every direction that reads the piece as a single view (back
+    ratio ``P−/P+`` below ``WRAP_RATIO``: the ~10° spread of
+    ``VIEW_CANDIDATES`` directions, and ``views``), and the least is kept: a
+    capped tube is edge-on from all of them (tilting the view off its axis
+    turns its walls away at once), a strip is not.
 
     Parameters
     ----------
@@ -566,15 +570,21 @@ def edge_on_share(V, F, fpiece, which, views):
     which : (k,) int64
         The pieces to measure.
     views : (k,3) float64
-        Unit view direction of each (:func:`piece_views`).
+        Unit best view of each (:func:`piece_views`); always counted.
+    max_faces : int
+        Faces read per piece (a larger piece: a fixed hashed subset, as in
+        :func:`piece_views`).
 
     Returns
     -------
     share : (k,) float64
-        Area of the faces whose unit normal ``n`` has ``|n·d| < sin(EDGE_ON_DEGREES)``
-        over the piece's area, the smaller of the two readings (0 for a
-        piece without area).
+        Area of the faces whose normal ``n`` has ``|n·d| < sin(EDGE_ON_DEGREES) |n|``
+        over the piece's area, the least over those directions ``d`` (0 for
+        a piece without area). A piece below ``EDGE_ON_SHARE`` from its best
+        view is not searched further: its share from there is given.
     """
+    import scipy.sparse as sp
+
     which = np.asarray(which, np.int64)
     k = which.size
     if k == 0:
@@ -582,23 +592,41 @@ def edge_on_share(V, F, fpiece, which, views):
     rank = np.full(int(fpiece.max()) + 1 if fpiece.size else 1, -1, np.int64)
     rank[which] = np.arange(k)
     fr = rank[fpiece]
-    sel = np.flatnonzero(fr >= 0)
+    sel = fr >= 0
+    count = np.bincount(fr[sel], minlength=k)
+    if count.max(initial=0) > max_faces:
+        keep = np.minimum(1.0, max_faces / np.maximum(count, 1))
+        h = (np.arange(len(F), dtype=np.uint64) * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
+        sel &= h < (keep[np.maximum(fr, 0)] * 2.0 ** 32)
+    sel = np.flatnonzero(sel)
     fr = fr[sel]
     T = np.asarray(V, np.float64)[np.asarray(F, np.int64)[sel]]
     n = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
     ln = np.sqrt(np.einsum("ij,ij->i", n, n))          # twice the area
-    mean = np.column_stack([np.bincount(fr, weights=n[:, j], minlength=k) for j in range(3)])
-    nm = np.linalg.norm(mean, axis=1, keepdims=True)
-    mean = np.divide(mean, nm, out=np.zeros_like(mean), where=nm > 0)
+    sin_e = np.sin(np.radians(EDGE_ON_DEGREES))
     tot = np.bincount(fr, weights=ln, minlength=k)
-    out = np.ones(k)
-    for D in (np.asarray(views, np.float64), mean):
-        s = np.abs(np.einsum("ij,ij->i", n, D[fr]))
-        edge_on = s < np.sin(np.radians(EDGE_ON_DEGREES)) * ln
-        part = np.bincount(fr, weights=np.where(edge_on, ln, 0.0), minlength=k)
-        out = np.minimum(out, np.divide(part, tot, out=np.ones(k), where=tot > 0))
-    out[tot <= 0] = 0.0
-    return out
+    s_view = np.abs(np.einsum("ij,ij->i", n, np.asarray(views, np.float64)[fr]))
+    share = np.bincount(fr, weights=np.where(s_view < sin_e * ln, ln, 0.0), minlength=k)
+    # only pieces edge-on enough from their best view can be so from every view
+    look = share >= EDGE_ON_SHARE * tot
+    rows = np.flatnonzero(look[fr])
+    if rows.size:
+        sub = np.cumsum(look) - 1                      # piece -> row among those looked at
+        fl, nl, ll = sub[fr[rows]], n[rows], ln[rows]
+        kl = int(look.sum())
+        M = sp.csr_matrix((np.ones(len(fl)), (fl, np.arange(len(fl)))), shape=(kl, len(fl)))
+        D = _CANDIDATES
+        front, back, edge = (np.zeros((kl, len(D))) for _ in range(3))
+        for s0 in range(0, len(fl), 8192):             # faces in chunks: (chunk, directions) at a time
+            sl = slice(s0, s0 + 8192)
+            S = nl[sl] @ D.T
+            Ms = M[:, sl]
+            front += Ms @ np.maximum(S, 0.0)
+            back += Ms @ np.maximum(-S, 0.0)
+            edge += Ms @ np.where(np.abs(S) < sin_e * ll[sl, None], ll[sl, None], 0.0)
+        single = back < WRAP_RATIO * front             # directions that read the piece as one view
+        share[look] = np.minimum(share[look], np.where(single, edge, np.inf).min(axis=1))
+    return np.divide(share, tot, out=np.zeros(k), where=tot > 0)
 
 
 def detect_holes(V, F, *, max_hole=None, fill_borders=False, closed=None, topo=None, pieces=None, areas=None):
