@@ -50,7 +50,7 @@ import itertools
 
 import numpy as np
 
-from .geometry import bounding_spheres, concat_ranges, cross, plane_frame
+from .geometry import bounding_spheres, concat_ranges, cross, plane_frame, uniq
 from .predicates import EPS, TINY, orient2d, orient3d
 from . import kernels
 from . import fastmesh
@@ -464,7 +464,7 @@ class TriangleIndex:
         if self.big.size:
             a2, b2 = _sphere_pairs(C, R, self.centroids[self.big], self.radius[self.big])
             ai, bi = np.concatenate([ai, a2]), np.concatenate([bi, self.big[b2]])
-            key = np.unique(ai * len(self.F) + bi)
+            key = uniq(ai * len(self.F) + bi)  # sort-based: np.unique hashes int64 keys slowly (numpy 2.4)
             ai, bi = key // len(self.F), key % len(self.F)
         return ai, bi
 
@@ -767,7 +767,7 @@ def _sphere_box_pairs(C):
     """Pairs i < j of C whose bounding spheres meet and boxes overlap."""
     none = np.zeros((0, 2), np.int64)
     c, r = bounding_spheres(C)
-    r_cut = min(float(r.max()), 4 * float(np.median(r)))
+    r_cut = min(float(np.percentile(r, 99)), 4 * float(np.median(r)))  # the largest 1 % are paired apart
     tree = cKDTree(c)
     P = tree.query_pairs(2 * r_cut, output_type="ndarray").astype(np.int64)
     big = np.flatnonzero(r > r_cut)
@@ -775,8 +775,8 @@ def _sphere_box_pairs(C):
         i, j = ball_pairs(tree, c[big], r[big] + float(r.max()))
         i = big[i]
         m = i != j
-        key = np.unique(np.concatenate([P[:, 0] * len(C) + P[:, 1],
-                                        np.minimum(i[m], j[m]) * len(C) + np.maximum(i[m], j[m])]))
+        key = uniq(np.concatenate([P[:, 0] * len(C) + P[:, 1],
+                               np.minimum(i[m], j[m]) * len(C) + np.maximum(i[m], j[m])]))
         P = np.column_stack([key // len(C), key % len(C)])
     if len(P) == 0:
         return none

@@ -69,7 +69,7 @@ from .io import Mesh, manifold_mesh
 from .report import table1_dict
 from .topology import edge_count_delta, edge_topology
 from . import fill as _fill
-from .bridge import _find_bands
+from .bridge import _find_bands, split_pinched
 from .selftest import scan_verdict
 from .fill import SEED_SMOOTH_PASSES, _run_chunk, _seed_patches, _worker
 from .merge import _Accepted, _merge
@@ -166,6 +166,10 @@ def repair_mesh(mesh, options=None, *, progress=None, **changes):
         scan = detect()
         ctx = context(False)
     _progress(progress, 2, 2, "finding holes")
+    splits = []
+    if method == "fair":
+        # two hole loops sharing vertices: a band pinched there, filled as its parts
+        scan, splits = split_pinched(V, F, topo, scan, pieces=known("pieces"))
     holes = scan.holes
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
     if order == "auto" and method == "fair":    # one order for the small holes, tested on a few
@@ -265,6 +269,8 @@ def repair_mesh(mesh, options=None, *, progress=None, **changes):
                                 "smooth": smooth, "jobs": jobs, "bridge": bridge,
                                 "closed": {None: "auto", True: "yes", False: "no"}[closed],
                                 "bridges": bridges,
+                                "pinched_bands": [{"loops": [int(a), int(b)], "parts": [int(i) for i in ids]}
+                                                  for a, b, ids in splits],
                                 "euler_before": int(scan.euler),
                                 "euler_after": int(scan.euler + n_new_v - delta["edges"] + n_new_f),
                                 "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}

@@ -472,3 +472,22 @@ def test_rocker_arm_band_around_its_hole_is_a_tube():
     assert_closed_and_clean(M, R, rep)
     assert rep["euler_after"] == 0
     assert filled_rms_permille(V, F, R) < 2.0
+
+
+def test_a_band_pinched_at_shared_vertices_is_split_into_its_parts():
+    """Loops A and B share vertices 0 and 3 (B meets them in the reverse
+    order): the band between them is two discs, each a stretch of A and a
+    stretch of B, together every edge of both once."""
+    from shellrepair.bridge import _pinched_parts
+
+    A = np.array([0, 1, 2, 3, 4, 5])
+    B = np.array([10, 3, 11, 0])
+    parts = _pinched_parts(A, B)
+    assert [p.tolist() for p in parts] == [[0, 1, 2, 3, 11], [3, 4, 5, 0, 10]]
+    edges = sorted((int(a), int(b)) for p in parts for a, b in zip(p, np.roll(p, -1)))
+    own = sorted((int(a), int(b)) for L in (A, B) for a, b in zip(L, np.roll(L, -1)))
+    # each part's closing edges (2->3 of A ... ) are the loops' own edges
+    assert len(edges) == len(own) == 10 and set(edges) == set(own)
+    # the same order on both (not a pinched band), or a single shared vertex: left alone
+    assert _pinched_parts(A, np.array([10, 0, 11, 3, 12, 4])) is None
+    assert _pinched_parts(A, np.array([10, 0, 11])) is None

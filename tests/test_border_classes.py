@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from shellrepair import detect_holes, read_mesh, shapes
-from shellrepair.holes import WRAP_RATIO, piece_views
+from shellrepair.holes import EDGE_ON_SHARE, WRAP_RATIO, edge_on_share, piece_views
 from shellrepair.topology import edge_topology, face_pieces
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -269,9 +269,34 @@ def test_bust_with_an_unscanned_base_is_closed():
     assert scan.loops[0].back_ratio > 2 * WRAP_RATIO
 
 
-def test_can_without_its_bottom_reads_as_a_cup_unless_forced():
-    """Vertical walls and a lid: every normal in one closed hemisphere, the
-    geometry of a cup. Read as a single view; --closed yes fills it."""
+def capped_tube(length=1.0, radius=0.1, nu=32, nh=24, n_cap=8):
+    """A thin arm cut off: a straight tube of ``length`` closed at the top
+    by a hemisphere, open at the bottom (z = 0); outward faces."""
+    t = np.linspace(0, 1, nh + 1)
+    z_wall = length * t
+    a = np.linspace(0, np.pi / 2, n_cap + 1)[1:-1]
+    profile_r = np.concatenate([np.full(nh + 1, radius), radius * np.cos(a)])
+    profile_z = np.concatenate([z_wall, length + radius * np.sin(a)])
+    u = 2 * np.pi * np.arange(nu) / nu
+    V = np.column_stack([np.outer(profile_r, np.cos(u)).ravel(), np.outer(profile_r, np.sin(u)).ravel(),
+                         np.repeat(profile_z, nu)])
+    V = np.vstack([V, [[0, 0, length + radius]]])
+    rings = len(profile_r)
+    i, j = np.meshgrid(np.arange(rings - 1), np.arange(nu), indexing="ij")
+    p, q = i * nu + j, i * nu + (j + 1) % nu
+    F = [np.column_stack([p.ravel(), q.ravel(), (q + nu).ravel()]),
+         np.column_stack([p.ravel(), (q + nu).ravel(), (p + nu).ravel()])]
+    j = np.arange(nu)
+    top = len(V) - 1
+    F.append(np.column_stack([(rings - 1) * nu + j, (rings - 1) * nu + (j + 1) % nu, np.full(nu, top)]))
+    return V, np.concatenate(F).astype(np.int64)
+
+
+def test_can_without_its_bottom_was_seen_from_several_sides():
+    """Vertical walls and a lid: every normal in one closed hemisphere, but
+    the walls stand edge-on to the only view without back-facing surface,
+    so no single view recorded them: a closed object (its open bottom a
+    hole). --closed no forces the single-view reading."""
     V, F = shapes.cylinder(0.5, 1.0, nu=48, nh=20)
     top = np.flatnonzero(np.isclose(V[:, 2], 0.5))
     ring = top[np.argsort(np.arctan2(V[top, 1], V[top, 0]))]
@@ -280,8 +305,47 @@ def test_can_without_its_bottom_reads_as_a_cup_unless_forced():
     lid = np.column_stack([np.full(k, len(V) - 1), ring, np.roll(ring, -1)])
     F = np.vstack([F, lid])
     scan = detect_holes(V, F)
-    assert len(scan.loops) == 1 and scan.loops[0].kind == "border"
-    assert detect_holes(V, F, closed=True).loops[0].kind == "hole"
+    lp = scan.loops[0]
+    assert len(scan.loops) == 1 and lp.kind == "hole" and lp.reading == "closed"
+    assert lp.back_ratio < WRAP_RATIO and lp.edge_on >= EDGE_ON_SHARE and "several sides" in lp.reason
+    # the walls are 2 of the 2.25 units of area (pi r h against pi r^2 / 4 ... over pi): 80 %
+    assert lp.edge_on == pytest.approx(1.0 / 1.25, abs=0.01)
+    assert detect_holes(V, F, closed=False).loops[0].kind == "border"
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.0001])
+def test_a_thin_arm_cut_off_is_a_closed_piece(noise):
+    """The tip of a star's arm cut off by a missing band: a capped tube
+    whose normals fill one closed hemisphere (``noise``: vertices jittered
+    by this, a back ratio of 2.7 % as on the stress suite's star arms),
+    most of its area edge-on from the view that sees its tip."""
+    V, F = capped_tube()
+    V = V + noise * np.random.default_rng(1).normal(size=V.shape)
+    lp = detect_holes(V, F).loops[0]
+    assert lp.kind == "hole" and lp.reading == "closed", lp.reason
+    assert lp.back_ratio < WRAP_RATIO and lp.edge_on > 0.8
+
+
+def test_edge_on_share_of_a_bowl_a_sheet_and_a_capped_tube():
+    """A hemisphere has cos(80°) ≈ 17 % of its area within 10° of edge-on
+    from its pole; a flat sheet none; a capped tube of radius 0.1 and
+    length 1 its walls (0.2π) and 17 % of its dome (0.02π) of 0.22π: 92 %."""
+    V, F = shapes.icosphere(5)
+    Vb, Fb = cut_below(V, F, [0, 0, 1], 0.5)
+    Vs, Fs = shapes.grid(10, 10)
+    Vc, Fc = capped_tube()
+    c80 = np.cos(np.radians(80))
+    for (X, T, d, want) in ((Vb, Fb, [0, 0, -1], c80), (Vs, Fs, [0, 0, 1], 0.0),
+                            (Vc, Fc, [0, 0, 1], (0.2 + 0.02 * c80) / 0.22)):
+        got = edge_on_share(X, T, np.zeros(len(T), np.int64), np.array([0]), np.array([d], float))[0]
+        assert got == pytest.approx(want, abs=0.02)
+    # a strip seen at a slant from the given view is not edge-on from its own mean normal
+    Vt = Vs * [1, 0.1, 1]
+    Vt = Vt @ np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], float).T   # the sheet stood up: normal along y
+    got = edge_on_share(Vt, Fs, np.zeros(len(Fs), np.int64), np.array([0]), np.array([[0, 0, 1]], float))[0]
+    assert got == 0.0
+    # a bowl stays one view: its rim a border
+    assert detect_holes(Vb, Fb).loops[0].kind == "border"
 
 
 # --------------------------------------------------------------------------

@@ -120,6 +120,13 @@ SLICE = {
     ("scanner", "genus2", 1, 0): {},
     ("base", "bumpy", 0, 1): {},
     ("band", "torus-0.15", 5, 3): {},
+    # a star's arm cut off by a band: the tip a capped tube (back ratio 2.7 %,
+    # 62 % of it edge-on), read closed, joined to the arm by a tube
+    ("band", "star", 0, 5): {},
+    # a torus seen from a ring at 0.9°: its inner band's two loops share 8
+    # vertices (the band pinched there); both caps made the same chords
+    # between them, one failed; now the band's 8 parts are filled
+    ("scanner", "torus-0.5", 0, 135): {},
     ("scanner-hard", "bumpy", 3, 2): {
         "classed": "a bumpy sphere 42 % unseen from a ring at 55° is what one view of a ball records: past "
                    "~39 % unseen the piece reads as a single view and its loop as a border (documented; "

@@ -1,0 +1,72 @@
+"""The checks every patch passes before it is kept (shellrepair.fill._check_patch).
+
+Besides crossing the scan or itself, a patch must not fold back onto its
+neighbour across an edge: two triangles on one edge whose far corners,
+seen along the edge, are within ``FOLD_DEGREES`` are one sheet doubled.
+The exact crossing tests see such a fold only when the two are exactly
+coplanar; a float32 flat part (a CAD face, the stress suite's fandisk) is
+not, and a cap that closes a spike of its rim with one triangle over the
+spike's two scan faces passed them (seed 8, case 14: 2 pairs added).
+"""
+
+import numpy as np
+
+from shellrepair import Mesh, shapes
+from shellrepair.fill import FOLD_DEGREES, _check_patch
+from shellrepair.holes import boundary_loops
+from shellrepair.patch import Patch, _Context
+
+
+def _sheet_with_a_square_hole():
+    V, F = shapes.grid(7, 7)
+    c = V[F].mean(axis=1)
+    gone = (np.abs(c[:, 0] - 0.5) < 0.2) & (np.abs(c[:, 1] - 0.5) < 0.2)
+    V2, F2, _ = shapes.remove_faces(V, F, gone)
+    loops, _ = boundary_loops(F2, len(V2))
+    return V2, F2, min(loops, key=len)   # the hole (the other loop is the sheet's edge)
+
+
+def _fan(V, loop, centre):
+    """A fan around one new vertex; triangles on the reversed loop edges."""
+    k = len(loop)
+    T = np.column_stack([(np.arange(k) + 1) % k, np.arange(k), np.full(k, k)])
+    return Patch(hole_id=0, loop=loop, P=np.asarray([centre], float), T=T, disc=False)
+
+
+def test_a_flat_fan_over_a_flat_hole_passes():
+    V, F, loop = _sheet_with_a_square_hole()
+    ctx = _Context(Mesh(V=V, F=F))
+    why, bad = _check_patch(ctx, _fan(V, loop, V[loop].mean(axis=0)))
+    assert why is None and bad.size == 0
+
+
+def test_a_fan_whose_centre_lies_over_the_scan_folds_onto_it():
+    """The centre moved past a rim edge onto the scan, a hair above its
+    plane (0.01 % of an edge: not coplanar, so not an exact crossing):
+    the fan's triangle on that edge lies back over the scan face."""
+    V, F, loop = _sheet_with_a_square_hole()
+    ctx = _Context(Mesh(V=V, F=F))
+    P = V[loop]
+    e = 1 / 6
+    edge_mid = 0.5 * (P[0] + P[1])
+    out = edge_mid - V[loop].mean(axis=0)
+    out[2] = 0.0
+    centre = edge_mid + 0.5 * e * out / np.linalg.norm(out) + [0, 0, 1e-4 * e]
+    why, bad = _check_patch(ctx, _fan(V, loop, centre))
+    assert why is not None and "fold" in why and 0 in bad.tolist()
+
+
+def test_a_fold_is_measured_in_degrees_along_the_edge():
+    """A triangle hinged on a scan face's edge: folded back to within
+    FOLD_DEGREES of the face it is a fold, opened further it is not."""
+    V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0]], float)        # the scan: one face
+    F = np.array([[0, 1, 2]])
+    ctx = _Context(Mesh(V=V, F=F))
+    loop = np.array([1, 0, 2])  # unused by the check beyond its first edge's faces
+    for deg, folded in ((FOLD_DEGREES / 2, True), (2 * FOLD_DEGREES, False), (90.0, False)):
+        a = np.radians(deg)
+        tip = [0.5, np.cos(a), np.sin(a)]     # the far corner turned by ``deg`` from the face's
+        T = np.array([[0, 1, 3]])             # the loop's edge 1 -> 0 reversed, as a patch has it
+        p = Patch(hole_id=0, loop=loop, P=np.array([tip], float), T=T)
+        why, _ = _check_patch(ctx, p)
+        assert (why is not None and "fold" in why) == folded, (deg, why)
