@@ -3,7 +3,7 @@
 Run ``.venv/bin/python eval/bench_fill.py [--tools ...] [--profile]``.
 
 Case (issue 14's "two-disc" case): a bumpy sphere of 8 subdivisions
-(:func:`shellrepair.shapes.bumpy_sphere`, 1,310,720 faces, relief 0.03 at
+(:func:`eval.shapes.bumpy_sphere`, 1,310,720 faces, relief 0.03 at
 frequency 6), coordinates rounded to float32, with two holes cut as the
 faces whose centroid direction lies within a chord of 0.292 and 0.0775 of
 two fixed directions (+z, +x): loops of 510 and 132 rim edges. The holes are
@@ -45,7 +45,7 @@ TOOLS = ("ours-o2", "meshlib-nicely", "cgal")
 
 def two_disc_case():
     """The truth (V, F), the perforated (V2, F2) and the removed-face mask."""
-    from shellrepair import shapes
+    from eval import shapes
 
     V, F = shapes.bumpy_sphere(SUBDIVISIONS, amplitude=AMPLITUDE, frequency=FREQUENCY)
     V = V.astype(np.float32).astype(np.float64)

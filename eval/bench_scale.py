@@ -7,7 +7,7 @@ Cases
 -----
 A geodesic sphere of frequency ``n`` (each icosahedron face split into
 ``n²`` triangles, so ``20 n²`` faces: n = 224, 448, 708 give 1.00M, 4.01M
-and 10.03M faces) with smooth radial relief (:func:`shellrepair.shapes.bump_field`,
+and 10.03M faces) with smooth radial relief (:func:`eval.shapes.bump_field`,
 the bumpy sphere of the main benchmark), coordinates rounded to float32 as a
 scan's PLY stores them, perforated by ``HOLES`` = 200 holes: the faces whose
 centroid lies within a Euclidean ball around seeded surface points.
@@ -154,7 +154,7 @@ def geodesic_sphere(freq):
     weight, so both faces compute it bit for bit alike and welding on exact
     coordinates joins them. Projected onto the sphere after welding.
     """
-    from shellrepair import shapes
+    from eval import shapes
 
     n = int(freq)
     if n < 1:
@@ -212,7 +212,7 @@ def make_case(freq, n_holes=HOLES, seed=SEED, radii=None):
     """
     from scipy.spatial import cKDTree
 
-    from shellrepair import shapes
+    from eval import shapes
 
     U, F = geodesic_sphere(freq)
     r = 1.0 + AMPLITUDE * shapes.bump_field(U, FREQUENCY, seed=0)

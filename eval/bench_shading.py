@@ -522,7 +522,7 @@ def bench_aging(target_faces):
     from shellrepair import aging as ag
 
     V, F = bumpy_sphere(target_faces)
-    from shellrepair import shapes
+    from eval import shapes
 
     ag.aging_maps(*shapes.icosphere(1))  # imports
     t, c = time.perf_counter(), time.process_time()

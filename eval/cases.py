@@ -7,7 +7,7 @@ deterministic from a seed.
 Ground truths
 -------------
 ``icosphere``, ``torus``, ``ellipsoid``, ``bumpy_sphere`` (a sphere with fine
-radial relief, like a cast statue's surface) from :mod:`shellrepair.shapes`,
+radial relief, like a cast statue's surface) from :mod:`eval.shapes`,
 and the closed real scans ``closed_armadillo.ply`` and
 ``closed_nefertiti_bust.ply`` from ``../shared/data`` (or the folder named by
 the environment variable ``SHELLREPAIR_DATA``). A clone without them gets a
@@ -48,7 +48,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
-from shellrepair import shapes
+from eval import shapes
 from shellrepair.holes import boundary_loops
 from shellrepair.topology import edge_topology, face_areas, face_pieces
 

@@ -26,7 +26,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from shellrepair import shapes  # noqa: E402
+from eval import shapes  # noqa: E402
 from shellrepair.io import Mesh, read_mesh  # noqa: E402
 from shellrepair.repair import repair_mesh  # noqa: E402
 from eval import cases  # noqa: E402

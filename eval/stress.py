@@ -177,7 +177,7 @@ def _implicit_mesh(sdf, lo, hi, cell, edge):
 
 
 def _torus(ratio, quick):
-    from shellrepair import shapes
+    from eval import shapes
 
     h = 0.06 if quick else 0.03
     nu = max(32, int(round(2 * np.pi * (1 + ratio) / h)))
@@ -283,7 +283,7 @@ def _fixed_shape(name, quick):
 def _shape(name, rng, quick):
     """Canonical (unrotated) ground truth ``V, F, meta``; the bumpy sphere draws its relief from ``rng``."""
     if name == "bumpy":
-        from shellrepair import shapes
+        from eval import shapes
 
         amp, freq, s = float(rng.uniform(0.005, 0.03)), int(rng.integers(6, 25)), int(rng.integers(2 ** 31))
         V, F = shapes.bumpy_sphere(4 if quick else 6, amplitude=amp, frequency=freq, seed=s)

@@ -101,7 +101,7 @@ def peak_memory_mb(method, rss0_kb):
 def _warm_up(peers, tool):
     """Run the tool once on a tiny perforated sphere, so one-time start-up
     (library loading, thread pools) is not charged to the first case."""
-    from shellrepair import shapes
+    from eval import shapes
 
     try:
         V, F = shapes.icosphere(2)

@@ -1,11 +1,11 @@
 """shellrepair: fill the holes of 3D scans with smooth shells, report what was
 synthesized, and render the result with an aged-metal appearance.
 
->>> import shellrepair
->>> from shellrepair.shapes import icosphere
->>> V, F = icosphere(2)
->>> repaired, report = shellrepair.repair_mesh((V, F[5:]))   # a sphere missing five faces
->>> report["holes_before"], report["holes_after"]
+>>> import numpy as np, open3d as o3d, shellrepair
+>>> sphere = o3d.geometry.TriangleMesh.create_sphere(radius=1.0, resolution=12)
+>>> V, F = np.asarray(sphere.vertices), np.asarray(sphere.triangles)
+>>> repaired, report = shellrepair.repair_mesh((V, np.delete(F, [100, 101, 102], axis=0)))
+>>> report["holes_before"], report["holes_after"]      # three neighbouring faces missing: one hole
 (1, 0)
 """
 

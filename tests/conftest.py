@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shellrepair import shapes
+from eval import shapes
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

@@ -8,7 +8,7 @@ from scipy import ndimage
 
 from shellrepair import aging as ag
 from shellrepair import render as rd
-from shellrepair import shapes
+from eval import shapes
 
 BUNNY = Path(__file__).resolve().parents[1] / "data" / "bunny_zipper.ply"
 

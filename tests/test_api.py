@@ -5,7 +5,7 @@ import pytest
 
 import shellrepair
 from shellrepair import MeshError, as_mesh, to_open3d
-from shellrepair.shapes import icosphere
+from eval.shapes import icosphere
 
 
 def _open_sphere():

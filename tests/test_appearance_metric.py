@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from eval import appearance as ap
-from shellrepair import shapes
+from eval import shapes
 
 SIZE = (96, 96)
 

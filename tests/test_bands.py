@@ -11,7 +11,8 @@ energy is lower. Borders are never bridged.
 import numpy as np
 import pytest
 
-from shellrepair import Mesh, detect_holes, shapes
+from shellrepair import Mesh, detect_holes
+from eval import shapes
 from shellrepair.bridge import (arc_points, band_pairs, continuation_arcs, guide_tube, loop_sights,
                                 tube_triangles)
 from shellrepair.intersect import crossing_pairs

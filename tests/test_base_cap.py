@@ -3,7 +3,8 @@ or a cut through walls that run on (faired fill) — patch._turns_into_opening."
 
 import numpy as np
 
-from shellrepair import Mesh, detect_holes, shapes
+from shellrepair import Mesh, detect_holes
+from eval import shapes
 from shellrepair.repair import repair_mesh
 
 NU, NH = 48, 40

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from shellrepair import shapes
+from eval import shapes
 from shellrepair import batch
 from shellrepair.batch import default_jobs, list_scans, repair_folder, summary_table
 from shellrepair.cli import _parser, main

@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shellrepair import detect_holes, read_mesh, shapes
+from shellrepair import detect_holes, read_mesh
+from eval import shapes
 from shellrepair.holes import EDGE_ON_SHARE, WRAP_RATIO, edge_on_share, piece_views
 from shellrepair.topology import edge_topology, face_pieces
 

@@ -4,7 +4,8 @@ import numpy as np
 import open3d as o3d
 import pytest
 
-from shellrepair import Mesh, detect_holes, shapes
+from shellrepair import Mesh, detect_holes
+from eval import shapes
 from shellrepair.bridge import tube_triangles
 from shellrepair.repair import repair_mesh
 from shellrepair.topology import edge_topology

@@ -6,7 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from shellrepair import Mesh, write_mesh, shapes
+from shellrepair import Mesh, write_mesh
+from eval import shapes
 from shellrepair.cli import main
 
 

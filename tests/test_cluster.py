@@ -14,7 +14,8 @@ import pytest
 distributed = pytest.importorskip(
     "distributed", reason="dask.distributed is not installed (pip install 'shellrepair[cluster]')")
 
-from shellrepair import batch, shapes  # noqa: E402
+from shellrepair import batch  # noqa: E402
+from eval import shapes  # noqa: E402
 from shellrepair.batch import repair_folder  # noqa: E402
 from shellrepair.cli import main  # noqa: E402
 from shellrepair.io import Mesh, read_mesh, write_mesh  # noqa: E402

@@ -15,7 +15,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from eval import cases, metrics  # noqa: E402
 from eval.bench import add_ratios, best_peer  # noqa: E402
-from shellrepair import shapes  # noqa: E402
+from eval import shapes  # noqa: E402
 from shellrepair.holes import boundary_loops  # noqa: E402
 from shellrepair.topology import face_areas  # noqa: E402
 

@@ -11,7 +11,8 @@ spike's two scan faces passed them (seed 8, case 14: 2 pairs added).
 
 import numpy as np
 
-from shellrepair import Mesh, shapes
+from shellrepair import Mesh
+from eval import shapes
 from shellrepair.fill import FOLD_DEGREES, _check_patch
 from shellrepair.holes import boundary_loops
 from shellrepair.patch import Patch, _Context

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from shellrepair import detect_holes, read_mesh, shapes
+from shellrepair import detect_holes, read_mesh
+from eval import shapes
 from shellrepair.holes import boundary_loops, loop_stats
 from shellrepair.topology import edge_topology
 

@@ -19,7 +19,7 @@ from shellrepair.batch import repair_folder
 from shellrepair.htmlreport import figure, scan_page
 from shellrepair.io import Mesh, read_mesh, write_mesh
 from shellrepair.repair import repair_mesh
-from shellrepair.shapes import icosphere
+from eval.shapes import icosphere
 
 from conftest import shared_scan
 

@@ -12,7 +12,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from shellrepair import shapes
+from eval import shapes
 from shellrepair.topology import edge_topology
 from shellrepair.intersect import (NearFaces, TriangleIndex, crossing_pairs, embeds_by_projection,
                                    pair_intersections, patch_vs_index, self_intersections, triangles_cross)

@@ -3,7 +3,7 @@ ordinary cotangent Laplacian where nothing needs flipping."""
 
 import numpy as np
 
-from shellrepair import shapes
+from eval import shapes
 from shellrepair.intrinsic import _cotangents, _twins, intrinsic_delaunay, intrinsic_laplacian
 
 

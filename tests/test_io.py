@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from shellrepair import MeshError, Mesh, read_mesh, write_mesh
-from shellrepair import shapes
+from eval import shapes
 from shellrepair import clean as clean_module
 from shellrepair.formats import ply as ply_module, polygons, stl as stl_module
 from shellrepair.io import clean_faces
@@ -476,7 +476,7 @@ def test_stl_weld_joins_equal_corners_in_order_of_appearance(monkeypatch, collid
 
 def test_ply_comments_are_kept_through_a_repair(tmp_path):
     from shellrepair.repair import repair_mesh
-    from shellrepair.shapes import icosphere
+    from eval.shapes import icosphere
 
     V, F = icosphere(2)
     src = tmp_path / "s.ply"

@@ -8,7 +8,8 @@ seeded random, slivered and degenerate inputs and compare with
 import numpy as np
 import pytest
 
-from shellrepair import intrinsic, kernels, shapes, topology
+from shellrepair import intrinsic, kernels, topology
+from eval import shapes
 from shellrepair.io import Mesh
 from shellrepair.patch import _Context, _rim_data, _rim_data_numpy
 

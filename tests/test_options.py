@@ -6,7 +6,7 @@ import pytest
 from shellrepair import MeshError
 from shellrepair.options import RepairOptions
 from shellrepair.repair import repair_mesh
-from shellrepair.shapes import icosphere
+from eval.shapes import icosphere
 
 
 @pytest.mark.parametrize("bad, word", [(dict(order=4), "order"), (dict(order=True), "order"),

@@ -256,7 +256,7 @@ def test_cli_render_says_the_unit_and_model(tmp_path, capsys):
 
 def test_view_towards_faces_the_selected_faces():
     from shellrepair.render import frame_camera, view_towards
-    from shellrepair import shapes
+    from eval import shapes
 
     V, F = shapes.icosphere(3)
     C = V[F].mean(axis=1)

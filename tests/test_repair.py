@@ -5,7 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from shellrepair import Mesh, detect_holes, read_mesh, shapes, write_mesh
+from shellrepair import Mesh, detect_holes, read_mesh, write_mesh
+from eval import shapes
 from shellrepair.cli import main
 from shellrepair.repair import repair_mesh
 from shellrepair.topology import edge_topology, euler_characteristic

@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from shellrepair import Mesh, detect_holes, read_mesh, shapes, write_mesh
+from shellrepair import Mesh, detect_holes, read_mesh, write_mesh
+from eval import shapes
 from shellrepair.clean import orient_faces
 from shellrepair.cli import main
 from shellrepair.intersect import self_intersections

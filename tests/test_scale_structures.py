@@ -4,7 +4,7 @@ what their straightforward versions give."""
 import numpy as np
 import pytest
 
-from shellrepair import shapes
+from eval import shapes
 from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, _independent_flips, _relax, _unfolded, refine_patch,
                                 refine_patches)
 from shellrepair.patch import _Context, _local_frame, _rim_data

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from shellrepair import Mesh, detect_holes, read_mesh, shapes
+from shellrepair import Mesh, detect_holes, read_mesh
+from eval import shapes
 from shellrepair.fill import _fill_one_order
 from shellrepair.holes import boundary_loops
 from shellrepair.patch import _Context, build_patch

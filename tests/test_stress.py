@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from eval import stress
-from shellrepair import shapes
+from eval import shapes
 
 
 # --------------------------------------------------------------------------

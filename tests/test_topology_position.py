@@ -16,7 +16,7 @@ Specification (issues 13.4 and 18.2/18.3):
 import numpy as np
 import pytest
 
-from shellrepair import shapes
+from eval import shapes
 from shellrepair.holes import detect_holes
 from shellrepair.io import Mesh, read_mesh, written_faces, write_mesh
 from shellrepair.repair import repair_mesh

@@ -252,7 +252,7 @@ def _occluded_shape(seed):
     from eval.cases import keep_largest, occlusion_mask, scanner_positions
     from scipy.spatial.transform import Rotation
 
-    from shellrepair import shapes
+    from eval import shapes
 
     rng = np.random.default_rng(seed)
     V, F = shapes.torus(1.0, 0.4, 64, 24)

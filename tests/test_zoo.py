@@ -41,7 +41,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from shellrepair import cli, read_mesh, shapes
+from shellrepair import cli, read_mesh
+from eval import shapes
 from shellrepair.holes import boundary_loops
 
 ROOT = Path(__file__).resolve().parents[1]
