@@ -164,7 +164,11 @@ def _repair_options(p):
     p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch (default: 0)")
     p.add_argument("--method", choices=("fair", "seed"), default="fair",
                    help="fair: local faired shells (default); seed: the paper's smoothed-copy method")
-    p.add_argument("--jobs", type=int, default=1, help="fill holes on N cores, same output for any N (default: 1)")
+    from .batch import default_jobs
+
+    p.add_argument("--jobs", type=int, default=default_jobs(), metavar="N",
+                   help=f"fill holes on N processes, same output for any N "
+                        f"(default: the cores there are, {default_jobs()})")
     p.add_argument("--bridge", choices=("auto", "never", "always"), default="auto",
                    help="two facing loops bounding a missing band: tube or caps (default auto: lower energy)")
 

@@ -125,11 +125,11 @@ def test_scheduler_without_dask_is_one_line_exit_2(tmp_path, monkeypatch, capsys
     assert not (tmp_path / "out").exists()
 
 
-def test_jobs_default_to_the_cores_there_are(tmp_path, capsys):
+def test_jobs_default_to_the_cores_there_are_in_batch_and_repair(tmp_path, capsys):
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     assert default_jobs() == cores >= 1
     assert _parser().parse_args(["batch", "in", "-o", "out"]).jobs == cores
-    assert _parser().parse_args(["repair", "s.ply"]).jobs == 1  # the repair's own --jobs is unchanged
+    assert _parser().parse_args(["repair", "s.ply"]).jobs == cores  # the repair fills its holes on them too
     (tmp_path / "in").mkdir()
     assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--jobs", "0"]) == 2
     assert "jobs must be a whole number, at least 1, got 0" in capsys.readouterr().err
