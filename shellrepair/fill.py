@@ -616,7 +616,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                 if tube is not None:
                     break
                 bad = np.union1d(bad, b2) if b2.size else bad
-        if tube is None and mutual and order != 1 and (built is None or budget.affords(len(built.P))):
+        over = built is None and "work budget" in why_tube    # the first tube alone was over: so is this
+        if tube is None and mutual and order != 1 and not over and (built is None or budget.affords(len(built.P))):
             # the harmonic tube (order 1, as caps fall back to): it keeps to
             # the rim's own plane at a spike of the rim (a scan face with
             # two rim edges), where order 2 overshoots across the spike
