@@ -103,3 +103,36 @@ def test_a_part_gets_its_share_of_what_is_left_and_is_counted_back():
     b.absorb(part)
     assert b.spent == 10_123
     assert fill._Budget(1000).vertices == fill.HOLE_VERTICES + 1000 * fill.HOLE_VERTICES_PER_EDGE
+
+
+def test_a_band_whose_tube_is_over_the_budget_falls_back_without_adding_a_crossing(monkeypatch):
+    """The torus's inner band is one tube with the default budget
+    (tests/test_bands.py); with a budget below the tube's size the tube is
+    refused at refinement (before fairing and checking) and the band falls
+    back to its caps: whatever they close adds no crossing, no
+    non-manifold edge, and leaves the original vertices bit-identical.
+    (Here the two caps bulge into each other, so one loop stays open: the
+    default budget is 25k new vertices + 30 per rim edge, 15x this tube.)"""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_bands import self_intersections, torus_inner_band
+    from shellrepair.repair import repair_mesh
+
+    _, _, V2, F2, _ = torus_inner_band(3)
+    M = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(M)
+    (b,) = rep["bridges"]
+    assert b["chosen"] == "tube" and rep["holes_after"] == 0
+    tube_vertices = len(R.V) - len(M.V)
+    assert fill.HOLE_VERTICES + fill.HOLE_VERTICES_PER_EDGE * 320 > 15 * tube_vertices
+    monkeypatch.setattr(fill, "HOLE_VERTICES", tube_vertices // 2)
+    monkeypatch.setattr(fill, "HOLE_VERTICES_PER_EDGE", 0)
+    R2, rep2 = repair_mesh(M)
+    (b2,) = rep2["bridges"]
+    assert b2["chosen"] == "caps" and "work budget" in b2["reason"]
+    assert rep2["holes_after"] < rep2["holes_before"]
+    assert rep2["nonmanifold_edges_after"] == 0
+    assert np.array_equal(R2.V[:len(M.V)], M.V)
+    assert self_intersections(R2.V, R2.F) == self_intersections(M.V, M.F)
