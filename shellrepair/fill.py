@@ -155,7 +155,8 @@ HOLE_SECONDS_PER_EDGE = 0.004
 #: Work budget of one hole (or one band, both loops' edges counted), in new
 #: patch vertices built and checked over all attempts:
 #: ``HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges``. A hole's first
-#: attempt is always built; a later one (a retry, a tube, a rival tube)
+#: attempt and its last option (the harmonic patch or tube, tried at most
+#: once) are always built; a later one (a retry, a tube, a rival tube)
 #: starts only if a patch of its expected size still fits, and refinement
 #: stops it (``build_patch(max_vertices=...)``) if it grows past what is
 #: left, before fairing. One new vertex costs ~0.1 ms to refine, fair and
@@ -315,7 +316,8 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
        crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
     3. Otherwise keep the checked flat triangulation, if there is one.
 
-    The first faired attempt is always made; each later one only within
+    The first faired attempt and the harmonic patch (tried at most once)
+    are always made; each later one only within
     ``budget`` (a :class:`_Budget`, default the hole's own): a faired retry
     only if a patch of the first one's size still fits the work budget,
     and no round starts that would end past the wall-clock backstop (a
@@ -393,12 +395,16 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
         flat_ok = flat
         retry = False
         for name, o in options:
-            if size is not None and not budget.affords(size):
+            # the harmonic patch, the last option, is tried at most once per
+            # hole (no re-routing follows it): always, like the first attempt
+            last_option = name == "harmonic"
+            if size is not None and not last_option and not budget.affords(size):
                 reasons.append(f"{name}: not tried, {budget.describe()}")
-                break
+                continue
             try:
                 patch = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
-                                    energy=energy, max_vertices=None if size is None else budget.left())
+                                    energy=energy,
+                                    max_vertices=None if size is None or last_option else budget.left())
             except PatchError as exc:
                 reasons.append(f"{name}: {exc}")
                 continue
@@ -617,11 +623,14 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                     break
                 bad = np.union1d(bad, b2) if b2.size else bad
         over = built is None and "work budget" in why_tube    # the first tube alone was over: so is this
-        if tube is None and mutual and order != 1 and not over and (built is None or budget.affords(len(built.P))):
+        if tube is None and mutual and order != 1 and not over:
             # the harmonic tube (order 1, as caps fall back to): it keeps to
             # the rim's own plane at a spike of the rim (a scan face with
-            # two rim edges), where order 2 overshoots across the spike
+            # two rim edges), where order 2 overshoots across the spike;
+            # always tried once (as the first tube, at most the whole budget)
+            spent, budget.spent = budget.spent, 0
             tube, _, _ = attempt(first, init, 1)
+            budget.spent += spent
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
     seen_both_ways = tube is not None and mutual and mode != "always"
