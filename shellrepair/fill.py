@@ -152,6 +152,74 @@ PIN_ROUNDS = 3
 #: ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges``.
 HOLE_SECONDS = 3.0
 HOLE_SECONDS_PER_EDGE = 0.004
+#: Work budget of one hole (or one band, both loops' edges counted), in new
+#: patch vertices built and checked over all attempts:
+#: ``HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges``. A hole's first
+#: attempt and its last option (the harmonic patch or tube, tried at most
+#: once) are always built; a later one (a retry, a tube, a rival tube)
+#: starts only if a patch of its expected size still fits, and refinement
+#: stops it (``build_patch(max_vertices=...)``) if it grows past what is
+#: left, before fairing. One new vertex costs ~0.1 ms to refine, fair and
+#: check (2 cores, order 2), so the budget is ~2.5 s + 3 ms per edge of
+#: work, machine-independent: the wall-clock budget above is a backstop.
+HOLE_VERTICES = 25_000
+HOLE_VERTICES_PER_EDGE = 30
+
+
+class _Budget:
+    """What one hole (or band) may still spend: new patch vertices (work
+    units, :data:`HOLE_VERTICES`) and seconds (:data:`HOLE_SECONDS`).
+
+    Parameters
+    ----------
+    edges : int
+        Rim edges.
+    share : float
+        Fraction of both limits (a cap of a band gets its share).
+    """
+
+    def __init__(self, edges, share=1.0):
+        self.edges = int(edges)
+        self.vertices = share * (HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges)
+        self.seconds = share * (HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges)
+        self.t0 = time.perf_counter()
+        self.spent = 0
+
+    def elapsed(self):
+        return time.perf_counter() - self.t0
+
+    def left(self):
+        """New vertices still affordable (>= 0)."""
+        return max(0, int(self.vertices - self.spent))
+
+    def spend(self, patch):
+        """Count a patch built and checked."""
+        if patch is not None:
+            self.spent += len(patch.P)
+
+    def affords(self, vertices):
+        """Whether an attempt of about this many new vertices still fits."""
+        return self.spent + vertices <= self.vertices and not self.late()
+
+    def late(self, next_seconds=0.0):
+        """Whether the wall-clock backstop is (or would be, after an attempt of
+        ``next_seconds``) past."""
+        return self.elapsed() + next_seconds > self.seconds
+
+    def part(self, share):
+        """A budget for part of the work (a cap of a band): ``share`` of what
+        is left here; count what it spent back with :meth:`absorb`."""
+        b = _Budget(self.edges)
+        b.vertices = share * self.left()
+        b.seconds = share * max(0.0, self.seconds - self.elapsed())
+        return b
+
+    def absorb(self, part):
+        self.spent += part.spent
+
+    def describe(self):
+        return (f"work budget: {self.spent} of {int(self.vertices)} patch vertices, "
+                f"{self.elapsed():.1f} of {self.seconds:.1f} s, for {self.edges} edges")
 
 
 #: How each option is named in the report.
@@ -159,19 +227,23 @@ OPTION_NAMES = {"faired": "faired order {order}", "harmonic": "harmonic (order 1
                 "flat cap": "flat cap: a planar opening the scan meets edge-on (order 1)"}
 
 
-def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth):
+def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth, budget):
     """A flat cap that crosses slanting rim faces: let the cap bend (order
     2) only near the crossing, the rest held flat; grow that region up to
     ``PIN_ROUNDS`` times."""
     free = None
     n_new = len(patch.P)
     for _ in range(PIN_ROUNDS):
+        if not budget.affords(n_new):
+            return None
         free = _pin_region(patch, bad, free)
         pinned = np.setdiff1d(np.arange(n_new), free)
         try:
-            p = build_patch(ctx, hole_id, loop, order=2, smooth=smooth, initial=T0, pinned=pinned)
+            p = build_patch(ctx, hole_id, loop, order=2, smooth=smooth, initial=T0, pinned=pinned,
+                            max_vertices=budget.left())
         except PatchError:
             return None
+        budget.spend(p)
         why, b2 = _check_patch(ctx, p)
         if why is None:
             p.option = (f"flat cap: a planar opening the scan meets edge-on, bent (order 2) along "
@@ -196,21 +268,24 @@ def _pin_region(patch, bad, pinned):
     return np.flatnonzero(mark[k:])
 
 
-def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
+def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
     """Fill one hole; ``order="auto"`` picks 2 or 3 by a test on the scan
-    around the hole (:mod:`~shellrepair.selftest`)."""
+    around the hole (:mod:`~shellrepair.selftest`). ``budget``: a
+    :class:`_Budget` (default: the hole's own)."""
     if order != "auto":
-        return _fill_one_order(ctx, hole_id, loop, order, smooth, energy)
+        return _fill_one_order(ctx, hole_id, loop, order, smooth, energy, budget)
     from .selftest import agrees, choose_order
 
     t0 = time.perf_counter()
     test = choose_order(ctx, hole_id, loop)
-    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy)
+    budget = budget or _Budget(len(loop))
+    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
         return patch, reason, time.perf_counter() - t0, reasons
     if test.order == 3:
         try:
-            p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy)
+            p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
+                             max_vertices=max(budget.left(), len(patch.P)))
         except PatchError:
             p3 = None
         if p3 is not None:
@@ -226,7 +301,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False):
     return patch, reason, time.perf_counter() - t0, reasons
 
 
-def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
+def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
     """Fill one hole, trying the options in turn.
 
     0. Triangulate, refine and fair; done if the patch crosses nothing.
@@ -241,13 +316,18 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
        crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
     3. Otherwise keep the checked flat triangulation, if there is one.
 
-    No new round starts after ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * k``
-    seconds; the hole then keeps the checked flat triangulation or fails
-    saying so.
+    The first faired attempt and the harmonic patch (tried at most once)
+    are always made; each later one only within
+    ``budget`` (a :class:`_Budget`, default the hole's own): a faired retry
+    only if a patch of the first one's size still fits the work budget,
+    and no round starts that would end past the wall-clock backstop (a
+    round expected to take as long as the last). Past the budget the hole
+    keeps the checked flat triangulation or fails saying so.
 
     Returns (patch or None, reason, seconds, reasons tried).
     """
     t0 = time.perf_counter()
+    budget = budget or _Budget(len(loop))
     reasons = []
     avoid = set()
     flat_ok = None
@@ -260,12 +340,14 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
     faired_rounds = 0
     first = True
     scan_aware = False
-    budget = HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * len(loop)
+    size = None            # new vertices of the first faired patch: what a faired retry costs
+    t_round = None
     for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 2):
-        if time.perf_counter() - t0 > budget:
-            reasons.append(f"gave up after {time.perf_counter() - t0:.1f} s (budget {budget:.1f} s for "
-                           f"{len(loop)} edges), {len(avoid)} chords re-routed")
+        last = 0.0 if t_round is None else time.perf_counter() - t_round   # the last round's seconds
+        if budget.late(last):
+            reasons.append(f"gave up: {budget.describe()}, {len(avoid)} chords re-routed")
             break
+        t_round = time.perf_counter()
         try:
             flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid,
                                scan_aware=scan_aware)
@@ -281,12 +363,14 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
             try:
                 patch = build_patch(ctx, hole_id, loop, order=order0, smooth=smooth, initial=flat.T0,
                                     energy=energy)
+                size = len(patch.P)
+                budget.spend(patch)
                 why0, bad0 = _check_patch(ctx, patch)
                 if why0 is None:
                     patch.option = OPTION_NAMES[name0].format(order=order0)
                     return patch, "", time.perf_counter() - t0, reasons
                 if name0 == "flat cap" and bad0.size:
-                    rolled = _roll_rim(ctx, hole_id, loop, flat.T0, patch, bad0, smooth)
+                    rolled = _roll_rim(ctx, hole_id, loop, flat.T0, patch, bad0, smooth, budget)
                     if rolled is not None:
                         return rolled, "", time.perf_counter() - t0, reasons
                     reasons.append(f"flat cap: {why0}")
@@ -311,22 +395,34 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
         flat_ok = flat
         retry = False
         for name, o in options:
+            # the harmonic patch, the last option, is tried at most once per
+            # hole (no re-routing follows it): always, like the first attempt
+            last_option = name == "harmonic"
+            if size is not None and not last_option and not budget.affords(size):
+                reasons.append(f"{name}: not tried, {budget.describe()}")
+                continue
             try:
                 patch = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
-                                    energy=energy)
+                                    energy=energy,
+                                    max_vertices=None if size is None or last_option else budget.left())
             except PatchError as exc:
                 reasons.append(f"{name}: {exc}")
                 continue
+            size = len(patch.P) if size is None else size
+            budget.spend(patch)
             why, bad = _check_patch(ctx, patch)
             pinned = None
             for _grow in range(PIN_ROUNDS if why is not None and bad.size else 0):
+                if not budget.affords(size):
+                    break
                 # hold the new vertices around the crossing on the flat triangulation
                 pinned = _pin_region(patch, bad, pinned)
                 try:
                     pp = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
-                                     energy=energy, pinned=pinned)
+                                     energy=energy, pinned=pinned, max_vertices=budget.left())
                 except PatchError:
                     break
+                budget.spend(pp)
                 w2, b2 = _check_patch(ctx, pp)
                 if w2 is None:
                     patch, why = pp, None
@@ -363,6 +459,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False):
 #: the surrounding surface's curvature and picks the tube (tested on tori of
 #: tube radius 0.2–0.5 and cut angles 70–150°).
 ENERGY = 1
+#: Share of a band's budget the two caps get when they are filled before
+#: the tube (the rest is the tube's).
+CAPS_SHARE = 0.7
 
 
 def _fill_pair(ctx, A, B, order, smooth, mode):
@@ -389,9 +488,9 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
 
     t0 = time.perf_counter()
     loop = np.concatenate([A.vertices, B.vertices])
-    # past this the rounds holding vertices around a crossing are skipped
-    # (the harmonic tube is still tried)
-    budget = HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * len(loop)
+    # one budget for the band (both loops' edges): the tube's attempts after
+    # its first are made only while it lasts, the caps get their shares
+    budget = _Budget(len(loop))
     order = 2 if order == "auto" else order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
@@ -418,10 +517,11 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         if p is None:
             try:
                 p = build_patch(ctx, A.id, loop, order=o, smooth=smooth if fair else 0, initial=init,
-                                energy=fair, fair=fair, pinned=pinned)
+                                energy=fair, fair=fair, pinned=pinned, max_vertices=budget.left())
             except PatchError as exc:
                 why_tube = str(exc)
                 return None, np.zeros(0, np.int64), None
+            budget.spend(p)
         why, bad = _check_patch(ctx, p)
         if why is None and any(e in scan_edges for e in _scan_edges(p)):
             why = "the tube would repeat an edge of the scan"
@@ -447,10 +547,19 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     # loops that see each other one way only (an island and its surround, or
     # a loop whose arcs happen to reach a neighbour): the caps first; while
     # they stand, the tube gets one attempt, for the energy comparison
+    def fill_caps(share):
+        """Each loop filled as a hole, within its share of the budget left."""
+        out = []
+        for L in (A, B):
+            part = budget.part(share * len(L.vertices) / len(loop))
+            out.append(_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True, budget=part))
+            budget.absorb(part)
+        return out
+
     caps = None
     lean = False
     if not mutual and mode != "always":
-        caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+        caps = fill_caps(CAPS_SHARE)
         lean = not caps_crossing(caps)
     if len(Pg) and np.isfinite(Pg).all():
         first, init = "along the continuation arcs", (Pg, Tg)
@@ -459,15 +568,19 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         # fairing can flatten; the fairer valid option is kept, so the two
         # are checked in order of energy and the second only if the first fails
         try:
-            built = build_patch(ctx, A.id, loop, order=order, smooth=smooth, initial=init, energy=True)
+            # the first tube: at most the band's whole work budget
+            built = build_patch(ctx, A.id, loop, order=order, smooth=smooth, initial=init, energy=True,
+                                max_vertices=int(budget.vertices))
+            budget.spend(built)
         except PatchError as exc:
             why_tube, built = str(exc), None
         faired, bad, held, hbad, hp = None, np.zeros(0, np.int64), None, np.zeros(0, np.int64), None
         q = len(built.P) if built is not None and not lean else 0
-        if q:
+        if q and budget.affords(q):
             try:
                 hp = build_patch(ctx, A.id, loop, order=order, smooth=smooth, initial=init, energy=True,
                                  pinned=np.arange(q))
+                budget.spend(hp)
             except PatchError as exc:
                 why_tube = str(exc)
         energy_of = (lambda p: p.energy[ENERGY] if p.energy is not None else np.inf)
@@ -484,7 +597,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             free = None
             for _ in range(PIN_ROUNDS if mutual and faired is None and held is None and hbad.size and hp is not None
                            else 0):
-                if time.perf_counter() - t0 > budget:
+                if not budget.affords(q):
                     break
                 # a fold of the arcs (at a jag of a rim): fair only around it
                 free = _pin_region(hp, hbad, free)
@@ -502,18 +615,22 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             # hold the vertices near the crossing on the arcs (as for a cap)
             pinned = None
             for _ in range(PIN_ROUNDS):
-                if time.perf_counter() - t0 > budget:
+                if not budget.affords(len(built.P)):
                     break
                 pinned = _pin_region(built, bad, pinned)
                 tube, b2, _ = attempt(first, init, order, pinned=pinned)
                 if tube is not None:
                     break
                 bad = np.union1d(bad, b2) if b2.size else bad
-        if tube is None and mutual and order != 1:
+        over = built is None and "work budget" in why_tube    # the first tube alone was over: so is this
+        if tube is None and mutual and order != 1 and not over:
             # the harmonic tube (order 1, as caps fall back to): it keeps to
             # the rim's own plane at a spike of the rim (a scan face with
-            # two rim edges), where order 2 overshoots across the spike
+            # two rim edges), where order 2 overshoots across the spike;
+            # always tried once (as the first tube, at most the whole budget)
+            spent, budget.spent = budget.spent, 0
             tube, _, _ = attempt(first, init, 1)
+            budget.spent += spent
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
     seen_both_ways = tube is not None and mutual and mode != "always"
@@ -533,7 +650,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                     c.option = OPTION_NAMES["faired"].format(order=order)
                 caps.append((c, why or "", time.perf_counter() - t1, []))
         else:
-            caps = [_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True) for L in (A, B)]
+            caps = fill_caps(1.0)
     if caps is None:
         secs = time.perf_counter() - t0
         e_tube = tube.energy[ENERGY] if tube.energy is not None else None

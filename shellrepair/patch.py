@@ -272,7 +272,7 @@ def _prefill(ctx, units):
 
 
 def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
-                energy=False, pinned=None, scan_aware=False):
+                energy=False, pinned=None, scan_aware=False, max_vertices=None):
     """Build one hole's patch (no checks against the scan).
 
     Parameters
@@ -301,6 +301,9 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     scan_aware : bool
         Triangulate with only triangles that cross no scan face near the
         hole (:func:`_scan_allowed`).
+    max_vertices : int, optional
+        Raise :class:`PatchError` when refinement makes more new vertices
+        than this (a work budget), before the costly fairing.
 
     Returns
     -------
@@ -337,6 +340,9 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
         else:
             Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
     q = len(Pl) - k
+    if max_vertices is not None and q > max_vertices:
+        # a work bound (shellrepair.fill._Budget): stop before fairing
+        raise PatchError(f"refined patch has {q} new vertices, over the work budget left ({int(max_vertices)})")
     colors = None
     props = {}
     new_local = Pl[k:]
