@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import shellrepair.fill as fill
-from shellrepair import Mesh, shapes
+from shellrepair import Mesh
+from eval import shapes
 from shellrepair.holes import boundary_loops
 from shellrepair.patch import PatchError, _Context, build_patch
 
