@@ -16,6 +16,7 @@ model (``method="seed"``).
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -24,7 +25,15 @@ from .fair import umbrella_smooth
 from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index
 
 from .merge import _Accepted, _edges_of, _scan_edges
-from .patch import PatchError, _corners, _meets_edge_on, _prefill, _rim_data, build_patch
+from .patch import HoleUnit, PatchError, _corners, _meets_edge_on, _prefill, _rim_data, build_patch
+
+
+class Outcome(NamedTuple):
+    """What filling one loop gave."""
+    patch: object          # the accepted-so-far Patch, or None when the loop stays open
+    reason: str            # why it stays open ("" when filled, or what a band's partner did)
+    seconds: float
+    reasons: list          # the reasons of the attempts that failed on the way
 
 
 #: Smoothing passes of the paper's seed method when ``smooth`` is not given.
@@ -281,7 +290,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
     budget = budget or _Budget(len(loop))
     patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
-        return patch, reason, time.perf_counter() - t0, reasons
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if test.order == 3:
         try:
             p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
@@ -292,13 +301,13 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
             ok, gap = agrees(test, ctx.V, patch, p3)
             if ok and _check_patch(ctx, p3)[0] is None:
                 p3.option = patch.option.replace("order 2", "order 3") + f" ({test.describe()})"
-                return p3, reason, time.perf_counter() - t0, reasons
+                return Outcome(p3, reason, time.perf_counter() - t0, reasons)
             patch.option += (f" ({test.describe()}; but order 3 lies {gap:.3g} from order 2 here, more than "
                              f"the two errors together: order 2 kept)" if not ok else
                              f" ({test.describe()}; order 3 crosses the scan: order 2 kept)")
-            return patch, reason, time.perf_counter() - t0, reasons
+            return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     patch.option += f" ({test.describe()})"
-    return patch, reason, time.perf_counter() - t0, reasons
+    return Outcome(patch, reason, time.perf_counter() - t0, reasons)
 
 
 def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
@@ -368,11 +377,11 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
                 why0, bad0 = _check_patch(ctx, patch)
                 if why0 is None:
                     patch.option = OPTION_NAMES[name0].format(order=order0)
-                    return patch, "", time.perf_counter() - t0, reasons
+                    return Outcome(patch, "", time.perf_counter() - t0, reasons)
                 if name0 == "flat cap" and bad0.size:
                     rolled = _roll_rim(ctx, hole_id, loop, flat.T0, patch, bad0, smooth, budget)
                     if rolled is not None:
-                        return rolled, "", time.perf_counter() - t0, reasons
+                        return Outcome(rolled, "", time.perf_counter() - t0, reasons)
                     reasons.append(f"flat cap: {why0}")
             except PatchError:
                 pass
@@ -434,7 +443,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
                     patch.option += f", {len(avoid)} chords re-routed"
                 if pinned is not None:
                     patch.option += f", {len(pinned)} vertices held on the flat triangulation"
-                return patch, "", time.perf_counter() - t0, reasons
+                return Outcome(patch, "", time.perf_counter() - t0, reasons)
             more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
             if name == "faired" and more and faired_rounds < FAIRED_RETRIES:
                 faired_rounds += 1
@@ -448,8 +457,8 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
         reasons.append(f"the triangulation still crosses the scan after re-routing {len(avoid)} chords")
     if flat_ok is not None:
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
-        return flat_ok, "", time.perf_counter() - t0, reasons
-    return None, "; ".join(reasons), time.perf_counter() - t0, reasons
+        return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
+    return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
 
 
 #: Which energy decides tube against caps: 0 thin plate ∫(2H)², 1 curvature
@@ -648,7 +657,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                     c = None
                 else:
                     c.option = OPTION_NAMES["faired"].format(order=order)
-                caps.append((c, why or "", time.perf_counter() - t1, []))
+                caps.append(Outcome(c, why or "", time.perf_counter() - t1, []))
         else:
             caps = fill_caps(1.0)
     if caps is None:
@@ -658,7 +667,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                   "tube_energy": None if e_tube is None else round(float(e_tube), 6), "caps_energy": None,
                   "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
         tube.hole_id = A.id
-        return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
+        return [Outcome(tube, "", secs, []), Outcome(None, f"bridged with loop {A.id} by a tube", secs, [])], record
     why_caps = caps_crossing(caps)
     e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
     caps_ok = not why_caps
@@ -675,7 +684,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                             f"caps failed: {why_caps}" if not caps_ok else
                             f"tube energy {e_tube:.4g} < caps energy {e_caps:.4g}")
         tube.hole_id = A.id
-        return [(tube, "", secs, []), (None, f"bridged with loop {A.id} by a tube", secs, [])], record
+        return [Outcome(tube, "", secs, []), Outcome(None, f"bridged with loop {A.id} by a tube", secs, [])], record
     record["chosen"] = "caps"
     if tube is None:
         record["reason"] = f"tube failed: {why_tube}"
@@ -686,7 +695,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     out = []
     for L, c in zip((A, B), caps):
         if L.kind != "hole":
-            out.append((None, "border", secs, []))
+            out.append(Outcome(None, "border", secs, []))
         else:
             out.append(c)
     return out, record
@@ -696,10 +705,9 @@ _WORKER_CTX = None
 
 
 def _run_unit(ctx, unit):
-    kind, args = unit
-    if kind == "one":
-        return [_fill_one(ctx, *args)], None
-    return _fill_pair(ctx, *args)
+    if isinstance(unit, HoleUnit):
+        return [_fill_one(ctx, *unit)], None
+    return _fill_pair(ctx, *unit)
 
 
 def _run_chunk(ctx, chunk, on_unit=None):

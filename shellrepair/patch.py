@@ -17,6 +17,7 @@ the orchestration in :mod:`~shellrepair.repair`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,6 +29,32 @@ from .intersect import NearFaces, patch_vs_index
 from .refine import refine_patch, refine_patches
 from .topology import vertex_faces
 from .triangulate import triangulate_loop
+
+
+class HoleUnit(NamedTuple):
+    """One hole filled on its own (a unit of the fill's work)."""
+    hole_id: int
+    loop: np.ndarray
+    order: object          # 1, 2, 3 or "auto"
+    smooth: int
+
+    @property
+    def first_id(self):
+        """The hole id the units are ordered by."""
+        return self.hole_id
+
+
+class BandUnit(NamedTuple):
+    """Two ``hole`` loops bounding one missing band: a tube or two caps."""
+    A: object              # shellrepair.holes.Loop
+    B: object
+    order: object
+    smooth: int
+    mode: str              # the ``bridge`` option: "auto" or "always"
+
+    @property
+    def first_id(self):
+        return self.A.id
 
 
 class PatchError(Exception):
@@ -249,10 +276,10 @@ def _prefill(ctx, units):
     ``units``, the refinement as one batch (results identical to doing it
     hole by hole); stored in ``ctx.pre`` for :func:`build_patch`."""
     items, ids = [], []
-    for kind, args in units:
-        if kind != "one":
+    for unit in units:
+        if not isinstance(unit, HoleUnit):
             continue
-        hole_id, loop, order = args[0], np.asarray(args[1], np.int64), args[2]
+        hole_id, loop, order = unit.hole_id, np.asarray(unit.loop, np.int64), unit.order
         rim = _rim_data(ctx, loop)
         pre = _Pre(loop=loop, rim=rim)
         ctx.pre[hole_id] = pre

@@ -71,9 +71,9 @@ from .topology import edge_count_delta, edge_topology
 from . import fill as _fill
 from .bridge import _find_bands, split_pinched
 from .selftest import scan_verdict
-from .fill import SEED_SMOOTH_PASSES, _run_chunk, _seed_patches, _worker
+from .fill import SEED_SMOOTH_PASSES, Outcome, _run_chunk, _seed_patches, _worker
 from .merge import _Accepted, _merge
-from .patch import BATCH, Patch, _Context, build_patch
+from .patch import BATCH, BandUnit, HoleUnit, Patch, _Context, build_patch
 
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
 
@@ -179,13 +179,13 @@ def repair_mesh(mesh, options=None, *, progress=None, **changes):
     if bridge != "never" and method == "fair":
         pairs = _find_bands(ctx, scan)
     paired = {L.id for A, B, _ in pairs for L in (A, B)}
-    units = [("pair", (A, B, order, smooth, bridge)) for A, B, _ in pairs]
-    units += [("one", (h.id, h.vertices, order, smooth)) for h in holes if h.id not in paired]
-    units.sort(key=lambda u: u[1][0].id if u[0] == "pair" else u[1][0])
+    units = [BandUnit(A, B, order, smooth, bridge) for A, B, _ in pairs]
+    units += [HoleUnit(h.id, h.vertices, order, smooth) for h in holes if h.id not in paired]
+    units.sort(key=lambda u: u.first_id)
     if method == "seed":
         patches = _seed_patches(ctx, holes, smooth or SEED_SMOOTH_PASSES, results)
-        unit_out = [([(patches.get(h.id), results.get(h.id, ""), 0.0, [])], None) for h in holes]
-        units = [("one", (h.id, h.vertices, order, smooth)) for h in holes]
+        unit_out = [([Outcome(patches.get(h.id), results.get(h.id, ""), 0.0, [])], None) for h in holes]
+        units = [HoleUnit(h.id, h.vertices, order, smooth) for h in holes]
     else:
         # fixed runs of units, whatever ``jobs`` is, so the output is too
         chunks = [units[i:i + BATCH] for i in range(0, len(units), BATCH)]
@@ -218,7 +218,7 @@ def repair_mesh(mesh, options=None, *, progress=None, **changes):
     rows = {}
     bridges = []
     for u, (outs, record) in zip(units, unit_out):
-        loops = [u[1][0], u[1][1]] if u[0] == "pair" else [scan.loops[u[1][0]]]
+        loops = [u.A, u.B] if isinstance(u, BandUnit) else [scan.loops[u.hole_id]]
         tube_rejected = None
         tube_ok = False
         for L, (patch, reason, secs, _) in zip(loops, outs):
