@@ -1,5 +1,9 @@
 """Progress: the callback the library reports to, and the bar the command line draws.
 
+The bar (:class:`TerminalBar`, about a hundred lines) is what the command
+line draws; tqdm would do the same for one more runtime dependency, and the
+library itself draws nothing, so it is kept.
+
 The protocol
 ------------
 Every long library call takes ``progress=None``: a callable, called as

@@ -6,6 +6,17 @@ colours, the ``filled`` flags, other scalar vertex properties and the
 header's comments; :func:`ply_bytes` writes them back. Binary bodies are read
 as NumPy structured arrays when every face record has the same length, else
 by one walk over the records' lengths and a vectorised gather.
+
+Against plyfile 1.1.5 (measured once on this machine, 2026-11-30, a
+1,310,720-face binary PLY this module wrote; best of 3): reading, ours
+0.098 s to arrays (0.31 s for all of ``read_mesh``: cleaning, orientation,
+topology), plyfile 4.5 s as it is usually called and 0.026 s with
+``known_list_len`` (all faces triangles, the file memory-mapped); both give
+bit-identical V and F. Writing, ours 0.034-0.047 s, plyfile 2.6 s. plyfile's
+fixed-length path parses faster, but it needs the face length known in
+advance, and the comments, colours, ``filled`` flags, odd list types and
+MeshLab's variants handled here would still need this code around it; the
+parse is under a third of reading a scan, so the reader stays our own.
 """
 
 from __future__ import annotations
