@@ -16,12 +16,19 @@ unless one of their objects is involved.
 from __future__ import annotations
 
 from os import PathLike
+from typing import Any, Tuple, Union
 
 import numpy as np
 
 from .errors import MeshError
+from .mesh import Mesh
 
-__all__ = ["as_mesh", "to_open3d", "to_trimesh"]
+__all__ = ["as_mesh", "to_open3d", "to_trimesh", "MeshLike"]
+
+#: What :func:`as_mesh` (and so ``repair_mesh``) takes: a Mesh, a ``(V, F)``
+#: pair, an open3d (legacy or tensor) or trimesh mesh, or a path (``Any``
+#: stands for the other libraries' types, which are optional imports).
+MeshLike = Union[Mesh, Tuple[np.ndarray, np.ndarray], str, PathLike, Any]
 
 
 def _from_arrays(V, F, what):
@@ -42,7 +49,7 @@ def _from_arrays(V, F, what):
     return Mesh(V=V, F=F)
 
 
-def as_mesh(obj):
+def as_mesh(obj: MeshLike) -> Mesh:
     """A :class:`~shellrepair.io.Mesh` from what the caller holds.
 
     Parameters
@@ -102,7 +109,7 @@ def _colors_u8(C):
     return np.clip(np.rint(np.nan_to_num(C)), 0, 255).astype(np.uint8)[:, :3]
 
 
-def to_open3d(mesh, *, tensor=False):
+def to_open3d(mesh: MeshLike, *, tensor: bool = False) -> Any:
     """The mesh as an open3d ``TriangleMesh`` (legacy, or tensor with ``tensor=True``).
 
     Parameters
@@ -133,7 +140,7 @@ def to_open3d(mesh, *, tensor=False):
     return out
 
 
-def to_trimesh(mesh):
+def to_trimesh(mesh: MeshLike) -> Any:
     """The mesh as a ``trimesh.Trimesh`` (not processed: vertices and faces as they are).
 
     Raises

@@ -642,7 +642,8 @@ def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
     return np.divide(share, tot, out=np.zeros(k), where=tot > 0)
 
 
-def detect_holes(V, F, *, max_hole=None, fill_borders=False, closed=None, topo=None, pieces=None, areas=None):
+def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, fill_borders: bool = False,
+                 closed: bool | None = None, topo=None, pieces=None, areas=None) -> HoleScan:
     """Find every boundary loop, measure it and class it hole or border.
 
     Parameters

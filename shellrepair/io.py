@@ -68,7 +68,9 @@ report together (:mod:`shellrepair.files`).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import Union
 
 import numpy as np
 
@@ -77,6 +79,7 @@ from .errors import MeshError
 from .files import atomic_write, atomic_write_many, check_output_path, new_file_mode
 from .formats import READERS, SUPPORTED, WRITERS
 from .mesh import Mesh, written_faces
+from .progress import ProgressArg
 from . import fastmesh
 from .topology import edge_topology, face_areas
 
@@ -90,7 +93,8 @@ __all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path",
 MAX_ABS_COORDINATE = 1e100
 
 
-def read_mesh(path, *, clean=True, orient=True, progress=None):
+def read_mesh(path: Union[str, os.PathLike], *, clean: bool = True, orient: bool = True,
+              progress: ProgressArg = None) -> Mesh:
     """Read a triangle mesh from a PLY, OBJ, OFF or STL file.
 
     Parameters
@@ -400,7 +404,8 @@ def mesh_bytes(path, mesh, *, binary=True):
     return writer(mesh, binary)
 
 
-def write_mesh(path, mesh, *, binary=True, progress=None):
+def write_mesh(path: Union[str, os.PathLike], mesh: Mesh, *, binary: bool = True,
+               progress: ProgressArg = None) -> None:
     """Write a mesh; PLY keeps colours and the ``filled`` flags.
 
     Parameters

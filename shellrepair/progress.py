@@ -59,11 +59,13 @@ import sys
 import time
 from typing import Callable, Optional, Union
 
-__all__ = ["ProgressCallback", "as_callback", "terminal_bar", "TerminalBar", "Progress", "progress_enabled",
+__all__ = ["ProgressCallback", "ProgressArg", "as_callback", "terminal_bar", "TerminalBar", "Progress", "progress_enabled",
            "step", "end_line"]
 
 #: The type of a progress callback: ``progress(label, done, total)``.
 ProgressCallback = Callable[[str, int, int], None]
+#: What a library function's ``progress`` argument accepts.
+ProgressArg = Union[None, bool, ProgressCallback]
 
 
 def as_callback(progress: Union[None, bool, ProgressCallback]) -> Optional[ProgressCallback]:

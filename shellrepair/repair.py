@@ -60,10 +60,14 @@ intuitive framework for real-time freeform modeling", SIGGRAPH 2004.
 from __future__ import annotations
 
 import time
+from typing import Any, Optional
 
 import numpy as np
 
 from .clean import describe_open_chains
+from .convert import MeshLike
+from .options import RepairOptions
+from .progress import ProgressArg
 from .holes import detect_holes
 from .io import Mesh, manifold_mesh
 from .report import table1_dict
@@ -78,7 +82,8 @@ from .patch import BATCH, BandUnit, HoleUnit, Patch, _Context, build_patch
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
 
 
-def repair_mesh(mesh, options=None, *, progress=None, **changes):
+def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, progress: ProgressArg = None,
+                **changes: Any) -> tuple[Mesh, dict]:
     """Fill the holes of a mesh.
 
     Parameters

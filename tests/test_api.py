@@ -84,3 +84,12 @@ def test_highlight_filled_on_a_mesh_without_flags_says_so(tmp_path, capsys):
     shellrepair.write_mesh(scan, shellrepair.Mesh(V=V, F=F))
     assert main(["render", str(scan), "-o", str(tmp_path / "v.png"), "--size", "48x32", "--highlight-filled"]) == 0
     assert "no face is flagged filled" in capsys.readouterr().err
+
+
+def test_the_top_level_functions_carry_type_hints_that_resolve():
+    import typing
+
+    for name in ("read_mesh", "write_mesh", "repair_mesh", "detect_holes", "as_mesh", "to_open3d", "to_trimesh"):
+        hints = typing.get_type_hints(getattr(shellrepair, name))  # raises if a name does not resolve
+        assert "return" in hints, name
+    assert typing.get_type_hints(shellrepair.repair_mesh)["return"] == tuple[shellrepair.Mesh, dict]
