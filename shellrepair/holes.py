@@ -465,6 +465,52 @@ def _best_view(S):
     return best[0]
 
 
+def _sampled_normals(V, F, fpiece, which, max_faces):
+    """The faces of the pieces ``which`` that are read to measure them.
+
+    A piece of more than ``max_faces`` faces is read on a fixed
+    pseudo-random subset of about ``max_faces`` of them (a hash of the face
+    index, so the same faces every run); a one-piece scan skips the
+    per-face piece lookups.
+
+    Returns
+    -------
+    fr : (s,) int64
+        Row in ``which`` of each face read.
+    n : (s,3) float64
+        Its normal, of length twice its area.
+    ln : (s,) float64
+        That length.
+    """
+    k = which.size
+    whole = k == 1 and which[0] == 0 and int(fpiece.max(initial=0)) == 0
+    if whole:  # the usual scan: one piece, every face in it (no per-face lookups)
+        count = np.array([len(F)])
+        sel = None
+    else:
+        rank = np.full(int(fpiece.max()) + 1 if fpiece.size else 1, -1, np.int64)
+        rank[which] = np.arange(k)
+        fr = rank[fpiece]
+        sel = fr >= 0
+        count = np.bincount(fr[sel], minlength=k)
+    if count.max(initial=0) > max_faces:  # large pieces: a fixed hashed subset of their faces
+        keep = np.minimum(1.0, max_faces / np.maximum(count, 1))
+        h = np.arange(len(F), dtype=np.uint64)   # the hash of each face's index, in place
+        h *= np.uint64(2654435761)
+        h &= np.uint64(0xFFFFFFFF)
+        if sel is None:
+            sel = h < keep[0] * 2.0 ** 32
+        else:
+            sel &= h < (keep[np.maximum(fr, 0)] * 2.0 ** 32)
+        del h
+    sel = np.arange(len(F)) if sel is None else np.flatnonzero(sel)
+    fr = np.zeros(sel.size, np.int64) if whole else rank[fpiece[sel]]
+    T = np.asarray(V, np.float64)[np.asarray(F, np.int64)[sel]]
+    n = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    del T
+    return fr, n, np.sqrt(np.einsum("ij,ij->i", n, n))
+
+
 def piece_views(V, F, fpiece, which, *, max_faces=None):
     """Best single view of each piece and how much of it faces away from it.
 
@@ -505,33 +551,7 @@ def piece_views(V, F, fpiece, which, *, max_faces=None):
     view = np.zeros((k, 3))
     if k == 0:
         return view, np.zeros(0)
-    max_faces = VIEW_SAMPLES if max_faces is None else int(max_faces)
-    whole = k == 1 and which[0] == 0 and int(fpiece.max(initial=0)) == 0
-    if whole:  # the usual scan: one piece, every face in it (no per-face lookups)
-        count = np.array([len(F)])
-        sel = None
-    else:
-        rank = np.full(int(fpiece.max()) + 1 if fpiece.size else 1, -1, np.int64)
-        rank[which] = np.arange(k)
-        fr = rank[fpiece]
-        sel = fr >= 0
-        count = np.bincount(fr[sel], minlength=k)
-    if count.max(initial=0) > max_faces:  # large pieces: a fixed hashed subset of their faces
-        keep = np.minimum(1.0, max_faces / np.maximum(count, 1))
-        h = np.arange(len(F), dtype=np.uint64)   # the hash of each face's index, in place
-        h *= np.uint64(2654435761)
-        h &= np.uint64(0xFFFFFFFF)
-        if sel is None:
-            sel = h < keep[0] * 2.0 ** 32
-        else:
-            sel &= h < (keep[np.maximum(fr, 0)] * 2.0 ** 32)
-        del h
-    sel = np.arange(len(F)) if sel is None else np.flatnonzero(sel)
-    fr = np.zeros(sel.size, np.int64) if whole else rank[fpiece[sel]]
-    T = np.asarray(V, np.float64)[np.asarray(F, np.int64)[sel]]
-    n = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
-    del T
-    ln = np.sqrt(np.einsum("ij,ij->i", n, n))
+    fr, n, ln = _sampled_normals(V, F, fpiece, which, VIEW_SAMPLES if max_faces is None else int(max_faces))
     ok = ln > 0
     G = NORMAL_BINS
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -602,20 +622,7 @@ def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
     k = which.size
     if k == 0:
         return np.zeros(0)
-    rank = np.full(int(fpiece.max()) + 1 if fpiece.size else 1, -1, np.int64)
-    rank[which] = np.arange(k)
-    fr = rank[fpiece]
-    sel = fr >= 0
-    count = np.bincount(fr[sel], minlength=k)
-    if count.max(initial=0) > max_faces:
-        keep = np.minimum(1.0, max_faces / np.maximum(count, 1))
-        h = (np.arange(len(F), dtype=np.uint64) * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
-        sel &= h < (keep[np.maximum(fr, 0)] * 2.0 ** 32)
-    sel = np.flatnonzero(sel)
-    fr = fr[sel]
-    T = np.asarray(V, np.float64)[np.asarray(F, np.int64)[sel]]
-    n = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
-    ln = np.sqrt(np.einsum("ij,ij->i", n, n))          # twice the area
+    fr, n, ln = _sampled_normals(V, F, fpiece, which, int(max_faces))   # ln: twice the area
     sin_e = np.sin(np.radians(EDGE_ON_DEGREES))
     tot = np.bincount(fr, weights=ln, minlength=k)
     s_view = np.abs(np.einsum("ij,ij->i", n, np.asarray(views, np.float64)[fr]))
