@@ -65,9 +65,9 @@ from typing import Any, Optional
 import numpy as np
 
 from .clean import describe_open_chains
-from .convert import MeshLike
+from .convert import MeshLike, as_mesh
 from .options import RepairOptions
-from .progress import ProgressArg
+from .progress import ProgressArg, as_callback
 from .holes import detect_holes
 from .io import Mesh, manifold_mesh
 from .report import table1_dict
@@ -112,13 +112,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
         Table 1 fields (see :func:`shellrepair.report.table1_dict`) plus
         per-hole details.
     """
-    from .convert import as_mesh
-
-    from .options import RepairOptions
-
     opts = RepairOptions.make(options, **changes)  # checked once, messages name the option
-    from .progress import as_callback
-
     legacy_bar = progress is True
     progress = as_callback(progress)
     order, smooth, max_hole, fill_borders = opts.order, opts.smooth, opts.max_hole, opts.fill_borders
