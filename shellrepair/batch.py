@@ -396,6 +396,7 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
     summary_path = outdir / SUMMARY_NAME
     t_all = time.perf_counter()
     done = {}  # scan index -> row
+    sections = {}  # index.html sections built so far
     if report is not None:
         report("scans", 0, len(scans))
 
@@ -409,7 +410,7 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
         summary.update(_totals(summary["scans"]), seconds=round(time.perf_counter() - t_all, 3))
         atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
         if html:
-            _write_index(summary, outdir)
+            _write_index(summary, outdir, sections)
 
     try:
         if kind == "in-process":
@@ -425,7 +426,7 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
     summary.update(_totals(summary["scans"]), seconds=round(time.perf_counter() - t_all, 3))
     atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
     if html:
-        _write_index(summary, outdir)
+        _write_index(summary, outdir, sections)
     return summary
 
 
@@ -502,23 +503,48 @@ def _size(path):
 INDEX_NAME = "index.html"
 
 
-def _write_index(summary, outdir):
-    """OUTDIR/index.html from the summary and the reports written so far."""
-    from .htmlreport import collection_page, report_json, scan_section, write_page
+def _write_index(summary, outdir, cache=None):
+    """OUTDIR/index.html from the summary and the reports written so far.
+
+    Parameters
+    ----------
+    summary : dict
+        The batch summary; its ``scans`` rows in name order.
+    outdir : Path
+        The output folder.
+    cache : dict, optional
+        Sections already built, by (position, scan name): the page is
+        rewritten after every scan, and each scan's report is read once
+        rather than once per later scan.
+    """
+    from .htmlreport import collection_page, write_page
 
     sections = []
     for i, r in enumerate(summary["scans"]):
-        if r["status"] != "ok":
-            sections.append(None)
+        key = (i, r.get("name"), r["status"])
+        if cache is not None and key in cache:
+            sections.append(cache[key])
             continue
-        rep = report_json(r["report"])
-        pic = rep.get("picture")
-        fig = None
-        if pic:
-            fig = {"png": b"", "alt": pic["alt"], "width": pic["width"], "height": pic["height"]}
-        sections.append(scan_section(rep, fig, image_src=pic["file"] if pic else None, options=summary["options"],
-                                     sha256=rep.get("input_sha256"), anchor=f"scan-{i}", level=2))
+        section = _index_section(i, r, summary["options"])
+        if cache is not None:
+            cache[key] = section
+        sections.append(section)
     write_page(Path(outdir) / INDEX_NAME, collection_page(summary, sections))
+
+
+def _index_section(i, r, options):
+    """One scan's section of the collection page (None for a failed scan)."""
+    from .htmlreport import report_json, scan_section
+
+    if r["status"] != "ok":
+        return None
+    rep = report_json(r["report"])
+    pic = rep.get("picture")
+    fig = None
+    if pic:
+        fig = {"png": b"", "alt": pic["alt"], "width": pic["width"], "height": pic["height"]}
+    return scan_section(rep, fig, image_src=pic["file"] if pic else None, options=options,
+                        sha256=rep.get("input_sha256"), anchor=f"scan-{i}", level=2)
 
 
 def _fmt(v, spec=""):

@@ -299,3 +299,21 @@ def test_holes_command_ends_the_loading_bar_line(tmp_path, monkeypatch, capsys):
     assert main(["holes", str(tmp_path / "bust.ply")]) == 0
     assert "loading bust.ply [" in tty.getvalue() and tty.getvalue().endswith("\n")
     assert "hole" in capsys.readouterr().out
+
+
+def test_the_collection_page_reads_each_report_once_and_equals_a_fresh_build(tmp_path, monkeypatch):
+    V, F = shapes.bumpy_sphere(3, amplitude=0.03, frequency=6)
+    scans = {f"s{i}.ply": ball_perforate(V, F, n_holes=2, radius=0.15, seed=i) for i in range(2)}
+    _write_scans(tmp_path / "in", scans)
+    from shellrepair import htmlreport
+    reads = []
+    real = htmlreport.report_json
+    monkeypatch.setattr(htmlreport, "report_json", lambda r: reads.append(1) or real(r))
+    # the pictures are not what this checks: a 1-pixel stand-in spares their rendering
+    monkeypatch.setattr(htmlreport, "figure", lambda *a, **k: {"png": b"\x89PNG", "alt": "scan", "width": 1, "height": 1})
+    summary = repair_folder(tmp_path / "in", tmp_path / "out", jobs=1, html=True)
+    assert len(reads) == 2  # one section per scan, not one per scan per rewrite
+    written = (tmp_path / "out" / batch.INDEX_NAME).read_text()
+    (tmp_path / "fresh").mkdir()
+    batch._write_index(summary, tmp_path / "fresh")
+    assert (tmp_path / "fresh" / batch.INDEX_NAME).read_text() == written
