@@ -546,13 +546,24 @@ def piece_views(V, F, fpiece, which, *, max_faces=None):
     whose normals all face its mean normal has ratio 0 from it and needs no
     search.
     """
+    view, ratio, _ = _piece_views(V, F, fpiece, which, max_faces=max_faces)
+    return view, ratio
+
+
+def _piece_views(V, F, fpiece, which, *, max_faces=None, certify=False):
+    """:func:`piece_views`, and with ``certify`` no search for the pieces
+    whose normals alone prove that they wrap around (:func:`_wraps`): their
+    view and ratio are NaN. Returns ``view, ratio, certified``."""
     which = np.asarray(which, np.int64)
     k = which.size
     view = np.zeros((k, 3))
     if k == 0:
-        return view, np.zeros(0)
+        return view, np.zeros(0), np.zeros(0, bool)
     fr, n, ln = _sampled_normals(V, F, fpiece, which, VIEW_SAMPLES if max_faces is None else int(max_faces))
     ok = ln > 0
+    certified = _wraps(fr, n, ln, k) if certify else np.zeros(k, bool)
+    if certified.all():
+        return np.full((k, 3), np.nan), np.full(k, np.nan), certified
     G = NORMAL_BINS
     with np.errstate(divide="ignore", invalid="ignore"):
         u = np.where(ok[:, None], n / np.where(ok, ln, 1.0)[:, None], 0.0)
@@ -572,13 +583,55 @@ def piece_views(V, F, fpiece, which, *, max_faces=None):
     s_face = np.einsum("ij,ij->i", n, unit[fr])
     far = np.bincount(fr, weights=(s_face < 0) & ok, minlength=k) > 0
     view[:] = unit
-    for j in np.flatnonzero(far | (nm <= 0)):
+    for j in np.flatnonzero((far | (nm <= 0)) & ~certified):
         view[j] = _best_view(S[bounds[j]:bounds[j + 1]])
     s = np.einsum("ij,ij->i", n, view[fr])
     front = np.bincount(fr, weights=np.maximum(s, 0.0), minlength=k)
     back = np.bincount(fr, weights=np.maximum(-s, 0.0), minlength=k)
     ratio = np.divide(back, front, out=np.where(back > 0, np.inf, 0.0), where=front > 0)
-    return view, ratio
+    view[certified] = np.nan
+    ratio[certified] = np.nan
+    return view, ratio, certified
+
+
+def _wraps(fr, n, ln, k):
+    """Pieces whose face normals prove ``P−/P+ ≥ WRAP_RATIO`` from every
+    direction, without a search.
+
+    Along a unit ``d``, with ``a = Σ n_f`` the piece's total vector area
+    (doubled, as ``n``), ``P+ − P− = a·d ≤ |a|`` and
+    ``P+ + P− = Σ |n_f·d| ≥ Σ (n_f·d)² / |n_f| = dᵀMd ≥ λ_min(M)``
+    (``|x| ≥ x²`` for ``|x| ≤ 1``), ``M = Σ n_f n_fᵀ / |n_f|``. As
+    ``(T − x)/(T + x)`` falls with ``x`` and rises with ``T``,
+    ``λ_min(M) ≥ |a| (1 + w)/(1 − w)`` gives ``P−/P+ ≥ w`` along every
+    ``d``, so along the view :func:`piece_views` would find too: the piece
+    is read as closed either way. A closed surface has ``a = 0``; a few
+    small holes leave ``|a|`` small, while ``λ_min`` is a third of the
+    (doubled) area on a sphere. The bound is asked with a margin of 10⁻⁶
+    (and 10⁻⁹ of ``trace M``) over the rounding of the sums.
+
+    Parameters
+    ----------
+    fr, n, ln : as :func:`_sampled_normals` returns them
+    k : int
+        Number of pieces.
+
+    Returns
+    -------
+    certified : (k,) bool
+    """
+    ok = ln > 0
+    w = np.where(ok, 1.0 / np.where(ok, ln, 1.0), 0.0)
+    a = np.column_stack([np.bincount(fr, weights=n[:, j], minlength=k) for j in range(3)])
+    M = np.empty((k, 3, 3))
+    for i in range(3):
+        wi = n[:, i] * w
+        for j in range(i, 3):
+            M[:, i, j] = M[:, j, i] = np.bincount(fr, weights=wi * n[:, j], minlength=k)
+    lam = np.linalg.eigvalsh(M)[:, 0]
+    need = np.linalg.norm(a, axis=1) * (1.0 + WRAP_RATIO) / (1.0 - WRAP_RATIO)
+    slack = 1e-9 * np.trace(M, axis1=1, axis2=2)   # the eigenvalue's and the sums' rounding, with room
+    return (lam > 0) & (lam >= need * (1.0 + 1e-6) + slack)
 
 
 def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
@@ -650,7 +703,7 @@ def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
 
 
 def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, fill_borders: bool = False,
-                 closed: bool | None = None, topo=None, pieces=None, areas=None) -> HoleScan:
+                 closed: bool | None = None, topo=None, pieces=None, areas=None, measure: bool = True) -> HoleScan:
     """Find every boundary loop, measure it and class it hole or border.
 
     Parameters
@@ -673,6 +726,13 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         :func:`shellrepair.topology.face_areas` of ``V, F``.
         (These three are built here when not given; :func:`read_mesh`
         keeps them on the mesh, see :meth:`Mesh.cached`.)
+    measure : bool
+        True (default): every piece's best view and back ratio are measured
+        and reported. False (what a repair needs, the kinds only): a piece
+        whose normals alone prove that it wraps around (rule 2 from every
+        direction, :func:`_wraps`) is read closed without the search of its
+        best view; its loops get ``back_ratio`` None and a reason that says
+        so. The kinds are the same either way.
 
     Returns
     -------
@@ -719,13 +779,13 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         views, ratio = np.zeros((which.size, 3)), np.full(which.size, np.nan)
         is_closed = np.ones(which.size, bool)
     else:
-        views, ratio = piece_views(V, F, fpiece, which)
+        views, ratio, certified = _piece_views(V, F, fpiece, which, certify=not measure and closed is None)
         edge_on = np.zeros(which.size)
         if closed is not False:
             low = np.flatnonzero(ratio < WRAP_RATIO)   # rule 3 for the pieces rule 2 leaves
             edge_on[low] = edge_on_share(V, F, fpiece, which[low], views[low])
         is_closed = np.zeros(which.size, bool) if closed is False else \
-            (ratio >= WRAP_RATIO) | (edge_on >= EDGE_ON_SHARE)
+            (ratio >= WRAP_RATIO) | (edge_on >= EDGE_ON_SHARE) | certified
     # a single view's outer rim: the loop whose outline, seen along the
     # view, holds most of the piece (the piece is sampled once)
     by_piece = None
@@ -752,7 +812,9 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         rim[piece] = idx[int(np.argmax(frac))]  # first of equals: the lowest id
     for L, p in zip(scan.loops, pieces):
         wraps = L.reading == "closed"
-        how = "--closed yes" if closed is True else "" if L.back_ratio is None else (
+        how = "--closed yes" if closed is True else "" if L.back_ratio is None and not wraps else \
+            (f"its normals show that from every direction at least {100 * WRAP_RATIO:g}% as much surface faces "
+             f"away as towards it") if L.back_ratio is None else (
             f"from its best view {100 * L.back_ratio:.1f}% as much surface faces away as towards it"
             + ("; --closed no" if closed is False else ""))
         if max_hole is not None and L.edges > int(max_hole):
@@ -763,7 +825,7 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
             L.kind = "hole"
             L.reason = ("closed by the surrounding surface: --closed yes" if closed is True else
                         f"closed by the surrounding surface: its piece wraps around ({how})"
-                        if L.back_ratio >= WRAP_RATIO else
+                        if L.back_ratio is None or L.back_ratio >= WRAP_RATIO else
                         f"closed by the surrounding surface: its piece was seen from several sides "
                         f"({how}, but {100 * L.edge_on:.0f}% of it is within {EDGE_ON_DEGREES:g}° of edge-on "
                         f"from there, which no single view records)")
