@@ -59,8 +59,10 @@ _LOCK = threading.Lock()
 
 
 def enabled(n_faces):
-    """True when a whole-mesh step on ``n_faces`` faces should use the kernels."""
-    return AVAILABLE and n_faces >= MIN_FACES
+    """True when a whole-mesh step on ``n_faces`` faces should use the kernels:
+    from ``MIN_FACES`` faces, or on any mesh once they are loaded (their
+    loading is then paid already; they give the same arrays)."""
+    return AVAILABLE and (n_faces >= MIN_FACES or _K is not None)
 
 
 def _kernels():

@@ -306,3 +306,30 @@ def test_progress_moves_hole_by_hole_through_batched_runs(monkeypatch):
     n = rep["holes_before"]
     assert n > repair.BATCH
     assert [i for label, i, m in calls if label == "filling holes"] == list(range(1, n + 1))
+
+
+def test_loaded_whole_mesh_kernels_give_a_small_mesh_the_same_repair(monkeypatch):
+    """Once Numba's whole-mesh kernels are loaded (the benchmark loads them
+    before timing), meshes below MIN_FACES use them too: the repair is the
+    same to the bit, report included (timings aside)."""
+    from shellrepair import fastmesh
+
+    if not fastmesh.AVAILABLE:
+        pytest.skip("Numba is not installed")
+    V, F = shapes.bumpy_sphere(3, amplitude=0.02, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=5, radius=0.15, seed=2)
+    assert len(F2) < fastmesh.MIN_FACES
+    fastmesh.warm_up()
+    assert fastmesh.enabled(len(F2))
+    fast = repair_mesh(Mesh(V=V2, F=F2))
+    monkeypatch.setattr(fastmesh, "_K", None)
+    assert not fastmesh.enabled(len(F2))
+    plain = repair_mesh(Mesh(V=V2, F=F2))
+    for name in ("V", "F", "vertex_filled", "face_filled"):
+        assert np.array_equal(getattr(fast[0], name), getattr(plain[0], name))
+    def strip(x):   # the report without its timings
+        if isinstance(x, dict):
+            return {k: strip(v) for k, v in x.items() if "second" not in k}
+        return [strip(v) for v in x] if isinstance(x, (list, tuple)) else x
+    assert json.dumps(strip(fast[1]), sort_keys=True, default=str) == \
+        json.dumps(strip(plain[1]), sort_keys=True, default=str)
