@@ -791,18 +791,28 @@ def _with_partner(ctx, loops, cand, hole):
     R = (r + 2 * e + reach * (1 + 1 / ARC_SAMPLES + SIGHT_SLACK)) * (1 + 1e-9)
     tree = cKDTree(V[allv])
     near = tree.query_ball_point(c, R + edge[ids].max() * (1 + 1e-9))
-    keep = []
-    for i, a in enumerate(cand):
-        nb = np.asarray(near[i], np.int64)
-        if not nb.size:
-            continue
-        who = owner[nb]
-        d = np.linalg.norm(V[allv[nb]] - c[i], axis=1)
-        for b in np.unique(who[(who != a) & (d <= R[i] + edge[who] * (1 + 1e-9))]).tolist():
-            if not np.intersect1d(rims[i], loops[b].vertices).size:   # touching loops are never paired
-                keep.append(a)
-                break
-    return keep
+    counts = np.array([len(x) for x in near], np.int64)
+    if not counts.sum():
+        return []
+    row = np.repeat(np.arange(len(cand)), counts)
+    nb = np.concatenate([np.asarray(x, np.int64) for x in near])
+    who = owner[nb]
+    d = np.linalg.norm(V[allv[nb]] - c[row], axis=1)
+    ca = np.asarray(cand, np.int64)
+    ok = (who != ca[row]) & (d <= R[row] + edge[who] * (1 + 1e-9))
+    # touching loops (a shared vertex) are never paired: such pairs do not count
+    v_sorted = np.sort(allv)
+    shared = np.unique(v_sorted[1:][v_sorted[1:] == v_sorted[:-1]])
+    touching = set()
+    if shared.size:
+        on = np.isin(allv, shared)
+        by_v = {}
+        for v, o in zip(allv[on].tolist(), owner[on].tolist()):
+            by_v.setdefault(v, set()).add(o)
+        for os_ in by_v.values():
+            touching.update((x, y) for x in os_ for y in os_ if x != y)
+    pairs = np.unique(np.column_stack([ca[row[ok]], who[ok]]), axis=0)
+    return sorted({a for a, b in pairs.tolist() if (a, b) not in touching})
 
 
 def _pinched_parts(A, B):
@@ -892,7 +902,7 @@ def split_pinched(V, F, topo, scan, pieces=None):
     bhe = topo.boundary_he
     bface = bhe // 3
     bd_count = np.bincount(fpiece[bface], minlength=n_piece)     # boundary edges per piece
-    he_face = dict(zip(map(tuple, topo.he[bhe].tolist()), bface.tolist()))
+    he_face = dict(zip(map(tuple, topo.ends(bhe).tolist()), bface.tolist()))   # not the whole mesh's he
 
     def bounds_scan_all_round(part):
         ps = {int(fpiece[he_face[(int(u), int(v))]]) for u, v in zip(part.tolist(), np.roll(part, -1).tolist())}

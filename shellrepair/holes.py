@@ -350,10 +350,11 @@ def loop_stats(V, loop):
     P = np.asarray(V, np.float64)[np.asarray(loop, np.int64)]
     c = P.mean(axis=0)
     Q = P - c
-    E = np.roll(Q, -1, axis=0) - Q
+    Qn = np.concatenate([Q[1:], Q[:1]])          # the next vertex of each (np.roll by -1)
+    E = Qn - Q
     lengths = np.linalg.norm(E, axis=1)
     perimeter = float(lengths.sum())
-    vec_area = 0.5 * np.cross(Q, np.roll(Q, -1, axis=0)).sum(axis=0)
+    vec_area = 0.5 * cross(Q, Qn).sum(axis=0)    # np.cross's products, without its set-up
     area = float(np.linalg.norm(vec_area))
     diameter = _diameter(Q)
     _, s, vt = np.linalg.svd(Q, full_matrices=False)
