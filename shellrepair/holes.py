@@ -504,9 +504,13 @@ def _sampled_normals(V, F, fpiece, which, max_faces):
         else:
             sel &= h < (keep[np.maximum(fr, 0)] * 2.0 ** 32)
         del h
-    sel = np.arange(len(F)) if sel is None else np.flatnonzero(sel)
-    fr = np.zeros(sel.size, np.int64) if whole else rank[fpiece[sel]]
-    T = np.asarray(V, np.float64)[np.asarray(F, np.int64)[sel]]
+    F = np.asarray(F, np.int64)
+    if sel is None:   # every face, in order: no copy of F
+        fr, T = np.zeros(len(F), np.int64), np.asarray(V, np.float64)[F]
+    else:
+        sel = np.flatnonzero(sel)
+        fr = np.zeros(sel.size, np.int64) if whole else rank[fpiece[sel]]
+        T = np.asarray(V, np.float64)[F[sel]]
     n = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
     del T
     return fr, n, np.sqrt(np.einsum("ij,ij->i", n, n))
@@ -623,12 +627,16 @@ def _wraps(fr, n, ln, k):
     """
     ok = ln > 0
     w = np.where(ok, 1.0 / np.where(ok, ln, 1.0), 0.0)
-    a = np.column_stack([np.bincount(fr, weights=n[:, j], minlength=k) for j in range(3)])
-    M = np.empty((k, 3, 3))
-    for i in range(3):
-        wi = n[:, i] * w
-        for j in range(i, 3):
-            M[:, i, j] = M[:, j, i] = np.bincount(fr, weights=wi * n[:, j], minlength=k)
+    if k == 1:   # one piece (the usual scan): plain sums
+        a = n.sum(axis=0)[None]
+        M = ((n * w[:, None]).T @ n)[None]
+    else:
+        a = np.column_stack([np.bincount(fr, weights=n[:, j], minlength=k) for j in range(3)])
+        M = np.empty((k, 3, 3))
+        for i in range(3):
+            wi = n[:, i] * w
+            for j in range(i, 3):
+                M[:, i, j] = M[:, j, i] = np.bincount(fr, weights=wi * n[:, j], minlength=k)
     lam = np.linalg.eigvalsh(M)[:, 0]
     need = np.linalg.norm(a, axis=1) * (1.0 + WRAP_RATIO) / (1.0 - WRAP_RATIO)
     slack = 1e-9 * np.trace(M, axis1=1, axis2=2)   # the eigenvalue's and the sums' rounding, with room
