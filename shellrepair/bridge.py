@@ -396,6 +396,7 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
               if len(loops[a].vertices) >= 2 * SELF_SKIP + 2]
     rims = [np.asarray(loops[a].vertices, np.int64) for a in follow]
     all_arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
+    entries = []    # per followed loop: (a, k, idx, X, tol, bound)
     for a, loop, arcs in zip(follow, rims, all_arcs):
         L = loops[a]
         k = len(loop)
@@ -413,32 +414,50 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
         X = arc_points(U[idx], T[idx], N[idx], kap[idx], s)
         h = (length / n_samples)[:, None]
         tol = h + slack * (s - s0[idx, None])                 # (m, j) without the target's edge
-        bound = float(tol.max() + edge.max())
-        # only an arc's first landing counts: samples are looked up from the
-        # rim outwards, in growing runs, and an arc stops at its first landing
-        # (a sample's lookup does not depend on which others are asked with it)
-        landed = np.full(len(idx), -1, np.int64)
-        rows = np.arange(len(idx))
-        for c0, c1 in _sample_runs(n_samples):
-            if rows.size == 0:
-                break
-            Xc = X[rows, c0:c1]
-            d, j = tree.query(Xc.reshape(-1, 3), distance_upper_bound=bound)
-            d = d.reshape(Xc.shape[:2])
-            j = j.reshape(Xc.shape[:2])
-            found = np.isfinite(d)
-            jj = np.where(found, j, 0)
-            who = owner[jj]
-            hit = found & (d <= tol[rows, c0:c1] + edge[who])
-            # the arc's own start: rim vertices next to its vertex on its own loop
-            gap = np.abs(place[jj] - idx[rows, None])
-            gap = np.minimum(gap, k - gap)
-            hit &= ~((who == a) & (gap <= SELF_SKIP))
-            done = hit.any(axis=1)
-            landed[rows[done]] = who[done, np.argmax(hit[done], axis=1)]
-            rows = rows[~done]
-        landed = landed[landed >= 0]
-        out[a] = (np.bincount(landed, minlength=len(loops)), len(idx))
+        entries.append((a, k, idx, X, tol, float(tol.max() + edge.max())))
+    if not entries:
+        return out
+    # only an arc's first landing counts: samples are looked up from the rim
+    # outwards, in growing runs, and an arc stops at its first landing (a
+    # sample's lookup does not depend on which others are asked with it);
+    # the arcs of all loops go through each run together, each loop's
+    # samples looked up with its own bound
+    m = np.array([len(e[2]) for e in entries], np.int64)
+    ent = np.repeat(np.arange(len(entries)), m)
+    arow = np.repeat([e[0] for e in entries], m)
+    krow = np.repeat([e[1] for e in entries], m)
+    irow = np.concatenate([e[2] for e in entries])
+    X = np.concatenate([e[3] for e in entries])
+    tol = np.concatenate([e[4] for e in entries])
+    landed = np.full(len(irow), -1, np.int64)
+    rows = np.arange(len(irow))
+    for c0, c1 in _sample_runs(n_samples):
+        if rows.size == 0:
+            break
+        w = c1 - c0
+        d = np.empty((rows.size, w))
+        j = np.empty((rows.size, w), np.int64)
+        cut = np.flatnonzero(np.diff(ent[rows])) + 1            # rows are in loop order
+        for lo, hi in zip(np.concatenate([[0], cut]), np.concatenate([cut, [rows.size]])):
+            Xc = X[rows[lo:hi], c0:c1]
+            dd, jj = tree.query(Xc.reshape(-1, 3), distance_upper_bound=entries[ent[rows[lo]]][5])
+            d[lo:hi] = dd.reshape(hi - lo, w)
+            j[lo:hi] = jj.reshape(hi - lo, w)
+        found = np.isfinite(d)
+        jj = np.where(found, j, 0)
+        who = owner[jj]
+        hit = found & (d <= tol[rows, c0:c1] + edge[who])
+        # the arc's own start: rim vertices next to its vertex on its own loop
+        gap = np.abs(place[jj] - irow[rows, None])
+        gap = np.minimum(gap, krow[rows, None] - gap)
+        hit &= ~((who == arow[rows, None]) & (gap <= SELF_SKIP))
+        done = hit.any(axis=1)
+        landed[rows[done]] = who[done, np.argmax(hit[done], axis=1)]
+        rows = rows[~done]
+    first = np.concatenate([[0], np.cumsum(m)])
+    for e, (a, _, idx, _, _, _) in enumerate(entries):
+        got = landed[first[e]:first[e + 1]]
+        out[a] = (np.bincount(got[got >= 0], minlength=len(loops)), len(idx))
     return out
 
 
