@@ -788,10 +788,27 @@ def _with_partner(ctx, loops, cand, hole):
     ids = np.flatnonzero(hole)
     allv = np.concatenate([np.asarray(loops[i].vertices, np.int64) for i in ids])
     owner = np.repeat(ids, [len(loops[i].vertices) for i in ids])
+    # touching loops (a shared vertex) are never paired; a loop that touches
+    # none is kept without the bound below (dropping a loop is only a saving)
+    order = np.argsort(allv, kind="stable")
+    vs = allv[order]
+    dup = np.flatnonzero(vs[1:] == vs[:-1])
+    if dup.size == 0:
+        return list(cand)
+    touching = set()
+    by_v = {}
+    for i in np.unique(np.concatenate([dup, dup + 1])).tolist():
+        by_v.setdefault(int(vs[i]), set()).add(int(owner[order[i]]))
+    for os_ in by_v.values():
+        touching.update((x, y) for x in os_ for y in os_ if x != y)
+    touches = {x for x, _ in touching}
+    keep = [a for a in cand if a not in touches]
+    test = [a for a in cand if a in touches]
+    if not test:
+        return list(cand)
     edge = np.array([L.mean_edge for L in loops], np.float64)
     V, F = ctx.V, ctx.F
-    cand = list(cand)
-    rims = [np.asarray(loops[a].vertices, np.int64) for a in cand]
+    rims = [np.asarray(loops[a].vertices, np.int64) for a in test]
     sizes = np.array([len(lp) for lp in rims], np.int64)
     first = np.cumsum(sizes) - sizes
     rv = np.concatenate(rims)
@@ -806,32 +823,21 @@ def _with_partner(ctx, loops, cand, hole):
     P = V[rv]
     c = np.add.reduceat(P, first) / sizes[:, None]
     r = np.sqrt(np.maximum.reduceat(((P - np.repeat(c, sizes, axis=0)) ** 2).sum(axis=1), first))
-    reach = MAX_REACH * np.maximum([loops[a].diameter for a in cand], 1e-300)
+    reach = MAX_REACH * np.maximum([loops[a].diameter for a in test], 1e-300)
     R = (r + 2 * e + reach * (1 + 1 / ARC_SAMPLES + SIGHT_SLACK)) * (1 + 1e-9)
     tree = cKDTree(V[allv])
     near = tree.query_ball_point(c, R + edge[ids].max() * (1 + 1e-9))
     counts = np.array([len(x) for x in near], np.int64)
-    if not counts.sum():
-        return []
-    row = np.repeat(np.arange(len(cand)), counts)
-    nb = np.concatenate([np.asarray(x, np.int64) for x in near])
-    who = owner[nb]
-    d = np.linalg.norm(V[allv[nb]] - c[row], axis=1)
-    ca = np.asarray(cand, np.int64)
-    ok = (who != ca[row]) & (d <= R[row] + edge[who] * (1 + 1e-9))
-    # touching loops (a shared vertex) are never paired: such pairs do not count
-    v_sorted = np.sort(allv)
-    shared = np.unique(v_sorted[1:][v_sorted[1:] == v_sorted[:-1]])
-    touching = set()
-    if shared.size:
-        on = np.isin(allv, shared)
-        by_v = {}
-        for v, o in zip(allv[on].tolist(), owner[on].tolist()):
-            by_v.setdefault(v, set()).add(o)
-        for os_ in by_v.values():
-            touching.update((x, y) for x in os_ for y in os_ if x != y)
-    pairs = np.unique(np.column_stack([ca[row[ok]], who[ok]]), axis=0)
-    return sorted({a for a, b in pairs.tolist() if (a, b) not in touching})
+    if counts.sum():
+        row = np.repeat(np.arange(len(test)), counts)
+        nb = np.concatenate([np.asarray(x, np.int64) for x in near])
+        who = owner[nb]
+        d = np.linalg.norm(V[allv[nb]] - c[row], axis=1)
+        ta = np.asarray(test, np.int64)
+        ok = (who != ta[row]) & (d <= R[row] + edge[who] * (1 + 1e-9))
+        pairs = np.unique(np.column_stack([ta[row[ok]], who[ok]]), axis=0)
+        keep += [a for a in {a for a, b in pairs.tolist() if (a, b) not in touching}]
+    return sorted(keep)
 
 
 def _pinched_parts(A, B):
