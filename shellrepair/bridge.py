@@ -745,21 +745,23 @@ def _find_bands(ctx, scan):
     radius = np.array([0.5 * loops[i].diameter for i in ids])
     reach = radius + MAX_REACH * 2 * radius
     tree = cKDTree(centres)
-    cand = []
-    for a, i in enumerate(ids):     # holes with another hole within reach of their arcs
-        near = np.asarray(tree.query_ball_point(centres[a], reach[a] + radius.max()), np.int64)
-        near = near[(near != a) & (np.linalg.norm(centres[near] - centres[a], axis=1) <= reach[a] + radius[near])]
-        if near.size:
-            cand.append(int(i))
-    cand = _with_partner(ctx, loops, cand, hole)
+    # holes with another hole within reach of their arcs (all queries at once)
+    near = tree.query_ball_point(centres, reach + radius.max())
+    row = np.repeat(np.arange(len(ids)), [len(x) for x in near])
+    nb = np.concatenate([np.asarray(x, np.int64) for x in near])
+    ok = (nb != row) & (np.linalg.norm(centres[nb] - centres[row], axis=1) <= reach[row] + radius[nb])
+    cand = [int(i) for i in ids[np.unique(row[ok])]]
+    touching = _touching(loops, ids)
+    cand = _with_partner(ctx, loops, cand, hole, touching)
     if not cand:
         return []
     sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], candidates=cand)
     # loops that touch (share a vertex, e.g. the pinched pieces of a slit)
     # are one opening split at a pinch, not the two ends of a band
     for a, (counts, m) in sights.items():
-        for b in np.flatnonzero(counts):
-            if b != a and np.intersect1d(loops[a].vertices, loops[b].vertices).size:
+        for b in np.flatnonzero(counts).tolist():
+            if b != a and ((a, b) in touching if hole[b] else
+                           np.intersect1d(loops[a].vertices, loops[b].vertices).size):
                 counts[b] = 0
     pairs = band_pairs(sights, hole)
     # pairs whose loops each send most of their arcs to the other: read by _fill_pair
@@ -767,7 +769,23 @@ def _find_bands(ctx, scan):
     return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
 
 
-def _with_partner(ctx, loops, cand, hole):
+def _touching(loops, ids):
+    """Pairs ``(a, b)`` (both ways) of the loops ``ids`` that share a vertex."""
+    allv = np.concatenate([np.asarray(loops[i].vertices, np.int64) for i in ids])
+    owner = np.repeat(ids, [len(loops[i].vertices) for i in ids])
+    order = np.argsort(allv, kind="stable")
+    vs = allv[order]
+    dup = np.flatnonzero(vs[1:] == vs[:-1])
+    touching = set()
+    by_v = {}
+    for i in np.unique(np.concatenate([dup, dup + 1])).tolist():
+        by_v.setdefault(int(vs[i]), set()).add(int(owner[order[i]]))
+    for os_ in by_v.values():
+        touching.update((x, y) for x in os_ for y in os_ if x != y)
+    return touching
+
+
+def _with_partner(ctx, loops, cand, hole, touching=None):
     """The loops of ``cand`` whose continuation arcs can land on another
     ``hole`` loop they do not touch; the others cannot see any loop that
     may be paired with them, so following their arcs changes no pair.
@@ -786,21 +804,14 @@ def _with_partner(ctx, loops, cand, hole):
     from .geometry import concat_ranges
 
     ids = np.flatnonzero(hole)
-    allv = np.concatenate([np.asarray(loops[i].vertices, np.int64) for i in ids])
-    owner = np.repeat(ids, [len(loops[i].vertices) for i in ids])
     # touching loops (a shared vertex) are never paired; a loop that touches
     # none is kept without the bound below (dropping a loop is only a saving)
-    order = np.argsort(allv, kind="stable")
-    vs = allv[order]
-    dup = np.flatnonzero(vs[1:] == vs[:-1])
-    if dup.size == 0:
+    if touching is None:
+        touching = _touching(loops, ids)
+    if not touching:
         return list(cand)
-    touching = set()
-    by_v = {}
-    for i in np.unique(np.concatenate([dup, dup + 1])).tolist():
-        by_v.setdefault(int(vs[i]), set()).add(int(owner[order[i]]))
-    for os_ in by_v.values():
-        touching.update((x, y) for x in os_ for y in os_ if x != y)
+    allv = np.concatenate([np.asarray(loops[i].vertices, np.int64) for i in ids])
+    owner = np.repeat(ids, [len(loops[i].vertices) for i in ids])
     touches = {x for x, _ in touching}
     keep = [a for a in cand if a not in touches]
     test = [a for a in cand if a in touches]
@@ -835,8 +846,7 @@ def _with_partner(ctx, loops, cand, hole):
         d = np.linalg.norm(V[allv[nb]] - c[row], axis=1)
         ta = np.asarray(test, np.int64)
         ok = (who != ta[row]) & (d <= R[row] + edge[who] * (1 + 1e-9))
-        pairs = np.unique(np.column_stack([ta[row[ok]], who[ok]]), axis=0)
-        keep += [a for a in {a for a, b in pairs.tolist() if (a, b) not in touching}]
+        keep += [a for a in {a for a, b in zip(ta[row[ok]].tolist(), who[ok].tolist()) if (a, b) not in touching}]
     return sorted(keep)
 
 

@@ -606,7 +606,7 @@ def test_loops_left_out_of_the_band_search_land_on_no_loop_they_could_pair_with(
             for b in np.flatnonzero(counts):
                 assert b == a or not hole[b] or np.intersect1d(loops[a].vertices, loops[b].vertices).size
         with_filter = [(A.id, B.id, s) for A, B, s in bridge._find_bands(ctx, scan)]
-        monkeypatch.setattr(bridge, "_with_partner", lambda ctx, loops, cand, hole: cand)
+        monkeypatch.setattr(bridge, "_with_partner", lambda ctx, loops, cand, hole, touching=None: cand)
         without = [(A.id, B.id, s) for A, B, s in bridge._find_bands(ctx, scan)]
         monkeypatch.undo()
         assert with_filter == without
