@@ -237,11 +237,12 @@ def boundary_loops(F, n_vertices, topo=None):
         _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt)
 
     loops, chains = [], []
-    visited = np.zeros(bhe.size, bool)
     # has_prev: chains must start at a half-edge nobody points to
     has_prev = np.zeros(bhe.size, bool)
     has_prev[nxt[nxt >= 0]] = True
-    for begin in list(np.flatnonzero(~has_prev)) + list(range(bhe.size)):
+    visited = [False] * bhe.size          # the walk on Python lists: no NumPy scalar per step
+    nxt_l = nxt.tolist()
+    for begin in np.flatnonzero(~has_prev).tolist() + list(range(bhe.size)):
         if visited[begin]:
             continue
         seq = []
@@ -250,7 +251,7 @@ def boundary_loops(F, n_vertices, topo=None):
         while cur >= 0 and not visited[cur]:
             visited[cur] = True
             seq.append(cur)
-            cur = nxt[cur]
+            cur = nxt_l[cur]
             if cur == begin:
                 closed = True
                 break
@@ -268,12 +269,12 @@ def _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt):
     pinch = np.unique(dst[multi])
     near = np.flatnonzero(np.isin(F, pinch).any(axis=1))
     he_face = {}
-    for f in near:
-        a, b, c = F[f]
+    for f, (a, b, c) in zip(near.tolist(), F[near].tolist()):
         he_face[(a, b)] = f
         he_face[(b, c)] = f
         he_face[(c, a)] = f
-    bset = {(int(s), int(d)): i for i, (s, d) in enumerate(zip(src, dst)) if int(s) in set(pinch.tolist())}
+    pinch_set = set(pinch.tolist())
+    bset = {(s, d): i for i, (s, d) in enumerate(zip(src.tolist(), dst.tolist())) if s in pinch_set}
     taken = set()
     unresolved = []
     for i in multi:
