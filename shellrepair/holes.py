@@ -70,6 +70,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .geometry import cross, plane_frame
+from . import fastmesh
 from .topology import components_of_pieces, edge_topology, face_areas, face_pieces
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats", "piece_views", "edge_on_share",
@@ -467,6 +468,24 @@ def _best_view(S):
     return best[0]
 
 
+def _sample_plan(F, fpiece, which, max_faces):
+    """Which faces :func:`_sampled_normals` reads, as a rule per face: face
+    ``f`` is read when ``row[f] >= 0`` (its row in ``which``) and the hash of
+    its index ``(f · 2654435761) mod 2³²`` is below ``thresh[row[f]]``."""
+    k = which.size
+    if k == 1 and which[0] == 0 and int(fpiece.max(initial=0)) == 0:
+        row = np.zeros(len(F), np.int64)
+        count = np.array([len(F)])
+    else:
+        rank = np.full(int(fpiece.max()) + 1 if fpiece.size else 1, -1, np.int64)
+        rank[which] = np.arange(k)
+        row = rank[fpiece]
+        count = np.bincount(row[row >= 0], minlength=k)
+    if count.max(initial=0) > max_faces:
+        return row, np.minimum(1.0, max_faces / np.maximum(count, 1)) * 2.0 ** 32
+    return row, np.full(k, np.inf)
+
+
 def _sampled_normals(V, F, fpiece, which, max_faces):
     """The faces of the pieces ``which`` that are read to measure them.
 
@@ -565,9 +584,16 @@ def _piece_views(V, F, fpiece, which, *, max_faces=None, certify=False):
     view = np.zeros((k, 3))
     if k == 0:
         return view, np.zeros(0), np.zeros(0, bool)
-    fr, n, ln = _sampled_normals(V, F, fpiece, which, VIEW_SAMPLES if max_faces is None else int(max_faces))
+    max_faces = VIEW_SAMPLES if max_faces is None else int(max_faces)
+    certified = None
+    if certify and fastmesh.enabled(len(F)):   # the certificate in one compiled pass, no per-face arrays
+        certified = _wrap_bound(*fastmesh.normal_moments(V, F, *_sample_plan(F, fpiece, which, max_faces), k))
+        if certified.all():
+            return np.full((k, 3), np.nan), np.full(k, np.nan), certified
+    fr, n, ln = _sampled_normals(V, F, fpiece, which, max_faces)
     ok = ln > 0
-    certified = _wraps(fr, n, ln, k) if certify else np.zeros(k, bool)
+    if certified is None:
+        certified = _wraps(fr, n, ln, k) if certify else np.zeros(k, bool)
     if certified.all():
         return np.full((k, 3), np.nan), np.full(k, np.nan), certified
     G = NORMAL_BINS
@@ -638,6 +664,11 @@ def _wraps(fr, n, ln, k):
             wi = n[:, i] * w
             for j in range(i, 3):
                 M[:, i, j] = M[:, j, i] = np.bincount(fr, weights=wi * n[:, j], minlength=k)
+    return _wrap_bound(a, M)
+
+
+def _wrap_bound(a, M):
+    """:func:`_wraps` from the sums ``a`` (k,3) and ``M`` (k,3,3)."""
     lam = np.linalg.eigvalsh(M)[:, 0]
     need = np.linalg.norm(a, axis=1) * (1.0 + WRAP_RATIO) / (1.0 - WRAP_RATIO)
     slack = 1e-9 * np.trace(M, axis1=1, axis2=2)   # the eigenvalue's and the sums' rounding, with room

@@ -615,3 +615,25 @@ def test_wrap_certificate_holds_from_every_direction():
             if cert[j]:
                 assert ratio.min() >= WRAP_RATIO
     assert seen[0] and seen[1]    # both outcomes occur
+
+
+def test_compiled_normal_moments_read_the_same_faces_as_the_sample():
+    """fastmesh.normal_moments (the repair's certificate when the kernels
+    are loaded) sums over exactly the faces _sampled_normals reads: the
+    same sums to round-off, whole pieces and hashed subsets, one piece and
+    many; and the same certificates."""
+    from shellrepair import fastmesh
+    from shellrepair.holes import _sample_plan, _sampled_normals, _wrap_bound, _wraps
+
+    if not fastmesh.AVAILABLE:
+        pytest.skip("Numba is not installed")
+    fastmesh.warm_up()
+    for V, F in _shortcut_shapes()[::2]:
+        k, fp = face_pieces(edge_topology(F, len(V)), len(F))
+        which = np.arange(k)
+        for max_faces in (50000, 300):
+            fr, n, ln = _sampled_normals(V, F, fp, which, max_faces)
+            a, M = fastmesh.normal_moments(V, F, *_sample_plan(F, fp, which, max_faces), k)
+            want = np.column_stack([np.bincount(fr, weights=n[:, j], minlength=k) for j in range(3)])
+            assert np.allclose(a, want, rtol=1e-9, atol=1e-12 * np.abs(n).sum())
+            assert np.array_equal(_wrap_bound(a, M), _wraps(fr, n, ln, k))
