@@ -213,6 +213,130 @@ def continuation_arcs(V, F_near, loop, smooth=2):
     return q1, T, N, kap, s0, ok
 
 
+def _continuation_arcs_many(V, F_nears, loops, smooth=2):
+    """:func:`continuation_arcs` of several loops at once, the same to the bit.
+
+    Each loop keeps its own copy of the vertices around it (a block of one
+    block-diagonal adjacency), so every sparse product, sum and median is
+    the one-loop computation with its operands in the same order, run once
+    for all loops instead of once per loop (a loop's arcs cost mostly the
+    fixed cost of some twenty SciPy calls).
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F_nears : list of (r,3) int64
+        Per loop, its ``F_near``.
+    loops : list of (k,) int64
+    smooth : int
+
+    Returns
+    -------
+    arcs : list of tuple
+        Per loop, what :func:`continuation_arcs` returns for it.
+    """
+    import scipy.sparse as sp
+
+    if not loops:
+        return []
+    n = np.int64(len(V))
+    loops = [np.asarray(lp, np.int64) for lp in loops]
+    F_nears = [np.asarray(f, np.int64).reshape(-1, 3) for f in F_nears]
+    sizes = np.array([len(lp) for lp in loops], np.int64)
+    Fcat = np.concatenate(F_nears)
+    loopcat = np.concatenate(loops)
+    lid_f = np.repeat(np.arange(len(loops), dtype=np.int64), [len(f) for f in F_nears])
+    lid_p = np.repeat(np.arange(len(loops), dtype=np.int64), sizes)
+    fkey = lid_f[:, None] * n + Fcat
+    pkey = lid_p * n + loopcat
+    ukey = np.unique(np.concatenate([fkey.ravel(), pkey]))       # per loop its sorted vertices, loop by loop
+    nv = len(ukey)
+    L = np.searchsorted(ukey, fkey)
+    li = np.searchsorted(ukey, pkey)
+    E = np.concatenate([L[:, [0, 1]], L[:, [1, 2]], L[:, [2, 0]]])
+    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
+                      shape=(nv, nv))
+    A.data[:] = 1.0
+    level = np.full(nv, 3, np.int64)
+    level[li] = 0
+    ring1 = (A[li].sum(axis=0).A1 > 0) & (level > 0)
+    level[ring1] = 1
+    ring2 = (A[np.flatnonzero(ring1)].sum(axis=0).A1 > 0) & (level > 1)
+    level[ring2] = 2
+    R1 = A[li].multiply((level == 1)[None]).tocsr()
+    R1.eliminate_zeros()
+    R2 = (R1 @ A).multiply((level == 2)[None]).tocsr()
+    R2.eliminate_zeros()
+    R2.data[:] = 1.0
+    c1 = R1.sum(axis=1).A1
+    c2 = R2.sum(axis=1).A1
+    X = V[ukey % n]
+    # vertex normals, as _vertex_normals: each block's sums in the same order
+    Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
+    acc = np.zeros((nv, 3))
+    for c in range(3):
+        np.add.at(acc, L[:, c], Nf)
+    ln = np.linalg.norm(acc, axis=1, keepdims=True)
+    Nv = np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
+    ok = (c1 > 0) & (c2 > 0)
+    q1 = (R1 @ X) / np.maximum(c1, 1)[:, None]
+    q2 = (R2 @ X) / np.maximum(c2, 1)[:, None]
+    N = R1 @ Nv
+    P = V[loopcat]
+    start = np.repeat(np.cumsum(sizes) - sizes, sizes)
+    pos = np.arange(len(loopcat)) - start
+    k_of = np.repeat(sizes, sizes)
+
+    def shifted(d):   # rows of np.roll(Y, d, axis=0) within each loop
+        return start + (pos - d) % k_of
+
+    tau = P[shifted(-1)] - P[shifted(1)]
+    tau = tau / np.maximum(np.linalg.norm(tau, axis=1, keepdims=True), 1e-300)
+    q1 = q1 - np.sum((q1 - P) * tau, axis=1)[:, None] * tau
+    q2 = q2 - np.sum((q2 - P) * tau, axis=1)[:, None] * tau
+    a, b, c = q1 - q2, P - q1, P - q2
+    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+    ok &= (la > 0) & (lb > 0) & (lc > 0)
+    N2 = R2 @ Nv
+    N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
+    N2 = N2 / np.maximum(np.linalg.norm(N2, axis=1, keepdims=True), 1e-300)
+    T = np.divide(c, lc[:, None], out=np.zeros_like(c), where=lc[:, None] > 0)
+    step = np.sum(a * T, axis=1)
+    kap = np.where(np.abs(step) > 0, -np.sum((N - N2) * T, axis=1) / np.where(step != 0, step, 1.0), 0.0)
+    ok &= step > 0
+    s0 = lb
+    sm = (k_of > 2 * smooth + 1) if smooth else np.zeros(len(loopcat), bool)
+    if sm.any():
+        r = np.flatnonzero(sm)
+        shifts = [shifted(d)[r] for d in range(-smooth, smooth + 1)]
+
+        def ring_sum(Y):
+            return sum(Y[ix] for ix in shifts)
+        Nn = ring_sum(N * ok[:, None])
+        Nn = Nn / np.maximum(np.linalg.norm(Nn, axis=1, keepdims=True), 1e-300)
+        kw = np.where(ok, kap, np.nan)
+        win = np.stack([kw[ix] for ix in shifts])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            km = np.nanmedian(win, axis=0)
+        kap = kap.copy()
+        kap[r] = np.where(np.isfinite(km), km, 0.0)
+        Ts = ring_sum(T * ok[:, None])
+        T = T.copy()
+        T[r] = Ts
+        N = N.copy()
+        N[r] = Nn
+    rest = np.flatnonzero(~sm)
+    if rest.size:
+        N[rest] = N[rest] / np.maximum(np.linalg.norm(N[rest], axis=1, keepdims=True), 1e-300)
+    T = T - np.sum(T * N, axis=1)[:, None] * N
+    tl = np.linalg.norm(T, axis=1, keepdims=True)
+    ok &= tl[:, 0] > 0
+    T = np.divide(T, tl, out=np.zeros_like(T), where=tl > 0)
+    bounds = np.concatenate([[0], np.cumsum(sizes)])
+    return [tuple(x[bounds[i]:bounds[i + 1]] for x in (q1, T, N, kap, s0, ok)) for i in range(len(loops))]
+
+
 def arc_points(U, T, N, kappa, s):
     """Points at arc length ``s`` along circles (straight lines where κ = 0).
 
@@ -268,13 +392,15 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
     edge = np.array([L.mean_edge for L in loops], np.float64)
     tree = cKDTree(V[allv])
     out = {}
-    for a in (range(len(loops)) if candidates is None else candidates):
+    follow = [a for a in (range(len(loops)) if candidates is None else candidates)
+              if len(loops[a].vertices) >= 2 * SELF_SKIP + 2]
+    rims = [np.asarray(loops[a].vertices, np.int64) for a in follow]
+    all_arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
+    entries = []    # per followed loop: (a, k, idx, X, tol, bound)
+    for a, loop, arcs in zip(follow, rims, all_arcs):
         L = loops[a]
-        loop = np.asarray(L.vertices, np.int64)
         k = len(loop)
-        if k < 2 * SELF_SKIP + 2:
-            continue
-        U, T, N, kap, s0, ok = continuation_arcs(V, faces_near(loop), loop)
+        U, T, N, kap, s0, ok = arcs
         idx = np.flatnonzero(ok)
         if idx.size == 0:
             continue
@@ -288,20 +414,60 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
         X = arc_points(U[idx], T[idx], N[idx], kap[idx], s)
         h = (length / n_samples)[:, None]
         tol = h + slack * (s - s0[idx, None])                 # (m, j) without the target's edge
-        d, j = tree.query(X.reshape(-1, 3), distance_upper_bound=float(tol.max() + edge.max()))
-        d = d.reshape(X.shape[:2])
-        j = j.reshape(X.shape[:2])
+        entries.append((a, k, idx, X, tol, float(tol.max() + edge.max())))
+    if not entries:
+        return out
+    # only an arc's first landing counts: samples are looked up from the rim
+    # outwards, in growing runs, and an arc stops at its first landing (a
+    # sample's lookup does not depend on which others are asked with it);
+    # the arcs of all loops go through each run together, each loop's
+    # samples looked up with its own bound
+    m = np.array([len(e[2]) for e in entries], np.int64)
+    ent = np.repeat(np.arange(len(entries)), m)
+    arow = np.repeat([e[0] for e in entries], m)
+    krow = np.repeat([e[1] for e in entries], m)
+    irow = np.concatenate([e[2] for e in entries])
+    X = np.concatenate([e[3] for e in entries])
+    tol = np.concatenate([e[4] for e in entries])
+    landed = np.full(len(irow), -1, np.int64)
+    rows = np.arange(len(irow))
+    for c0, c1 in _sample_runs(n_samples):
+        if rows.size == 0:
+            break
+        w = c1 - c0
+        d = np.empty((rows.size, w))
+        j = np.empty((rows.size, w), np.int64)
+        cut = np.flatnonzero(np.diff(ent[rows])) + 1            # rows are in loop order
+        for lo, hi in zip(np.concatenate([[0], cut]), np.concatenate([cut, [rows.size]])):
+            Xc = X[rows[lo:hi], c0:c1]
+            dd, jj = tree.query(Xc.reshape(-1, 3), distance_upper_bound=entries[ent[rows[lo]]][5])
+            d[lo:hi] = dd.reshape(hi - lo, w)
+            j[lo:hi] = jj.reshape(hi - lo, w)
         found = np.isfinite(d)
         jj = np.where(found, j, 0)
         who = owner[jj]
-        hit = found & (d <= tol + edge[who])
+        hit = found & (d <= tol[rows, c0:c1] + edge[who])
         # the arc's own start: rim vertices next to its vertex on its own loop
-        gap = np.abs(place[jj] - idx[:, None])
-        gap = np.minimum(gap, k - gap)
-        hit &= ~((who == a) & (gap <= SELF_SKIP))
-        first = np.where(hit.any(axis=1), np.argmax(hit, axis=1), -1)
-        landed = who[np.arange(len(idx)), np.maximum(first, 0)][first >= 0]
-        out[a] = (np.bincount(landed, minlength=len(loops)), len(idx))
+        gap = np.abs(place[jj] - irow[rows, None])
+        gap = np.minimum(gap, krow[rows, None] - gap)
+        hit &= ~((who == arow[rows, None]) & (gap <= SELF_SKIP))
+        done = hit.any(axis=1)
+        landed[rows[done]] = who[done, np.argmax(hit[done], axis=1)]
+        rows = rows[~done]
+    first = np.concatenate([[0], np.cumsum(m)])
+    for e, (a, _, idx, _, _, _) in enumerate(entries):
+        got = landed[first[e]:first[e + 1]]
+        out[a] = (np.bincount(got[got >= 0], minlength=len(loops)), len(idx))
+    return out
+
+
+def _sample_runs(n):
+    """Column ranges ``[c0, c1)`` covering ``range(n)``: 8, 8, 16, 32, ... wide."""
+    out, c0, w = [], 0, 8
+    while c0 < n:
+        out.append((c0, min(n, c0 + w)))
+        c0 += w
+        w = 8 if c0 < 16 else 2 * w
     return out
 
 
@@ -579,25 +745,109 @@ def _find_bands(ctx, scan):
     radius = np.array([0.5 * loops[i].diameter for i in ids])
     reach = radius + MAX_REACH * 2 * radius
     tree = cKDTree(centres)
-    cand = []
-    for a, i in enumerate(ids):     # holes with another hole within reach of their arcs
-        near = np.asarray(tree.query_ball_point(centres[a], reach[a] + radius.max()), np.int64)
-        near = near[(near != a) & (np.linalg.norm(centres[near] - centres[a], axis=1) <= reach[a] + radius[near])]
-        if near.size:
-            cand.append(int(i))
+    # holes with another hole within reach of their arcs (all queries at once)
+    near = tree.query_ball_point(centres, reach + radius.max())
+    row = np.repeat(np.arange(len(ids)), [len(x) for x in near])
+    nb = np.concatenate([np.asarray(x, np.int64) for x in near])
+    ok = (nb != row) & (np.linalg.norm(centres[nb] - centres[row], axis=1) <= reach[row] + radius[nb])
+    cand = [int(i) for i in ids[np.unique(row[ok])]]
+    touching = _touching(loops, ids)
+    cand = _with_partner(ctx, loops, cand, hole, touching)
     if not cand:
         return []
     sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], candidates=cand)
     # loops that touch (share a vertex, e.g. the pinched pieces of a slit)
     # are one opening split at a pinch, not the two ends of a band
     for a, (counts, m) in sights.items():
-        for b in np.flatnonzero(counts):
-            if b != a and np.intersect1d(loops[a].vertices, loops[b].vertices).size:
+        for b in np.flatnonzero(counts).tolist():
+            if b != a and ((a, b) in touching if hole[b] else
+                           np.intersect1d(loops[a].vertices, loops[b].vertices).size):
                 counts[b] = 0
     pairs = band_pairs(sights, hole)
     # pairs whose loops each send most of their arcs to the other: read by _fill_pair
     ctx.bands_mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, mutual in pairs if mutual}
     return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
+
+
+def _touching(loops, ids):
+    """Pairs ``(a, b)`` (both ways) of the loops ``ids`` that share a vertex."""
+    allv = np.concatenate([np.asarray(loops[i].vertices, np.int64) for i in ids])
+    owner = np.repeat(ids, [len(loops[i].vertices) for i in ids])
+    order = np.argsort(allv, kind="stable")
+    vs = allv[order]
+    dup = np.flatnonzero(vs[1:] == vs[:-1])
+    touching = set()
+    by_v = {}
+    for i in np.unique(np.concatenate([dup, dup + 1])).tolist():
+        by_v.setdefault(int(vs[i]), set()).add(int(owner[order[i]]))
+    for os_ in by_v.values():
+        touching.update((x, y) for x in os_ for y in os_ if x != y)
+    return touching
+
+
+def _with_partner(ctx, loops, cand, hole, touching=None):
+    """The loops of ``cand`` whose continuation arcs can land on another
+    ``hole`` loop they do not touch; the others cannot see any loop that
+    may be paired with them, so following their arcs changes no pair.
+
+    A bound from the loop alone, with :func:`loop_sights`' defaults: the
+    arc of rim vertex ``p`` starts at ``q1``, within the longest edge ``e``
+    of the faces at the rim from ``p`` (``q1`` is a mean of ``p``'s
+    neighbours, projected on a plane through ``p``), runs at most
+    ``s0 + reach`` (``s0 ≤ e``, ``reach = MAX_REACH`` diameters) and a
+    circle's chord is no longer than its arc; a landing is within
+    ``reach / ARC_SAMPLES + SIGHT_SLACK reach`` plus the target's mean
+    edge of a target vertex. So every landing on loop ``b`` has a vertex of
+    ``b`` within ``r + 2e + reach (1 + 1/ARC_SAMPLES + SIGHT_SLACK) +
+    edge_b`` of the loop's centre, ``r`` its farthest rim vertex.
+    """
+    from .geometry import concat_ranges
+
+    ids = np.flatnonzero(hole)
+    # touching loops (a shared vertex) are never paired; a loop that touches
+    # none is kept without the bound below (dropping a loop is only a saving)
+    if touching is None:
+        touching = _touching(loops, ids)
+    if not touching:
+        return list(cand)
+    allv = np.concatenate([np.asarray(loops[i].vertices, np.int64) for i in ids])
+    owner = np.repeat(ids, [len(loops[i].vertices) for i in ids])
+    touches = {x for x, _ in touching}
+    keep = [a for a in cand if a not in touches]
+    test = [a for a in cand if a in touches]
+    if not test:
+        return list(cand)
+    edge = np.array([L.mean_edge for L in loops], np.float64)
+    V, F = ctx.V, ctx.F
+    rims = [np.asarray(loops[a].vertices, np.int64) for a in test]
+    sizes = np.array([len(lp) for lp in rims], np.int64)
+    first = np.cumsum(sizes) - sizes
+    rv = np.concatenate(rims)
+    # the longest edge of the faces at each rim vertex, then per loop
+    s0, cnt = ctx.vf_start[rv], ctx.vf_start[rv + 1] - ctx.vf_start[rv]
+    T = V[F[ctx.vf_order[concat_ranges(s0, cnt)] // 3]]
+    el = ((T - np.roll(T, 1, axis=1)) ** 2).sum(axis=2).max(axis=1)
+    per_v = np.zeros(len(rv))
+    has = cnt > 0
+    per_v[has] = np.maximum.reduceat(el, (np.cumsum(cnt) - cnt)[has])
+    e = np.sqrt(np.maximum.reduceat(per_v, first))
+    P = V[rv]
+    c = np.add.reduceat(P, first) / sizes[:, None]
+    r = np.sqrt(np.maximum.reduceat(((P - np.repeat(c, sizes, axis=0)) ** 2).sum(axis=1), first))
+    reach = MAX_REACH * np.maximum([loops[a].diameter for a in test], 1e-300)
+    R = (r + 2 * e + reach * (1 + 1 / ARC_SAMPLES + SIGHT_SLACK)) * (1 + 1e-9)
+    tree = cKDTree(V[allv])
+    near = tree.query_ball_point(c, R + edge[ids].max() * (1 + 1e-9))
+    counts = np.array([len(x) for x in near], np.int64)
+    if counts.sum():
+        row = np.repeat(np.arange(len(test)), counts)
+        nb = np.concatenate([np.asarray(x, np.int64) for x in near])
+        who = owner[nb]
+        d = np.linalg.norm(V[allv[nb]] - c[row], axis=1)
+        ta = np.asarray(test, np.int64)
+        ok = (who != ta[row]) & (d <= R[row] + edge[who] * (1 + 1e-9))
+        keep += [a for a in {a for a, b in zip(ta[row[ok]].tolist(), who[ok].tolist()) if (a, b) not in touching}]
+    return sorted(keep)
 
 
 def _pinched_parts(A, B):
@@ -687,7 +937,7 @@ def split_pinched(V, F, topo, scan, pieces=None):
     bhe = topo.boundary_he
     bface = bhe // 3
     bd_count = np.bincount(fpiece[bface], minlength=n_piece)     # boundary edges per piece
-    he_face = dict(zip(map(tuple, topo.he[bhe].tolist()), bface.tolist()))
+    he_face = dict(zip(map(tuple, topo.ends(bhe).tolist()), bface.tolist()))   # not the whole mesh's he
 
     def bounds_scan_all_round(part):
         ps = {int(fpiece[he_face[(int(u), int(v))]]) for u, v in zip(part.tolist(), np.roll(part, -1).tolist())}

@@ -40,7 +40,7 @@ AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get
 MIN_FACES = 400_000
 
 __all__ = ["AVAILABLE", "MIN_FACES", "enabled", "preload", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
-           "face_areas", "edge_sq_lengths", "triple_hash", "vertex_faces", "piece_signed_volumes", "warm_up"]
+           "face_areas", "normal_moments", "edge_sq_lengths", "triple_hash", "vertex_faces", "piece_signed_volumes", "warm_up"]
 
 #: Runs of slots shorter than this are sorted by insertion (a vertex's
 #: edges: about six on a scan); longer ones by np.sort.
@@ -59,8 +59,10 @@ _LOCK = threading.Lock()
 
 
 def enabled(n_faces):
-    """True when a whole-mesh step on ``n_faces`` faces should use the kernels."""
-    return AVAILABLE and n_faces >= MIN_FACES
+    """True when a whole-mesh step on ``n_faces`` faces should use the kernels:
+    from ``MIN_FACES`` faces, or on any mesh once they are loaded (their
+    loading is then paid already; they give the same arrays)."""
+    return AVAILABLE and (n_faces >= MIN_FACES or _K is not None)
 
 
 def _kernels():
@@ -78,7 +80,7 @@ def _kernels():
         _K = SimpleNamespace(edge=jit(_edge_kernel), edge_ids=jit(_edge_ids_kernel), pieces=jit(_pieces_kernel),
                              areas=jit(_areas_kernel), edge_sq=jit(_edge_sq_kernel), volumes=jit(_volumes_kernel),
                              triple_hash=jit(_triple_hash_kernel),
-                             vertex_faces=jit(_vertex_faces_kernel))
+                             vertex_faces=jit(_vertex_faces_kernel), moments=jit(_moments_kernel))
     return _K
 
 
@@ -387,6 +389,62 @@ def face_areas(V, F):
     return out
 
 
+def _moments_kernel(V, F, row, thresh, a, M):
+    for f in range(F.shape[0]):
+        p = row[f]
+        if p < 0:
+            continue
+        h = (np.uint64(f) * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
+        if not np.float64(h) < thresh[p]:
+            continue
+        i = F[f, 0]
+        j = F[f, 1]
+        k = F[f, 2]
+        ux = V[j, 0] - V[i, 0]
+        uy = V[j, 1] - V[i, 1]
+        uz = V[j, 2] - V[i, 2]
+        wx = V[k, 0] - V[i, 0]
+        wy = V[k, 1] - V[i, 1]
+        wz = V[k, 2] - V[i, 2]
+        n0 = uy * wz - uz * wy
+        n1 = uz * wx - ux * wz
+        n2 = ux * wy - uy * wx
+        a[p, 0] += n0
+        a[p, 1] += n1
+        a[p, 2] += n2
+        ln = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        if ln > 0:
+            w = 1.0 / ln
+            M[p, 0, 0] += n0 * n0 * w
+            M[p, 0, 1] += n0 * n1 * w
+            M[p, 0, 2] += n0 * n2 * w
+            M[p, 1, 1] += n1 * n1 * w
+            M[p, 1, 2] += n1 * n2 * w
+            M[p, 2, 2] += n2 * n2 * w
+
+
+def normal_moments(V, F, row, thresh, k):
+    """Per group of faces, the sum ``a`` of the face normals ``n = (b − a) ×
+    (c − a)`` and ``M = Σ n nᵀ / |n|``, over the faces ``f`` with
+    ``row[f] >= 0`` (their group) whose hash ``(f · 2654435761) mod 2³²``
+    is below ``thresh[row[f]]`` (``inf``: every face); in one pass, without
+    the per-face arrays. Sums in face order, so not bit for bit NumPy's
+    (what uses them allows for round-off).
+
+    Returns
+    -------
+    a : (k,3) float64
+    M : (k,3,3) float64, symmetric
+    """
+    a = np.zeros((k, 3))
+    M = np.zeros((k, 3, 3))
+    _kernels().moments(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64),
+                       np.ascontiguousarray(row, np.int64), np.ascontiguousarray(thresh, np.float64), a, M)
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        M[:, j, i] = M[:, i, j]
+    return a, M
+
+
 def _edge_sq_kernel(V, E, out):
     for e in range(E.shape[0]):
         a = E[e, 0]
@@ -549,5 +607,6 @@ def warm_up():
     edge_sq_lengths(V, edges)
     triple_hash(F)
     piece_signed_volumes(V, F, np.zeros(2, bool), np.zeros(2, np.int64), 1)
+    normal_moments(V, F, np.zeros(2, np.int64), np.full(1, np.inf), 1)
     vertex_faces(F, 4)
     return True

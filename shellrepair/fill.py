@@ -22,7 +22,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .fair import umbrella_smooth
-from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index
+from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
 
 from .merge import _Accepted, _edges_of, _scan_edges
 from .patch import HoleUnit, PatchError, _corners, _meets_edge_on, _prefill, _rim_data, build_patch
@@ -89,7 +89,22 @@ def _check_patch(ctx, patch):
     C, ids = _corners(ctx, patch)
     if not np.isfinite(C).all():
         return "non-finite patch positions", np.zeros(0, np.int64)
-    bad = patch_vs_index(C, ids, ctx.index, return_faces=True)
+    return _check_rest(ctx, patch, C, ids, patch_vs_index(C, ids, ctx.index, return_faces=True))
+
+
+def _check_patches(ctx, patches):
+    """:func:`_check_patch` of each patch, their crossing queries against
+    the scan in one batch (:func:`~shellrepair.intersect.patch_vs_index_many`);
+    the same answers."""
+    corners = [_corners(ctx, p) for p in patches]
+    finite = [bool(np.isfinite(C).all()) for C, _ in corners]
+    bads = iter(patch_vs_index_many([c for c, ok in zip(corners, finite) if ok], ctx.index))
+    return [_check_rest(ctx, p, C, ids, next(bads)) if ok else ("non-finite patch positions", np.zeros(0, np.int64))
+            for p, (C, ids), ok in zip(patches, corners, finite)]
+
+
+def _check_rest(ctx, patch, C, ids, bad):
+    """:func:`_check_patch` from the patch triangles that cross the scan."""
     if bad.size:
         return f"patch would cross the scan ({bad.size} triangles)", bad
     bad = _folds(ctx, patch, C, ids)
@@ -346,6 +361,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
         else (order != 1 and _meets_edge_on(ctx, loop, hole_id))
     if order != 1 and edge_on:
         options = [("flat cap", 1)] + options
+    # the first attempt, when the chunk built and checked it already (_first_attempts)
+    done = pre.first if pre is not None and pre.first is not None \
+        and pre.first.key == (options[0], smooth, energy) else None
     faired_rounds = 0
     first = True
     scan_aware = False
@@ -358,8 +376,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
             break
         t_round = time.perf_counter()
         try:
-            flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid,
-                               scan_aware=scan_aware)
+            flat = done.flat if first and done is not None else \
+                build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid,
+                            scan_aware=scan_aware)
         except PatchError as exc:
             if avoid:
                 reasons.append(f"no triangulation avoids crossing the scan ({len(avoid)} chords re-routed)")
@@ -370,11 +389,16 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
             first = False
             name0, order0 = options[0]
             try:
-                patch = build_patch(ctx, hole_id, loop, order=order0, smooth=smooth, initial=flat.T0,
-                                    energy=energy)
+                if done is not None:
+                    if done.patch is None:
+                        raise PatchError(done.error)
+                    patch = done.patch
+                else:
+                    patch = build_patch(ctx, hole_id, loop, order=order0, smooth=smooth, initial=flat.T0,
+                                        energy=energy)
                 size = len(patch.P)
                 budget.spend(patch)
-                why0, bad0 = _check_patch(ctx, patch)
+                why0, bad0 = done.check if done is not None else _check_patch(ctx, patch)
                 if why0 is None:
                     patch.option = OPTION_NAMES[name0].format(order=order0)
                     return Outcome(patch, "", time.perf_counter() - t0, reasons)
@@ -710,11 +734,55 @@ def _run_unit(ctx, unit):
     return _fill_pair(ctx, *unit)
 
 
+class _First(NamedTuple):
+    """A hole's first attempt, built and checked with the rest of its chunk."""
+    key: tuple             # (first option, smooth, energy) it was made for
+    flat: object           # the flat triangulation (Patch)
+    patch: object          # the first option's patch, or None when building it failed
+    error: str             # why it failed
+    check: tuple           # _check_patch(patch)
+
+
+def _first_attempts(ctx, chunk):
+    """The first attempt of every single hole of the chunk, as
+    :func:`_fill_one_order` makes it (flat triangulation, then the first
+    option's patch), their checks against the scan batched
+    (:func:`_check_patches`); stored in ``ctx.pre`` where
+    :func:`_fill_one_order` takes them instead of making them again."""
+    made = []
+    for unit in chunk:
+        if not isinstance(unit, HoleUnit):
+            continue
+        hole_id, loop = unit.hole_id, np.asarray(unit.loop, np.int64)
+        pre = ctx.pre_for(hole_id, loop)
+        if pre is None:
+            continue
+        order = 2 if unit.order == "auto" else unit.order     # "auto" starts with order 2 (_fill_one)
+        first = ("faired", order)
+        if order != 1 and (pre.edge_on if pre.edge_on is not None else _meets_edge_on(ctx, loop, hole_id)):
+            first = ("flat cap", 1)
+        try:
+            flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=set(),
+                               scan_aware=False)
+        except PatchError:
+            continue           # _fill_one_order meets the same error
+        try:
+            patch, error = build_patch(ctx, hole_id, loop, order=first[1], smooth=unit.smooth, initial=flat.T0,
+                                       energy=False), ""
+        except PatchError as exc:
+            patch, error = None, str(exc)
+        made.append((pre, _First((first, unit.smooth, False), flat, patch, error, None)))
+    checks = iter(_check_patches(ctx, [f.patch for _, f in made if f.patch is not None]))
+    for pre, f in made:
+        pre.first = f._replace(check=next(checks)) if f.patch is not None else f
+
+
 def _run_chunk(ctx, chunk, on_unit=None):
     """Fill a run of consecutive units (their first attempts batched);
     ``on_unit()`` is called after each."""
     try:
         _prefill(ctx, chunk)
+        _first_attempts(ctx, chunk)
         out = []
         for u in chunk:
             out.append(_run_unit(ctx, u))

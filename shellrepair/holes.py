@@ -70,6 +70,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .geometry import cross, plane_frame
+from . import fastmesh
 from .topology import components_of_pieces, edge_topology, face_areas, face_pieces
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats", "piece_views", "edge_on_share",
@@ -237,11 +238,12 @@ def boundary_loops(F, n_vertices, topo=None):
         _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt)
 
     loops, chains = [], []
-    visited = np.zeros(bhe.size, bool)
     # has_prev: chains must start at a half-edge nobody points to
     has_prev = np.zeros(bhe.size, bool)
     has_prev[nxt[nxt >= 0]] = True
-    for begin in list(np.flatnonzero(~has_prev)) + list(range(bhe.size)):
+    visited = [False] * bhe.size          # the walk on Python lists: no NumPy scalar per step
+    nxt_l = nxt.tolist()
+    for begin in np.flatnonzero(~has_prev).tolist() + list(range(bhe.size)):
         if visited[begin]:
             continue
         seq = []
@@ -250,7 +252,7 @@ def boundary_loops(F, n_vertices, topo=None):
         while cur >= 0 and not visited[cur]:
             visited[cur] = True
             seq.append(cur)
-            cur = nxt[cur]
+            cur = nxt_l[cur]
             if cur == begin:
                 closed = True
                 break
@@ -268,12 +270,12 @@ def _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt):
     pinch = np.unique(dst[multi])
     near = np.flatnonzero(np.isin(F, pinch).any(axis=1))
     he_face = {}
-    for f in near:
-        a, b, c = F[f]
+    for f, (a, b, c) in zip(near.tolist(), F[near].tolist()):
         he_face[(a, b)] = f
         he_face[(b, c)] = f
         he_face[(c, a)] = f
-    bset = {(int(s), int(d)): i for i, (s, d) in enumerate(zip(src, dst)) if int(s) in set(pinch.tolist())}
+    pinch_set = set(pinch.tolist())
+    bset = {(s, d): i for i, (s, d) in enumerate(zip(src.tolist(), dst.tolist())) if s in pinch_set}
     taken = set()
     unresolved = []
     for i in multi:
@@ -350,10 +352,11 @@ def loop_stats(V, loop):
     P = np.asarray(V, np.float64)[np.asarray(loop, np.int64)]
     c = P.mean(axis=0)
     Q = P - c
-    E = np.roll(Q, -1, axis=0) - Q
+    Qn = np.concatenate([Q[1:], Q[:1]])          # the next vertex of each (np.roll by -1)
+    E = Qn - Q
     lengths = np.linalg.norm(E, axis=1)
     perimeter = float(lengths.sum())
-    vec_area = 0.5 * np.cross(Q, np.roll(Q, -1, axis=0)).sum(axis=0)
+    vec_area = 0.5 * cross(Q, Qn).sum(axis=0)    # np.cross's products, without its set-up
     area = float(np.linalg.norm(vec_area))
     diameter = _diameter(Q)
     _, s, vt = np.linalg.svd(Q, full_matrices=False)
@@ -465,6 +468,24 @@ def _best_view(S):
     return best[0]
 
 
+def _sample_plan(F, fpiece, which, max_faces):
+    """Which faces :func:`_sampled_normals` reads, as a rule per face: face
+    ``f`` is read when ``row[f] >= 0`` (its row in ``which``) and the hash of
+    its index ``(f · 2654435761) mod 2³²`` is below ``thresh[row[f]]``."""
+    k = which.size
+    if k == 1 and which[0] == 0 and int(fpiece.max(initial=0)) == 0:
+        row = np.zeros(len(F), np.int64)
+        count = np.array([len(F)])
+    else:
+        rank = np.full(int(fpiece.max()) + 1 if fpiece.size else 1, -1, np.int64)
+        rank[which] = np.arange(k)
+        row = rank[fpiece]
+        count = np.bincount(row[row >= 0], minlength=k)
+    if count.max(initial=0) > max_faces:
+        return row, np.minimum(1.0, max_faces / np.maximum(count, 1)) * 2.0 ** 32
+    return row, np.full(k, np.inf)
+
+
 def _sampled_normals(V, F, fpiece, which, max_faces):
     """The faces of the pieces ``which`` that are read to measure them.
 
@@ -503,9 +524,13 @@ def _sampled_normals(V, F, fpiece, which, max_faces):
         else:
             sel &= h < (keep[np.maximum(fr, 0)] * 2.0 ** 32)
         del h
-    sel = np.arange(len(F)) if sel is None else np.flatnonzero(sel)
-    fr = np.zeros(sel.size, np.int64) if whole else rank[fpiece[sel]]
-    T = np.asarray(V, np.float64)[np.asarray(F, np.int64)[sel]]
+    F = np.asarray(F, np.int64)
+    if sel is None:   # every face, in order: no copy of F
+        fr, T = np.zeros(len(F), np.int64), np.asarray(V, np.float64)[F]
+    else:
+        sel = np.flatnonzero(sel)
+        fr = np.zeros(sel.size, np.int64) if whole else rank[fpiece[sel]]
+        T = np.asarray(V, np.float64)[F[sel]]
     n = cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
     del T
     return fr, n, np.sqrt(np.einsum("ij,ij->i", n, n))
@@ -546,13 +571,31 @@ def piece_views(V, F, fpiece, which, *, max_faces=None):
     whose normals all face its mean normal has ratio 0 from it and needs no
     search.
     """
+    view, ratio, _ = _piece_views(V, F, fpiece, which, max_faces=max_faces)
+    return view, ratio
+
+
+def _piece_views(V, F, fpiece, which, *, max_faces=None, certify=False):
+    """:func:`piece_views`, and with ``certify`` no search for the pieces
+    whose normals alone prove that they wrap around (:func:`_wraps`): their
+    view and ratio are NaN. Returns ``view, ratio, certified``."""
     which = np.asarray(which, np.int64)
     k = which.size
     view = np.zeros((k, 3))
     if k == 0:
-        return view, np.zeros(0)
-    fr, n, ln = _sampled_normals(V, F, fpiece, which, VIEW_SAMPLES if max_faces is None else int(max_faces))
+        return view, np.zeros(0), np.zeros(0, bool)
+    max_faces = VIEW_SAMPLES if max_faces is None else int(max_faces)
+    certified = None
+    if certify and fastmesh.enabled(len(F)):   # the certificate in one compiled pass, no per-face arrays
+        certified = _wrap_bound(*fastmesh.normal_moments(V, F, *_sample_plan(F, fpiece, which, max_faces), k))
+        if certified.all():
+            return np.full((k, 3), np.nan), np.full(k, np.nan), certified
+    fr, n, ln = _sampled_normals(V, F, fpiece, which, max_faces)
     ok = ln > 0
+    if certified is None:
+        certified = _wraps(fr, n, ln, k) if certify else np.zeros(k, bool)
+    if certified.all():
+        return np.full((k, 3), np.nan), np.full(k, np.nan), certified
     G = NORMAL_BINS
     with np.errstate(divide="ignore", invalid="ignore"):
         u = np.where(ok[:, None], n / np.where(ok, ln, 1.0)[:, None], 0.0)
@@ -572,13 +615,64 @@ def piece_views(V, F, fpiece, which, *, max_faces=None):
     s_face = np.einsum("ij,ij->i", n, unit[fr])
     far = np.bincount(fr, weights=(s_face < 0) & ok, minlength=k) > 0
     view[:] = unit
-    for j in np.flatnonzero(far | (nm <= 0)):
+    for j in np.flatnonzero((far | (nm <= 0)) & ~certified):
         view[j] = _best_view(S[bounds[j]:bounds[j + 1]])
     s = np.einsum("ij,ij->i", n, view[fr])
     front = np.bincount(fr, weights=np.maximum(s, 0.0), minlength=k)
     back = np.bincount(fr, weights=np.maximum(-s, 0.0), minlength=k)
     ratio = np.divide(back, front, out=np.where(back > 0, np.inf, 0.0), where=front > 0)
-    return view, ratio
+    view[certified] = np.nan
+    ratio[certified] = np.nan
+    return view, ratio, certified
+
+
+def _wraps(fr, n, ln, k):
+    """Pieces whose face normals prove ``P−/P+ ≥ WRAP_RATIO`` from every
+    direction, without a search.
+
+    Along a unit ``d``, with ``a = Σ n_f`` the piece's total vector area
+    (doubled, as ``n``), ``P+ − P− = a·d ≤ |a|`` and
+    ``P+ + P− = Σ |n_f·d| ≥ Σ (n_f·d)² / |n_f| = dᵀMd ≥ λ_min(M)``
+    (``|x| ≥ x²`` for ``|x| ≤ 1``), ``M = Σ n_f n_fᵀ / |n_f|``. As
+    ``(T − x)/(T + x)`` falls with ``x`` and rises with ``T``,
+    ``λ_min(M) ≥ |a| (1 + w)/(1 − w)`` gives ``P−/P+ ≥ w`` along every
+    ``d``, so along the view :func:`piece_views` would find too: the piece
+    is read as closed either way. A closed surface has ``a = 0``; a few
+    small holes leave ``|a|`` small, while ``λ_min`` is a third of the
+    (doubled) area on a sphere. The bound is asked with a margin of 10⁻⁶
+    (and 10⁻⁹ of ``trace M``) over the rounding of the sums.
+
+    Parameters
+    ----------
+    fr, n, ln : as :func:`_sampled_normals` returns them
+    k : int
+        Number of pieces.
+
+    Returns
+    -------
+    certified : (k,) bool
+    """
+    ok = ln > 0
+    w = np.where(ok, 1.0 / np.where(ok, ln, 1.0), 0.0)
+    if k == 1:   # one piece (the usual scan): plain sums
+        a = n.sum(axis=0)[None]
+        M = ((n * w[:, None]).T @ n)[None]
+    else:
+        a = np.column_stack([np.bincount(fr, weights=n[:, j], minlength=k) for j in range(3)])
+        M = np.empty((k, 3, 3))
+        for i in range(3):
+            wi = n[:, i] * w
+            for j in range(i, 3):
+                M[:, i, j] = M[:, j, i] = np.bincount(fr, weights=wi * n[:, j], minlength=k)
+    return _wrap_bound(a, M)
+
+
+def _wrap_bound(a, M):
+    """:func:`_wraps` from the sums ``a`` (k,3) and ``M`` (k,3,3)."""
+    lam = np.linalg.eigvalsh(M)[:, 0]
+    need = np.linalg.norm(a, axis=1) * (1.0 + WRAP_RATIO) / (1.0 - WRAP_RATIO)
+    slack = 1e-9 * np.trace(M, axis1=1, axis2=2)   # the eigenvalue's and the sums' rounding, with room
+    return (lam > 0) & (lam >= need * (1.0 + 1e-6) + slack)
 
 
 def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
@@ -650,7 +744,7 @@ def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
 
 
 def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, fill_borders: bool = False,
-                 closed: bool | None = None, topo=None, pieces=None, areas=None) -> HoleScan:
+                 closed: bool | None = None, topo=None, pieces=None, areas=None, measure: bool = True) -> HoleScan:
     """Find every boundary loop, measure it and class it hole or border.
 
     Parameters
@@ -673,6 +767,13 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         :func:`shellrepair.topology.face_areas` of ``V, F``.
         (These three are built here when not given; :func:`read_mesh`
         keeps them on the mesh, see :meth:`Mesh.cached`.)
+    measure : bool
+        True (default): every piece's best view and back ratio are measured
+        and reported. False (what a repair needs, the kinds only): a piece
+        whose normals alone prove that it wraps around (rule 2 from every
+        direction, :func:`_wraps`) is read closed without the search of its
+        best view; its loops get ``back_ratio`` None and a reason that says
+        so. The kinds are the same either way.
 
     Returns
     -------
@@ -719,13 +820,13 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         views, ratio = np.zeros((which.size, 3)), np.full(which.size, np.nan)
         is_closed = np.ones(which.size, bool)
     else:
-        views, ratio = piece_views(V, F, fpiece, which)
+        views, ratio, certified = _piece_views(V, F, fpiece, which, certify=not measure and closed is None)
         edge_on = np.zeros(which.size)
         if closed is not False:
             low = np.flatnonzero(ratio < WRAP_RATIO)   # rule 3 for the pieces rule 2 leaves
             edge_on[low] = edge_on_share(V, F, fpiece, which[low], views[low])
         is_closed = np.zeros(which.size, bool) if closed is False else \
-            (ratio >= WRAP_RATIO) | (edge_on >= EDGE_ON_SHARE)
+            (ratio >= WRAP_RATIO) | (edge_on >= EDGE_ON_SHARE) | certified
     # a single view's outer rim: the loop whose outline, seen along the
     # view, holds most of the piece (the piece is sampled once)
     by_piece = None
@@ -752,7 +853,9 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         rim[piece] = idx[int(np.argmax(frac))]  # first of equals: the lowest id
     for L, p in zip(scan.loops, pieces):
         wraps = L.reading == "closed"
-        how = "--closed yes" if closed is True else "" if L.back_ratio is None else (
+        how = "--closed yes" if closed is True else "" if L.back_ratio is None and not wraps else \
+            (f"its normals show that from every direction at least {100 * WRAP_RATIO:g}% as much surface faces "
+             f"away as towards it") if L.back_ratio is None else (
             f"from its best view {100 * L.back_ratio:.1f}% as much surface faces away as towards it"
             + ("; --closed no" if closed is False else ""))
         if max_hole is not None and L.edges > int(max_hole):
@@ -763,7 +866,7 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
             L.kind = "hole"
             L.reason = ("closed by the surrounding surface: --closed yes" if closed is True else
                         f"closed by the surrounding surface: its piece wraps around ({how})"
-                        if L.back_ratio >= WRAP_RATIO else
+                        if L.back_ratio is None or L.back_ratio >= WRAP_RATIO else
                         f"closed by the surrounding surface: its piece was seen from several sides "
                         f"({how}, but {100 * L.edge_on:.0f}% of it is within {EDGE_ON_DEGREES:g}° of edge-on "
                         f"from there, which no single view records)")

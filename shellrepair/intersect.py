@@ -58,6 +58,7 @@ from .topology import vertex_faces
 from scipy.spatial import cKDTree
 
 __all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "crossing_pairs", "self_intersections",
+           "patch_vs_index_many",
            "embeds_by_projection", "ball_pairs", "triangles_cross"]
 
 #: Largest loop whose projected outline :func:`embeds_by_projection` tests
@@ -714,6 +715,62 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
     if return_pairs:
         return np.column_stack([ai[hit], bi[hit]])
     return np.unique(ai[hit]) if return_faces else int(hit.sum())
+
+
+def patch_vs_index_many(items, index):
+    """:func:`patch_vs_index` with ``return_faces=True`` for several patches:
+    each patch's candidate pairs are found on its own (its own box), and
+    the exact tests of all of them run as one batch. The tests are exact
+    per pair, so each patch gets what its own call gives.
+
+    Parameters
+    ----------
+    items : list of ((t,3,3) float64, (t,3) int64)
+        Each patch's triangle corners and corner ids, as ``Pt, Pid``.
+    index : TriangleIndex or NearFaces
+
+    Returns
+    -------
+    bad : list of (h,) int64
+        Per patch, its triangles that cross the indexed ones.
+    """
+    out = [None] * len(items)
+    if not (kernels.ENABLED and hasattr(index, "faces_near")) or len(index.F) == 0:
+        return [patch_vs_index(Pt, Pid, index, return_faces=True) for Pt, Pid in items]
+    Qs, Ids, Ts, As, Bs, who, offs = [], [], [], [], [], [], {}
+    base = 0
+    for i, (Pt, Pid) in enumerate(items):
+        Q = np.asarray(Pt, np.float64) - index.origin
+        if len(Q) == 0 or not np.isfinite(Q).all():
+            out[i] = patch_vs_index(Pt, Pid, index, return_faces=True)
+            continue
+        qmin, qmax = Q.min(axis=1), Q.max(axis=1)
+        f = index.faces_near(qmin.min(axis=0) + index.origin, qmax.max(axis=0) + index.origin)
+        Tf = index.V[index.F[f]] - index.origin
+        ai, bj = kernels.box_pairs(qmin, qmax, Tf.min(axis=1), Tf.max(axis=1))
+        keep = ~kernels.separated(Q, Pid, ai, Tf, index.F[f], bj, SIDE_BOUND, TINY)   # as patch_vs_index
+        ai, bj = ai[keep], bj[keep]
+        Qs.append(Q)
+        Ids.append(np.asarray(Pid, np.int64))
+        Ts.append(Tf[bj])
+        As.append(ai + base)
+        Bs.append(f[bj])
+        who.append(np.full(ai.size, i, np.int64))
+        offs[i] = base
+        base += len(Q)
+    if not Qs:
+        return out
+    Q, Pid, T = np.concatenate(Qs), np.concatenate(Ids), np.concatenate(Ts)
+    ai, bi, who = np.concatenate(As), np.concatenate(Bs), np.concatenate(who)
+    hit = np.zeros(len(ai), bool)
+    for s in range(0, len(ai), 200_000):
+        sl = slice(s, s + 200_000)
+        hit[sl] = pair_intersections(Q[ai[sl]], Pid[ai[sl]], T[sl], index.F[bi[sl]])
+    bounds = np.searchsorted(who, np.arange(len(items) + 1))    # each patch's pairs: one run, in item order
+    for i, b in offs.items():
+        sl = slice(bounds[i], bounds[i + 1])
+        out[i] = np.unique(ai[sl][hit[sl]] - b)
+    return out
 
 
 def crossing_pairs(C, ids):

@@ -42,7 +42,7 @@ class _Accepted:
     def add(self, patch, C, ids):
         oid = np.where(ids < 0, ids - 10 ** 12 * (len(self.items) + 1), ids)  # new vertices differ per patch
         c, r = bounding_spheres(C)
-        self.items.append((patch, C, oid, c, r))
+        self.items.append((patch, C, oid, c, r, cKDTree(c), C.min(axis=1), C.max(axis=1)))
         P = C.reshape(-1, 3)
         self.lo = np.vstack([self.lo, P.min(axis=0)])
         self.hi = np.vstack([self.hi, P.max(axis=0)])
@@ -58,9 +58,13 @@ class _Accepted:
             lo, hi = P.min(axis=0), P.max(axis=0)
             near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
             c1, r1 = bounding_spheres(C)
+            lo1, hi1 = C.min(axis=1), C.max(axis=1)
             for j in near:
-                other, D, oid, c2, r2 = self.items[j]
-                ai, bi = ball_pairs(cKDTree(c2), c1, r1 + r2.max())
+                other, D, oid, c2, r2, tree, lo2, hi2 = self.items[j]
+                ai, bi = ball_pairs(tree, c1, r1 + r2.max())
+                # triangles that cross have overlapping boxes: only those get the exact tests
+                box = np.all((lo1[ai] <= hi2[bi]) & (lo2[bi] <= hi1[ai]), axis=1)
+                ai, bi = ai[box], bi[box]
                 if ai.size and pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
                     return f"patch would cross the patch of hole {other.hole_id}", None
         return None, (C, ids)

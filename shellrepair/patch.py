@@ -263,6 +263,7 @@ class _Pre:
     T0: np.ndarray | None = None
     refined: tuple | None = None
     edge_on: bool | None = None     # _meets_edge_on, when the unit's order asked for it
+    first: object = None            # the first attempt, built and checked (fill._first_attempts)
 
 
 #: Holes whose first triangulation is refined together (see ``refine_patches``).

@@ -150,7 +150,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
 
     def detect():
         return detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, closed=closed, topo=topo,
-                            pieces=known("pieces"), areas=known("face_areas"))
+                            pieces=known("pieces"), areas=known("face_areas"), measure=False)
 
     if jobs > 1:
         # with cores to spare, the near-face index is built beside hole

@@ -492,3 +492,122 @@ def test_a_band_pinched_at_shared_vertices_is_split_into_its_parts():
     # the same order on both (not a pinched band), or a single shared vertex: left alone
     assert _pinched_parts(A, np.array([10, 0, 11, 3, 12, 4])) is None
     assert _pinched_parts(A, np.array([10, 0, 11])) is None
+
+
+# --------------------------------------------------------------------------
+# the band search's shortcuts change nothing
+# --------------------------------------------------------------------------
+def _many_loops():
+    """Scans with many loops: tiny and medium disc holes on a bumpy sphere
+    (loops of 3 to ~60 vertices, some within reach of each other), a torus
+    band, and a slit pinched into touching loops."""
+    from shellrepair.patch import _Context
+
+    out = []
+    V, F = shapes.bumpy_sphere(3, amplitude=0.03, frequency=4)
+    for radius, n, seed in ((0.05, 40, 3), (0.2, 12, 4)):
+        V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=n, radius=radius, seed=seed)
+        out.append((V2, F2))
+    out.append(torus_inner_band(3)[2:4])
+    V, F = shapes.icosphere(4)
+    P = V[F].mean(axis=1)
+    cut = (np.abs(P[:, 0]) < 0.05) & (P[:, 2] > -0.6) & (np.abs(P[:, 2] + 0.0) > 0.03)   # a slit with a bridge
+    out.append(shapes.remove_faces(V, F, cut)[:2])
+    res = []
+    for V2, F2 in out:
+        ctx = _Context(Mesh(V=V2, F=F2))
+        res.append((ctx, detect_holes(V2, F2)))
+    return res
+
+
+def _loop_sights_reference(V, loops, faces_near, candidates):
+    """loop_sights as it was first written: one loop's arcs at a time, every
+    sample of every arc looked up in one query."""
+    from scipy.spatial import cKDTree
+
+    from shellrepair.bridge import ARC_SAMPLES, ARCS_PER_LOOP, MAX_REACH, SELF_SKIP, SIGHT_SLACK
+
+    sizes = [len(L.vertices) for L in loops]
+    owner = np.repeat(np.arange(len(loops)), sizes)
+    place = np.concatenate([np.arange(s) for s in sizes])
+    edge = np.array([L.mean_edge for L in loops])
+    tree = cKDTree(V[np.concatenate([L.vertices for L in loops])])
+    out = {}
+    for a in candidates:
+        loop = loops[a].vertices
+        k = len(loop)
+        if k < 2 * SELF_SKIP + 2:
+            continue
+        U, T, N, kap, s0, ok = continuation_arcs(V, faces_near(loop), loop)
+        idx = np.flatnonzero(ok)
+        if idx.size == 0:
+            continue
+        if idx.size > ARCS_PER_LOOP:
+            idx = idx[np.linspace(0, idx.size - 1, ARCS_PER_LOOP).round().astype(np.int64)]
+        reach = MAX_REACH * max(loops[a].diameter, 1e-300)
+        turn = np.where(np.abs(kap[idx]) > 0, 2 * np.pi / np.maximum(np.abs(kap[idx]), 1e-300), np.inf)
+        length = np.minimum(reach, turn)
+        s = s0[idx, None] + length[:, None] * (np.arange(1, ARC_SAMPLES + 1) / ARC_SAMPLES)[None]
+        X = arc_points(U[idx], T[idx], N[idx], kap[idx], s)
+        tol = (length / ARC_SAMPLES)[:, None] + SIGHT_SLACK * (s - s0[idx, None])
+        d, j = tree.query(X.reshape(-1, 3), distance_upper_bound=float(tol.max() + edge.max()))
+        d, j = d.reshape(X.shape[:2]), j.reshape(X.shape[:2])
+        found = np.isfinite(d)
+        jj = np.where(found, j, 0)
+        who = owner[jj]
+        gap = np.abs(place[jj] - idx[:, None])
+        hit = found & (d <= tol + edge[who]) & ~((who == a) & (np.minimum(gap, k - gap) <= SELF_SKIP))
+        first = np.where(hit.any(axis=1), np.argmax(hit, axis=1), -1)
+        out[a] = (np.bincount(who[np.arange(len(idx)), np.maximum(first, 0)][first >= 0], minlength=len(loops)),
+                  len(idx))
+    return out
+
+
+def test_arcs_of_many_loops_at_once_are_those_of_each_loop_to_the_bit():
+    from shellrepair.bridge import _continuation_arcs_many
+
+    n = 0
+    for ctx, scan in _many_loops():
+        loops = [L.vertices for L in scan.loops]
+        near = [ctx.F[ctx.ring_faces(lp, 3)] for lp in loops]
+        for lp, fn, many in zip(loops, near, _continuation_arcs_many(ctx.V, near, loops)):
+            for x, y in zip(continuation_arcs(ctx.V, fn, lp), many):
+                assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+            n += 1
+    assert n >= 40
+
+
+def test_sights_stop_each_arc_at_its_first_landing_with_the_same_counts():
+    for ctx, scan in _many_loops():
+        fn = lambda lp: ctx.F[ctx.ring_faces(lp, 3)]   # noqa: E731
+        want = _loop_sights_reference(ctx.V, scan.loops, fn, range(len(scan.loops)))
+        got = loop_sights(ctx.V, scan.loops, fn)
+        assert sorted(got) == sorted(want)
+        for a in want:
+            assert np.array_equal(got[a][0], want[a][0]) and got[a][1] == want[a][1]
+
+
+def test_loops_left_out_of_the_band_search_land_on_no_loop_they_could_pair_with(monkeypatch):
+    """_with_partner drops only loops whose arcs cannot land on a hole
+    they do not touch (checked by following them), and the pairs found
+    are those found without it."""
+    from shellrepair import bridge
+
+    dropped = 0
+    for ctx, scan in _many_loops():
+        loops = scan.loops
+        hole = np.array([L.kind == "hole" for L in loops])
+        cand = list(np.flatnonzero(hole))
+        kept = set(bridge._with_partner(ctx, loops, cand, hole))
+        out = [a for a in cand if a not in kept]
+        dropped += len(out)
+        sights = _loop_sights_reference(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], out)
+        for a, (counts, _) in sights.items():
+            for b in np.flatnonzero(counts):
+                assert b == a or not hole[b] or np.intersect1d(loops[a].vertices, loops[b].vertices).size
+        with_filter = [(A.id, B.id, s) for A, B, s in bridge._find_bands(ctx, scan)]
+        monkeypatch.setattr(bridge, "_with_partner", lambda ctx, loops, cand, hole, touching=None: cand)
+        without = [(A.id, B.id, s) for A, B, s in bridge._find_bands(ctx, scan)]
+        monkeypatch.undo()
+        assert with_filter == without
+    assert dropped >= 1

@@ -551,3 +551,89 @@ def _experiment(seeds):
 
 if __name__ == "__main__":
     _experiment(range(int(sys.argv[1]), int(sys.argv[2])))
+
+
+# --------------------------------------------------------------------------
+# the repair's shortcut: a piece whose normals prove it wraps around
+# --------------------------------------------------------------------------
+def _shortcut_shapes():
+    """Closed figures cut a little and a lot, perforated, tori, sheets,
+    bowls and range scans: pieces on both sides of WRAP_RATIO."""
+    out = []
+    for i, frac in enumerate([0.02, 0.1, 0.2, 0.3, 0.38, 0.45, 0.6]):
+        V, F = shapes.icosphere(3)
+        rng = np.random.default_rng(100 + i)
+        out.append(occlusion_holes(*cut_below(V, F, rng.normal(size=3), frac), rng, int(rng.integers(0, 4))))
+    for seed in range(3):
+        V, F = shapes.torus(nu=64, nv=24)
+        out.append(cut_figure(V, F, 200 + seed))
+        out.append(cut_figure(*bust(32, 50), 300 + seed))
+        out.append(height_field(20, seed))
+    V, F = shapes.icosphere(3)
+    out.append(cut_below(V, F, [0, 0, 1], 0.5))       # a bowl
+    out.append(range_scan(*shapes.torus(nu=64, nv=24), seed=7, res=60)[:2])
+    return out
+
+
+def test_wrap_shortcut_keeps_every_kind_and_only_skips_wrapping_pieces():
+    """detect_holes(measure=False), as the repair calls it, gives the same
+    kinds as the full reading; the pieces it did not measure are those
+    whose measured back ratio is at least WRAP_RATIO, and it skips some."""
+    skipped = 0
+    for V, F in _shortcut_shapes():
+        full, fast = detect_holes(V, F), detect_holes(V, F, measure=False)
+        assert [L.kind for L in fast.loops] == [L.kind for L in full.loops]
+        for a, b in zip(full.loops, fast.loops):
+            if b.back_ratio is None:
+                skipped += 1
+                assert b.reading == "closed" and a.reading == "closed" and a.back_ratio >= WRAP_RATIO
+                assert "from every direction" in b.reason
+            else:
+                assert (a.back_ratio, a.reason) == (b.back_ratio, b.reason)
+    assert skipped >= 5
+
+
+def test_wrap_certificate_holds_from_every_direction():
+    """A certified piece has P-/P+ >= WRAP_RATIO along 2000 random
+    directions and the 400 spread ones, measured face by face."""
+    from shellrepair.holes import _CANDIDATES, _sampled_normals, _wraps
+
+    rng = np.random.default_rng(5)
+    D = rng.normal(size=(2000, 3))
+    D = np.vstack([D / np.linalg.norm(D, axis=1)[:, None], _CANDIDATES])
+    seen = [0, 0]
+    for V, F in _shortcut_shapes():
+        k, fp = face_pieces(edge_topology(F, len(V)), len(F))
+        which = np.arange(k)
+        fr, n, ln = _sampled_normals(V, F, fp, which, 50000)
+        cert = _wraps(fr, n, ln, k)
+        for j in which:
+            S = n[fr == j] @ D.T
+            with np.errstate(divide="ignore", invalid="ignore"):    # a sheet seen from its back: inf
+                ratio = np.maximum(-S, 0).sum(axis=0) / np.maximum(S, 0).sum(axis=0)
+            seen[bool(cert[j])] += 1
+            if cert[j]:
+                assert ratio.min() >= WRAP_RATIO
+    assert seen[0] and seen[1]    # both outcomes occur
+
+
+def test_compiled_normal_moments_read_the_same_faces_as_the_sample():
+    """fastmesh.normal_moments (the repair's certificate when the kernels
+    are loaded) sums over exactly the faces _sampled_normals reads: the
+    same sums to round-off, whole pieces and hashed subsets, one piece and
+    many; and the same certificates."""
+    from shellrepair import fastmesh
+    from shellrepair.holes import _sample_plan, _sampled_normals, _wrap_bound, _wraps
+
+    if not fastmesh.AVAILABLE:
+        pytest.skip("Numba is not installed")
+    fastmesh.warm_up()
+    for V, F in _shortcut_shapes()[::2]:
+        k, fp = face_pieces(edge_topology(F, len(V)), len(F))
+        which = np.arange(k)
+        for max_faces in (50000, 300):
+            fr, n, ln = _sampled_normals(V, F, fp, which, max_faces)
+            a, M = fastmesh.normal_moments(V, F, *_sample_plan(F, fp, which, max_faces), k)
+            want = np.column_stack([np.bincount(fr, weights=n[:, j], minlength=k) for j in range(3)])
+            assert np.allclose(a, want, rtol=1e-9, atol=1e-12 * np.abs(n).sum())
+            assert np.array_equal(_wrap_bound(a, M), _wraps(fr, n, ln, k))

@@ -71,3 +71,26 @@ def test_a_fold_is_measured_in_degrees_along_the_edge():
         p = Patch(hole_id=0, loop=loop, P=np.array([tip], float), T=T)
         why, _ = _check_patch(ctx, p)
         assert (why is not None and "fold" in why) == folded, (deg, why)
+
+
+def test_checks_of_many_patches_at_once_are_those_of_each():
+    """fill._check_patches (one batched crossing query) answers as
+    _check_patch does patch by patch: fans over a hole next to a ramp of
+    the scan, one that passes, one folded onto the scan, two through the
+    ramp, one with a NaN corner."""
+    from shellrepair.fill import _check_patches
+
+    V, F, loop = _sheet_with_a_square_hole()
+    V = V.copy()
+    V[:, 2] = np.where(V[:, 0] > 0.75, 0.8 * (V[:, 0] - 0.75), 0.0)    # the scan rises past x = 0.75
+    ctx = _Context(Mesh(V=V, F=F))
+    centres = [[0.5, 0.5, -0.3], [0.9, 0.5, 0.0], [0.95, 0.5, 0.05], [1.0, 0.5, 0.1], [np.nan, 0.5, 0.0],
+               [0.95, 0.5, -0.1]]
+    patches = [_fan(V, loop, np.array(c, float)) for c in centres]
+    one = [_check_patch(ctx, p) for p in patches]
+    many = _check_patches(ctx, patches)
+    assert [w for w, _ in one] == [w for w, _ in many]
+    assert all(np.array_equal(a, b) for (_, a), (_, b) in zip(one, many))
+    kinds = [w.split(" (")[0] if w else None for w, _ in one]
+    assert kinds == [None, "patch would fold onto itself or the scan", "patch would cross the scan",
+                     "patch would cross the scan", "non-finite patch positions", None]

@@ -306,3 +306,64 @@ def test_progress_moves_hole_by_hole_through_batched_runs(monkeypatch):
     n = rep["holes_before"]
     assert n > repair.BATCH
     assert [i for label, i, m in calls if label == "filling holes"] == list(range(1, n + 1))
+
+
+def test_loaded_whole_mesh_kernels_give_a_small_mesh_the_same_repair(monkeypatch):
+    """Once Numba's whole-mesh kernels are loaded (the benchmark loads them
+    before timing), meshes below MIN_FACES use them too: the repair is the
+    same to the bit, report included (timings aside)."""
+    from shellrepair import fastmesh
+
+    if not fastmesh.AVAILABLE:
+        pytest.skip("Numba is not installed")
+    V, F = shapes.bumpy_sphere(3, amplitude=0.02, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=5, radius=0.15, seed=2)
+    assert len(F2) < fastmesh.MIN_FACES
+    fastmesh.warm_up()
+    assert fastmesh.enabled(len(F2))
+    fast = repair_mesh(Mesh(V=V2, F=F2))
+    monkeypatch.setattr(fastmesh, "_K", None)
+    assert not fastmesh.enabled(len(F2))
+    plain = repair_mesh(Mesh(V=V2, F=F2))
+    for name in ("V", "F", "vertex_filled", "face_filled"):
+        assert np.array_equal(getattr(fast[0], name), getattr(plain[0], name))
+    def strip(x):   # the report without its timings
+        if isinstance(x, dict):
+            return {k: strip(v) for k, v in x.items() if "second" not in k}
+        return [strip(v) for v in x] if isinstance(x, (list, tuple)) else x
+    assert json.dumps(strip(fast[1]), sort_keys=True, default=str) == \
+        json.dumps(strip(plain[1]), sort_keys=True, default=str)
+
+
+def test_first_attempts_made_for_a_chunk_at_once_change_no_hole(monkeypatch):
+    """The first attempt of each hole of a chunk is built and checked with
+    the others' (fill._first_attempts: one batched crossing query); holes
+    whose first attempt fails go on to their retries as before. Here the
+    patches with new vertices of every third hole are made to "cross the
+    scan" (the same fake answer in the batched and the single query), so
+    the retry path runs too: the repair equals the one without the batch."""
+    import shellrepair.fill as fill
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.02, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=10, radius=0.25, seed=4)
+    real_one, real_many = fill.patch_vs_index, fill.patch_vs_index_many
+
+    def fake(Pt, Pid, bad):
+        Pid = np.asarray(Pid)
+        old = Pid[Pid >= 0]                     # new vertices have negative ids
+        if old.size and (Pid < 0).any() and int(old.min()) % 3 == 0:
+            return np.union1d(bad, np.arange(min(2, len(Pt))))
+        return bad
+
+    monkeypatch.setattr(fill, "patch_vs_index",
+                        lambda Pt, Pid, index, return_faces=False: fake(Pt, Pid, real_one(Pt, Pid, index, True)))
+    monkeypatch.setattr(fill, "patch_vs_index_many",
+                        lambda items, index: [fake(Pt, Pid, b) for (Pt, Pid), b in zip(items, real_many(items, index))])
+    batched = repair_mesh(Mesh(V=V2, F=F2))
+    monkeypatch.setattr(fill, "_first_attempts", lambda ctx, chunk: None)
+    alone = repair_mesh(Mesh(V=V2, F=F2))
+    for name in ("V", "F", "vertex_filled", "face_filled"):
+        assert np.array_equal(getattr(batched[0], name), getattr(alone[0], name))
+    options = [h["option"] for h in batched[1]["holes"]]
+    assert options == [h["option"] for h in alone[1]["holes"]]
+    assert any(o.startswith("faired") for o in options) and any(not o.startswith("faired") for o in options)
