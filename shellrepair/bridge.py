@@ -919,7 +919,7 @@ def split_pinched(V, F, topo, scan, pieces=None):
     """
     from dataclasses import replace
 
-    from .holes import HoleScan, loop_stats
+    from .holes import loop_stats
 
     from .topology import face_pieces
 
