@@ -39,8 +39,10 @@ class RepairOptions:
     Attributes
     ----------
     order : {1, 2, 3, "auto"}
-        Fairing order: harmonic, bilaplacian (default), curvature-continuous;
-        ``"auto"`` picks 2 or 3 per hole by a test on the scan around it
+        Fairing order: harmonic, bilaplacian, curvature-continuous;
+        ``"auto"`` (default) picks 2 or 3 per hole: 2 where the rim is not
+        smooth (an edge near it bends more than 30°: creases, sculpted
+        detail, noise), otherwise by a test on the scan around it
         (:mod:`shellrepair.selftest`).
     smooth : int
         Non-shrinking smoothing passes of each patch after fairing (for
@@ -61,7 +63,7 @@ class RepairOptions:
         every piece as part of a closed object, False as a single view.
     """
 
-    order: object = 2
+    order: object = "auto"
     smooth: int = 0
     max_hole: int | None = None
     fill_borders: bool = False

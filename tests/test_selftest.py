@@ -9,8 +9,8 @@ from shellrepair.fill import _fill_one_order
 from shellrepair.holes import boundary_loops
 from shellrepair.patch import _Context, build_patch
 from shellrepair.repair import repair_mesh
-from shellrepair.selftest import (MIN_EDGES, agrees, choose_order, point_mesh_distance, probe_band,
-                                  scan_verdict)
+from shellrepair.selftest import (MIN_EDGES, SMOOTH_BEND_DEG, agrees, choose_order, point_mesh_distance,
+                                  probe_band, rim_bend, scan_verdict)
 
 from conftest import shared_scan
 
@@ -104,17 +104,19 @@ def test_small_holes_share_one_verdict_tested_on_a_few_of_them():
     assert sum("the scan's verdict on its small holes" in h["option"] for h in rep["holes"]) >= 10
 
 
-def test_on_a_sculpted_bust_the_test_beats_either_order_everywhere():
-    # 9 disc holes over the Nefertiti bust's relief: per hole the truer order
-    # differs (order 3 on smooth skin, order 2 where it would overshoot
-    # sculpted detail); the test's choices beat order 2 and order 3 alike
+def test_on_a_sculpted_bust_auto_is_as_true_as_order_2_and_truer_than_order_3():
+    # 9 disc holes over the Nefertiti bust's relief: most rims hold an edge
+    # bending over SMOOTH_BEND_DEG (sculpted detail, the scan's noise) and keep
+    # order 2 untested; the few smooth ones are tested. Summed over the holes,
+    # the choices are within 1 % of order 2 (measured 25.46 against 25.43)
+    # and far from order 3 (28.7): order 3 carried into the holes overshoots.
     from scipy.spatial import cKDTree
 
     m = read_mesh(shared_scan("closed_nefertiti_bust.ply"))
     V, F = np.asarray(m.V, float), np.asarray(m.F, np.int64)
     diag = float(np.linalg.norm(np.ptp(V, axis=0)))
-    sq = {2: 0.0, 3: 0.0, "test": 0.0}
-    chosen = set()
+    sq = {2: 0.0, 3: 0.0, "auto": 0.0}
+    held = 0
     for seed in (5, 6, 7):
         centers = np.random.default_rng(seed).choice(len(V), 3, replace=False)
         V2, F2, removed, _ = shapes.perforate_discs(V, F, centers=list(centers), radius=0.04 * diag)
@@ -122,12 +124,51 @@ def test_on_a_sculpted_bust_the_test_beats_either_order_everywhere():
         tree = cKDTree(V[F[removed]].mean(axis=1))   # the removed faces' centres: the truth, densely
         for h in scan.holes:
             t = choose_order(ctx, h.id, h.vertices)
+            held += "bends" in t.why
+            assert ("bends" in t.why) == (rim_bend(ctx, h.vertices) > SMOOTH_BEND_DEG)
             p2, *_ = _fill_one_order(ctx, h.id, h.vertices, 2, 0)
             p3 = build_patch(ctx, h.id, h.vertices, order=3, initial=p2.T0)
             e = {o: float(np.mean(tree.query(p.P)[0] ** 2)) for o, p in ((2, p2), (3, p3))}
             sq[2] += e[2]
             sq[3] += e[3]
-            sq["test"] += e[t.order]
-            chosen.add(t.order)
-    assert chosen == {2, 3}
-    assert sq["test"] < min(sq[2], sq[3])
+            sq["auto"] += e[t.order]
+    assert held >= 5
+    assert sq["auto"] <= 1.01 * sq[2] and sq["auto"] < 0.95 * sq[3]
+
+
+def test_a_crease_near_the_rim_keeps_order_2_where_order_3_would_bulge():
+    # a disc hole on the flat top of a part, two rings from a 90° edge: order
+    # 3 reads the crease's curvature and lifts the fill off the plane; the
+    # bend rule keeps order 2, which fills the plane exactly
+    V, F = shapes.grid(24, 24, size=2.0)
+    x = V[:, 0].copy()
+    edge = x.max() - 3 * (2.0 / 24)                 # a crease 3 columns from the side: it folds down 90°
+    V[:, 2] = np.where(x > edge, -(x - edge), 0.0)
+    V[:, 0] = np.minimum(x, edge)
+    c = int(np.argmin(np.linalg.norm(V[:, :2] - [edge - 4.5 * (2.0 / 24), 1.0], axis=1)))
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[c], radius=2.6 * (2.0 / 24))
+    scan, ctx = context(V2, F2)
+    h = scan.holes[0]
+    assert rim_bend(ctx, h.vertices) > SMOOTH_BEND_DEG
+    t = choose_order(ctx, h.id, h.vertices)
+    assert t.order == 2 and not t.errors and "bends" in t.why
+    p2, *_ = _fill_one_order(ctx, h.id, h.vertices, 2, 0)
+    p3 = build_patch(ctx, h.id, h.vertices, order=3, initial=p2.T0)
+    assert np.abs(p2.P[:, 2]).max() < 1e-9 and np.abs(p3.P[:, 2]).max() > 0.01 * (2.0 / 24)   # measured 0.043 edges
+
+
+def test_a_smooth_rim_bends_a_few_degrees_and_is_tested():
+    V, F = sphere_with_hole(radius=0.6)
+    scan, ctx = context(V, F)
+    h = scan.holes[0]
+    assert 0 < rim_bend(ctx, h.vertices) < 10
+    assert choose_order(ctx, h.id, h.vertices).errors
+
+
+def test_auto_is_the_default_order():
+    from shellrepair.options import RepairOptions
+
+    assert RepairOptions().order == "auto"
+    V, F = sphere_with_hole(radius=0.6)
+    _, rep = repair_mesh(Mesh(V=V, F=F))
+    assert rep["holes_after"] == 0 and "auto: order 3" in rep["holes"][0]["option"]
