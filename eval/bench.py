@@ -13,7 +13,7 @@ writes, under ``eval/results/``:
 Each tool runs in its own child process (:mod:`eval.worker`) with a per-case
 timeout; a tool that is not installed, fails, crashes or times out is a row
 saying so, never a missing row. Tools run one at a time, so their timings do
-not compete for the two cores. Ratios (``x ours``) are against ``ours-o2``
+not compete for the two cores. Ratios (``x ours``) are against ``ours-auto`` (the default)
 in the same run.
 
 The benchmark is not a test: it asserts nothing and exits 0 unless it could
@@ -263,7 +263,7 @@ def markdown(result):
              f"total {result['total_seconds']:.0f} s  ",
              "Versions: " + ", ".join(f"{k} {v}" for k, v in mi["versions"].items()), "",
              "Distances are to the closed ground truth, sampled by area on the faces each tool added, in ‰ "
-             "of the bounding-box diagonal. `× ours` is this tool's value over `ours-o2`'s on the same case "
+             "of the bounding-box diagonal. `× ours` is this tool's value over `ours-auto`'s (the default call) on the same case "
              "in this run. Seconds are the fill call only; ours runs with its compiled (Numba) kernels "
              "loaded before the call, as a peer's import loads its native library (the loading a user's "
              "first run pays is measured by eval/bench_scale.py: first and second `make repair`).", "",
@@ -280,7 +280,7 @@ def markdown(result):
             f"| {s['watertight_cases']} | {s['self_intersections_added']} | {_fmt(s['total_seconds'], 1)} "
             f"| {_sig(s['geomean_seconds_x_ours'])} | {_sig(s['median_rms_x_ours'])} | {_fmt(s['median_peak_mb'], 0)} "
             f"| {', '.join(f'{k} {v}' for k, v in s['not_ok'].items()) or '–'} |")
-    for tool, title in ((peers.REFERENCE, "Ours (order 2, the default)"), ("ours-auto", "Ours (--order auto)")):
+    for tool, title in ((peers.REFERENCE, "Ours (the default: --order auto)"), ("ours-o2", "Ours (--order 2)")):
         if not any(r["tool"] == tool for r in rows):
             continue
         lines += ["", f"## {title} against the best peer, per case", "",

@@ -121,7 +121,7 @@ SEED = 7
 STEP_TIMEOUT = 420.0
 PEER_TIMEOUT = 300.0
 #: Tools compared on the smallest case.
-COMPARE = ("ours-o2", "meshlib-nicely", "cgal")
+COMPARE = ("ours-auto", "ours-o2", "meshlib-nicely", "cgal")
 #: A second peer case: the 1M surface with fewer, larger holes (about
 #: 15-37 rim edges in radius, loops of 100-230 edges), closer to a scan's
 #: occlusions than the 200 small ones; not one of the issue's targets.
@@ -606,7 +606,7 @@ def compare_peers(case_dir, tools, timeout, *, n_samples=20000, log=print):
             f"peak +{row['peak_mb'] or 0:.0f} MB, holes {m['holes_before']}->{m['holes_after']}, "
             f"rms {m['rms_permille']:.4f}‰, max {m['max_permille']:.3f}‰, si {m.get('self_intersections_added')}")
     os.unlink(case_npz)
-    ref = next((r for r in rows if r["tool"] == "ours-o2" and r["status"] == "ok"), None)
+    ref = next((r for r in rows if r["tool"] == "ours-auto" and r["status"] == "ok"), None)
     for r in rows:
         if ref and r["status"] == "ok" and r is not ref:
             r["seconds_x_ours"] = r["seconds"] / ref["seconds"] if ref["seconds"] > 0 else None
@@ -724,7 +724,7 @@ def targets(result):
     """The issue's targets, judged on this run."""
     out = {}
     pr = {r["tool"]: r for r in result.get("peers", []) if r.get("status") == "ok"}
-    ours = pr.get("ours-o2")
+    ours = pr.get("ours-auto")
     if ours:
         ml, cg = pr.get("meshlib-nicely"), pr.get("cgal")
         if ml:

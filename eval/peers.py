@@ -331,7 +331,7 @@ PEERS = {
 }
 TOOLS = {**OURS, **PEERS}
 #: Ours at its default order: the reference of the ratio columns.
-REFERENCE = "ours-o2"
+REFERENCE = "ours-auto"  # the default call (order chosen per hole)
 
 _PACKAGES = {"pymeshlab": "pymeshlab", "open3d": "open3d", "meshlib-fillHole": "meshlib.mrmeshpy",
              "meshlib-nicely": "meshlib.mrmeshpy", "cgal": "CGAL.CGAL_Polygon_mesh_processing",

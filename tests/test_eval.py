@@ -15,6 +15,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from eval import cases, metrics  # noqa: E402
 from eval.bench import add_ratios, best_peer  # noqa: E402
+from eval import peers  # noqa: E402
 from eval import shapes  # noqa: E402
 from shellrepair.holes import boundary_loops  # noqa: E402
 from shellrepair.topology import face_areas  # noqa: E402
@@ -287,7 +288,7 @@ def test_occlusion_case_is_deterministic_and_perforated():
 # bench bookkeeping
 # --------------------------------------------------------------------------
 def test_ratios_and_best_peer():
-    rows = [{"case": "c", "tool": "ours-o2", "status": "ok", "seconds": 2.0, "rms_permille": 0.5, "holes_after": 0},
+    rows = [{"case": "c", "tool": peers.REFERENCE, "status": "ok", "seconds": 2.0, "rms_permille": 0.5, "holes_after": 0},
             {"case": "c", "tool": "cgal", "status": "ok", "seconds": 1.0, "rms_permille": 1.0, "holes_after": 0},
             {"case": "c", "tool": "pymeshlab", "status": "ok", "seconds": 0.1, "rms_permille": 0.2,
              "holes_after": 3},

@@ -142,7 +142,7 @@ def _outcome(key):
     family, shape, index, seed = key
     case = stress.stress_case(index, seed, quick=True, family=family, shape=shape)
     facts = stress.input_facts(case)
-    V, F, info = peers.run_tool("ours-o2", case.V, case.F)
+    V, F, info = peers.run_tool(stress.OURS, case.V, case.F)  # the default call
     return case, facts, stress.measure(case, facts, V, F, n_samples=2000), info
 
 
