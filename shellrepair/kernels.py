@@ -8,8 +8,9 @@ inputs). The kernels exist because the per-hole work is many small steps:
 in NumPy each costs a few microseconds of dispatch whatever its size, and
 loops of rounds (edge flips) pay it hundreds of times a hole.
 
-* :func:`vertex_faces`: vertex-to-face lists by one counting sort
-  (:func:`shellrepair.topology.vertex_faces`);
+* :func:`vertex_faces`: vertex-to-face lists by two cache-sized counting
+  sorts (:func:`shellrepair.topology.vertex_faces`; also the whole-mesh
+  version :mod:`shellrepair.fastmesh` gives);
 * :func:`ring_faces`: the faces within some rings of a vertex set
   (:meth:`shellrepair.patch._Context.ring_faces`);
 * :func:`grid_sort`, :func:`faces_in_box`: the vertex grid of
@@ -63,24 +64,65 @@ except ImportError:  # the NumPy versions run instead
 # --------------------------------------------------------------------------
 # whole mesh: vertex-to-face lists
 # --------------------------------------------------------------------------
+#: Bits of a corner id in the vertex-face sort's packed (vertex in bucket, corner) word.
+_VF_BITS = 32
+#: Vertices per bucket of the vertex-face sort, as a power of two: a
+#: bucket's corners (about six per vertex, 8 bytes each) stay in cache.
+_VF_BUCKET_SHIFT = 12
+
+
 @njit(cache=True, nogil=True)
-def _vertex_faces(flat, n):
-    start = np.zeros(n + 1, np.int64)
-    for v in flat:
-        start[v + 1] += 1
-    for v in range(n):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    order = np.empty(flat.size, np.int64)
+def _vertex_faces(flat, n, shift):
+    low = (np.int64(1) << shift) - 1
+    nb = (n >> shift) + 1
+    # 1. corners per bucket of 2**shift vertices; 2. into the buckets, in corner order
+    bstart = np.zeros(nb + 1, np.int64)
     for i in range(flat.size):
         v = flat[i]
-        order[fill[v]] = i
-        fill[v] += 1
+        if v < 0 or v >= n:
+            raise ValueError("a face refers to a vertex outside [0, n_vertices)")
+        bstart[(v >> shift) + 1] += 1
+    for k in range(nb):
+        bstart[k + 1] += bstart[k]
+    tmp = np.empty(flat.size, np.int64)
+    bpos = bstart[:nb].copy()
+    for i in range(flat.size):
+        v = flat[i]
+        k = v >> shift
+        tmp[bpos[k]] = ((v & low) << _VF_BITS) | i
+        bpos[k] += 1
+    # 3. each bucket by its vertex (a counting sort within the bucket, stable)
+    order = np.empty(flat.size, np.int64)
+    start = np.empty(n + 1, np.int64)
+    cnt = np.zeros((np.int64(1) << shift) + 1, np.int64)
+    mask = (np.int64(1) << _VF_BITS) - 1
+    for k in range(nb):
+        s0 = bstart[k]
+        s1 = bstart[k + 1]
+        a0 = k << shift
+        na = min(n - a0, low + 1)
+        if na <= 0:
+            break
+        cnt[:na + 1] = 0
+        for i in range(s0, s1):
+            cnt[(tmp[i] >> _VF_BITS) + 1] += 1
+        cnt[0] = s0
+        for j in range(na):
+            cnt[j + 1] += cnt[j]
+            start[a0 + j] = cnt[j]
+        for i in range(s0, s1):
+            j = tmp[i] >> _VF_BITS
+            order[cnt[j]] = tmp[i] & mask
+            cnt[j] += 1
+    start[n] = flat.size
     return order, start
 
 
 def vertex_faces(F, n_vertices):
-    """Vertex-to-face lists (as :func:`shellrepair.topology.vertex_faces`).
+    """Vertex-to-face lists (as :func:`shellrepair.topology.vertex_faces`),
+    by two cache-sized counting sorts (buckets of vertices, then each
+    vertex): the one compiled version, which :mod:`shellrepair.fastmesh`
+    uses too (compiled or loaded on its first call, alone).
 
     Parameters
     ----------
@@ -93,11 +135,22 @@ def vertex_faces(F, n_vertices):
         Positions in ``F.ravel()`` grouped by vertex, in order within a
         vertex; ``order // 3`` are the faces.
     start : (n+1,) int64
+
+    Raises
+    ------
+    ValueError
+        A face refers to a vertex outside ``[0, n_vertices)``.
     """
-    flat = np.ascontiguousarray(np.asarray(F, np.int64).ravel())
-    if flat.size and (flat.min() < 0 or flat.max() >= n_vertices):   # the kernel does not check bounds
-        raise ValueError(f"face indices must lie in [0, {n_vertices}), got {flat.min()}..{flat.max()}")
-    return _vertex_faces(flat, int(n_vertices))
+    n = int(n_vertices)
+    flat = np.ascontiguousarray(np.asarray(F, np.int64).reshape(-1))
+    if not ENABLED or flat.size >= 2 ** _VF_BITS:   # corner ids must fit the packing
+        from .topology import _vertex_faces_scipy
+
+        if flat.size and (flat.min() < 0 or flat.max() >= n):
+            raise ValueError(f"face indices must lie in [0, {n}), got {flat.min()}..{flat.max()}")
+        return _vertex_faces_scipy(F, n)
+    shift = max(1, min(_VF_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
+    return _vertex_faces(flat, n, shift)
 
 
 @njit(cache=True, nogil=True)

@@ -116,7 +116,7 @@ class _Context:
                       if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
         if kernels.ENABLED:
             kernels.warm_up()   # compiled or loaded before any hole's time budget starts
-        self.vf_order, self.vf_start = (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n)
+        self._vf = None   # vertex-to-face lists, built on first use (vf_order, vf_start)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
         self.planarity = {}  # loop id -> planarity measured by detect_holes
@@ -125,9 +125,24 @@ class _Context:
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
 
     @property
+    def vf_order(self):
+        return self.vf[0]
+
+    @property
+    def vf_start(self):
+        return self.vf[1]
+
+    @property
+    def vf(self):
+        """Vertex-to-face lists ``(order, start)`` of the whole mesh, built once on first use."""
+        if self._vf is None:
+            self._vf = (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n)
+        return self._vf
+
+    @property
     def index(self):
         if self._index is None:
-            self._index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=(self.vf_order, self.vf_start),
+            self._index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=self.vf,
                                     topo=self.topo)
         return self._index
 
