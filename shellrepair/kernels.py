@@ -1043,6 +1043,63 @@ def _relax_apply(T, twin, changed, is_loop, forb, edge_keys, ck_keys, ck_vals, g
     return 0, np.unique(nxt[:k]), ck_keys, ck_vals
 
 
+@njit(cache=True, nogil=True)
+def _pair_half_edges(T, n):
+    """The half-edge pairing of :func:`shellrepair.refine._relax_numpy`
+    (``key = min·n + max`` per half-edge ``3f+c``, its stable argsort, twins
+    of neighbours in it), by a counting sort on the lower vertex and an
+    insertion sort on the higher one within it (the same order).
+
+    Returns the sorted keys, the twins (−1: none) and ``order[pair]``."""
+    m = 3 * T.shape[0]
+    lo = np.empty(m, np.int64)
+    hi = np.empty(m, np.int64)
+    for f in range(T.shape[0]):
+        for c in range(3):
+            a = T[f, c]
+            b = T[f, (c + 1) % 3]
+            lo[3 * f + c] = min(a, b)
+            hi[3 * f + c] = max(a, b)
+    start = np.zeros(n + 1, np.int64)
+    for h in range(m):
+        start[lo[h] + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    order = np.empty(m, np.int64)
+    fill = start[:n].copy()
+    for h in range(m):          # stable: by id within a lower vertex
+        order[fill[lo[h]]] = h
+        fill[lo[h]] += 1
+    for v in range(n):          # stable insertion sort by the higher vertex
+        for i in range(start[v] + 1, start[v + 1]):
+            h = order[i]
+            j = i - 1
+            while j >= start[v] and hi[order[j]] > hi[h]:
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = h
+    ks = np.empty(m, np.int64)
+    for i in range(m):
+        h = order[i]
+        ks[i] = lo[h] * n + hi[h]
+    twin = np.full(m, -1, np.int64)
+    npair = 0
+    for i in range(m - 1):
+        if ks[i + 1] == ks[i]:
+            npair += 1
+    active = np.empty(npair, np.int64)
+    k = 0
+    for i in range(m - 1):      # in the order of NumPy's two fancy assignments
+        if ks[i + 1] == ks[i]:
+            twin[order[i]] = order[i + 1]
+            active[k] = order[i]
+            k += 1
+    for i in range(m - 1):
+        if ks[i + 1] == ks[i]:
+            twin[order[i + 1]] = order[i]
+    return ks, twin, active
+
+
 def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
     """:func:`shellrepair.refine._relax` with its bookkeeping compiled.
 
@@ -1063,16 +1120,7 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
         return T, changed, True
     T = np.array(T, np.int64)
     forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
-    src = T.ravel()
-    dst = T[:, [1, 2, 0]].ravel()
-    key = np.minimum(src, dst) * n + np.maximum(src, dst)
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    pair = np.flatnonzero(ks[1:] == ks[:-1])
-    twin = np.full(3 * nt, -1, np.int64)
-    twin[order[pair]] = order[pair + 1]
-    twin[order[pair + 1]] = order[pair]
-    active = order[pair]
+    ks, twin, active = _pair_half_edges(T, n)
     if dirty is not None:
         active = active[dirty[active // 3] | dirty[twin[active] // 3]]
     ck_keys, ck_vals = np.zeros(0, np.int64), np.zeros(0, np.bool_)
