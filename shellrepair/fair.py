@@ -70,8 +70,12 @@ SMALL_WORK = 200_000
 #: Later cotangent rounds: conjugate gradients stop at this relative residual
 #: (2-norm per coordinate, against the right-hand side's) ...
 PCG_TOL = 1e-14
-#: ... or give up after this many iterations and factorise afresh.
-PCG_MAX_ITER = 25
+#: ... or give up and factorise afresh after this many iterations, or as
+#: soon as the residual's rate of decrease predicts more (an iteration costs
+#: a pair of triangular solves, ~1/13 of a factorisation at 12k unknowns;
+#: the refined patches of eval/bench_fill.py need 3-4, a bumpy grid started
+#: far off its surface 15).
+PCG_MAX_ITER = 8
 #: Unknowns from which later rounds try conjugate gradients at all (below it
 #: a factorisation costs about what a few iterations do).
 PCG_MIN_UNKNOWNS = 1000
@@ -188,10 +192,11 @@ def _pcg(A, B, X0, precond, tol=None, max_iter=None):
     active = np.linalg.norm(R, axis=0) > target
     if not active.any():
         return X
+    res0 = np.linalg.norm(R, axis=0)
     Z = precond(R)
     P = Z.copy()
     rz = np.einsum("ij,ij->j", R, Z)
-    for _ in range(int(max_iter)):
+    for it in range(1, int(max_iter) + 1):
         AP = A @ P
         pap = np.einsum("ij,ij->j", P, AP)
         if not (np.all(pap[active] > 0) and np.all(rz[active] > 0)):
@@ -199,9 +204,15 @@ def _pcg(A, B, X0, precond, tol=None, max_iter=None):
         alpha = np.where(active, rz / np.where(active, pap, 1.0), 0.0)
         X += alpha * P
         R -= alpha * AP
-        active &= np.linalg.norm(R, axis=0) > target
+        res = np.linalg.norm(R, axis=0)
+        active &= res > target
         if not active.any():
             return X if np.isfinite(X).all() else None
+        if it >= 2:   # iterations still needed at the mean rate so far
+            a = np.flatnonzero(active)
+            rate = (res[a] / res0[a]) ** (1.0 / it)
+            if np.any(rate >= 1.0) or np.any(it + np.log(np.maximum(target[a], 1e-300) / res[a]) / np.log(rate) > max_iter):
+                return None
         Z = precond(R)
         rzn = np.einsum("ij,ij->j", R, Z)
         beta = np.where(active, rzn / np.where(active, rz, 1.0), 0.0)

@@ -42,11 +42,12 @@ def test_later_rounds_by_cg_equal_the_direct_solves(order, seed, monkeypatch):
     X, F, nf = _bumpy_grid(44 + 3 * seed, seed)
     assert len(X) - nf >= fair.PCG_MIN_UNKNOWNS
     monkeypatch.setattr(kernels, "ENABLED", False)        # no dense small-patch path either way
+    monkeypatch.setattr(fair, "PCG_MAX_ITER", 60)          # started far off the surface: ~15 iterations
     calls = []
     real = fair._pcg
-    monkeypatch.setattr(fair, "_pcg", lambda *a, **k: calls.append(1) or real(*a, **k))
+    monkeypatch.setattr(fair, "_pcg", lambda *a, **k: calls.append(real(*a, **k)) or calls[-1])
     got, K = fair.fair_patch(X, F, nf, order=order, rounds=3)
-    assert len(calls) == 2                                 # rounds 2 and 3 went by CG
+    assert len(calls) == 2 and all(c is not None for c in calls)   # rounds 2 and 3 went by CG
     monkeypatch.setattr(fair, "PCG_MIN_UNKNOWNS", len(X))
     ref, Kref = fair.fair_patch(X, F, nf, order=order, rounds=3)
     assert len(calls) == 2                                 # the oracle factorised every round
@@ -55,10 +56,11 @@ def test_later_rounds_by_cg_equal_the_direct_solves(order, seed, monkeypatch):
     assert np.abs(got - X[nf:]).max() > 0.05              # it did move the free vertices
 
 
-def test_cg_that_does_not_converge_gives_way_to_a_factorisation(monkeypatch):
+@pytest.mark.parametrize("max_iter", [0, 3])
+def test_cg_that_does_not_converge_gives_way_to_a_factorisation(max_iter, monkeypatch):
     X, F, nf = _bumpy_grid(44, 2)
     monkeypatch.setattr(kernels, "ENABLED", False)
-    monkeypatch.setattr(fair, "PCG_MAX_ITER", 0)
+    monkeypatch.setattr(fair, "PCG_MAX_ITER", max_iter)   # too few for this start (~15 needed)
     got, _ = fair.fair_patch(X, F, nf, order=2)
     monkeypatch.setattr(fair, "PCG_MIN_UNKNOWNS", len(X))
     ref, _ = fair.fair_patch(X, F, nf, order=2)
