@@ -11,6 +11,9 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`vertex_faces`: vertex-to-face lists by two cache-sized counting
   sorts (:func:`shellrepair.topology.vertex_faces`; also the whole-mesh
   version :mod:`shellrepair.fastmesh` gives);
+* :func:`faces_in_boxes`: the faces whose bounding boxes meet some boxes
+  (the region of :class:`shellrepair.patch._Region`), one pass over the
+  vertices and one over the faces;
 * :func:`ring_faces`: the faces within some rings of a vertex set
   (:meth:`shellrepair.patch._Context.ring_faces`);
 * :func:`grid_sort`, :func:`faces_in_box`: the vertex grid of
@@ -45,7 +48,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -151,6 +154,83 @@ def vertex_faces(F, n_vertices):
         return _vertex_faces_scipy(F, n)
     shift = max(1, min(_VF_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
     return _vertex_faces(flat, n, shift)
+
+
+@njit(cache=True, nogil=True)
+def _faces_in_boxes(V, F, lo, hi):
+    n = V.shape[0]
+    m = F.shape[0]
+    nb = lo.shape[0]
+    # per vertex, 6 bits a box: below / above it on x, y, z (NaN: none set)
+    code = np.zeros(n, np.uint64)
+    inside = np.zeros(n, np.bool_)
+    for v in range(n):
+        c = np.uint64(0)
+        for k in range(nb):
+            for d in range(3):
+                x = V[v, d]
+                if x < lo[k, d]:
+                    c |= np.uint64(1) << np.uint64(6 * k + d)
+                elif x > hi[k, d]:
+                    c |= np.uint64(1) << np.uint64(6 * k + 3 + d)
+            if (c >> np.uint64(6 * k)) & np.uint64(63) == 0 and V[v, 0] == V[v, 0] and V[v, 1] == V[v, 1] \
+                    and V[v, 2] == V[v, 2]:
+                inside[v] = True
+        code[v] = c
+    # a face misses box k when its three corners share a side of it
+    keep = np.zeros(m, np.bool_)
+    cnt = 0
+    for f in range(m):
+        c = code[F[f, 0]] & code[F[f, 1]] & code[F[f, 2]]
+        for k in range(nb):
+            if (c >> np.uint64(6 * k)) & np.uint64(63) == 0:
+                keep[f] = True
+                cnt += 1
+                break
+    out = np.empty(cnt, np.int64)
+    fmin = np.empty((cnt, 3))
+    fmax = np.empty((cnt, 3))
+    j = 0
+    for f in range(m):
+        if keep[f]:
+            out[j] = f
+            for d in range(3):
+                x0, x1, x2 = V[F[f, 0], d], V[F[f, 1], d], V[F[f, 2], d]
+                fmin[j, d] = min(x0, min(x1, x2))
+                fmax[j, d] = max(x0, max(x1, x2))
+            j += 1
+    return out, fmin, fmax, inside
+
+
+#: Boxes :func:`faces_in_boxes` takes at most (6 bits each in a 64-bit word).
+MAX_BOXES = 10
+
+
+def faces_in_boxes(V, F, lo, hi):
+    """Faces whose bounding box meets at least one of the boxes ``[lo[k], hi[k]]``
+    (closed): one pass over the vertices (which side of each box they lie
+    on, in a word) and one over the faces. A face with a NaN coordinate
+    counts as meeting.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+    lo, hi : (b,3) float64, b <= MAX_BOXES
+
+    Returns
+    -------
+    faces : (r,) int64, ascending
+    fmin, fmax : (r,3) float64
+        Their bounding boxes.
+    inside : (n,) bool
+        The vertices inside some box (finite).
+    """
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    lo, hi = c(np.reshape(lo, (-1, 3))), c(np.reshape(hi, (-1, 3)))
+    if len(lo) > MAX_BOXES:
+        raise ValueError(f"at most {MAX_BOXES} boxes, got {len(lo)}")
+    return _faces_in_boxes(c(V), np.ascontiguousarray(F, np.int64), lo, hi)
 
 
 @njit(cache=True, nogil=True)
@@ -1442,6 +1522,7 @@ def warm_up():
         return True
     T = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
     order, start = vertex_faces(T, 4)
+    faces_in_boxes(np.zeros((4, 3)), T, np.zeros((1, 3)), np.ones((1, 3)))
     ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
     L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
