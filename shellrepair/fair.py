@@ -14,14 +14,26 @@ Voronoi mass matrix, the energy is xᵀ Q x with
     k = 2:  Q = K M⁻¹ K             (thin plate, bilaplacian)
     k = 3:  Q = K M⁻¹ K M⁻¹ K       (minimum variation of curvature)
 
-minimised with the fixed rows given (libigl ``min_quad_with_fixed``, one
-factorisation per round). The first round uses uniform (umbrella) weights,
-since cotangents of the initial, flat patch are meaningless; later rounds
-re-evaluate cotangent weights and masses on the patch's own current
+minimised with the fixed rows given (libigl ``min_quad_with_fixed``: one
+sparse LLᵀ factorisation of the unknowns' block, the three coordinates
+solved as three right-hand sides). The first round uses uniform (umbrella)
+weights, since cotangents of the initial, flat patch are meaningless; later
+rounds re-evaluate cotangent weights and masses on the patch's own current
 geometry, taken on its intrinsic Delaunay triangulation
 (:mod:`shellrepair.intrinsic`): the slivers a scan's rim is full of then
 give neither negative weights nor vanishing masses. Where a triangle is
 degenerate the round falls back to uniform weights.
+
+From the second cotangent round on, the matrix differs little from the
+previous round's (the geometry moved by a fraction of an edge), so that
+round is solved by conjugate gradients preconditioned with the previous
+round's factorisation, started from the current positions: a few
+triangular solves instead of a new factorisation (four iterations on the
+12k-unknown patch of ``eval/bench_fill.py``). It stops at a relative
+residual of ``PCG_TOL`` per coordinate, where it agrees with the direct
+solve to the direct solve's own round-off (a few 1e-10 mean rim edges; the
+tolerance ``tests/test_fair.py`` states and checks is 1e-8); it falls back
+to a fresh factorisation after ``PCG_MAX_ITER`` iterations.
 
 Coordinates are centred on the loop and scaled by its mean edge length
 before any solve, so scans in millimetres far from the origin give the same
@@ -55,6 +67,18 @@ DEGENERATE_AREA = 1e-10
 #: (:func:`shellrepair.kernels.fair_small`; equal to round-off).
 SMALL_UNKNOWNS = 200
 SMALL_WORK = 200_000
+#: Later cotangent rounds: conjugate gradients stop at this relative residual
+#: (2-norm per coordinate, against the right-hand side's) ...
+PCG_TOL = 1e-14
+#: ... or give up and factorise afresh after this many iterations, or as
+#: soon as the residual's rate of decrease predicts more (an iteration costs
+#: a pair of triangular solves, ~1/13 of a factorisation at 12k unknowns;
+#: the refined patches of eval/bench_fill.py need 3-4, a bumpy grid started
+#: far off its surface 15).
+PCG_MAX_ITER = 8
+#: Unknowns from which later rounds try conjugate gradients at all (below it
+#: a factorisation costs about what a few iterations do).
+PCG_MIN_UNKNOWNS = 1000
 #: Taubin λ|μ smoothing factors (non-shrinking pass band).
 TAUBIN_LAMBDA = 0.5
 TAUBIN_MU = -0.53
@@ -98,20 +122,103 @@ def _energy(K, Minv, order):
 
 def _solve(Q, fixed, unknown, X):
     """Minimise xᵀQx with rows ``fixed`` of X given; returns X[unknown]."""
-    import igl
+    return _Factor(Q, fixed, unknown).minimise(X)
 
-    try:
-        Z = igl.min_quad_with_fixed(Q, np.zeros((Q.shape[0], 3)), fixed.astype(np.int64),
-                                    np.ascontiguousarray(X[fixed]), sp.csc_matrix((0, Q.shape[0])),
-                                    np.zeros((0, 3)), True)
-        Xu = Z[unknown]
-        if np.isfinite(Xu).all():
-            return Xu
-    except Exception:  # fall through to SciPy's LU
-        pass
-    Quu = Q[unknown][:, unknown].tocsc()
-    rhs = -(Q[unknown][:, fixed] @ X[fixed])
-    return spla.splu(Quu).solve(rhs)
+
+class _Factor:
+    """The unknowns' block of Q, factorised once: libigl's sparse LLᵀ
+    (``min_quad_with_fixed_precompute``), or SciPy's LU where libigl fails
+    or gives non-finite values."""
+
+    def __init__(self, Q, fixed, unknown):
+        self.Q, self.fixed, self.unknown = Q, fixed, unknown
+        self.data = self.lu = None
+        try:
+            import igl
+
+            data = igl.min_quad_with_fixed_data()
+            igl.min_quad_with_fixed_precompute(Q, fixed.astype(np.int64), sp.csc_matrix((0, Q.shape[0])), True, data)
+            self.data = data
+        except Exception:  # SciPy's LU instead
+            self._use_lu()
+
+    def _use_lu(self):
+        self.data = None
+        if self.lu is None:
+            self.lu = spla.splu(self.Q[self.unknown][:, self.unknown].tocsc())
+
+    def _igl(self, B, Y):
+        import igl
+
+        try:
+            Z = igl.min_quad_with_fixed_solve(self.data, B, Y, np.zeros((0, B.shape[1])))[self.unknown]
+        except Exception:
+            return None
+        return Z if np.isfinite(Z).all() else None
+
+    def minimise(self, X):
+        """X[unknown] minimising xᵀQx, X[fixed] given."""
+        if self.data is not None:
+            Z = self._igl(np.zeros((self.Q.shape[0], X.shape[1])), np.ascontiguousarray(X[self.fixed]))
+            if Z is not None:
+                return Z
+            self._use_lu()
+        rhs = -(self.Q[self.unknown][:, self.fixed] @ X[self.fixed])
+        return self.lu.solve(np.asarray(rhs, np.float64))
+
+    def apply(self, R):
+        """Q_uu⁻¹ R (R: (u,c))."""
+        if self.data is not None:
+            B = np.zeros((self.Q.shape[0], R.shape[1]))
+            B[self.unknown] = -R
+            Z = self._igl(B, np.zeros((self.fixed.size, R.shape[1])))
+            if Z is not None:
+                return Z
+            self._use_lu()
+        return self.lu.solve(np.asarray(R, np.float64))
+
+
+def _pcg(A, B, X0, precond, tol=None, max_iter=None):
+    """Conjugate gradients on A X = B (A symmetric positive definite), one
+    run per column, preconditioned by ``precond(R) ≈ A⁻¹ R``.
+
+    Returns X, or None when some column has not reached
+    ‖B − A X‖ ≤ tol ‖B‖ within ``max_iter`` iterations (or broke down)."""
+    tol = PCG_TOL if tol is None else tol
+    max_iter = PCG_MAX_ITER if max_iter is None else max_iter
+    X = np.array(X0, np.float64)
+    R = B - A @ X
+    target = tol * np.linalg.norm(B, axis=0)
+    active = np.linalg.norm(R, axis=0) > target
+    if not active.any():
+        return X
+    res0 = np.linalg.norm(R, axis=0)
+    Z = precond(R)
+    P = Z.copy()
+    rz = np.einsum("ij,ij->j", R, Z)
+    for it in range(1, int(max_iter) + 1):
+        AP = A @ P
+        pap = np.einsum("ij,ij->j", P, AP)
+        if not (np.all(pap[active] > 0) and np.all(rz[active] > 0)):
+            return None  # breakdown: not positive definite in practice
+        alpha = np.where(active, rz / np.where(active, pap, 1.0), 0.0)
+        X += alpha * P
+        R -= alpha * AP
+        res = np.linalg.norm(R, axis=0)
+        active &= res > target
+        if not active.any():
+            return X if np.isfinite(X).all() else None
+        if it >= 2:   # iterations still needed at the mean rate so far
+            a = np.flatnonzero(active)
+            rate = (res[a] / res0[a]) ** (1.0 / it)
+            if np.any(rate >= 1.0) or np.any(it + np.log(np.maximum(target[a], 1e-300) / res[a]) / np.log(rate) > max_iter):
+                return None
+        Z = precond(R)
+        rzn = np.einsum("ij,ij->j", R, Z)
+        beta = np.where(active, rzn / np.where(active, rz, 1.0), 0.0)
+        P = Z + beta * P
+        rz = np.where(active, rzn, rz)
+    return None
 
 
 def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
@@ -159,6 +266,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
             return Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
     K = uniform_laplacian(F, n)
     X[unknown] = _solve(_energy(K, None, order), fixed, unknown, X)
+    last = None  # the previous cotangent round's factorisation
     for _ in range(int(rounds)):
         e = X[F]
         area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
@@ -168,7 +276,16 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
         if not (np.isfinite(Kc.data).all() and np.isfinite(Mc).all()):
             break
         floor = DEGENERATE_AREA + 1e-3 * np.median(Mc)
-        Xn = _solve(_energy(Kc, 1.0 / np.maximum(Mc, floor), order), fixed, unknown, X)
+        Q = _energy(Kc, 1.0 / np.maximum(Mc, floor), order)
+        Xn = None
+        if last is not None:   # a later round: the previous round's factors precondition CG
+            Qu = Q[unknown]
+            Xn = _pcg(Qu[:, unknown].tocsr(), -(Qu[:, fixed] @ X[fixed]), X[unknown], last.apply)
+        if Xn is None:
+            f = _Factor(Q, fixed, unknown)
+            Xn = f.minimise(X)
+            if unknown.size >= PCG_MIN_UNKNOWNS:
+                last = f
         if not np.isfinite(Xn).all():
             break
         X[unknown] = Xn

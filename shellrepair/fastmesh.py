@@ -3,7 +3,8 @@
 Each kernel here is one linear pass (or a few) over the faces, in place of
 NumPy code that sorts or builds a sparse matrix: the half-edge topology by
 counting sorts on each edge's lower vertex, pieces by union-find, face
-areas, signed volumes and vertex-face lists in one loop each. They give
+areas and signed volumes in one loop each (the vertex-face lists are
+:func:`shellrepair.kernels.vertex_faces`'s, loaded on their own). They give
 exactly what their NumPy versions in :mod:`shellrepair.topology` and
 :mod:`shellrepair.clean` give (those stay as the reference, and as the
 path taken when Numba is missing; ``tests/test_scale_structures.py``
@@ -79,8 +80,7 @@ def _kernels():
         jit = numba.njit(cache=True, nogil=True)
         _K = SimpleNamespace(edge=jit(_edge_kernel), edge_ids=jit(_edge_ids_kernel), pieces=jit(_pieces_kernel),
                              areas=jit(_areas_kernel), edge_sq=jit(_edge_sq_kernel), volumes=jit(_volumes_kernel),
-                             triple_hash=jit(_triple_hash_kernel),
-                             vertex_faces=jit(_vertex_faces_kernel), moments=jit(_moments_kernel))
+                             triple_hash=jit(_triple_hash_kernel), moments=jit(_moments_kernel))
     return _K
 
 
@@ -528,60 +528,13 @@ def piece_signed_volumes(V, F, flip, piece, n_pieces):
 # --------------------------------------------------------------------------
 # vertex -> faces
 # --------------------------------------------------------------------------
-def _vertex_faces_kernel(flat, n, shift):
-    low = (np.int64(1) << shift) - 1
-    nb = (n >> shift) + 1
-    # 1. corners per bucket of 2**shift vertices; 2. into the buckets, in corner order
-    bstart = np.zeros(nb + 1, np.int64)
-    for i in range(flat.size):
-        v = flat[i]
-        if v < 0 or v >= n:
-            raise ValueError("a face refers to a vertex outside [0, n_vertices)")
-        bstart[(v >> shift) + 1] += 1
-    for k in range(nb):
-        bstart[k + 1] += bstart[k]
-    tmp = np.empty(flat.size, np.int64)
-    bpos = bstart[:nb].copy()
-    for i in range(flat.size):
-        v = flat[i]
-        k = v >> shift
-        tmp[bpos[k]] = ((v & low) << _HE_BITS) | i
-        bpos[k] += 1
-    # 3. each bucket by its vertex (a counting sort within the bucket, stable)
-    order = np.empty(flat.size, np.int64)
-    start = np.empty(n + 1, np.int64)
-    cnt = np.zeros((np.int64(1) << shift) + 1, np.int64)
-    mask = (np.int64(1) << _HE_BITS) - 1
-    for k in range(nb):
-        s0 = bstart[k]
-        s1 = bstart[k + 1]
-        a0 = k << shift
-        na = min(n - a0, low + 1)
-        cnt[:na + 1] = 0
-        for i in range(s0, s1):
-            cnt[(tmp[i] >> _HE_BITS) + 1] += 1
-        cnt[0] = s0
-        for j in range(na):
-            cnt[j + 1] += cnt[j]
-            start[a0 + j] = cnt[j]
-        for i in range(s0, s1):
-            j = tmp[i] >> _HE_BITS
-            order[cnt[j]] = tmp[i] & mask
-            cnt[j] += 1
-    start[n] = flat.size
-    return order, start
-
-
 def vertex_faces(F, n):
-    """:func:`shellrepair.topology.vertex_faces` by two cache-sized counting
-    sorts (buckets of vertices, then each vertex): ``(order, start)``."""
-    n = int(n)
-    if 3 * len(F) >= 2 ** _HE_BITS:   # corner ids must fit the packing: one global counting sort
-        from .topology import _vertex_faces_scipy
+    """:func:`shellrepair.topology.vertex_faces`: ``(order, start)``, by
+    :func:`shellrepair.kernels.vertex_faces` (the one compiled version;
+    loaded on its own, not with this module's kernels)."""
+    from . import kernels
 
-        return _vertex_faces_scipy(F, n)
-    shift = max(1, min(_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
-    return _kernels().vertex_faces(np.ascontiguousarray(F, np.int64).reshape(-1), n, shift)
+    return kernels.vertex_faces(F, n)
 
 
 def preload(n_faces):

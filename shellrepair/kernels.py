@@ -8,8 +8,12 @@ inputs). The kernels exist because the per-hole work is many small steps:
 in NumPy each costs a few microseconds of dispatch whatever its size, and
 loops of rounds (edge flips) pay it hundreds of times a hole.
 
-* :func:`vertex_faces`: vertex-to-face lists by one counting sort
-  (:func:`shellrepair.topology.vertex_faces`);
+* :func:`vertex_faces`: vertex-to-face lists by two cache-sized counting
+  sorts (:func:`shellrepair.topology.vertex_faces`; also the whole-mesh
+  version :mod:`shellrepair.fastmesh` gives);
+* :func:`faces_in_boxes`: the faces whose bounding boxes meet some boxes
+  (the region of :class:`shellrepair.patch._Region`), one pass over the
+  vertices and one over the faces;
 * :func:`ring_faces`: the faces within some rings of a vertex set
   (:meth:`shellrepair.patch._Context.ring_faces`);
 * :func:`grid_sort`, :func:`faces_in_box`: the vertex grid of
@@ -44,7 +48,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -63,24 +67,65 @@ except ImportError:  # the NumPy versions run instead
 # --------------------------------------------------------------------------
 # whole mesh: vertex-to-face lists
 # --------------------------------------------------------------------------
+#: Bits of a corner id in the vertex-face sort's packed (vertex in bucket, corner) word.
+_VF_BITS = 32
+#: Vertices per bucket of the vertex-face sort, as a power of two: a
+#: bucket's corners (about six per vertex, 8 bytes each) stay in cache.
+_VF_BUCKET_SHIFT = 12
+
+
 @njit(cache=True, nogil=True)
-def _vertex_faces(flat, n):
-    start = np.zeros(n + 1, np.int64)
-    for v in flat:
-        start[v + 1] += 1
-    for v in range(n):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    order = np.empty(flat.size, np.int64)
+def _vertex_faces(flat, n, shift):
+    low = (np.int64(1) << shift) - 1
+    nb = (n >> shift) + 1
+    # 1. corners per bucket of 2**shift vertices; 2. into the buckets, in corner order
+    bstart = np.zeros(nb + 1, np.int64)
     for i in range(flat.size):
         v = flat[i]
-        order[fill[v]] = i
-        fill[v] += 1
+        if v < 0 or v >= n:
+            raise ValueError("a face refers to a vertex outside [0, n_vertices)")
+        bstart[(v >> shift) + 1] += 1
+    for k in range(nb):
+        bstart[k + 1] += bstart[k]
+    tmp = np.empty(flat.size, np.int64)
+    bpos = bstart[:nb].copy()
+    for i in range(flat.size):
+        v = flat[i]
+        k = v >> shift
+        tmp[bpos[k]] = ((v & low) << _VF_BITS) | i
+        bpos[k] += 1
+    # 3. each bucket by its vertex (a counting sort within the bucket, stable)
+    order = np.empty(flat.size, np.int64)
+    start = np.empty(n + 1, np.int64)
+    cnt = np.zeros((np.int64(1) << shift) + 1, np.int64)
+    mask = (np.int64(1) << _VF_BITS) - 1
+    for k in range(nb):
+        s0 = bstart[k]
+        s1 = bstart[k + 1]
+        a0 = k << shift
+        na = min(n - a0, low + 1)
+        if na <= 0:
+            break
+        cnt[:na + 1] = 0
+        for i in range(s0, s1):
+            cnt[(tmp[i] >> _VF_BITS) + 1] += 1
+        cnt[0] = s0
+        for j in range(na):
+            cnt[j + 1] += cnt[j]
+            start[a0 + j] = cnt[j]
+        for i in range(s0, s1):
+            j = tmp[i] >> _VF_BITS
+            order[cnt[j]] = tmp[i] & mask
+            cnt[j] += 1
+    start[n] = flat.size
     return order, start
 
 
 def vertex_faces(F, n_vertices):
-    """Vertex-to-face lists (as :func:`shellrepair.topology.vertex_faces`).
+    """Vertex-to-face lists (as :func:`shellrepair.topology.vertex_faces`),
+    by two cache-sized counting sorts (buckets of vertices, then each
+    vertex): the one compiled version, which :mod:`shellrepair.fastmesh`
+    uses too (compiled or loaded on its first call, alone).
 
     Parameters
     ----------
@@ -93,11 +138,99 @@ def vertex_faces(F, n_vertices):
         Positions in ``F.ravel()`` grouped by vertex, in order within a
         vertex; ``order // 3`` are the faces.
     start : (n+1,) int64
+
+    Raises
+    ------
+    ValueError
+        A face refers to a vertex outside ``[0, n_vertices)``.
     """
-    flat = np.ascontiguousarray(np.asarray(F, np.int64).ravel())
-    if flat.size and (flat.min() < 0 or flat.max() >= n_vertices):   # the kernel does not check bounds
-        raise ValueError(f"face indices must lie in [0, {n_vertices}), got {flat.min()}..{flat.max()}")
-    return _vertex_faces(flat, int(n_vertices))
+    n = int(n_vertices)
+    flat = np.ascontiguousarray(np.asarray(F, np.int64).reshape(-1))
+    if not ENABLED or flat.size >= 2 ** _VF_BITS:   # corner ids must fit the packing
+        from .topology import _vertex_faces_scipy
+
+        if flat.size and (flat.min() < 0 or flat.max() >= n):
+            raise ValueError(f"face indices must lie in [0, {n}), got {flat.min()}..{flat.max()}")
+        return _vertex_faces_scipy(F, n)
+    shift = max(1, min(_VF_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
+    return _vertex_faces(flat, n, shift)
+
+
+@njit(cache=True, nogil=True)
+def _faces_in_boxes(V, F, lo, hi):
+    n = V.shape[0]
+    m = F.shape[0]
+    nb = lo.shape[0]
+    # per vertex, 6 bits a box: below / above it on x, y, z (NaN: none set)
+    code = np.zeros(n, np.uint64)
+    inside = np.zeros(n, np.bool_)
+    for v in range(n):
+        c = np.uint64(0)
+        for k in range(nb):
+            for d in range(3):
+                x = V[v, d]
+                if x < lo[k, d]:
+                    c |= np.uint64(1) << np.uint64(6 * k + d)
+                elif x > hi[k, d]:
+                    c |= np.uint64(1) << np.uint64(6 * k + 3 + d)
+            if (c >> np.uint64(6 * k)) & np.uint64(63) == 0 and V[v, 0] == V[v, 0] and V[v, 1] == V[v, 1] \
+                    and V[v, 2] == V[v, 2]:
+                inside[v] = True
+        code[v] = c
+    # a face misses box k when its three corners share a side of it
+    keep = np.zeros(m, np.bool_)
+    cnt = 0
+    for f in range(m):
+        c = code[F[f, 0]] & code[F[f, 1]] & code[F[f, 2]]
+        for k in range(nb):
+            if (c >> np.uint64(6 * k)) & np.uint64(63) == 0:
+                keep[f] = True
+                cnt += 1
+                break
+    out = np.empty(cnt, np.int64)
+    fmin = np.empty((cnt, 3))
+    fmax = np.empty((cnt, 3))
+    j = 0
+    for f in range(m):
+        if keep[f]:
+            out[j] = f
+            for d in range(3):
+                x0, x1, x2 = V[F[f, 0], d], V[F[f, 1], d], V[F[f, 2], d]
+                fmin[j, d] = min(x0, min(x1, x2))
+                fmax[j, d] = max(x0, max(x1, x2))
+            j += 1
+    return out, fmin, fmax, inside
+
+
+#: Boxes :func:`faces_in_boxes` takes at most (6 bits each in a 64-bit word).
+MAX_BOXES = 10
+
+
+def faces_in_boxes(V, F, lo, hi):
+    """Faces whose bounding box meets at least one of the boxes ``[lo[k], hi[k]]``
+    (closed): one pass over the vertices (which side of each box they lie
+    on, in a word) and one over the faces. A face with a NaN coordinate
+    counts as meeting.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+    lo, hi : (b,3) float64, b <= MAX_BOXES
+
+    Returns
+    -------
+    faces : (r,) int64, ascending
+    fmin, fmax : (r,3) float64
+        Their bounding boxes.
+    inside : (n,) bool
+        The vertices inside some box (finite).
+    """
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    lo, hi = c(np.reshape(lo, (-1, 3))), c(np.reshape(hi, (-1, 3)))
+    if len(lo) > MAX_BOXES:
+        raise ValueError(f"at most {MAX_BOXES} boxes, got {len(lo)}")
+    return _faces_in_boxes(c(V), np.ascontiguousarray(F, np.int64), lo, hi)
 
 
 @njit(cache=True, nogil=True)
@@ -990,6 +1123,63 @@ def _relax_apply(T, twin, changed, is_loop, forb, edge_keys, ck_keys, ck_vals, g
     return 0, np.unique(nxt[:k]), ck_keys, ck_vals
 
 
+@njit(cache=True, nogil=True)
+def _pair_half_edges(T, n):
+    """The half-edge pairing of :func:`shellrepair.refine._relax_numpy`
+    (``key = min·n + max`` per half-edge ``3f+c``, its stable argsort, twins
+    of neighbours in it), by a counting sort on the lower vertex and an
+    insertion sort on the higher one within it (the same order).
+
+    Returns the sorted keys, the twins (−1: none) and ``order[pair]``."""
+    m = 3 * T.shape[0]
+    lo = np.empty(m, np.int64)
+    hi = np.empty(m, np.int64)
+    for f in range(T.shape[0]):
+        for c in range(3):
+            a = T[f, c]
+            b = T[f, (c + 1) % 3]
+            lo[3 * f + c] = min(a, b)
+            hi[3 * f + c] = max(a, b)
+    start = np.zeros(n + 1, np.int64)
+    for h in range(m):
+        start[lo[h] + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    order = np.empty(m, np.int64)
+    fill = start[:n].copy()
+    for h in range(m):          # stable: by id within a lower vertex
+        order[fill[lo[h]]] = h
+        fill[lo[h]] += 1
+    for v in range(n):          # stable insertion sort by the higher vertex
+        for i in range(start[v] + 1, start[v + 1]):
+            h = order[i]
+            j = i - 1
+            while j >= start[v] and hi[order[j]] > hi[h]:
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = h
+    ks = np.empty(m, np.int64)
+    for i in range(m):
+        h = order[i]
+        ks[i] = lo[h] * n + hi[h]
+    twin = np.full(m, -1, np.int64)
+    npair = 0
+    for i in range(m - 1):
+        if ks[i + 1] == ks[i]:
+            npair += 1
+    active = np.empty(npair, np.int64)
+    k = 0
+    for i in range(m - 1):      # in the order of NumPy's two fancy assignments
+        if ks[i + 1] == ks[i]:
+            twin[order[i]] = order[i + 1]
+            active[k] = order[i]
+            k += 1
+    for i in range(m - 1):
+        if ks[i + 1] == ks[i]:
+            twin[order[i + 1]] = order[i]
+    return ks, twin, active
+
+
 def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
     """:func:`shellrepair.refine._relax` with its bookkeeping compiled.
 
@@ -1010,16 +1200,7 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
         return T, changed, True
     T = np.array(T, np.int64)
     forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
-    src = T.ravel()
-    dst = T[:, [1, 2, 0]].ravel()
-    key = np.minimum(src, dst) * n + np.maximum(src, dst)
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    pair = np.flatnonzero(ks[1:] == ks[:-1])
-    twin = np.full(3 * nt, -1, np.int64)
-    twin[order[pair]] = order[pair + 1]
-    twin[order[pair + 1]] = order[pair]
-    active = order[pair]
+    ks, twin, active = _pair_half_edges(T, n)
     if dirty is not None:
         active = active[dirty[active // 3] | dirty[twin[active] // 3]]
     ck_keys, ck_vals = np.zeros(0, np.int64), np.zeros(0, np.bool_)
@@ -1341,6 +1522,7 @@ def warm_up():
         return True
     T = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
     order, start = vertex_faces(T, 4)
+    faces_in_boxes(np.zeros((4, 3)), T, np.zeros((1, 3)), np.ones((1, 3)))
     ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
     L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)

@@ -6,7 +6,8 @@ triangulated (:mod:`~shellrepair.triangulate`), refined to the rim's density
 fixed (:mod:`~shellrepair.fair`), or a flat cap where the scan meets a planar
 opening edge-on (:func:`_meets_edge_on`). :class:`_Context` holds the
 whole-mesh structures the per-hole work reads (edges, vertex-to-face lists,
-the faces near a box), built once; :func:`_prefill` does a run of holes'
+the faces near a box), built once, or on a large scan with few holes only
+those of a region around them (:class:`_Region`); :func:`_prefill` does a run of holes'
 first attempts at once.
 
 The retries, the checks and the choice among attempts are in
@@ -116,20 +117,61 @@ class _Context:
                       if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
         if kernels.ENABLED:
             kernels.warm_up()   # compiled or loaded before any hole's time budget starts
-        self.vf_order, self.vf_start = (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n)
+        self._vf = None   # vertex-to-face lists, built on first use (vf_order, vf_start)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
         self.planarity = {}  # loop id -> planarity measured by detect_holes
         self.topo = None     # the mesh's EdgeTopology, when the caller has it
         self._index = None
+        self._full_index = None
+        self._region = None  # _Region near the boundary loops; False: none (whole-mesh structures)
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
 
     @property
+    def vf_order(self):
+        return self.vf[0]
+
+    @property
+    def vf_start(self):
+        return self.vf[1]
+
+    @property
+    def vf(self):
+        """Vertex-to-face lists ``(order, start)`` of the whole mesh, built once on first use."""
+        if self._vf is None:
+            self._vf = (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n)
+        return self._vf
+
+    @property
     def index(self):
+        """The near-face index of the crossing checks: :class:`_LocalIndex`
+        over the region (:meth:`region`) when there is one, else the
+        whole-mesh :class:`~shellrepair.intersect.NearFaces`."""
         if self._index is None:
-            self._index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=(self.vf_order, self.vf_start),
-                                    topo=self.topo)
+            reg = self.region()
+            self._index = _LocalIndex(self, reg) if reg is not None else self.whole_index()
         return self._index
+
+    def whole_index(self):
+        """The whole-mesh :class:`~shellrepair.intersect.NearFaces`, built once."""
+        if self._full_index is None:
+            self._full_index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=self.vf, topo=self.topo)
+        return self._full_index
+
+    def region(self):
+        """The :class:`_Region` around the boundary loops, or None (a mesh
+        too small, too many loops, or no edge topology: whole-mesh lists)."""
+        if self._region is None:
+            self._region = _build_region(self) or False
+        return self._region or None
+
+    def _local_lists(self, verts):
+        """The region's vertex-face lists when they are complete at every
+        vertex of ``verts`` and the whole-mesh ones are not built; else None."""
+        if self._vf is not None:
+            return None
+        reg = self.region()
+        return reg if reg is not None and reg.covered[verts].all() else None
 
     def pre_for(self, hole_id, loop):
         """The batch's first-attempt work for this hole and loop, or None."""
@@ -138,13 +180,21 @@ class _Context:
 
     def faces_of(self, verts):
         verts = np.asarray(verts, np.int64)
-        s = self.vf_start[verts]
-        return uniq(self.vf_order[concat_ranges(s, self.vf_start[verts + 1] - s)] // 3)
+        reg = self._local_lists(verts)
+        order, start = (reg.vf_order, reg.vf_start) if reg is not None else self.vf
+        s = start[verts]
+        return uniq(order[concat_ranges(s, start[verts + 1] - s)] // 3)
 
     def ring_faces(self, verts, rings):
         """Faces within ``rings`` rings of ``verts`` (sorted)."""
         if kernels.ENABLED:
             F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
+            verts = np.asarray(verts, np.int64)
+            reg = self._local_lists(verts)
+            if reg is not None:
+                got = kernels.ring_faces(verts, rings, reg.vf_order, reg.vf_start, F, self._vmark, self._fmark)
+                if reg.covered[F[got]].all():   # every list the walk read was complete
+                    return got
             return kernels.ring_faces(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
         return self._ring_faces_numpy(verts, rings)
 
@@ -172,6 +222,104 @@ class _Context:
             for a in found:
                 fm[a] = False
         return np.sort(np.concatenate(found)) if found else np.zeros(0, np.int64)
+
+
+#: The fill reads a local region (:class:`_Region`: the faces near the mesh's
+#: boundary loops) instead of whole-mesh vertex-face lists and near-face
+#: grid on a mesh of at least this many faces ...
+LOCAL_MIN_FACES = 400_000
+#: ... with at most this many boundary loops ...
+LOCAL_MAX_LOOPS = kernels.MAX_BOXES
+#: ... and boundary edges in all ...
+LOCAL_MAX_EDGES = 20_000
+#: ... when the region holds at most this share of the faces.
+LOCAL_MAX_SHARE = 0.5
+#: A loop's region: its bounding box grown by this many times its diagonal
+#: (where a faired patch bulges beyond it, its check reads the whole-mesh
+#: index) ...
+LOCAL_GROW = 0.25
+#: ... and by this many of its longest edges (the rings around a small loop).
+LOCAL_RING_EDGES = 12
+
+
+class _Region:
+    """The faces whose bounding boxes meet some box around the boundary
+    loops, and their vertex-to-face lists.
+
+    Every face at a vertex inside a box has that vertex in its bounding box,
+    so the lists are complete at those vertices (``covered``); a query that
+    reads any other vertex's list goes to the whole-mesh lists instead. The
+    lists have the whole-mesh layout (``start`` over all vertices, entries
+    ``3f + corner`` in ascending order), so a complete list is the
+    whole-mesh list itself.
+    """
+
+    def __init__(self, F, n, lo, hi, found):
+        self.lo, self.hi = lo, hi
+        self.faces, self.fmin, self.fmax, self.covered = found
+        o, self.vf_start = kernels.vertex_faces(F[self.faces], n)
+        self.vf_order = 3 * self.faces[o // 3] + o % 3
+
+
+def _build_region(ctx):
+    """:class:`_Region` around the boundary loops of ``ctx.topo``, or None."""
+    if not kernels.ENABLED or ctx.topo is None or len(ctx.F) < LOCAL_MIN_FACES:
+        return None
+    bh = ctx.topo.boundary_he
+    if bh.size == 0 or bh.size > LOCAL_MAX_EDGES:
+        return None
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    E = ctx.topo.ends(bh)
+    vs, inv = np.unique(E, return_inverse=True)
+    inv = inv.reshape(-1, 2)
+    nc, lab = connected_components(coo_matrix((np.ones(len(E)), (inv[:, 0], inv[:, 1])), shape=(len(vs), len(vs))),
+                                   directed=False)
+    P = ctx.V[vs]
+    if nc > LOCAL_MAX_LOOPS or not np.isfinite(P).all():
+        return None
+    lo = np.full((nc, 3), np.inf)
+    hi = np.full((nc, 3), -np.inf)
+    np.minimum.at(lo, lab, P)
+    np.maximum.at(hi, lab, P)
+    longest = np.zeros(nc)
+    np.maximum.at(longest, lab[inv[:, 0]], np.linalg.norm(P[inv[:, 0]] - P[inv[:, 1]], axis=1))
+    g = LOCAL_GROW * np.linalg.norm(hi - lo, axis=1) + LOCAL_RING_EDGES * longest
+    lo -= g[:, None]
+    hi += g[:, None]
+    found = kernels.faces_in_boxes(ctx.V, ctx.F, lo, hi)
+    return _Region(ctx.F, ctx.n, lo, hi, found) if found[0].size <= LOCAL_MAX_SHARE * len(ctx.F) else None
+
+
+class _LocalIndex:
+    """What the crossing checks read of a near-face index
+    (:func:`shellrepair.intersect.patch_vs_index`: ``faces_near``, ``V``,
+    ``F``, ``origin``), from a :class:`_Region`: the faces whose bounding
+    boxes meet a query box inside one of the region's boxes (a superset of
+    the faces that meet it, as the whole-mesh index gives; the exact tests
+    decide). Any other query, and anything else, goes to the whole-mesh
+    index, built then."""
+
+    def __init__(self, ctx, region):
+        self._ctx = ctx
+        self._reg = region
+        self.V, self.F = ctx.V, ctx.F
+        self.origin = ctx.V.mean(axis=0)
+
+    def faces_near(self, lo, hi):
+        """Faces that may meet the box ``[lo, hi]`` (absolute coordinates), sorted."""
+        lo = np.asarray(lo, np.float64)
+        hi = np.asarray(hi, np.float64)
+        r = self._reg
+        if np.isfinite(lo).all() and np.isfinite(hi).all() and np.all((r.lo <= lo) & (hi <= r.hi), axis=1).any():
+            return r.faces[np.all((r.fmin <= hi) & (r.fmax >= lo), axis=1)]
+        return self._ctx.whole_index().faces_near(lo, hi)
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self._ctx.whole_index(), name)
 
 
 def _rim_data(ctx, loop):

@@ -294,6 +294,29 @@ def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
 
 
 @pytest.mark.parametrize("seed", range(4))
+def test_the_compiled_half_edge_pairing_equals_the_stable_argsort(seed):
+    """relax's pairing: sorted keys, twins and canonical half-edges as the
+    NumPy argsort gives them, with a non-manifold edge (three faces) and
+    vertices no face uses."""
+    rng = np.random.default_rng(seed)
+    V, F = shapes.icosphere(1 + seed % 2)
+    F = F[rng.permutation(len(F))]
+    a, b = F[3, 0], F[3, 1]
+    F = np.vstack([F, [[a, b, len(V)]], [[b, a, len(V) + 1]]]) if seed >= 2 else F
+    n = len(V) + 4
+    key = np.minimum(F.ravel(), F[:, [1, 2, 0]].ravel()) * n + np.maximum(F.ravel(), F[:, [1, 2, 0]].ravel())
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    pair = np.flatnonzero(ks[1:] == ks[:-1])
+    twin = np.full(3 * len(F), -1, np.int64)
+    twin[order[pair]] = order[pair + 1]
+    twin[order[pair + 1]] = order[pair]
+    ks2, twin2, active2 = kernels._pair_half_edges(np.ascontiguousarray(F, np.int64), n)
+    assert np.array_equal(ks, ks2) and np.array_equal(twin, twin2) and np.array_equal(order[pair], active2)
+    assert (seed >= 2) == bool(np.any(np.bincount(np.searchsorted(np.unique(ks), ks)) > 2))
+
+
+@pytest.mark.parametrize("seed", range(4))
 def test_plane_separated_pairs_never_cross_and_most_far_pairs_are_found(seed):
     """The prefilter only rules out pairs the exact test calls apart: on
     random, nearly coplanar, touching and offset (1e6) triangle pairs."""

@@ -1,0 +1,135 @@
+"""The fill's local region (patch._Region): on a large scan with few holes,
+vertex-face lists and near faces come from the faces around the loops,
+not from whole-mesh structures, and the repair is the same to the bit."""
+
+import numpy as np
+import pytest
+
+from eval import shapes
+from shellrepair import kernels, patch
+from shellrepair.io import Mesh
+from shellrepair.patch import _Context
+from shellrepair.topology import edge_topology
+
+pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="the region needs the compiled kernels")
+
+
+def _holed(sub=6, n_holes=3, radius=0.12, seed=1):
+    V, F = shapes.bumpy_sphere(sub, amplitude=0.03, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=n_holes, radius=radius, seed=seed)
+    return V2, F2
+
+
+def _ctx(V, F):
+    ctx = _Context(Mesh(V=V, F=F))
+    ctx.topo = edge_topology(F, len(V))
+    return ctx
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_faces_in_boxes_equal_the_brute_force_test(seed):
+    rng = np.random.default_rng(seed)
+    V, F = shapes.bumpy_sphere(3)
+    V = V * 100 + 1e6 if seed == 2 else V          # far from the origin
+    V[5] = np.nan if seed == 1 else V[5]           # a NaN vertex counts as meeting
+    c = V[rng.integers(10, len(V), size=1 + seed)]    # boxes around surface points
+    lo = c - rng.uniform(0.05, 0.5, size=c.shape) * np.nanstd(V, axis=0)
+    hi = c + rng.uniform(0.05, 0.5, size=c.shape) * np.nanstd(V, axis=0)
+    faces, fmin, fmax, inside = kernels.faces_in_boxes(V, F, lo, hi)
+    T = V[F]
+    tmin, tmax = T.min(axis=1), T.max(axis=1)
+    meets = np.zeros(len(F), bool)
+    for a, b in zip(lo, hi):
+        meets |= np.all((tmax >= a) & (tmin <= b), axis=1)
+    meets |= np.isnan(T).any(axis=(1, 2))
+    assert np.array_equal(faces, np.flatnonzero(meets)) and faces.size
+    ok = ~np.isnan(T[faces]).any(axis=(1, 2))
+    assert np.array_equal(fmin[ok], tmin[faces][ok]) and np.array_equal(fmax[ok], tmax[faces][ok])
+    vin = np.zeros(len(V), bool)
+    for a, b in zip(lo, hi):
+        vin |= np.all((V >= a) & (V <= b), axis=1)
+    assert np.array_equal(inside, vin)
+
+
+def test_the_region_lists_are_the_whole_mesh_lists_where_complete(monkeypatch):
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    V, F = _holed()
+    ctx = _ctx(V, F)
+    reg = ctx.region()
+    assert reg is not None and 0 < reg.faces.size < len(F)
+    order, start = kernels.vertex_faces(F, len(V))
+    for v in np.flatnonzero(reg.covered)[::7]:
+        assert np.array_equal(reg.vf_order[reg.vf_start[v]:reg.vf_start[v + 1]], order[start[v]:start[v + 1]])
+    loops = np.unique(ctx.topo.ends(ctx.topo.boundary_he))
+    assert reg.covered[loops].all()
+    # ring walks from the loops: the region's, then (their lists read) the whole mesh's
+    got = [ctx.ring_faces(loops, r) for r in (1, 2, 6)]
+    assert ctx._vf is None                         # answered from the region
+    assert ctx.faces_of(loops[:5]).size and ctx._vf is None
+    far = np.flatnonzero(~reg.covered)[:3]
+    ctx.faces_of(far)                              # outside it: the whole-mesh lists
+    assert ctx._vf is not None
+    assert all(np.array_equal(g, ctx.ring_faces(loops, r)) for g, r in zip(got, (1, 2, 6)))
+
+
+def test_near_faces_of_the_region_hold_every_face_meeting_the_box(monkeypatch):
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    V, F = _holed()
+    ctx = _ctx(V, F)
+    local, whole = ctx.index, ctx.whole_index()
+    assert isinstance(local, patch._LocalIndex)
+    assert np.array_equal(local.origin, whole.origin)
+    T = V[F]
+    tmin, tmax = T.min(axis=1), T.max(axis=1)
+    reg = ctx.region()
+    rng = np.random.default_rng(0)
+    for k in range(len(reg.lo)):
+        c = 0.5 * (reg.lo[k] + reg.hi[k])
+        h = 0.2 * (reg.hi[k] - reg.lo[k]) * rng.uniform(0.2, 1)
+        lo, hi = c - h, c + h
+        meets = np.flatnonzero(np.all((tmax >= lo) & (tmin <= hi), axis=1))
+        a = local.faces_near(lo, hi)
+        assert np.all(np.diff(a) > 0) and np.isin(meets, a).all() and np.isin(meets, whole.faces_near(lo, hi)).all()
+    lo, hi = V.min(axis=0), V.max(axis=0)          # beyond the region: the whole-mesh index answers
+    assert np.array_equal(local.faces_near(lo, hi), whole.faces_near(lo, hi))
+
+
+@pytest.mark.parametrize("grow, rings", [(patch.LOCAL_GROW, patch.LOCAL_RING_EDGES), (0.0, 0)])
+def test_a_repair_from_the_region_equals_the_whole_mesh_repair(grow, rings, monkeypatch):
+    """Bit for bit, with the region as built and with boxes so tight that
+    queries fall outside them (the whole-mesh structures answer those)."""
+    from shellrepair.repair import repair_mesh
+
+    V, F = _holed(n_holes=4, radius=0.1, seed=3)
+    out = {}
+    real = patch._build_region
+    for local in (False, True):
+        monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0 if local else 10 ** 12)
+        monkeypatch.setattr(patch, "LOCAL_GROW", grow)
+        monkeypatch.setattr(patch, "LOCAL_RING_EDGES", rings)
+        built = []
+        monkeypatch.setattr(patch, "_build_region", lambda ctx: built.append(real(ctx)) or built[-1])
+        out[local] = repair_mesh(Mesh(V=V, F=F))
+        assert (built[0] is not None) == local
+    (a, ra), (b, rb) = out[False], out[True]
+    assert ra["holes_after"] == rb["holes_after"] == 0 and ra["holes_before"] == 4
+    assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V)
+    assert np.array_equal(a.face_filled, b.face_filled)
+
+
+def test_no_region_for_many_loops_or_a_small_mesh(monkeypatch):
+    V, F = _holed(sub=4, n_holes=12, radius=0.12, seed=2)
+    assert _ctx(V, F).region() is None             # small mesh (LOCAL_MIN_FACES)
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    assert _ctx(V, F).region() is None             # more loops than boxes
+    ctx = _Context(Mesh(V=V, F=F))
+    assert ctx.region() is None                    # no edge topology given
+
+
+def test_a_repair_from_the_region_with_two_processes_equals_one(monkeypatch):
+    from shellrepair.repair import repair_mesh
+
+    V, F = _holed(n_holes=4, radius=0.1, seed=3)
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    (a, _), (b, _) = repair_mesh(Mesh(V=V, F=F)), repair_mesh(Mesh(V=V, F=F), jobs=2)
+    assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V) and len(a.F) > len(F)
