@@ -205,34 +205,49 @@ def _fma(typingctx, a, b, c):
     return sig, codegen
 
 
+#: 1.5 * 2^52: adding it rounds a float below 2^51 in magnitude to an integer,
+#: which then sits in the low bits of the sum's mantissa
+_SHIFTER = 6755399441055744.0
+
+
 @_inline
-def _exp_poly(r):
-    """exp(r) - 1 - r for |r| <= ln2/2 by Taylor to degree 13 (truncation < 4e-18), Horner with FMA."""
-    p = _fma(1.0 / 6227020800.0, r, 1.0 / 479001600.0)
-    p = _fma(p, r, 1.0 / 39916800.0)
-    p = _fma(p, r, 1.0 / 3628800.0)
-    p = _fma(p, r, 1.0 / 362880.0)
-    p = _fma(p, r, 1.0 / 40320.0)
-    p = _fma(p, r, 1.0 / 5040.0)
-    p = _fma(p, r, 1.0 / 720.0)
-    p = _fma(p, r, 1.0 / 120.0)
-    p = _fma(p, r, 1.0 / 24.0)
-    p = _fma(p, r, 1.0 / 6.0)
-    p = _fma(p, r, 0.5)
-    return p * r * r
+def _exp_parts(x):
+    """exp(x) = (1 + em1) f1 f2 with x = k ln2 + r, |r| <= ~ln2/2, f1 f2 = 2^k.
+
+    k = round(x / ln2) by the shifter (no float-to-int conversion), r by
+    Cody & Waite with FMA, exp(r) - 1 = r + r^2 q(r) by Taylor to degree 13
+    (truncation < 4e-18) in Horner form with FMA.  2^k is built from its
+    bits as two normal factors, so that subnormal results and k = 1024
+    (overflow to inf) come out right.  x is clamped to [-746, 710] first.
+    """
+    x = min(max(x, -746.0), 710.0)
+    t = _fma(x, _INV_LN2, _SHIFTER)
+    k = t - _SHIFTER
+    ki = _float_to_bits(t) - _float_to_bits(_SHIFTER)
+    r = _fma(-k, _LN2_HI, x)  # exact: k * _LN2_HI has at most 53 bits for |k| < 2^11
+    r = _fma(-k, _LN2_LO, r)
+    q = _fma(1.0 / 6227020800.0, r, 1.0 / 479001600.0)
+    q = _fma(q, r, 1.0 / 39916800.0)
+    q = _fma(q, r, 1.0 / 3628800.0)
+    q = _fma(q, r, 1.0 / 362880.0)
+    q = _fma(q, r, 1.0 / 40320.0)
+    q = _fma(q, r, 1.0 / 5040.0)
+    q = _fma(q, r, 1.0 / 720.0)
+    q = _fma(q, r, 1.0 / 120.0)
+    q = _fma(q, r, 1.0 / 24.0)
+    q = _fma(q, r, 1.0 / 6.0)
+    q = _fma(q, r, 0.5)
+    em1 = _fma(q, r * r, r)  # exp(r) - 1
+    k1 = ki >> 1
+    k2 = ki - k1
+    return em1, _bits_to_float((k1 + 1023) << 52), _bits_to_float((k2 + 1023) << 52)
 
 
 @_inline
 def vexp(x):
     """exp(x): 0 below -746, inf above 709.78, branch-free in between."""
-    x = min(max(x, -746.0), 710.0)
-    k = math.floor(x * _INV_LN2 + 0.5)
-    r = (x - k * _LN2_HI) - k * _LN2_LO
-    p = 1.0 + (r + _exp_poly(r))
-    ki = np.int64(k)
-    k1 = ki >> 1  # 2^k as two normal factors, so that subnormal results and
-    k2 = ki - k1  # k = 1024 (overflow to inf) come out right
-    return p * _bits_to_float((k1 + 1023) << 52) * _bits_to_float((k2 + 1023) << 52)
+    em1, f1, f2 = _exp_parts(x)
+    return (1.0 + em1) * f1 * f2
 
 
 @_inline
@@ -242,15 +257,7 @@ def vexpm1(x):
     One polynomial for both branches: above x = 700 (where 2^k may overflow
     and the -1 is lost anyway) it returns vexp's value, bit for bit.
     """
-    x = min(max(x, -746.0), 710.0)
-    k = math.floor(x * _INV_LN2 + 0.5)
-    r = (x - k * _LN2_HI) - k * _LN2_LO
-    em1 = r + _exp_poly(r)  # exp(r) - 1, |r| <= ln2/2
-    ki = np.int64(k)
-    k1 = ki >> 1
-    k2 = ki - k1
-    f1 = _bits_to_float((k1 + 1023) << 52)
-    f2 = _bits_to_float((k2 + 1023) << 52)
+    em1, f1, f2 = _exp_parts(x)
     s = f1 * f2  # 2^k
     small = (s - 1.0) + s * em1
     big = (1.0 + em1) * f1 * f2  # vexp(x)
