@@ -688,6 +688,14 @@ def mean_index(m, eta, K_first, K_step, K_last, NK, dk0, k0, L0, dL, NL):
 @_inline
 def mean_combine(j, k, wj, wk, cq, kap_c, dk0, k0, M, P, Q0, Q1):
     """The four node means (shifted to the query's critical angle for eta < 1), in NumPy's sum order."""
+    if not kap_c < 0.0:  # eta >= 1: no slice is read shifted, the plain bilinear read of the means
+        ak0 = 1.0 - wk
+        aj0 = 1.0 - wj
+        out = aj0 * ak0 * M[j, k]
+        out = out + wj * ak0 * M[j + 1, k]
+        out = out + aj0 * wk * M[j, k + 1]
+        out = out + wj * wk * M[j + 1, k + 1]
+        return _clip(out, 0.0, 1.0)
     out = 0.0
     for dk in range(2):
         ak = 1.0 - wk if dk == 0 else wk
@@ -882,9 +890,12 @@ def km_reflectance_1(K, S, X, Rg):
     z = 2.0 * beta * Xf
     y = Xf * T * (1.0 + Ri)  # = z / delta, finite at delta = 0
     e1 = -vexpm1(-z)  # 1 - exp(-z)
-    zs = z if z > 1e-8 else 1.0
-    phi1 = e1 / zs if z > 1e-8 else 1.0 - 0.5 * z  # (1 - exp(-z)) / z, km._phi1
-    q = e1 / max(delta, 1e-300) if delta > 1e-8 else y * phi1
+    # q = e1 / delta, or y phi1(z) with phi1 = e1 / z (km._phi1) near delta = 0:
+    # one division serves both branches (same operations as the oracle's)
+    big_d = delta > 1e-8
+    big_z = z > 1e-8
+    qd = e1 / (max(delta, 1e-300) if big_d else (z if big_z else 1.0))
+    q = qd if big_d else (y * qd if big_z else y * (1.0 - 0.5 * z))
     d = Ri - Rg
     num = Rg * (1.0 + Ri) + q * d
     den = (1.0 + Ri) + Ri * q * d
@@ -928,7 +939,8 @@ def km_reflectance(lo, hi, K, S, X, Rg, out):
 
 @_inline
 def dipole_A_1(eta):
-    F_dr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
+    ie = 1.0 / eta  # one division for 1/eta^2 and 1/eta (within 2 ulp of dividing twice)
+    F_dr = -1.440 * (ie * ie) + 0.710 * ie + 0.668 + 0.0636 * eta
     return (1.0 + F_dr) / (1.0 - F_dr)
 
 
@@ -957,7 +969,7 @@ def _dipole_geometry(r, sa, ss, eta):
     zv = zr * (1.0 + 4.0 / 3.0 * dipole_A_1(eta))
     dr = math.sqrt(r * r + zr * zr)
     dv = math.sqrt(r * r + zv * zv)
-    return ss / st, s_tr, zr, zv, dr, dv
+    return ss * zr, s_tr, zr, zv, dr, dv  # alpha' = ss / st by the reciprocal already formed
 
 
 @jit
