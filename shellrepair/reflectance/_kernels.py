@@ -1183,7 +1183,13 @@ def run(kernel, P, *args):
     if k <= 1 or threading.current_thread().name.startswith("shellrepair-shade"):
         kernel(0, P, *args)
         return
-    edges = np.linspace(0, P, k + 1).astype(np.int64)
-    futures = [_pool(k).submit(kernel, int(edges[t]), int(edges[t + 1]), *args) for t in range(k)]
-    for f in futures:
-        f.result()
+    # k - 1 ranges to the pool, the first one on this thread (it releases the
+    # GIL inside the kernel): one hand-off fewer, and no thread sits idle
+    edges = [P * t // k for t in range(k + 1)]
+    pool = _pool(k - 1)
+    futures = [pool.submit(kernel, edges[t], edges[t + 1], *args) for t in range(1, k)]
+    try:
+        kernel(edges[0], edges[1], *args)
+    finally:
+        for f in futures:
+            f.result()
