@@ -76,6 +76,7 @@ def cases():
     Kc, S, X, Rg, R3 = p["K"], p["S"], p["X"], p["Rg"], p["R3"]
     nk = (np.array([0.22, 1.02, 1.24]), np.array([3.747, 2.577, 2.397]))
     up = np.array([0.0, 0.0, 1.0])
+    eta_pole = np.random.default_rng(5).uniform(3.8, 3.95, len(c))
     return {
         "beckmann_D": (mf.beckmann_D, mf._beckmann_D_np, (c, m)),
         "beckmann_D broadcast": (mf.beckmann_D, mf._beckmann_D_np, (c[:40, None], m[None, :50])),
@@ -104,6 +105,10 @@ def cases():
         "dipole_rd": (dp.dipole_rd, dp._dipole_rd_np, (Rg, eta)),
         "dipole_tail_fraction": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np, (X, Kc, S, eta)),
         "dipole_profile": (dp.dipole_profile, dp._dipole_profile_np, (X, Kc + 1e-3, S, eta)),
+        # eta ~ 3.86: F_dr -> 1, where A = (1 + F_dr) / (1 - F_dr) magnifies an ulp of F_dr
+        "dipole_rd near the F_dr pole": (dp.dipole_rd, dp._dipole_rd_np, (Rg, eta_pole)),
+        "dipole_tail_fraction near the F_dr pole": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np,
+                                                    (X, Kc + 1e-3, S, eta_pole)),
     }
 
 
