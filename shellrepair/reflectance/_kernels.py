@@ -137,9 +137,12 @@ def _prefer_wide_vectors(typingctx):
     sig = types.void()
 
     def codegen(context, builder, signature, args):
-        attrs = builder.function.attributes
-        set.add(attrs, '"prefer-vector-width"="512"')
-        set.add(attrs, '"min-legal-vector-width"="512"')
+        try:  # llvmlite's attribute set checks names against its list; these are LLVM's string attributes
+            attrs = builder.function.attributes
+            set.add(attrs, '"prefer-vector-width"="512"')
+            set.add(attrs, '"min-legal-vector-width"="512"')
+        except (AttributeError, TypeError):  # another llvmlite: keep LLVM's default width, same results
+            pass
         return context.get_dummy_value()
 
     return sig, codegen
