@@ -347,6 +347,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if order != 1 and edge_on:
         options = [("flat cap", 1)] + options
     faired_rounds = 0
+    faulty = []            # (patch, faulty triangles, option) of the attempts that failed their checks
     first = True
     scan_aware = False
     size = None            # new vertices of the first faired patch: what a faired retry costs
@@ -375,6 +376,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
                 size = len(patch.P)
                 budget.spend(patch)
                 why0, bad0 = _check_patch(ctx, patch)
+                faulty.append((patch, bad0, OPTION_NAMES[name0].format(order=order0)))
                 if why0 is None:
                     patch.option = OPTION_NAMES[name0].format(order=order0)
                     return Outcome(patch, "", time.perf_counter() - t0, reasons)
@@ -420,6 +422,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
             size = len(patch.P) if size is None else size
             budget.spend(patch)
             why, bad = _check_patch(ctx, patch)
+            faulty.append((patch, bad, OPTION_NAMES[name].format(order=o)))
             pinned = None
             for _grow in range(PIN_ROUNDS if why is not None and bad.size else 0):
                 if not budget.affords(size):
@@ -458,7 +461,35 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if flat_ok is not None:
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
+    mended = _mend_last(ctx, faulty, reasons)
+    if mended is not None:
+        return Outcome(mended, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+
+
+#: Failed attempts the last layer (:func:`~shellrepair.mend.mend_patch`)
+#: tries to mend, those with the fewest faulty triangles first.
+MEND_ATTEMPTS = 2
+
+
+def _mend_last(ctx, faulty, reasons):
+    """The last layer: the failed attempts with the fewest faults, mended
+    where they fail (:mod:`~shellrepair.mend`); the mended patch, or None
+    (each failure's cause appended to ``reasons``)."""
+    from .mend import mend_patch
+
+    tried = 0
+    for patch, bad, option in sorted((f for f in faulty if f[1].size and f[0].disc), key=lambda f: f[1].size):
+        if tried == MEND_ATTEMPTS:
+            break
+        tried += 1
+        res = mend_patch(ctx, patch, bad, _check_patch)
+        if res.patch is not None:
+            res.patch.option = (f"{option}, mended: {res.regions} region(s) around {bad.size} faulty triangles "
+                                f"re-triangulated")
+            return res.patch
+        reasons.append(f"last layer, mending the {option} patch ({bad.size} faulty triangles): {res.reason}")
+    return None
 
 
 #: Which energy decides tube against caps: 0 thin plate ∫(2H)², 1 curvature
