@@ -193,6 +193,7 @@ class _Budget:
         self.seconds = share * (HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges)
         self.t0 = time.perf_counter()
         self.spent = 0
+        self.excluded = 0.0     # seconds of the last layer, not counted against the wall clock
 
     def elapsed(self):
         return time.perf_counter() - self.t0
@@ -225,6 +226,14 @@ class _Budget:
 
     def absorb(self, part):
         self.spent += part.spent
+        self.exclude(part.excluded)
+
+    def exclude(self, seconds):
+        """Leave ``seconds`` (the last layer's, itself bounded) out of the
+        wall-clock backstop, so that it does not starve what follows (a
+        band's other cap)."""
+        self.t0 += seconds
+        self.excluded += seconds
 
     def describe(self):
         return (f"work budget: {self.spent} of {int(self.vertices)} patch vertices, "
@@ -461,7 +470,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if flat_ok is not None:
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
+    t_mend = time.perf_counter()
     mended = _mend_last(ctx, faulty, reasons)
+    budget.exclude(time.perf_counter() - t_mend)
     if mended is not None:
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
@@ -472,23 +483,25 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
 MEND_ATTEMPTS = 2
 
 
-def _mend_last(ctx, faulty, reasons):
+def _mend_last(ctx, faulty, reasons, check=_check_patch, what="patch"):
     """The last layer: the failed attempts with the fewest faults, mended
     where they fail (:mod:`~shellrepair.mend`); the mended patch, or None
-    (each failure's cause appended to ``reasons``)."""
+    (each failure's cause appended to ``reasons``). ``faulty``: (patch,
+    faulty triangles, option) per failed attempt; ``check`` as
+    :func:`_check_patch`."""
     from .mend import mend_patch
 
     tried = 0
-    for patch, bad, option in sorted((f for f in faulty if f[1].size and f[0].disc), key=lambda f: f[1].size):
+    for patch, bad, option in sorted((f for f in faulty if f[1].size), key=lambda f: f[1].size):
         if tried == MEND_ATTEMPTS:
             break
         tried += 1
-        res = mend_patch(ctx, patch, bad, _check_patch)
+        res = mend_patch(ctx, patch, bad, check)
         if res.patch is not None:
             res.patch.option = (f"{option}, mended: {res.regions} region(s) around {bad.size} faulty triangles "
                                 f"re-triangulated")
             return res.patch
-        reasons.append(f"last layer, mending the {option} patch ({bad.size} faulty triangles): {res.reason}")
+        reasons.append(f"last layer, mending the {option} {what} ({bad.size} faulty triangles): {res.reason}")
     return None
 
 
@@ -542,6 +555,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         Pg, Tg = np.zeros((0, 3)), None
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
+    tube_faults = []       # (tube, faulty triangles, how it was started) of the tubes that failed their checks
     # edges the scan has between the two loops' vertices (other than the
     # loops' own edges): a tube that made one again would be non-manifold
     Fl = ctx.F[ctx.faces_of(loop)]
@@ -572,7 +586,14 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             p.option = f"tube to loop {B.id} ({first}), {how}"
             return p, bad, p
         why_tube = f"{first}: {why}"
+        tube_faults.append((p, bad, first))
         return None, bad, p
+
+    def check_tube(ctx_, p):
+        why, bad = _check_patch(ctx_, p)
+        if why is None and any(e in scan_edges for e in _scan_edges(p)):
+            why = "the tube would repeat an edge of the scan"   # (no triangles to blame: not mended further)
+        return why, bad
 
     def caps_crossing(caps):
         """Why the two caps cannot both be used, or ''."""
@@ -673,6 +694,15 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             budget.spent += spent
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
+    if tube is None and not lean and tube_faults:
+        # the last layer: the failed tube with the fewest faults, mended where it fails
+        t_mend = time.perf_counter()
+        notes = []
+        tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({first})") for p, b, first in tube_faults],
+                          notes, check=check_tube, what="tube")
+        if notes:
+            why_tube += "; " + "; ".join(notes)
+        budget.exclude(time.perf_counter() - t_mend)
     seen_both_ways = tube is not None and mutual and mode != "always"
     if caps is None and not seen_both_ways:   # (seen both ways: the tube continues the surface)
         if tube is not None:    # one attempt per cap

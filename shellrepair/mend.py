@@ -49,7 +49,7 @@ MEND_ROUNDS = 6
 MEND_MAX_LOOP = 120
 #: Sub-loops up to this many edges also try every triangle of their
 #: vertices (C(m,3) candidates) when the Delaunay ones have no answer.
-MEND_ALL_MAX = 60
+MEND_ALL_MAX = 30
 #: Triangles with less area than this fraction of their longest edge
 #: squared are degenerate candidates (slivers fold onto neighbours).
 MEND_MIN_ASPECT = 1e-6
@@ -197,7 +197,7 @@ def _fill_region(ctx, R, L):
         forb.update(zip(lo[chord].tolist(), hi[chord].tolist()))
     # rim edges (loop positions i -> i+1, both below k) and the scan's own edges
     ga, gb = L, np.roll(L, -1)
-    rim = (ga < k) & (gb < k) & (gb == (ga + 1) % k)
+    rim = (ga < k) & (gb < k) & (gb == (ga + 1) % k) & ~en.any(axis=1)
     en[rim] = R.rim_normals[ga[rim]]
     onloop = np.flatnonzero(L < k)
     if onloop.size > 1:
@@ -230,6 +230,8 @@ def _lazy_search(ctx, R, L, Q, cand, en, forb, kept_index):
     order = np.argsort(key)
     for rnd in range(MEND_LAZY_ROUNDS + 1):
         if rnd == MEND_LAZY_ROUNDS:       # the last round: ask about every candidate left
+            if len(cand) > MEND_TEST_ALL:
+                return None
             ask = np.flatnonzero(ok & (verdict == 0))
             if ask.size:
                 verdict[ask] = np.where(_allowed(ctx, R, L, cand[ask], kept_index), 1, -1)
@@ -250,7 +252,9 @@ def _lazy_search(ctx, R, L, Q, cand, en, forb, kept_index):
 
 
 #: Rounds of the lazy search before every candidate is tested at once.
-MEND_LAZY_ROUNDS = 32
+MEND_LAZY_ROUNDS = 16
+#: Candidate sets up to this size are tested whole after the lazy rounds.
+MEND_TEST_ALL = 2000
 
 
 def _not_degenerate(C):
@@ -332,6 +336,7 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
         R = _region_context(X, gid, T, keep, forbidden, rim_normals, k)
         new_T = []
         failed = []
+        widest = 0
         for comp, L in loops:
             key = tuple(L.tolist())
             if key not in memo:       # the same sub-loop of the same patch: the same answer
@@ -339,14 +344,15 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
             S = memo[key]
             if S is None:
                 failed.append(comp)
+                widest = max(widest, len(L))
             else:
                 new_T.append(S)
         if failed:
             for c in failed:
                 grow[c] = True
             region = _grow(T, region & grow, 1) | region
-            why = (f"{len(failed)} region(s) around the faults have no triangulation that crosses neither "
-                   f"the scan nor the rest of the patch")
+            why = (f"{len(failed)} region(s) around the faults (up to {widest} edges round) have no "
+                   f"triangulation that crosses neither the scan nor the rest of the patch")
             continue
         regions = len(loops)
         T2 = np.vstack([T[keep]] + new_T)

@@ -1,0 +1,116 @@
+"""The fill's last layer (shellrepair.mend): a patch that crosses the scan
+in a few places is cut there, and each cut-out region is triangulated again
+with triangles that cross neither the scan nor the rest of the patch.
+
+* a patch whose vertices near one side of the rim were pushed through the
+  scan comes back crossing nothing: a disc on the same loop that keeps the
+  patch away from the fault, its new vertices among the old ones;
+* a scan pillar standing through the opening (linked with the loop: every
+  surface spanning the loop crosses it) cannot be mended: the fill fails
+  saying that its last layer found no triangulation that avoids the scan,
+  and says it quickly;
+* the fill keeps every answer the earlier layers give (the last layer runs
+  only where they all fail).
+"""
+
+import time
+
+import numpy as np
+
+from eval import shapes
+from shellrepair import Mesh
+from shellrepair.fill import _check_patch, _fill_one
+from shellrepair.holes import boundary_loops
+from shellrepair.mend import mend_patch
+from shellrepair.patch import _Context, build_patch
+
+
+def _sheet_with_a_hole(n=25, half=0.2):
+    """A unit sheet (z = 0) with a square hole of side ``2 * half`` in its middle."""
+    V, F = shapes.grid(n, n)
+    c = V[F].mean(axis=1)
+    gone = (np.abs(c[:, 0] - 0.5) < half) & (np.abs(c[:, 1] - 0.5) < half)
+    V2, F2, _ = shapes.remove_faces(V, F, gone)
+    loops, _ = boundary_loops(F2, len(V2))
+    return V2, F2, min(loops, key=len)   # the hole (the other loop is the sheet's edge)
+
+
+def _is_disc_on(T, loop):
+    """Every rim edge once (reversed), every inner edge twice, Euler characteristic 1."""
+    k = len(loop)
+    he = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    keys = set(map(tuple, he.tolist()))
+    if len(keys) != len(he):
+        return False
+    rim = {((i + 1) % k, i) for i in range(k)}
+    if not rim <= keys:
+        return False
+    if any((b, a) not in keys for a, b in keys - rim):
+        return False
+    edges = {tuple(sorted(e)) for e in keys}
+    return int(T.max()) + 1 - len(edges) + len(T) == 1
+
+
+def test_a_patch_pushed_through_the_scan_near_its_rim_is_mended():
+    V, F, loop = _sheet_with_a_hole()
+    ctx = _Context(Mesh(V=V, F=F))
+    patch = build_patch(ctx, 0, loop, order=1, smooth=0, fair=False)    # the flat refined patch
+    assert _check_patch(ctx, patch)[0] is None
+    # push the new vertices next to the side x = 0.3 out over the scan,
+    # every other one above and below it: their triangles cut through it
+    h = float(np.linalg.norm(V[loop[1]] - V[loop[0]]))
+    near = np.flatnonzero(patch.P[:, 0] < 0.3 + 1.2 * h)
+    assert near.size >= 3
+    patch.P[near, 0] -= 2.0 * h
+    patch.P[near, 2] += np.where(np.arange(near.size) % 2, 0.3, -0.3) * h
+    why, bad = _check_patch(ctx, patch)
+    assert why is not None and "cross the scan" in why
+    t = time.perf_counter()
+    res = mend_patch(ctx, patch, bad, _check_patch)
+    seconds = time.perf_counter() - t
+    assert res.patch is not None, res.reason
+    assert res.reason == ""
+    assert _check_patch(ctx, res.patch)[0] is None
+    assert np.array_equal(res.patch.loop, loop)
+    assert _is_disc_on(res.patch.T, loop)
+    # away from the fault the patch is the one it was: its new vertices are old ones
+    assert all((np.abs(patch.P - p).sum(axis=1) == 0).any() for p in res.patch.P)
+    assert len(res.patch.P) >= len(patch.P) - 3 * near.size
+    assert res.regions >= 1
+    assert seconds < 5.0
+
+
+def _pillar(x, y, z0, z1, r, n=6):
+    """A closed n-sided prism around the vertical line (x, y), from z0 to z1."""
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    ring = np.column_stack([x + r * np.cos(th), y + r * np.sin(th)])
+    V = np.vstack([np.column_stack([ring, np.full(n, z0)]), np.column_stack([ring, np.full(n, z1)]),
+                   [[x, y, z0], [x, y, z1]]])
+    F = []
+    for i in range(n):
+        j = (i + 1) % n
+        F += [[i, j, n + j], [i, n + j, n + i], [2 * n, j, i], [2 * n + 1, n + i, n + j]]
+    return V, np.asarray(F, np.int64)
+
+
+def test_a_pillar_through_the_opening_fails_fast_and_names_the_last_layer():
+    V, F, loop = _sheet_with_a_hole()
+    Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
+    V2 = np.vstack([V, Vp])
+    F2 = np.vstack([F, Fp + len(V)])
+    ctx = _Context(Mesh(V=V2, F=F2))
+    t = time.perf_counter()
+    out = _fill_one(ctx, 0, loop, 2, 0)
+    seconds = time.perf_counter() - t
+    assert out.patch is None
+    assert "last layer" in out.reason
+    assert "crosses neither the scan" in out.reason or "grew to" in out.reason
+    assert seconds < 10.0
+
+
+def test_the_last_layer_leaves_a_hole_the_earlier_layers_fill_alone():
+    V, F, loop = _sheet_with_a_hole()
+    ctx = _Context(Mesh(V=V, F=F))
+    out = _fill_one(ctx, 0, loop, 2, 0)
+    assert out.patch is not None
+    assert "mended" not in out.patch.option
