@@ -314,7 +314,7 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
     fault[np.asarray(bad, np.int64)] = True
     region = _grow(T, fault, rings)
     memo = {}
-    why = "faults at the last round"
+    why = f"faults left after {rounds} rounds"
     regions = 0
     for rnd in range(1, rounds + 1):
         comps = _components(T, np.flatnonzero(region))
@@ -332,6 +332,8 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
                 loops.append((comp, L))
         if grow.any():
             region = _grow(T, region & grow, 1) | region
+            why = (f"{int(np.count_nonzero([grow[c[0]] for c in comps]))} region(s) around the faults are "
+                   f"not discs (they surround kept triangles or pinch at a vertex) after {rnd} growth(s)")
             continue
         R = _region_context(X, gid, T, keep, forbidden, rim_normals, k)
         new_T = []
@@ -354,7 +356,7 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
             why = (f"{len(failed)} region(s) around the faults (up to {widest} edges round) have no "
                    f"triangulation that crosses neither the scan nor the rest of the patch")
             continue
-        regions = len(loops)
+        regions += len(loops)
         T2 = np.vstack([T[keep]] + new_T)
         # drop the new vertices no triangle uses any more; renumber
         used = np.zeros(len(X), bool)
@@ -369,7 +371,7 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
         w, b2 = check(ctx, cand)
         if w is None:
             return MendResult(cand, "", regions, rnd)
-        why = f"after re-triangulating {regions} region(s): {w}"
+        why = f"after re-triangulating {len(loops)} region(s): {w}"
         if b2.size == 0:
             break
         # carry on with the mended patch: its faults, grown, are the next regions

@@ -8,12 +8,10 @@ with triangles that cross neither the scan nor the rest of the patch.
 * a scan pillar standing through the opening (linked with the loop: every
   surface spanning the loop crosses it) cannot be mended: the fill fails
   saying that its last layer found no triangulation that avoids the scan,
-  and says it quickly;
+  within a bounded number of rounds and region sizes;
 * the fill keeps every answer the earlier layers give (the last layer runs
   only where they all fail).
 """
-
-import time
 
 import numpy as np
 
@@ -65,9 +63,7 @@ def test_a_patch_pushed_through_the_scan_near_its_rim_is_mended():
     patch.P[near, 2] += np.where(np.arange(near.size) % 2, 0.3, -0.3) * h
     why, bad = _check_patch(ctx, patch)
     assert why is not None and "cross the scan" in why
-    t = time.perf_counter()
     res = mend_patch(ctx, patch, bad, _check_patch)
-    seconds = time.perf_counter() - t
     assert res.patch is not None, res.reason
     assert res.reason == ""
     assert _check_patch(ctx, res.patch)[0] is None
@@ -77,7 +73,6 @@ def test_a_patch_pushed_through_the_scan_near_its_rim_is_mended():
     assert all((np.abs(patch.P - p).sum(axis=1) == 0).any() for p in res.patch.P)
     assert len(res.patch.P) >= len(patch.P) - 3 * near.size
     assert res.regions >= 1
-    assert seconds < 5.0
 
 
 def _pillar(x, y, z0, z1, r, n=6):
@@ -99,13 +94,27 @@ def test_a_pillar_through_the_opening_fails_fast_and_names_the_last_layer():
     V2 = np.vstack([V, Vp])
     F2 = np.vstack([F, Fp + len(V)])
     ctx = _Context(Mesh(V=V2, F=F2))
-    t = time.perf_counter()
     out = _fill_one(ctx, 0, loop, 2, 0)
-    seconds = time.perf_counter() - t
     assert out.patch is None
     assert "last layer" in out.reason
     assert "crosses neither the scan" in out.reason or "grew to" in out.reason
-    assert seconds < 10.0
+
+
+def test_a_pillar_is_given_up_within_the_rounds_and_the_region_bound():
+    """The bounded work behind a fast failure: at most ``MEND_ROUNDS`` rounds,
+    no region past ``MEND_MAX_LOOP`` edges is searched."""
+    from shellrepair.mend import MEND_MAX_LOOP, MEND_ROUNDS
+
+    V, F, loop = _sheet_with_a_hole()
+    Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
+    ctx = _Context(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
+    patch = build_patch(ctx, 0, loop, order=2, smooth=0)
+    why, bad = _check_patch(ctx, patch)
+    assert why is not None and "cross the scan" in why
+    res = mend_patch(ctx, patch, bad, _check_patch)
+    assert res.patch is None
+    assert res.rounds <= MEND_ROUNDS
+    assert "crosses neither the scan" in res.reason or f"past {MEND_MAX_LOOP}" in res.reason
 
 
 def test_the_last_layer_leaves_a_hole_the_earlier_layers_fill_alone():
