@@ -9,6 +9,8 @@ with triangles that cross neither the scan nor the rest of the patch.
   surface spanning the loop crosses it) cannot be mended: the fill fails
   saying that its last layer found no triangulation that avoids the scan,
   within a bounded number of rounds and region sizes;
+* a hole round a scan tongue twisted by 270° defeats every earlier layer
+  and is closed by mending;
 * the fill keeps every answer the earlier layers give (the last layer runs
   only where they all fail).
 """
@@ -123,3 +125,45 @@ def test_the_last_layer_leaves_a_hole_the_earlier_layers_fill_alone():
     out = _fill_one(ctx, 0, loop, 2, 0)
     assert out.patch is not None
     assert "mended" not in out.patch.option
+
+
+def _sheet_with_a_twisted_tongue(twist, dip, n=21, width=2, length=0.28):
+    """A unit sheet (z = 0) with a square hole (side 0.6) and a tongue of
+    scan, ``width`` cells wide, reaching from the hole's side x = 0.2 a
+    length ``length`` into it, twisted about its axis by up to ``twist``
+    (radians, at its tip) and dipped by up to ``dip`` below the sheet
+    halfway along: the rim runs along both sides of the tongue, its scan
+    faces turning over and back."""
+    V, F = shapes.grid(n, n)
+    h = 1.0 / (n - 1)
+    c = V[F].mean(axis=1)
+    hole = (np.abs(c[:, 0] - 0.5) < 0.3) & (np.abs(c[:, 1] - 0.5) < 0.3)
+    tongue = (c[:, 0] < 0.2 + length + 1e-9) & (np.abs(c[:, 1] - 0.5) < width * h / 2 + 1e-9)
+    V = V.copy()
+    t = np.clip((V[:, 0] - 0.2) / length, 0, 1)
+    on = (V[:, 0] > 0.2 + 1e-9) & (np.abs(V[:, 1] - 0.5) <= width * h / 2 + 1e-9)
+    y = V[on, 1] - 0.5
+    V[on, 1] = 0.5 + y * np.cos(twist * t[on])
+    V[on, 2] = y * np.sin(twist * t[on]) - dip * np.sin(np.pi * t[on])
+    V2, F2, _ = shapes.remove_faces(V, F, hole & ~tongue)
+    loops, _ = boundary_loops(F2, len(V2))
+    return V2, F2, min(loops, key=len)
+
+
+def test_a_hole_round_a_twisted_tongue_the_earlier_layers_leave_open_is_mended(monkeypatch):
+    """Twisted by 270° and dipped by 0.1: every faired patch and every flat
+    triangulation the earlier layers try crosses the tongue ("the
+    triangulation still crosses the scan after re-routing N chords"); the
+    last layer mends the faired patch where it crosses, and the result
+    passes every check."""
+    from shellrepair import fill
+
+    monkeypatch.setattr(fill, "HOLE_SECONDS", 1e9)         # the work budget alone: the same on any machine
+    V, F, loop = _sheet_with_a_twisted_tongue(1.5 * np.pi, 0.1)
+    ctx = _Context(Mesh(V=V, F=F))
+    out = _fill_one(ctx, 0, loop, 2, 0)
+    assert any("still crosses the scan after re-routing" in r for r in out.reasons)
+    assert out.patch is not None, out.reason
+    assert "mended" in out.patch.option
+    assert _check_patch(ctx, out.patch)[0] is None
+    assert _is_disc_on(out.patch.T, loop)
