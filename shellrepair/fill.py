@@ -363,7 +363,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     t_round = None
     for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 2):
         last = 0.0 if t_round is None else time.perf_counter() - t_round   # the last round's seconds
-        if budget.late(last):
+        # (the first round always: a band's cap whose share of the time is
+        # already spent still gets its first attempt, as the budget promises)
+        if t_round is not None and budget.late(last):
             reasons.append(f"gave up: {budget.describe()}, {len(avoid)} chords re-routed")
             break
         t_round = time.perf_counter()

@@ -16,7 +16,10 @@ sub-loops around the faults:
    that cross neither the scan nor the patch kept around it, repeat no edge
    the two already have, and are not degenerate: the triangles of the
    sub-loop's 3D Delaunay tetrahedralization first (they never cross each
-   other), then every triangle of its vertices (``MEND_ALL_MAX``);
+   other), then every triangle of its vertices (``MEND_ALL_MAX``); where
+   none avoids the scan, a fan around one new vertex (a Steiner point: one
+   of the region's own patch vertices, or a point on the sub-loop's axis)
+   whose triangles cross nothing (:func:`_fan`);
 3. the mended patch is checked whole; regions whose sub-loop has no such
    triangulation, and new faults, are grown and cut again, at most
    ``MEND_ROUNDS`` times.
@@ -170,7 +173,7 @@ def _region_context(X, gid, T, keep, forbidden, rim_normals, k):
     return _Region(X, gid, T, keep, owner[order], start, C.min(axis=1), C.max(axis=1), forbidden, rim_normals, k)
 
 
-def _fill_region(ctx, R, L):
+def _fill_region(ctx, R, L, comp):
     """Triangles (patch numbering) closing the sub-loop ``L``, or None."""
     m = len(L)
     X, T, k = R.X, R.T, R.k
@@ -214,8 +217,63 @@ def _fill_region(ctx, R, L):
     for cand in _candidates(m, Q):
         T_ = _lazy_search(ctx, R, L, Q - origin, cand, en, forb, kept_index)
         if T_ is not None:
-            return L[T_]
+            return L[T_], np.zeros((0, 3))
+    return _fan(ctx, R, L, comp, en)
+
+
+def _fan(ctx, R, L, comp, en):
+    """The sub-loop closed by a fan around one new vertex (a Steiner point),
+    where no triangulation of its own vertices avoids the scan: the apex is
+    tried at the region's own patch vertices and along the sub-loop's axis
+    through its centre; the allowed fan with the smallest worst dihedral
+    cost wins. (triangles, (1,3) apex) with the apex numbered ``len(X)``,
+    or None."""
+    X, m = R.X, len(L)
+    Q = X[L]
+    c = Q.mean(axis=0)
+    va = -0.5 * cross(Q - c, np.roll(Q - c, -1, axis=0)).sum(axis=0)
+    ln = float(np.sqrt(dot(va, va)))
+    rad = float(np.max(np.sqrt(dot(Q - c, Q - c))))
+    if not np.isfinite(rad) or rad <= 0:
+        return None
+    axis = va / ln if ln > 0 else np.zeros(3)
+    inner = np.setdiff1d(np.unique(R.T[comp].ravel()), L)
+    inner = inner[inner >= R.k]
+    if inner.size > MEND_FAN_CANDIDATES:
+        inner = inner[np.linspace(0, inner.size - 1, MEND_FAN_CANDIDATES).astype(np.int64)]
+    A = np.vstack([X[inner].reshape(-1, 3)] + [c + t * rad * axis for t in MEND_FAN_OFFSETS])
+    # fan triangle i: (L[i+1], L[i], apex), for each apex candidate
+    nxt = np.roll(np.arange(m), -1)
+    C = np.empty((len(A), m, 3, 3))
+    C[:, :, 0] = Q[nxt][None]
+    C[:, :, 1] = Q[None]
+    C[:, :, 2] = A[:, None]
+    C = C.reshape(-1, 3, 3)
+    ok = _not_degenerate(C).reshape(len(A), m).all(axis=1)
+    N = _unit_normals(C.reshape(-1, 3), np.arange(3 * len(C)).reshape(-1, 3)).reshape(len(A), m, 3)
+    has = en.any(axis=1)
+    worst = np.max(np.where(has[None], 1.0 - np.einsum("amj,mj->am", N, en), 0.0), axis=1)
+    worst = np.maximum(worst, np.max(1.0 - np.einsum("amj,amj->am", N, np.roll(N, -1, axis=1)), axis=1))
+    for a in np.argsort(np.where(ok, worst, np.inf)).tolist():
+        if not ok[a]:
+            break
+        tri = C.reshape(len(A), m, 3, 3)[a]
+        G = np.column_stack([L[nxt], L, np.full(m, len(X))])
+        gid = np.column_stack([R.gid[L[nxt]], R.gid[L], np.full(m, -(1 << 40))])
+        if patch_vs_index(tri, gid, ctx.index, return_faces=True).size:
+            continue
+        lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
+        Tk = np.flatnonzero(R.keep & np.all((R.hi >= lo) & (R.lo <= hi), axis=1))
+        if Tk.size and patch_vs_index(tri, G, TriangleIndex(X, R.T[Tk], origin=c), return_faces=True).size:
+            continue
+        return G, A[a][None]
     return None
+
+
+#: Apex candidates of a fan (:func:`_fan`): at most this many of the region's own vertices ...
+MEND_FAN_CANDIDATES = 48
+#: ... and these points on the sub-loop's axis, in units of its radius from its centre.
+MEND_FAN_OFFSETS = (0.0, 0.25, -0.25, 0.5, -0.5, 1.0, -1.0)
 
 
 def _lazy_search(ctx, R, L, Q, cand, en, forb, kept_index):
@@ -278,6 +336,34 @@ def _allowed(ctx, R, L, cand, kept_index):
     return ok
 
 
+def _with_apexes(ctx, patch, loop, extra, new_T, k):
+    """The patch's new vertices with the fans' apexes appended, and their
+    colours and properties (an apex takes the mean over its fan's rim)."""
+    if not extra:
+        return patch.P, patch.colors, dict(patch.props)
+    A = np.vstack(extra)
+    first = k + len(patch.P)
+    rims = []
+    for S in new_T:
+        top = S.max()
+        if top >= first:
+            rims.append(np.unique(S[S < first]))
+    def per_vertex(loop_vals, new_vals):
+        allv = np.concatenate([loop_vals, new_vals]).astype(np.float64)
+        return np.array([allv[r].mean(axis=0) for r in rims])
+    colors = None
+    if patch.colors is not None and ctx.colors is not None:
+        c = per_vertex(ctx.colors[loop], patch.colors)
+        colors = np.vstack([patch.colors, np.clip(np.round(c), 0, 255).astype(patch.colors.dtype)])
+    props = {}
+    for n, v in patch.props.items():
+        if n in ctx.props:
+            a = per_vertex(np.asarray(ctx.props[n])[loop], v)
+            props[n] = np.concatenate([v, a.astype(v.dtype) if np.issubdtype(v.dtype, np.floating)
+                                       else np.round(a).astype(v.dtype)])
+    return np.vstack([patch.P, A]), colors, props
+
+
 def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
     """Cut the faulty regions out of a patch and re-triangulate them.
 
@@ -337,17 +423,22 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
             continue
         R = _region_context(X, gid, T, keep, forbidden, rim_normals, k)
         new_T = []
+        extra = []             # apexes of fans, numbered from len(X) on
         failed = []
         widest = 0
         for comp, L in loops:
             key = tuple(L.tolist())
             if key not in memo:       # the same sub-loop of the same patch: the same answer
-                memo[key] = _fill_region(ctx, R, L)
-            S = memo[key]
-            if S is None:
+                memo[key] = _fill_region(ctx, R, L, comp)
+            got = memo[key]
+            if got is None:
                 failed.append(comp)
                 widest = max(widest, len(L))
             else:
+                S, apex = got
+                if len(apex):      # the fan's apex: numbered after the apexes already taken
+                    S = np.where(S >= len(X), len(X) + sum(len(a) for a in extra) + S - len(X), S)
+                    extra.append(apex)
                 new_T.append(S)
         if failed:
             for c in failed:
@@ -358,15 +449,16 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
             continue
         regions += len(loops)
         T2 = np.vstack([T[keep]] + new_T)
+        P_all, colors, props = _with_apexes(ctx, patch, loop, extra, new_T, k)
         # drop the new vertices no triangle uses any more; renumber
-        used = np.zeros(len(X), bool)
+        used = np.zeros(k + len(P_all), bool)
         used[T2.ravel()] = True
         used[:k] = True
         remap = np.cumsum(used) - 1
         keep_new = np.flatnonzero(used[k:])
-        cand = Patch(hole_id=patch.hole_id, loop=loop, P=patch.P[keep_new], T=remap[T2],
-                     colors=None if patch.colors is None else patch.colors[keep_new],
-                     props={n: v[keep_new] for n, v in patch.props.items()}, T0=patch.T0, energy=None,
+        cand = Patch(hole_id=patch.hole_id, loop=loop, P=P_all[keep_new], T=remap[T2],
+                     colors=None if colors is None else colors[keep_new],
+                     props={n: v[keep_new] for n, v in props.items()}, T0=patch.T0, energy=None,
                      order=patch.order, disc=patch.disc)
         w, b2 = check(ctx, cand)
         if w is None:
