@@ -77,6 +77,29 @@ def test_a_patch_pushed_through_the_scan_near_its_rim_is_mended():
     assert res.regions >= 1
 
 
+def test_a_region_no_flat_triangulation_clears_is_closed_by_a_fan_over_the_obstacle():
+    """A small scan fin stands through the middle of a flat opening (it does
+    not reach the rim): every triangulation of a sub-loop around it lies
+    in the opening's plane and cuts the fin; the region is closed by a fan
+    around one new vertex lifted off the plane, which clears it."""
+    V, F, loop = _sheet_with_a_hole()
+    h = float(np.linalg.norm(V[loop[1]] - V[loop[0]]))
+    # (askew to the patch's edges, so none of them can run along the cut)
+    fin = 0.5 + h * np.array([[-0.7, -0.3, -0.2], [0.6, 0.35, -0.2], [0.05, 0.11, 0.2]]) - [0, 0, 0.5]
+    V2 = np.vstack([V, fin])
+    F2 = np.vstack([F, [[len(V), len(V) + 1, len(V) + 2]]])
+    ctx = _Context(Mesh(V=V2, F=F2))
+    patch = build_patch(ctx, 0, loop, order=1, smooth=0, fair=False)     # flat: cuts the fin
+    why, bad = _check_patch(ctx, patch)
+    assert why is not None and "cross the scan" in why
+    res = mend_patch(ctx, patch, bad, _check_patch)
+    assert res.patch is not None, res.reason
+    assert _check_patch(ctx, res.patch)[0] is None
+    assert _is_disc_on(res.patch.T, loop)
+    lifted = np.abs(res.patch.P[:, 2]) > 0.2 * h          # the fan's apex, off the plane
+    assert np.count_nonzero(lifted) == 1
+
+
 def _pillar(x, y, z0, z1, r, n=6):
     """A closed n-sided prism around the vertical line (x, y), from z0 to z1."""
     th = np.linspace(0, 2 * np.pi, n, endpoint=False)
