@@ -407,6 +407,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
             if blocked:
                 reasons.append(f"flat: {why}; {blocked} scan faces cross the opening's own plane inside it, "
                                f"so no flat triangulation avoids them")
+                faulty = []     # a plane region the scan crosses: no last layer (it would bend the face)
                 break
             more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
             if not more:

@@ -294,6 +294,8 @@ def _lazy_search(ctx, R, L, Q, cand, en, forb, kept_index):
             if ask.size:
                 verdict[ask] = np.where(_allowed(ctx, R, L, cand[ask], kept_index), 1, -1)
                 ok &= verdict >= 0
+        if not ok.any():
+            return None
         try:
             S = restricted_dp(Q, cand[ok], en, forb, None)
         except MeshError:

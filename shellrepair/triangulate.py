@@ -614,7 +614,7 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
         a1 = np.where(HN[l], np.where(zg, 1.0 - d1, 2.0), 0.0)
         a2 = np.where(HN[r], np.where(zg, 1.0 - d2, 2.0), 0.0)
         wa = np.maximum(np.maximum(a1, a2), np.maximum(WA[l], WA[r]))
-        if has_close and t[0] == top:  # the interval (0, k-1) is the longest: alone in its group
+        if has_close and t.size and t[0] == top:  # the interval (0, k-1) is the longest: alone in its group
             wa = np.maximum(wa, _angle(ng, np.broadcast_to(rim_close, ng.shape)))
         wa = np.where(bad0[grp], np.inf, wa)
         ws = area[grp] + WS[l] + WS[r]
