@@ -229,6 +229,8 @@ def _fan(ctx, R, L, comp, en):
     cost wins. (triangles, (1,3) apex) with the apex numbered ``len(X)``,
     or None."""
     X, m = R.X, len(L)
+    if m > MEND_FAN_MAX:
+        return None
     Q = X[L]
     c = Q.mean(axis=0)
     va = -0.5 * cross(Q - c, np.roll(Q - c, -1, axis=0)).sum(axis=0)
@@ -254,23 +256,32 @@ def _fan(ctx, R, L, comp, en):
     has = en.any(axis=1)
     worst = np.max(np.where(has[None], 1.0 - np.einsum("amj,mj->am", N, en), 0.0), axis=1)
     worst = np.maximum(worst, np.max(1.0 - np.einsum("amj,amj->am", N, np.roll(N, -1, axis=1)), axis=1))
-    for a in np.argsort(np.where(ok, worst, np.inf)).tolist():
-        if not ok[a]:
-            break
-        tri = C.reshape(len(A), m, 3, 3)[a]
-        G = np.column_stack([L[nxt], L, np.full(m, len(X))])
-        gid = np.column_stack([R.gid[L[nxt]], R.gid[L], np.full(m, -(1 << 40))])
-        if patch_vs_index(tri, gid, ctx.index, return_faces=True).size:
-            continue
-        lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
-        Tk = np.flatnonzero(R.keep & np.all((R.hi >= lo) & (R.lo <= hi), axis=1))
-        if Tk.size and patch_vs_index(tri, G, TriangleIndex(X, R.T[Tk], origin=c), return_faces=True).size:
-            continue
-        return G, A[a][None]
-    return None
+    if not ok.any():
+        return None
+    # every candidate fan tested at once: against the scan, then the kept patch in their box
+    C4 = C.reshape(len(A), m, 3, 3)
+    G = np.column_stack([L[nxt], L, np.full(m, len(X))])
+    gid = np.column_stack([R.gid[L[nxt]], R.gid[L], np.full(m, -(1 << 40))])
+    live = np.flatnonzero(ok)
+    tri = C4[live].reshape(-1, 3, 3)
+    hit = np.zeros(len(tri), bool)
+    hit[patch_vs_index(tri, np.tile(gid, (live.size, 1)), ctx.index, return_faces=True)] = True
+    lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
+    Tk = np.flatnonzero(R.keep & np.all((R.hi >= lo) & (R.lo <= hi), axis=1))
+    if Tk.size:
+        Gt = np.tile(G, (live.size, 1))
+        Gt[:, 2] = len(X) + np.repeat(np.arange(live.size), m)      # each apex its own id
+        hit[patch_vs_index(tri, Gt, TriangleIndex(X, R.T[Tk], origin=c), return_faces=True)] = True
+    clear = live[~hit.reshape(live.size, m).any(axis=1)]
+    if clear.size == 0:
+        return None
+    a = int(clear[np.argmin(worst[clear])])
+    return G, A[a][None]
 
 
-#: Apex candidates of a fan (:func:`_fan`): at most this many of the region's own vertices ...
+#: Longest sub-loop closed by a fan (:func:`_fan`).
+MEND_FAN_MAX = 60
+#: Apex candidates of a fan: at most this many of the region's own vertices ...
 MEND_FAN_CANDIDATES = 48
 #: ... and these points on the sub-loop's axis, in units of its radius from its centre.
 MEND_FAN_OFFSETS = (0.0, 0.25, -0.25, 0.5, -0.5, 1.0, -1.0)

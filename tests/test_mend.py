@@ -5,10 +5,13 @@ with triangles that cross neither the scan nor the rest of the patch.
 * a patch whose vertices near one side of the rim were pushed through the
   scan comes back crossing nothing: a disc on the same loop that keeps the
   patch away from the fault, its new vertices among the old ones;
-* a scan pillar standing through the opening (linked with the loop: every
-  surface spanning the loop crosses it) cannot be mended: the fill fails
-  saying that its last layer found no triangulation that avoids the scan,
-  within a bounded number of rounds and region sizes;
+* a region no triangulation of its own vertices clears (a scan fin
+  through a flat opening) is closed by a fan around one lifted vertex;
+* a scan pillar standing through a curved opening (linked with the loop:
+  every surface spanning the loop crosses it) cannot be mended: the fill
+  fails saying that its last layer found no triangulation that avoids the
+  scan, within a bounded number of rounds and region sizes; through a
+  plane opening it fails at once, the last layer not asked;
 * a hole round a scan tongue twisted by 270° defeats every earlier layer
   and is closed by mending;
 * the fill keeps every answer the earlier layers give (the last layer runs
@@ -113,16 +116,29 @@ def _pillar(x, y, z0, z1, r, n=6):
     return V, np.asarray(F, np.int64)
 
 
-def test_a_pillar_through_the_opening_fails_fast_and_names_the_last_layer():
+def test_a_pillar_through_a_curved_opening_fails_naming_the_last_layer():
     V, F, loop = _sheet_with_a_hole()
+    V = V.copy()
+    V[:, 2] = 0.5 * (V[:, 0] - 0.5) ** 2          # bent: the opening is not a plane region
     Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
-    V2 = np.vstack([V, Vp])
-    F2 = np.vstack([F, Fp + len(V)])
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = _Context(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
     out = _fill_one(ctx, 0, loop, 2, 0)
     assert out.patch is None
-    assert "last layer" in out.reason
-    assert "crosses neither the scan" in out.reason or "grew to" in out.reason
+    assert "last layer, mending" in out.reason
+    assert "crosses neither the scan" in out.reason or "grew to" in out.reason or "not discs" in out.reason
+
+
+def test_a_pillar_through_a_plane_opening_fails_at_once_without_the_last_layer():
+    """A plane region the scan crosses inside its plane: no flat
+    triangulation avoids it, and the last layer is not asked (it would bend
+    what is a flat face)."""
+    V, F, loop = _sheet_with_a_hole()
+    Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
+    ctx = _Context(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
+    out = _fill_one(ctx, 0, loop, 2, 0)
+    assert out.patch is None
+    assert "cross the opening's own plane inside it" in out.reason
+    assert "last layer" not in out.reason
 
 
 def test_a_pillar_is_given_up_within_the_rounds_and_the_region_bound():
