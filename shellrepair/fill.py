@@ -286,18 +286,18 @@ def _pin_region(patch, bad, pinned):
     return np.flatnonzero(mark[k:])
 
 
-def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
+def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
     """Fill one hole; ``order="auto"`` picks 2 or 3 by a test on the scan
     around the hole (:mod:`~shellrepair.selftest`). ``budget``: a
     :class:`_Budget` (default: the hole's own)."""
     if order != "auto":
-        return _fill_one_order(ctx, hole_id, loop, order, smooth, energy, budget)
+        return _fill_one_order(ctx, hole_id, loop, order, smooth, energy, budget, defer)
     from .selftest import agrees, choose_order
 
     t0 = time.perf_counter()
     test = choose_order(ctx, hole_id, loop)
     budget = budget or _Budget(len(loop))
-    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget)
+    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget, defer)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if test.order == 3:
@@ -319,7 +319,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
     return Outcome(patch, reason, time.perf_counter() - t0, reasons)
 
 
-def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
+def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
     """Fill one hole, trying the options in turn.
 
     0. Triangulate, refine and fair; done if the patch crosses nothing.
@@ -473,6 +473,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if flat_ok is not None:
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
+    if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
+        defer.extend(faulty)
+        return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
     t_mend = time.perf_counter()
     mended = _mend_last(ctx, faulty, reasons)
     budget.exclude(time.perf_counter() - t_mend)
@@ -611,12 +614,17 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     # loops that see each other one way only (an island and its surround, or
     # a loop whose arcs happen to reach a neighbour): the caps first; while
     # they stand, the tube gets one attempt, for the energy comparison
+    cap_faults = {}        # loop id -> failed attempts of its cap, for the last layer
+
     def fill_caps(share):
-        """Each loop filled as a hole, within its share of the budget left."""
+        """Each loop filled as a hole, within its share of the budget left
+        (the last layer left for the end: only if no tube closes the band)."""
         out = []
         for L in (A, B):
             part = budget.part(share * len(L.vertices) / len(loop))
-            out.append(_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True, budget=part))
+            cap_faults[L.id] = []
+            out.append(_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True, budget=part,
+                                 defer=cap_faults[L.id]))
             budget.absorb(part)
         return out
 
@@ -697,15 +705,6 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             budget.spent += spent
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
-    if tube is None and not lean and tube_faults:
-        # the last layer: the failed tube with the fewest faults, mended where it fails
-        t_mend = time.perf_counter()
-        notes = []
-        tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({first})") for p, b, first in tube_faults],
-                          notes, check=check_tube, what="tube")
-        if notes:
-            why_tube += "; " + "; ".join(notes)
-        budget.exclude(time.perf_counter() - t_mend)
     seen_both_ways = tube is not None and mutual and mode != "always"
     if caps is None and not seen_both_ways:   # (seen both ways: the tube continues the surface)
         if tube is not None:    # one attempt per cap
@@ -732,6 +731,23 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                   "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
         tube.hole_id = A.id
         return [Outcome(tube, "", secs, []), Outcome(None, f"bridged with loop {A.id} by a tube", secs, [])], record
+    if tube is None and caps_crossing(caps):
+        # the last layer, where every other option left the band open: each
+        # failed cap mended, then (if a cap still fails) the failed tube
+        caps = list(caps)
+        for n, L in enumerate((A, B)):
+            c = caps[n]
+            if c.patch is None and cap_faults.get(L.id):
+                notes = []
+                mended = _mend_last(ctx, cap_faults[L.id], notes)
+                caps[n] = Outcome(mended, "" if mended is not None else "; ".join([c.reason] + notes),
+                                  c.seconds, c.reasons + notes)
+        if caps_crossing(caps) and tube_faults:
+            notes = []
+            tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({first})") for p, b, first in tube_faults],
+                              notes, check=check_tube, what="tube")
+            if notes:
+                why_tube += "; " + "; ".join(notes)
     why_caps = caps_crossing(caps)
     e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
     caps_ok = not why_caps
