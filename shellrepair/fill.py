@@ -208,6 +208,7 @@ class _Budget:
         self.seconds = share * (HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges)
         self.t0 = time.perf_counter()
         self.spent = 0
+        self.excluded = 0.0     # seconds of the last layer, not counted against the wall clock
 
     def elapsed(self):
         return time.perf_counter() - self.t0
@@ -240,6 +241,14 @@ class _Budget:
 
     def absorb(self, part):
         self.spent += part.spent
+        self.exclude(part.excluded)
+
+    def exclude(self, seconds):
+        """Leave ``seconds`` (the last layer's, itself bounded) out of the
+        wall-clock backstop, so that it does not starve what follows (a
+        band's other cap)."""
+        self.t0 += seconds
+        self.excluded += seconds
 
     def describe(self):
         return (f"work budget: {self.spent} of {int(self.vertices)} patch vertices, "
@@ -292,18 +301,18 @@ def _pin_region(patch, bad, pinned):
     return np.flatnonzero(mark[k:])
 
 
-def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
+def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
     """Fill one hole; ``order="auto"`` picks 2 or 3 by a test on the scan
     around the hole (:mod:`~shellrepair.selftest`). ``budget``: a
     :class:`_Budget` (default: the hole's own)."""
     if order != "auto":
-        return _fill_one_order(ctx, hole_id, loop, order, smooth, energy, budget)
+        return _fill_one_order(ctx, hole_id, loop, order, smooth, energy, budget, defer)
     from .selftest import agrees, choose_order
 
     t0 = time.perf_counter()
     test = choose_order(ctx, hole_id, loop)
     budget = budget or _Budget(len(loop))
-    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget)
+    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget, defer)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if test.order == 3:
@@ -325,7 +334,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
     return Outcome(patch, reason, time.perf_counter() - t0, reasons)
 
 
-def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None):
+def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
     """Fill one hole, trying the options in turn.
 
     0. Triangulate, refine and fair; done if the patch crosses nothing.
@@ -365,13 +374,16 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     done = pre.first if pre is not None and pre.first is not None \
         and pre.first.key == (options[0], smooth, energy) else None
     faired_rounds = 0
+    faulty = []            # (patch, faulty triangles, option) of the attempts that failed their checks
     first = True
     scan_aware = False
     size = None            # new vertices of the first faired patch: what a faired retry costs
     t_round = None
     for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 2):
         last = 0.0 if t_round is None else time.perf_counter() - t_round   # the last round's seconds
-        if budget.late(last):
+        # (the first round always: a band's cap whose share of the time is
+        # already spent still gets its first attempt, as the budget promises)
+        if t_round is not None and budget.late(last):
             reasons.append(f"gave up: {budget.describe()}, {len(avoid)} chords re-routed")
             break
         t_round = time.perf_counter()
@@ -399,6 +411,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
                 size = len(patch.P)
                 budget.spend(patch)
                 why0, bad0 = done.check if done is not None else _check_patch(ctx, patch)
+                faulty.append((patch, bad0, OPTION_NAMES[name0].format(order=order0)))
                 if why0 is None:
                     patch.option = OPTION_NAMES[name0].format(order=order0)
                     return Outcome(patch, "", time.perf_counter() - t0, reasons)
@@ -418,6 +431,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
             if blocked:
                 reasons.append(f"flat: {why}; {blocked} scan faces cross the opening's own plane inside it, "
                                f"so no flat triangulation avoids them")
+                faulty = []     # a plane region the scan crosses: no last layer (it would bend the face)
                 break
             more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
             if not more:
@@ -444,6 +458,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
             size = len(patch.P) if size is None else size
             budget.spend(patch)
             why, bad = _check_patch(ctx, patch)
+            faulty.append((patch, bad, OPTION_NAMES[name].format(order=o)))
             pinned = None
             for _grow in range(PIN_ROUNDS if why is not None and bad.size else 0):
                 if not budget.affords(size):
@@ -482,7 +497,42 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if flat_ok is not None:
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
+    if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
+        defer.extend(faulty)
+        return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+    t_mend = time.perf_counter()
+    mended = _mend_last(ctx, faulty, reasons)
+    budget.exclude(time.perf_counter() - t_mend)
+    if mended is not None:
+        return Outcome(mended, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+
+
+#: Failed attempts the last layer (:func:`~shellrepair.mend.mend_patch`)
+#: tries to mend, those with the fewest faulty triangles first.
+MEND_ATTEMPTS = 2
+
+
+def _mend_last(ctx, faulty, reasons, check=_check_patch, what="patch"):
+    """The last layer: the failed attempts with the fewest faults, mended
+    where they fail (:mod:`~shellrepair.mend`); the mended patch, or None
+    (each failure's cause appended to ``reasons``). ``faulty``: (patch,
+    faulty triangles, option) per failed attempt; ``check`` as
+    :func:`_check_patch`."""
+    from .mend import mend_patch
+
+    tried = 0
+    for patch, bad, option in sorted((f for f in faulty if f[1].size), key=lambda f: f[1].size):
+        if tried == MEND_ATTEMPTS:
+            break
+        tried += 1
+        res = mend_patch(ctx, patch, bad, check)
+        if res.patch is not None:
+            res.patch.option = (f"{option}, mended: {res.regions} region(s) around {bad.size} faulty triangles "
+                                f"re-triangulated")
+            return res.patch
+        reasons.append(f"last layer, mending the {option} {what} ({bad.size} faulty triangles): {res.reason}")
+    return None
 
 
 #: Which energy decides tube against caps: 0 thin plate ∫(2H)², 1 curvature
@@ -535,6 +585,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         Pg, Tg = np.zeros((0, 3)), None
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
+    tube_faults = []       # (tube, faulty triangles, how it was started) of the tubes that failed their checks
     # edges the scan has between the two loops' vertices (other than the
     # loops' own edges): a tube that made one again would be non-manifold
     Fl = ctx.F[ctx.faces_of(loop)]
@@ -565,7 +616,14 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             p.option = f"tube to loop {B.id} ({first}), {how}"
             return p, bad, p
         why_tube = f"{first}: {why}"
+        tube_faults.append((p, bad, first))
         return None, bad, p
+
+    def check_tube(ctx_, p):
+        why, bad = _check_patch(ctx_, p)
+        if why is None and any(e in scan_edges for e in _scan_edges(p)):
+            why = "the tube would repeat an edge of the scan"   # (no triangles to blame: not mended further)
+        return why, bad
 
     def caps_crossing(caps):
         """Why the two caps cannot both be used, or ''."""
@@ -580,12 +638,17 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     # loops that see each other one way only (an island and its surround, or
     # a loop whose arcs happen to reach a neighbour): the caps first; while
     # they stand, the tube gets one attempt, for the energy comparison
+    cap_faults = {}        # loop id -> failed attempts of its cap, for the last layer
+
     def fill_caps(share):
-        """Each loop filled as a hole, within its share of the budget left."""
+        """Each loop filled as a hole, within its share of the budget left
+        (the last layer left for the end: only if no tube closes the band)."""
         out = []
         for L in (A, B):
             part = budget.part(share * len(L.vertices) / len(loop))
-            out.append(_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True, budget=part))
+            cap_faults[L.id] = []
+            out.append(_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True, budget=part,
+                                 defer=cap_faults[L.id]))
             budget.absorb(part)
         return out
 
@@ -692,6 +755,23 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                   "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
         tube.hole_id = A.id
         return [Outcome(tube, "", secs, []), Outcome(None, f"bridged with loop {A.id} by a tube", secs, [])], record
+    if tube is None and caps_crossing(caps):
+        # the last layer, where every other option left the band open: each
+        # failed cap mended, then (if a cap still fails) the failed tube
+        caps = list(caps)
+        for n, L in enumerate((A, B)):
+            c = caps[n]
+            if c.patch is None and cap_faults.get(L.id):
+                notes = []
+                mended = _mend_last(ctx, cap_faults[L.id], notes)
+                caps[n] = Outcome(mended, "" if mended is not None else "; ".join([c.reason] + notes),
+                                  c.seconds, c.reasons + notes)
+        if caps_crossing(caps) and tube_faults:
+            notes = []
+            tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({first})") for p, b, first in tube_faults],
+                              notes, check=check_tube, what="tube")
+            if notes:
+                why_tube += "; " + "; ".join(notes)
     why_caps = caps_crossing(caps)
     e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
     caps_ok = not why_caps

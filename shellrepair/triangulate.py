@@ -285,8 +285,94 @@ def _with_loop_edges(D, k):
     return np.column_stack([key // (n * n), (key // n) % n, key % n])
 
 
+#: Sub-loops shorter than this are searched row by row (:func:`_best_chord_rows`).
+CHORD_ROWS_MAX = 256
+
+
 def _best_chord(P, idx, forbidden):
-    """Shortest chord between loop positions at least k/4 apart either way."""
+    """Shortest chord between loop positions at least k/4 apart either way.
+
+    The answer of the row-by-row search (:func:`_best_chord_rows`, O(k²)),
+    in O(k^1.5 log k): the positions are cut into blocks of about √k; a row
+    ``i``'s allowed partners (``i + q .. i + k − q``) are whole blocks, each
+    searched by a k-d tree (blocks holding a forbidden partner of the row
+    by brute force), and at most two part-blocks at the window's ends, by
+    brute force. The row nearest overall, the first of equals, gets its
+    partner as the row-by-row search picks it.
+    """
+    from scipy.spatial import cKDTree
+
+    k = len(idx)
+    if k < CHORD_ROWS_MAX:
+        return _best_chord_rows(P, idx, forbidden)
+    Q = P[idx]
+    q = max(3, k // 4)
+    rows = k - q
+    I = np.arange(rows)
+    lo = I + q                                   # each row's window lo .. hi
+    hi = np.minimum(k - 1, I + k - q)
+    b = max(8, int(np.sqrt(k)))
+    first = -(-lo // b) * b                      # the first whole block's start
+    last = (hi + 1) // b * b - 1                 # the last whole block's end
+    whole = last >= first + b - 1
+    # forbidden partners, as (row, position) keys in this sub-loop's numbering
+    pos = {int(g): t for t, g in enumerate(idx.tolist())}
+    fk = []
+    for x, y in forbidden:
+        if x in pos and y in pos:
+            u, v = sorted((pos[x], pos[y]))
+            fk.append(u * k + v)
+    fk = np.unique(np.asarray(fk, np.int64))
+    near = np.full(rows, np.inf)
+    # the part-blocks at both ends of each window (all of it without a whole block)
+    o = np.arange(2 * b)
+    L = lo[:, None] + o[None, :]
+    okL = (L <= hi[:, None]) & ((L < first[:, None]) | ~whole[:, None])
+    R = hi[:, None] - o[None, :b]
+    okR = (R >= lo[:, None]) & (R > last[:, None])
+    for Pm, ok in ((L, okL), (R, okR)):
+        Pm = np.where(ok, Pm, 0)
+        if fk.size:
+            ok &= ~np.isin(I[:, None] * k + Pm, fk)
+        D = np.linalg.norm(Q[Pm] - Q[I, None, :], axis=2)
+        near = np.minimum(near, np.where(ok, D, np.inf).min(axis=1))
+    # whole blocks: rows whose window holds block [s, e]
+    fr, fp = fk // k, fk % k
+    for s in range(0, k - b + 1, b):
+        e = s + b - 1
+        r0, r1 = max(0, e - k + q), min(rows - 1, s - q)
+        if r1 < r0:
+            continue
+        rr = np.arange(r0, r1 + 1)
+        rr = rr[(first[rr] <= s) & (last[rr] >= e)]
+        if rr.size == 0:
+            continue
+        brute = np.unique(fr[(fp >= s) & (fp <= e)])
+        tree_rows = np.setdiff1d(rr, brute)
+        if tree_rows.size:
+            _, jj = cKDTree(Q[s:e + 1]).query(Q[tree_rows])
+            j = s + jj
+            near[tree_rows] = np.minimum(near[tree_rows], np.linalg.norm(Q[j] - Q[tree_rows], axis=1))
+        for i in np.intersect1d(rr, brute).tolist():
+            j = np.arange(s, e + 1)
+            d = np.linalg.norm(Q[j] - Q[i], axis=1)
+            d[np.isin(i * k + j, fk)] = np.inf
+            near[i] = min(near[i], d.min())
+    i = int(np.argmin(near))
+    if not np.isfinite(near[i]):
+        raise MeshError("no chord splits this loop without duplicating an existing edge")
+    # the row-by-row choice within row i (ties among equally near partners as argsort puts them)
+    j = np.arange(i + q, min(k, i + k - q + 1))
+    d = np.linalg.norm(Q[j] - Q[i], axis=1)
+    for t in np.argsort(d):
+        u, v = sorted((int(idx[i]), int(idx[j[t]])))
+        if (u, v) not in forbidden:
+            return i, int(j[t])
+    raise MeshError("no chord splits this loop without duplicating an existing edge")
+
+
+def _best_chord_rows(P, idx, forbidden):
+    """:func:`_best_chord` row by row (its test oracle)."""
     k = len(idx)
     Q = P[idx]
     q = max(3, k // 4)
@@ -528,7 +614,7 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
         a1 = np.where(HN[l], np.where(zg, 1.0 - d1, 2.0), 0.0)
         a2 = np.where(HN[r], np.where(zg, 1.0 - d2, 2.0), 0.0)
         wa = np.maximum(np.maximum(a1, a2), np.maximum(WA[l], WA[r]))
-        if has_close and t[0] == top:  # the interval (0, k-1) is the longest: alone in its group
+        if has_close and t.size and t[0] == top:  # the interval (0, k-1) is the longest: alone in its group
             wa = np.maximum(wa, _angle(ng, np.broadcast_to(rim_close, ng.shape)))
         wa = np.where(bad0[grp], np.inf, wa)
         ws = area[grp] + WS[l] + WS[r]

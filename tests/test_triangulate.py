@@ -298,3 +298,34 @@ def test_degenerate_loops_still_get_a_triangulation(case):
         P = np.column_stack([th, 0 * th, 0 * th])
     T = triangulate_loop(P, axis=None)
     assert_disc(T, len(P))
+
+
+@pytest.mark.parametrize("kind", ["wavy", "square grid (ties)", "narrow neck"])
+def test_the_block_chord_search_picks_the_row_by_row_chord(kind):
+    """The chord that cuts a long loop (k/4 apart either way, shortest, no
+    forbidden pair) is found in O(k^1.5 log k) by blocks and k-d trees; it
+    is the one the O(k²) row-by-row search picks, ties included."""
+    from shellrepair.triangulate import _best_chord, _best_chord_rows
+
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        k = int(rng.integers(300, 900))
+        th = np.linspace(0, 2 * np.pi, k, endpoint=False)
+        if kind == "wavy":
+            P = np.column_stack([np.cos(th), rng.uniform(0.2, 1) * np.sin(th), 0.3 * np.sin(3 * th)])
+        elif kind == "narrow neck":
+            P = np.column_stack([np.cos(th), 0.05 * np.sin(th) + 0.5 * np.sin(th) ** 3, 0 * th])
+        else:
+            n = k // 4
+            s = np.arange(n, dtype=float)
+            z = 0 * s
+            P = np.vstack([np.column_stack([s, z, z]), np.column_stack([z + n, s, z]),
+                           np.column_stack([n - s, z + n, z]), np.column_stack([z, n - s, z])])
+        idx = rng.permutation(len(P) + 40)[:len(P)]   # a sub-loop of a longer numbering
+        X = np.zeros((idx.max() + 1, 3))
+        X[idx] = P
+        forbidden = {tuple(sorted(rng.choice(idx, 2, replace=False).tolist())) for _ in range(100)}
+        i, j = _best_chord_rows(X, idx, forbidden)
+        # forbid the best chord's neighbours too: the answer moves, both must follow
+        forbidden |= {tuple(sorted((int(idx[(i + d) % len(idx)]), int(idx[j])))) for d in range(-2, 3)}
+        assert _best_chord(X, idx, forbidden) == _best_chord_rows(X, idx, forbidden)
