@@ -513,7 +513,7 @@ def _write_index(summary, outdir, cache=None):
     outdir : Path
         The output folder.
     cache : dict, optional
-        Sections already built, by (position, scan name): the page is
+        Sections already built, by position, scan file, report and status: the page is
         rewritten after every scan, and each scan's report is read once
         rather than once per later scan.
     """
@@ -521,7 +521,7 @@ def _write_index(summary, outdir, cache=None):
 
     sections = []
     for i, r in enumerate(summary["scans"]):
-        key = (i, r.get("name"), r["status"])
+        key = (i, r.get("file"), r.get("report"), r["status"])  # scans finish in any order: position and file
         if cache is not None and key in cache:
             sections.append(cache[key])
             continue

@@ -317,3 +317,9 @@ def test_the_collection_page_reads_each_report_once_and_equals_a_fresh_build(tmp
     (tmp_path / "fresh").mkdir()
     batch._write_index(summary, tmp_path / "fresh")
     assert (tmp_path / "fresh" / batch.INDEX_NAME).read_text() == written
+    # scans on a cluster finish in any order: the second scan's section,
+    # built first at position 0, is not the first scan's at position 0
+    cache = {}
+    batch._write_index({**summary, "scans": summary["scans"][1:]}, tmp_path / "fresh", cache)
+    batch._write_index(summary, tmp_path / "fresh", cache)
+    assert (tmp_path / "fresh" / batch.INDEX_NAME).read_text() == written
