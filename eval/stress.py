@@ -84,7 +84,6 @@ runs a small seeded slice as tests.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time

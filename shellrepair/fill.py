@@ -60,7 +60,7 @@ def _folds(ctx, patch, C, ids):
     I = np.concatenate([ids, Fr])
     tri = np.concatenate([np.arange(len(C)), -1 - np.arange(len(Fr))])
     j = np.arange(3)
-    a, b, c = I[:, j].ravel(), I[:, (j + 1) % 3].ravel(), I[:, (j + 2) % 3].ravel()
+    a, b = I[:, j].ravel(), I[:, (j + 1) % 3].ravel()
     t = np.repeat(tri, 3)
     P, Q, R = T[:, j].reshape(-1, 3), T[:, (j + 1) % 3].reshape(-1, 3), T[:, (j + 2) % 3].reshape(-1, 3)
     lo, hi = np.minimum(a, b), np.maximum(a, b)
