@@ -83,18 +83,6 @@ SIGHT_SLACK = 0.15
 SELF_SKIP = 2
 
 
-def _vertex_normals(V, F, verts):
-    """Area-weighted unit normals of ``verts`` over the faces ``F``."""
-    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    loc = np.searchsorted(verts, F)
-    ok = (loc < len(verts)) & (verts[np.minimum(loc, len(verts) - 1)] == F)
-    acc = np.zeros((len(verts), 3))
-    for c in range(3):
-        np.add.at(acc, loc[ok[:, c], c], N[ok[:, c]])
-    ln = np.linalg.norm(acc, axis=1, keepdims=True)
-    return np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
-
-
 def continuation_arcs(V, F_near, loop, smooth=2):
     """Where the scan heads at each rim vertex, as an osculating circle.
 
@@ -138,83 +126,12 @@ def continuation_arcs(V, F_near, loop, smooth=2):
     the plane through ``p`` normal to the loop, so the circle lies across
     the rim.
     """
-    import scipy.sparse as sp
-
-    loop = np.asarray(loop, np.int64)
-    F_near = np.asarray(F_near, np.int64)
-    k = len(loop)
-    verts = np.unique(np.concatenate([F_near.ravel(), loop]))
-    nv = len(verts)
-    L = np.searchsorted(verts, F_near)
-    li = np.searchsorted(verts, loop)
-    E = np.concatenate([L[:, [0, 1]], L[:, [1, 2]], L[:, [2, 0]]])
-    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
-                      shape=(nv, nv))
-    A.data[:] = 1.0
-    level = np.full(nv, 3, np.int64)
-    level[li] = 0
-    ring1 = (A[li].sum(axis=0).A1 > 0) & (level > 0)
-    level[ring1] = 1
-    ring2 = (A[np.flatnonzero(ring1)].sum(axis=0).A1 > 0) & (level > 1)
-    level[ring2] = 2
-    R1 = A[li].multiply((level == 1)[None]).tocsr()                 # rim vertex -> its ring-1 neighbours
-    R1.eliminate_zeros()
-    R2 = (R1 @ A).multiply((level == 2)[None]).tocsr()              # ... -> ring-2 vertices next to them
-    R2.eliminate_zeros()
-    R2.data[:] = 1.0
-    c1 = R1.sum(axis=1).A1
-    c2 = R2.sum(axis=1).A1
-    X = V[verts]
-    Nv = _vertex_normals(V, F_near, verts)
-    ok = (c1 > 0) & (c2 > 0)
-    q1 = (R1 @ X) / np.maximum(c1, 1)[:, None]
-    q2 = (R2 @ X) / np.maximum(c2, 1)[:, None]
-    N = R1 @ Nv
-    P = V[loop]
-    # keep the circle in the plane across the rim: drop the neighbours'
-    # sideways offsets along the loop (a skewed triangulation has them)
-    tau = np.roll(P, -1, axis=0) - np.roll(P, 1, axis=0)
-    tau = tau / np.maximum(np.linalg.norm(tau, axis=1, keepdims=True), 1e-300)
-    q1 = q1 - np.sum((q1 - P) * tau, axis=1)[:, None] * tau
-    q2 = q2 - np.sum((q2 - P) * tau, axis=1)[:, None] * tau
-    a, b, c = q1 - q2, P - q1, P - q2
-    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
-    ok &= (la > 0) & (lb > 0) & (lc > 0)
-    N2 = R2 @ Nv
-    N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
-    N2 = N2 / np.maximum(np.linalg.norm(N2, axis=1, keepdims=True), 1e-300)
-    T = np.divide(c, lc[:, None], out=np.zeros_like(c), where=lc[:, None] > 0)
-    # normal curvature along T from the turn of the normal between the rings
-    # (Weingarten: dn/ds · t = -κ); the neighbours' sideways spread turns the
-    # normal sideways only, which the dot with T ignores
-    step = np.sum(a * T, axis=1)
-    kap = np.where(np.abs(step) > 0, -np.sum((N - N2) * T, axis=1) / np.where(step != 0, step, 1.0), 0.0)
-    ok &= step > 0
-    s0 = lb
-    if smooth and k > 2 * smooth + 1:   # circular moving sum over the loop
-        def ring_sum(Y):
-            return sum(np.roll(Y, d, axis=0) for d in range(-smooth, smooth + 1))
-        Nn = ring_sum(N * ok[:, None])
-        Nn = Nn / np.maximum(np.linalg.norm(Nn, axis=1, keepdims=True), 1e-300)
-        # the median over the window: one jag in the rim does not bend its neighbours' arcs
-        win = np.stack([np.roll(np.where(ok, kap, np.nan), d) for d in range(-smooth, smooth + 1)])
-        with warnings.catch_warnings():   # windows with no estimate give NaN, set to 0 below
-            warnings.simplefilter("ignore", RuntimeWarning)
-            kap = np.nanmedian(win, axis=0)
-        kap = np.where(np.isfinite(kap), kap, 0.0)
-        T = ring_sum(T * ok[:, None])
-        N = Nn
-    else:
-        N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
-    T = T - np.sum(T * N, axis=1)[:, None] * N
-    tl = np.linalg.norm(T, axis=1, keepdims=True)
-    ok &= tl[:, 0] > 0
-    T = np.divide(T, tl, out=np.zeros_like(T), where=tl > 0)
-    return q1, T, N, kap, s0, ok
+    return _continuation_arcs_many(V, [F_near], [loop], smooth)[0]
 
 
 def _continuation_arcs_many(V, F_nears, loops, smooth=2):
-    """:func:`continuation_arcs` of several loops at once, the same to the bit.
+    """:func:`continuation_arcs` of several loops at once (the one
+    implementation: a single loop is a batch of one).
 
     Each loop keeps its own copy of the vertices around it (a block of one
     block-diagonal adjacency), so every sparse product, sum and median is
@@ -271,7 +188,7 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     c1 = R1.sum(axis=1).A1
     c2 = R2.sum(axis=1).A1
     X = V[ukey % n]
-    # vertex normals, as _vertex_normals: each block's sums in the same order
+    # area-weighted vertex normals, summed block by block
     Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
     acc = np.zeros((nv, 3))
     for c in range(3):

@@ -563,7 +563,9 @@ def _loop_sights_reference(V, loops, faces_near, candidates):
     return out
 
 
-def test_arcs_of_many_loops_at_once_are_those_of_each_loop_to_the_bit():
+def test_arcs_of_many_loops_at_once_are_those_of_each_loop_alone_to_the_bit():
+    # one loop's block of the batch sees no other loop: batched with all the
+    # scan's loops, each gets the bits it gets alone (a batch of one)
     from shellrepair.bridge import _continuation_arcs_many
 
     n = 0
