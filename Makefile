@@ -28,6 +28,8 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv .venv
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
+	@echo "byte-compiling the package (an editable install does not; else the first run writes its .pyc)"
+	$(PY) -m compileall -q shellrepair
 	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"
 	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
 	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"

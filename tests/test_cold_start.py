@@ -1,0 +1,178 @@
+"""After ``make setup``, no repair waits on the Numba compiler (issue 14).
+
+``make setup`` runs :func:`shellrepair.kernels.warm_up` and
+:func:`shellrepair.fastmesh.warm_up`, which compile each kernel for the
+argument types they pass and save the machine code (``cache=True``). A
+later process loads a kernel from that cache only for those types: a call
+with other types (an int32 array, a float where the warm-up gave an int,
+None in place of an array) compiles at run time, seconds per kernel, in
+the user's first run (and in no later one, which is why it is easy to
+miss).
+
+Here one interpreter does what ``make setup`` does (the warm-ups) and
+records each kernel's compiled signatures; a second interpreter does what
+``make repair`` does and records every compilation Numba starts (its
+``numba:compile`` event fires on a cache miss only) and, at the end, every
+kernel's signatures. The repair passes when nothing was compiled and no
+kernel holds a signature the warm-ups did not make. The signature check
+matters because the on-disk cache can hold more than the warm-ups put
+there (the other tests call the kernels with their own inputs).
+
+Cost: a few seconds when the cache is current; after an edit of a kernel's
+file the first interpreter compiles that file's kernels once (about a
+minute on two busy cores), as ``make setup`` would; they are cached for
+every later run and for the other tests that load them.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from conftest import shared_scan
+
+pytest.importorskip("numba")
+
+ROOT = Path(__file__).resolve().parents[1]
+BUNNY = ROOT / "data" / "bunny_zipper.ply"
+
+# The listener and the signature table, shared by both interpreters.
+_COMMON = """
+import json, sys
+from numba.core import event as ev
+from numba.core.registry import CPUDispatcher
+
+compiled = []
+
+class _Compiles(ev.Listener):
+    def on_start(self, event):
+        d = event.data["dispatcher"]
+        compiled.append(f"{d.py_func.__module__}.{d.py_func.__qualname__}"
+                        f"({', '.join(str(a) for a in event.data['args'])})")
+
+    def on_end(self, event):
+        pass
+
+ev.register("numba:compile", _Compiles())
+
+from shellrepair import fastmesh, kernels
+
+
+def signatures():
+    table = {f"kernels.{k}": v for k, v in vars(kernels).items() if isinstance(v, CPUDispatcher)}
+    if fastmesh._K is not None:
+        table.update({f"fastmesh.{k}": v for k, v in vars(fastmesh._K).items()})
+    return {k: sorted(str(s) for s in d.signatures) for k, d in table.items()}
+"""
+
+_SETUP = _COMMON + """
+assert kernels.warm_up() and fastmesh.warm_up()
+print(json.dumps({"signatures": signatures(), "compiled": compiled}))
+"""
+
+_REPAIR = _COMMON + """
+import contextlib, io
+from shellrepair import cli, patch
+from shellrepair.repair import repair_mesh
+from eval import shapes
+
+out, log = sys.argv[1], []
+
+
+def step(name, f):
+    n = len(compiled)
+    with contextlib.redirect_stdout(io.StringIO()):
+        f()
+    log.append([name, compiled[n:]])
+
+
+def cli_repair(scan):
+    def f():
+        try:
+            cli.main(["repair", scan, "-o", out + "/out.ply", "--report", out + "/out.json"])
+        except SystemExit as e:
+            assert not e.code, e.code
+    return f
+
+
+scans = json.loads(sys.argv[2])
+for scan in scans:
+    step("make repair " + scan, cli_repair(scan))
+# the paths of a scan of millions of faces: whole-mesh kernels (fastmesh)
+# and the local region of each hole (patch), here on small meshes
+fastmesh.MIN_FACES = 0
+patch.LOCAL_MIN_FACES = 0
+for scan in scans:
+    step("large-scan paths " + scan, cli_repair(scan))
+if sys.argv[3] == "shapes":
+    V, F = shapes.bumpy_sphere(4)
+    V, F = shapes.perforate_discs(V, F, n_holes=5, radius=0.25, seed=3)[:2]
+    for opts in ({}, {"order": 1}, {"order": 3}, {"method": "seed"}, {"bridge": "always"}, {"smooth": 2}):
+        step(f"sphere with 5 holes {opts}", lambda: repair_mesh((V, F), **opts))
+    T, G = shapes.torus()
+    T, G = shapes.perforate_discs(T, G, n_holes=2, radius=0.6, seed=1)[:2]
+    step("torus, holes across the tube", lambda: repair_mesh((T, G)))
+    V, F = shapes.grid(12, 12)
+    step("open grid, border filled", lambda: repair_mesh((V, F), fill_borders=True))
+print(json.dumps({"signatures": signatures(), "compiled": compiled, "log": log}))
+"""
+
+
+def _run(code, *args):
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_DISABLE_JIT", "SHELLREPAIR_NO_NUMBA")}
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    p = subprocess.run([sys.executable, "-c", textwrap.dedent(code), *args], cwd=ROOT, env=env,
+                       capture_output=True, text=True, timeout=900)
+    assert p.returncode == 0, p.stderr[-3000:]
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def warm():
+    """What ``make setup``'s warm-ups compile: kernel -> signatures."""
+    if os.environ.get("SHELLREPAIR_NO_NUMBA"):
+        pytest.skip("SHELLREPAIR_NO_NUMBA is set: the kernels are off")
+    return _run(_SETUP)["signatures"]
+
+
+def _beyond_warm_up(run, warm):
+    """Compilations during the repair (the package's kernels first, then
+    Numba's own helpers they pulled in), and signatures the warm-ups did not
+    make."""
+    extra = {k: [s for s in sigs if s not in warm.get(k, [])] for k, sigs in run["signatures"].items()}
+    compiled = sorted(run["compiled"], key=lambda c: not c.startswith("shellrepair."))
+    return compiled, {k: v for k, v in extra.items() if v}
+
+
+def test_warm_up_compiles_each_kernel_for_some_types(warm):
+    # every kernel a Python function calls has a signature after the warm-ups
+    # (the helpers only other kernels call have none: their code is inside
+    # their callers' cached machine code)
+    called = {"kernels._vertex_faces", "kernels._fair_small", "kernels._relax_apply", "kernels._box_pairs",
+              "fastmesh.edge", "fastmesh.pieces", "fastmesh.volumes", "fastmesh.moments"}
+    assert called <= {k for k, v in warm.items() if v}
+    assert all(v for k, v in warm.items() if k.startswith("fastmesh."))
+
+
+def test_make_repair_compiles_nothing_after_setup(warm, tmp_path):
+    run = _run(_REPAIR, str(tmp_path), json.dumps([str(BUNNY)]), "shapes")
+    compiled, extra = _beyond_warm_up(run, warm)
+    assert [name for name, _ in run["log"]][:2] == [f"make repair {BUNNY}", f"large-scan paths {BUNNY}"]
+    assert compiled == [], f"compiled at run time: {compiled} (steps: {run['log']})"
+    assert extra == {}, f"signatures the warm-ups do not compile: {extra}"
+
+
+@pytest.mark.parametrize("name", ["real_rangescan_dragon_000.ply", "real_bunny_pymeshfix_decimated.ply"])
+def test_real_scans_compile_nothing_after_setup(warm, tmp_path, name):
+    # an open sheet with islands and pinched holes; a dirty mesh with
+    # non-manifold edges: the cleaning and border paths of other scans
+    # (each as a small scan, then through the large-scan paths)
+    scan = str(shared_scan(name))
+    run = _run(_REPAIR, str(tmp_path), json.dumps([scan]), "scans only")
+    compiled, extra = _beyond_warm_up(run, warm)
+    assert compiled == [], f"compiled at run time: {compiled}"
+    assert extra == {}, f"signatures the warm-ups do not compile: {extra}"
