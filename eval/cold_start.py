@@ -93,7 +93,9 @@ def fresh_copy(repo, dest):
     working tree has uncommitted changes to tracked files) and whether it
     was such a snapshot.
     """
-    git = lambda *a: subprocess.run(["git", *a], cwd=repo, capture_output=True, text=True, check=True).stdout.strip()  # noqa: E731
+    def git(*a):
+        return subprocess.run(["git", *a], cwd=repo, capture_output=True, text=True, check=True).stdout.strip()
+
     snap = git("stash", "create")
     commit = snap or git("rev-parse", "HEAD")
     dest.mkdir(parents=True)
@@ -333,10 +335,11 @@ def target(res):
     if res.get("status") != "ok":
         return False, res.get("status", "not run")
     r0 = [r for r in res["runs"] if r["pair"] == 0]
-    first = ", ".join(f"{p['ratio']:.2f}" for p in res["pairs"])
+    per = ", ".join(f"{p['ratio']:.2f}" for p in res["pairs"])
     return res["target_met"], (f"first {r0[0]['seconds']:.2f} s, second {r0[1]['seconds']:.2f} s; first/second "
-                               f"per pair {first}, median {res['median_ratio']:.2f} (cpu {res['median_cpu_ratio']:.2f});"
-                               f" kernels compiled at run time: {_compiled(res) or 'none'}")
+                               f"per pair {per}, median {res['median_ratio']:.2f} "
+                               f"(cpu {res['median_cpu_ratio']:.2f}); kernels compiled at run time: "
+                               f"{_compiled(res) or 'none'}")
 
 
 def _compiled(res):
