@@ -317,8 +317,16 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if test.order == 3:
         try:
-            p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
-                             max_vertices=max(budget.left(), len(patch.P)))
+            if patch.option == OPTION_NAMES["faired"].format(order=2):
+                # the first option as built: its refined triangulation is the one
+                # order 3 would refine again (the fairing's first solve does not
+                # read the new vertices' starting positions)
+                p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=(patch.P, patch.T),
+                                 refine=False, energy=energy)
+                p3.T0, p3.disc = patch.T0, patch.disc
+            else:
+                p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
+                                 max_vertices=max(budget.left(), len(patch.P)))
         except PatchError:
             p3 = None
         if p3 is not None:

@@ -24,7 +24,13 @@ constant chosen on a benchmark, :func:`choose_order` asks the scan itself:
 3. Measure each fill against the band it replaced: the RMS distance of the
    band's vertices (the scan that was removed, the hole's own rim included)
    to the filled surface (:func:`point_mesh_distance`).
-4. The order with the lowest error fills the real hole, if the real fills
+4. The order with the lowest error fills the real hole, a higher order
+   only where its error is lower by more than the scan's resolution
+   (:func:`sagitta`: a scan sampled at edge length h with faces bending by
+   θ per edge lies θh/8 from the smooth surface it samples, and the test's
+   fills are no truer than that; on a finely sampled smooth scan both
+   errors are below it, and the orders cannot be told apart), and if the
+   real fills
    agree with the test (:func:`agrees`): were both candidates as close to
    the true surface as the test found, they would lie within the sum of
    their two errors of each other. Where they lie further apart, the test
@@ -36,18 +42,27 @@ The band is ``w = clip(round(BAND_FRACTION * k / 2π), BAND_MIN, BAND_MAX)``
 rings wide for a rim of ``k`` edges (``k / 2π`` is the hole's radius in rim
 edges): the test hole is about twice the real one across, so its centre
 lies on known scan next to the real hole, where the candidates differ most.
-Small holes (fewer than ``SMALL_EDGES`` rim edges) are many on a scan and
-cheap to fill, so they are not tested one by one: the test runs on at most
-``SMALL_SAMPLE`` of them, spread evenly over their ids, and its verdict
-(errors in units of each test hole's rim edge, summed) holds for all of
-them (:func:`scan_verdict`). Holes with fewer than ``MIN_EDGES`` rim edges
+A test hole that would have more than ``TEST_MAX_UNKNOWNS`` new vertices
+is refined at ``TEST_COARSEN`` times the rim's edge length (the test only
+ranks two orders; its resolution floor grows with the square of the edge
+length). Small holes (fewer than ``SMALL_EDGES`` rim edges) are many on a
+scan and cheap to fill, so they are not tested one by one: the test runs
+on at most ``SMALL_SAMPLE`` of them, spread evenly over their ids, and its
+verdict (errors in units of each test hole's rim edge, summed) holds for
+all of them (:func:`scan_verdict`). Larger holes do the same per size
+class (each doubling of the rim's edges) when a class has more than
+``SMALL_SAMPLE`` holes: a scan with hundreds of holes pays for a few
+dozen tests, not hundreds. Holes with fewer than ``MIN_EDGES`` rim edges
 are never tested (a patch of a few triangles, where the orders differ by
 less than the scan's own noise). A hole whose band is not a clean annulus
 (it meets another hole or a border, or wraps around a thin part) takes
 the scan's verdict on its small holes when there is one, else
 ``DEFAULT_ORDER``.
 
-Cost: a rim that is not smooth costs one walk over its three rings (on
+Cost (measured with the floor, the size classes and the coarse test: the
+10M-face case of ``eval/bench_scale.py``, 200 smooth holes, 19 tests and
+no order-3 fill, ~1.1x the CPU of order 2; before, 200 tests and 105
+order-3 fills, ~3x): a rim that is not smooth costs one walk over its three rings (on
 real scans and CAD parts nearly every hole; measured +4 % CPU on a
 568-hole ray-cast bust). A tested hole costs one local copy of the scan
 (``w + MARGIN_RINGS`` rings around the hole) and one fill per candidate
@@ -89,6 +104,11 @@ MARGIN_RINGS = 4
 #: Cotangent rounds of the test's fairing (the fill itself uses
 #: ``fair.COTAN_ROUNDS``); fewer make the test cheaper.
 TEST_ROUNDS = 2
+#: A test hole that refined at the rim's density would have more than this
+#: many new vertices is refined at ``TEST_COARSEN`` times the rim's edge
+#: length instead (about ``TEST_COARSEN²`` times fewer unknowns).
+TEST_MAX_UNKNOWNS = 1000
+TEST_COARSEN = 2.0
 #: Triangles nearest (by centroid) to each measured point searched for its closest point.
 NEAREST_TRIANGLES = 8
 #: Order 3 is tested only on a smooth rim: no edge within ``max(CANDIDATES)``
@@ -113,6 +133,9 @@ class OrderTest:
         Why the hole was not tested, or ''.
     shared : int
         For a scan's verdict on its small holes: how many were tested.
+    floor : float
+        The smallest difference of the two errors the test resolves
+        (:func:`sagitta`, in the errors' units).
     """
 
     order: int
@@ -120,14 +143,17 @@ class OrderTest:
     rings: int = 0
     why: str = ""
     shared: int = 0
+    floor: float = 0.0
 
     def describe(self):
         """One line for the report."""
         if not self.errors:
             return f"auto: order {self.order}, {self.why}"
         errs = ", ".join(f"order {o} {e:.3g}" for o, e in sorted(self.errors.items()))
+        if self.floor > 0 and self.order == min(self.errors) and min(self.errors.values()) < self.errors[self.order]:
+            errs += f" (within the scan's resolution {self.floor:.3g} of each other)"
         if self.shared:
-            return (f"auto: order {self.order}, the scan's verdict on its small holes (the band test on "
+            return (f"auto: order {self.order}, the scan's verdict on its holes of this size (the band test on "
                     f"{self.shared}; errors here {errs})" + (f"; {self.why}" if self.why else ""))
         return f"auto: order {self.order}, self-test on a {self.rings}-ring band of scan: {errs}"
 
@@ -158,12 +184,21 @@ def rim_bend(ctx, loop, rings=max(CANDIDATES)):
         the largest over the faces within ``rings`` rings of the loop
         (faces without area left out; 0 when no edge has two such faces).
     """
+    T = ctx.F[ctx.ring_faces(np.asarray(loop, np.int64), rings)]
+    c, _ = _edge_bends(ctx.V, T)
+    if c.size == 0:
+        return 0.0
+    return float(np.degrees(np.arccos(np.clip(c.min(), -1.0, 1.0))))
+
+
+def _edge_bends(V, T):
+    """Cosines of the bend between the two faces of each interior edge of
+    ``T`` (faces without area left out), and the edges' lengths."""
     from .topology import face_normals
 
-    T = ctx.F[ctx.ring_faces(np.asarray(loop, np.int64), rings)]
     if len(T) < 2:
-        return 0.0
-    N = face_normals(ctx.V, T)
+        return np.zeros(0), np.zeros(0)
+    N = face_normals(V, T)
     ln = np.linalg.norm(N, axis=1)
     ok = ln > 0
     N = np.divide(N, ln[:, None], out=np.zeros_like(N), where=ok[:, None])
@@ -175,10 +210,38 @@ def rim_bend(ctx, loop, rings=max(CANDIDATES)):
     pair = np.flatnonzero(np.all(Es[1:] == Es[:-1], axis=1))   # an interior edge: its two faces
     a, b = fs[pair], fs[pair + 1]
     keep = ok[a] & ok[b]
-    if not np.any(keep):
-        return 0.0
     c = np.einsum("ij,ij->i", N[a[keep]], N[b[keep]])
-    return float(np.degrees(np.arccos(np.clip(c.min(), -1.0, 1.0))))
+    e = Es[pair[keep]]
+    return c, np.linalg.norm(V[e[:, 1]] - V[e[:, 0]], axis=1)
+
+
+def sagitta(V, T):
+    """How far a triangle mesh at this density lies from the smooth surface it samples.
+
+    A chord of length h on a curve of curvature κ lies κh²/8 from the arc.
+    The normals of the two faces of an edge of length h turn by θ ≈ κ
+    times their centroids' spacing (h/√3 for equilateral faces), so θh/8
+    is about κh²/(8√3): a lower bound on how far the mesh lies from the
+    surface (0.58 of the chord's sag). Two fills of a hole at the scan's
+    density cannot be told apart by the scan closer than this: the test's
+    two errors must differ by more than it.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    T : (m,3) int64
+        The scan's faces the test reads (the band).
+
+    Returns
+    -------
+    s : float
+        The RMS of θh/8 over the interior edges of ``T`` (0 when none).
+    """
+    c, h = _edge_bends(V, np.asarray(T, np.int64))
+    if c.size == 0:
+        return 0.0
+    theta = np.arccos(np.clip(c, -1.0, 1.0))
+    return float(np.sqrt(np.mean((theta * h / 8.0) ** 2)))
 
 
 def band_rings(k):
@@ -309,40 +372,91 @@ def _mean_edge(V, loop):
     return float(np.mean(np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1)))
 
 
+def size_class(k):
+    """The size class of a rim of ``k`` edges: 0 below ``SMALL_EDGES``, then
+    one class per doubling (``SMALL_EDGES`` to ``2 SMALL_EDGES`` is 1, ...)."""
+    if k < SMALL_EDGES:
+        return 0
+    return 1 + int(np.floor(np.log2(k / SMALL_EDGES)))
+
+
 def scan_verdict(ctx, holes, candidates=CANDIDATES):
-    """One order for a scan's small holes, from the test on a few of them.
+    """One order for each class of a scan's many holes, from the test on a few of them.
+
+    The small holes (``MIN_EDGES <= edges < SMALL_EDGES``) always share one
+    verdict. Larger holes share one per size class (:func:`size_class`)
+    when the class has more than ``SMALL_SAMPLE`` holes: the test runs on
+    ``SMALL_SAMPLE`` of them, spread evenly over their ids, and its verdict
+    holds for every hole of the class (``ctx.auto_shared``); classes with
+    fewer holes test each one.
 
     Parameters
     ----------
     ctx : shellrepair.patch._Context
     holes : sequence of shellrepair.holes.Loop
-        The holes to fill (those with ``MIN_EDGES <= edges < SMALL_EDGES``
-        are the small ones).
+        The holes to fill.
 
     Returns
     -------
     verdict : OrderTest or None
-        Errors in units of the test hole's mean rim edge (summed over the
-        tests); None when no small hole could be tested. Set it as
-        ``ctx.auto_small`` for :func:`choose_order` to use.
+        The small holes' verdict: errors in units of the test hole's mean
+        rim edge (averaged over the tests); None when no small hole could
+        be tested. Set it as ``ctx.auto_small`` for :func:`choose_order` to
+        use. The larger classes' verdicts are set as ``ctx.auto_shared``
+        (class -> OrderTest) here.
     """
-    small = [h for h in holes if MIN_EDGES <= h.edges < SMALL_EDGES]
-    if not small:
-        return None
-    pick = np.unique(np.round(np.linspace(0, len(small) - 1, min(SMALL_SAMPLE, len(small)))).astype(int))
+    groups = {}
+    for h in holes:
+        if h.edges >= MIN_EDGES:
+            groups.setdefault(size_class(h.edges), []).append(h)
+    shared = {}
+    for c, group in sorted(groups.items()):
+        if c == 0 or len(group) > SMALL_SAMPLE:
+            v = _class_verdict(ctx, group, candidates)
+            if v is not None:
+                shared[c] = v
+    ctx.auto_shared = {c: v for c, v in shared.items() if c > 0}
+    return shared.get(0)
+
+
+def _class_verdict(ctx, group, candidates):
+    """The test on at most ``SMALL_SAMPLE`` holes of ``group`` (spread
+    evenly over them), errors and floors in units of each test hole's rim
+    edge, summed: one verdict."""
+    pick = np.unique(np.round(np.linspace(0, len(group) - 1, min(SMALL_SAMPLE, len(group)))).astype(int))
     total = dict.fromkeys(candidates, 0.0)
+    floor = 0.0
     n, rings = 0, 0
     for i in pick:
-        t = choose_order(ctx, small[i].id, small[i].vertices, candidates, relative=True)
+        t = choose_order(ctx, group[i].id, group[i].vertices, candidates, relative=True)
         if len(t.errors) == len(candidates):
             for o in candidates:
                 total[o] += t.errors[o]
+            floor += t.floor
             n += 1
             rings = max(rings, t.rings)
     if n == 0:
         return None
-    best = min(candidates, key=lambda o: (total[o], candidates.index(o)))
-    return OrderTest(int(best), errors={o: total[o] / n for o in candidates}, rings=rings, shared=n)
+    best = _best(total, floor, candidates)
+    return OrderTest(int(best), errors={o: total[o] / n for o in candidates}, rings=rings, shared=n,
+                     floor=floor / n)
+
+
+def _best(errors, floor, candidates):
+    """The candidate with the lowest error; a higher order only where it
+    beats every lower one by more than ``floor``."""
+    best = candidates[0] if candidates[0] in errors else min(errors)
+    for o in candidates:
+        if o in errors and o != best and errors[o] + (floor if o > best else -floor) < errors[best]:
+            best = o
+    return best
+
+
+def _scaled(verdict, V, loop, why=""):
+    """A shared verdict with its errors in this rim's units."""
+    scale = _mean_edge(V, loop)
+    return OrderTest(verdict.order, errors={o: e * scale for o, e in verdict.errors.items()},
+                     rings=verdict.rings, shared=verdict.shared, floor=verdict.floor * scale, why=why)
 
 
 def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shared=True, rings=None):
@@ -358,8 +472,8 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
         Errors in units of the test hole's mean rim edge (for
         :func:`scan_verdict`); implies ``shared=False``.
     shared : bool
-        A small hole takes the scan's verdict (``ctx.auto_small``) when
-        there is one.
+        A hole takes the scan's verdict on its size class
+        (``ctx.auto_small``, ``ctx.auto_shared``) when there is one.
     rings : int, optional
         Band width (default :func:`band_rings` of the rim's edges).
 
@@ -378,10 +492,10 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
         return OrderTest(DEFAULT_ORDER, why=f"an edge within {max(candidates)} rings of the rim bends {bend:.0f}°, "
                                             f"over {SMOOTH_BEND_DEG:g}° (a crease, fine detail or noise)")
     verdict = getattr(ctx, "auto_small", None)
-    if k < SMALL_EDGES and verdict is not None and shared and not relative:
-        scale = _mean_edge(ctx.V, loop)
-        return OrderTest(verdict.order, errors={o: e * scale for o, e in verdict.errors.items()},
-                         rings=verdict.rings, shared=verdict.shared)
+    if shared and not relative:
+        mine = verdict if k < SMALL_EDGES else getattr(ctx, "auto_shared", {}).get(size_class(k))
+        if mine is not None:
+            return _scaled(mine, ctx.V, loop)
     if k < MIN_EDGES:
         return OrderTest(DEFAULT_ORDER, why=f"{k} rim edges, not tested")
     rings = band_rings(k) if rings is None else int(rings)
@@ -392,10 +506,7 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
             rings -= 2 if rings > BAND_MIN + 1 else 1
     if probe is None:
         if verdict is not None and shared and not relative:   # the scan's verdict, scaled to this rim
-            scale = _mean_edge(ctx.V, loop)
-            return OrderTest(verdict.order, errors={o: e * scale for o, e in verdict.errors.items()},
-                             rings=verdict.rings, shared=verdict.shared,
-                             why="no clean band of scan around the hole")
+            return _scaled(verdict, ctx.V, loop, why="no clean band of scan around the hole")
         return OrderTest(DEFAULT_ORDER, why="no clean band of scan around the hole")
     Vl, Fl, ploop, known = probe
     origin = Vl.mean(axis=0)        # a local frame: scans far from the origin keep their digits
@@ -403,9 +514,12 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
     Q = Vl[known] - origin
     errors = {}
     try:    # one triangulation and refinement, faired at each candidate order
-        P0, T = _refined(lctx, ploop, max(candidates))
+        P0, T, coarse = _refined(lctx, ploop, max(candidates))
     except (MeshError, PatchError):
         return OrderTest(DEFAULT_ORDER, rings=rings, why="the band could not be triangulated")
+    # the scan resolves the surface to its sagitta; a fill refined c times
+    # coarser than the scan, to c² of it
+    floor = sagitta(ctx.V, ctx.F[ctx.ring_faces(loop, rings)]) * coarse ** 2
     X0, Fs, nf, g, scale, org = P0
     for o in candidates:
         Xu, _ = fair_patch(X0, Fs, nf, order=o, rounds=TEST_ROUNDS)
@@ -417,20 +531,24 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
     if not errors:
         return OrderTest(DEFAULT_ORDER, rings=rings, why="no candidate filled the band")
     if relative:
-        scale = _mean_edge(Vl, ploop)
-        errors = {o: e / scale for o, e in errors.items()}
-    best = min(errors, key=lambda o: (errors[o], candidates.index(o)))
-    return OrderTest(int(best), errors=errors, rings=rings)
+        unit = _mean_edge(Vl, ploop)
+        errors = {o: e / unit for o, e in errors.items()}
+        floor /= unit
+    best = _best(errors, floor, candidates)
+    return OrderTest(int(best), errors=errors, rings=rings, floor=floor)
 
 
 def _refined(ctx, loop, rings):
     """The test hole triangulated and refined as :func:`~shellrepair.patch.build_patch`
-    does, in the hole's local frame, with ``rings`` rings of scan around it.
+    does, in the hole's local frame, with ``rings`` rings of scan around it;
+    at ``TEST_COARSEN`` times the rim's edge length when the rim's density
+    would give more than ``TEST_MAX_UNKNOWNS`` new vertices.
 
-    Returns ((X, Fs, nf, g, scale, origin), T): the submesh positions
+    Returns ((X, Fs, nf, g, scale, origin), T, c): the submesh positions
     (fixed scan vertices first), its faces (the patch's last), the number
-    of fixed vertices, their ids in ``ctx``, the frame, and the patch
-    triangles.
+    of fixed vertices, their ids in ``ctx``, the frame, the patch
+    triangles, and the refinement's edge length in rim edges (1 or
+    ``TEST_COARSEN``).
     """
     from .patch import _local_frame, _rim_data, _submesh
     from .refine import refine_patch
@@ -440,10 +558,16 @@ def _refined(ctx, loop, rings):
     sigma, edge_normals, forbidden = _rim_data(ctx, loop)
     origin, scale, Pl = _local_frame(ctx, loop, sigma)
     T = triangulate_loop(Pl, edge_normals, forbidden)
-    Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
+    # new vertices at the rim's density: ~ the area over an equilateral
+    # triangle's, halved (a mesh has about half as many vertices as faces)
+    e = Pl[T]
+    area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1).sum()
+    s2 = float(np.mean(sigma / scale)) ** 2
+    c = TEST_COARSEN if area / (np.sqrt(3.0) / 4.0 * s2) / 2.0 > TEST_MAX_UNKNOWNS else 1.0
+    Pl, T = refine_patch(Pl, T, c * sigma / scale, k, forbidden)
     g, Fs, nf, _ = _submesh(ctx, loop, Pl, T, rings=rings)
     X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
-    return (X, Fs, nf, g, scale, origin), T
+    return (X, Fs, nf, g, scale, origin), T, c
 
 
 def agrees(test, V, low, high):

@@ -9,8 +9,9 @@ from shellrepair.fill import _fill_one_order
 from shellrepair.holes import boundary_loops
 from shellrepair.patch import _Context, build_patch
 from shellrepair.repair import repair_mesh
-from shellrepair.selftest import (MIN_EDGES, SMOOTH_BEND_DEG, agrees, choose_order, point_mesh_distance,
-                                  probe_band, rim_bend, scan_verdict)
+from shellrepair import selftest
+from shellrepair.selftest import (MIN_EDGES, SMALL_SAMPLE, SMOOTH_BEND_DEG, OrderTest, _best, agrees, choose_order,
+                                  point_mesh_distance, probe_band, rim_bend, sagitta, scan_verdict, size_class)
 
 from conftest import shared_scan
 
@@ -101,7 +102,7 @@ def test_small_holes_share_one_verdict_tested_on_a_few_of_them():
     assert verdict is not None and 1 <= verdict.shared <= 8 and set(verdict.errors) == {2, 3}
     R, rep = repair_mesh(Mesh(V=V2, F=F2), order="auto")
     assert rep["holes_after"] == 0
-    assert sum("the scan's verdict on its small holes" in h["option"] for h in rep["holes"]) >= 10
+    assert sum("the scan's verdict on its holes of this size" in h["option"] for h in rep["holes"]) >= 10
 
 
 def test_on_a_sculpted_bust_auto_is_as_true_as_order_2_and_truer_than_order_3():
@@ -172,3 +173,67 @@ def test_auto_is_the_default_order():
     V, F = sphere_with_hole(radius=0.6)
     _, rep = repair_mesh(Mesh(V=V, F=F))
     assert rep["holes_after"] == 0 and "auto: order 3" in rep["holes"][0]["option"]
+
+
+def test_sagitta_of_a_sphere_is_its_chords_sag():
+    # a unit sphere sampled at edge h: adjacent faces' normals are a centroid
+    # spacing (h / √3) apart, θ = h / √3, so the floor is h² / (8 √3)
+    V, F = shapes.icosphere(4)
+    h = np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1)
+    s = sagitta(V, F)
+    ref = np.sqrt(np.mean(h ** 4)) / (8 * np.sqrt(3))
+    assert 0.9 * ref < s < 1.1 * ref
+    # a flat grid: no bend, no floor
+    P = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    assert sagitta(P, np.array([[0, 1, 2], [0, 2, 3]])) == 0.0
+
+
+def test_order_3_only_where_it_wins_by_more_than_the_floor():
+    assert _best({2: 1.0, 3: 0.9}, 0.0, (2, 3)) == 3
+    assert _best({2: 1.0, 3: 0.9}, 0.05, (2, 3)) == 3
+    assert _best({2: 1.0, 3: 0.9}, 0.2, (2, 3)) == 2
+    assert _best({2: 1.0, 3: 1.0}, 0.0, (2, 3)) == 2      # ties go to the first
+    assert _best({2: 0.5, 3: 0.9}, 0.0, (2, 3)) == 2
+    t = OrderTest(2, errors={2: 1.0, 3: 0.9}, rings=3, floor=0.2)
+    assert "within the scan's resolution" in t.describe()
+
+
+def test_the_coarse_test_picks_order_3_on_the_sphere_as_the_full_one_does(monkeypatch):
+    V, F = sphere_with_hole(radius=0.6)
+    scan, ctx = context(V, F)
+    h = scan.holes[0]
+    full = choose_order(ctx, h.id, h.vertices)
+    monkeypatch.setattr(selftest, "TEST_MAX_UNKNOWNS", 0)     # every test hole refined coarse
+    coarse = choose_order(ctx, h.id, h.vertices)
+    assert full.order == coarse.order == 3
+    assert coarse.floor == pytest.approx(full.floor * selftest.TEST_COARSEN ** 2)
+
+
+def test_many_holes_of_one_size_share_a_verdict_tested_on_a_few(monkeypatch):
+    V, F = shapes.icosphere(6)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=12, radius=0.1, seed=2)
+    scan, ctx = context(V2, F2)
+    classes = [size_class(h.edges) for h in scan.holes]
+    c = max(set(classes), key=classes.count)
+    assert c >= 1 and classes.count(c) > SMALL_SAMPLE
+    calls = []
+    real = selftest._refined
+    monkeypatch.setattr(selftest, "_refined", lambda *a: calls.append(1) or real(*a))
+    scan_verdict(ctx, scan.holes)
+    assert c in ctx.auto_shared and 1 <= ctx.auto_shared[c].shared <= SMALL_SAMPLE
+    assert len(calls) <= SMALL_SAMPLE * len(set(classes))
+    h = scan.holes[classes.index(c)]
+    calls.clear()
+    t = choose_order(ctx, h.id, h.vertices)
+    assert not calls and t.shared and t.order == ctx.auto_shared[c].order
+    assert "holes of this size" in t.describe()
+
+
+def test_order_3_on_the_order_2_refinement_equals_refining_again():
+    V, F = sphere_with_hole(radius=0.6)
+    scan, ctx = context(V, F)
+    h = scan.holes[0]
+    p2 = build_patch(ctx, h.id, h.vertices, order=2)
+    again = build_patch(ctx, h.id, h.vertices, order=3, initial=p2.T0)
+    reused = build_patch(ctx, h.id, h.vertices, order=3, initial=(p2.P, p2.T), refine=False)
+    assert np.array_equal(again.T, reused.T) and np.array_equal(again.P, reused.P)
