@@ -991,6 +991,10 @@ def dipole_rd(lo, hi, alpha, eta, out):
     _ftz_exit(old)
 
 
+#: the exponent field of a float64; EXP_MASK - (bits(x) & EXP_MASK) are the bits of 2^(1 - E), x = 2^E f
+_EXP_MASK = 0x7FF0000000000000
+
+
 @_inline
 def _dipole_geometry(r, sa, ss, eta):
     sa = max(sa, _TINY)
@@ -1015,9 +1019,21 @@ def dipole_tail_fraction(lo, hi, r, sa, ss, eta, out):
     old = _ftz_enter()
     for i in range(hi - lo):
         _, s_tr, zr, zv, dr, dv = _dipole_geometry(_at(r, i), _at(sa, i), _at(ss, i), _at(eta, i))
-        tail = zr * vexp(-s_tr * dr) / dr + zv * vexp(-s_tr * dv) / dv
+        # (zr e_r / dr + zv e_v / dv) / total as one quotient, both sides
+        # times dr dv: three divisions -> one (0.8 ns a point each here).
+        # dr, dv, zr, zv are first scaled by sc = 2^(1 - E), dr = 2^E f
+        # (exact), so that dr lands in [2, 4) and dr dv neither overflows nor
+        # underflows (|zv| <= dv, zr <= dr); dr = inf (r or zr beyond ~1e154,
+        # where r^2 overflows) is the oracle's e^-inf / inf
+        sc = _bits_to_float(_EXP_MASK - (_float_to_bits(dr) & _EXP_MASK))
+        drs = dr * sc
+        dvs = dv * sc
+        e_r = vexp(-s_tr * dr)
+        tail = (zr * sc) * e_r * dvs + (zv * sc) * vexp(-s_tr * dv) * drs
         total = vexp(-s_tr * zr) + vexp(-s_tr * zv)
-        out[i] = _clip(tail / max(total, _TINY), 0.0, 1.0)
+        q = tail / (drs * dvs * max(total, _TINY))
+        q = e_r * 0.0 if dr == math.inf else q  # 0, or NaN where s_tr dr is (s_tr = 0), as the oracle
+        out[i] = _clip(q, 0.0, 1.0)
     _ftz_exit(old)
 
 
