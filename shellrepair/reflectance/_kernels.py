@@ -24,9 +24,20 @@ Why it is fast
   dipole_rd 8.4 -> 4.0, dipole_tail_fraction 17.7 -> 10.0,
   km_reflectance 8.0 -> 5.3, mean_transmittance 12.4 -> 7.8.
 - Divisions and square roots stay true IEEE operations (~16 cycles per 8
-  lanes); a Newton reciprocal (FMA only) with a per-block exact fallback
-  was tried on the dipole kernels and was no faster (more FMAs, register
-  spills), so it is not used.
+  lanes: 0.8 ns a point for a division here, 1.2 for a sqrt, against
+  0.25 for a copy in L2); a Newton reciprocal (FMA only) with a per-block
+  exact fallback was tried on the dipole kernels and was no faster (more
+  FMAs, register spills), nor was a bit-trick rsqrt or reciprocal with
+  Newton steps on km_r_inf (measured again), so they are not used.  What
+  can go is a division the formula does not need: v_cavity_G takes one
+  (min(G1, G2) bit for bit), fresnel_dielectric one reciprocal for its two
+  quotients, dipole_tail_fraction one quotient for three.  Where the
+  function is ill-conditioned (km_reflectance near R -> 0, the rho_dt
+  reads through internal_reflectance's 1 - rho_bar / eta^2, dipole_A near
+  its pole) the kernels keep the oracle's operations: an ulp moved there
+  costs 1e-11 relative, past the 1e-12 the tests state.
+  ``python eval/bench_shading.py --ceilings`` prints what bounds each
+  function (bytes streamed, the arithmetic in L2, one-thread ratios).
 - Loops vectorise only when they have no gather and no wraparound branch:
   directions (P, 3) are first copied per block of :data:`BLOCK` points
   into rows, table reads are split into an index stage (vectorised) and a
