@@ -39,7 +39,15 @@ Prints a table and writes eval/results/bench_shading.json
 (eval/results/bench_shading_functions.json with ``--functions-only``,
 eval/results/bench_shading_functions_1thread_cpu.json with ``--one-thread-cpu``).
 
-Usage: ``python eval/bench_shading.py [--points N] [--faces N] [--quick] [--functions-only] [--one-thread-cpu]``
+7. ``--ceilings [NAME ...]``: what bounds each function.  Our CPU time on
+   one thread and the plain version's, a bare kernel streaming the same
+   input and output bytes (one thread CPU time, two threads wall), our
+   kernel's arithmetic alone (ns a point with the data in L2), the ratio
+   these allow, the output allocation's page-fault cost and a pool round
+   trip.  Writes eval/results/bench_shading_ceilings.json.
+
+Usage: ``python eval/bench_shading.py [--points N] [--faces N] [--quick] [--functions-only] [--one-thread-cpu]
+[--ceilings [NAME ...]]``
 """
 
 from __future__ import annotations
@@ -305,15 +313,9 @@ def plain_shade(wi, wo, n, c, mat, pt, gild, crust):
     return np.where(((ni > 0) & (no > 0))[:, None], f, 0.0)
 
 
-def bench_functions(N, repeat, clock=time.perf_counter):
-    """Each public function and MaterialShader against its plain NumPy version, on N points.
-
-    Returns per function: our seconds, the plain version's, the library's
-    NumPy version's (the kernels' test oracle), the ratio plain / ours and
-    the largest relative difference from the oracle and from the plain
-    version.
-    """
-    from shellrepair.reflectance import _dispatch, albedo as al, dipole as dp, km, layered as ly
+def function_cases(N):
+    """(name, ours, oracle, plain, args) of each public function on N random points (seeded)."""
+    from shellrepair.reflectance import albedo as al, dipole as dp, km, layered as ly
     from shellrepair.reflectance import microfacet as mf
     from shellrepair import shader as sd
 
@@ -359,6 +361,20 @@ def bench_functions(N, repeat, clock=time.perf_counter):
          lambda wi_, wo_, n_, c_, g_, d_: plain_shade(wi_, wo_, n_, c_, mat, pt, g_, d_),
          (wi, wo, n, cov, gild, crust)),
     ]
+    return cases
+
+
+def bench_functions(N, repeat, clock=time.perf_counter):
+    """Each public function and MaterialShader against its plain NumPy version, on N points.
+
+    Returns per function: our seconds, the plain version's, the library's
+    NumPy version's (the kernels' test oracle), the ratio plain / ours and
+    the largest relative difference from the oracle and from the plain
+    version.
+    """
+    from shellrepair.reflectance import _dispatch
+
+    cases = function_cases(N)
     for _, fn, _, _, args in cases:  # compile (or load the cache) outside the timing
         fn(*[a[:64] if isinstance(a, np.ndarray) and a.ndim and a.shape[0] == N else a for a in args])
     out = {}
@@ -378,6 +394,166 @@ def bench_functions(N, repeat, clock=time.perf_counter):
     return {"points": N, "threads": _dispatch.kernels().n_threads() if _dispatch.kernels() else 0,
             "jit": _dispatch.kernels() is not None, "functions": out}
 
+
+
+# --------------------------------------------------------------------------
+# Ceilings: what bounds each kernel (--ceilings)
+# --------------------------------------------------------------------------
+
+_STREAM = {}
+
+
+def _stream_kernel(n_in, n_out):
+    """A bare kernel streaming n_in input columns into n_out output columns:
+    ``o_c[i] = a_0[i] + ... + a_{n_in-1}[i]`` (Numba; the sum of the arrays
+    written out, as a kernel that does no arithmetic would stream them)."""
+    key = (n_in, n_out)
+    if key not in _STREAM:
+        import numba
+
+        a = ["a%d" % j for j in range(n_in)]
+        o = ["o%d" % j for j in range(n_out)]
+        src = "def stream(lo, hi, %s):\n" % ", ".join(a + o)
+        src += "".join("    %s = %s[lo:hi]\n" % (v, v) for v in a + o)
+        src += "    for i in range(hi - lo):\n        s = %s\n" % " + ".join(v + "[i]" for v in a)
+        src += "".join("        %s[i] = s\n" % v for v in o)
+        ns = {}
+        exec(src, ns)  # noqa: S102 - a generated benchmark kernel
+        _STREAM[key] = numba.njit(nogil=True)(ns["stream"])
+    return _STREAM[key]
+
+
+def _columns(a, N):
+    """A contiguous (N, ...) array as its bytes in (N,) slices: what a kernel streams of it."""
+    flat = np.ascontiguousarray(a).reshape(-1)
+    return [flat[k * N:(k + 1) * N] for k in range(flat.size // N)]
+
+
+def _kernel_call(fn, args):
+    """The compiled kernel and its arguments that one call of the public function runs."""
+    from shellrepair.reflectance import _dispatch
+
+    K = _dispatch.kernels()
+    seen = []
+    real = K.run
+    K.run = lambda kernel, P, *a: (seen.append((kernel, P, a)), real(kernel, P, *a))[-1]
+    try:
+        fn(*args)
+    finally:
+        K.run = real
+    return seen[0] if len(seen) == 1 else None
+
+
+def bench_ceilings(N, repeat, names=None):
+    """What bounds each function: bytes streamed, IEEE divisions, or neither.
+
+    For each public function on N points: our CPU time on one thread
+    (``time.thread_time``, SHELLREPAIR_THREADS=1) and two (wall), the plain
+    NumPy version's CPU time (one thread), a bare streaming kernel over the
+    same input and output bytes (one thread CPU, two threads wall) and our
+    kernel's arithmetic alone: ns a point with 32768 points in L2, the
+    kernel called directly.  The ratio plain / ours cannot exceed plain /
+    max(stream floor, arithmetic); with two threads, at best twice the
+    arithmetic's share.  Also the cost of the output allocation (np.empty
+    of N floats: first touch of fresh pages against reused ones, and the
+    page faults one call of each function takes) and of a pool round trip.
+    """
+    import resource
+
+    from shellrepair.reflectance import _dispatch
+
+    K = _dispatch.kernels()
+    if K is None:
+        raise SystemExit("--ceilings needs the compiled kernels")
+    cases = [c for c in function_cases(N) if names is None or c[0] in names]
+    env = os.environ.get("SHELLREPAIR_THREADS")
+    res = {}
+
+    def threads(k):
+        os.environ["SHELLREPAIR_THREADS"] = str(k)
+
+    try:
+        for name, fn, _, plain, args in cases:
+            fn(*[a[:64] if isinstance(a, np.ndarray) and a.ndim and a.shape[0] == N else a for a in args])
+            f = fn(*args)
+            ins = tuple(col for a in args if isinstance(a, np.ndarray) and a.ndim and a.shape[0] == N
+                        for col in _columns(a, N))
+            C = f.size // N
+            stream = _stream_kernel(len(ins), C)
+            outs_cols = lambda: _columns(np.empty((N, C)), N)  # noqa: E731
+            stream(0, 8, *ins, *outs_cols())
+            threads(1)
+            r0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+            t1, _ = best_of(lambda: fn(*args), repeat, time.thread_time)
+            faults = (resource.getrusage(resource.RUSAGE_SELF).ru_minflt - r0) / repeat
+            s1, _ = best_of(lambda: K.run(stream, N, *ins, *outs_cols()), repeat, time.thread_time)
+            with np.errstate(all="ignore"):
+                p1, _ = best_of(lambda: plain(*args), max(1, repeat // 2), time.thread_time)
+            threads(2)
+            t2, _ = best_of(lambda: fn(*args), repeat)
+            s2, _ = best_of(lambda: K.run(stream, N, *ins, *outs_cols()), repeat)
+            n_l2 = 32768
+            small = [a[:n_l2] if isinstance(a, np.ndarray) and a.ndim and a.shape[0] == N else a for a in args]
+            call = _kernel_call(fn, small)
+            l2 = np.nan
+            if call is not None:
+                kernel, P, kargs = call
+                l2, _ = best_of(lambda: [kernel(0, P, *kargs) for _ in range(20)], repeat, time.thread_time)
+                l2 = l2 / 20 / P * 1e9
+            res[name] = {
+                "ours_1thread_cpu_ms": 1e3 * t1, "ours_2threads_wall_ms": 1e3 * t2,
+                "plain_cpu_ms": 1e3 * p1, "stream_1thread_cpu_ms": 1e3 * s1, "stream_2threads_wall_ms": 1e3 * s2,
+                "arithmetic_ns_per_point_in_L2": l2, "bytes_streamed_per_point": 8 * (len(ins) + C),
+                "page_faults_per_call": faults,
+                "ceiling_by_bytes_1thread": p1 / s1,
+                "ceiling_1thread": p1 / max(s1, l2 * N * 1e-9),
+                "ratio_1thread_cpu": p1 / t1,
+            }
+        # the output allocation and a pool round trip
+        import mmap
+
+        import numba
+
+        threads(1)
+        fresh = best_of(lambda: _touch(np.frombuffer(mmap.mmap(-1, 8 * N), dtype=np.float64)), repeat)[0]
+        reused = best_of(lambda: _touch(np.empty(N)), repeat)[0]
+
+        nop = numba.njit(nogil=True)(lambda lo, hi, x: None)
+        x = np.zeros(1)
+        nop(0, 0, x)
+        threads(2)
+        trip = best_of(lambda: K.run(nop, 2 * K.MIN_POINTS_PER_THREAD, x), 50)[0]  # two ranges, no work
+    finally:
+        if env is None:
+            os.environ.pop("SHELLREPAIR_THREADS", None)
+        else:
+            os.environ["SHELLREPAIR_THREADS"] = env
+    return {"points": N, "functions": res,
+            "output_first_touch_fresh_pages_ms": 1e3 * fresh, "output_first_touch_np_empty_ms": 1e3 * reused,
+            "pool_round_trip_ms": 1e3 * trip}
+
+
+def _touch(a):
+    a[::512] = 0.0  # one write per 4 KiB page
+    return a
+
+
+def print_ceilings(res):
+    print("ceilings, %d points: CPU ms on one thread (thread_time), wall ms on two; stream = a bare kernel"
+          " over the same bytes; arithmetic = ns a point in L2" % res["points"])
+    print("  %-26s %7s %7s %7s %7s %7s %6s %5s %5s %7s %7s %7s" % (
+        "function", "ours1", "ours2w", "plain1", "strm1", "strm2w", "ns/pt", "B/pt", "flt", "ratio1", "ceilB1",
+        "ceil1"))
+    for name, r in res["functions"].items():
+        print("  %-26s %7.2f %7.2f %7.1f %7.2f %7.2f %6.2f %5d %5.0f %6.1fx %6.1fx %6.1fx" % (
+            name, r["ours_1thread_cpu_ms"], r["ours_2threads_wall_ms"], r["plain_cpu_ms"],
+            r["stream_1thread_cpu_ms"], r["stream_2threads_wall_ms"], r["arithmetic_ns_per_point_in_L2"],
+            r["bytes_streamed_per_point"], r["page_faults_per_call"], r["ratio_1thread_cpu"], r["ceiling_by_bytes_1thread"],
+            r["ceiling_1thread"]))
+    print("  output of %d floats: first touch of fresh pages %.2f ms, of np.empty's (reused) %.2f ms;"
+          " a two-thread pool round trip %.3f ms" % (res["points"], res["output_first_touch_fresh_pages_ms"],
+                                                     res["output_first_touch_np_empty_ms"],
+                                                     res["pool_round_trip_ms"]))
 
 def print_functions(res):
     print("per function, %d points, %s (%d threads) vs plain vectorised NumPy (goal >= 10x)"
@@ -609,7 +785,17 @@ def main(argv=None):
                     help="only the per-function ratios against plain NumPy (1e6 points by default)")
     ap.add_argument("--one-thread-cpu", action="store_true",
                     help="with --functions-only: one thread, timed by its CPU time (for a shared machine)")
+    ap.add_argument("--ceilings", nargs="*", metavar="NAME",
+                    help="what bounds each function (or the NAMEd ones): stream floor, arithmetic in L2,"
+                         " one-thread CPU ratios (~1 minute)")
     args = ap.parse_args(argv)
+    if args.ceilings is not None:
+        res = bench_ceilings(args.points, max(args.repeat, 5), args.ceilings or None)
+        print_ceilings(res)
+        os.makedirs(RESULTS, exist_ok=True)
+        with open(os.path.join(RESULTS, "bench_shading_ceilings.json"), "w") as fh:
+            json.dump(res, fh, indent=2)
+        return 0
     if args.functions_only:
         name = "bench_shading_functions.json"
         clock = time.perf_counter

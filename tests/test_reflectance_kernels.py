@@ -106,6 +106,12 @@ def cases():
         "dipole_tail_fraction": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np, (X, Kc, S, eta)),
         "dipole_profile": (dp.dipole_profile, dp._dipole_profile_np, (X, Kc + 1e-3, S, eta)),
         # eta ~ 3.86: F_dr -> 1, where A = (1 + F_dr) / (1 - F_dr) magnifies an ulp of F_dr
+        # g > 1e150: the kernel's one reciprocal of (g + c)(c (g - c) + 1) is taken on scaled operands
+        "fresnel_dielectric huge index": (mf.fresnel_dielectric, mf._fresnel_dielectric_np,
+                                          (c, np.exp(np.random.default_rng(6).uniform(345, 354.85, len(c))))),
+        # r^2 overflows (dr = inf) for most points, r = 0 and r = inf for some
+        "dipole_tail_fraction huge r": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np,
+                                        (X * 1e160, Kc + 1e-3, S, eta)),
         "dipole_rd near the F_dr pole": (dp.dipole_rd, dp._dipole_rd_np, (Rg, eta_pole)),
         "dipole_tail_fraction near the F_dr pole": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np,
                                                     (X, Kc + 1e-3, S, eta_pole)),

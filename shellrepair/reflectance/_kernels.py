@@ -24,9 +24,20 @@ Why it is fast
   dipole_rd 8.4 -> 4.0, dipole_tail_fraction 17.7 -> 10.0,
   km_reflectance 8.0 -> 5.3, mean_transmittance 12.4 -> 7.8.
 - Divisions and square roots stay true IEEE operations (~16 cycles per 8
-  lanes); a Newton reciprocal (FMA only) with a per-block exact fallback
-  was tried on the dipole kernels and was no faster (more FMAs, register
-  spills), so it is not used.
+  lanes: 0.8 ns a point for a division here, 1.2 for a sqrt, against
+  0.25 for a copy in L2); a Newton reciprocal (FMA only) with a per-block
+  exact fallback was tried on the dipole kernels and was no faster (more
+  FMAs, register spills), nor was a bit-trick rsqrt or reciprocal with
+  Newton steps on km_r_inf (measured again), so they are not used.  What
+  can go is a division the formula does not need: v_cavity_G takes one
+  (min(G1, G2) bit for bit), fresnel_dielectric one reciprocal for its two
+  quotients, dipole_tail_fraction one quotient for three.  Where the
+  function is ill-conditioned (km_reflectance near R -> 0, the rho_dt
+  reads through internal_reflectance's 1 - rho_bar / eta^2, dipole_A near
+  its pole) the kernels keep the oracle's operations: an ulp moved there
+  costs 1e-11 relative, past the 1e-12 the tests state.
+  ``python eval/bench_shading.py --ceilings`` prints what bounds each
+  function (bytes streamed, the arithmetic in L2, one-thread ratios).
 - Loops vectorise only when they have no gather and no wraparound branch:
   directions (P, 3) are first copied per block of :data:`BLOCK` points
   into rows, table reads are split into an index stage (vectorised) and a
@@ -395,8 +406,20 @@ def fresnel_dielectric_1(c, eta):
     g2 = eta * eta + c * c - 1.0
     tir = g2 < 0.0
     g = math.sqrt(0.0 if tir else g2)
-    a = (g - c) / max(g + c, _TINY)
-    b = (c * (g + c) - 1.0) / max(c * (g - c) + 1.0, _TINY)
+    # a = na / da, b = nb / db (eq 12) by one reciprocal t = 1 / (da db):
+    # a = na db t, b = nb da t, within 3 ulp of the two quotients.  The
+    # operands are scaled by 2^-4 where g > 1e150 (exact) so that da db
+    # cannot overflow below the g at which the oracle's eta^2 does; they
+    # cannot both be tiny (da -> 0 needs c -> 0, where db -> 1), so
+    # da db >= ~_TINY / 2 and t stays finite
+    s = 0.0625 if g > 1e150 else 1.0
+    na = (g - c) * s
+    da = max(g + c, _TINY) * s
+    nb = (c * (g + c) - 1.0) * s
+    db = max(c * (g - c) + 1.0, _TINY) * s
+    t = 1.0 / (da * db)
+    a = na * (db * t)
+    b = nb * (da * t)
     F = 0.5 * a * a * (1.0 + b * b)  # eq 12
     return 1.0 if tir else _clip(F, 0.0, 1.0)
 
@@ -425,9 +448,12 @@ def v_cavity_1(nh, ni, no, oh):
     no = _clip(no, 0.0, 1.0)
     front = oh > 0.0
     ohs = oh if front else 1.0
-    g1 = 2.0 * nh * no / ohs  # eq 9
-    g2 = 2.0 * nh * ni / ohs  # eq 10
-    G = min(1.0, min(g1, g2))  # eq 11
+    # eq 11, min(1, G1, G2) with G1 = 2 nh no / oh (eq 9), G2 = 2 nh ni / oh
+    # (eq 10), by one division: x -> (2 nh) x / oh is monotone in each
+    # rounding (nh >= 0, oh > 0), so min(G1, G2) = (2 nh) min(no, ni) / oh
+    # bit for bit; two divisions of 8 lanes cost ~32 cycles, more than the
+    # 40 bytes a point streams
+    G = min(1.0, 2.0 * nh * min(no, ni) / ohs)
     return G if front else 0.0
 
 
@@ -976,6 +1002,10 @@ def dipole_rd(lo, hi, alpha, eta, out):
     _ftz_exit(old)
 
 
+#: the exponent field of a float64; EXP_MASK - (bits(x) & EXP_MASK) are the bits of 2^(1 - E), x = 2^E f
+_EXP_MASK = 0x7FF0000000000000
+
+
 @_inline
 def _dipole_geometry(r, sa, ss, eta):
     sa = max(sa, _TINY)
@@ -1000,9 +1030,21 @@ def dipole_tail_fraction(lo, hi, r, sa, ss, eta, out):
     old = _ftz_enter()
     for i in range(hi - lo):
         _, s_tr, zr, zv, dr, dv = _dipole_geometry(_at(r, i), _at(sa, i), _at(ss, i), _at(eta, i))
-        tail = zr * vexp(-s_tr * dr) / dr + zv * vexp(-s_tr * dv) / dv
+        # (zr e_r / dr + zv e_v / dv) / total as one quotient, both sides
+        # times dr dv: three divisions -> one (0.8 ns a point each here).
+        # dr, dv, zr, zv are first scaled by sc = 2^(1 - E), dr = 2^E f
+        # (exact), so that dr lands in [2, 4) and dr dv neither overflows nor
+        # underflows (|zv| <= dv, zr <= dr); dr = inf (r or zr beyond ~1e154,
+        # where r^2 overflows) is the oracle's e^-inf / inf
+        sc = _bits_to_float(_EXP_MASK - (_float_to_bits(dr) & _EXP_MASK))
+        drs = dr * sc
+        dvs = dv * sc
+        e_r = vexp(-s_tr * dr)
+        tail = (zr * sc) * e_r * dvs + (zv * sc) * vexp(-s_tr * dv) * drs
         total = vexp(-s_tr * zr) + vexp(-s_tr * zv)
-        out[i] = _clip(tail / max(total, _TINY), 0.0, 1.0)
+        q = tail / (drs * dvs * max(total, _TINY))
+        q = e_r * 0.0 if dr == math.inf else q  # 0, or NaN where s_tr dr is (s_tr = 0), as the oracle
+        out[i] = _clip(q, 0.0, 1.0)
     _ftz_exit(old)
 
 
