@@ -156,6 +156,12 @@ class Loop:
     reading: str = ""
     edge_on: float = None
 
+    @property
+    def axis(self):
+        """(3,) unit normal of the loop's best-fit plane, as :func:`loop_stats`
+        measured it when the loop was found (None for a loop made otherwise)."""
+        return getattr(self, "_axis", None)
+
     def as_dict(self):
         d = asdict(self)
         d.pop("vertices")
@@ -808,6 +814,7 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         scan.loops.append(Loop(id=i, vertices=lp, edges=int(lp.size), perimeter=st["perimeter"],
                                mean_edge=st["mean_edge"], area=st["area"], diameter=st["diameter"],
                                planarity=st["planarity"], component=comp, piece_area=float(piece_area[piece])))
+        scan.loops[-1]._axis = st["axis"]   # (not a field: kept for the fill, see Loop.axis)
     if not scan.loops:
         return scan
     loops_of = {}

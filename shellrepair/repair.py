@@ -171,6 +171,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
         scan, splits = split_pinched(V, F, topo, scan, pieces=known("pieces"))
     holes = scan.holes
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
+    ctx.axes = {L.id: (L.vertices, L.axis) for L in scan.loops if L.axis is not None}
     if order == "auto" and method == "fair":    # one order for the small holes, tested on a few
         ctx.auto_small = scan_verdict(ctx, holes)
     results = {}
