@@ -65,6 +65,7 @@ as a single view; ``fill_borders=True`` turns every loop into a hole (rule
 
 from __future__ import annotations
 
+import sys
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -382,6 +383,18 @@ def loop_stats(V, loop):
 
 
 def _diameter(Q, chunk=2048):
+    """Largest distance between two rows of ``Q``: by the compiled loop
+    (:func:`shellrepair.kernels.max_sq_distance`, the same value bit for
+    bit) when the kernels are loaded already (a repair loads them; hole
+    detection alone does not), else in chunks of rows."""
+    k = sys.modules.get("shellrepair.kernels")
+    if k is not None and k.ENABLED and len(Q) > 1 and np.isfinite(Q).all():
+        return float(np.sqrt(k.max_sq_distance(Q)))
+    return _diameter_numpy(Q, chunk)
+
+
+def _diameter_numpy(Q, chunk=2048):
+    """:func:`_diameter` in NumPy (the kernel's test oracle)."""
     best = 0.0
     for i in range(0, len(Q), chunk):
         d = ((Q[i:i + chunk, None, :] - Q[None, :, :]) ** 2).sum(axis=2)
