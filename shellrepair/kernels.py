@@ -48,7 +48,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1504,6 +1504,26 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
 
 
 # --------------------------------------------------------------------------
+# the local region's near-face query
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _boxes_meeting(bmin, bmax, lo, hi, out):
+    for i in range(bmin.shape[0]):
+        out[i] = (bmin[i, 0] <= hi[0] and bmin[i, 1] <= hi[1] and bmin[i, 2] <= hi[2]
+                  and bmax[i, 0] >= lo[0] and bmax[i, 1] >= lo[1] and bmax[i, 2] >= lo[2])
+    return out
+
+
+def boxes_meeting(bmin, bmax, lo, hi):
+    """(m,) bool: which boxes ``[bmin[i], bmax[i]]`` (m,3) meet the box
+    ``[lo, hi]``; ``np.all((bmin <= hi) & (bmax >= lo), axis=1)`` in one
+    pass, without its six (m,3) temporaries."""
+    out = np.empty(len(bmin), np.bool_)
+    return _boxes_meeting(np.ascontiguousarray(bmin, np.float64), np.ascontiguousarray(bmax, np.float64),
+                          np.ascontiguousarray(lo, np.float64), np.ascontiguousarray(hi, np.float64), out)
+
+
+# --------------------------------------------------------------------------
 # per loop: its diameter, whether its projected outline is simple
 # --------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
@@ -1612,6 +1632,7 @@ def warm_up():
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
     max_sq_distance(X)
+    boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
     outline_simple(X[:3, :2], 1e-12)
     _WARM = True
     return True

@@ -314,7 +314,7 @@ class _LocalIndex:
         hi = np.asarray(hi, np.float64)
         r = self._reg
         if np.isfinite(lo).all() and np.isfinite(hi).all() and np.all((r.lo <= lo) & (hi <= r.hi), axis=1).any():
-            return r.faces[np.all((r.fmin <= hi) & (r.fmax >= lo), axis=1)]
+            return r.faces[kernels.boxes_meeting(r.fmin, r.fmax, lo, hi)]
         return self._ctx.whole_index().faces_near(lo, hi)
 
     def __getattr__(self, name):

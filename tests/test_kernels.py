@@ -385,3 +385,18 @@ def test_loop_diameter_equals_the_numpy_chunks_to_the_bit(seed):
         assert np.float64(a).tobytes() == np.float64(b).tobytes()
     P = rng.normal(size=(k, 3))
     assert _diameter(P) == pytest.approx(np.max(np.linalg.norm(P[:, None] - P[None], axis=2)), rel=1e-15)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_boxes_meeting_equals_the_numpy_mask(seed):
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(0, 3000))
+    bmin = np.round(rng.normal(size=(m, 3)), 1)              # coarse: boxes touching the query exactly
+    bmax = bmin + np.round(rng.uniform(0, 0.5, (m, 3)), 1)
+    bmin[rng.random(m) < 0.01, 1] = np.nan
+    lo = np.round(rng.normal(size=3) * 0.5, 1)
+    hi = lo + 0.7
+    want = np.all((bmin <= hi) & (bmax >= lo), axis=1)
+    got = kernels.boxes_meeting(bmin, bmax, lo, hi)
+    assert got.dtype == bool and np.array_equal(got, want)
+    assert m < 200 or 0 < got.sum() < m
