@@ -65,6 +65,7 @@ as a single view; ``fill_borders=True`` turns every loop into a hole (rule
 
 from __future__ import annotations
 
+import sys
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -117,9 +118,9 @@ class Loop:
         (0 for a planar loop).
     component : int
         Connected component the loop belongs to (faces joined by vertices).
-    piece_area : float
-        Area of the loop's piece (faces joined across edges), which the
-        classification rules use.
+    piece_area : float or None
+        Area of the loop's piece (faces joined across edges); None when
+        not measured (``detect_holes(measure=False)``, a repair's call).
     inside_fraction : float
         Fraction of the piece's area inside the loop's outline seen along
         the piece's best view (measured for single-view pieces only, else 0).
@@ -148,13 +149,19 @@ class Loop:
     diameter: float
     planarity: float
     component: int
-    piece_area: float
+    piece_area: float | None
     inside_fraction: float = 0.0
     kind: str = "hole"
     reason: str = ""
     back_ratio: float = None
     reading: str = ""
     edge_on: float = None
+
+    @property
+    def axis(self):
+        """(3,) unit normal of the loop's best-fit plane, as :func:`loop_stats`
+        measured it when the loop was found (None for a loop made otherwise)."""
+        return getattr(self, "_axis", None)
 
     def as_dict(self):
         d = asdict(self)
@@ -376,6 +383,18 @@ def loop_stats(V, loop):
 
 
 def _diameter(Q, chunk=2048):
+    """Largest distance between two rows of ``Q``: by the compiled loop
+    (:func:`shellrepair.kernels.max_sq_distance`, the same value bit for
+    bit) when the kernels are loaded already (a repair loads them; hole
+    detection alone does not), else in chunks of rows."""
+    k = sys.modules.get("shellrepair.kernels")
+    if k is not None and k.ENABLED and len(Q) > 1 and np.isfinite(Q).all():
+        return float(np.sqrt(k.max_sq_distance(Q)))
+    return _diameter_numpy(Q, chunk)
+
+
+def _diameter_numpy(Q, chunk=2048):
+    """:func:`_diameter` in NumPy (the kernel's test oracle)."""
     best = 0.0
     for i in range(0, len(Q), chunk):
         d = ((Q[i:i + chunk, None, :] - Q[None, :, :]) ** 2).sum(axis=2)
@@ -769,7 +788,8 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         keeps them on the mesh, see :meth:`Mesh.cached`.)
     measure : bool
         True (default): every piece's best view and back ratio are measured
-        and reported. False (what a repair needs, the kinds only): a piece
+        and reported. False (what a repair needs, the kinds only; the
+        loops' ``piece_area`` is then None): a piece
         whose normals alone prove that it wraps around (rule 2 from every
         direction, :func:`_wraps`) is read closed without the search of its
         best view; its loops get ``back_ratio`` None and a reason that says
@@ -789,8 +809,10 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
     loops, chains = boundary_loops(F, n, topo)
     n_piece, fpiece = face_pieces(topo, len(F)) if pieces is None else pieces
     n_comp, vcomp, fcomp = components_of_pieces(F, n, fpiece, n_piece)
-    A = face_areas(V, F) if areas is None else areas
-    piece_area = np.bincount(fpiece, weights=A, minlength=n_piece)
+    # face areas: for the pieces' areas (reported when measuring) and the
+    # outer rim of a single-view piece; a repair of a closed scan needs neither
+    A = areas if areas is not None else face_areas(V, F) if measure else None
+    piece_area = np.bincount(fpiece, weights=A, minlength=n_piece) if measure else None
     bhe = topo.boundary_he
     he_face = dict(zip(map(tuple, topo.ends(bhe).tolist()), (bhe // 3).tolist()))
     nv_used = int(np.count_nonzero(vcomp >= 0))
@@ -807,7 +829,9 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         pieces.append(piece)
         scan.loops.append(Loop(id=i, vertices=lp, edges=int(lp.size), perimeter=st["perimeter"],
                                mean_edge=st["mean_edge"], area=st["area"], diameter=st["diameter"],
-                               planarity=st["planarity"], component=comp, piece_area=float(piece_area[piece])))
+                               planarity=st["planarity"], component=comp,
+                               piece_area=None if piece_area is None else float(piece_area[piece])))
+        scan.loops[-1]._axis = st["axis"]   # (not a field: kept for the fill, see Loop.axis)
     if not scan.loops:
         return scan
     loops_of = {}
@@ -842,6 +866,8 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
             scan.loops[i].reading = "" if fill_borders else "closed" if is_closed[j] else "single view"
         if is_closed[j]:
             continue
+        if A is None:
+            A = face_areas(V, F)
         fidx = np.flatnonzero(fpiece == piece) if by_piece is None else by_piece[bounds[piece]:bounds[piece + 1]]
         if fidx.size > OUTER_SAMPLES:
             rng = np.random.default_rng(piece)

@@ -855,7 +855,19 @@ def self_intersections(V, F):
 
 def _outline_is_simple(Q):
     """Is the closed 2-D polygon ``Q`` (k,2) simple (no two non-adjacent
-    edges meet, not even touching)?"""
+    edges meet, not even touching)? Pair by pair in a compiled loop
+    (:func:`shellrepair.kernels.outline_simple`) when the kernels are on,
+    else all pairs at once (:func:`_outline_is_simple_numpy`); the same
+    tests in the same arithmetic, so the same answer."""
+    Q = np.asarray(Q, np.float64)
+    if not kernels.ENABLED or len(Q) < 3 or not np.isfinite(Q).all():
+        return _outline_is_simple_numpy(Q)
+    span = float(np.ptp(Q, axis=0).max()) or 1.0
+    return kernels.outline_simple(Q, 1e-12 * span * span)
+
+
+def _outline_is_simple_numpy(Q):
+    """:func:`_outline_is_simple` by NumPy over all edge pairs (the kernel's test oracle)."""
     k = len(Q)
     if k < 3:
         return False

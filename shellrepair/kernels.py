@@ -48,7 +48,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1504,6 +1504,93 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
 
 
 # --------------------------------------------------------------------------
+# the local region's near-face query
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _boxes_meeting(bmin, bmax, lo, hi, out):
+    for i in range(bmin.shape[0]):
+        out[i] = (bmin[i, 0] <= hi[0] and bmin[i, 1] <= hi[1] and bmin[i, 2] <= hi[2]
+                  and bmax[i, 0] >= lo[0] and bmax[i, 1] >= lo[1] and bmax[i, 2] >= lo[2])
+    return out
+
+
+def boxes_meeting(bmin, bmax, lo, hi):
+    """(m,) bool: which boxes ``[bmin[i], bmax[i]]`` (m,3) meet the box
+    ``[lo, hi]``; ``np.all((bmin <= hi) & (bmax >= lo), axis=1)`` in one
+    pass, without its six (m,3) temporaries."""
+    out = np.empty(len(bmin), np.bool_)
+    return _boxes_meeting(np.ascontiguousarray(bmin, np.float64), np.ascontiguousarray(bmax, np.float64),
+                          np.ascontiguousarray(lo, np.float64), np.ascontiguousarray(hi, np.float64), out)
+
+
+# --------------------------------------------------------------------------
+# per loop: its diameter, whether its projected outline is simple
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _max_sq_distance(Q):
+    best = 0.0
+    k = Q.shape[0]
+    for i in range(k):
+        for j in range(k):
+            dx = Q[i, 0] - Q[j, 0]
+            dy = Q[i, 1] - Q[j, 1]
+            dz = Q[i, 2] - Q[j, 2]
+            d = (dx * dx + dy * dy) + dz * dz   # NumPy's sum over the last axis, in its order
+            if d > best:
+                best = d
+    return best
+
+
+def max_sq_distance(Q):
+    """Largest squared distance between two rows of ``Q`` (k,3) float64, 0.0
+    when there are none; bit for bit ``((Q[:, None] - Q[None]) ** 2).sum(axis=2).max()``
+    (:func:`shellrepair.holes._diameter`'s NumPy form) without its (k,k,3)
+    temporary. A NaN coordinate is skipped here where NumPy's max would
+    return NaN: callers pass finite rows."""
+    return float(_max_sq_distance(np.ascontiguousarray(Q, np.float64)))
+
+
+@njit(cache=True, nogil=True)
+def _orient2(px, py, qx, qy, rx, ry):
+    return (qx - px) * (ry - py) - (qy - py) * (rx - px)
+
+
+@njit(cache=True, nogil=True)
+def _outline_simple(Q, eps):
+    k = Q.shape[0]
+    for i in range(k):
+        ax, ay = Q[i, 0], Q[i, 1]
+        i1 = i + 1 if i + 1 < k else 0
+        bx, by = Q[i1, 0], Q[i1, 1]
+        for j in range(i + 2, k):
+            if i == 0 and j == k - 1:
+                continue    # edges k-1 and 0 are adjacent
+            cx, cy = Q[j, 0], Q[j, 1]
+            j1 = j + 1 if j + 1 < k else 0
+            dx, dy = Q[j1, 0], Q[j1, 1]
+            o1 = _orient2(ax, ay, bx, by, cx, cy)
+            o2 = _orient2(ax, ay, bx, by, dx, dy)
+            o3 = _orient2(cx, cy, dx, dy, ax, ay)
+            o4 = _orient2(cx, cy, dx, dy, bx, by)
+            if (o1 > eps and o2 > eps) or (o1 < -eps and o2 < -eps) \
+                    or (o3 > eps and o4 > eps) or (o3 < -eps and o4 < -eps):
+                continue
+            if (max(ax, bx) < min(cx, dx) or max(cx, dx) < min(ax, bx)
+                    or max(ay, by) < min(cy, dy) or max(cy, dy) < min(ay, by)):
+                continue
+            return False
+    return True
+
+
+def outline_simple(Q, eps):
+    """:func:`shellrepair.intersect._outline_is_simple`'s pair test on every
+    pair of non-adjacent edges of the closed polygon ``Q`` (k,2), k >= 3,
+    with its tolerance ``eps``: the same orientations, in the same
+    arithmetic, so the same answer; it stops at the first pair that meets."""
+    return bool(_outline_simple(np.ascontiguousarray(Q, np.float64), float(eps)))
+
+
+# --------------------------------------------------------------------------
 _WARM = False
 
 
@@ -1544,5 +1631,8 @@ def warm_up():
           np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
+    max_sq_distance(X)
+    boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
+    outline_simple(X[:3, :2], 1e-12)
     _WARM = True
     return True

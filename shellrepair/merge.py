@@ -31,22 +31,36 @@ def _scan_edges(patch):
 
 
 class _Accepted:
-    """Patches accepted so far, with their corners and boxes cached."""
+    """Patches accepted so far, with their corners and boxes cached.
+
+    ``items`` holds ``(patch, C, oid)`` per accepted patch; the per-triangle
+    spheres, tree and boxes a later patch's check reads are built the first
+    time a patch's box meets this one's (most patches are never near
+    another)."""
 
     def __init__(self):
         self.items = []
+        self._near = []    # per item: (c, r, tree, lo, hi) once built, else None
         self.lo = np.zeros((0, 3))
         self.hi = np.zeros((0, 3))
         self.edges = set()
 
     def add(self, patch, C, ids):
         oid = np.where(ids < 0, ids - 10 ** 12 * (len(self.items) + 1), ids)  # new vertices differ per patch
-        c, r = bounding_spheres(C)
-        self.items.append((patch, C, oid, c, r, cKDTree(c), C.min(axis=1), C.max(axis=1)))
+        self.items.append((patch, C, oid))
+        self._near.append(None)
         P = C.reshape(-1, 3)
         self.lo = np.vstack([self.lo, P.min(axis=0)])
         self.hi = np.vstack([self.hi, P.max(axis=0)])
         self.edges.update(_scan_edges(patch))
+
+    def _spheres(self, j):
+        """Item ``j``'s triangle spheres, their tree and the triangles' boxes."""
+        if self._near[j] is None:
+            C = self.items[j][1]
+            c, r = bounding_spheres(C)
+            self._near[j] = (c, r, cKDTree(c), C.min(axis=1), C.max(axis=1))
+        return self._near[j]
 
     def conflict(self, ctx, patch):
         """Why the patch clashes with an accepted one, or None."""
@@ -57,10 +71,12 @@ class _Accepted:
             P = C.reshape(-1, 3)
             lo, hi = P.min(axis=0), P.max(axis=0)
             near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
-            c1, r1 = bounding_spheres(C)
-            lo1, hi1 = C.min(axis=1), C.max(axis=1)
+            if near.size:
+                c1, r1 = bounding_spheres(C)
+                lo1, hi1 = C.min(axis=1), C.max(axis=1)
             for j in near:
-                other, D, oid, c2, r2, tree, lo2, hi2 = self.items[j]
+                other, D, oid = self.items[j]
+                c2, r2, tree, lo2, hi2 = self._spheres(j)
                 ai, bi = ball_pairs(tree, c1, r1 + r2.max())
                 # triangles that cross have overlapping boxes: only those get the exact tests
                 box = np.all((lo1[ai] <= hi2[bi]) & (lo2[bi] <= hi1[ai]), axis=1)

@@ -121,6 +121,7 @@ class _Context:
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
         self.planarity = {}  # loop id -> planarity measured by detect_holes
+        self.axes = {}       # loop id -> (loop vertices, best-fit plane axis) measured by detect_holes
         self.topo = None     # the mesh's EdgeTopology, when the caller has it
         self._index = None
         self._full_index = None
@@ -313,7 +314,7 @@ class _LocalIndex:
         hi = np.asarray(hi, np.float64)
         r = self._reg
         if np.isfinite(lo).all() and np.isfinite(hi).all() and np.all((r.lo <= lo) & (hi <= r.hi), axis=1).any():
-            return r.faces[np.all((r.fmin <= hi) & (r.fmax >= lo), axis=1)]
+            return r.faces[kernels.boxes_meeting(r.fmin, r.fmax, lo, hi)]
         return self._ctx.whole_index().faces_near(lo, hi)
 
     def __getattr__(self, name):
@@ -611,7 +612,11 @@ def _meets_edge_on(ctx, loop, hole_id=None):
 
     if ctx.planarity.get(hole_id, 0.0) > EDGE_ON_PLANARITY:  # measured already: not planar
         return False
-    st = loop_stats(ctx.V, loop)
+    known = ctx.axes.get(hole_id)
+    if known is not None and hole_id in ctx.planarity and np.array_equal(known[0], loop):
+        st = {"planarity": ctx.planarity[hole_id], "axis": known[1]}   # measured already, on this loop
+    else:
+        st = loop_stats(ctx.V, loop)
     if st["planarity"] > EDGE_ON_PLANARITY:
         return False
     if st["planarity"] <= EDGE_ON_CAD_PLANARITY:

@@ -133,7 +133,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     F = np.asarray(mesh.F, np.int64)
     # a vertex no face uses may be NaN or infinite (read_mesh keeps it, noted): the
     # whole-mesh work sees a finite stand-in, the output gets the vertex back as it was
-    stand_in = ~np.isfinite(V).all(axis=1)
+    stand_in = np.zeros(len(V), bool) if np.isfinite(V).all() else ~np.isfinite(V).all(axis=1)
     if stand_in.any():
         V = V.copy()
         V[stand_in] = V[F[0, 0]]
@@ -171,6 +171,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
         scan, splits = split_pinched(V, F, topo, scan, pieces=known("pieces"))
     holes = scan.holes
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
+    ctx.axes = {L.id: (L.vertices, L.axis) for L in scan.loops if L.axis is not None}
     if order == "auto" and method == "fair":    # one order for the small holes, tested on a few
         ctx.auto_small = scan_verdict(ctx, holes)
     results = {}
@@ -250,7 +251,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
         repaired.V[:len(V)][stand_in] = np.asarray(mesh.V, np.float64)[stand_in]
     # check the result: boundary and non-manifold edges left, counted on the
     # edges the appended faces touch (the rest of the mesh did not change)
-    delta = edge_count_delta(topo, repaired.F[len(F):], len(repaired.V))
+    delta = edge_count_delta(topo, repaired.F[len(F):], len(repaired.V), n_before=len(V))
     n_new_v, n_new_f = len(repaired.V) - len(V), len(repaired.F) - len(F)
     report = table1_dict(len(holes), rows, path=mesh.path, seconds=time.perf_counter() - t0,
                          method=method, order=order, borders=len(scan.borders), open_chains=scan.open_chains,

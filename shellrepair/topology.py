@@ -198,7 +198,7 @@ def manifold_pairs(topo):
     return topo.he_order[two], topo.he_order[two + 1]
 
 
-def edge_count_delta(topo, F_new, n_vertices):
+def edge_count_delta(topo, F_new, n_vertices, n_before=None):
     """How appending faces changes the boundary, non-manifold and edge counts.
 
     Only the edges the new faces use are looked at, so checking a repair
@@ -212,6 +212,9 @@ def edge_count_delta(topo, F_new, n_vertices):
         Faces appended.
     n_vertices : int
         Vertex count after appending (new vertices have the highest ids).
+    n_before : int, optional
+        Vertex count before appending, when known: an edge with a vertex
+        at or past it is new without a look-up.
 
     Returns
     -------
@@ -226,11 +229,27 @@ def edge_count_delta(topo, F_new, n_vertices):
     he = np.stack([F_new, np.roll(F_new, -1, axis=1)], axis=2).reshape(-1, 2)
     key = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
     ukey, add = np.unique(key, return_counts=True)
-    old_keys = topo.edges[:, 0] * n + topo.edges[:, 1]   # sorted: edges are in key order
-    pos = np.searchsorted(old_keys, ukey)
-    pos_c = np.minimum(pos, max(len(old_keys) - 1, 0))
-    found = (pos < len(old_keys)) & (old_keys[pos_c] == ukey) if len(old_keys) else np.zeros(len(ukey), bool)
-    c0 = np.where(found, topo.edge_count[pos_c] if len(old_keys) else 0, 0)
+    c0 = np.zeros(len(ukey), np.int64)
+    found = np.zeros(len(ukey), bool)
+    ask = np.arange(len(ukey)) if n_before is None else np.flatnonzero(ukey % n < int(n_before))
+    E = topo.edges
+    if ask.size and len(E):
+        a, b = ukey[ask] // n, ukey[ask] % n
+        if ask.size * 64 < len(E) and E.dtype == np.int64 and E.flags.c_contiguous:
+            # few edges asked of many: a binary search of the (a, b) rows as
+            # records, in place, instead of a key for every edge of the mesh
+            rec = np.dtype([("a", "<i8"), ("b", "<i8")])
+            S = E.view(rec).ravel()
+            q = np.empty(ask.size, rec)
+            q["a"], q["b"] = a, b
+            pos = np.minimum(np.searchsorted(S, q), len(E) - 1)
+            hit = (E[pos, 0] == a) & (E[pos, 1] == b)
+        else:
+            old_keys = E[:, 0] * n + E[:, 1]   # sorted: edges are in key order
+            pos = np.minimum(np.searchsorted(old_keys, ukey[ask]), len(E) - 1)
+            hit = old_keys[pos] == ukey[ask]
+        found[ask] = hit
+        c0[ask] = np.where(hit, topo.edge_count[pos], 0)
     c1 = c0 + add
     return {"boundary_edges": int(np.sum(c1 == 1) - np.sum(c0 == 1)),
             "nonmanifold_edges": int(np.sum(c1 > 2) - np.sum(c0 > 2)),

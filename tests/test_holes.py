@@ -158,3 +158,25 @@ def test_edge_count_delta_matches_a_full_recount():
     assert topo.n_boundary_edges + d["boundary_edges"] == full.n_boundary_edges
     assert topo.nonmanifold_edges.shape[0] + d["nonmanifold_edges"] == full.nonmanifold_edges.shape[0] == 1
     assert topo.edges.shape[0] + d["edges"] == full.edges.shape[0]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_edge_count_delta_is_the_same_by_every_look_up(seed):
+    """The record search (few edges asked of many), the key search and the
+    shortcut for edges at new vertices (``n_before``) count alike."""
+    from shellrepair.topology import edge_count_delta
+    V, F = shapes.icosphere(5)
+    V2, F2, removed, kept = shapes.perforate_discs(V, F, n_holes=4, radius=0.2, seed=seed)
+    topo = edge_topology(F2, len(V2))
+    rng = np.random.default_rng(seed)
+    n = len(V2)
+    # a fan to a new vertex at each of a few scan edges, a third face on some edges, faces among new vertices
+    e = topo.edges[rng.choice(len(topo.edges), 30, replace=False)]
+    new = np.vstack([np.column_stack([e, np.full(len(e), n)]), [[n, n + 1, n + 2]], F2[:3][:, ::-1]])
+    full = edge_topology(np.vstack([F2, new]), n + 3)
+    want = {"boundary_edges": full.n_boundary_edges - topo.n_boundary_edges,
+            "nonmanifold_edges": full.nonmanifold_edges.shape[0] - topo.nonmanifold_edges.shape[0],
+            "edges": full.edges.shape[0] - topo.edges.shape[0]}
+    assert edge_count_delta(topo, new, n + 3) == want
+    assert edge_count_delta(topo, new, n + 3, n_before=n) == want
+    assert len(new) * 3 * 64 < len(topo.edges)          # the record search ran

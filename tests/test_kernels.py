@@ -339,3 +339,64 @@ def test_plane_separated_pairs_never_cross_and_most_far_pairs_are_found(seed):
     hit = triangles_cross(A, B)
     assert not (sep & hit).any()
     assert sep.sum() > 0.3 * (~hit).sum()
+
+
+def _outlines(seed):
+    """Closed 2-D polygons: star-shaped (simple), self-crossing, with a
+    repeated vertex, collinear runs, a spike folded back on itself, and
+    coordinates on a coarse lattice so that edges touch exactly."""
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(3, 60))
+    t = np.sort(rng.uniform(0, 2 * np.pi, k))
+    star = np.column_stack([np.cos(t), np.sin(t)]) * rng.uniform(0.5, 1.5, (k, 1))
+    crossing = star[rng.permutation(k)]
+    repeated = star.copy()
+    repeated[k // 2] = repeated[0]
+    lattice = np.round(star * 3) / 3
+    collinear = np.column_stack([np.linspace(0, 1, k), np.zeros(k)])
+    spike = np.vstack([star, star[-1] + [1e-13, 0.0], star[-1] + [2.0, 0.0]])
+    far = star * 1e6 + 1e7
+    return [star, crossing, repeated, lattice, collinear, spike, far]
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_outline_simplicity_equals_the_numpy_pair_test(seed):
+    from shellrepair.intersect import _outline_is_simple, _outline_is_simple_numpy
+
+    answers = []
+    for Q in _outlines(seed):
+        a, b = _outline_is_simple_numpy(Q), _outline_is_simple(Q)
+        assert a == b
+        answers.append(a)
+    assert answers[0]                  # a star-shaped outline is simple
+    if len(_outlines(seed)[4]) > 3:
+        assert not answers[4]          # a doubled-back segment is not
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_loop_diameter_equals_the_numpy_chunks_to_the_bit(seed):
+    from shellrepair.holes import _diameter, _diameter_numpy
+
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(2, 700))
+    for Q in (rng.normal(size=(k, 3)), np.round(rng.normal(size=(k, 3)), 1),     # ties
+              rng.normal(size=(k, 3)) * 1e-7 + 1e6, np.zeros((k, 3))):
+        a, b = _diameter_numpy(Q, chunk=97), _diameter(Q)
+        assert np.float64(a).tobytes() == np.float64(b).tobytes()
+    P = rng.normal(size=(k, 3))
+    assert _diameter(P) == pytest.approx(np.max(np.linalg.norm(P[:, None] - P[None], axis=2)), rel=1e-15)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_boxes_meeting_equals_the_numpy_mask(seed):
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(0, 3000))
+    bmin = np.round(rng.normal(size=(m, 3)), 1)              # coarse: boxes touching the query exactly
+    bmax = bmin + np.round(rng.uniform(0, 0.5, (m, 3)), 1)
+    bmin[rng.random(m) < 0.01, 1] = np.nan
+    lo = np.round(rng.normal(size=3) * 0.5, 1)
+    hi = lo + 0.7
+    want = np.all((bmin <= hi) & (bmax >= lo), axis=1)
+    got = kernels.boxes_meeting(bmin, bmax, lo, hi)
+    assert got.dtype == bool and np.array_equal(got, want)
+    assert m < 200 or 0 < got.sum() < m
