@@ -17,12 +17,22 @@ Voronoi mass matrix, the energy is xᵀ Q x with
 minimised with the fixed rows given (libigl ``min_quad_with_fixed``: one
 sparse LLᵀ factorisation of the unknowns' block, the three coordinates
 solved as three right-hand sides). The first round uses uniform (umbrella)
-weights, since cotangents of the initial, flat patch are meaningless; later
-rounds re-evaluate cotangent weights and masses on the patch's own current
+weights, since cotangents of the initial, flat patch are meaningless, at
+order min(k, 2) (``UNIFORM_MAX_ORDER``); later rounds re-evaluate cotangent weights and masses on the patch's own current
 geometry, taken on its intrinsic Delaunay triangulation
 (:mod:`shellrepair.intrinsic`): the slivers a scan's rim is full of then
 give neither negative weights nor vanishing masses. Where a triangle is
 degenerate the round falls back to uniform weights.
+
+Order 3 starts from the uniform thin-plate (k = 2) solve, not a uniform
+k = 3 one: the cube of the umbrella operator leaves the patch's vertices
+so unevenly spread along the surface that the first cotangent round moved
+them far, and the second round's matrix still differed from the first's
+by 36 % (Frobenius norm; the 15k-unknown patch of ``eval/bench_fill.py``,
+against 0.3 % at k = 2): the first round's factors could not precondition
+it, and it took a third factorisation. From the thin-plate start the rounds
+differ as little as at k = 2, and the first factorisation has half the
+non-zeros.
 
 From the second cotangent round on, the matrix differs little from the
 previous round's (the geometry moved by a fraction of an edge), so that
@@ -60,6 +70,8 @@ __all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "umbrella_smooth"
 
 #: Rounds of cotangent re-evaluation after the uniform first solve.
 COTAN_ROUNDS = 2
+#: The uniform first solve is of order min(order, this) (module docstring).
+UNIFORM_MAX_ORDER = 2
 #: Triangles with area below this (in units of the squared mean rim edge) are degenerate.
 DEGENERATE_AREA = 1e-10
 #: Patches with at most this many unknowns (and unknowns × submesh vertices
@@ -261,11 +273,12 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     if kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK:
         from .intrinsic import FLIP_TOL, MAX_ROUNDS
 
-        Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL, MAX_ROUNDS)
+        Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL, MAX_ROUNDS,
+                                                   UNIFORM_MAX_ORDER)
         if ok:
             return Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
     K = uniform_laplacian(F, n)
-    X[unknown] = _solve(_energy(K, None, order), fixed, unknown, X)
+    X[unknown] = _solve(_energy(K, None, min(order, UNIFORM_MAX_ORDER)), fixed, unknown, X)
     last = None  # the previous cotangent round's factorisation
     for _ in range(int(rounds)):
         e = X[F]

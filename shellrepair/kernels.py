@@ -1399,7 +1399,7 @@ def _fair_round(ptr, col, val, D, order, X, fixed, unk_pos, unk):
 
 
 @njit(cache=True, nogil=True)
-def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds):
+def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds, uniform_max_order):
     n = X.shape[0]
     m = F.shape[0]
     unk_pos = np.full(n, -1, np.int64)
@@ -1415,7 +1415,7 @@ def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_roun
     X = X.copy()
     ones = np.ones(n)
     ptr, col, val = _laplacian_rows(F, np.zeros((0, 3)), n, True)
-    Xu, ok = _fair_round(ptr, col, val, ones, order, X, fixed, unk_pos, unk)
+    Xu, ok = _fair_round(ptr, col, val, ones, min(order, uniform_max_order), X, fixed, unk_pos, unk)
     if not ok:
         return X, False, ptr, col, val
     for i in range(nu):
@@ -1466,10 +1466,11 @@ def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_roun
     return X, True, ptr, col, val
 
 
-def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds):
+def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds, uniform_max_order=2):
     """:func:`shellrepair.fair.fair_patch` for a small patch, compiled.
 
-    The same rounds (a uniform-weight solve, then cotangent rounds on the
+    The same rounds (a uniform-weight solve of order min(order,
+    ``uniform_max_order``), then cotangent rounds on the
     intrinsic Delaunay triangulation, the same stopping tests), with the
     normal equations of the unknowns assembled dense and solved by a
     Cholesky factorisation instead of libigl's sparse one: equal to
@@ -1487,6 +1488,8 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
     degenerate_area, flip_tol : float
     flip_rounds : int
         As in :mod:`shellrepair.fair` and :mod:`shellrepair.intrinsic`.
+    uniform_max_order : int
+        ``fair.UNIFORM_MAX_ORDER``.
 
     Returns
     -------
@@ -1500,7 +1503,7 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
     """
     return _fair_small(np.ascontiguousarray(X, np.float64), np.ascontiguousarray(F, np.int64),
                        np.ascontiguousarray(fixed, np.bool_), int(order), int(rounds), float(degenerate_area),
-                       float(flip_tol), int(flip_rounds))
+                       float(flip_tol), int(flip_rounds), int(uniform_max_order))
 
 
 # --------------------------------------------------------------------------
