@@ -132,24 +132,35 @@ def _energy(K, Minv, order):
     return ((Q + Q.T) * 0.5).tocsc()
 
 
-def _solve(Q, fixed, unknown, X):
-    """Minimise xᵀQx with rows ``fixed`` of X given; returns X[unknown]."""
-    return _Factor(Q, fixed, unknown).minimise(X)
+def _blocks(K, Minv, order, fixed, unknown):
+    """The unknowns' block Q_uu (CSC) and the fixed coupling Q_uf (CSR) of
+    :func:`_energy`'s Q: compiled in one pass per row
+    (:func:`shellrepair.kernels.energy_blocks`) when Numba is there, else
+    SciPy's products and slices."""
+    if kernels.ENABLED:
+        K = sp.csc_matrix(K)
+        D = np.ones(K.shape[0]) if Minv is None else Minv
+        (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(K.indptr, K.indices, K.data, D, order, unknown, fixed)
+        return (sp.csc_matrix((uv, uc, up), shape=(unknown.size, unknown.size)),
+                sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size)))
+    Qu = _energy(K, Minv, order)[unknown]
+    return Qu[:, unknown].tocsc(), Qu[:, fixed].tocsr()
 
 
 class _Factor:
-    """The unknowns' block of Q, factorised once: libigl's sparse LLᵀ
-    (``min_quad_with_fixed_precompute``), or SciPy's LU where libigl fails
-    or gives non-finite values."""
+    """Q_uu, the unknowns' block of Q, factorised once: libigl's sparse LLᵀ
+    (``min_quad_with_fixed_precompute`` with no fixed rows), or SciPy's LU
+    where libigl fails or gives non-finite values. ``Q_uf`` couples the
+    unknowns to the fixed rows."""
 
-    def __init__(self, Q, fixed, unknown):
-        self.Q, self.fixed, self.unknown = Q, fixed, unknown
+    def __init__(self, Quu, Quf):
+        self.Quu, self.Quf = Quu, Quf
         self.data = self.lu = None
         try:
             import igl
 
             data = igl.min_quad_with_fixed_data()
-            igl.min_quad_with_fixed_precompute(Q, fixed.astype(np.int64), sp.csc_matrix((0, Q.shape[0])), True, data)
+            igl.min_quad_with_fixed_precompute(Quu, np.zeros(0, np.int64), sp.csc_matrix((0, Quu.shape[0])), True, data)
             self.data = data
         except Exception:  # SciPy's LU instead
             self._use_lu()
@@ -157,37 +168,31 @@ class _Factor:
     def _use_lu(self):
         self.data = None
         if self.lu is None:
-            self.lu = spla.splu(self.Q[self.unknown][:, self.unknown].tocsc())
+            self.lu = spla.splu(sp.csc_matrix(self.Quu))
 
-    def _igl(self, B, Y):
-        import igl
-
-        try:
-            Z = igl.min_quad_with_fixed_solve(self.data, B, Y, np.zeros((0, B.shape[1])))[self.unknown]
-        except Exception:
-            return None
-        return Z if np.isfinite(Z).all() else None
-
-    def minimise(self, X):
-        """X[unknown] minimising xᵀQx, X[fixed] given."""
+    def _solve(self, R):
+        """Q_uu⁻¹ R (R: (u,c))."""
+        R = np.asarray(R, np.float64)
         if self.data is not None:
-            Z = self._igl(np.zeros((self.Q.shape[0], X.shape[1])), np.ascontiguousarray(X[self.fixed]))
-            if Z is not None:
+            import igl
+
+            try:   # libigl minimises ½ zᵀ Q_uu z + zᵀ B: z = −Q_uu⁻¹ B
+                Z = igl.min_quad_with_fixed_solve(self.data, np.ascontiguousarray(-R), np.zeros((0, R.shape[1])),
+                                                  np.zeros((0, R.shape[1])))
+            except Exception:
+                Z = None
+            if Z is not None and np.isfinite(Z).all():
                 return Z
             self._use_lu()
-        rhs = -(self.Q[self.unknown][:, self.fixed] @ X[self.fixed])
-        return self.lu.solve(np.asarray(rhs, np.float64))
+        return self.lu.solve(R)
+
+    def minimise(self, Xf):
+        """X[unknown] minimising xᵀQx, X[fixed] = ``Xf`` given."""
+        return self._solve(-(self.Quf @ Xf))
 
     def apply(self, R):
         """Q_uu⁻¹ R (R: (u,c))."""
-        if self.data is not None:
-            B = np.zeros((self.Q.shape[0], R.shape[1]))
-            B[self.unknown] = -R
-            Z = self._igl(B, np.zeros((self.fixed.size, R.shape[1])))
-            if Z is not None:
-                return Z
-            self._use_lu()
-        return self.lu.solve(np.asarray(R, np.float64))
+        return self._solve(R)
 
 
 def _pcg(A, B, X0, precond, tol=None, max_iter=None):
@@ -278,7 +283,8 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
         if ok:
             return Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
     K = uniform_laplacian(F, n)
-    X[unknown] = _solve(_energy(K, None, min(order, UNIFORM_MAX_ORDER)), fixed, unknown, X)
+    Quu, Quf = _blocks(K, None, min(order, UNIFORM_MAX_ORDER), fixed, unknown)
+    X[unknown] = _Factor(Quu, Quf).minimise(X[fixed])
     last = None  # the previous cotangent round's factorisation
     for _ in range(int(rounds)):
         e = X[F]
@@ -289,14 +295,13 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
         if not (np.isfinite(Kc.data).all() and np.isfinite(Mc).all()):
             break
         floor = DEGENERATE_AREA + 1e-3 * np.median(Mc)
-        Q = _energy(Kc, 1.0 / np.maximum(Mc, floor), order)
+        Quu, Quf = _blocks(Kc, 1.0 / np.maximum(Mc, floor), order, fixed, unknown)
         Xn = None
         if last is not None:   # a later round: the previous round's factors precondition CG
-            Qu = Q[unknown]
-            Xn = _pcg(Qu[:, unknown].tocsr(), -(Qu[:, fixed] @ X[fixed]), X[unknown], last.apply)
+            Xn = _pcg(Quu, -(Quf @ X[fixed]), X[unknown], last.apply)
         if Xn is None:
-            f = _Factor(Q, fixed, unknown)
-            Xn = f.minimise(X)
+            f = _Factor(Quu, Quf)
+            Xn = f.minimise(X[fixed])
             if unknown.size >= PCG_MIN_UNKNOWNS:
                 last = f
         if not np.isfinite(Xn).all():

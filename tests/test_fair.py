@@ -88,10 +88,51 @@ def test_the_factor_applies_the_inverse_of_the_unknown_block():
     n = len(X)
     Q = fair._energy(fair.uniform_laplacian(F, n), None, 2)
     fixed, unknown = np.arange(nf), np.arange(nf, n)
-    f = fair._Factor(Q, fixed, unknown)
+    Quu, Quf = Q[unknown][:, unknown].tocsc(), Q[unknown][:, fixed].tocsr()
+    f = fair._Factor(Quu, Quf)
     R = np.random.default_rng(0).normal(size=(unknown.size, 3))
     Z = f.apply(R)
-    Quu = Q[unknown][:, unknown]
     assert np.abs(Quu @ Z - R).max() <= 1e-9 * np.abs(R).max()
-    Xu = f.minimise(X)
-    assert np.abs(Quu @ Xu + Q[unknown][:, fixed] @ X[fixed]).max() <= 1e-9 * np.abs(X).max() * abs(Q).max()
+    Xu = f.minimise(X[fixed])
+    assert np.abs(Quu @ Xu + Quf @ X[fixed]).max() <= 1e-9 * np.abs(X).max() * abs(Q).max()
+
+
+#: The compiled energy blocks against SciPy's products: relative to the
+#: largest entry (the same sums in another order).
+BLOCKS_TOLERANCE = 1e-13
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_the_compiled_energy_blocks_equal_scipys_products(order):
+    from shellrepair.intrinsic import intrinsic_laplacian
+
+    X, F, nf = _bumpy_grid(30, 4)
+    n = len(X)
+    K, M = intrinsic_laplacian(X, F)
+    Minv = 1.0 / M
+    rng = np.random.default_rng(5)
+    unknown = np.sort(rng.choice(n, n // 2, replace=False))     # any partition, not only a tail
+    fixed = np.setdiff1d(np.arange(n), unknown)
+    (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(K.indptr, K.indices, K.data, Minv, order, unknown, fixed)
+    Quu = sp.csr_matrix((uv, uc, up), shape=(unknown.size, unknown.size))
+    Quf = sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size))
+    Q = fair._energy(K, Minv, order)
+    scale = abs(Q).max()
+    assert abs(Quu - Q[unknown][:, unknown]).max() <= BLOCKS_TOLERANCE * scale
+    assert abs(Quf - Q[unknown][:, fixed]).max() <= BLOCKS_TOLERANCE * scale
+    assert (Quu - Quu.T).count_nonzero() == 0                      # symmetric to the bit
+    assert all(np.all(np.diff(uc[up[i]:up[i + 1]]) > 0) for i in range(unknown.size))   # sorted rows
+    assert Quu.nnz >= Q[unknown][:, unknown].count_nonzero()
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("order", [2, 3])
+def test_fairing_with_the_compiled_blocks_equals_the_scipy_path(order, monkeypatch):
+    X, F, nf = _bumpy_grid(40, 6)
+    assert len(X) - nf > fair.SMALL_UNKNOWNS                    # the sparse path
+    got, _ = fair.fair_patch(X, F, nf, order=order)
+    monkeypatch.setattr(kernels, "ENABLED", False)
+    ref, _ = fair.fair_patch(X, F, nf, order=order)
+    assert np.abs(got - ref).max() <= TOLERANCE
+    assert np.abs(got - X[nf:]).max() > 0.05
