@@ -14,12 +14,16 @@ Voronoi mass matrix, the energy is xᵀ Q x with
     k = 2:  Q = K M⁻¹ K             (thin plate, bilaplacian)
     k = 3:  Q = K M⁻¹ K M⁻¹ K       (minimum variation of curvature)
 
-minimised with the fixed rows given (libigl ``min_quad_with_fixed``: one
-sparse LLᵀ factorisation of the unknowns' block, the three coordinates
-solved as three right-hand sides). The first round uses uniform (umbrella)
-weights, since cotangents of the initial, flat patch are meaningless, at
-order min(k, 2) (``UNIFORM_MAX_ORDER``); later rounds re-evaluate cotangent weights and masses on the patch's own current
-geometry, taken on its intrinsic Delaunay triangulation
+minimised with the fixed rows given: Q_uu x_u = −Q_uf x_f, one sparse LLᵀ
+factorisation of the unknowns' block Q_uu (libigl ``min_quad_with_fixed``),
+the three coordinates solved as three right-hand sides. The two blocks are
+assembled row by row by a compiled kernel
+(:func:`shellrepair.kernels.energy_blocks`), not by sparse products and
+slices. The first round uses uniform (umbrella) weights, since cotangents
+of the initial, flat patch are meaningless, at order min(k, 2)
+(``UNIFORM_MAX_ORDER``); later rounds re-evaluate cotangent weights and
+masses on the patch's own current geometry, taken on its intrinsic
+Delaunay triangulation
 (:mod:`shellrepair.intrinsic`): the slivers a scan's rim is full of then
 give neither negative weights nor vanishing masses. Where a triangle is
 degenerate the round falls back to uniform weights.
