@@ -140,15 +140,39 @@ def _blocks(K, Minv, order, fixed, unknown):
     """The unknowns' block Q_uu (CSC) and the fixed coupling Q_uf (CSR) of
     :func:`_energy`'s Q: compiled in one pass per row
     (:func:`shellrepair.kernels.energy_blocks`) when Numba is there, else
-    SciPy's products and slices."""
+    SciPy's products and slices. ``K``: sparse, or the CSR arrays of
+    :func:`_operators`."""
     if kernels.ENABLED:
-        K = sp.csc_matrix(K)
-        D = np.ones(K.shape[0]) if Minv is None else Minv
-        (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(K.indptr, K.indices, K.data, D, order, unknown, fixed)
+        if sp.issparse(K):
+            K = sp.csc_matrix(K)
+            K = (K.indptr, K.indices, K.data)
+        ptr, col, val = K
+        D = np.ones(ptr.size - 1) if Minv is None else Minv
+        (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
         return (sp.csc_matrix((uv, uc, up), shape=(unknown.size, unknown.size)),
                 sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size)))
     Qu = _energy(K, Minv, order)[unknown]
     return Qu[:, unknown].tocsc(), Qu[:, fixed].tocsr()
+
+
+def _operators(X, F, uniform=False):
+    """K (and M, None for ``uniform``) of a fairing round: as compiled CSR
+    arrays when Numba is there (no SciPy assembly), else sparse."""
+    if not kernels.ENABLED:
+        return (uniform_laplacian(F, len(X)), None) if uniform else _cotan_operators(X, F)
+    if uniform:
+        return kernels._laplacian_rows(np.ascontiguousarray(F, np.int64), np.zeros((0, 3)), len(X), True), None
+    from .intrinsic import _laplacian_arrays
+
+    return _laplacian_arrays(X, F)
+
+
+def _as_sparse(K, n):
+    """The CSC matrix of :func:`_operators`' K."""
+    if sp.issparse(K):
+        return K
+    ptr, col, val = K
+    return sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
 
 
 class _Factor:
@@ -286,7 +310,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
                                                    UNIFORM_MAX_ORDER)
         if ok:
             return Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
-    K = uniform_laplacian(F, n)
+    K, _ = _operators(X, F, uniform=True)
     Quu, Quf = _blocks(K, None, min(order, UNIFORM_MAX_ORDER), fixed, unknown)
     X[unknown] = _Factor(Quu, Quf).minimise(X[fixed])
     last = None  # the previous cotangent round's factorisation
@@ -295,8 +319,8 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
         area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
         if not np.isfinite(X).all() or area.min() <= DEGENERATE_AREA:
             break
-        Kc, Mc = _cotan_operators(X, F)
-        if not (np.isfinite(Kc.data).all() and np.isfinite(Mc).all()):
+        Kc, Mc = _operators(X, F)
+        if not (np.isfinite(Kc[2] if isinstance(Kc, tuple) else Kc.data).all() and np.isfinite(Mc).all()):
             break
         floor = DEGENERATE_AREA + 1e-3 * np.median(Mc)
         Quu, Quf = _blocks(Kc, 1.0 / np.maximum(Mc, floor), order, fixed, unknown)
@@ -312,7 +336,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
             break
         X[unknown] = Xn
         K = Kc
-    return X[n_fixed:], K
+    return X[n_fixed:], _as_sparse(K, n)
 
 
 def taubin_smooth(X, F, n_fixed, passes, lam=TAUBIN_LAMBDA, mu=TAUBIN_MU):
