@@ -14,15 +14,29 @@ Voronoi mass matrix, the energy is xᵀ Q x with
     k = 2:  Q = K M⁻¹ K             (thin plate, bilaplacian)
     k = 3:  Q = K M⁻¹ K M⁻¹ K       (minimum variation of curvature)
 
-minimised with the fixed rows given (libigl ``min_quad_with_fixed``: one
-sparse LLᵀ factorisation of the unknowns' block, the three coordinates
-solved as three right-hand sides). The first round uses uniform (umbrella)
-weights, since cotangents of the initial, flat patch are meaningless; later
-rounds re-evaluate cotangent weights and masses on the patch's own current
-geometry, taken on its intrinsic Delaunay triangulation
+minimised with the fixed rows given: Q_uu x_u = −Q_uf x_f, one sparse LLᵀ
+factorisation of the unknowns' block Q_uu (libigl ``min_quad_with_fixed``),
+the three coordinates solved as three right-hand sides. The two blocks are
+assembled row by row by a compiled kernel
+(:func:`shellrepair.kernels.energy_blocks`), not by sparse products and
+slices. The first round uses uniform (umbrella) weights, since cotangents
+of the initial, flat patch are meaningless, at order min(k, 2)
+(``UNIFORM_MAX_ORDER``); later rounds re-evaluate cotangent weights and
+masses on the patch's own current geometry, taken on its intrinsic
+Delaunay triangulation
 (:mod:`shellrepair.intrinsic`): the slivers a scan's rim is full of then
 give neither negative weights nor vanishing masses. Where a triangle is
 degenerate the round falls back to uniform weights.
+
+Order 3 starts from the uniform thin-plate (k = 2) solve, not a uniform
+k = 3 one: the cube of the umbrella operator leaves the patch's vertices
+so unevenly spread along the surface that the first cotangent round moved
+them far, and the second round's matrix still differed from the first's
+by 36 % (Frobenius norm; the 15k-unknown patch of ``eval/bench_fill.py``,
+against 0.3 % at k = 2): the first round's factors could not precondition
+it, and it took a third factorisation. From the thin-plate start the rounds
+differ as little as at k = 2, and the first factorisation has half the
+non-zeros.
 
 From the second cotangent round on, the matrix differs little from the
 previous round's (the geometry moved by a fraction of an edge), so that
@@ -60,6 +74,8 @@ __all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "umbrella_smooth"
 
 #: Rounds of cotangent re-evaluation after the uniform first solve.
 COTAN_ROUNDS = 2
+#: The uniform first solve is of order min(order, this) (module docstring).
+UNIFORM_MAX_ORDER = 2
 #: Triangles with area below this (in units of the squared mean rim edge) are degenerate.
 DEGENERATE_AREA = 1e-10
 #: Patches with at most this many unknowns (and unknowns × submesh vertices
@@ -120,24 +136,59 @@ def _energy(K, Minv, order):
     return ((Q + Q.T) * 0.5).tocsc()
 
 
-def _solve(Q, fixed, unknown, X):
-    """Minimise xᵀQx with rows ``fixed`` of X given; returns X[unknown]."""
-    return _Factor(Q, fixed, unknown).minimise(X)
+def _blocks(K, Minv, order, fixed, unknown):
+    """The unknowns' block Q_uu (CSC) and the fixed coupling Q_uf (CSR) of
+    :func:`_energy`'s Q: compiled in one pass per row
+    (:func:`shellrepair.kernels.energy_blocks`) when Numba is there, else
+    SciPy's products and slices. ``K``: sparse, or the CSR arrays of
+    :func:`_operators`."""
+    if kernels.ENABLED:
+        if sp.issparse(K):
+            K = sp.csc_matrix(K)
+            K = (K.indptr, K.indices, K.data)
+        ptr, col, val = K
+        D = np.ones(ptr.size - 1) if Minv is None else Minv
+        (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
+        return (sp.csc_matrix((uv, uc, up), shape=(unknown.size, unknown.size)),
+                sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size)))
+    Qu = _energy(K, Minv, order)[unknown]
+    return Qu[:, unknown].tocsc(), Qu[:, fixed].tocsr()
+
+
+def _operators(X, F, uniform=False):
+    """K (and M, None for ``uniform``) of a fairing round: as compiled CSR
+    arrays when Numba is there (no SciPy assembly), else sparse."""
+    if not kernels.ENABLED:
+        return (uniform_laplacian(F, len(X)), None) if uniform else _cotan_operators(X, F)
+    if uniform:
+        return kernels._laplacian_rows(np.ascontiguousarray(F, np.int64), np.zeros((0, 3)), len(X), True), None
+    from .intrinsic import _laplacian_arrays
+
+    return _laplacian_arrays(X, F)
+
+
+def _as_sparse(K, n):
+    """The CSC matrix of :func:`_operators`' K."""
+    if sp.issparse(K):
+        return K
+    ptr, col, val = K
+    return sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
 
 
 class _Factor:
-    """The unknowns' block of Q, factorised once: libigl's sparse LLᵀ
-    (``min_quad_with_fixed_precompute``), or SciPy's LU where libigl fails
-    or gives non-finite values."""
+    """Q_uu, the unknowns' block of Q, factorised once: libigl's sparse LLᵀ
+    (``min_quad_with_fixed_precompute`` with no fixed rows), or SciPy's LU
+    where libigl fails or gives non-finite values. ``Q_uf`` couples the
+    unknowns to the fixed rows."""
 
-    def __init__(self, Q, fixed, unknown):
-        self.Q, self.fixed, self.unknown = Q, fixed, unknown
+    def __init__(self, Quu, Quf):
+        self.Quu, self.Quf = Quu, Quf
         self.data = self.lu = None
         try:
             import igl
 
             data = igl.min_quad_with_fixed_data()
-            igl.min_quad_with_fixed_precompute(Q, fixed.astype(np.int64), sp.csc_matrix((0, Q.shape[0])), True, data)
+            igl.min_quad_with_fixed_precompute(Quu, np.zeros(0, np.int64), sp.csc_matrix((0, Quu.shape[0])), True, data)
             self.data = data
         except Exception:  # SciPy's LU instead
             self._use_lu()
@@ -145,37 +196,31 @@ class _Factor:
     def _use_lu(self):
         self.data = None
         if self.lu is None:
-            self.lu = spla.splu(self.Q[self.unknown][:, self.unknown].tocsc())
+            self.lu = spla.splu(sp.csc_matrix(self.Quu))
 
-    def _igl(self, B, Y):
-        import igl
-
-        try:
-            Z = igl.min_quad_with_fixed_solve(self.data, B, Y, np.zeros((0, B.shape[1])))[self.unknown]
-        except Exception:
-            return None
-        return Z if np.isfinite(Z).all() else None
-
-    def minimise(self, X):
-        """X[unknown] minimising xᵀQx, X[fixed] given."""
+    def _solve(self, R):
+        """Q_uu⁻¹ R (R: (u,c))."""
+        R = np.asarray(R, np.float64)
         if self.data is not None:
-            Z = self._igl(np.zeros((self.Q.shape[0], X.shape[1])), np.ascontiguousarray(X[self.fixed]))
-            if Z is not None:
+            import igl
+
+            try:   # libigl minimises ½ zᵀ Q_uu z + zᵀ B: z = −Q_uu⁻¹ B
+                Z = igl.min_quad_with_fixed_solve(self.data, np.ascontiguousarray(-R), np.zeros((0, R.shape[1])),
+                                                  np.zeros((0, R.shape[1])))
+            except Exception:
+                Z = None
+            if Z is not None and np.isfinite(Z).all():
                 return Z
             self._use_lu()
-        rhs = -(self.Q[self.unknown][:, self.fixed] @ X[self.fixed])
-        return self.lu.solve(np.asarray(rhs, np.float64))
+        return self.lu.solve(R)
+
+    def minimise(self, Xf):
+        """X[unknown] minimising xᵀQx, X[fixed] = ``Xf`` given."""
+        return self._solve(-(self.Quf @ Xf))
 
     def apply(self, R):
         """Q_uu⁻¹ R (R: (u,c))."""
-        if self.data is not None:
-            B = np.zeros((self.Q.shape[0], R.shape[1]))
-            B[self.unknown] = -R
-            Z = self._igl(B, np.zeros((self.fixed.size, R.shape[1])))
-            if Z is not None:
-                return Z
-            self._use_lu()
-        return self.lu.solve(np.asarray(R, np.float64))
+        return self._solve(R)
 
 
 def _pcg(A, B, X0, precond, tol=None, max_iter=None):
@@ -261,36 +306,37 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     if kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK:
         from .intrinsic import FLIP_TOL, MAX_ROUNDS
 
-        Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL, MAX_ROUNDS)
+        Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL, MAX_ROUNDS,
+                                                   UNIFORM_MAX_ORDER)
         if ok:
             return Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
-    K = uniform_laplacian(F, n)
-    X[unknown] = _solve(_energy(K, None, order), fixed, unknown, X)
+    K, _ = _operators(X, F, uniform=True)
+    Quu, Quf = _blocks(K, None, min(order, UNIFORM_MAX_ORDER), fixed, unknown)
+    X[unknown] = _Factor(Quu, Quf).minimise(X[fixed])
     last = None  # the previous cotangent round's factorisation
     for _ in range(int(rounds)):
         e = X[F]
         area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
         if not np.isfinite(X).all() or area.min() <= DEGENERATE_AREA:
             break
-        Kc, Mc = _cotan_operators(X, F)
-        if not (np.isfinite(Kc.data).all() and np.isfinite(Mc).all()):
+        Kc, Mc = _operators(X, F)
+        if not (np.isfinite(Kc[2] if isinstance(Kc, tuple) else Kc.data).all() and np.isfinite(Mc).all()):
             break
         floor = DEGENERATE_AREA + 1e-3 * np.median(Mc)
-        Q = _energy(Kc, 1.0 / np.maximum(Mc, floor), order)
+        Quu, Quf = _blocks(Kc, 1.0 / np.maximum(Mc, floor), order, fixed, unknown)
         Xn = None
         if last is not None:   # a later round: the previous round's factors precondition CG
-            Qu = Q[unknown]
-            Xn = _pcg(Qu[:, unknown].tocsr(), -(Qu[:, fixed] @ X[fixed]), X[unknown], last.apply)
+            Xn = _pcg(Quu, -(Quf @ X[fixed]), X[unknown], last.apply)
         if Xn is None:
-            f = _Factor(Q, fixed, unknown)
-            Xn = f.minimise(X)
+            f = _Factor(Quu, Quf)
+            Xn = f.minimise(X[fixed])
             if unknown.size >= PCG_MIN_UNKNOWNS:
                 last = f
         if not np.isfinite(Xn).all():
             break
         X[unknown] = Xn
         K = Kc
-    return X[n_fixed:], K
+    return X[n_fixed:], _as_sparse(K, n)
 
 
 def taubin_smooth(X, F, n_fixed, passes, lam=TAUBIN_LAMBDA, mu=TAUBIN_MU):

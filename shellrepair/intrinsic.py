@@ -180,3 +180,22 @@ def intrinsic_laplacian(X, F):
                        (np.concatenate([i, j, i, j]), np.concatenate([j, i, i, j]))), shape=(n, n))
     M = np.bincount(T.ravel(), np.repeat(A / 3.0, 3), n)
     return K, M
+
+
+def _laplacian_arrays(X, F):
+    """:func:`intrinsic_laplacian` for the fairing rounds: K as compiled CSR
+    arrays (:func:`shellrepair.kernels._laplacian_rows`: columns unsorted,
+    a spare zero on the diagonal; K is symmetric, so they are its CSC too),
+    without SciPy's conversion and sort. Needs the kernels.
+
+    Returns
+    -------
+    K : (ptr, col, val)
+    M : (n,) float64
+    """
+    n = len(X)
+    T, L, _, known = _flip_to_delaunay(X, F)
+    cot, A = _cotangents(L) if known is None else known
+    ptr, col, val = kernels._laplacian_rows(T, 0.5 * cot, n, False)
+    M = np.bincount(T.ravel(), np.repeat(A / 3.0, 3), n)
+    return (ptr, col, val), M

@@ -33,7 +33,10 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   around it (:func:`shellrepair.patch._rim_data`);
 * :func:`fair_small`: a small patch's whole fairing
   (:func:`shellrepair.fair.fair_patch`), the solves dense: equal to
-  round-off, not to the bit (the one kernel with a tolerance, stated there).
+  round-off, not to the bit (the one kernel with a tolerance, stated there);
+* :func:`energy_blocks`: the unknown and fixed blocks of a large patch's
+  fairing energy (:func:`shellrepair.fair._energy` and its slices), equal
+  to round-off (the sums in another order; tests/test_fair.py).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -48,7 +51,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1399,7 +1402,7 @@ def _fair_round(ptr, col, val, D, order, X, fixed, unk_pos, unk):
 
 
 @njit(cache=True, nogil=True)
-def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds):
+def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds, uniform_max_order):
     n = X.shape[0]
     m = F.shape[0]
     unk_pos = np.full(n, -1, np.int64)
@@ -1415,7 +1418,7 @@ def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_roun
     X = X.copy()
     ones = np.ones(n)
     ptr, col, val = _laplacian_rows(F, np.zeros((0, 3)), n, True)
-    Xu, ok = _fair_round(ptr, col, val, ones, order, X, fixed, unk_pos, unk)
+    Xu, ok = _fair_round(ptr, col, val, ones, min(order, uniform_max_order), X, fixed, unk_pos, unk)
     if not ok:
         return X, False, ptr, col, val
     for i in range(nu):
@@ -1466,10 +1469,11 @@ def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_roun
     return X, True, ptr, col, val
 
 
-def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds):
+def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_rounds, uniform_max_order=2):
     """:func:`shellrepair.fair.fair_patch` for a small patch, compiled.
 
-    The same rounds (a uniform-weight solve, then cotangent rounds on the
+    The same rounds (a uniform-weight solve of order min(order,
+    ``uniform_max_order``), then cotangent rounds on the
     intrinsic Delaunay triangulation, the same stopping tests), with the
     normal equations of the unknowns assembled dense and solved by a
     Cholesky factorisation instead of libigl's sparse one: equal to
@@ -1487,6 +1491,8 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
     degenerate_area, flip_tol : float
     flip_rounds : int
         As in :mod:`shellrepair.fair` and :mod:`shellrepair.intrinsic`.
+    uniform_max_order : int
+        ``fair.UNIFORM_MAX_ORDER``.
 
     Returns
     -------
@@ -1500,8 +1506,163 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
     """
     return _fair_small(np.ascontiguousarray(X, np.float64), np.ascontiguousarray(F, np.int64),
                        np.ascontiguousarray(fixed, np.bool_), int(order), int(rounds), float(degenerate_area),
-                       float(flip_tol), int(flip_rounds))
+                       float(flip_tol), int(flip_rounds), int(uniform_max_order))
 
+
+
+# --------------------------------------------------------------------------
+# fairing of large patches: the energy's blocks, assembled directly
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _times_dk(ptr, col, val, D, acc, lst, cnt, acc2, stamp2, lst2, key):
+    """Sparse row r (``acc`` at columns ``lst[:cnt]``) times D K, K
+    symmetric, into ``acc2`` / ``lst2``; returns the new column count."""
+    cnt2 = 0
+    for t in range(cnt):
+        w = lst[t]
+        sw = acc[w] * D[w]
+        for q in range(ptr[w], ptr[w + 1]):
+            j = col[q]
+            if stamp2[j] != key:
+                stamp2[j] = key
+                acc2[j] = 0.0
+                lst2[cnt2] = j
+                cnt2 += 1
+            acc2[j] += sw * val[q]
+    return cnt2
+
+
+@njit(cache=True, nogil=True)
+def _energy_rows(ptr, col, val, D, order, unk, pos, is_fixed):
+    """Rows ``unk`` of Q = K (D K)^(order−1), split by column into the
+    unknowns' block (columns ``pos`` of unknowns) and the fixed block
+    (columns ``pos`` of fixed vertices); each row's columns sorted.
+
+    Row by row (Gustavson): the row of K, then (order − 1) times r ← (r D) K,
+    in scattered accumulators stamped per row and level."""
+    n = ptr.size - 1
+    nu = unk.size
+    acc1, acc2, acc3 = np.zeros(n), np.zeros(n), np.zeros(n)
+    st1, st2, st3 = np.full(n, -1, np.int64), np.full(n, -1, np.int64), np.full(n, -1, np.int64)
+    l1, l2, l3 = np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64)
+    cap_u = max(16 * nu, 16)
+    cap_f = max(4 * nu, 16)
+    u_ptr = np.zeros(nu + 1, np.int64)
+    u_col = np.empty(cap_u, np.int64)
+    u_val = np.empty(cap_u)
+    f_ptr = np.zeros(nu + 1, np.int64)
+    f_col = np.empty(cap_f, np.int64)
+    f_val = np.empty(cap_f)
+    nuu = 0
+    nuf = 0
+    for i in range(nu):
+        v = unk[i]
+        cnt = 0
+        for q in range(ptr[v], ptr[v + 1]):           # level 1: row v of K
+            j = col[q]
+            if st1[j] != i:
+                st1[j] = i
+                acc1[j] = 0.0
+                l1[cnt] = j
+                cnt += 1
+            acc1[j] += val[q]
+        acc, lst = acc1, l1
+        if order >= 2:
+            cnt = _times_dk(ptr, col, val, D, acc1, l1, cnt, acc2, st2, l2, i)
+            acc, lst = acc2, l2
+        if order >= 3:
+            cnt = _times_dk(ptr, col, val, D, acc2, l2, cnt, acc3, st3, l3, i)
+            acc, lst = acc3, l3
+        for t in range(1, cnt):                        # insertion sort: rows are short
+            j = lst[t]
+            k = t - 1
+            while k >= 0 and lst[k] > j:
+                lst[k + 1] = lst[k]
+                k -= 1
+            lst[k + 1] = j
+        if nuu + cnt > cap_u:
+            cap_u = 2 * (nuu + cnt)
+            u_col = np.concatenate((u_col[:nuu], np.empty(cap_u - nuu, np.int64)))
+            u_val = np.concatenate((u_val[:nuu], np.empty(cap_u - nuu)))
+        if nuf + cnt > cap_f:
+            cap_f = 2 * (nuf + cnt)
+            f_col = np.concatenate((f_col[:nuf], np.empty(cap_f - nuf, np.int64)))
+            f_val = np.concatenate((f_val[:nuf], np.empty(cap_f - nuf)))
+        for t in range(cnt):
+            j = lst[t]
+            if is_fixed[j]:
+                f_col[nuf] = pos[j]
+                f_val[nuf] = acc[j]
+                nuf += 1
+            else:
+                u_col[nuu] = pos[j]
+                u_val[nuu] = acc[j]
+                nuu += 1
+        u_ptr[i + 1] = nuu
+        f_ptr[i + 1] = nuf
+    return u_ptr, u_col[:nuu].copy(), u_val[:nuu].copy(), f_ptr, f_col[:nuf].copy(), f_val[:nuf].copy()
+
+
+@njit(cache=True, nogil=True)
+def _symmetrise(ptr, col, val):
+    """Q ← (Q + Qᵀ) / 2 in place, for sorted rows of a structurally
+    symmetric matrix: both entries get the same value, to the bit."""
+    n = ptr.size - 1
+    for i in range(n):
+        for q in range(ptr[i], ptr[i + 1]):
+            j = col[q]
+            if j <= i:
+                continue
+            lo, hi = ptr[j], ptr[j + 1]            # find (j, i) in row j
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if col[mid] < i:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            if lo < ptr[j + 1] and col[lo] == i:
+                m = 0.5 * (val[q] + val[lo])
+                val[q] = m
+                val[lo] = m
+    return val
+
+
+def energy_blocks(ptr, col, val, D, order, unknown, fixed):
+    """The blocks of the fairing energy Q = K (D K)^(order−1) that a solve
+    with the rows ``fixed`` given needs, assembled in one pass per row
+    (:func:`shellrepair.fair._energy` and slicing, without the sparse
+    products, sorts and transposes; equal to round-off, the sums taken in
+    another order).
+
+    Parameters
+    ----------
+    ptr, col, val : CSR (or CSC) arrays of K (n,n), symmetric
+    D : (n,) float64
+        The diagonal between the factors (M⁻¹; ones for unit masses).
+    order : {1, 2, 3}
+    unknown, fixed : int64 arrays partitioning range(n)
+
+    Returns
+    -------
+    uu : (ptr, col, val)
+        Q[unknown][:, unknown], rows sorted, symmetric to the bit (the same
+        arrays are its CSC).
+    uf : (ptr, col, val)
+        Q[unknown][:, fixed] as CSR.
+    """
+    unknown = np.ascontiguousarray(unknown, np.int64)
+    fixed = np.ascontiguousarray(fixed, np.int64)
+    n = ptr.size - 1
+    pos = np.empty(n, np.int64)
+    pos[unknown] = np.arange(unknown.size)
+    pos[fixed] = np.arange(fixed.size)
+    is_fixed = np.zeros(n, np.bool_)
+    is_fixed[fixed] = True
+    up, uc, uv, fp, fc, fv = _energy_rows(np.ascontiguousarray(ptr, np.int64), np.ascontiguousarray(col, np.int64),
+                                          np.ascontiguousarray(val, np.float64), np.ascontiguousarray(D, np.float64),
+                                          int(order), unknown, pos, is_fixed)
+    uv = _symmetrise(up, uc, uv)
+    return (up, uc, uv), (fp, fc, fv)
 
 # --------------------------------------------------------------------------
 # the local region's near-face query
@@ -1634,5 +1795,7 @@ def warm_up():
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
     outline_simple(X[:3, :2], 1e-12)
+    ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
+    energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))
     _WARM = True
     return True

@@ -62,8 +62,13 @@ def test_torus_missing_its_inner_band_gets_a_tube(cut, r):
 
 
 def test_never_caps_the_band_and_gets_the_shape_wrong():
+    # at order 2: at order 3 the two caps bulge into each other and the
+    # second is refused, and the default order's choice sits on its
+    # threshold here (order 3 lay 0.159 from order 2 against errors summing
+    # to 0.147 before order 3 started from the thin-plate solve, just under
+    # since; at cut -0.7, or r 0.3 or 0.4, the second cap was refused before)
     V, F, V2, F2 = torus_without_inner_band()
-    R, rep = repair_mesh(Mesh(V=V2, F=F2), bridge="never")
+    R, rep = repair_mesh(Mesh(V=V2, F=F2), bridge="never", order=2)
     assert rep["bridges"] == [] and rep["holes_after"] == 0
     assert rep["euler_after"] == 2                                   # two caps: a sphere
     assert rel_error_permille(V, F, R)[0] > 20.0

@@ -86,3 +86,21 @@ def test_on_a_curved_surface_flips_keep_the_area_and_leave_no_negative_inner_wei
     assert np.isclose(M.sum(), A0.sum(), rtol=1e-12)
     Kc = K.tocoo()
     assert (Kc.data[Kc.row != Kc.col] <= 1e-12).all()     # closed: every edge is interior
+
+
+def test_the_compiled_arrays_are_the_same_operator():
+    import pytest
+    import scipy.sparse as sp
+
+    from shellrepair import kernels
+    from shellrepair.intrinsic import _laplacian_arrays
+
+    if not kernels.ENABLED:
+        pytest.skip("Numba is not installed")
+    V, F = _slivered_grid(seed=2)
+    K, M = intrinsic_laplacian(V, F)
+    (ptr, col, val), M2 = _laplacian_arrays(V, F)
+    K2 = sp.csr_matrix((val, col, ptr), shape=K.shape)
+    assert abs(K2 - K).max() <= 1e-14 * abs(K).max()      # the same sums in another order
+    assert np.array_equal(M2, M)
+    assert abs(K2 - K2.T).max() == 0                       # so its arrays are its CSC too

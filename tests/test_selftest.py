@@ -109,8 +109,10 @@ def test_on_a_sculpted_bust_auto_is_as_true_as_order_2_and_truer_than_order_3():
     # 9 disc holes over the Nefertiti bust's relief: most rims hold an edge
     # bending over SMOOTH_BEND_DEG (sculpted detail, the scan's noise) and keep
     # order 2 untested; the few smooth ones are tested. Summed over the holes,
-    # the choices are within 1 % of order 2 (measured 25.46 against 25.43)
-    # and far from order 3 (28.7): order 3 carried into the holes overshoots.
+    # the choices are within 1 % of order 2 (measured 25.41 against 25.43)
+    # and truer than order 3 (25.82; 28.7 before order 3 started from the
+    # uniform thin-plate solve, fair.UNIFORM_MAX_ORDER): order 3 carried into
+    # the holes overshoots.
     from scipy.spatial import cKDTree
 
     m = read_mesh(shared_scan("closed_nefertiti_bust.ply"))
@@ -134,7 +136,7 @@ def test_on_a_sculpted_bust_auto_is_as_true_as_order_2_and_truer_than_order_3():
             sq[3] += e[3]
             sq["auto"] += e[t.order]
     assert held >= 5
-    assert sq["auto"] <= 1.01 * sq[2] and sq["auto"] < 0.95 * sq[3]
+    assert sq["auto"] <= 1.01 * sq[2] and sq["auto"] < sq[3]
 
 
 def test_a_crease_near_the_rim_keeps_order_2_where_order_3_would_bulge():
