@@ -333,6 +333,9 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
             ok, gap = agrees(test, ctx.V, patch, p3)
             if ok and _check_patch(ctx, p3)[0] is None:
                 p3.option = patch.option.replace("order 2", "order 3") + f" ({test.describe()})"
+                # the merge falls back on order 2 where order 3 and another hole's patch cross
+                patch.option += f" ({test.describe()}; order 3 and another hole's patch would cross: order 2 kept)"
+                p3.fallback = patch
                 return Outcome(p3, reason, time.perf_counter() - t0, reasons)
             patch.option += (f" ({test.describe()}; but order 3 lies {gap:.3g} from order 2 here, more than "
                              f"the two errors together: order 2 kept)" if not ok else

@@ -62,9 +62,14 @@ class _Accepted:
             self._near[j] = (c, r, cKDTree(c), C.min(axis=1), C.max(axis=1))
         return self._near[j]
 
-    def conflict(self, ctx, patch):
-        """Why the patch clashes with an accepted one, or None."""
-        if any(e in self.edges for e in _scan_edges(patch)):
+    def conflict(self, ctx, patch, skip=None):
+        """Why the patch clashes with an accepted one, or None (and the
+        patch's corners); ``self.clash`` is then the clashing item's index
+        (None for an edge clash). ``skip``: an item left out of the check
+        (the one the patch would replace)."""
+        self.clash = None
+        own = _scan_edges(self.items[skip][0]) if skip is not None else ()
+        if any(e in self.edges and e not in own for e in _scan_edges(patch)):
             return "an earlier patch already created an edge this patch needs", None
         C, ids = _corners(ctx, patch)
         if self.items:
@@ -75,6 +80,8 @@ class _Accepted:
                 c1, r1 = bounding_spheres(C)
                 lo1, hi1 = C.min(axis=1), C.max(axis=1)
             for j in near:
+                if j == skip:
+                    continue
                 other, D, oid = self.items[j]
                 c2, r2, tree, lo2, hi2 = self._spheres(j)
                 ai, bi = ball_pairs(tree, c1, r1 + r2.max())
@@ -82,8 +89,61 @@ class _Accepted:
                 box = np.all((lo1[ai] <= hi2[bi]) & (lo2[bi] <= hi1[ai]), axis=1)
                 ai, bi = ai[box], bi[box]
                 if ai.size and pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
+                    self.clash = int(j)
                     return f"patch would cross the patch of hole {other.hole_id}", None
         return None, (C, ids)
+
+    def replace(self, j, patch, C, ids):
+        """Put ``patch`` (the same hole, the same scan edges) in item ``j``'s place."""
+        oid = np.where(ids < 0, ids - 10 ** 12 * (j + 1), ids)
+        self.items[j] = (patch, C, oid)
+        self._near[j] = None
+        P = C.reshape(-1, 3)
+        self.lo[j], self.hi[j] = P.min(axis=0), P.max(axis=0)
+
+    def place(self, ctx, patch):
+        """Accept ``patch`` if it clashes with no accepted patch; where it
+        does and an order-3 patch of ``--order auto`` is involved, its
+        order-2 fill (``Patch.fallback``) is tried in its place: first this
+        patch's, then the clashing earlier one's (kept only if this patch,
+        or its own fallback, then fits).
+
+        Returns
+        -------
+        placed : Patch or None
+            The patch accepted for this hole (``patch`` or its fallback).
+        reason : str
+            Why none fitted ('' when one did).
+        swapped : Patch or None
+            The earlier hole's order-2 patch that replaced its order-3 one.
+        """
+        tries = [patch] + ([patch.fallback] if patch.fallback is not None else [])
+        first = None
+        for p in tries:
+            why, corners = self.conflict(ctx, p)
+            if why is None:
+                self.add(p, *corners)
+                return p, "", None
+            first = first or (why, self.clash)
+        why, j = first
+        if j is None or self.items[j][0].fallback is None:
+            return None, why, None
+        old = self.items[j]
+        alt = old[0].fallback
+        why_alt, corners_alt = self.conflict(ctx, alt, skip=j)
+        if why_alt is not None:
+            return None, why, None
+        self.replace(j, alt, *corners_alt)
+        for p in tries:
+            why2, corners = self.conflict(ctx, p)
+            if why2 is None:
+                self.add(p, *corners)
+                return p, "", alt
+        self.items[j] = old          # neither fits: the earlier hole keeps its order 3
+        self._near[j] = None
+        P = old[1].reshape(-1, 3)
+        self.lo[j], self.hi[j] = P.min(axis=0), P.max(axis=0)
+        return None, why, None
 
 
 def _merge(mesh, V, F, patches):

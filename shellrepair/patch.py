@@ -97,6 +97,7 @@ class Patch:
     energy: tuple | None = None
     order: int | None = None
     disc: bool = False
+    fallback: object = None   # order 3 chosen by "auto": the hole's checked order-2 patch (same rim edges)
 
     def global_faces(self, base):
         """Faces with new vertex j at index ``base + j``."""

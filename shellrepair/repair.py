@@ -225,13 +225,15 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
             row = {"id": L.id, "edges": L.edges, "status": "failed", "reason": reason,
                    "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
             if patch is not None:
-                conflict, corners = acc.conflict(ctx, patch)
-                if conflict:
+                patch, conflict, swapped = acc.place(ctx, patch)
+                if swapped is not None and swapped.hole_id in rows:   # an earlier hole now at order 2
+                    rows[swapped.hole_id].update(reason=swapped.option, option=swapped.option,
+                                                 new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)))
+                if patch is None:
                     row["reason"] = conflict
                     if record is not None and record.get("chosen") == "tube":
                         tube_rejected = conflict
                 else:
-                    acc.add(patch, *corners)
                     tube_ok = True
                     row.update(status="filled", reason=patch.option, new_vertices=int(len(patch.P)),
                                new_faces=int(len(patch.T)), option=patch.option)

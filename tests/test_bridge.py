@@ -61,6 +61,20 @@ def test_torus_missing_its_inner_band_gets_a_tube(cut, r):
     assert rms <= 10.0, rms
 
 
+def test_an_order_3_cap_crossing_another_falls_back_on_its_order_2_fill():
+    # at the default order both caps of this band test order 3; the first
+    # one's order-3 cap bulges into the second's: the merge puts the first
+    # hole's checked order-2 fill in its place and both close (before,
+    # the second hole stayed open)
+    V, F, V2, F2 = torus_without_inner_band()
+    R, rep = repair_mesh(Mesh(V=V2, F=F2), bridge="never")
+    assert rep["holes_after"] == 0
+    assert rep["boundary_edges_after"] == 0 and rep["nonmanifold_edges_after"] == 0
+    assert np.array_equal(R.V[:len(V2)], V2)
+    first = rep["holes"][0]["option"]
+    assert first.startswith("faired order 2") and "would cross: order 2 kept" in first
+
+
 def test_never_caps_the_band_and_gets_the_shape_wrong():
     # at order 2: at order 3 the two caps bulge into each other and the
     # second is refused, and the default order's choice sits on its
