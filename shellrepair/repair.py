@@ -246,6 +246,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
                 rows[L.id] = row
         if record is not None:
             bridges.append(record)
+    _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method)
     rows = [rows[h.id] for h in holes if h.id in rows]
     accepted = [it[0] for it in acc.items]
     repaired = _merge(mesh, V, F, accepted)
@@ -278,6 +279,35 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
                                 "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}
                                                  for b in scan.borders]})
     return repaired, report
+
+
+def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method):
+    """Fill again each single hole refused because its patch crosses an
+    earlier hole's: on the scan with every accepted patch appended, so the
+    new fill's checks keep it off them (one round, in hole order; the row
+    is updated in place)."""
+    again = [h for h in holes if method == "fair" and h.id not in paired and h.id in rows
+             and rows[h.id]["status"] == "failed"
+             and str(rows[h.id]["reason"]).startswith("patch would cross the patch of hole")]
+    if not again:
+        return
+    grown = _merge(mesh, V, F, [it[0] for it in acc.items])
+    ctx2 = _Context(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
+    for h in again:
+        row = rows[h.id]
+        patch, reason, secs, _ = _fill._fill_one(ctx2, h.id, np.asarray(h.vertices, np.int64), order, smooth)
+        row["seconds"] = round(row["seconds"] + secs, 4)
+        if patch is not None:
+            patch, reason, swapped = acc.place(ctx, patch)
+            if swapped is not None and swapped.hole_id in rows:
+                rows[swapped.hole_id].update(reason=swapped.option, option=swapped.option,
+                                             new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)))
+        if patch is None:
+            row["reason"] = f"{row['reason']}; filled again around the accepted patches: {reason}"
+            continue
+        option = f"{patch.option} (filled again around the patches accepted before it: the first crossed one)"
+        row.update(status="filled", reason=option, option=option, new_vertices=int(len(patch.P)),
+                   new_faces=int(len(patch.T)))
 
 
 def _progress(report, i, n, label="filling holes"):
