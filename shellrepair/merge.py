@@ -95,10 +95,13 @@ class _Accepted:
 
     def replace(self, j, patch, C, ids):
         """Put ``patch`` (the same hole, the same scan edges) in item ``j``'s place."""
-        oid = np.where(ids < 0, ids - 10 ** 12 * (j + 1), ids)
-        self.items[j] = (patch, C, oid)
+        self._set(j, (patch, C, np.where(ids < 0, ids - 10 ** 12 * (j + 1), ids)))
+
+    def _set(self, j, item):
+        """Item ``j`` becomes ``item`` (patch, corners, ids); its box follows."""
+        self.items[j] = item
         self._near[j] = None
-        P = C.reshape(-1, 3)
+        P = item[1].reshape(-1, 3)
         self.lo[j], self.hi[j] = P.min(axis=0), P.max(axis=0)
 
     def place(self, ctx, patch):
@@ -139,10 +142,7 @@ class _Accepted:
             if why2 is None:
                 self.add(p, *corners)
                 return p, "", alt
-        self.items[j] = old          # neither fits: the earlier hole keeps its order 3
-        self._near[j] = None
-        P = old[1].reshape(-1, 3)
-        self.lo[j], self.hi[j] = P.min(axis=0), P.max(axis=0)
+        self._set(j, old)          # neither fits: the earlier hole keeps its order 3
         return None, why, None
 
 

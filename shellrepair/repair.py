@@ -226,9 +226,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
                    "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
             if patch is not None:
                 patch, conflict, swapped = acc.place(ctx, patch)
-                if swapped is not None and swapped.hole_id in rows:   # an earlier hole now at order 2
-                    rows[swapped.hole_id].update(reason=swapped.option, option=swapped.option,
-                                                 new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)))
+                _note_swap(rows, swapped)
                 if patch is None:
                     row["reason"] = conflict
                     if record is not None and record.get("chosen") == "tube":
@@ -281,6 +279,13 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     return repaired, report
 
 
+def _note_swap(rows, swapped):
+    """An earlier hole's row, when the merge put its order-2 fill in place of its order-3 one."""
+    if swapped is not None and swapped.hole_id in rows:
+        rows[swapped.hole_id].update(reason=swapped.option, option=swapped.option,
+                                     new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)))
+
+
 def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method):
     """Fill again each single hole refused because its patch crosses an
     earlier hole's: on the scan with every accepted patch appended, so the
@@ -299,9 +304,7 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
         row["seconds"] = round(row["seconds"] + secs, 4)
         if patch is not None:
             patch, reason, swapped = acc.place(ctx, patch)
-            if swapped is not None and swapped.hole_id in rows:
-                rows[swapped.hole_id].update(reason=swapped.option, option=swapped.option,
-                                             new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)))
+            _note_swap(rows, swapped)
         if patch is None:
             row["reason"] = f"{row['reason']}; filled again around the accepted patches: {reason}"
             continue
