@@ -1,7 +1,11 @@
 # shellrepair: `make repair` and `make test` set up what they need on first use. See README.md.
 PY      ?= .venv/bin/python
 # written when .venv holds the package and its test tools; remade when pyproject.toml changes
-STAMP    = .venv/.shellrepair-installed
+INSTALLED = .venv/.shellrepair-installed
+# written when the package is byte-compiled and its Numba kernels compiled;
+# remade when a module changes (after a git pull), so no run pays the compiler
+STAMP    = .venv/.shellrepair-built
+SOURCES  = $(wildcard shellrepair/*.py shellrepair/*/*.py)
 SCAN    ?= data/bunny_zipper.ply
 OUT     ?= $(basename $(SCAN)).repaired.ply
 REPORT  ?= $(basename $(SCAN)).report.json
@@ -15,19 +19,24 @@ VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c '
 
 .PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance stress docs
 
-# `make setup` forces the install; every target that runs the package
-# depends on the stamp, so a fresh clone installs on its first command and
-# later commands skip it (make compares two timestamps).
+# `make setup` forces the install and the build; every target that runs the
+# package depends on the build stamp, so a fresh clone installs on its first
+# command, a pulled change of a module is compiled before the run that needs
+# it, and later commands skip both (make compares timestamps).
 setup: syslibs
-	rm -f $(STAMP)
+	rm -f $(INSTALLED) $(STAMP)
 	$(MAKE) --no-print-directory $(STAMP)
 
-$(STAMP): pyproject.toml
+$(INSTALLED): pyproject.toml
 	@$(MAKE) --no-print-directory syslibs
 	@echo "setting up .venv (first use, or pyproject.toml changed)"
 	test -x $(PY) || python3 -m venv .venv
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
+	touch $(INSTALLED)
+
+$(STAMP): $(INSTALLED) $(SOURCES)
+	@echo "building the package (first use, or a module changed since the last build)"
 	@echo "byte-compiling the package (an editable install does not; else the first run writes its .pyc)"
 	$(PY) -m compileall -q shellrepair
 	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"

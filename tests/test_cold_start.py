@@ -176,3 +176,24 @@ def test_real_scans_compile_nothing_after_setup(warm, tmp_path, name):
     compiled, extra = _beyond_warm_up(run, warm)
     assert compiled == [], f"compiled at run time: {compiled}"
     assert extra == {}, f"signatures the warm-ups do not compile: {extra}"
+
+
+@pytest.mark.skipif(not (ROOT / "Makefile").exists() or subprocess.run(["which", "make"], capture_output=True).returncode,
+                    reason="needs make and the checkout's Makefile")
+@pytest.mark.parametrize("module", ["shellrepair/kernels.py", "shellrepair/fastmesh.py",
+                                    "shellrepair/reflectance/_kernels.py", "shellrepair/repair.py"])
+def test_a_changed_module_is_built_before_the_next_run(module):
+    # after a git pull that changes a module (here: make told it is new, by
+    # -W, so no file is touched), `make repair` first remakes the build stamp,
+    # whose recipe byte-compiles the package and runs the kernels' warm-ups
+    stamp = ".venv/.shellrepair-built"
+    plan = subprocess.run(["make", "-n", "-W", module, "repair"], cwd=ROOT, capture_output=True, text=True,
+                          timeout=60)
+    assert plan.returncode == 0, plan.stderr
+    lines = plan.stdout.splitlines()
+    assert f"touch {stamp}" in lines
+    build = lines[:lines.index(f"touch {stamp}")]
+    for step in ("compileall", "from shellrepair.kernels import warm_up", "from shellrepair.fastmesh import warm_up",
+                 "from shellrepair.reflectance import warm_up"):
+        assert any(step in x for x in build), f"{step} missing from the build: {build}"
+    assert any("shellrepair.cli repair" in x for x in lines[lines.index(f"touch {stamp}"):])
