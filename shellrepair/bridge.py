@@ -330,54 +330,60 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
               if len(loops[a].vertices) >= 2 * SELF_SKIP + 2]
     rims = [np.asarray(loops[a].vertices, np.int64) for a in follow]
     all_arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
-    entries = []    # per followed loop: (a, k, idx, X, tol, bound)
+    # per followed loop with arcs: its evenly spaced arcs (rows), all loops'
+    # rows together; every quantity below is per row or per sample, so it
+    # is what the loop alone gives
+    picks = {}
+    ent_a, ent_k, idxs, rowsrc = [], [], [], []
     for a, loop, arcs in zip(follow, rims, all_arcs):
-        L = loops[a]
-        k = len(loop)
-        U, T, N, kap, s0, ok = arcs
-        idx = np.flatnonzero(ok)
+        idx = np.flatnonzero(arcs[5])
         if idx.size == 0:
             continue
         if idx.size > n_arcs:
-            idx = idx[np.linspace(0, idx.size - 1, n_arcs).round().astype(np.int64)]
-        reach = max_reach * max(L.diameter, 1e-300)
-        turn = np.where(np.abs(kap[idx]) > 0, 2 * np.pi / np.maximum(np.abs(kap[idx]), 1e-300), np.inf)
-        length = np.minimum(reach, turn)
-        frac = np.arange(1, n_samples + 1) / n_samples
-        s = s0[idx, None] + length[:, None] * frac[None]
-        X = arc_points(U[idx], T[idx], N[idx], kap[idx], s)
-        h = (length / n_samples)[:, None]
-        tol = h + slack * (s - s0[idx, None])                 # (m, j) without the target's edge
-        entries.append((a, k, idx, X, tol, float(tol.max() + edge.max())))
-    if not entries:
+            if idx.size not in picks:
+                picks[idx.size] = np.linspace(0, idx.size - 1, n_arcs).round().astype(np.int64)
+            idx = idx[picks[idx.size]]
+        ent_a.append(a)
+        ent_k.append(len(loop))
+        idxs.append(idx)
+    if not idxs:
         return out
+    used = [arcs for arcs in all_arcs if arcs[5].any()]
+    m = np.array([len(i) for i in idxs], np.int64)
+    first = np.concatenate([[0], np.cumsum(m)])
+    U, T, N, kap, s0 = (np.concatenate([x[i] for x, i in zip((arcs[c] for arcs in used), idxs)])
+                        for c in range(5))
+    reach = np.repeat([max_reach * max(loops[a].diameter, 1e-300) for a in ent_a], m)
+    turn = np.where(np.abs(kap) > 0, 2 * np.pi / np.maximum(np.abs(kap), 1e-300), np.inf)
+    length = np.minimum(reach, turn)
+    frac = np.arange(1, n_samples + 1) / n_samples
+    s = s0[:, None] + length[:, None] * frac[None]
+    h = (length / n_samples)[:, None]
+    tol = h + slack * (s - s0[:, None])                       # (m, j) without the target's edge
+    bound = np.maximum.reduceat(tol.max(axis=1), first[:-1]) + edge.max()
     # only an arc's first landing counts: samples are looked up from the rim
     # outwards, in growing runs, and an arc stops at its first landing (a
     # sample's lookup does not depend on which others are asked with it);
-    # the arcs of all loops go through each run together, each loop's
-    # samples looked up with its own bound
-    m = np.array([len(e[2]) for e in entries], np.int64)
-    ent = np.repeat(np.arange(len(entries)), m)
-    arow = np.repeat([e[0] for e in entries], m)
-    krow = np.repeat([e[1] for e in entries], m)
-    irow = np.concatenate([e[2] for e in entries])
-    X = np.concatenate([e[3] for e in entries])
-    tol = np.concatenate([e[4] for e in entries])
+    # a run's samples of all arcs still going are made (arc_points is per
+    # sample) and looked up together, bounded by the largest loop's bound:
+    # a sample's nearest rim vertex is the same under any bound that reaches
+    # it, and one beyond its own loop's bound is no landing, as before
+    ent = np.repeat(np.arange(len(idxs)), m)
+    arow = np.repeat(ent_a, m)
+    krow = np.repeat(ent_k, m)
+    irow = np.concatenate(idxs)
     landed = np.full(len(irow), -1, np.int64)
     rows = np.arange(len(irow))
     for c0, c1 in _sample_runs(n_samples):
         if rows.size == 0:
             break
         w = c1 - c0
-        d = np.empty((rows.size, w))
-        j = np.empty((rows.size, w), np.int64)
-        cut = np.flatnonzero(np.diff(ent[rows])) + 1            # rows are in loop order
-        for lo, hi in zip(np.concatenate([[0], cut]), np.concatenate([cut, [rows.size]])):
-            Xc = X[rows[lo:hi], c0:c1]
-            dd, jj = tree.query(Xc.reshape(-1, 3), distance_upper_bound=entries[ent[rows[lo]]][5])
-            d[lo:hi] = dd.reshape(hi - lo, w)
-            j[lo:hi] = jj.reshape(hi - lo, w)
-        found = np.isfinite(d)
+        X = arc_points(U[rows], T[rows], N[rows], kap[rows], s[rows, c0:c1])
+        rb = bound[ent[rows]]
+        d, j = tree.query(X.reshape(-1, 3), distance_upper_bound=float(rb.max()))
+        d = d.reshape(rows.size, w)
+        j = j.reshape(rows.size, w)
+        found = np.isfinite(d) & (d < rb[:, None])
         jj = np.where(found, j, 0)
         who = owner[jj]
         hit = found & (d <= tol[rows, c0:c1] + edge[who])
@@ -388,10 +394,9 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
         done = hit.any(axis=1)
         landed[rows[done]] = who[done, np.argmax(hit[done], axis=1)]
         rows = rows[~done]
-    first = np.concatenate([[0], np.cumsum(m)])
-    for e, (a, _, idx, _, _, _) in enumerate(entries):
+    for e, a in enumerate(ent_a):
         got = landed[first[e]:first[e + 1]]
-        out[a] = (np.bincount(got[got >= 0], minlength=len(loops)), len(idx))
+        out[a] = (np.bincount(got[got >= 0], minlength=len(loops)), int(m[e]))
     return out
 
 
