@@ -400,3 +400,52 @@ def test_boxes_meeting_equals_the_numpy_mask(seed):
     got = kernels.boxes_meeting(bmin, bmax, lo, hi)
     assert got.dtype == bool and np.array_equal(got, want)
     assert m < 200 or 0 < got.sum() < m
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_fold_test_equals_the_numpy_one(seed):
+    """Patches over a noisy grid hole, some triangles flipped onto a
+    neighbour (exact folds), some pushed nearly flat against one (within
+    and beyond FOLD_DEGREES), plus a zero-area triangle: the compiled fold
+    test flags exactly the triangles the NumPy one does."""
+    from shellrepair.fill import FOLD_DEGREES, _folds_numpy
+
+    rng = np.random.default_rng(seed)
+    n = 7
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1).reshape(-1, 2).astype(float)
+    V = np.column_stack([g + rng.normal(0, 0.1, g.shape), rng.normal(0, 0.05, len(g))])
+    F = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a, b, c, d = i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1
+            F += [[a, b, c], [a, c, d]]
+    F = np.array(F, np.int64)
+    patch = rng.choice(len(F), len(F) // 2, replace=False)
+    scan = np.setdiff1d(np.arange(len(F)), patch)
+    ids = F[patch].copy()
+    C = V[ids].copy()
+    # new vertices get negative ids, as in a patch
+    newv = np.unique(ids)[rng.random(np.unique(ids).size) < 0.3]
+    ids = np.where(np.isin(ids, newv), -1 - ids, ids)
+    # triangles folded back over a patch triangle's edge (a, b): the far
+    # corner on the same side, turned out of its plane by 0, 0.05 or 0.2°
+    pick = rng.choice(len(C), 6, replace=False)
+    A, B, Cc = C[pick, 0], C[pick, 1], C[pick, 2]
+    nrm = np.cross(B - A, Cc - A)
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    far = A + 0.6 * (Cc - A) + 0.2 * (B - A)
+    dist = np.linalg.norm(far - A - np.sum((far - A) * (B - A), 1)[:, None] * (B - A)
+                          / np.sum((B - A) ** 2, 1)[:, None], axis=1)
+    turn = np.radians(rng.choice([0.0, 0.05, 0.2], len(pick)))
+    far += (np.tan(turn) * dist)[:, None] * nrm
+    C = np.concatenate([C, np.stack([B, A, far], 1)])
+    ids = np.concatenate([ids, np.column_stack([ids[pick, 1], ids[pick, 0], -1000 - np.arange(len(pick))])])
+    C[0, 2] = C[0, 0]                      # zero area
+    Cs, Fr = V[F[scan]], F[scan]
+    want = _folds_numpy(C, ids, Cs, Fr)
+    got = kernels.folds(C, ids, Cs, Fr, np.cos(np.radians(FOLD_DEGREES)))
+    assert got.dtype == want.dtype == np.int64
+    assert np.array_equal(got, want)
+    assert want.size > 0                   # the flipped triangles do fold
+    empty = kernels.folds(C[:0], ids[:0], Cs[:0], Fr[:0], 0.5)
+    assert empty.size == 0 and np.array_equal(empty, _folds_numpy(C[:0], ids[:0], Cs[:0], Fr[:0]))
