@@ -38,7 +38,9 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   fairing energy (:func:`shellrepair.fair._energy` and its slices), equal
   to round-off (the sums in another order; tests/test_fair.py);
 * :func:`folds`: the patch triangles folded onto a neighbour
-  (:func:`shellrepair.fill._folds`).
+  (:func:`shellrepair.fill._folds`);
+* :func:`rim_walk`: :func:`rim_edges` with the faces around the loop found
+  and measured in the same pass (:func:`shellrepair.patch._rim_data`).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -53,7 +55,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1829,6 +1831,63 @@ def folds(C, ids, Cs, Fr, cos_max):
                   float(cos_max))
 
 
+@njit(cache=True, nogil=True)
+def _rim_walk(loop, vf_order, vf_start, F, V):
+    # the faces at the loop's vertices, sorted and unique (Context.faces_of)
+    total = 0
+    for v in loop:
+        total += vf_start[v + 1] - vf_start[v]
+    fs = np.empty(total, np.int64)
+    q = 0
+    for v in loop:
+        for p in range(vf_start[v], vf_start[v + 1]):
+            fs[q] = vf_order[p] // 3
+            q += 1
+    fs = np.sort(fs)
+    m = 0
+    for i in range(total):
+        if i == 0 or fs[i] != fs[i - 1]:
+            fs[m] = fs[i]
+            m += 1
+    # sides T[:, [0,1]], then [1,2], then [2,0]; their lengths; unit normals
+    ia = np.empty(3 * m, np.int64)
+    ib = np.empty(3 * m, np.int64)
+    ln = np.empty(3 * m)
+    nrm = np.empty((m, 3))
+    order = np.argsort(loop, kind="mergesort")
+    sl = loop[order]
+    for c in range(3):
+        for r in range(m):
+            a, b = F[fs[r], c], F[fs[r], (c + 1) % 3]
+            d0, d1, d2 = V[a, 0] - V[b, 0], V[a, 1] - V[b, 1], V[a, 2] - V[b, 2]
+            ln[c * m + r] = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            j = np.searchsorted(sl, a, side="right") - 1
+            ia[c * m + r] = order[j] if j >= 0 and sl[j] == a else -1
+            j = np.searchsorted(sl, b, side="right") - 1
+            ib[c * m + r] = order[j] if j >= 0 and sl[j] == b else -1
+    for r in range(m):
+        f = fs[r]
+        x0, x1, x2 = V[F[f, 0], 0], V[F[f, 0], 1], V[F[f, 0], 2]
+        a0, a1, a2 = V[F[f, 1], 0] - x0, V[F[f, 1], 1] - x1, V[F[f, 1], 2] - x2
+        b0, b1, b2 = V[F[f, 2], 0] - x0, V[F[f, 2], 1] - x1, V[F[f, 2], 2] - x2
+        n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        nl = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        if nl > 0:
+            nrm[r, 0], nrm[r, 1], nrm[r, 2] = n0 / nl, n1 / nl, n2 / nl
+        else:
+            nrm[r, 0], nrm[r, 1], nrm[r, 2] = 0.0, 0.0, 0.0
+    return _rim_edges(loop.size, ia, ib, ln, nrm)
+
+
+def rim_walk(loop, vf_order, vf_start, F, V):
+    """:func:`rim_edges` from the loop alone: the faces at its vertices
+    (``vf_order``, ``vf_start``: complete lists there), their sides, side
+    lengths and unit normals as :func:`shellrepair.patch._rim_faces` makes
+    them, then the edge walk; the same four arrays."""
+    return _rim_walk(np.ascontiguousarray(loop, np.int64), vf_order, vf_start,
+                     np.ascontiguousarray(F, np.int64), np.ascontiguousarray(V, np.float64))
+
+
 # --------------------------------------------------------------------------
 _WARM = False
 
@@ -1874,6 +1933,7 @@ def warm_up():
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
     outline_simple(X[:3, :2], 1e-12)
     folds(X[T], T, X[T[:1]], T[:1] + 4, 0.5)
+    rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))
     _WARM = True

@@ -328,8 +328,9 @@ def _rim_data(ctx, loop):
     """Scale σ per loop vertex, scan normals across loop edges, forbidden chords."""
     if not kernels.ENABLED:
         return _rim_data_numpy(ctx, loop)
-    E, ln, nrm = _rim_faces(ctx, loop)
-    sig_sum, sig_cnt, edge_normals, forb = kernels.rim_edges(loop, E, ln, nrm)
+    reg = ctx._local_lists(loop)          # the lists ctx.faces_of reads
+    order, start = (reg.vf_order, reg.vf_start) if reg is not None else ctx.vf
+    sig_sum, sig_cnt, edge_normals, forb = kernels.rim_walk(loop, order, start, ctx.F, ctx.V)
     forbidden = set(zip(forb[:, 0].tolist(), forb[:, 1].tolist()))
     return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
 
