@@ -40,7 +40,9 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`folds`: the patch triangles folded onto a neighbour
   (:func:`shellrepair.fill._folds`);
 * :func:`rim_walk`: :func:`rim_edges` with the faces around the loop found
-  and measured in the same pass (:func:`shellrepair.patch._rim_data`).
+  and measured in the same pass (:func:`shellrepair.patch._rim_data`);
+* :func:`face_cross`: faces' cross products, gathered and computed in one
+  pass (:func:`shellrepair.patch._meets_edge_on`).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -55,7 +57,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1888,6 +1890,39 @@ def rim_walk(loop, vf_order, vf_start, F, V):
                      np.ascontiguousarray(F, np.int64), np.ascontiguousarray(V, np.float64))
 
 
+@njit(cache=True, nogil=True)
+def _face_cross(faces, F, V):
+    n = np.empty((faces.size, 3))
+    for r in range(faces.size):
+        f = faces[r]
+        x0, x1, x2 = V[F[f, 0], 0], V[F[f, 0], 1], V[F[f, 0], 2]
+        a0, a1, a2 = V[F[f, 1], 0] - x0, V[F[f, 1], 1] - x1, V[F[f, 1], 2] - x2
+        b0, b1, b2 = V[F[f, 2], 0] - x0, V[F[f, 2], 1] - x1, V[F[f, 2], 2] - x2
+        n[r, 0] = a1 * b2 - a2 * b1
+        n[r, 1] = a2 * b0 - a0 * b2
+        n[r, 2] = a0 * b1 - a1 * b0
+    return n
+
+
+def face_cross(faces, F, V):
+    """``cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])`` of the
+    faces ``T = F[faces]`` (:func:`shellrepair.geometry.cross`), in one pass.
+
+    Parameters
+    ----------
+    faces : (m,) int64
+    F : (f,3) int64
+    V : (n,3) float64
+
+    Returns
+    -------
+    n : (m,3) float64
+        Twice the area-weighted face normals.
+    """
+    return _face_cross(np.ascontiguousarray(faces, np.int64), np.ascontiguousarray(F, np.int64),
+                       np.ascontiguousarray(V, np.float64))
+
+
 # --------------------------------------------------------------------------
 _WARM = False
 
@@ -1933,6 +1968,7 @@ def warm_up():
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
     outline_simple(X[:3, :2], 1e-12)
     folds(X[T], T, X[T[:1]], T[:1] + 4, 0.5)
+    face_cross(np.array([1], np.int64), T, X)
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))

@@ -629,8 +629,7 @@ def _meets_edge_on(ctx, loop, hole_id=None):
             if np.any(ln > 0):
                 return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
         return False
-    T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
-    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    n = _face_cross(ctx, ctx.ring_faces(loop, EDGE_ON_RINGS))
     a = 0.5 * np.linalg.norm(n, axis=1)
     if a.sum() <= 0:
         return False
@@ -638,6 +637,14 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     if float(np.sum(a * cosines) / a.sum()) > EDGE_ON_COS:
         return False
     return _turns_into_opening(ctx, loop)
+
+
+def _face_cross(ctx, faces):
+    """``cross(e1, e2)`` of the scan faces ``faces`` (twice their area-weighted normals)."""
+    if kernels.ENABLED:
+        return kernels.face_cross(faces, ctx.F, ctx.V)
+    T = ctx.F[faces]
+    return cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
 
 
 def _turns_into_opening(ctx, loop):

@@ -449,3 +449,21 @@ def test_fold_test_equals_the_numpy_one(seed):
     assert want.size > 0                   # the flipped triangles do fold
     empty = kernels.folds(C[:0], ids[:0], Cs[:0], Fr[:0], 0.5)
     assert empty.size == 0 and np.array_equal(empty, _folds_numpy(C[:0], ids[:0], Cs[:0], Fr[:0]))
+
+
+def test_face_cross_equals_the_numpy_cross_products():
+    """Faces of a noisy sphere far from the origin, a zero-area face and a
+    repeated face: the compiled gather-and-cross gives geometry.cross's
+    products to the bit."""
+    from shellrepair.geometry import cross
+
+    V, F = shapes.bumpy_sphere(2)
+    V = V * 1e-3 + 1e6
+    F = np.vstack([F, [[0, 0, 1]]])
+    faces = np.concatenate([np.arange(0, len(F), 3), [len(F) - 1, 5, 5]])
+    T = F[faces]
+    want = cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+    got = kernels.face_cross(faces, F, V)
+    assert np.array_equal(got, want)
+    assert not want[-3].any() and want[-1].any()
+    assert kernels.face_cross(faces[:0], F, V).shape == (0, 3)
