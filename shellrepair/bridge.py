@@ -174,9 +174,9 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     A.data[:] = 1.0
     level = np.full(nv, 3, np.int64)
     level[li] = 0
-    ring1 = (A[li].sum(axis=0).A1 > 0) & (level > 0)
+    ring1 = _next_to(E, level == 0) & (level > 0)     # A's rows li meet these columns
     level[ring1] = 1
-    ring2 = (A[np.flatnonzero(ring1)].sum(axis=0).A1 > 0) & (level > 1)
+    ring2 = _next_to(E, ring1) & (level > 1)
     level[ring2] = 2
     R1 = A[li].multiply((level == 1)[None]).tocsr()
     R1.eliminate_zeros()
@@ -247,6 +247,16 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     T = np.divide(T, tl, out=np.zeros_like(T), where=tl > 0)
     bounds = np.concatenate([[0], np.cumsum(sizes)])
     return [tuple(x[bounds[i]:bounds[i + 1]] for x in (q1, T, N, kap, s0, ok)) for i in range(len(loops))]
+
+
+def _next_to(E, mark):
+    """The vertices joined by an edge of ``E`` (k,2) to a marked one: the
+    columns the rows ``mark`` of the (symmetric, all ones) adjacency of
+    ``E`` meet, without building the rows."""
+    out = np.zeros(len(mark), bool)
+    out[E[mark[E[:, 0]], 1]] = True
+    out[E[mark[E[:, 1]], 0]] = True
+    return out
 
 
 def _nanmedian_columns(W):
