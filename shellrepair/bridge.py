@@ -62,6 +62,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import kernels
+
 __all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
            "split_pinched", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
@@ -150,8 +152,6 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     arcs : list of tuple
         Per loop, what :func:`continuation_arcs` returns for it.
     """
-    import scipy.sparse as sp
-
     if not loops:
         return []
     n = np.int64(len(V))
@@ -169,22 +169,12 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     L = np.searchsorted(ukey, fkey)
     li = np.searchsorted(ukey, pkey)
     E = np.concatenate([L[:, [0, 1]], L[:, [1, 2]], L[:, [2, 0]]])
-    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
-                      shape=(nv, nv))
-    A.data[:] = 1.0
     level = np.full(nv, 3, np.int64)
     level[li] = 0
-    ring1 = _next_to(E, level == 0) & (level > 0)     # A's rows li meet these columns
+    ring1 = _next_to(E, level == 0) & (level > 0)     # the adjacency's rows li meet these columns
     level[ring1] = 1
     ring2 = _next_to(E, ring1) & (level > 1)
     level[ring2] = 2
-    R1 = A[li].multiply((level == 1)[None]).tocsr()
-    R1.eliminate_zeros()
-    R2 = (R1 @ A).multiply((level == 2)[None]).tocsr()
-    R2.eliminate_zeros()
-    R2.data[:] = 1.0
-    c1 = R1.sum(axis=1).A1
-    c2 = R2.sum(axis=1).A1
     X = V[ukey % n]
     # area-weighted vertex normals, summed block by block
     Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
@@ -193,10 +183,11 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
         np.add.at(acc, L[:, c], Nf)
     ln = np.linalg.norm(acc, axis=1, keepdims=True)
     Nv = np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
+    sums = kernels.ring_sums if kernels.ENABLED else _ring_sums
+    s1, c1, N, s2, c2, N2 = sums(E, li, level, X, Nv)
     ok = (c1 > 0) & (c2 > 0)
-    q1 = (R1 @ X) / np.maximum(c1, 1)[:, None]
-    q2 = (R2 @ X) / np.maximum(c2, 1)[:, None]
-    N = R1 @ Nv
+    q1 = s1 / np.maximum(c1, 1)[:, None]
+    q2 = s2 / np.maximum(c2, 1)[:, None]
     P = V[loopcat]
     start = np.repeat(np.cumsum(sizes) - sizes, sizes)
     pos = np.arange(len(loopcat)) - start
@@ -212,7 +203,6 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     a, b, c = q1 - q2, P - q1, P - q2
     la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
     ok &= (la > 0) & (lb > 0) & (lc > 0)
-    N2 = R2 @ Nv
     N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
     N2 = N2 / np.maximum(np.linalg.norm(N2, axis=1, keepdims=True), 1e-300)
     T = np.divide(c, lc[:, None], out=np.zeros_like(c), where=lc[:, None] > 0)
@@ -247,6 +237,33 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     T = np.divide(T, tl, out=np.zeros_like(T), where=tl > 0)
     bounds = np.concatenate([[0], np.cumsum(sizes)])
     return [tuple(x[bounds[i]:bounds[i + 1]] for x in (q1, T, N, kap, s0, ok)) for i in range(len(loops))]
+
+
+def _ring_sums(E, li, level, X, Nv):
+    """Per rim vertex ``li[i]``: the sums of ``X`` and ``Nv`` over its
+    neighbours at level 1, their count, and the same over the level-2
+    neighbours of those (the rows of ``R1 = A[li]`` and ``R2 = R1 A``
+    restricted to those levels, ``A`` the all-ones adjacency of the edges
+    ``E``): as sparse products, each row summed in column order from zero
+    (:func:`shellrepair.kernels.ring_sums` is the same sums compiled).
+
+    Returns
+    -------
+    s1 : (p,3) float64, c1 : (p,) float64, n1 : (p,3) float64
+    s2 : (p,3) float64, c2 : (p,) float64, n2 : (p,3) float64
+    """
+    import scipy.sparse as sp
+
+    nv = len(level)
+    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
+                      shape=(nv, nv))
+    A.data[:] = 1.0
+    R1 = A[li].multiply((level == 1)[None]).tocsr()
+    R1.eliminate_zeros()
+    R2 = (R1 @ A).multiply((level == 2)[None]).tocsr()
+    R2.eliminate_zeros()
+    R2.data[:] = 1.0
+    return R1 @ X, R1.sum(axis=1).A1, R1 @ Nv, R2 @ X, R2.sum(axis=1).A1, R2 @ Nv
 
 
 def _next_to(E, mark):

@@ -42,7 +42,9 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`rim_walk`: :func:`rim_edges` with the faces around the loop found
   and measured in the same pass (:func:`shellrepair.patch._rim_data`);
 * :func:`face_cross`: faces' cross products, gathered and computed in one
-  pass (:func:`shellrepair.patch._meets_edge_on`).
+  pass (:func:`shellrepair.patch._meets_edge_on`);
+* :func:`ring_sums`: the sums over the two rings around a loop's vertices
+  (:func:`shellrepair.bridge._ring_sums`, the continuation arcs).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -57,7 +59,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1923,6 +1925,94 @@ def face_cross(faces, F, V):
                        np.ascontiguousarray(V, np.float64))
 
 
+@njit(cache=True, nogil=True)
+def _ring_sums(E, li, level, X, Nv):
+    nv = level.size
+    # the adjacency: each vertex's neighbours, sorted, once each
+    deg = np.zeros(nv + 1, np.int64)
+    for r in range(E.shape[0]):
+        deg[E[r, 0] + 1] += 1
+        deg[E[r, 1] + 1] += 1
+    for v in range(nv):
+        deg[v + 1] += deg[v]
+    nb = np.empty(deg[nv], np.int64)
+    fill = deg[:nv].copy()
+    for r in range(E.shape[0]):
+        a, b = E[r, 0], E[r, 1]
+        nb[fill[a]] = b
+        fill[a] += 1
+        nb[fill[b]] = a
+        fill[b] += 1
+    start = np.empty(nv + 1, np.int64)
+    start[0] = 0
+    q = 0
+    for v in range(nv):
+        row = np.sort(nb[deg[v]:deg[v + 1]])
+        for i in range(row.size):
+            if i == 0 or row[i] != row[i - 1]:
+                nb[q] = row[i]
+                q += 1
+        start[v + 1] = q
+    p = li.size
+    s1 = np.zeros((p, 3))
+    n1 = np.zeros((p, 3))
+    c1 = np.zeros(p)
+    s2 = np.zeros((p, 3))
+    n2 = np.zeros((p, 3))
+    c2 = np.zeros(p)
+    mark = np.zeros(nv, np.bool_)
+    got = np.empty(nv, np.int64)
+    for i in range(p):
+        v = li[i]
+        ng = 0
+        for jj in range(start[v], start[v + 1]):
+            w = nb[jj]
+            if level[w] != 1:
+                continue
+            c1[i] += 1.0
+            for k in range(3):
+                s1[i, k] += X[w, k]
+                n1[i, k] += Nv[w, k]
+            for tt in range(start[w], start[w + 1]):
+                x = nb[tt]
+                if level[x] == 2 and not mark[x]:
+                    mark[x] = True
+                    got[ng] = x
+                    ng += 1
+        two = np.sort(got[:ng])
+        for x in two:
+            mark[x] = False
+            c2[i] += 1.0
+            for k in range(3):
+                s2[i, k] += X[x, k]
+                n2[i, k] += Nv[x, k]
+    return s1, c1, n1, s2, c2, n2
+
+
+def ring_sums(E, li, level, X, Nv):
+    """:func:`shellrepair.bridge._ring_sums` compiled: per rim vertex the
+    sums over its level-1 neighbours and over their level-2 neighbours, in
+    ascending vertex order from zero, as the sparse products add them.
+
+    Parameters
+    ----------
+    E : (k,2) int64
+        Edges (repeats and both directions allowed).
+    li : (p,) int64
+        Rim vertices.
+    level : (nv,) int64
+    X, Nv : (nv,3) float64
+
+    Returns
+    -------
+    s1, c1, n1, s2, c2, n2
+        As :func:`shellrepair.bridge._ring_sums`.
+    """
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    return _ring_sums(i(E).reshape(-1, 2), i(li), i(level), c(X), c(Nv))
+
+
 # --------------------------------------------------------------------------
 _WARM = False
 
@@ -1969,6 +2059,7 @@ def warm_up():
     outline_simple(X[:3, :2], 1e-12)
     folds(X[T], T, X[T[:1]], T[:1] + 4, 0.5)
     face_cross(np.array([1], np.int64), T, X)
+    ring_sums(E, np.array([0], np.int64), np.array([0, 1, 1, 2], np.int64), X, X)
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))

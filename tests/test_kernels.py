@@ -467,3 +467,51 @@ def test_face_cross_equals_the_numpy_cross_products():
     assert np.array_equal(got, want)
     assert not want[-3].any() and want[-1].any()
     assert kernels.face_cross(faces[:0], F, V).shape == (0, 3)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_ring_sums_equal_the_sparse_products(seed):
+    """The sums over the two rings around rim vertices (the continuation
+    arcs' base points and normals): compiled, they equal the sparse
+    products to the bit, on a random graph with repeated edges and
+    self-loops and on the rings of real holes (via the arcs themselves)."""
+    from shellrepair import bridge
+
+    rng = np.random.default_rng(seed)
+    nv = 80
+    E = rng.integers(0, nv, (240, 2))
+    E = np.vstack([E, E[:20][:, ::-1], [[3, 3], [4, 4]]])
+    li = rng.choice(nv, 12, replace=False)
+    li = np.concatenate([li, li[:2]])                 # a rim vertex listed twice
+    level = np.full(nv, 3, np.int64)
+    level[li] = 0
+    r1 = bridge._next_to(E, level == 0) & (level > 0)
+    level[r1] = 1
+    level[bridge._next_to(E, r1) & (level > 1)] = 2
+    X = rng.normal(size=(nv, 3)) * 10.0 ** rng.integers(-3, 4, (nv, 1))
+    Nv = rng.normal(size=(nv, 3))
+    Nv[::7] = -0.0
+    want = bridge._ring_sums(E, li, level, X, Nv)
+    got = kernels.ring_sums(E, li, level, X, Nv)
+    for a, b in zip(want, got):
+        assert np.array_equal(np.asarray(a), b)
+    assert want[1].min() >= 0 and want[4].max() > 0
+
+
+def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
+    """Whole continuation arcs of a perforated bumpy sphere's holes: the
+    compiled ring sums give the arcs the sparse products give, bit for bit."""
+    from shellrepair import bridge
+    from shellrepair.holes import detect_holes
+
+    V, F = shapes.bumpy_sphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.3, seed=2)
+    ctx = _Context(Mesh(V=V2, F=F2))
+    loops = [np.asarray(h.vertices, np.int64) for h in detect_holes(V2, F2).holes]
+    near = [F2[ctx.ring_faces(lp, 3)] for lp in loops]
+    got = bridge._continuation_arcs_many(V2, near, loops)
+    monkeypatch.setattr(kernels, "ENABLED", False)
+    want = bridge._continuation_arcs_many(V2, near, loops)
+    for a, b in zip(want, got):
+        for x, y in zip(a, b):
+            assert np.array_equal(x, y)
