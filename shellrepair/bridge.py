@@ -160,14 +160,17 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     sizes = np.array([len(lp) for lp in loops], np.int64)
     Fcat = np.concatenate(F_nears)
     loopcat = np.concatenate(loops)
-    lid_f = np.repeat(np.arange(len(loops), dtype=np.int64), [len(f) for f in F_nears])
-    lid_p = np.repeat(np.arange(len(loops), dtype=np.int64), sizes)
-    fkey = lid_f[:, None] * n + Fcat
-    pkey = lid_p * n + loopcat
-    ukey = np.unique(np.concatenate([fkey.ravel(), pkey]))       # per loop its sorted vertices, loop by loop
+    if kernels.ENABLED:
+        ukey, L, li = kernels.block_ids(Fcat, [len(f) for f in F_nears], loopcat, sizes, n)
+    else:
+        lid_f = np.repeat(np.arange(len(loops), dtype=np.int64), [len(f) for f in F_nears])
+        lid_p = np.repeat(np.arange(len(loops), dtype=np.int64), sizes)
+        fkey = lid_f[:, None] * n + Fcat
+        pkey = lid_p * n + loopcat
+        ukey = np.unique(np.concatenate([fkey.ravel(), pkey]))       # per loop its sorted vertices, loop by loop
+        L = np.searchsorted(ukey, fkey)
+        li = np.searchsorted(ukey, pkey)
     nv = len(ukey)
-    L = np.searchsorted(ukey, fkey)
-    li = np.searchsorted(ukey, pkey)
     E = np.concatenate([L[:, [0, 1]], L[:, [1, 2]], L[:, [2, 0]]])
     level = np.full(nv, 3, np.int64)
     level[li] = 0
@@ -177,10 +180,13 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     level[ring2] = 2
     X = V[ukey % n]
     # area-weighted vertex normals, summed block by block
-    Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
-    acc = np.zeros((nv, 3))
-    for c in range(3):
-        np.add.at(acc, L[:, c], Nf)
+    if kernels.ENABLED:
+        acc = kernels.corner_normal_sums(L, Fcat, V, nv)
+    else:
+        Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
+        acc = np.zeros((nv, 3))
+        for c in range(3):
+            np.add.at(acc, L[:, c], Nf)
     ln = np.linalg.norm(acc, axis=1, keepdims=True)
     Nv = np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
     sums = kernels.ring_sums if kernels.ENABLED else _ring_sums

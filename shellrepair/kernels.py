@@ -44,7 +44,9 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`face_cross`: faces' cross products, gathered and computed in one
   pass (:func:`shellrepair.patch._meets_edge_on`);
 * :func:`ring_sums`: the sums over the two rings around a loop's vertices
-  (:func:`shellrepair.bridge._ring_sums`, the continuation arcs).
+  (:func:`shellrepair.bridge._ring_sums`, the continuation arcs), and
+  :func:`block_ids`, :func:`corner_normal_sums`: the arcs' local vertex
+  numbers and vertex normal sums.
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -59,7 +61,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1928,31 +1930,31 @@ def face_cross(faces, F, V):
 @njit(cache=True, nogil=True)
 def _ring_sums(E, li, level, X, Nv):
     nv = level.size
-    # the adjacency: each vertex's neighbours, sorted, once each
-    deg = np.zeros(nv + 1, np.int64)
+    # each vertex's neighbours (unsorted, with repeats); the rows read
+    # below (levels 0 and 1) sorted in place, repeats skipped when read
+    start = np.zeros(nv + 1, np.int64)
     for r in range(E.shape[0]):
-        deg[E[r, 0] + 1] += 1
-        deg[E[r, 1] + 1] += 1
+        start[E[r, 0] + 1] += 1
+        start[E[r, 1] + 1] += 1
     for v in range(nv):
-        deg[v + 1] += deg[v]
-    nb = np.empty(deg[nv], np.int64)
-    fill = deg[:nv].copy()
+        start[v + 1] += start[v]
+    nb = np.empty(start[nv], np.int64)
+    fill = start[:nv].copy()
     for r in range(E.shape[0]):
         a, b = E[r, 0], E[r, 1]
         nb[fill[a]] = b
         fill[a] += 1
         nb[fill[b]] = a
         fill[b] += 1
-    start = np.empty(nv + 1, np.int64)
-    start[0] = 0
-    q = 0
     for v in range(nv):
-        row = np.sort(nb[deg[v]:deg[v + 1]])
-        for i in range(row.size):
-            if i == 0 or row[i] != row[i - 1]:
-                nb[q] = row[i]
-                q += 1
-        start[v + 1] = q
+        if level[v] <= 1:
+            for i in range(start[v] + 1, start[v + 1]):       # insertion sort: a few entries
+                x = nb[i]
+                j = i - 1
+                while j >= start[v] and nb[j] > x:
+                    nb[j + 1] = nb[j]
+                    j -= 1
+                nb[j + 1] = x
     p = li.size
     s1 = np.zeros((p, 3))
     n1 = np.zeros((p, 3))
@@ -1967,7 +1969,7 @@ def _ring_sums(E, li, level, X, Nv):
         ng = 0
         for jj in range(start[v], start[v + 1]):
             w = nb[jj]
-            if level[w] != 1:
+            if level[w] != 1 or (jj > start[v] and nb[jj - 1] == w):
                 continue
             c1[i] += 1.0
             for k in range(3):
@@ -2011,6 +2013,110 @@ def ring_sums(E, li, level, X, Nv):
     c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
     i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
     return _ring_sums(i(E).reshape(-1, 2), i(li), i(level), c(X), c(Nv))
+
+
+@njit(cache=True, nogil=True)
+def _block_ids(Fcat, fcount, loopcat, sizes, n):
+    nb = fcount.size
+    ukey = np.empty(3 * Fcat.shape[0] + loopcat.size, np.int64)
+    L = np.empty(Fcat.shape, np.int64)
+    li = np.empty(loopcat.size, np.int64)
+    nu = 0
+    f0 = 0
+    p0 = 0
+    for blk in range(nb):
+        f1, p1 = f0 + fcount[blk], p0 + sizes[blk]
+        vs = np.empty(3 * (f1 - f0) + (p1 - p0), np.int64)
+        q = 0
+        for f in range(f0, f1):
+            for c in range(3):
+                vs[q] = Fcat[f, c]
+                q += 1
+        for i in range(p0, p1):
+            vs[q] = loopcat[i]
+            q += 1
+        vs = np.sort(vs)
+        m = 0
+        for i in range(vs.size):
+            if i == 0 or vs[i] != vs[i - 1]:
+                vs[m] = vs[i]
+                m += 1
+        vs = vs[:m]
+        base = np.int64(blk) * n
+        for i in range(m):
+            ukey[nu + i] = base + vs[i]
+        for f in range(f0, f1):
+            for c in range(3):
+                L[f, c] = nu + np.searchsorted(vs, Fcat[f, c])
+        for i in range(p0, p1):
+            li[i] = nu + np.searchsorted(vs, loopcat[i])
+        nu += m
+        f0, p0 = f1, p1
+    return ukey[:nu], L, li
+
+
+def block_ids(Fcat, fcount, loopcat, sizes, n):
+    """Local vertex numbers of several blocks of faces and loops
+    (:func:`shellrepair.bridge._continuation_arcs_many`): the keys
+    ``block * n + vertex`` of every block's vertices, sorted and unique
+    (``np.unique``), and each face corner's and loop vertex's position
+    among them (``np.searchsorted``); block by block, without sorting all
+    keys at once.
+
+    Parameters
+    ----------
+    Fcat : (r,3) int64
+        The blocks' faces, block after block.
+    fcount : (b,) int64
+        Faces per block.
+    loopcat : (p,) int64
+        The blocks' loop vertices, block after block.
+    sizes : (b,) int64
+        Loop vertices per block.
+    n : int
+        Number of vertices of the mesh.
+
+    Returns
+    -------
+    ukey : (nv,) int64
+    L : (r,3) int64
+    li : (p,) int64
+    """
+    i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    return _block_ids(i(Fcat).reshape(-1, 3), i(fcount), i(loopcat), i(sizes), np.int64(n))
+
+
+@njit(cache=True, nogil=True)
+def _corner_normal_sums(L, Fcat, V, nv):
+    m = Fcat.shape[0]
+    Nf = np.empty((m, 3))
+    for f in range(m):
+        x0, x1, x2 = V[Fcat[f, 0], 0], V[Fcat[f, 0], 1], V[Fcat[f, 0], 2]
+        a0, a1, a2 = V[Fcat[f, 1], 0] - x0, V[Fcat[f, 1], 1] - x1, V[Fcat[f, 1], 2] - x2
+        b0, b1, b2 = V[Fcat[f, 2], 0] - x0, V[Fcat[f, 2], 1] - x1, V[Fcat[f, 2], 2] - x2
+        Nf[f, 0] = a1 * b2 - a2 * b1
+        Nf[f, 1] = a2 * b0 - a0 * b2
+        Nf[f, 2] = a0 * b1 - a1 * b0
+    acc = np.zeros((nv, 3))
+    for c in range(3):
+        for f in range(m):
+            for k in range(3):
+                acc[L[f, c], k] += Nf[f, k]
+    return acc
+
+
+def corner_normal_sums(L, Fcat, V, nv):
+    """``np.add.at(acc, L[:, c], np.cross(e1, e2))`` for c = 0, 1, 2 in
+    turn (``e1, e2`` the sides of the faces ``Fcat`` from corner 0): the
+    area-weighted normal sums at local vertices, the same additions in the
+    same order.
+
+    Returns
+    -------
+    acc : (nv,3) float64
+    """
+    return _corner_normal_sums(np.ascontiguousarray(L, np.int64), np.ascontiguousarray(Fcat, np.int64),
+                               np.ascontiguousarray(V, np.float64), int(nv))
 
 
 # --------------------------------------------------------------------------
@@ -2060,6 +2166,8 @@ def warm_up():
     folds(X[T], T, X[T[:1]], T[:1] + 4, 0.5)
     face_cross(np.array([1], np.int64), T, X)
     ring_sums(E, np.array([0], np.int64), np.array([0, 1, 1, 2], np.int64), X, X)
+    _, Lb, _ = block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4)
+    corner_normal_sums(Lb, T, X, 4)
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))

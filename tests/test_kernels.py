@@ -515,3 +515,30 @@ def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
     for a, b in zip(want, got):
         for x, y in zip(a, b):
             assert np.array_equal(x, y)
+
+
+def test_block_ids_and_normal_sums_equal_unique_searchsorted_and_add_at():
+    """Blocks of faces and loop vertices (one block without faces, repeated
+    vertices, a loop vertex no face uses): the compiled local numbering is
+    np.unique / np.searchsorted of the keys ``block * n + vertex``, and the
+    normal sums are np.add.at's, to the bit."""
+    rng = np.random.default_rng(5)
+    n = 500
+    V = rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-2, 3, (n, 1))
+    fcount = np.array([30, 0, 45, 12], np.int64)
+    sizes = np.array([9, 4, 15, 6], np.int64)
+    Fcat = rng.integers(0, 60, (fcount.sum(), 3))
+    Fcat[::5, 2] = Fcat[::5, 0]
+    loopcat = rng.integers(0, 70, sizes.sum())
+    lid_f = np.repeat(np.arange(4), fcount)
+    lid_p = np.repeat(np.arange(4), sizes)
+    fkey, pkey = lid_f[:, None] * n + Fcat, lid_p * n + loopcat
+    want = np.unique(np.concatenate([fkey.ravel(), pkey]))
+    ukey, L, li = kernels.block_ids(Fcat, fcount, loopcat, sizes, n)
+    assert np.array_equal(ukey, want)
+    assert np.array_equal(L, np.searchsorted(want, fkey)) and np.array_equal(li, np.searchsorted(want, pkey))
+    Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
+    acc = np.zeros((len(want), 3))
+    for c in range(3):
+        np.add.at(acc, L[:, c], Nf)
+    assert np.array_equal(kernels.corner_normal_sums(L, Fcat, V, len(want)), acc)
