@@ -348,7 +348,7 @@ def _rim_faces(ctx, loop):
 
 def _rim_sigma(ctx, loop, sig_sum, sig_cnt):
     sigma = sig_sum / np.maximum(sig_cnt, 1)
-    loop_len = np.linalg.norm(ctx.V[np.roll(loop, -1)] - ctx.V[loop], axis=1)
+    loop_len = np.linalg.norm(ctx.V[np.concatenate([loop[1:], loop[:1]])] - ctx.V[loop], axis=1)   # np.roll by -1
     return np.where(sig_cnt > 0, sigma, loop_len)
 
 
