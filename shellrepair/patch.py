@@ -385,10 +385,13 @@ def _submesh(ctx, loop, Pl, T, rings):
     the fixed vertices)."""
     k = len(loop)
     rf = ctx.ring_faces(loop, rings)
-    g = uniq(ctx.F[rf])
-    remap = {int(v): i for i, v in enumerate(g.tolist())}
-    Fr = np.searchsorted(g, ctx.F[rf])
-    loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
+    Fg = ctx.F[rf]
+    g = uniq(Fg)
+    Fr = np.searchsorted(g, Fg)
+    loc_loop = np.searchsorted(g, loop)       # every loop vertex is on a ring face
+    if len(g) == 0 or not np.array_equal(g[np.minimum(loc_loop, len(g) - 1)], loop):
+        remap = {int(v): i for i, v in enumerate(g.tolist())}
+        loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
     nf = len(g)
     Tp = np.where(T < k, loc_loop[np.minimum(T, k - 1)], nf + T - k)
     return g, np.vstack([Fr, Tp]).astype(np.int64), nf, loc_loop
