@@ -46,7 +46,10 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`ring_sums`: the sums over the two rings around a loop's vertices
   (:func:`shellrepair.bridge._ring_sums`, the continuation arcs), and
   :func:`block_ids`, :func:`corner_normal_sums`: the arcs' local vertex
-  numbers and vertex normal sums.
+  numbers and vertex normal sums;
+* :func:`angle_parts`, :func:`unfolded`: the products and sums of the
+  relaxation's opposite angles (the arctan2 left to NumPy) and its fold
+  test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -61,7 +64,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -2119,6 +2122,76 @@ def corner_normal_sums(L, Fcat, V, nv):
                                np.ascontiguousarray(V, np.float64), int(nv))
 
 
+@njit(cache=True, nogil=True)
+def _angle_parts(u, v):
+    m = u.shape[0]
+    cr = np.empty(m)
+    dt = np.empty(m)
+    for r in range(m):
+        c0 = u[r, 1] * v[r, 2] - u[r, 2] * v[r, 1]
+        c1 = u[r, 2] * v[r, 0] - u[r, 0] * v[r, 2]
+        c2 = u[r, 0] * v[r, 1] - u[r, 1] * v[r, 0]
+        cr[r] = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        dt[r] = u[r, 0] * v[r, 0] + u[r, 1] * v[r, 1] + u[r, 2] * v[r, 2]
+    return cr, dt
+
+
+def angle_parts(u, v):
+    """The two arguments of :func:`shellrepair.refine._angle`'s arctan2:
+    ``|u × v|`` and ``u · v`` per row, as its NumPy products and sums
+    give them (the arctan2 stays NumPy's).
+
+    Parameters
+    ----------
+    u, v : (m,3) float64
+
+    Returns
+    -------
+    cr, dot : (m,) float64
+    """
+    return _angle_parts(np.ascontiguousarray(u, np.float64), np.ascontiguousarray(v, np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _cross_row(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(cache=True, nogil=True)
+def _unfolded(pa, pb, pc, pd):
+    m = pa.shape[0]
+    out = np.empty(m, np.bool_)
+    for r in range(m):
+        a0, a1, a2 = pa[r, 0], pa[r, 1], pa[r, 2]
+        b0, b1, b2 = pb[r, 0], pb[r, 1], pb[r, 2]
+        c0, c1, c2 = pc[r, 0], pc[r, 1], pc[r, 2]
+        d0, d1, d2 = pd[r, 0], pd[r, 1], pd[r, 2]
+        x0, x1, x2 = _cross_row(b0 - a0, b1 - a1, b2 - a2, c0 - a0, c1 - a1, c2 - a2)
+        y0, y1, y2 = _cross_row(a0 - b0, a1 - b1, a2 - b2, d0 - b0, d1 - b1, d2 - b2)
+        n0, n1, n2 = x0 + y0, x1 + y1, x2 + y2
+        m0, m1, m2 = _cross_row(a0 - c0, a1 - c1, a2 - c2, d0 - c0, d1 - c1, d2 - c2)
+        k0, k1, k2 = _cross_row(b0 - d0, b1 - d1, b2 - d2, c0 - d0, c1 - d1, c2 - d2)
+        out[r] = (m0 * n0 + m1 * n1 + m2 * n2 > 0) and (k0 * n0 + k1 * n1 + k2 * n2 > 0)
+    return out
+
+
+def unfolded(pa, pb, pc, pd):
+    """:func:`shellrepair.refine._unfolded` compiled: would flipping edge
+    a-b of triangles (a,b,c), (b,a,d) to c-d keep both new triangles
+    facing the way the old pair faced? The same products and sums.
+
+    Parameters
+    ----------
+    pa, pb, pc, pd : (m,3) float64
+
+    Returns
+    -------
+    ok : (m,) bool
+    """
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    return _unfolded(c(pa), c(pb), c(pc), c(pd))
+
+
 # --------------------------------------------------------------------------
 _WARM = False
 
@@ -2168,6 +2241,8 @@ def warm_up():
     ring_sums(E, np.array([0], np.int64), np.array([0, 1, 1, 2], np.int64), X, X)
     _, Lb, _ = block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4)
     corner_normal_sums(Lb, T, X, 4)
+    angle_parts(X[:2], X[2:])
+    unfolded(X[:1], X[1:2], X[2:3], X[3:])
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))

@@ -199,7 +199,7 @@ def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
     """:func:`_relax_numpy`, its bookkeeping compiled (:func:`shellrepair.kernels.relax`,
     the same result) when Numba is there."""
     if kernels.ENABLED:
-        out = kernels.relax(P, T, is_loop, forb, max_rounds, dirty, _angle, _unfolded, FLIP_EPS)
+        out = kernels.relax(P, T, is_loop, forb, max_rounds, dirty, _angle_compiled, kernels.unfolded, FLIP_EPS)
         if out is not None:   # None: a tie the vectorised writes order; redone below
             return out
     return _relax_numpy(P, T, is_loop, forb, max_rounds, dirty)
@@ -370,6 +370,13 @@ def _in_sorted(x, sorted_keys):
         return np.zeros(len(x), bool)
     pos = np.minimum(np.searchsorted(sorted_keys, x), sorted_keys.size - 1)
     return sorted_keys[pos] == x
+
+
+def _angle_compiled(u, v):
+    """:func:`_angle` with its products and sums compiled
+    (:func:`shellrepair.kernels.angle_parts`), NumPy's arctan2."""
+    cr, dt = kernels.angle_parts(u, v)
+    return np.arctan2(cr, dt)
 
 
 def _angle(u, v):

@@ -542,3 +542,27 @@ def test_block_ids_and_normal_sums_equal_unique_searchsorted_and_add_at():
     for c in range(3):
         np.add.at(acc, L[:, c], Nf)
     assert np.array_equal(kernels.corner_normal_sums(L, Fcat, V, len(want)), acc)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_relaxation_angle_and_fold_terms_equal_the_numpy_ones(seed):
+    """The relaxation's opposite angles and fold test on random quads of
+    mixed scales (flat, folded, degenerate and far-offset ones included):
+    the compiled products and sums give refine._angle's and
+    refine._unfolded's results to the bit."""
+    from shellrepair.refine import _angle, _angle_compiled, _unfolded
+
+    rng = np.random.default_rng(seed)
+    m = 400
+    pa, pb, pc, pd = (rng.normal(size=(m, 3)) * 10.0 ** rng.integers(-4, 3, (m, 1)) for _ in range(4))
+    pd[:40] = pc[:40]                               # degenerate: c = d
+    pc[40:80, 2] = pa[40:80, 2] = pb[40:80, 2] = pd[40:80, 2] = 0.0   # flat
+    pa[80:120] += 1e6                               # far from the origin
+    pb[80:120] += 1e6
+    pc[80:120] += 1e6
+    pd[80:120] += 1e6
+    u, v = pa - pc, pb - pc
+    assert np.array_equal(_angle_compiled(u, v), _angle(u, v))
+    want = _unfolded(pa, pb, pc, pd)
+    assert np.array_equal(kernels.unfolded(pa, pb, pc, pd), want)
+    assert want.any() and not want.all()
