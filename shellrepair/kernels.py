@@ -49,7 +49,8 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   numbers and vertex normal sums;
 * :func:`angle_parts`, :func:`unfolded`: the products and sums of the
   relaxation's opposite angles (the arctan2 left to NumPy) and its fold
-  test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`).
+  test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
+* :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -64,7 +65,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -2192,6 +2193,48 @@ def unfolded(pa, pb, pc, pd):
     return _unfolded(c(pa), c(pb), c(pc), c(pd))
 
 
+@njit(cache=True, nogil=True)
+def _split_test(P, Tr, s, alpha):
+    r = Tr.shape[0]
+    C = np.empty((r, 3))
+    sc = np.empty(r)
+    split = np.empty(r, np.bool_)
+    for i in range(r):
+        a, b, c = Tr[i, 0], Tr[i, 1], Tr[i, 2]
+        for k in range(3):
+            C[i, k] = (P[a, k] + P[b, k] + P[c, k]) / 3.0
+        sc[i] = (s[a] + s[b] + s[c]) / 3.0
+        ok = True
+        for v in (a, b, c):
+            e0, e1, e2 = C[i, 0] - P[v, 0], C[i, 1] - P[v, 1], C[i, 2] - P[v, 2]
+            d = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2) * alpha
+            if not (d > sc[i] and d > s[v]):
+                ok = False
+        split[i] = ok
+    return C, sc, split
+
+
+def split_test(P, Tr, s, alpha):
+    """The refinement's split test (:func:`shellrepair.refine._refine`):
+    each triangle's centroid ``C`` and mean scale ``sc``, and whether
+    ``alpha`` times the centroid's distance to every corner exceeds both
+    ``sc`` and the corner's scale; NumPy's means and norms, the same sums.
+
+    Parameters
+    ----------
+    P : (n,3) float64
+    Tr : (r,3) int64
+    s : (n,) float64
+    alpha : float
+
+    Returns
+    -------
+    C : (r,3) float64, sc : (r,) float64, split : (r,) bool
+    """
+    return _split_test(np.ascontiguousarray(P, np.float64), np.ascontiguousarray(Tr, np.int64),
+                       np.ascontiguousarray(s, np.float64), float(alpha))
+
+
 # --------------------------------------------------------------------------
 _WARM = False
 
@@ -2243,6 +2286,7 @@ def warm_up():
     corner_normal_sums(Lb, T, X, 4)
     angle_parts(X[:2], X[2:])
     unfolded(X[:1], X[1:2], X[2:3], X[3:])
+    split_test(X, T, np.ones(4), 1.5)
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))

@@ -138,11 +138,7 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
     test = np.ones(len(T), bool)          # triangles whose split verdict may have changed
     for _ in range(64):
         rows = np.flatnonzero(test)
-        Tr = T[rows]
-        C = P[Tr].mean(axis=1)
-        sc = s[Tr].mean(axis=1)
-        d = np.linalg.norm(C[:, None, :] - P[Tr], axis=2) * alpha  # (r,3)
-        split_r = np.all((d > sc[:, None]) & (d > s[Tr]), axis=1)
+        C, sc, split_r = (kernels.split_test if kernels.ENABLED else _split_test)(P, T[rows], s, alpha)
         if not split_r.any():
             break
         split = np.zeros(len(T), bool)
@@ -167,6 +163,17 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
         T, changed, settled = _relax(P, T, is_loop, forb, dirty=fresh if settled else None)
         test = fresh | changed
     return P, T, owner, capped
+
+
+def _split_test(P, Tr, s, alpha):
+    """The triangles ``Tr`` to split: centroid ``C``, mean scale ``sc`` and
+    whether ``alpha`` times the centroid's distance to every corner exceeds
+    both ``sc`` and that corner's scale (:func:`shellrepair.kernels.split_test`
+    is the same compiled)."""
+    C = P[Tr].mean(axis=1)
+    sc = s[Tr].mean(axis=1)
+    d = np.linalg.norm(C[:, None, :] - P[Tr], axis=2) * alpha  # (r,3)
+    return C, sc, np.all((d > sc[:, None]) & (d > s[Tr]), axis=1)
 
 
 def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):

@@ -566,3 +566,24 @@ def test_relaxation_angle_and_fold_terms_equal_the_numpy_ones(seed):
     want = _unfolded(pa, pb, pc, pd)
     assert np.array_equal(kernels.unfolded(pa, pb, pc, pd), want)
     assert want.any() and not want.all()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_refinement_split_test_equals_the_numpy_one(seed):
+    """Centroids, mean scales and split verdicts of random triangles of
+    mixed scales, far from the origin and degenerate ones included: the
+    compiled split test equals refine's NumPy one to the bit."""
+    from shellrepair.refine import DENSITY_ALPHA, _split_test
+
+    rng = np.random.default_rng(seed)
+    n = 300
+    P = rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-3, 3, (n, 1))
+    P[:30] += 1e6
+    s = rng.random(n) * 10.0 ** rng.integers(-3, 3, n)
+    Tr = rng.integers(0, n, (500, 3))
+    Tr[:20, 2] = Tr[:20, 0]
+    want = _split_test(P, Tr, s, DENSITY_ALPHA)
+    got = kernels.split_test(P, Tr, s, DENSITY_ALPHA)
+    for a, b in zip(want, got):
+        assert np.array_equal(a, b)
+    assert want[2].any() and not want[2].all()
