@@ -417,6 +417,7 @@ class _Pre:
     T0: np.ndarray | None = None
     refined: tuple | None = None
     edge_on: bool | None = None     # _meets_edge_on, when the unit's order asked for it
+    frame: tuple | None = None      # _local_frame(ctx, loop, rim sigma)
     first: object = None            # the first attempt, built and checked (fill._first_attempts)
 
 
@@ -441,7 +442,8 @@ def _prefill(ctx, units):
         if order != 1:
             pre.edge_on = _meets_edge_on(ctx, loop, hole_id)
         sigma, edge_normals, forbidden = rim
-        _, scale, Pl = _local_frame(ctx, loop, sigma)
+        pre.frame = _local_frame(ctx, loop, sigma)
+        _, scale, Pl = pre.frame
         try:
             pre.T0 = triangulate_loop(Pl, edge_normals, forbidden)
         except MeshError:
@@ -499,7 +501,10 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     k = len(loop)
     pre = ctx.pre_for(hole_id, loop)
     sigma, edge_normals, forbidden = pre.rim if pre is not None else _rim_data(ctx, loop)
-    origin, scale, Pl = _local_frame(ctx, loop, sigma)
+    if pre is not None and pre.frame is not None:     # the batch's frame of this loop and rim
+        origin, scale, Pl = pre.frame[0], pre.frame[1], pre.frame[2].copy()
+    else:
+        origin, scale, Pl = _local_frame(ctx, loop, sigma)
     forbidden = forbidden | set(avoid)
     fresh = pre is not None and not avoid and not scan_aware  # the batch's first attempt applies
     if initial is not None:
