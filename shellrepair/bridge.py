@@ -62,6 +62,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import kernels
+
 __all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
            "split_pinched", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
@@ -150,8 +152,6 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     arcs : list of tuple
         Per loop, what :func:`continuation_arcs` returns for it.
     """
-    import scipy.sparse as sp
-
     if not loops:
         return []
     n = np.int64(len(V))
@@ -160,43 +160,40 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     sizes = np.array([len(lp) for lp in loops], np.int64)
     Fcat = np.concatenate(F_nears)
     loopcat = np.concatenate(loops)
-    lid_f = np.repeat(np.arange(len(loops), dtype=np.int64), [len(f) for f in F_nears])
-    lid_p = np.repeat(np.arange(len(loops), dtype=np.int64), sizes)
-    fkey = lid_f[:, None] * n + Fcat
-    pkey = lid_p * n + loopcat
-    ukey = np.unique(np.concatenate([fkey.ravel(), pkey]))       # per loop its sorted vertices, loop by loop
+    if kernels.ENABLED:
+        ukey, L, li = kernels.block_ids(Fcat, [len(f) for f in F_nears], loopcat, sizes, n)
+    else:
+        lid_f = np.repeat(np.arange(len(loops), dtype=np.int64), [len(f) for f in F_nears])
+        lid_p = np.repeat(np.arange(len(loops), dtype=np.int64), sizes)
+        fkey = lid_f[:, None] * n + Fcat
+        pkey = lid_p * n + loopcat
+        ukey = np.unique(np.concatenate([fkey.ravel(), pkey]))       # per loop its sorted vertices, loop by loop
+        L = np.searchsorted(ukey, fkey)
+        li = np.searchsorted(ukey, pkey)
     nv = len(ukey)
-    L = np.searchsorted(ukey, fkey)
-    li = np.searchsorted(ukey, pkey)
     E = np.concatenate([L[:, [0, 1]], L[:, [1, 2]], L[:, [2, 0]]])
-    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
-                      shape=(nv, nv))
-    A.data[:] = 1.0
     level = np.full(nv, 3, np.int64)
     level[li] = 0
-    ring1 = (A[li].sum(axis=0).A1 > 0) & (level > 0)
+    ring1 = _next_to(E, level == 0) & (level > 0)     # the adjacency's rows li meet these columns
     level[ring1] = 1
-    ring2 = (A[np.flatnonzero(ring1)].sum(axis=0).A1 > 0) & (level > 1)
+    ring2 = _next_to(E, ring1) & (level > 1)
     level[ring2] = 2
-    R1 = A[li].multiply((level == 1)[None]).tocsr()
-    R1.eliminate_zeros()
-    R2 = (R1 @ A).multiply((level == 2)[None]).tocsr()
-    R2.eliminate_zeros()
-    R2.data[:] = 1.0
-    c1 = R1.sum(axis=1).A1
-    c2 = R2.sum(axis=1).A1
     X = V[ukey % n]
     # area-weighted vertex normals, summed block by block
-    Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
-    acc = np.zeros((nv, 3))
-    for c in range(3):
-        np.add.at(acc, L[:, c], Nf)
+    if kernels.ENABLED:
+        acc = kernels.corner_normal_sums(L, Fcat, V, nv)
+    else:
+        Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
+        acc = np.zeros((nv, 3))
+        for c in range(3):
+            np.add.at(acc, L[:, c], Nf)
     ln = np.linalg.norm(acc, axis=1, keepdims=True)
     Nv = np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
+    sums = kernels.ring_sums if kernels.ENABLED else _ring_sums
+    s1, c1, N, s2, c2, N2 = sums(E, li, level, X, Nv)
     ok = (c1 > 0) & (c2 > 0)
-    q1 = (R1 @ X) / np.maximum(c1, 1)[:, None]
-    q2 = (R2 @ X) / np.maximum(c2, 1)[:, None]
-    N = R1 @ Nv
+    q1 = s1 / np.maximum(c1, 1)[:, None]
+    q2 = s2 / np.maximum(c2, 1)[:, None]
     P = V[loopcat]
     start = np.repeat(np.cumsum(sizes) - sizes, sizes)
     pos = np.arange(len(loopcat)) - start
@@ -212,7 +209,6 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     a, b, c = q1 - q2, P - q1, P - q2
     la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
     ok &= (la > 0) & (lb > 0) & (lc > 0)
-    N2 = R2 @ Nv
     N = N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
     N2 = N2 / np.maximum(np.linalg.norm(N2, axis=1, keepdims=True), 1e-300)
     T = np.divide(c, lc[:, None], out=np.zeros_like(c), where=lc[:, None] > 0)
@@ -247,6 +243,43 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     T = np.divide(T, tl, out=np.zeros_like(T), where=tl > 0)
     bounds = np.concatenate([[0], np.cumsum(sizes)])
     return [tuple(x[bounds[i]:bounds[i + 1]] for x in (q1, T, N, kap, s0, ok)) for i in range(len(loops))]
+
+
+def _ring_sums(E, li, level, X, Nv):
+    """Per rim vertex ``li[i]``: the sums of ``X`` and ``Nv`` over its
+    neighbours at level 1, their count, and the same over the level-2
+    neighbours of those (the rows of ``R1 = A[li]`` and ``R2 = R1 A``
+    restricted to those levels, ``A`` the all-ones adjacency of the edges
+    ``E``): as sparse products, each row summed in column order from zero
+    (:func:`shellrepair.kernels.ring_sums` is the same sums compiled).
+
+    Returns
+    -------
+    s1 : (p,3) float64, c1 : (p,) float64, n1 : (p,3) float64
+    s2 : (p,3) float64, c2 : (p,) float64, n2 : (p,3) float64
+    """
+    import scipy.sparse as sp
+
+    nv = len(level)
+    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
+                      shape=(nv, nv))
+    A.data[:] = 1.0
+    R1 = A[li].multiply((level == 1)[None]).tocsr()
+    R1.eliminate_zeros()
+    R2 = (R1 @ A).multiply((level == 2)[None]).tocsr()
+    R2.eliminate_zeros()
+    R2.data[:] = 1.0
+    return R1 @ X, R1.sum(axis=1).A1, R1 @ Nv, R2 @ X, R2.sum(axis=1).A1, R2 @ Nv
+
+
+def _next_to(E, mark):
+    """The vertices joined by an edge of ``E`` (k,2) to a marked one: the
+    columns the rows ``mark`` of the (symmetric, all ones) adjacency of
+    ``E`` meet, without building the rows."""
+    out = np.zeros(len(mark), bool)
+    out[E[mark[E[:, 0]], 1]] = True
+    out[E[mark[E[:, 1]], 0]] = True
+    return out
 
 
 def _nanmedian_columns(W):
@@ -330,54 +363,60 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
               if len(loops[a].vertices) >= 2 * SELF_SKIP + 2]
     rims = [np.asarray(loops[a].vertices, np.int64) for a in follow]
     all_arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
-    entries = []    # per followed loop: (a, k, idx, X, tol, bound)
+    # per followed loop with arcs: its evenly spaced arcs (rows), all loops'
+    # rows together; every quantity below is per row or per sample, so it
+    # is what the loop alone gives
+    picks = {}
+    ent_a, ent_k, idxs, rowsrc = [], [], [], []
     for a, loop, arcs in zip(follow, rims, all_arcs):
-        L = loops[a]
-        k = len(loop)
-        U, T, N, kap, s0, ok = arcs
-        idx = np.flatnonzero(ok)
+        idx = np.flatnonzero(arcs[5])
         if idx.size == 0:
             continue
         if idx.size > n_arcs:
-            idx = idx[np.linspace(0, idx.size - 1, n_arcs).round().astype(np.int64)]
-        reach = max_reach * max(L.diameter, 1e-300)
-        turn = np.where(np.abs(kap[idx]) > 0, 2 * np.pi / np.maximum(np.abs(kap[idx]), 1e-300), np.inf)
-        length = np.minimum(reach, turn)
-        frac = np.arange(1, n_samples + 1) / n_samples
-        s = s0[idx, None] + length[:, None] * frac[None]
-        X = arc_points(U[idx], T[idx], N[idx], kap[idx], s)
-        h = (length / n_samples)[:, None]
-        tol = h + slack * (s - s0[idx, None])                 # (m, j) without the target's edge
-        entries.append((a, k, idx, X, tol, float(tol.max() + edge.max())))
-    if not entries:
+            if idx.size not in picks:
+                picks[idx.size] = np.linspace(0, idx.size - 1, n_arcs).round().astype(np.int64)
+            idx = idx[picks[idx.size]]
+        ent_a.append(a)
+        ent_k.append(len(loop))
+        idxs.append(idx)
+    if not idxs:
         return out
+    used = [arcs for arcs in all_arcs if arcs[5].any()]
+    m = np.array([len(i) for i in idxs], np.int64)
+    first = np.concatenate([[0], np.cumsum(m)])
+    U, T, N, kap, s0 = (np.concatenate([x[i] for x, i in zip((arcs[c] for arcs in used), idxs)])
+                        for c in range(5))
+    reach = np.repeat([max_reach * max(loops[a].diameter, 1e-300) for a in ent_a], m)
+    turn = np.where(np.abs(kap) > 0, 2 * np.pi / np.maximum(np.abs(kap), 1e-300), np.inf)
+    length = np.minimum(reach, turn)
+    frac = np.arange(1, n_samples + 1) / n_samples
+    s = s0[:, None] + length[:, None] * frac[None]
+    h = (length / n_samples)[:, None]
+    tol = h + slack * (s - s0[:, None])                       # (m, j) without the target's edge
+    bound = np.maximum.reduceat(tol.max(axis=1), first[:-1]) + edge.max()
     # only an arc's first landing counts: samples are looked up from the rim
     # outwards, in growing runs, and an arc stops at its first landing (a
     # sample's lookup does not depend on which others are asked with it);
-    # the arcs of all loops go through each run together, each loop's
-    # samples looked up with its own bound
-    m = np.array([len(e[2]) for e in entries], np.int64)
-    ent = np.repeat(np.arange(len(entries)), m)
-    arow = np.repeat([e[0] for e in entries], m)
-    krow = np.repeat([e[1] for e in entries], m)
-    irow = np.concatenate([e[2] for e in entries])
-    X = np.concatenate([e[3] for e in entries])
-    tol = np.concatenate([e[4] for e in entries])
+    # a run's samples of all arcs still going are made (arc_points is per
+    # sample) and looked up together, bounded by the largest loop's bound:
+    # a sample's nearest rim vertex is the same under any bound that reaches
+    # it, and one beyond its own loop's bound is no landing, as before
+    ent = np.repeat(np.arange(len(idxs)), m)
+    arow = np.repeat(ent_a, m)
+    krow = np.repeat(ent_k, m)
+    irow = np.concatenate(idxs)
     landed = np.full(len(irow), -1, np.int64)
     rows = np.arange(len(irow))
     for c0, c1 in _sample_runs(n_samples):
         if rows.size == 0:
             break
         w = c1 - c0
-        d = np.empty((rows.size, w))
-        j = np.empty((rows.size, w), np.int64)
-        cut = np.flatnonzero(np.diff(ent[rows])) + 1            # rows are in loop order
-        for lo, hi in zip(np.concatenate([[0], cut]), np.concatenate([cut, [rows.size]])):
-            Xc = X[rows[lo:hi], c0:c1]
-            dd, jj = tree.query(Xc.reshape(-1, 3), distance_upper_bound=entries[ent[rows[lo]]][5])
-            d[lo:hi] = dd.reshape(hi - lo, w)
-            j[lo:hi] = jj.reshape(hi - lo, w)
-        found = np.isfinite(d)
+        X = arc_points(U[rows], T[rows], N[rows], kap[rows], s[rows, c0:c1])
+        rb = bound[ent[rows]]
+        d, j = tree.query(X.reshape(-1, 3), distance_upper_bound=float(rb.max()))
+        d = d.reshape(rows.size, w)
+        j = j.reshape(rows.size, w)
+        found = np.isfinite(d) & (d < rb[:, None])
         jj = np.where(found, j, 0)
         who = owner[jj]
         hit = found & (d <= tol[rows, c0:c1] + edge[who])
@@ -388,10 +427,9 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
         done = hit.any(axis=1)
         landed[rows[done]] = who[done, np.argmax(hit[done], axis=1)]
         rows = rows[~done]
-    first = np.concatenate([[0], np.cumsum(m)])
-    for e, (a, _, idx, _, _, _) in enumerate(entries):
+    for e, a in enumerate(ent_a):
         got = landed[first[e]:first[e + 1]]
-        out[a] = (np.bincount(got[got >= 0], minlength=len(loops)), len(idx))
+        out[a] = (np.bincount(got[got >= 0], minlength=len(loops)), int(m[e]))
     return out
 
 

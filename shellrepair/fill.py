@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import kernels
 from .fair import umbrella_smooth
 from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
 
@@ -52,10 +53,16 @@ FOLD_DEGREES = 0.1
 
 def _folds(ctx, patch, C, ids):
     """Patch triangles folded onto a neighbour across an edge (``FOLD_DEGREES``):
-    another patch triangle, or the scan face across a rim edge."""
-    loop = patch.loop
-    Fr = ctx.F[ctx.faces_of(loop)]
-    Cs = ctx.V[Fr]
+    another patch triangle, or the scan face across a rim edge (sorted)."""
+    Fr = ctx.F[ctx.faces_of(patch.loop)]
+    if kernels.ENABLED:
+        return kernels.folds(C, ids, ctx.V[Fr], Fr, np.cos(np.radians(FOLD_DEGREES)))
+    return _folds_numpy(C, ids, ctx.V[Fr], Fr)
+
+
+def _folds_numpy(C, ids, Cs, Fr):
+    """:func:`_folds` in NumPy (the compiled test's oracle), from the patch's
+    corners and corner ids and the scan faces at its rim (corners, ids)."""
     T = np.concatenate([C, Cs])                          # patch triangles, then scan faces at the rim
     I = np.concatenate([ids, Fr])
     tri = np.concatenate([np.arange(len(C)), -1 - np.arange(len(Fr))])

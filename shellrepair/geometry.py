@@ -1,5 +1,7 @@
 """Small vector helpers used in hot loops (cheaper than np.cross on small arrays)."""
 
+import math
+
 import numpy as np
 
 __all__ = ["cross", "dot", "uniq", "plane_frame", "bounding_spheres", "concat_ranges"]
@@ -39,11 +41,33 @@ def plane_frame(axis):
     coordinate axis least aligned with it, so (u, v, axis) is right-handed.
     """
     a = np.asarray(axis, np.float64)
+    if a.shape == (3,):
+        got = _plane_frame_one(*a.tolist())
+        if got is not None:
+            return got
     a = a / np.linalg.norm(a, axis=-1, keepdims=True)
     t = np.where((np.abs(a[..., :1]) < 0.9), [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
     u = cross(a, t)
     u /= np.linalg.norm(u, axis=-1, keepdims=True)
     return u, cross(a, u)
+
+
+def _plane_frame_one(x, y, z):
+    """:func:`plane_frame` of one finite, non-zero axis in Python floats:
+    the same operations in the same order as the array version (its norms
+    add the squares left to right), without NumPy's per-call cost; None
+    when a norm is zero or not finite (the array version then decides)."""
+    ln = math.sqrt(x * x + y * y + z * z)
+    if not (0.0 < ln < math.inf):
+        return None
+    x, y, z = x / ln, y / ln, z / ln
+    tx, ty, tz = (1.0, 0.0, 0.0) if abs(x) < 0.9 else (0.0, 1.0, 0.0)
+    u0, u1, u2 = y * tz - z * ty, z * tx - x * tz, x * ty - y * tx
+    lu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    if not (0.0 < lu < math.inf):
+        return None
+    u0, u1, u2 = u0 / lu, u1 / lu, u2 / lu
+    return np.array([u0, u1, u2]), np.array([y * u2 - z * u1, z * u0 - x * u2, x * u1 - y * u0])
 
 
 def bounding_spheres(T):

@@ -931,14 +931,15 @@ def embeds_by_projection(P, T, n_loop, axis=None):
         return False
     C = P - P[:k].mean(axis=0)
     if axis is None:
-        axis = 0.5 * cross(C[:k], np.roll(C[:k], -1, axis=0)).sum(axis=0)
+        axis = 0.5 * cross(C[:k], np.concatenate([C[1:k], C[:1]])).sum(axis=0)   # np.roll by -1
     axis = np.asarray(axis, np.float64)
     if not np.linalg.norm(axis) > 0:
         return False
     u, v = plane_frame(axis)
     Q = np.column_stack([C @ u, C @ v])
     q = Q[:k]
-    outline = 0.5 * float(np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1]))
+    qn = np.concatenate([q[1:], q[:1]])                  # np.roll by -1
+    outline = 0.5 * float(np.sum(q[:, 0] * qn[:, 1] - qn[:, 0] * q[:, 1]))
     if outline == 0.0:
         return False
     e1, e2 = Q[T[:, 1]] - Q[T[:, 0]], Q[T[:, 2]] - Q[T[:, 0]]

@@ -36,7 +36,21 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   round-off, not to the bit (the one kernel with a tolerance, stated there);
 * :func:`energy_blocks`: the unknown and fixed blocks of a large patch's
   fairing energy (:func:`shellrepair.fair._energy` and its slices), equal
-  to round-off (the sums in another order; tests/test_fair.py).
+  to round-off (the sums in another order; tests/test_fair.py);
+* :func:`folds`: the patch triangles folded onto a neighbour
+  (:func:`shellrepair.fill._folds`);
+* :func:`rim_walk`: :func:`rim_edges` with the faces around the loop found
+  and measured in the same pass (:func:`shellrepair.patch._rim_data`);
+* :func:`face_cross`: faces' cross products, gathered and computed in one
+  pass (:func:`shellrepair.patch._meets_edge_on`);
+* :func:`ring_sums`: the sums over the two rings around a loop's vertices
+  (:func:`shellrepair.bridge._ring_sums`, the continuation arcs), and
+  :func:`block_ids`, :func:`corner_normal_sums`: the arcs' local vertex
+  numbers and vertex normal sums;
+* :func:`angle_parts`, :func:`unfolded`: the products and sums of the
+  relaxation's opposite angles (the arctan2 left to NumPy) and its fold
+  test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
+* :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -51,7 +65,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1751,6 +1765,476 @@ def outline_simple(Q, eps):
     return bool(_outline_simple(np.ascontiguousarray(Q, np.float64), float(eps)))
 
 
+@njit(cache=True, nogil=True)
+def _folds(C, ids, Cs, Fr, cos_max):
+    nc, ns = C.shape[0], Cs.shape[0]
+    nh = 3 * (nc + ns)
+    lo = np.empty(nh, np.int64)
+    hi = np.empty(nh, np.int64)
+    for r in range(nc + ns):
+        for j in range(3):
+            a = ids[r, j] if r < nc else Fr[r - nc, j]
+            b = ids[r, (j + 1) % 3] if r < nc else Fr[r - nc, (j + 1) % 3]
+            lo[3 * r + j] = min(a, b)
+            hi[3 * r + j] = max(a, b)
+    out = np.empty(0, np.int64)
+    if nh == 0:
+        return out
+    base = lo.min()
+    span = hi.max() - base + 1
+    order = np.argsort((lo - base) * span + (hi - base), kind="mergesort")   # lexsort((hi, lo)): stable
+    hit = np.zeros(nc, np.bool_)
+    for q in range(nh - 1):
+        x, y = order[q], order[q + 1]
+        if lo[x] != lo[y] or hi[x] != hi[y]:
+            continue
+        rx, ry = x // 3, y // 3
+        if rx >= nc and ry >= nc:                          # two scan faces
+            continue
+        jx, jy = x % 3, y % 3
+        P = C[rx, jx] if rx < nc else Cs[rx - nc, jx]
+        Q = C[rx, (jx + 1) % 3] if rx < nc else Cs[rx - nc, (jx + 1) % 3]
+        R = C[rx, (jx + 2) % 3] if rx < nc else Cs[rx - nc, (jx + 2) % 3]
+        Ry = C[ry, (jy + 2) % 3] if ry < nc else Cs[ry - nc, (jy + 2) % 3]
+        e0, e1, e2 = Q[0] - P[0], Q[1] - P[1], Q[2] - P[2]
+        ln = max(np.sqrt(e0 * e0 + e1 * e1 + e2 * e2), 1e-300)
+        e0, e1, e2 = e0 / ln, e1 / ln, e2 / ln
+        u0, u1, u2 = R[0] - P[0], R[1] - P[1], R[2] - P[2]
+        w0, w1, w2 = Ry[0] - P[0], Ry[1] - P[1], Ry[2] - P[2]
+        du = u0 * e0 + u1 * e1 + u2 * e2
+        dw = w0 * e0 + w1 * e1 + w2 * e2
+        u0, u1, u2 = u0 - du * e0, u1 - du * e1, u2 - du * e2
+        w0, w1, w2 = w0 - dw * e0, w1 - dw * e1, w2 - dw * e2
+        den = np.sqrt(u0 * u0 + u1 * u1 + u2 * u2) * np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+        if u0 * w0 + u1 * w1 + u2 * w2 > cos_max * den and den > 0:
+            if rx < nc:
+                hit[rx] = True
+            if ry < nc:
+                hit[ry] = True
+    return np.flatnonzero(hit)
+
+
+def folds(C, ids, Cs, Fr, cos_max):
+    """:func:`shellrepair.fill._folds`' test, compiled: the patch triangles
+    (corners ``C``, corner ids ``ids``) folded onto a neighbour across an
+    edge, a patch triangle or a scan face (corners ``Cs``, vertex ids
+    ``Fr``).
+
+    Parameters
+    ----------
+    C : (t,3,3) float64
+    ids : (t,3) int64
+    Cs : (r,3,3) float64
+    Fr : (r,3) int64
+    cos_max : float
+        A pair folds when the cosine of the angle between its far corners,
+        seen along the edge, exceeds this.
+
+    Returns
+    -------
+    bad : (h,) int64
+        Sorted patch triangle indices.
+    """
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    return _folds(c(C).reshape(-1, 3, 3), i(ids).reshape(-1, 3), c(Cs).reshape(-1, 3, 3), i(Fr).reshape(-1, 3),
+                  float(cos_max))
+
+
+@njit(cache=True, nogil=True)
+def _rim_walk(loop, vf_order, vf_start, F, V):
+    # the faces at the loop's vertices, sorted and unique (Context.faces_of)
+    total = 0
+    for v in loop:
+        total += vf_start[v + 1] - vf_start[v]
+    fs = np.empty(total, np.int64)
+    q = 0
+    for v in loop:
+        for p in range(vf_start[v], vf_start[v + 1]):
+            fs[q] = vf_order[p] // 3
+            q += 1
+    fs = np.sort(fs)
+    m = 0
+    for i in range(total):
+        if i == 0 or fs[i] != fs[i - 1]:
+            fs[m] = fs[i]
+            m += 1
+    # sides T[:, [0,1]], then [1,2], then [2,0]; their lengths; unit normals
+    ia = np.empty(3 * m, np.int64)
+    ib = np.empty(3 * m, np.int64)
+    ln = np.empty(3 * m)
+    nrm = np.empty((m, 3))
+    order = np.argsort(loop, kind="mergesort")
+    sl = loop[order]
+    for c in range(3):
+        for r in range(m):
+            a, b = F[fs[r], c], F[fs[r], (c + 1) % 3]
+            d0, d1, d2 = V[a, 0] - V[b, 0], V[a, 1] - V[b, 1], V[a, 2] - V[b, 2]
+            ln[c * m + r] = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            j = np.searchsorted(sl, a, side="right") - 1
+            ia[c * m + r] = order[j] if j >= 0 and sl[j] == a else -1
+            j = np.searchsorted(sl, b, side="right") - 1
+            ib[c * m + r] = order[j] if j >= 0 and sl[j] == b else -1
+    for r in range(m):
+        f = fs[r]
+        x0, x1, x2 = V[F[f, 0], 0], V[F[f, 0], 1], V[F[f, 0], 2]
+        a0, a1, a2 = V[F[f, 1], 0] - x0, V[F[f, 1], 1] - x1, V[F[f, 1], 2] - x2
+        b0, b1, b2 = V[F[f, 2], 0] - x0, V[F[f, 2], 1] - x1, V[F[f, 2], 2] - x2
+        n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        nl = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        if nl > 0:
+            nrm[r, 0], nrm[r, 1], nrm[r, 2] = n0 / nl, n1 / nl, n2 / nl
+        else:
+            nrm[r, 0], nrm[r, 1], nrm[r, 2] = 0.0, 0.0, 0.0
+    return _rim_edges(loop.size, ia, ib, ln, nrm)
+
+
+def rim_walk(loop, vf_order, vf_start, F, V):
+    """:func:`rim_edges` from the loop alone: the faces at its vertices
+    (``vf_order``, ``vf_start``: complete lists there), their sides, side
+    lengths and unit normals as :func:`shellrepair.patch._rim_faces` makes
+    them, then the edge walk; the same four arrays."""
+    return _rim_walk(np.ascontiguousarray(loop, np.int64), vf_order, vf_start,
+                     np.ascontiguousarray(F, np.int64), np.ascontiguousarray(V, np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _face_cross(faces, F, V):
+    n = np.empty((faces.size, 3))
+    for r in range(faces.size):
+        f = faces[r]
+        x0, x1, x2 = V[F[f, 0], 0], V[F[f, 0], 1], V[F[f, 0], 2]
+        a0, a1, a2 = V[F[f, 1], 0] - x0, V[F[f, 1], 1] - x1, V[F[f, 1], 2] - x2
+        b0, b1, b2 = V[F[f, 2], 0] - x0, V[F[f, 2], 1] - x1, V[F[f, 2], 2] - x2
+        n[r, 0] = a1 * b2 - a2 * b1
+        n[r, 1] = a2 * b0 - a0 * b2
+        n[r, 2] = a0 * b1 - a1 * b0
+    return n
+
+
+def face_cross(faces, F, V):
+    """``cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])`` of the
+    faces ``T = F[faces]`` (:func:`shellrepair.geometry.cross`), in one pass.
+
+    Parameters
+    ----------
+    faces : (m,) int64
+    F : (f,3) int64
+    V : (n,3) float64
+
+    Returns
+    -------
+    n : (m,3) float64
+        Twice the area-weighted face normals.
+    """
+    return _face_cross(np.ascontiguousarray(faces, np.int64), np.ascontiguousarray(F, np.int64),
+                       np.ascontiguousarray(V, np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _ring_sums(E, li, level, X, Nv):
+    nv = level.size
+    # each vertex's neighbours (unsorted, with repeats); the rows read
+    # below (levels 0 and 1) sorted in place, repeats skipped when read
+    start = np.zeros(nv + 1, np.int64)
+    for r in range(E.shape[0]):
+        start[E[r, 0] + 1] += 1
+        start[E[r, 1] + 1] += 1
+    for v in range(nv):
+        start[v + 1] += start[v]
+    nb = np.empty(start[nv], np.int64)
+    fill = start[:nv].copy()
+    for r in range(E.shape[0]):
+        a, b = E[r, 0], E[r, 1]
+        nb[fill[a]] = b
+        fill[a] += 1
+        nb[fill[b]] = a
+        fill[b] += 1
+    for v in range(nv):
+        if level[v] <= 1:
+            for i in range(start[v] + 1, start[v + 1]):       # insertion sort: a few entries
+                x = nb[i]
+                j = i - 1
+                while j >= start[v] and nb[j] > x:
+                    nb[j + 1] = nb[j]
+                    j -= 1
+                nb[j + 1] = x
+    p = li.size
+    s1 = np.zeros((p, 3))
+    n1 = np.zeros((p, 3))
+    c1 = np.zeros(p)
+    s2 = np.zeros((p, 3))
+    n2 = np.zeros((p, 3))
+    c2 = np.zeros(p)
+    mark = np.zeros(nv, np.bool_)
+    got = np.empty(nv, np.int64)
+    for i in range(p):
+        v = li[i]
+        ng = 0
+        for jj in range(start[v], start[v + 1]):
+            w = nb[jj]
+            if level[w] != 1 or (jj > start[v] and nb[jj - 1] == w):
+                continue
+            c1[i] += 1.0
+            for k in range(3):
+                s1[i, k] += X[w, k]
+                n1[i, k] += Nv[w, k]
+            for tt in range(start[w], start[w + 1]):
+                x = nb[tt]
+                if level[x] == 2 and not mark[x]:
+                    mark[x] = True
+                    got[ng] = x
+                    ng += 1
+        two = np.sort(got[:ng])
+        for x in two:
+            mark[x] = False
+            c2[i] += 1.0
+            for k in range(3):
+                s2[i, k] += X[x, k]
+                n2[i, k] += Nv[x, k]
+    return s1, c1, n1, s2, c2, n2
+
+
+def ring_sums(E, li, level, X, Nv):
+    """:func:`shellrepair.bridge._ring_sums` compiled: per rim vertex the
+    sums over its level-1 neighbours and over their level-2 neighbours, in
+    ascending vertex order from zero, as the sparse products add them.
+
+    Parameters
+    ----------
+    E : (k,2) int64
+        Edges (repeats and both directions allowed).
+    li : (p,) int64
+        Rim vertices.
+    level : (nv,) int64
+    X, Nv : (nv,3) float64
+
+    Returns
+    -------
+    s1, c1, n1, s2, c2, n2
+        As :func:`shellrepair.bridge._ring_sums`.
+    """
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    return _ring_sums(i(E).reshape(-1, 2), i(li), i(level), c(X), c(Nv))
+
+
+@njit(cache=True, nogil=True)
+def _block_ids(Fcat, fcount, loopcat, sizes, n):
+    nb = fcount.size
+    ukey = np.empty(3 * Fcat.shape[0] + loopcat.size, np.int64)
+    L = np.empty(Fcat.shape, np.int64)
+    li = np.empty(loopcat.size, np.int64)
+    nu = 0
+    f0 = 0
+    p0 = 0
+    for blk in range(nb):
+        f1, p1 = f0 + fcount[blk], p0 + sizes[blk]
+        vs = np.empty(3 * (f1 - f0) + (p1 - p0), np.int64)
+        q = 0
+        for f in range(f0, f1):
+            for c in range(3):
+                vs[q] = Fcat[f, c]
+                q += 1
+        for i in range(p0, p1):
+            vs[q] = loopcat[i]
+            q += 1
+        vs = np.sort(vs)
+        m = 0
+        for i in range(vs.size):
+            if i == 0 or vs[i] != vs[i - 1]:
+                vs[m] = vs[i]
+                m += 1
+        vs = vs[:m]
+        base = np.int64(blk) * n
+        for i in range(m):
+            ukey[nu + i] = base + vs[i]
+        for f in range(f0, f1):
+            for c in range(3):
+                L[f, c] = nu + np.searchsorted(vs, Fcat[f, c])
+        for i in range(p0, p1):
+            li[i] = nu + np.searchsorted(vs, loopcat[i])
+        nu += m
+        f0, p0 = f1, p1
+    return ukey[:nu], L, li
+
+
+def block_ids(Fcat, fcount, loopcat, sizes, n):
+    """Local vertex numbers of several blocks of faces and loops
+    (:func:`shellrepair.bridge._continuation_arcs_many`): the keys
+    ``block * n + vertex`` of every block's vertices, sorted and unique
+    (``np.unique``), and each face corner's and loop vertex's position
+    among them (``np.searchsorted``); block by block, without sorting all
+    keys at once.
+
+    Parameters
+    ----------
+    Fcat : (r,3) int64
+        The blocks' faces, block after block.
+    fcount : (b,) int64
+        Faces per block.
+    loopcat : (p,) int64
+        The blocks' loop vertices, block after block.
+    sizes : (b,) int64
+        Loop vertices per block.
+    n : int
+        Number of vertices of the mesh.
+
+    Returns
+    -------
+    ukey : (nv,) int64
+    L : (r,3) int64
+    li : (p,) int64
+    """
+    i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    return _block_ids(i(Fcat).reshape(-1, 3), i(fcount), i(loopcat), i(sizes), np.int64(n))
+
+
+@njit(cache=True, nogil=True)
+def _corner_normal_sums(L, Fcat, V, nv):
+    m = Fcat.shape[0]
+    Nf = np.empty((m, 3))
+    for f in range(m):
+        x0, x1, x2 = V[Fcat[f, 0], 0], V[Fcat[f, 0], 1], V[Fcat[f, 0], 2]
+        a0, a1, a2 = V[Fcat[f, 1], 0] - x0, V[Fcat[f, 1], 1] - x1, V[Fcat[f, 1], 2] - x2
+        b0, b1, b2 = V[Fcat[f, 2], 0] - x0, V[Fcat[f, 2], 1] - x1, V[Fcat[f, 2], 2] - x2
+        Nf[f, 0] = a1 * b2 - a2 * b1
+        Nf[f, 1] = a2 * b0 - a0 * b2
+        Nf[f, 2] = a0 * b1 - a1 * b0
+    acc = np.zeros((nv, 3))
+    for c in range(3):
+        for f in range(m):
+            for k in range(3):
+                acc[L[f, c], k] += Nf[f, k]
+    return acc
+
+
+def corner_normal_sums(L, Fcat, V, nv):
+    """``np.add.at(acc, L[:, c], np.cross(e1, e2))`` for c = 0, 1, 2 in
+    turn (``e1, e2`` the sides of the faces ``Fcat`` from corner 0): the
+    area-weighted normal sums at local vertices, the same additions in the
+    same order.
+
+    Returns
+    -------
+    acc : (nv,3) float64
+    """
+    return _corner_normal_sums(np.ascontiguousarray(L, np.int64), np.ascontiguousarray(Fcat, np.int64),
+                               np.ascontiguousarray(V, np.float64), int(nv))
+
+
+@njit(cache=True, nogil=True)
+def _angle_parts(u, v):
+    m = u.shape[0]
+    cr = np.empty(m)
+    dt = np.empty(m)
+    for r in range(m):
+        c0 = u[r, 1] * v[r, 2] - u[r, 2] * v[r, 1]
+        c1 = u[r, 2] * v[r, 0] - u[r, 0] * v[r, 2]
+        c2 = u[r, 0] * v[r, 1] - u[r, 1] * v[r, 0]
+        cr[r] = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        dt[r] = u[r, 0] * v[r, 0] + u[r, 1] * v[r, 1] + u[r, 2] * v[r, 2]
+    return cr, dt
+
+
+def angle_parts(u, v):
+    """The two arguments of :func:`shellrepair.refine._angle`'s arctan2:
+    ``|u × v|`` and ``u · v`` per row, as its NumPy products and sums
+    give them (the arctan2 stays NumPy's).
+
+    Parameters
+    ----------
+    u, v : (m,3) float64
+
+    Returns
+    -------
+    cr, dot : (m,) float64
+    """
+    return _angle_parts(np.ascontiguousarray(u, np.float64), np.ascontiguousarray(v, np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _cross_row(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(cache=True, nogil=True)
+def _unfolded(pa, pb, pc, pd):
+    m = pa.shape[0]
+    out = np.empty(m, np.bool_)
+    for r in range(m):
+        a0, a1, a2 = pa[r, 0], pa[r, 1], pa[r, 2]
+        b0, b1, b2 = pb[r, 0], pb[r, 1], pb[r, 2]
+        c0, c1, c2 = pc[r, 0], pc[r, 1], pc[r, 2]
+        d0, d1, d2 = pd[r, 0], pd[r, 1], pd[r, 2]
+        x0, x1, x2 = _cross_row(b0 - a0, b1 - a1, b2 - a2, c0 - a0, c1 - a1, c2 - a2)
+        y0, y1, y2 = _cross_row(a0 - b0, a1 - b1, a2 - b2, d0 - b0, d1 - b1, d2 - b2)
+        n0, n1, n2 = x0 + y0, x1 + y1, x2 + y2
+        m0, m1, m2 = _cross_row(a0 - c0, a1 - c1, a2 - c2, d0 - c0, d1 - c1, d2 - c2)
+        k0, k1, k2 = _cross_row(b0 - d0, b1 - d1, b2 - d2, c0 - d0, c1 - d1, c2 - d2)
+        out[r] = (m0 * n0 + m1 * n1 + m2 * n2 > 0) and (k0 * n0 + k1 * n1 + k2 * n2 > 0)
+    return out
+
+
+def unfolded(pa, pb, pc, pd):
+    """:func:`shellrepair.refine._unfolded` compiled: would flipping edge
+    a-b of triangles (a,b,c), (b,a,d) to c-d keep both new triangles
+    facing the way the old pair faced? The same products and sums.
+
+    Parameters
+    ----------
+    pa, pb, pc, pd : (m,3) float64
+
+    Returns
+    -------
+    ok : (m,) bool
+    """
+    c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    return _unfolded(c(pa), c(pb), c(pc), c(pd))
+
+
+@njit(cache=True, nogil=True)
+def _split_test(P, Tr, s, alpha):
+    r = Tr.shape[0]
+    C = np.empty((r, 3))
+    sc = np.empty(r)
+    split = np.empty(r, np.bool_)
+    for i in range(r):
+        a, b, c = Tr[i, 0], Tr[i, 1], Tr[i, 2]
+        for k in range(3):
+            C[i, k] = (P[a, k] + P[b, k] + P[c, k]) / 3.0
+        sc[i] = (s[a] + s[b] + s[c]) / 3.0
+        ok = True
+        for v in (a, b, c):
+            e0, e1, e2 = C[i, 0] - P[v, 0], C[i, 1] - P[v, 1], C[i, 2] - P[v, 2]
+            d = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2) * alpha
+            if not (d > sc[i] and d > s[v]):
+                ok = False
+        split[i] = ok
+    return C, sc, split
+
+
+def split_test(P, Tr, s, alpha):
+    """The refinement's split test (:func:`shellrepair.refine._refine`):
+    each triangle's centroid ``C`` and mean scale ``sc``, and whether
+    ``alpha`` times the centroid's distance to every corner exceeds both
+    ``sc`` and the corner's scale; NumPy's means and norms, the same sums.
+
+    Parameters
+    ----------
+    P : (n,3) float64
+    Tr : (r,3) int64
+    s : (n,) float64
+    alpha : float
+
+    Returns
+    -------
+    C : (r,3) float64, sc : (r,) float64, split : (r,) bool
+    """
+    return _split_test(np.ascontiguousarray(P, np.float64), np.ascontiguousarray(Tr, np.int64),
+                       np.ascontiguousarray(s, np.float64), float(alpha))
+
+
 # --------------------------------------------------------------------------
 _WARM = False
 
@@ -1795,6 +2279,15 @@ def warm_up():
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
     outline_simple(X[:3, :2], 1e-12)
+    folds(X[T], T, X[T[:1]], T[:1] + 4, 0.5)
+    face_cross(np.array([1], np.int64), T, X)
+    ring_sums(E, np.array([0], np.int64), np.array([0, 1, 1, 2], np.int64), X, X)
+    _, Lb, _ = block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4)
+    corner_normal_sums(Lb, T, X, 4)
+    angle_parts(X[:2], X[2:])
+    unfolded(X[:1], X[1:2], X[2:3], X[3:])
+    split_test(X, T, np.ones(4), 1.5)
+    rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))
     _WARM = True

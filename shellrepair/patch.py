@@ -328,8 +328,9 @@ def _rim_data(ctx, loop):
     """Scale σ per loop vertex, scan normals across loop edges, forbidden chords."""
     if not kernels.ENABLED:
         return _rim_data_numpy(ctx, loop)
-    E, ln, nrm = _rim_faces(ctx, loop)
-    sig_sum, sig_cnt, edge_normals, forb = kernels.rim_edges(loop, E, ln, nrm)
+    reg = ctx._local_lists(loop)          # the lists ctx.faces_of reads
+    order, start = (reg.vf_order, reg.vf_start) if reg is not None else ctx.vf
+    sig_sum, sig_cnt, edge_normals, forb = kernels.rim_walk(loop, order, start, ctx.F, ctx.V)
     forbidden = set(zip(forb[:, 0].tolist(), forb[:, 1].tolist()))
     return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
 
@@ -347,7 +348,7 @@ def _rim_faces(ctx, loop):
 
 def _rim_sigma(ctx, loop, sig_sum, sig_cnt):
     sigma = sig_sum / np.maximum(sig_cnt, 1)
-    loop_len = np.linalg.norm(ctx.V[np.roll(loop, -1)] - ctx.V[loop], axis=1)
+    loop_len = np.linalg.norm(ctx.V[np.concatenate([loop[1:], loop[:1]])] - ctx.V[loop], axis=1)   # np.roll by -1
     return np.where(sig_cnt > 0, sigma, loop_len)
 
 
@@ -384,10 +385,13 @@ def _submesh(ctx, loop, Pl, T, rings):
     the fixed vertices)."""
     k = len(loop)
     rf = ctx.ring_faces(loop, rings)
-    g = uniq(ctx.F[rf])
-    remap = {int(v): i for i, v in enumerate(g.tolist())}
-    Fr = np.searchsorted(g, ctx.F[rf])
-    loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
+    Fg = ctx.F[rf]
+    g = uniq(Fg)
+    Fr = np.searchsorted(g, Fg)
+    loc_loop = np.searchsorted(g, loop)       # every loop vertex is on a ring face
+    if len(g) == 0 or not np.array_equal(g[np.minimum(loc_loop, len(g) - 1)], loop):
+        remap = {int(v): i for i, v in enumerate(g.tolist())}
+        loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
     nf = len(g)
     Tp = np.where(T < k, loc_loop[np.minimum(T, k - 1)], nf + T - k)
     return g, np.vstack([Fr, Tp]).astype(np.int64), nf, loc_loop
@@ -413,6 +417,7 @@ class _Pre:
     T0: np.ndarray | None = None
     refined: tuple | None = None
     edge_on: bool | None = None     # _meets_edge_on, when the unit's order asked for it
+    frame: tuple | None = None      # _local_frame(ctx, loop, rim sigma)
     first: object = None            # the first attempt, built and checked (fill._first_attempts)
 
 
@@ -437,7 +442,8 @@ def _prefill(ctx, units):
         if order != 1:
             pre.edge_on = _meets_edge_on(ctx, loop, hole_id)
         sigma, edge_normals, forbidden = rim
-        _, scale, Pl = _local_frame(ctx, loop, sigma)
+        pre.frame = _local_frame(ctx, loop, sigma)
+        _, scale, Pl = pre.frame
         try:
             pre.T0 = triangulate_loop(Pl, edge_normals, forbidden)
         except MeshError:
@@ -495,7 +501,10 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     k = len(loop)
     pre = ctx.pre_for(hole_id, loop)
     sigma, edge_normals, forbidden = pre.rim if pre is not None else _rim_data(ctx, loop)
-    origin, scale, Pl = _local_frame(ctx, loop, sigma)
+    if pre is not None and pre.frame is not None:     # the batch's frame of this loop and rim
+        origin, scale, Pl = pre.frame[0], pre.frame[1], pre.frame[2].copy()
+    else:
+        origin, scale, Pl = _local_frame(ctx, loop, sigma)
     forbidden = forbidden | set(avoid)
     fresh = pre is not None and not avoid and not scan_aware  # the batch's first attempt applies
     if initial is not None:
@@ -628,8 +637,7 @@ def _meets_edge_on(ctx, loop, hole_id=None):
             if np.any(ln > 0):
                 return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
         return False
-    T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
-    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    n = _face_cross(ctx, ctx.ring_faces(loop, EDGE_ON_RINGS))
     a = 0.5 * np.linalg.norm(n, axis=1)
     if a.sum() <= 0:
         return False
@@ -637,6 +645,14 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     if float(np.sum(a * cosines) / a.sum()) > EDGE_ON_COS:
         return False
     return _turns_into_opening(ctx, loop)
+
+
+def _face_cross(ctx, faces):
+    """``cross(e1, e2)`` of the scan faces ``faces`` (twice their area-weighted normals)."""
+    if kernels.ENABLED:
+        return kernels.face_cross(faces, ctx.F, ctx.V)
+    T = ctx.F[faces]
+    return cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
 
 
 def _turns_into_opening(ctx, loop):

@@ -138,11 +138,7 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
     test = np.ones(len(T), bool)          # triangles whose split verdict may have changed
     for _ in range(64):
         rows = np.flatnonzero(test)
-        Tr = T[rows]
-        C = P[Tr].mean(axis=1)
-        sc = s[Tr].mean(axis=1)
-        d = np.linalg.norm(C[:, None, :] - P[Tr], axis=2) * alpha  # (r,3)
-        split_r = np.all((d > sc[:, None]) & (d > s[Tr]), axis=1)
+        C, sc, split_r = (kernels.split_test if kernels.ENABLED else _split_test)(P, T[rows], s, alpha)
         if not split_r.any():
             break
         split = np.zeros(len(T), bool)
@@ -167,6 +163,17 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
         T, changed, settled = _relax(P, T, is_loop, forb, dirty=fresh if settled else None)
         test = fresh | changed
     return P, T, owner, capped
+
+
+def _split_test(P, Tr, s, alpha):
+    """The triangles ``Tr`` to split: centroid ``C``, mean scale ``sc`` and
+    whether ``alpha`` times the centroid's distance to every corner exceeds
+    both ``sc`` and that corner's scale (:func:`shellrepair.kernels.split_test`
+    is the same compiled)."""
+    C = P[Tr].mean(axis=1)
+    sc = s[Tr].mean(axis=1)
+    d = np.linalg.norm(C[:, None, :] - P[Tr], axis=2) * alpha  # (r,3)
+    return C, sc, np.all((d > sc[:, None]) & (d > s[Tr]), axis=1)
 
 
 def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
@@ -199,7 +206,7 @@ def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
     """:func:`_relax_numpy`, its bookkeeping compiled (:func:`shellrepair.kernels.relax`,
     the same result) when Numba is there."""
     if kernels.ENABLED:
-        out = kernels.relax(P, T, is_loop, forb, max_rounds, dirty, _angle, _unfolded, FLIP_EPS)
+        out = kernels.relax(P, T, is_loop, forb, max_rounds, dirty, _angle_compiled, kernels.unfolded, FLIP_EPS)
         if out is not None:   # None: a tie the vectorised writes order; redone below
             return out
     return _relax_numpy(P, T, is_loop, forb, max_rounds, dirty)
@@ -370,6 +377,13 @@ def _in_sorted(x, sorted_keys):
         return np.zeros(len(x), bool)
     pos = np.minimum(np.searchsorted(sorted_keys, x), sorted_keys.size - 1)
     return sorted_keys[pos] == x
+
+
+def _angle_compiled(u, v):
+    """:func:`_angle` with its products and sums compiled
+    (:func:`shellrepair.kernels.angle_parts`), NumPy's arctan2."""
+    cr, dt = kernels.angle_parts(u, v)
+    return np.arctan2(cr, dt)
 
 
 def _angle(u, v):

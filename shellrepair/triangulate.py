@@ -140,7 +140,7 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
     edge_normals = np.asarray(edge_normals, np.float64)
     if isinstance(axis, str):
         C = P - P.mean(axis=0)
-        va = -0.5 * cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
+        va = -0.5 * cross(C, np.concatenate([C[1:], C[:1]])).sum(axis=0)   # np.roll by -1
         ln = np.linalg.norm(va)
         axis = va / ln if ln > 0 else None
     if axis is not None:
@@ -184,11 +184,12 @@ def _delaunay_in_projection(P, axis, forbidden):
     n = np.abs(n)
     if (n <= 1e-12 * np.max(n)).any():
         return None
-    # every loop edge exactly once, reversed (i+1 -> i)
+    # every loop edge exactly once, reversed (i+1 -> i): the half-edges
+    # (i+1 mod k) -> i cover every i
     he = np.concatenate([S[:, [0, 1]], S[:, [1, 2]], S[:, [2, 0]]])
-    want = np.column_stack([(np.arange(k) + 1) % k, np.arange(k)])
-    key = he[:, 0] * k + he[:, 1]
-    if not np.isin(want[:, 0] * k + want[:, 1], key).all():
+    seen = np.zeros(k, bool)
+    seen[he[he[:, 0] == (he[:, 1] + 1) % k, 1]] = True
+    if not seen.all():
         return None
     if forbidden:
         und = {(int(min(x, y)), int(max(x, y))) for x, y in he.tolist()}

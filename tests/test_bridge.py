@@ -130,3 +130,26 @@ def test_arc_points_are_exact_circles_and_lines():
     assert np.allclose(X[2], s[2][:, None] * T[2], atol=1e-15)     # κ = 0: the tangent line
     tiny = arc_points(U[:1], T[:1], N[:1], np.array([1e-12]), s[:1])
     assert np.allclose(tiny, X[2:], atol=1e-9)                     # continuous as κ -> 0
+
+
+def test_ring_masks_are_the_columns_the_adjacency_rows_meet():
+    """The rings around a loop in the continuation arcs: the vertices an
+    edge joins to a marked vertex are exactly the columns where the marked
+    rows of the all-ones adjacency sum above zero (repeated edges and
+    self-loops included)."""
+    import scipy.sparse as sp
+
+    from shellrepair.bridge import _next_to
+
+    rng = np.random.default_rng(3)
+    nv = 60
+    E = rng.integers(0, nv, (150, 2))
+    E = np.vstack([E, E[:10], [[7, 7], [8, 8]]])
+    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
+                      shape=(nv, nv))
+    A.data[:] = 1.0
+    for _ in range(5):
+        mark = rng.random(nv) < 0.1
+        want = A[np.flatnonzero(mark)].sum(axis=0).A1 > 0
+        assert np.array_equal(_next_to(E, mark), want)
+    assert not _next_to(E, np.zeros(nv, bool)).any()

@@ -400,3 +400,190 @@ def test_boxes_meeting_equals_the_numpy_mask(seed):
     got = kernels.boxes_meeting(bmin, bmax, lo, hi)
     assert got.dtype == bool and np.array_equal(got, want)
     assert m < 200 or 0 < got.sum() < m
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_fold_test_equals_the_numpy_one(seed):
+    """Patches over a noisy grid hole, some triangles flipped onto a
+    neighbour (exact folds), some pushed nearly flat against one (within
+    and beyond FOLD_DEGREES), plus a zero-area triangle: the compiled fold
+    test flags exactly the triangles the NumPy one does."""
+    from shellrepair.fill import FOLD_DEGREES, _folds_numpy
+
+    rng = np.random.default_rng(seed)
+    n = 7
+    g = np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1).reshape(-1, 2).astype(float)
+    V = np.column_stack([g + rng.normal(0, 0.1, g.shape), rng.normal(0, 0.05, len(g))])
+    F = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a, b, c, d = i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1
+            F += [[a, b, c], [a, c, d]]
+    F = np.array(F, np.int64)
+    patch = rng.choice(len(F), len(F) // 2, replace=False)
+    scan = np.setdiff1d(np.arange(len(F)), patch)
+    ids = F[patch].copy()
+    C = V[ids].copy()
+    # new vertices get negative ids, as in a patch
+    newv = np.unique(ids)[rng.random(np.unique(ids).size) < 0.3]
+    ids = np.where(np.isin(ids, newv), -1 - ids, ids)
+    # triangles folded back over a patch triangle's edge (a, b): the far
+    # corner on the same side, turned out of its plane by 0, 0.05 or 0.2°
+    pick = rng.choice(len(C), 6, replace=False)
+    A, B, Cc = C[pick, 0], C[pick, 1], C[pick, 2]
+    nrm = np.cross(B - A, Cc - A)
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    far = A + 0.6 * (Cc - A) + 0.2 * (B - A)
+    dist = np.linalg.norm(far - A - np.sum((far - A) * (B - A), 1)[:, None] * (B - A)
+                          / np.sum((B - A) ** 2, 1)[:, None], axis=1)
+    turn = np.radians(rng.choice([0.0, 0.05, 0.2], len(pick)))
+    far += (np.tan(turn) * dist)[:, None] * nrm
+    C = np.concatenate([C, np.stack([B, A, far], 1)])
+    ids = np.concatenate([ids, np.column_stack([ids[pick, 1], ids[pick, 0], -1000 - np.arange(len(pick))])])
+    C[0, 2] = C[0, 0]                      # zero area
+    Cs, Fr = V[F[scan]], F[scan]
+    want = _folds_numpy(C, ids, Cs, Fr)
+    got = kernels.folds(C, ids, Cs, Fr, np.cos(np.radians(FOLD_DEGREES)))
+    assert got.dtype == want.dtype == np.int64
+    assert np.array_equal(got, want)
+    assert want.size > 0                   # the flipped triangles do fold
+    empty = kernels.folds(C[:0], ids[:0], Cs[:0], Fr[:0], 0.5)
+    assert empty.size == 0 and np.array_equal(empty, _folds_numpy(C[:0], ids[:0], Cs[:0], Fr[:0]))
+
+
+def test_face_cross_equals_the_numpy_cross_products():
+    """Faces of a noisy sphere far from the origin, a zero-area face and a
+    repeated face: the compiled gather-and-cross gives geometry.cross's
+    products to the bit."""
+    from shellrepair.geometry import cross
+
+    V, F = shapes.bumpy_sphere(2)
+    V = V * 1e-3 + 1e6
+    F = np.vstack([F, [[0, 0, 1]]])
+    faces = np.concatenate([np.arange(0, len(F), 3), [len(F) - 1, 5, 5]])
+    T = F[faces]
+    want = cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+    got = kernels.face_cross(faces, F, V)
+    assert np.array_equal(got, want)
+    assert not want[-3].any() and want[-1].any()
+    assert kernels.face_cross(faces[:0], F, V).shape == (0, 3)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_ring_sums_equal_the_sparse_products(seed):
+    """The sums over the two rings around rim vertices (the continuation
+    arcs' base points and normals): compiled, they equal the sparse
+    products to the bit, on a random graph with repeated edges and
+    self-loops and on the rings of real holes (via the arcs themselves)."""
+    from shellrepair import bridge
+
+    rng = np.random.default_rng(seed)
+    nv = 80
+    E = rng.integers(0, nv, (240, 2))
+    E = np.vstack([E, E[:20][:, ::-1], [[3, 3], [4, 4]]])
+    li = rng.choice(nv, 12, replace=False)
+    li = np.concatenate([li, li[:2]])                 # a rim vertex listed twice
+    level = np.full(nv, 3, np.int64)
+    level[li] = 0
+    r1 = bridge._next_to(E, level == 0) & (level > 0)
+    level[r1] = 1
+    level[bridge._next_to(E, r1) & (level > 1)] = 2
+    X = rng.normal(size=(nv, 3)) * 10.0 ** rng.integers(-3, 4, (nv, 1))
+    Nv = rng.normal(size=(nv, 3))
+    Nv[::7] = -0.0
+    want = bridge._ring_sums(E, li, level, X, Nv)
+    got = kernels.ring_sums(E, li, level, X, Nv)
+    for a, b in zip(want, got):
+        assert np.array_equal(np.asarray(a), b)
+    assert want[1].min() >= 0 and want[4].max() > 0
+
+
+def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
+    """Whole continuation arcs of a perforated bumpy sphere's holes: the
+    compiled ring sums give the arcs the sparse products give, bit for bit."""
+    from shellrepair import bridge
+    from shellrepair.holes import detect_holes
+
+    V, F = shapes.bumpy_sphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.3, seed=2)
+    ctx = _Context(Mesh(V=V2, F=F2))
+    loops = [np.asarray(h.vertices, np.int64) for h in detect_holes(V2, F2).holes]
+    near = [F2[ctx.ring_faces(lp, 3)] for lp in loops]
+    got = bridge._continuation_arcs_many(V2, near, loops)
+    monkeypatch.setattr(kernels, "ENABLED", False)
+    want = bridge._continuation_arcs_many(V2, near, loops)
+    for a, b in zip(want, got):
+        for x, y in zip(a, b):
+            assert np.array_equal(x, y)
+
+
+def test_block_ids_and_normal_sums_equal_unique_searchsorted_and_add_at():
+    """Blocks of faces and loop vertices (one block without faces, repeated
+    vertices, a loop vertex no face uses): the compiled local numbering is
+    np.unique / np.searchsorted of the keys ``block * n + vertex``, and the
+    normal sums are np.add.at's, to the bit."""
+    rng = np.random.default_rng(5)
+    n = 500
+    V = rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-2, 3, (n, 1))
+    fcount = np.array([30, 0, 45, 12], np.int64)
+    sizes = np.array([9, 4, 15, 6], np.int64)
+    Fcat = rng.integers(0, 60, (fcount.sum(), 3))
+    Fcat[::5, 2] = Fcat[::5, 0]
+    loopcat = rng.integers(0, 70, sizes.sum())
+    lid_f = np.repeat(np.arange(4), fcount)
+    lid_p = np.repeat(np.arange(4), sizes)
+    fkey, pkey = lid_f[:, None] * n + Fcat, lid_p * n + loopcat
+    want = np.unique(np.concatenate([fkey.ravel(), pkey]))
+    ukey, L, li = kernels.block_ids(Fcat, fcount, loopcat, sizes, n)
+    assert np.array_equal(ukey, want)
+    assert np.array_equal(L, np.searchsorted(want, fkey)) and np.array_equal(li, np.searchsorted(want, pkey))
+    Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
+    acc = np.zeros((len(want), 3))
+    for c in range(3):
+        np.add.at(acc, L[:, c], Nf)
+    assert np.array_equal(kernels.corner_normal_sums(L, Fcat, V, len(want)), acc)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_relaxation_angle_and_fold_terms_equal_the_numpy_ones(seed):
+    """The relaxation's opposite angles and fold test on random quads of
+    mixed scales (flat, folded, degenerate and far-offset ones included):
+    the compiled products and sums give refine._angle's and
+    refine._unfolded's results to the bit."""
+    from shellrepair.refine import _angle, _angle_compiled, _unfolded
+
+    rng = np.random.default_rng(seed)
+    m = 400
+    pa, pb, pc, pd = (rng.normal(size=(m, 3)) * 10.0 ** rng.integers(-4, 3, (m, 1)) for _ in range(4))
+    pd[:40] = pc[:40]                               # degenerate: c = d
+    pc[40:80, 2] = pa[40:80, 2] = pb[40:80, 2] = pd[40:80, 2] = 0.0   # flat
+    pa[80:120] += 1e6                               # far from the origin
+    pb[80:120] += 1e6
+    pc[80:120] += 1e6
+    pd[80:120] += 1e6
+    u, v = pa - pc, pb - pc
+    assert np.array_equal(_angle_compiled(u, v), _angle(u, v))
+    want = _unfolded(pa, pb, pc, pd)
+    assert np.array_equal(kernels.unfolded(pa, pb, pc, pd), want)
+    assert want.any() and not want.all()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_refinement_split_test_equals_the_numpy_one(seed):
+    """Centroids, mean scales and split verdicts of random triangles of
+    mixed scales, far from the origin and degenerate ones included: the
+    compiled split test equals refine's NumPy one to the bit."""
+    from shellrepair.refine import DENSITY_ALPHA, _split_test
+
+    rng = np.random.default_rng(seed)
+    n = 300
+    P = rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-3, 3, (n, 1))
+    P[:30] += 1e6
+    s = rng.random(n) * 10.0 ** rng.integers(-3, 3, n)
+    Tr = rng.integers(0, n, (500, 3))
+    Tr[:20, 2] = Tr[:20, 0]
+    want = _split_test(P, Tr, s, DENSITY_ALPHA)
+    got = kernels.split_test(P, Tr, s, DENSITY_ALPHA)
+    for a, b in zip(want, got):
+        assert np.array_equal(a, b)
+    assert want[2].any() and not want[2].all()

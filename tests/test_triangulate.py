@@ -329,3 +329,30 @@ def test_the_block_chord_search_picks_the_row_by_row_chord(kind):
         # forbid the best chord's neighbours too: the answer moves, both must follow
         forbidden |= {tuple(sorted((int(idx[(i + d) % len(idx)]), int(idx[j])))) for d in range(-2, 3)}
         assert _best_chord(X, idx, forbidden) == _best_chord_rows(X, idx, forbidden)
+
+
+def test_plane_frame_of_one_axis_equals_the_array_version_to_the_bit():
+    """The scalar path of plane_frame (one axis) gives the array version's
+    frame to the bit, signed zeros included, over axes of every scale;
+    zero, underflowing and overflowing axes go to the array version."""
+    import warnings
+
+    from shellrepair import geometry
+
+    rng = np.random.default_rng(7)
+    A = rng.normal(size=(3000, 3)) * 10.0 ** rng.integers(-150, 150, (3000, 3))
+    A[:200, 1] = 0.0
+    A[200:400, 2] = -0.0
+    A[400:410] = [1.0, 0.0, 0.0]
+    A[410:420] = [-0.0, 0.0, 1e-300]
+    A[420:430] = [1e200, -1e200, 3e200]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        U, W = geometry.plane_frame(A)            # the array version, row by row the same
+        for a, u0, w0 in zip(A, U, W):
+            u, w = geometry.plane_frame(a)
+            for x, y in ((u, u0), (w, w0)):
+                assert np.array_equal(x, y, equal_nan=True)
+                assert np.array_equal(np.signbit(x), np.signbit(y))
+    u, w = geometry.plane_frame(np.array([0.3, -0.4, 1.2]))
+    assert abs(u @ w) < 1e-15 and abs(np.linalg.norm(u) - 1) < 1e-15
