@@ -70,7 +70,7 @@ import scipy.sparse.linalg as spla
 from . import kernels
 from .intrinsic import intrinsic_laplacian
 
-__all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
+__all__ = ["fair_patch", "fair_patch_orders", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
 
 #: Rounds of cotangent re-evaluation after the uniform first solve.
 COTAN_ROUNDS = 2
@@ -291,10 +291,34 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     K : (n,n) CSC
         The order-1 operator of the last round (for interpolating colours).
     """
+    return fair_patch_orders(X, F, n_fixed, (order,), rounds, pinned)[0]
+
+
+def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
+    """:func:`fair_patch` of one submesh at several orders, sharing the work
+    the orders have in common: the same result for each order, to the bit.
+
+    Orders whose uniform first solve is of the same order (every order from
+    ``UNIFORM_MAX_ORDER`` on: 2 and 3 both start from the uniform thin
+    plate) share that solve, and with it the first cotangent round's
+    operators (K and M of the same positions); only the energies' blocks,
+    their factorisations and the later rounds are per order.
+
+    Parameters
+    ----------
+    X, F, n_fixed, rounds, pinned
+        As in :func:`fair_patch`.
+    orders : sequence of {1, 2, 3}
+
+    Returns
+    -------
+    results : list of (Xu, K)
+        :func:`fair_patch`'s result for each order, in the order given.
+    """
     X = np.array(X, np.float64)
     n = len(X)
     if n == n_fixed:
-        return X[n_fixed:], uniform_laplacian(F, n)
+        return [(X[n_fixed:], uniform_laplacian(F, n)) for _ in orders]
     pin = np.zeros(n, bool)
     pin[:n_fixed] = True
     if pinned is not None and len(pinned):
@@ -302,26 +326,59 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     fixed = np.flatnonzero(pin)
     unknown = np.flatnonzero(~pin)
     if unknown.size == 0:
-        return X[n_fixed:], uniform_laplacian(F, n)
-    if kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK:
-        from .intrinsic import FLIP_TOL, MAX_ROUNDS
+        return [(X[n_fixed:], uniform_laplacian(F, n)) for _ in orders]
+    small = kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK
+    first = {}     # uniform order -> (positions after the first solve, its K, the first cotangent round's K and M)
+    out = []
+    for order in orders:
+        if small:
+            from .intrinsic import FLIP_TOL, MAX_ROUNDS
 
-        Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL, MAX_ROUNDS,
-                                                   UNIFORM_MAX_ORDER)
-        if ok:
-            return Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
-    K, _ = _operators(X, F, uniform=True)
-    Quu, Quf = _blocks(K, None, min(order, UNIFORM_MAX_ORDER), fixed, unknown)
-    X[unknown] = _Factor(Quu, Quf).minimise(X[fixed])
+            Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL,
+                                                       MAX_ROUNDS, UNIFORM_MAX_ORDER)
+            if ok:
+                out.append((Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()))
+                continue
+        u = min(order, UNIFORM_MAX_ORDER)
+        if u not in first:
+            K, _ = _operators(X, F, uniform=True)
+            Quu, Quf = _blocks(K, None, u, fixed, unknown)
+            X1 = X.copy()
+            X1[unknown] = _Factor(Quu, Quf).minimise(X1[fixed])
+            first[u] = [X1, K, None]
+        X1, K, ops = first[u]
+        if ops is None and int(rounds) > 0:
+            ops = first[u][2] = _round_operators(X1, F)
+        Xo, Ko = _cotan_rounds(X1.copy(), F, fixed, unknown, order, rounds, K, ops)
+        out.append((Xo[n_fixed:], _as_sparse(Ko, n)))
+    return out
+
+
+def _round_operators(X, F):
+    """The cotangent round's K and M at positions X, or False where a
+    triangle is degenerate or the operators are not finite (the rounds stop
+    there)."""
+    e = X[F]
+    area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
+    if not np.isfinite(X).all() or area.min() <= DEGENERATE_AREA:
+        return False
+    Kc, Mc = _operators(X, F)
+    if not (np.isfinite(Kc[2] if isinstance(Kc, tuple) else Kc.data).all() and np.isfinite(Mc).all()):
+        return False
+    return Kc, Mc
+
+
+def _cotan_rounds(X, F, fixed, unknown, order, rounds, K, ops=None):
+    """The cotangent rounds of :func:`fair_patch` from the first solve's
+    positions X (changed in place) and its operator K; ``ops``: the first
+    round's :func:`_round_operators`, when already known. Returns X and the
+    last round's K."""
     last = None  # the previous cotangent round's factorisation
-    for _ in range(int(rounds)):
-        e = X[F]
-        area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
-        if not np.isfinite(X).all() or area.min() <= DEGENERATE_AREA:
+    for r in range(int(rounds)):
+        got = ops if (r == 0 and ops is not None) else _round_operators(X, F)
+        if got is False:
             break
-        Kc, Mc = _operators(X, F)
-        if not (np.isfinite(Kc[2] if isinstance(Kc, tuple) else Kc.data).all() and np.isfinite(Mc).all()):
-            break
+        Kc, Mc = got
         floor = DEGENERATE_AREA + 1e-3 * np.median(Mc)
         Quu, Quf = _blocks(Kc, 1.0 / np.maximum(Mc, floor), order, fixed, unknown)
         Xn = None
@@ -336,7 +393,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
             break
         X[unknown] = Xn
         K = Kc
-    return X[n_fixed:], _as_sparse(K, n)
+    return X, K
 
 
 def taubin_smooth(X, F, n_fixed, passes, lam=TAUBIN_LAMBDA, mu=TAUBIN_MU):

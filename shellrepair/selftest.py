@@ -80,7 +80,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .fair import fair_patch
+from .fair import fair_patch_orders
 from .geometry import uniq
 
 __all__ = ["choose_order", "scan_verdict", "agrees", "probe_band", "point_mesh_distance", "rim_bend", "OrderTest"]
@@ -521,8 +521,8 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
     # coarser than the scan, to c² of it
     floor = sagitta(ctx.V, ctx.F[ctx.ring_faces(loop, rings)]) * coarse ** 2
     X0, Fs, nf, g, scale, org = P0
-    for o in candidates:
-        Xu, _ = fair_patch(X0, Fs, nf, order=o, rounds=TEST_ROUNDS)
+    faired = fair_patch_orders(X0, Fs, nf, candidates, rounds=TEST_ROUNDS)   # their common work done once
+    for o, (Xu, _) in zip(candidates, faired):
         X = org + scale * np.vstack([X0[:nf], Xu])
         Tp = Fs[len(Fs) - len(T):]
         d = point_mesh_distance(Q, X, Tp)

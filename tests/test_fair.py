@@ -166,3 +166,30 @@ def test_order_3_fills_triangles_as_round_as_order_2(radius, seed):
         assert rep["holes_after"] == 0
         worst[order] = np.percentile(_min_angles(R.V, R.F[R.face_filled]), 1)
     assert worst[3] >= 0.95 * worst[2]
+
+
+@pytest.mark.parametrize("numba", [True, False])
+@pytest.mark.parametrize("k", [12, 40])       # the dense small-patch path and the sparse one
+def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, monkeypatch):
+    if numba and not kernels.ENABLED:
+        pytest.skip("Numba is not installed")
+    monkeypatch.setattr(kernels, "ENABLED", numba and kernels.ENABLED)
+    X, F, nf = _bumpy_grid(k, 7)
+    shared = []
+    real = fair._Factor
+
+    class Counted(real):
+        def __init__(self, *a):
+            shared.append(1)
+            real.__init__(self, *a)
+
+    monkeypatch.setattr(fair, "_Factor", Counted)
+    together = fair.fair_patch_orders(X, F, nf, (1, 2, 3), rounds=2)
+    n_together = len(shared)
+    for order, (Xu, K) in zip((1, 2, 3), together):
+        ref, Kref = fair.fair_patch(X, F, nf, order=order, rounds=2)
+        assert np.array_equal(Xu, ref)
+        assert (K != Kref).nnz == 0
+    if len(X) - nf > fair.SMALL_UNKNOWNS or not numba:
+        # orders 2 and 3 share the uniform thin-plate solve: one factorisation fewer
+        assert n_together == len(shared) - n_together - 1
