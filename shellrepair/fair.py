@@ -63,6 +63,8 @@ processing approach to fair surface design", SIGGRAPH 1995.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -70,7 +72,7 @@ import scipy.sparse.linalg as spla
 from . import kernels
 from .intrinsic import intrinsic_laplacian
 
-__all__ = ["fair_patch", "fair_patch_orders", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
+__all__ = ["fair_patch", "fair_patch_orders", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
 
 #: Rounds of cotangent re-evaluation after the uniform first solve.
 COTAN_ROUNDS = 2
@@ -344,7 +346,7 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
             K, _ = _operators(X, F, uniform=True)
             Quu, Quf = _blocks(K, None, u, fixed, unknown)
             X1 = X.copy()
-            X1[unknown] = _Factor(Quu, Quf).minimise(X1[fixed])
+            X1[unknown] = _first_solve(Quu, Quf, X1[fixed])
             first[u] = [X1, K, None]
         X1, K, ops = first[u]
         if ops is None and int(rounds) > 0:
@@ -352,6 +354,58 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
         Xo, Ko = _cotan_rounds(X1.copy(), F, fixed, unknown, order, rounds, K, ops)
         out.append((Xo[n_fixed:], _as_sparse(Ko, n)))
     return out
+
+
+#: The uniform first solves of at least this many unknowns are remembered
+#: (:func:`_first_solve`) ...
+FIRST_SOLVE_MEMO_UNKNOWNS = 1000
+#: ... up to this many bytes of their matrices, right-hand sides and solutions.
+FIRST_SOLVE_MEMO_BYTES = 64 << 20
+
+_memo = threading.local()
+
+
+def first_solve_memo(on):
+    """Start (``on`` True) or end, and forget, the memo of large uniform
+    first solves in this thread (:func:`_first_solve`)."""
+    _memo.entries = {} if on else None
+
+
+def _first_solve(Quu, Quf, Xf):
+    """The uniform first solve, Q_uu⁻¹ (−Q_uf X_f), remembered for large patches.
+
+    ``order="auto"`` fills a hole at order 2, then, where the band test asks
+    for order 3, fairs the same refined patch at order 3
+    (:func:`shellrepair.fill._fill_one`): both start from the uniform thin
+    plate, and the order-3 submesh's extra ring of fixed scan does not enter
+    the unknowns' rows (their K² reads two rings), so the system is the
+    same, entry for entry (the ~12k-unknown hole of ``eval/bench_fill.py``:
+    one factorisation of ~0.1-0.15 s). Between :func:`first_solve_memo`
+    ``(True)`` and ``(False)`` (the fill of a run of holes,
+    :func:`shellrepair.fill._run_chunk`), a system of at least
+    ``FIRST_SOLVE_MEMO_UNKNOWNS`` unknowns is kept with its solution (per
+    thread; the least recently used dropped past ``FIRST_SOLVE_MEMO_BYTES``),
+    and a later system whose matrix and right-hand side are equal to the bit
+    takes that solution: the factorisation is deterministic, so the result
+    is the one solving it again would give.
+    """
+    R = -(Quf @ Xf)
+    memo = getattr(_memo, "entries", None)
+    if memo is None or Quu.shape[0] < FIRST_SOLVE_MEMO_UNKNOWNS:
+        return _Factor(Quu, Quf)._solve(R)
+    Q = sp.csc_matrix(Quu)
+    arrays = (Q.indptr.copy(), Q.indices.copy(), Q.data.copy(), R.copy())   # before a factorisation sorts them
+    key = (Quu.shape[0], Quu.nnz, hash(arrays[2].tobytes()), hash(arrays[3].tobytes()))
+    hit = memo.pop(key, None)
+    if hit is not None and all(a.dtype == b.dtype and np.array_equal(a, b) for a, b in zip(arrays, hit[0])):
+        memo[key] = hit                      # most recently used last
+        return hit[1].copy()
+    Z = _Factor(Quu, Quf)._solve(R)
+    memo[key] = (arrays, Z.copy())
+    size = lambda e: sum(a.nbytes for a in e[0]) + e[1].nbytes
+    while len(memo) > 1 and sum(size(e) for e in memo.values()) > FIRST_SOLVE_MEMO_BYTES:
+        memo.pop(next(iter(memo)))           # the least recently used
+    return Z
 
 
 def _round_operators(X, F):

@@ -193,3 +193,45 @@ def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, m
     if len(X) - nf > fair.SMALL_UNKNOWNS or not numba:
         # orders 2 and 3 share the uniform thin-plate solve: one factorisation fewer
         assert n_together == len(shared) - n_together - 1
+
+
+def _count_factorisations(monkeypatch):
+    made = []
+    real = fair._Factor
+
+    class Counted(real):
+        def __init__(self, *a):
+            made.append(a[0].shape[0])
+            real.__init__(self, *a)
+
+    monkeypatch.setattr(fair, "_Factor", Counted)
+    return made
+
+
+@pytest.mark.parametrize("numba", [True, False])
+def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monkeypatch):
+    monkeypatch.setattr(kernels, "ENABLED", numba and kernels.ENABLED)
+    X, F, nf = _bumpy_grid(40, 8)
+    assert len(X) - nf >= fair.FIRST_SOLVE_MEMO_UNKNOWNS
+    made = _count_factorisations(monkeypatch)
+
+    def fair_counted(X, order):
+        before = len(made)
+        Xu, _ = fair.fair_patch(X, F, nf, order=order)
+        return Xu, len(made) - before
+
+    (ref2, a), (ref3, b) = fair_counted(X, 2), fair_counted(X, 3)
+    fair.first_solve_memo(True)
+    try:
+        got2, a2 = fair_counted(X, 2)
+        got3, b2 = fair_counted(X, 3)        # the same uniform thin-plate system
+        X2 = X.copy()
+        rim = F[(F >= nf).any(axis=1)].min()    # a fixed vertex next to an unknown
+        X2[rim, 2] += 1e-3                   # moved: another right-hand side
+        moved, b3 = fair_counted(X2, 3)
+    finally:
+        fair.first_solve_memo(False)
+    assert np.array_equal(got2, ref2) and np.array_equal(got3, ref3)
+    assert (a2, b2, b3) == (a, b - 1, b)     # only the identical system was taken from the memo
+    assert not np.array_equal(moved, got3)
+    assert fair_counted(X, 2)[1] == a        # outside the memo's scope nothing is remembered
