@@ -1718,6 +1718,37 @@ def _symmetrise(ptr, col, val):
     return val
 
 
+@njit(cache=True, nogil=True)
+def _drop_spare_diagonal(ptr, col, val):
+    """The rows without the spare zero slots :func:`_laplacian_rows` leaves
+    on the diagonal (a zero entry of column i in row i after the row's
+    first): about half of a cotangent Laplacian's entries, each adding a
+    zero product in :func:`_energy_rows` (so dropping them changes no sum)."""
+    n = ptr.size - 1
+    keep = np.zeros(ptr[n], np.bool_)
+    p2 = np.zeros(n + 1, np.int64)
+    for i in range(n):
+        seen = False
+        for q in range(ptr[i], ptr[i + 1]):
+            if col[q] == i:
+                if seen and val[q] == 0.0:
+                    continue
+                seen = True
+            keep[q] = True
+            p2[i + 1] += 1
+    for i in range(n):
+        p2[i + 1] += p2[i]
+    c2 = np.empty(p2[n], np.int64)
+    v2 = np.empty(p2[n])
+    t = 0
+    for q in range(ptr[n]):
+        if keep[q]:
+            c2[t] = col[q]
+            v2[t] = val[q]
+            t += 1
+    return p2, c2, v2
+
+
 def energy_blocks(ptr, col, val, D, order, unknown, fixed):
     """The blocks of the fairing energy Q = K (D K)^(order−1) that a solve
     with the rows ``fixed`` given needs, assembled in one pass per row
@@ -1749,9 +1780,10 @@ def energy_blocks(ptr, col, val, D, order, unknown, fixed):
     pos[fixed] = np.arange(fixed.size)
     is_fixed = np.zeros(n, np.bool_)
     is_fixed[fixed] = True
-    up, uc, uv, fp, fc, fv = _energy_rows(np.ascontiguousarray(ptr, np.int64), np.ascontiguousarray(col, np.int64),
-                                          np.ascontiguousarray(val, np.float64), np.ascontiguousarray(D, np.float64),
-                                          int(order), unknown, pos, is_fixed)
+    ptr, col, val = _drop_spare_diagonal(np.ascontiguousarray(ptr, np.int64), np.ascontiguousarray(col, np.int64),
+                                         np.ascontiguousarray(val, np.float64))
+    up, uc, uv, fp, fc, fv = _energy_rows(ptr, col, val, np.ascontiguousarray(D, np.float64), int(order), unknown, pos,
+                                          is_fixed)
     uv = _symmetrise(up, uc, uv)
     return (up, uc, uv), (fp, fc, fv)
 

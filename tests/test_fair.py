@@ -235,3 +235,26 @@ def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monke
     assert (a2, b2, b3) == (a, b - 1, b)     # only the identical system was taken from the memo
     assert not np.array_equal(moved, got3)
     assert fair_counted(X, 2)[1] == a        # outside the memo's scope nothing is remembered
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
+    from shellrepair.intrinsic import _laplacian_arrays
+
+    X, F, nf = _bumpy_grid(24, 9)
+    (ptr, col, val), M = _laplacian_arrays(X, F)
+    spare = sum(int(np.sum((col[ptr[i] + 1:ptr[i + 1]] == i) & (val[ptr[i] + 1:ptr[i + 1]] == 0.0)))
+                for i in range(len(X)))
+    assert spare > len(col) // 4                                   # the slots are there to drop
+    n = len(X)
+    unknown, fixed = np.arange(nf, n), np.arange(nf)
+    D = 1.0 / M
+    got = kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
+    pos = np.empty(n, np.int64)
+    pos[unknown], pos[fixed] = np.arange(unknown.size), np.arange(fixed.size)
+    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.arange(n) < nf)
+    ref = (up, uc, kernels._symmetrise(up, uc, uv)), (fp, fc, fv)   # the rows read with the slots
+    for a, b in zip(got, ref):
+        for x, y in zip(a, b):
+            assert np.array_equal(x, y)
