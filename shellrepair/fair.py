@@ -63,6 +63,8 @@ processing approach to fair surface design", SIGGRAPH 1995.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -70,7 +72,7 @@ import scipy.sparse.linalg as spla
 from . import kernels
 from .intrinsic import intrinsic_laplacian
 
-__all__ = ["fair_patch", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
+__all__ = ["fair_patch", "fair_patch_orders", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
 
 #: Rounds of cotangent re-evaluation after the uniform first solve.
 COTAN_ROUNDS = 2
@@ -291,10 +293,34 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     K : (n,n) CSC
         The order-1 operator of the last round (for interpolating colours).
     """
+    return fair_patch_orders(X, F, n_fixed, (order,), rounds, pinned)[0]
+
+
+def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
+    """:func:`fair_patch` of one submesh at several orders, sharing the work
+    the orders have in common: the same result for each order, to the bit.
+
+    Orders whose uniform first solve is of the same order (every order from
+    ``UNIFORM_MAX_ORDER`` on: 2 and 3 both start from the uniform thin
+    plate) share that solve, and with it the first cotangent round's
+    operators (K and M of the same positions); only the energies' blocks,
+    their factorisations and the later rounds are per order.
+
+    Parameters
+    ----------
+    X, F, n_fixed, rounds, pinned
+        As in :func:`fair_patch`.
+    orders : sequence of {1, 2, 3}
+
+    Returns
+    -------
+    results : list of (Xu, K)
+        :func:`fair_patch`'s result for each order, in the order given.
+    """
     X = np.array(X, np.float64)
     n = len(X)
     if n == n_fixed:
-        return X[n_fixed:], uniform_laplacian(F, n)
+        return [(X[n_fixed:], uniform_laplacian(F, n)) for _ in orders]
     pin = np.zeros(n, bool)
     pin[:n_fixed] = True
     if pinned is not None and len(pinned):
@@ -302,26 +328,111 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     fixed = np.flatnonzero(pin)
     unknown = np.flatnonzero(~pin)
     if unknown.size == 0:
-        return X[n_fixed:], uniform_laplacian(F, n)
-    if kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK:
-        from .intrinsic import FLIP_TOL, MAX_ROUNDS
+        return [(X[n_fixed:], uniform_laplacian(F, n)) for _ in orders]
+    small = kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK
+    first = {}     # uniform order -> (positions after the first solve, its K, the first cotangent round's K and M)
+    out = []
+    for order in orders:
+        if small:
+            from .intrinsic import FLIP_TOL, MAX_ROUNDS
 
-        Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL, MAX_ROUNDS,
-                                                   UNIFORM_MAX_ORDER)
-        if ok:
-            return Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
-    K, _ = _operators(X, F, uniform=True)
-    Quu, Quf = _blocks(K, None, min(order, UNIFORM_MAX_ORDER), fixed, unknown)
-    X[unknown] = _Factor(Quu, Quf).minimise(X[fixed])
+            Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL,
+                                                       MAX_ROUNDS, UNIFORM_MAX_ORDER)
+            if ok:
+                out.append((Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()))
+                continue
+        u = min(order, UNIFORM_MAX_ORDER)
+        if u not in first:
+            K, _ = _operators(X, F, uniform=True)
+            Quu, Quf = _blocks(K, None, u, fixed, unknown)
+            X1 = X.copy()
+            X1[unknown] = _first_solve(Quu, Quf, X1[fixed])
+            first[u] = [X1, K, None]
+        X1, K, ops = first[u]
+        if ops is None and int(rounds) > 0:
+            ops = first[u][2] = _round_operators(X1, F)
+        Xo, Ko = _cotan_rounds(X1.copy(), F, fixed, unknown, order, rounds, K, ops)
+        out.append((Xo[n_fixed:], _as_sparse(Ko, n)))
+    return out
+
+
+#: The uniform first solves of at least this many unknowns are remembered
+#: (:func:`_first_solve`) ...
+FIRST_SOLVE_MEMO_UNKNOWNS = 1000
+#: ... up to this many bytes of their matrices, right-hand sides and solutions.
+FIRST_SOLVE_MEMO_BYTES = 64 << 20
+
+_memo = threading.local()
+
+
+def first_solve_memo(on):
+    """Start (``on`` True) or end, and forget, the memo of large uniform
+    first solves in this thread (:func:`_first_solve`)."""
+    _memo.entries = {} if on else None
+
+
+def _first_solve(Quu, Quf, Xf):
+    """The uniform first solve, Q_uu⁻¹ (−Q_uf X_f), remembered for large patches.
+
+    ``order="auto"`` fills a hole at order 2, then, where the band test asks
+    for order 3, fairs the same refined patch at order 3
+    (:func:`shellrepair.fill._fill_one`): both start from the uniform thin
+    plate, and the order-3 submesh's extra ring of fixed scan does not enter
+    the unknowns' rows (their K² reads two rings), so the system is the
+    same, entry for entry (the ~12k-unknown hole of ``eval/bench_fill.py``:
+    one factorisation of ~0.1-0.15 s). Between :func:`first_solve_memo`
+    ``(True)`` and ``(False)`` (the fill of a run of holes,
+    :func:`shellrepair.fill._run_chunk`), a system of at least
+    ``FIRST_SOLVE_MEMO_UNKNOWNS`` unknowns is kept with its solution (per
+    thread; the least recently used dropped past ``FIRST_SOLVE_MEMO_BYTES``),
+    and a later system whose matrix and right-hand side are equal to the bit
+    takes that solution: the factorisation is deterministic, so the result
+    is the one solving it again would give.
+    """
+    R = -(Quf @ Xf)
+    memo = getattr(_memo, "entries", None)
+    if memo is None or Quu.shape[0] < FIRST_SOLVE_MEMO_UNKNOWNS:
+        return _Factor(Quu, Quf)._solve(R)
+    Q = sp.csc_matrix(Quu)
+    arrays = (Q.indptr.copy(), Q.indices.copy(), Q.data.copy(), R.copy())   # before a factorisation sorts them
+    key = (Quu.shape[0], Quu.nnz, hash(arrays[2].tobytes()), hash(arrays[3].tobytes()))
+    hit = memo.pop(key, None)
+    if hit is not None and all(a.dtype == b.dtype and np.array_equal(a, b) for a, b in zip(arrays, hit[0])):
+        memo[key] = hit                      # most recently used last
+        return hit[1].copy()
+    Z = _Factor(Quu, Quf)._solve(R)
+    memo[key] = (arrays, Z.copy())
+    size = lambda e: sum(a.nbytes for a in e[0]) + e[1].nbytes
+    while len(memo) > 1 and sum(size(e) for e in memo.values()) > FIRST_SOLVE_MEMO_BYTES:
+        memo.pop(next(iter(memo)))           # the least recently used
+    return Z
+
+
+def _round_operators(X, F):
+    """The cotangent round's K and M at positions X, or False where a
+    triangle is degenerate or the operators are not finite (the rounds stop
+    there)."""
+    e = X[F]
+    area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
+    if not np.isfinite(X).all() or area.min() <= DEGENERATE_AREA:
+        return False
+    Kc, Mc = _operators(X, F)
+    if not (np.isfinite(Kc[2] if isinstance(Kc, tuple) else Kc.data).all() and np.isfinite(Mc).all()):
+        return False
+    return Kc, Mc
+
+
+def _cotan_rounds(X, F, fixed, unknown, order, rounds, K, ops=None):
+    """The cotangent rounds of :func:`fair_patch` from the first solve's
+    positions X (changed in place) and its operator K; ``ops``: the first
+    round's :func:`_round_operators`, when already known. Returns X and the
+    last round's K."""
     last = None  # the previous cotangent round's factorisation
-    for _ in range(int(rounds)):
-        e = X[F]
-        area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1)
-        if not np.isfinite(X).all() or area.min() <= DEGENERATE_AREA:
+    for r in range(int(rounds)):
+        got = ops if (r == 0 and ops is not None) else _round_operators(X, F)
+        if got is False:
             break
-        Kc, Mc = _operators(X, F)
-        if not (np.isfinite(Kc[2] if isinstance(Kc, tuple) else Kc.data).all() and np.isfinite(Mc).all()):
-            break
+        Kc, Mc = got
         floor = DEGENERATE_AREA + 1e-3 * np.median(Mc)
         Quu, Quf = _blocks(Kc, 1.0 / np.maximum(Mc, floor), order, fixed, unknown)
         Xn = None
@@ -336,7 +447,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
             break
         X[unknown] = Xn
         K = Kc
-    return X[n_fixed:], _as_sparse(K, n)
+    return X, K
 
 
 def taubin_smooth(X, F, n_fixed, passes, lam=TAUBIN_LAMBDA, mu=TAUBIN_MU):

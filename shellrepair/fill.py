@@ -878,7 +878,10 @@ def _first_attempts(ctx, chunk):
 def _run_chunk(ctx, chunk, on_unit=None):
     """Fill a run of consecutive units (their first attempts batched);
     ``on_unit()`` is called after each."""
+    from .fair import first_solve_memo
+
     try:
+        first_solve_memo(True)     # an order-3 fill of order="auto" repeats its order-2 fill's first solve
         _prefill(ctx, chunk)
         _first_attempts(ctx, chunk)
         out = []
@@ -889,6 +892,7 @@ def _run_chunk(ctx, chunk, on_unit=None):
         return out
     finally:
         ctx.pre = {}
+        first_solve_memo(False)
 
 
 def _worker(chunk):

@@ -34,6 +34,8 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`fair_small`: a small patch's whole fairing
   (:func:`shellrepair.fair.fair_patch`), the solves dense: equal to
   round-off, not to the bit (the one kernel with a tolerance, stated there);
+* :func:`nearest_distances`: points to their candidate triangles, the
+  order test's distances (:func:`shellrepair.selftest.point_mesh_distance`);
 * :func:`energy_blocks`: the unknown and fixed blocks of a large patch's
   fairing energy (:func:`shellrepair.fair._energy` and its slices), equal
   to round-off (the sums in another order; tests/test_fair.py);
@@ -65,7 +67,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1523,6 +1525,95 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
                        float(flip_tol), int(flip_rounds), int(uniform_max_order))
 
 
+# --------------------------------------------------------------------------
+# the order test's distances: points to their nearest triangles
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _closest_distance(P, A, B, C):
+    """|P − X| for the closest point X of triangle ABC to P, with the same
+    operations in the same order as :func:`shellrepair.selftest._closest_on_triangles`
+    (then the norm of P − X)."""
+    ab = (B[0] - A[0], B[1] - A[1], B[2] - A[2])
+    ac = (C[0] - A[0], C[1] - A[1], C[2] - A[2])
+    ap = (P[0] - A[0], P[1] - A[1], P[2] - A[2])
+    d00 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]
+    d01 = ab[0] * ac[0] + ab[1] * ac[1] + ab[2] * ac[2]
+    d11 = ac[0] * ac[0] + ac[1] * ac[1] + ac[2] * ac[2]
+    d20 = ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]
+    d21 = ap[0] * ac[0] + ap[1] * ac[1] + ap[2] * ac[2]
+    den = d00 * d11 - d01 * d01
+    ok = den > 1e-30 * max(d00 * d11, 1e-300)
+    inv = 1.0 / den if ok else 0.0
+    v = (d11 * d20 - d01 * d21) * inv
+    w = (d00 * d21 - d01 * d20) * inv
+    inside = ok and v >= 0 and w >= 0 and v + w <= 1
+    x0 = A[0] + v * ab[0] + w * ac[0]
+    x1 = A[1] + v * ab[1] + w * ac[1]
+    x2 = A[2] + v * ab[2] + w * ac[2]
+    if inside:
+        e0, e1, e2 = P[0] - x0, P[1] - x1, P[2] - x2
+        return np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    best = np.inf
+    for s in range(3):       # the edges AB, BC, CA
+        S = A if s == 0 else (B if s == 1 else C)
+        E = B if s == 0 else (C if s == 1 else A)
+        D0, D1, D2 = E[0] - S[0], E[1] - S[1], E[2] - S[2]
+        t = ((P[0] - S[0]) * D0 + (P[1] - S[1]) * D1 + (P[2] - S[2]) * D2) / max(D0 * D0 + D1 * D1 + D2 * D2,
+                                                                                   1e-300)
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+        y0, y1, y2 = S[0] + t * D0, S[1] + t * D1, S[2] + t * D2
+        e0, e1, e2 = P[0] - y0, P[1] - y1, P[2] - y2
+        dy = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        if dy < best:
+            best = dy
+            x0, x1, x2 = y0, y1, y2
+    e0, e1, e2 = P[0] - x0, P[1] - x1, P[2] - x2
+    return np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+
+
+@njit(cache=True, nogil=True)
+def _nearest_distances(Q, T, idx):
+    p, kk = idx.shape
+    d = np.empty(p)
+    for i in range(p):
+        m = 0.0
+        for j in range(kk):
+            f = idx[i, j]
+            x = _closest_distance(Q[i], T[f, 0], T[f, 1], T[f, 2])
+            if j == 0 or np.isnan(m):
+                m = x if j == 0 else m
+            elif np.isnan(x) or x < m:
+                m = x
+        d[i] = m
+    return d
+
+
+def nearest_distances(Q, T, idx):
+    """Distance of each point to the closest of its candidate triangles:
+    ``min_j |Q_i − closest point of T[idx[i, j]]|``
+    (:func:`shellrepair.selftest.point_mesh_distance` after its centroid
+    query), equal to the NumPy version to the bit (NaN where any candidate
+    gives NaN, as NumPy's ``min``).
+
+    Parameters
+    ----------
+    Q : (p,3) float64
+    T : (m,3,3) float64
+        The triangles' corners.
+    idx : (p,kk) int64
+        Candidate triangles of each point.
+
+    Returns
+    -------
+    d : (p,) float64
+    """
+    return _nearest_distances(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(T, np.float64),
+                              np.ascontiguousarray(idx, np.int64))
+
+
 
 # --------------------------------------------------------------------------
 # fairing of large patches: the energy's blocks, assembled directly
@@ -1641,6 +1732,37 @@ def _symmetrise(ptr, col, val):
     return val
 
 
+@njit(cache=True, nogil=True)
+def _drop_spare_diagonal(ptr, col, val):
+    """The rows without the spare zero slots :func:`_laplacian_rows` leaves
+    on the diagonal (a zero entry of column i in row i after the row's
+    first): about half of a cotangent Laplacian's entries, each adding a
+    zero product in :func:`_energy_rows` (so dropping them changes no sum)."""
+    n = ptr.size - 1
+    keep = np.zeros(ptr[n], np.bool_)
+    p2 = np.zeros(n + 1, np.int64)
+    for i in range(n):
+        seen = False
+        for q in range(ptr[i], ptr[i + 1]):
+            if col[q] == i:
+                if seen and val[q] == 0.0:
+                    continue
+                seen = True
+            keep[q] = True
+            p2[i + 1] += 1
+    for i in range(n):
+        p2[i + 1] += p2[i]
+    c2 = np.empty(p2[n], np.int64)
+    v2 = np.empty(p2[n])
+    t = 0
+    for q in range(ptr[n]):
+        if keep[q]:
+            c2[t] = col[q]
+            v2[t] = val[q]
+            t += 1
+    return p2, c2, v2
+
+
 def energy_blocks(ptr, col, val, D, order, unknown, fixed):
     """The blocks of the fairing energy Q = K (D K)^(order−1) that a solve
     with the rows ``fixed`` given needs, assembled in one pass per row
@@ -1672,9 +1794,10 @@ def energy_blocks(ptr, col, val, D, order, unknown, fixed):
     pos[fixed] = np.arange(fixed.size)
     is_fixed = np.zeros(n, np.bool_)
     is_fixed[fixed] = True
-    up, uc, uv, fp, fc, fv = _energy_rows(np.ascontiguousarray(ptr, np.int64), np.ascontiguousarray(col, np.int64),
-                                          np.ascontiguousarray(val, np.float64), np.ascontiguousarray(D, np.float64),
-                                          int(order), unknown, pos, is_fixed)
+    ptr, col, val = _drop_spare_diagonal(np.ascontiguousarray(ptr, np.int64), np.ascontiguousarray(col, np.int64),
+                                         np.ascontiguousarray(val, np.float64))
+    up, uc, uv, fp, fc, fv = _energy_rows(ptr, col, val, np.ascontiguousarray(D, np.float64), int(order), unknown, pos,
+                                          is_fixed)
     uv = _symmetrise(up, uc, uv)
     return (up, uc, uv), (fp, fc, fv)
 
@@ -2276,6 +2399,7 @@ def warm_up():
           np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
+    nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
     outline_simple(X[:3, :2], 1e-12)

@@ -80,7 +80,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .fair import fair_patch
+from .fair import fair_patch_orders
 from .geometry import uniq
 
 __all__ = ["choose_order", "scan_verdict", "agrees", "probe_band", "point_mesh_distance", "rim_bend", "OrderTest"]
@@ -327,10 +327,22 @@ def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
     kk = min(int(nearest), len(T))
     _, idx = cKDTree(T.mean(axis=1)).query(Q, k=kk)
     idx = np.asarray(idx).reshape(len(Q), kk)
+    from . import kernels
+
+    if kernels.ENABLED:    # the same operations, compiled
+        return kernels.nearest_distances(Q, T, idx)
     P = np.repeat(Q, kk, axis=0)
     Tn = T[idx.ravel()]
-    d = np.linalg.norm(P - _closest_on_triangles(P, Tn[:, 0], Tn[:, 1], Tn[:, 2]), axis=1)
+    E = P - _closest_on_triangles(P, Tn[:, 0], Tn[:, 1], Tn[:, 2])
+    d = np.sqrt(_dot3(E, E))
     return d.reshape(len(Q), kk).min(axis=1)
+
+
+def _dot3(a, b):
+    """Row-wise dot products of (n,3) arrays, summed left to right (as the
+    compiled :func:`shellrepair.kernels.nearest_distances` does; einsum's
+    order depends on the CPU's vector width)."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
 def _closest_on_triangles(P, A, B, C):
@@ -343,11 +355,11 @@ def _closest_on_triangles(P, A, B, C):
     """
     AB, AC = B - A, C - A
     AP = P - A
-    d00 = np.einsum("ij,ij->i", AB, AB)
-    d01 = np.einsum("ij,ij->i", AB, AC)
-    d11 = np.einsum("ij,ij->i", AC, AC)
-    d20 = np.einsum("ij,ij->i", AP, AB)
-    d21 = np.einsum("ij,ij->i", AP, AC)
+    d00 = _dot3(AB, AB)
+    d01 = _dot3(AB, AC)
+    d11 = _dot3(AC, AC)
+    d20 = _dot3(AP, AB)
+    d21 = _dot3(AP, AC)
     den = d00 * d11 - d01 * d01
     ok = den > 1e-30 * np.maximum(d00 * d11, 1e-300)
     inv = np.where(ok, 1.0 / np.where(ok, den, 1.0), 0.0)
@@ -355,13 +367,13 @@ def _closest_on_triangles(P, A, B, C):
     w = (d00 * d21 - d01 * d20) * inv
     inside = ok & (v >= 0) & (w >= 0) & (v + w <= 1)
     X = A + v[:, None] * AB + w[:, None] * AC
-    best = np.where(inside, np.linalg.norm(P - X, axis=1), np.inf)
+    best = np.where(inside, np.sqrt(_dot3(P - X, P - X)), np.inf)
     out = X.copy()
     for S, E in ((A, B), (B, C), (C, A)):   # the edges, for points projecting outside
         D = E - S
-        t = np.clip(np.einsum("ij,ij->i", P - S, D) / np.maximum(np.einsum("ij,ij->i", D, D), 1e-300), 0.0, 1.0)
+        t = np.clip(_dot3(P - S, D) / np.maximum(_dot3(D, D), 1e-300), 0.0, 1.0)
         Y = S + t[:, None] * D
-        dy = np.linalg.norm(P - Y, axis=1)
+        dy = np.sqrt(_dot3(P - Y, P - Y))
         take = ~inside & (dy < best)
         out[take] = Y[take]
         best = np.where(take, dy, best)
@@ -521,8 +533,8 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
     # coarser than the scan, to c² of it
     floor = sagitta(ctx.V, ctx.F[ctx.ring_faces(loop, rings)]) * coarse ** 2
     X0, Fs, nf, g, scale, org = P0
-    for o in candidates:
-        Xu, _ = fair_patch(X0, Fs, nf, order=o, rounds=TEST_ROUNDS)
+    faired = fair_patch_orders(X0, Fs, nf, candidates, rounds=TEST_ROUNDS)   # their common work done once
+    for o, (Xu, _) in zip(candidates, faired):
         X = org + scale * np.vstack([X0[:nf], Xu])
         Tp = Fs[len(Fs) - len(T):]
         d = point_mesh_distance(Q, X, Tp)

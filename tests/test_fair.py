@@ -166,3 +166,95 @@ def test_order_3_fills_triangles_as_round_as_order_2(radius, seed):
         assert rep["holes_after"] == 0
         worst[order] = np.percentile(_min_angles(R.V, R.F[R.face_filled]), 1)
     assert worst[3] >= 0.95 * worst[2]
+
+
+@pytest.mark.parametrize("numba", [True, False])
+@pytest.mark.parametrize("k", [12, 40])       # the dense small-patch path and the sparse one
+def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, monkeypatch):
+    if numba and not kernels.ENABLED:
+        pytest.skip("Numba is not installed")
+    monkeypatch.setattr(kernels, "ENABLED", numba and kernels.ENABLED)
+    X, F, nf = _bumpy_grid(k, 7)
+    shared = []
+    real = fair._Factor
+
+    class Counted(real):
+        def __init__(self, *a):
+            shared.append(1)
+            real.__init__(self, *a)
+
+    monkeypatch.setattr(fair, "_Factor", Counted)
+    together = fair.fair_patch_orders(X, F, nf, (1, 2, 3), rounds=2)
+    n_together = len(shared)
+    for order, (Xu, K) in zip((1, 2, 3), together):
+        ref, Kref = fair.fair_patch(X, F, nf, order=order, rounds=2)
+        assert np.array_equal(Xu, ref)
+        assert (K != Kref).nnz == 0
+    if len(X) - nf > fair.SMALL_UNKNOWNS or not numba:
+        # orders 2 and 3 share the uniform thin-plate solve: one factorisation fewer
+        assert n_together == len(shared) - n_together - 1
+
+
+def _count_factorisations(monkeypatch):
+    made = []
+    real = fair._Factor
+
+    class Counted(real):
+        def __init__(self, *a):
+            made.append(a[0].shape[0])
+            real.__init__(self, *a)
+
+    monkeypatch.setattr(fair, "_Factor", Counted)
+    return made
+
+
+@pytest.mark.parametrize("numba", [True, False])
+def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monkeypatch):
+    monkeypatch.setattr(kernels, "ENABLED", numba and kernels.ENABLED)
+    X, F, nf = _bumpy_grid(40, 8)
+    assert len(X) - nf >= fair.FIRST_SOLVE_MEMO_UNKNOWNS
+    made = _count_factorisations(monkeypatch)
+
+    def fair_counted(X, order):
+        before = len(made)
+        Xu, _ = fair.fair_patch(X, F, nf, order=order)
+        return Xu, len(made) - before
+
+    (ref2, a), (ref3, b) = fair_counted(X, 2), fair_counted(X, 3)
+    fair.first_solve_memo(True)
+    try:
+        got2, a2 = fair_counted(X, 2)
+        got3, b2 = fair_counted(X, 3)        # the same uniform thin-plate system
+        X2 = X.copy()
+        rim = F[(F >= nf).any(axis=1)].min()    # a fixed vertex next to an unknown
+        X2[rim, 2] += 1e-3                   # moved: another right-hand side
+        moved, b3 = fair_counted(X2, 3)
+    finally:
+        fair.first_solve_memo(False)
+    assert np.array_equal(got2, ref2) and np.array_equal(got3, ref3)
+    assert (a2, b2, b3) == (a, b - 1, b)     # only the identical system was taken from the memo
+    assert not np.array_equal(moved, got3)
+    assert fair_counted(X, 2)[1] == a        # outside the memo's scope nothing is remembered
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
+    from shellrepair.intrinsic import _laplacian_arrays
+
+    X, F, nf = _bumpy_grid(24, 9)
+    (ptr, col, val), M = _laplacian_arrays(X, F)
+    spare = sum(int(np.sum((col[ptr[i] + 1:ptr[i + 1]] == i) & (val[ptr[i] + 1:ptr[i + 1]] == 0.0)))
+                for i in range(len(X)))
+    assert spare > len(col) // 4                                   # the slots are there to drop
+    n = len(X)
+    unknown, fixed = np.arange(nf, n), np.arange(nf)
+    D = 1.0 / M
+    got = kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
+    pos = np.empty(n, np.int64)
+    pos[unknown], pos[fixed] = np.arange(unknown.size), np.arange(fixed.size)
+    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.arange(n) < nf)
+    ref = (up, uc, kernels._symmetrise(up, uc, uv)), (fp, fc, fv)   # the rows read with the slots
+    for a, b in zip(got, ref):
+        for x, y in zip(a, b):
+            assert np.array_equal(x, y)

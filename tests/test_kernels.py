@@ -587,3 +587,24 @@ def test_refinement_split_test_equals_the_numpy_one(seed):
     for a, b in zip(want, got):
         assert np.array_equal(a, b)
     assert want[2].any() and not want[2].all()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_point_triangle_distances_equal_the_numpy_version_to_the_bit(seed, monkeypatch):
+    from shellrepair.selftest import point_mesh_distance
+
+    rng = np.random.default_rng(seed)
+    V, F = shapes.bumpy_sphere(2, amplitude=0.05)
+    V = V + rng.normal(scale=0.02, size=V.shape)
+    V[F[:5, 1]] = V[F[:5, 0]]                                      # zero-area triangles ...
+    V[F[5:9, 2]] = 0.5 * (V[F[5:9, 0]] + V[F[5:9, 1]])             # ... and collinear ones
+    Q = np.concatenate([V[:50] + rng.normal(scale=0.05, size=(50, 3)),    # near the surface, off it
+                        rng.normal(scale=2.0, size=(50, 3)),              # far away
+                        V[F[:9]].mean(axis=1), V[:5]])                     # on degenerate faces, on vertices
+    for shift in (0.0, 1e6):
+        got = point_mesh_distance(Q + shift, V + shift, F)
+        monkeypatch.setattr(kernels, "ENABLED", False)
+        ref = point_mesh_distance(Q + shift, V + shift, F)
+        monkeypatch.undo()
+        assert np.array_equal(got, ref)
+    assert got.max() > 1.0 and got.min() == 0.0                    # far points and exact hits were both measured
