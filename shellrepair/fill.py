@@ -558,6 +558,47 @@ ENERGY = 1
 CAPS_SHARE = 0.7
 
 
+#: Largest share of a band's work budget the guide tube's own vertices may
+#: take (refinement only adds to them): past it, the tube refined from the
+#: guide and one more attempt of its size (the tube held on its first
+#: positions, a retry) cannot both be afforded, and the first tube is built
+#: by :func:`_coarse_tube` instead.
+GUIDE_SHARE = 0.5
+#: Ring spacing of the coarse tube of :func:`_coarse_tube`, in rim edge
+#: lengths: about 1/16 of the vertices of the tube at the rim's spacing.
+COARSE_SPACING = 4.0
+
+
+def _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget):
+    """The first tube of a band whose arcs' guide is too large for the band's
+    budget, or None.
+
+    The guide follows each loop's continuation arcs; where they miss their
+    partners (a wide band, the inner side of a fat torus) the blend of the
+    two loops' arcs crumples, and refinement to the rim's edge length then
+    spends its vertices on the folds (about twice the vertices the faired
+    tube's area needs, on the stress suite's tori). So the guide is built
+    with rings ``COARSE_SPACING`` rim edges apart, faired (its vertices
+    counted against ``budget``) and resampled at the rim's spacing
+    (:func:`~shellrepair.bridge.resample_tube`): a first tube the size of
+    the surface it spans. Returns ``(P, T)`` as ``guide_tube``.
+    """
+    from .bridge import guide_tube, resample_tube
+
+    loop = np.concatenate([A.vertices, B.vertices])
+    try:
+        Pc, Tc, params, facing = guide_tube(PA, PB, *arcs, spacing=COARSE_SPACING * spacing, reach=reach,
+                                            rings=True)
+        if params is None or not np.isfinite(Pc).all():
+            return None
+        pc = build_patch(ctx, A.id, loop, order=order, initial=(Pc, Tc), refine=False)
+        budget.spend(pc)
+        P, T = resample_tube(PA, PB, params, facing, pc.P, spacing)
+    except (PatchError, ValueError, IndexError, FloatingPointError):
+        return None
+    return (P, T) if np.isfinite(P).all() else None
+
+
 def _fill_pair(ctx, A, B, order, smooth, mode):
     """A missing region bounded by loops A and B: a tube, or a cap on each.
 
@@ -588,12 +629,19 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     order = 2 if order == "auto" else order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
+    first = "along the continuation arcs"
     try:
         sigma = _rim_data(ctx, loop)[0]      # the rim's edge length, as refinement reads it
-        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=float(np.mean(sigma)),
-                            reach=MAX_REACH * max(A.diameter, B.diameter))
+        spacing, reach = float(np.mean(sigma)), MAX_REACH * max(A.diameter, B.diameter)
+        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=spacing, reach=reach)
     except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
         Pg, Tg = np.zeros((0, 3)), None
+    coarse = None
+    if len(Pg) and np.isfinite(Pg).all() and len(Pg) > GUIDE_SHARE * budget.vertices:
+        coarse = _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget)
+        if coarse is not None:
+            Pg, Tg = coarse
+            first = "along the continuation arcs, resampled on their faired coarse tube"
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
     tube_faults = []       # (tube, faulty triangles, how it was started) of the tubes that failed their checks
@@ -669,7 +717,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         caps = fill_caps(CAPS_SHARE)
         lean = not caps_crossing(caps)
     if len(Pg) and np.isfinite(Pg).all():
-        first, init = "along the continuation arcs", (Pg, Tg)
+        init = (Pg, Tg)
         # the faired tube, and the first tube itself (refined, every vertex
         # held): the arcs carry the scan's curvature across the gap, which
         # fairing can flatten; the fairer valid option is kept, so the two
@@ -713,7 +761,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                     break
                 hbad = np.union1d(hbad, b2) if b2.size else hbad
             if held is not None:
-                held.option = f"tube to loop {B.id} ({first}), refined, held on the arcs" + (
+                held.option = f"tube to loop {B.id} ({first}), refined, held on " + ("the arcs" if coarse is None else "the coarse tube") + (
                     f" except {len(free)} vertices faired (order {order}) around a fold" if free is not None else "")
         valid = [p for p in (faired, held) if p is not None]
         if valid:
