@@ -788,6 +788,18 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             budget.spent += spent
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
+    if tube is None and mutual and mode != "always" and tube_faults:
+        # each loop's arcs land on the other: the surface continues as a
+        # tube, so its last layer (the failed tubes mended where they
+        # cross) comes before the caps, not only after them
+        notes = []
+        t_mend = time.perf_counter()
+        tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({how})") for p, b, how in tube_faults], notes,
+                          check=check_tube, what="tube")
+        budget.exclude(time.perf_counter() - t_mend)
+        if notes:
+            why_tube += "; " + "; ".join(notes)
+        tube_faults = [] if tube is None else tube_faults   # (not mended again after the caps)
     seen_both_ways = tube is not None and mutual and mode != "always"
     if caps is None and not seen_both_ways:   # (seen both ways: the tube continues the surface)
         if tube is not None:    # one attempt per cap

@@ -182,6 +182,27 @@ def test_a_band_whose_guide_fills_its_budget_gets_the_tube_resampled_on_the_fair
     assert rep["holes"][0]["new_vertices"] <= 1.25 * rep0["holes"][0]["new_vertices"]
 
 
+def test_a_band_seen_both_ways_whose_tubes_all_cross_is_mended_before_it_is_capped():
+    """A random scanner case (stress seed 33333, case 11: a torus of ratio
+    0.3, 31 % unseen from 3 views): each loop's arcs land on the other (42
+    and 31 of 48), but every tube crossed the scan at 2 to 71 triangles and
+    the two caps closed the band, genus 0 where the truth has genus 1; the
+    tube's last layer now comes before the caps."""
+    from eval import stress
+
+    shapes = ["torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2", "dumbbell", "star", "bumpy",
+              "nefertiti", "armadillo", "cheburashka", "rocker", "fandisk"]   # the draw's list with ../shared
+    c = stress.stress_case(11, 33333, shapes_ok=shapes)
+    assert "torus-0.3" in c.name
+    M = Mesh(V=c.V, F=c.F)
+    R, rep = repair_mesh(M)
+    assert [b["chosen"] for b in rep["bridges"]] == ["tube"]
+    tube = [h for h in rep["holes"] if (h["option"] or "").startswith("tube to loop")]
+    assert len(tube) == 1 and "mended" in tube[0]["option"]
+    assert_closed_and_clean(M, R, rep)
+    assert rep["euler_after"] == 0
+
+
 # --------------------------------------------------------------------------
 # a thin arm cut around
 # --------------------------------------------------------------------------
