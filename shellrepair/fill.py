@@ -636,12 +636,6 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         Pg, Tg = guide_tube(PA, PB, *arcs, spacing=spacing, reach=reach)
     except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
         Pg, Tg = np.zeros((0, 3)), None
-    coarse = None
-    if len(Pg) and np.isfinite(Pg).all() and len(Pg) > GUIDE_SHARE * budget.vertices:
-        coarse = _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget)
-        if coarse is not None:
-            Pg, Tg = coarse
-            first = "along the continuation arcs, resampled on their faired coarse tube"
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
     tube_faults = []       # (tube, faulty triangles, how it was started) of the tubes that failed their checks
@@ -716,6 +710,13 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     if not mutual and mode != "always":
         caps = fill_caps(CAPS_SHARE)
         lean = not caps_crossing(caps)
+    coarse = None
+    if len(Pg) and np.isfinite(Pg).all() and len(Pg) > GUIDE_SHARE * budget.vertices:
+        # (built here, after the caps that come first: they keep their share)
+        coarse = _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget)
+        if coarse is not None:
+            Pg, Tg = coarse
+            first = "along the continuation arcs, resampled on their faired coarse tube"
     if len(Pg) and np.isfinite(Pg).all():
         init = (Pg, Tg)
         # the faired tube, and the first tube itself (refined, every vertex
