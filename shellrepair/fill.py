@@ -607,8 +607,12 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     that fails), is refined and faired like a cap with both loops' rings
     fixed, and is checked against the scan and itself; the faired tube and
     the tube held on the arcs are both tried and the valid one with the
-    lower energy (``ENERGY``) is kept. Only for loops that see each other
-    both ways are crossings retried (vertices held around them). The caps
+    lower energy (``ENERGY``) is kept. A guide too large for the band's
+    budget (``GUIDE_SHARE``) is replaced by its faired coarse version
+    resampled at the rim's spacing (:func:`_coarse_tube`). Only for loops
+    that see each other both ways are crossings retried (vertices held
+    around them) and, if every tube still fails, the failed tubes mended
+    (the last layer) before any cap is built. The caps
     are checked against the scan and against each other. When each loop's
     arcs land on the other the valid tube is kept without building caps;
     otherwise an option that fails its checks loses, and if both pass the
@@ -762,7 +766,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                     break
                 hbad = np.union1d(hbad, b2) if b2.size else hbad
             if held is not None:
-                held.option = f"tube to loop {B.id} ({first}), refined, held on " + ("the arcs" if coarse is None else "the coarse tube") + (
+                on = "the arcs" if coarse is None else "the coarse tube"
+                held.option = f"tube to loop {B.id} ({first}), refined, held on {on}" + (
                     f" except {len(free)} vertices faired (order {order}) around a fold" if free is not None else "")
         valid = [p for p in (faired, held) if p is not None]
         if valid:
