@@ -65,7 +65,7 @@ from scipy.spatial import cKDTree
 from . import kernels
 
 __all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
-           "split_pinched", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
+           "resample_tube", "split_pinched", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
 #: Arcs are followed at most this many loop diameters (or one full turn):
 #: the search horizon for a partner loop, not a decision threshold.
@@ -588,7 +588,7 @@ def _landing(arcs, P, targets, reach, n=128):
     return S, good
 
 
-def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach):
+def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach, rings=False):
     """A first tube between two loops that follows both loops' continuation
     arcs, with rings of vertices about ``spacing`` apart.
 
@@ -602,6 +602,8 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach):
         Target distance between rings (the rim's edge length).
     reach : float
         How far arcs are followed looking for the other loop.
+    rings : bool
+        Also return the rings' parameters (for :func:`resample_tube`).
 
     Returns
     -------
@@ -609,6 +611,12 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach):
         Positions of the new ring vertices.
     T : (t,3) int64
         Triangles over ``[PA; PB; P]``, oriented like :func:`tube_triangles`.
+    params : list of arrays, only with ``rings``
+        Arc-length parameter in [0, 1) of each vertex of each ring, from
+        loop A (its own) through the new rings (in the order of ``P``) to
+        loop B walked in A's sense; None when the tube has no new rings.
+    order : (kb,) int64, only with ``rings``
+        Loop B's vertices in that sense (:func:`_facing_order`).
 
     Notes
     -----
@@ -670,8 +678,9 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach):
     length = 0.5 * (float(np.mean(Sa)) + float(np.mean(Sc)))
     M = int(max(0, round(length / max(spacing, 1e-300)) - 1))
     if M == 0:
-        return np.zeros((0, 3)), tube_triangles(PA, PB)
-    rings, params, ids = [], [ta], [np.arange(ka)]
+        T = _zip(ta, tc, np.arange(ka), order + ka)     # tube_triangles(PA, PB)
+        return (np.zeros((0, 3)), T, None, order) if rings else (np.zeros((0, 3)), T)
+    want_rings, rings, params, ids = rings, [], [ta], [np.arange(ka)]
     base = ka + kb
     def ring(tau, u):
         w = 3 * tau ** 2 - 2 * tau ** 3
@@ -698,6 +707,73 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach):
     params.append(tc)
     ids.append(order + ka)
     T = np.vstack([_zip(params[r], params[r + 1], ids[r], ids[r + 1]) for r in range(M + 1)])
+    if want_rings:
+        return np.vstack(rings), T, params, order
+    return np.vstack(rings), T
+
+
+def resample_tube(PA, PB, params, order, P, spacing):
+    """A tube over the surface of another one, with rings ``spacing`` apart.
+
+    The tube ``P`` (positions of a :func:`guide_tube` built with a coarser
+    spacing, typically faired) is read as a surface swept from loop A to
+    loop B: along each of ``max(ka, kb)`` evenly spaced loop parameters
+    ``u`` the rings are joined by a polyline, and the new rings are placed
+    at equal fractions of its length, as many as the mean length holds at
+    ``spacing``; each new ring gets as many vertices as its length holds
+    (at most the finer loop's count), as :func:`guide_tube` does. The new
+    tube follows the coarse one's shape, not the arcs: its size is that of
+    the surface it spans.
+
+    Parameters
+    ----------
+    PA, PB : (ka,3), (kb,3) float64
+        The loops, each in its boundary half-edge order.
+    params, order
+        As :func:`guide_tube` returns them with ``rings=True`` (``params``
+        not None).
+    P : (q,3) float64
+        Positions of that tube's new vertices (in its order).
+    spacing : float
+        Target distance between rings (the rim's edge length).
+
+    Returns
+    -------
+    P2 : (q2,3) float64
+    T2 : (t2,3) int64
+        Triangles over ``[PA; PB; P2]``, oriented like :func:`guide_tube`'s.
+    """
+    ka = len(PA)
+    C = np.asarray(PB, np.float64)[order]
+    fine = max(ka, len(C))
+    us = np.arange(fine) / fine
+    sizes = [len(p) for p in params[1:-1]]
+    Xr = np.split(np.asarray(P, np.float64), np.cumsum(sizes)[:-1])
+    Y = np.stack([_lerp_loop(params[0], PA, us)] + [_lerp_loop(p, X, us) for p, X in zip(params[1:-1], Xr)]
+                 + [_lerp_loop(params[-1], C, us)])            # (rings, fine, 3): the sweep
+    seg = np.linalg.norm(np.diff(Y, axis=0), axis=2)
+    cum = np.vstack([np.zeros(fine), np.cumsum(seg, axis=0)])  # length along each sweep line
+    M = int(max(0, round(float(cum[-1].mean()) / max(spacing, 1e-300)) - 1))
+    if M == 0:
+        return np.zeros((0, 3)), _zip(params[0], params[-1], np.arange(ka), order + ka)
+    cols = np.arange(fine)
+    rings, ps, ids = [], [params[0]], [np.arange(ka)]
+    base = ka + len(C)
+    for r in range(1, M + 1):
+        s = (r / (M + 1)) * cum[-1]
+        j = np.minimum((cum[1:] <= s[None]).sum(axis=0), len(Y) - 2)  # segment of each line holding s
+        w = np.clip((s - cum[j, cols]) / np.maximum(seg[j, cols], 1e-300), 0.0, 1.0)
+        Z = (1 - w)[:, None] * Y[j, cols] + w[:, None] * Y[j + 1, cols]
+        length_r = float(np.linalg.norm(np.roll(Z, -1, axis=0) - Z, axis=1).sum())
+        m = int(np.clip(round(length_r / max(spacing, 1e-300)), 3, fine))
+        u = np.arange(m) / m
+        rings.append(Z if m == fine else _lerp_loop(us, Z, u))
+        ps.append(u)
+        ids.append(base + np.arange(m))
+        base += m
+    ps.append(params[-1])
+    ids.append(order + ka)
+    T = np.vstack([_zip(ps[r], ps[r + 1], ids[r], ids[r + 1]) for r in range(M + 1)])
     return np.vstack(rings), T
 
 def _find_bands(ctx, scan):

@@ -565,6 +565,47 @@ ENERGY = 1
 CAPS_SHARE = 0.7
 
 
+#: Largest share of a band's work budget the guide tube's own vertices may
+#: take (refinement only adds to them): past it, the tube refined from the
+#: guide and one more attempt of its size (the tube held on its first
+#: positions, a retry) cannot both be afforded, and the first tube is built
+#: by :func:`_coarse_tube` instead.
+GUIDE_SHARE = 0.5
+#: Ring spacing of the coarse tube of :func:`_coarse_tube`, in rim edge
+#: lengths: about 1/16 of the vertices of the tube at the rim's spacing.
+COARSE_SPACING = 4.0
+
+
+def _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget):
+    """The first tube of a band whose arcs' guide is too large for the band's
+    budget, or None.
+
+    The guide follows each loop's continuation arcs; where they miss their
+    partners (a wide band, the inner side of a fat torus) the blend of the
+    two loops' arcs crumples, and refinement to the rim's edge length then
+    spends its vertices on the folds (about twice the vertices the faired
+    tube's area needs, on the stress suite's tori). So the guide is built
+    with rings ``COARSE_SPACING`` rim edges apart, faired (its vertices
+    counted against ``budget``) and resampled at the rim's spacing
+    (:func:`~shellrepair.bridge.resample_tube`): a first tube the size of
+    the surface it spans. Returns ``(P, T)`` as ``guide_tube``.
+    """
+    from .bridge import guide_tube, resample_tube
+
+    loop = np.concatenate([A.vertices, B.vertices])
+    try:
+        Pc, Tc, params, facing = guide_tube(PA, PB, *arcs, spacing=COARSE_SPACING * spacing, reach=reach,
+                                            rings=True)
+        if params is None or not np.isfinite(Pc).all():
+            return None
+        pc = build_patch(ctx, A.id, loop, order=order, initial=(Pc, Tc), refine=False)
+        budget.spend(pc)
+        P, T = resample_tube(PA, PB, params, facing, pc.P, spacing)
+    except (PatchError, ValueError, IndexError, FloatingPointError):
+        return None
+    return (P, T) if np.isfinite(P).all() else None
+
+
 def _fill_pair(ctx, A, B, order, smooth, mode):
     """A missing region bounded by loops A and B: a tube, or a cap on each.
 
@@ -573,8 +614,12 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     that fails), is refined and faired like a cap with both loops' rings
     fixed, and is checked against the scan and itself; the faired tube and
     the tube held on the arcs are both tried and the valid one with the
-    lower energy (``ENERGY``) is kept. Only for loops that see each other
-    both ways are crossings retried (vertices held around them). The caps
+    lower energy (``ENERGY``) is kept. A guide too large for the band's
+    budget (``GUIDE_SHARE``) is replaced by its faired coarse version
+    resampled at the rim's spacing (:func:`_coarse_tube`). Only for loops
+    that see each other both ways are crossings retried (vertices held
+    around them) and, if every tube still fails, the failed tubes mended
+    (the last layer) before any cap is built. The caps
     are checked against the scan and against each other. When each loop's
     arcs land on the other the valid tube is kept without building caps;
     otherwise an option that fails its checks loses, and if both pass the
@@ -595,10 +640,11 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     order = 2 if order == "auto" else order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
+    first = "along the continuation arcs"
     try:
         sigma = _rim_data(ctx, loop)[0]      # the rim's edge length, as refinement reads it
-        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=float(np.mean(sigma)),
-                            reach=MAX_REACH * max(A.diameter, B.diameter))
+        spacing, reach = float(np.mean(sigma)), MAX_REACH * max(A.diameter, B.diameter)
+        Pg, Tg = guide_tube(PA, PB, *arcs, spacing=spacing, reach=reach)
     except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
         Pg, Tg = np.zeros((0, 3)), None
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
@@ -675,8 +721,15 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     if not mutual and mode != "always":
         caps = fill_caps(CAPS_SHARE)
         lean = not caps_crossing(caps)
+    coarse = None
+    if len(Pg) and np.isfinite(Pg).all() and len(Pg) > GUIDE_SHARE * budget.vertices:
+        # (built here, after the caps that come first: they keep their share)
+        coarse = _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget)
+        if coarse is not None:
+            Pg, Tg = coarse
+            first = "along the continuation arcs, resampled on their faired coarse tube"
     if len(Pg) and np.isfinite(Pg).all():
-        first, init = "along the continuation arcs", (Pg, Tg)
+        init = (Pg, Tg)
         # the faired tube, and the first tube itself (refined, every vertex
         # held): the arcs carry the scan's curvature across the gap, which
         # fairing can flatten; the fairer valid option is kept, so the two
@@ -720,7 +773,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                     break
                 hbad = np.union1d(hbad, b2) if b2.size else hbad
             if held is not None:
-                held.option = f"tube to loop {B.id} ({first}), refined, held on the arcs" + (
+                on = "the arcs" if coarse is None else "the coarse tube"
+                held.option = f"tube to loop {B.id} ({first}), refined, held on {on}" + (
                     f" except {len(free)} vertices faired (order {order}) around a fold" if free is not None else "")
         valid = [p for p in (faired, held) if p is not None]
         if valid:
@@ -747,6 +801,18 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             budget.spent += spent
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
+    if tube is None and mutual and mode != "always" and tube_faults:
+        # each loop's arcs land on the other: the surface continues as a
+        # tube, so its last layer (the failed tubes mended where they
+        # cross) comes before the caps, not only after them
+        notes = []
+        t_mend = time.perf_counter()
+        tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({how})") for p, b, how in tube_faults], notes,
+                          check=check_tube, what="tube")
+        budget.exclude(time.perf_counter() - t_mend)
+        if notes:
+            why_tube += "; " + "; ".join(notes)
+        tube_faults = [] if tube is None else tube_faults   # (not mended again after the caps)
     seen_both_ways = tube is not None and mutual and mode != "always"
     if caps is None and not seen_both_ways:   # (seen both ways: the tube continues the surface)
         if tube is not None:    # one attempt per cap

@@ -14,7 +14,7 @@ import pytest
 from shellrepair import Mesh, detect_holes
 from eval import shapes
 from shellrepair.bridge import (arc_points, band_pairs, continuation_arcs, guide_tube, loop_sights,
-                                tube_triangles)
+                                resample_tube, tube_triangles)
 from shellrepair.intersect import crossing_pairs
 from shellrepair.repair import repair_mesh
 from shellrepair.topology import edge_topology
@@ -158,6 +158,49 @@ def test_torus_unseen_from_a_ring_is_bridged_through_its_hole(ratio):
     Rc, repc = repair_mesh(M, bridge="never")
     assert repc["euler_after"] == 2
     assert rms < 30.0 and rms < 0.5 * filled_rms_permille(V, F, Rc)
+
+
+def test_a_band_whose_guide_fills_its_budget_gets_the_tube_resampled_on_the_faired_coarse_guide(monkeypatch):
+    """Where the guide tube alone would take more than GUIDE_SHARE of the
+    band's work budget (forced here: share 0), the first tube is the faired
+    coarse guide resampled at the rim's spacing: still one clean tube of
+    the right genus, as close to the truth, and of about the size of the
+    tube refined from this guide (which does not crumple: 916 new vertices,
+    the resampled tube 1045)."""
+    from shellrepair import fill
+
+    V, F, V2, F2, _ = torus_inner_band(3)
+    M = Mesh(V=V2, F=F2)
+    R0, rep0 = repair_mesh(M)
+    monkeypatch.setattr(fill, "GUIDE_SHARE", 0.0)
+    R, rep = repair_mesh(M)
+    assert [b["chosen"] for b in rep["bridges"]] == ["tube"]
+    assert "resampled on their faired coarse tube" in rep["holes"][0]["option"]
+    assert_closed_and_clean(M, R, rep)
+    assert rep["euler_after"] == 0
+    assert filled_rms_permille(V, F, R) < 5.0
+    assert rep["holes"][0]["new_vertices"] <= 1.25 * rep0["holes"][0]["new_vertices"]
+
+
+def test_a_band_seen_both_ways_whose_tubes_all_cross_is_mended_before_it_is_capped():
+    """A random scanner case (stress seed 33333, case 11: a torus of ratio
+    0.3, 31 % unseen from 3 views): each loop's arcs land on the other (42
+    and 31 of 48), but every tube crossed the scan at 2 to 71 triangles and
+    the two caps closed the band, genus 0 where the truth has genus 1; the
+    tube's last layer now comes before the caps."""
+    from eval import stress
+
+    shapes = ["torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2", "dumbbell", "star", "bumpy",
+              "nefertiti", "armadillo", "cheburashka", "rocker", "fandisk"]   # the draw's list with ../shared
+    c = stress.stress_case(11, 33333, shapes_ok=shapes)
+    assert "torus-0.3" in c.name
+    M = Mesh(V=c.V, F=c.F)
+    R, rep = repair_mesh(M)
+    assert [b["chosen"] for b in rep["bridges"]] == ["tube"]
+    tube = [h for h in rep["holes"] if (h["option"] or "").startswith("tube to loop")]
+    assert len(tube) == 1 and "mended" in tube[0]["option"]
+    assert_closed_and_clean(M, R, rep)
+    assert rep["euler_after"] == 0
 
 
 # --------------------------------------------------------------------------
@@ -418,6 +461,22 @@ def test_tube_zips_loops_of_different_counts_and_twisted_starts(ka, kb, shift):
     assert topo.nonmanifold_edges.shape[0] == 0 and topo.n_boundary_edges == ka + kb
     P = np.vstack([A, B, Pg])
     assert len(crossing_pairs(P[Tg], Tg)) == 0
+    # a coarse guide resampled at the fine spacing: the same kind of strip,
+    # its rings 0.1 apart on the coarse tube's surface (the cylinder)
+    Pc, Tc, params, order = guide_tube(A, B, *arcs, spacing=0.4, reach=2.0, rings=True)
+    Pr, Tr = resample_tube(A, B, params, order, Pc, spacing=0.1)
+    level = 10 * z(Pr)
+    assert np.abs(level - np.round(level)).max() < 0.2 and set(np.round(level).astype(int).tolist()) == set(range(1, 8))
+    assert len(Pr) > 2 * len(Pc)
+    rho = np.hypot(Pr[:, 0], Pr[:, 1])
+    sag_c = 1 - np.cos(np.pi / min(len(u) for u in params))            # chords of the coarsest ring
+    assert (rho <= 1 + 1e-9).all() and (rho >= 1 - 2 * sag_c).all()    # its chords, and chords across them
+    topo = edge_topology(Tr, ka + kb + len(Pr))
+    assert topo.nonmanifold_edges.shape[0] == 0 and topo.n_boundary_edges == ka + kb
+    assert {tuple(e) for e in topo.he[topo.boundary_he].tolist()} == \
+        {tuple(e) for e in edge_topology(Tg, n).he[edge_topology(Tg, n).boundary_he].tolist()}
+    P = np.vstack([A, B, Pr])
+    assert len(crossing_pairs(P[Tr], Tr)) == 0
 
 
 # --------------------------------------------------------------------------
