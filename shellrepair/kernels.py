@@ -2216,14 +2216,7 @@ def block_ids(Fcat, fcount, loopcat, sizes, n):
 @njit(cache=True, nogil=True)
 def _corner_normal_sums(L, Fcat, V, nv):
     m = Fcat.shape[0]
-    Nf = np.empty((m, 3))
-    for f in range(m):
-        x0, x1, x2 = V[Fcat[f, 0], 0], V[Fcat[f, 0], 1], V[Fcat[f, 0], 2]
-        a0, a1, a2 = V[Fcat[f, 1], 0] - x0, V[Fcat[f, 1], 1] - x1, V[Fcat[f, 1], 2] - x2
-        b0, b1, b2 = V[Fcat[f, 2], 0] - x0, V[Fcat[f, 2], 1] - x1, V[Fcat[f, 2], 2] - x2
-        Nf[f, 0] = a1 * b2 - a2 * b1
-        Nf[f, 1] = a2 * b0 - a0 * b2
-        Nf[f, 2] = a0 * b1 - a1 * b0
+    Nf = _face_cross(np.arange(m), Fcat, V)
     acc = np.zeros((nv, 3))
     for c in range(3):
         for f in range(m):
