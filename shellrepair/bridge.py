@@ -697,8 +697,7 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach, rings=False):
         # as many vertices as the ring's length holds at ``spacing`` (at
         # most the finer loop's count): triangles stay about as long as wide
         X = ring(tau, np.arange(fine) / fine)
-        length_r = float(np.linalg.norm(np.roll(X, -1, axis=0) - X, axis=1).sum())
-        m = int(np.clip(round(length_r / max(spacing, 1e-300)), 3, fine))
+        m = _ring_count(X, spacing, fine)
         u = np.arange(m) / m
         rings.append(X if m == fine else ring(tau, u))
         params.append(u)
@@ -710,6 +709,13 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach, rings=False):
     if want_rings:
         return np.vstack(rings), T, params, order
     return np.vstack(rings), T
+
+
+def _ring_count(X, spacing, fine):
+    """Vertices of a tube ring through the closed polyline ``X``: as many as
+    its length holds at ``spacing``, at least 3 and at most ``fine``."""
+    length = float(np.linalg.norm(np.roll(X, -1, axis=0) - X, axis=1).sum())
+    return int(np.clip(round(length / max(spacing, 1e-300)), 3, fine))
 
 
 def resample_tube(PA, PB, params, order, P, spacing):
@@ -764,8 +770,7 @@ def resample_tube(PA, PB, params, order, P, spacing):
         j = np.minimum((cum[1:] <= s[None]).sum(axis=0), len(Y) - 2)  # segment of each line holding s
         w = np.clip((s - cum[j, cols]) / np.maximum(seg[j, cols], 1e-300), 0.0, 1.0)
         Z = (1 - w)[:, None] * Y[j, cols] + w[:, None] * Y[j + 1, cols]
-        length_r = float(np.linalg.norm(np.roll(Z, -1, axis=0) - Z, axis=1).sum())
-        m = int(np.clip(round(length_r / max(spacing, 1e-300)), 3, fine))
+        m = _ring_count(Z, spacing, fine)
         u = np.arange(m) / m
         rings.append(Z if m == fine else _lerp_loop(us, Z, u))
         ps.append(u)
