@@ -393,6 +393,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
         and pre.first.key == (options[0], smooth, energy) else None
     faired_rounds = 0
     faulty = []            # (patch, faulty triangles, option) of the attempts that failed their checks
+    tried = set()          # the options built (or refused by build_patch) on some triangulation
+    first_flat = None      # the first round's triangulation
+    blocked = False
     first = True
     scan_aware = False
     size = None            # new vertices of the first faired patch: what a faired retry costs
@@ -417,7 +420,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
             break
         if first:  # the common case: the first option on the first triangulation is fine
             first = False
+            first_flat = flat
             name0, order0 = options[0]
+            tried.add(name0)
             try:
                 if done is not None:
                     if done.patch is None:
@@ -450,6 +455,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
                 reasons.append(f"flat: {why}; {blocked} scan faces cross the opening's own plane inside it, "
                                f"so no flat triangulation avoids them")
                 faulty = []     # a plane region the scan crosses: no last layer (it would bend the face)
+                blocked = True
                 break
             more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
             if not more:
@@ -466,6 +472,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
             if size is not None and not last_option and not budget.affords(size):
                 reasons.append(f"{name}: not tried, {budget.describe()}")
                 continue
+            tried.add(name)
             try:
                 patch = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
                                     energy=energy,
@@ -515,6 +522,18 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if flat_ok is not None:
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
+    if first_flat is not None and not blocked and ("harmonic", 1) in options and "harmonic" not in tried:
+        # no triangulation passed its checks, so the harmonic patch (the last
+        # option, always made) was not built on one: build it on the first
+        # triangulation. It bends least away from the rim, so on a large
+        # opening whose flat triangulation cuts through the scan it often
+        # crosses it in a few places only, which the last layer mends.
+        harmonic = _harmonic_last(ctx, hole_id, loop, first_flat, smooth, energy, budget, reasons)
+        if harmonic is not None:
+            patch, why, bad = harmonic
+            if why is None:
+                return Outcome(patch, "", time.perf_counter() - t0, reasons)
+            faulty.append((patch, bad, patch.option))
     if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
         defer.extend(faulty)
         return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
@@ -524,6 +543,25 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if mended is not None:
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+
+
+def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):
+    """The harmonic patch on ``flat``'s triangulation, for a hole none of
+    whose triangulations passed its checks: ``(patch, why, faulty
+    triangles)`` (``why`` None when it passes), or None when it cannot be
+    built (the cause appended to ``reasons``)."""
+    name = OPTION_NAMES["harmonic"]
+    try:
+        patch = build_patch(ctx, hole_id, loop, order=1, smooth=smooth, initial=flat.T0, energy=energy)
+    except PatchError as exc:
+        reasons.append(f"harmonic on the first triangulation: {exc}")
+        return None
+    budget.spend(patch)
+    why, bad = _check_patch(ctx, patch)
+    patch.option = f"{name} on the first triangulation"
+    if why is not None:
+        reasons.append(f"{patch.option}: {why}")
+    return patch, why, bad
 
 
 #: Failed attempts the last layer (:func:`~shellrepair.mend.mend_patch`)
