@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import kernels
 from .geometry import bounding_spheres
 from .intersect import ball_pairs, pair_intersections
 from .io import Mesh
@@ -84,10 +85,18 @@ class _Accepted:
                     continue
                 other, D, oid = self.items[j]
                 c2, r2, tree, lo2, hi2 = self._spheres(j)
-                ai, bi = ball_pairs(tree, c1, r1 + r2.max())
                 # triangles that cross have overlapping boxes: only those get the exact tests
-                box = np.all((lo1[ai] <= hi2[bi]) & (lo2[bi] <= hi1[ai]), axis=1)
-                ai, bi = ai[box], bi[box]
+                if kernels.ENABLED:
+                    # the boxes directly (a grid, kernels.box_pairs): the spheres'
+                    # reach is the largest triangle's, so a patch with a few long
+                    # triangles made every nearby patch's query return thousands
+                    sel = np.flatnonzero(np.all((lo2 <= hi) & (lo <= hi2), axis=1))   # within this patch's box
+                    ai, bi = kernels.box_pairs(lo1, hi1, lo2[sel], hi2[sel])
+                    bi = sel[bi]
+                else:
+                    ai, bi = ball_pairs(tree, c1, r1 + r2.max())
+                    box = np.all((lo1[ai] <= hi2[bi]) & (lo2[bi] <= hi1[ai]), axis=1)
+                    ai, bi = ai[box], bi[box]
                 if ai.size and pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
                     self.clash = int(j)
                     return f"patch would cross the patch of hole {other.hole_id}", None

@@ -117,3 +117,32 @@ def test_the_first_attempts_cross_the_pebble():
     faired = build_patch(ctx, hole.id, hole.vertices, order=2, initial=flat.T0)
     assert "cross the scan" in fill._check_patch(ctx, flat)[0]
     assert "cross the scan" in fill._check_patch(ctx, faired)[0]
+
+
+@pytest.mark.parametrize("lift, crosses", [(0.0, True), (1.5, False)])
+@pytest.mark.parametrize("compiled", [True, False])
+def test_patches_crossing_each_other_are_found_with_or_without_the_kernels(monkeypatch, lift, crosses, compiled):
+    """The merge's check between patches (candidate pairs by boxes with the
+    compiled kernels, by spheres without) gives one answer: a vertical
+    triangle through a fan, or lifted clear of it."""
+    from types import SimpleNamespace
+
+    from shellrepair import kernels
+    from shellrepair.merge import _Accepted
+    from shellrepair.patch import Patch
+
+    if compiled and not kernels.ENABLED:
+        pytest.skip("Numba is not installed")
+    monkeypatch.setattr(kernels, "ENABLED", compiled)
+    # a long thin first patch: a fan over a 10 x 1 rectangle, its centre a new vertex
+    V = np.array([[0, 0, 0], [10, 0, 0], [10, 1, 0], [0, 1, 0],
+                  [5, 0.5, -1 + lift], [5.2, 0.5, 1 + lift], [4.8, 0.5, 1 + lift]], float)
+    ctx = SimpleNamespace(V=V)
+    fan = Patch(hole_id=0, loop=np.arange(4), P=np.array([[5.0, 0.5, 0.0]]),
+                T=np.array([[1, 0, 4], [2, 1, 4], [3, 2, 4], [0, 3, 4]]))
+    spike = Patch(hole_id=1, loop=np.array([4, 5, 6]), P=np.zeros((0, 3)), T=np.array([[0, 2, 1]]))
+    acc = _Accepted()
+    assert acc.place(ctx, fan)[0] is fan
+    placed, why, _ = acc.place(ctx, spike)
+    assert (placed is None) == crosses
+    assert (why == "patch would cross the patch of hole 0") == crosses
