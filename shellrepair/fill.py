@@ -5,7 +5,9 @@ checks it against the scan, itself and the edges the mesh has
 (:func:`_check_patch`) and, when it crosses, re-routes chords near the
 crossing, pins vertices near it to the flat triangulation, then tries the
 harmonic patch and the checked flat triangulation, within a time budget of
-``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE`` per rim edge. :func:`_fill_pair`
+``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE`` per rim edge; where no
+triangulation passes, the harmonic patch on the first one, mended by the
+last layer (:mod:`~shellrepair.mend`) where it crosses. :func:`_fill_pair`
 offers two loops facing each other across a band a tube
 (:mod:`~shellrepair.bridge`) and keeps the tube or the two caps by their
 curvature-variation energy. :func:`_run_chunk` fills a run of holes (their
@@ -366,14 +368,19 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
        if the faired patch crosses the scan, re-route the chords near the
        crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
     3. Otherwise keep the checked flat triangulation, if there is one.
+    4. If no triangulation passed (re-routing ran out of chords, rounds or
+       budget), the harmonic patch on the first triangulation
+       (:func:`_harmonic_last`); then the last layer mends the attempts
+       with the fewest faults (:func:`_mend_last`).
 
-    The first faired attempt and the harmonic patch (tried at most once)
-    are always made; each later one only within
-    ``budget`` (a :class:`_Budget`, default the hole's own): a faired retry
-    only if a patch of the first one's size still fits the work budget,
-    and no round starts that would end past the wall-clock backstop (a
-    round expected to take as long as the last). Past the budget the hole
-    keeps the checked flat triangulation or fails saying so.
+    The first faired attempt and the harmonic patch (tried at most once:
+    in step 2, or else in step 4) are always made; each later one only
+    within ``budget`` (a :class:`_Budget`, default the hole's own): a
+    faired retry only if a patch of the first one's size still fits the
+    work budget, and no round starts that would end past the wall-clock
+    backstop (a round expected to take as long as the last). Past the
+    budget the hole keeps the checked flat triangulation, or its harmonic
+    patch (mended), or fails saying so.
 
     Returns (patch or None, reason, seconds, reasons tried).
     """
