@@ -1737,24 +1737,28 @@ def _energy_rows(ptr, col, val, D, order, unk, pos, is_fixed):
 @njit(cache=True, nogil=True)
 def _symmetrise(ptr, col, val):
     """Q ← (Q + Qᵀ) / 2 in place, for sorted rows of a structurally
-    symmetric matrix: both entries get the same value, to the bit."""
+    symmetric matrix: both entries get the same value, to the bit.
+
+    Row i's entries (i, j), j > i, meet their mirrors (j, i) in row j in
+    increasing i, so each row j keeps a cursor that only moves forward to
+    the first column not below i: one pass over the entries (a binary
+    search per entry found the same slot)."""
     n = ptr.size - 1
+    cur = ptr[:-1].copy()
     for i in range(n):
         for q in range(ptr[i], ptr[i + 1]):
             j = col[q]
             if j <= i:
                 continue
-            lo, hi = ptr[j], ptr[j + 1]            # find (j, i) in row j
-            while lo < hi:
-                mid = (lo + hi) // 2
-                if col[mid] < i:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            if lo < ptr[j + 1] and col[lo] == i:
-                m = 0.5 * (val[q] + val[lo])
+            c = cur[j]
+            end = ptr[j + 1]
+            while c < end and col[c] < i:
+                c += 1
+            cur[j] = c
+            if c < end and col[c] == i:
+                m = 0.5 * (val[q] + val[c])
                 val[q] = m
-                val[lo] = m
+                val[c] = m
     return val
 
 

@@ -238,6 +238,38 @@ def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monke
 
 
 @pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("seed", range(3))
+def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
+    """kernels._symmetrise on sorted rows of a structurally symmetric
+    matrix (with mirrored entries missing too, kept as they are) against
+    SciPy's (Q + Qᵀ) / 2, entry for entry."""
+    rng = np.random.default_rng(seed)
+    n = 60
+    A = sp.random(n, n, density=0.15, random_state=seed, format="csr")
+    S = (A + A.T + sp.eye(n)).tocsr()                # the pattern: symmetric
+    S.sort_indices()
+    Q = S.copy()
+    Q.data = rng.normal(size=Q.nnz)                  # the values: not
+    ref = ((Q + Q.T) * 0.5).tocsr()
+    ref.sort_indices()
+    got = kernels._symmetrise(Q.indptr.astype(np.int64), Q.indices.astype(np.int64), Q.data.copy())
+    assert np.array_equal(ref.indptr, Q.indptr) and np.array_equal(ref.indices, Q.indices)
+    assert np.array_equal(got, ref.data)
+    # an entry without its mirror stays as it was
+    keep = np.ones(Q.nnz, bool)
+    r = np.repeat(np.arange(n), np.diff(Q.indptr))
+    off = np.flatnonzero(r != Q.indices)
+    keep[off[:5]] = False
+    T = sp.csr_matrix((Q.data[keep], Q.indices[keep], np.concatenate([[0], np.cumsum(np.bincount(r[keep], minlength=n))])),
+                      shape=(n, n))
+    got = kernels._symmetrise(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data.copy())
+    Td = T.toarray()
+    G = sp.csr_matrix((got, T.indices, T.indptr), shape=(n, n)).toarray()
+    both = (Td != 0) & (Td.T != 0)
+    assert np.array_equal(G[both], ((Td + Td.T) * 0.5)[both]) and np.array_equal(G[~both], Td[~both])
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
     from shellrepair.intrinsic import _laplacian_arrays
