@@ -357,8 +357,9 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
 
 
 #: The uniform first solves of at least this many unknowns are remembered
-#: (:func:`_first_solve`) ...
-FIRST_SOLVE_MEMO_UNKNOWNS = 1000
+#: (:func:`_first_solve`; every one on the sparse path: the smaller patches
+#: fair_small solves dense are not kept) ...
+FIRST_SOLVE_MEMO_UNKNOWNS = 1
 #: ... up to this many bytes of their matrices, right-hand sides and solutions.
 FIRST_SOLVE_MEMO_BYTES = 64 << 20
 
@@ -369,6 +370,7 @@ def first_solve_memo(on):
     """Start (``on`` True) or end, and forget, the memo of large uniform
     first solves in this thread (:func:`_first_solve`)."""
     _memo.entries = {} if on else None
+    _memo.bytes = 0
 
 
 def _first_solve(Quu, Quf, Xf):
@@ -380,7 +382,8 @@ def _first_solve(Quu, Quf, Xf):
     plate, and the order-3 submesh's extra ring of fixed scan does not enter
     the unknowns' rows (their K² reads two rings), so the system is the
     same, entry for entry (the ~12k-unknown hole of ``eval/bench_fill.py``:
-    one factorisation of ~0.1-0.15 s). Between :func:`first_solve_memo`
+    one factorisation of ~0.1-0.15 s; the 350-unknown holes of
+    bumpy_sphere-discs-medium: ~1.5 ms each). Between :func:`first_solve_memo`
     ``(True)`` and ``(False)`` (the fill of a run of holes,
     :func:`shellrepair.fill._run_chunk`), a system of at least
     ``FIRST_SOLVE_MEMO_UNKNOWNS`` unknowns is kept with its solution (per
@@ -401,10 +404,13 @@ def _first_solve(Quu, Quf, Xf):
         memo[key] = hit                      # most recently used last
         return hit[1].copy()
     Z = _Factor(Quu, Quf)._solve(R)
-    memo[key] = (arrays, Z.copy())
     size = lambda e: sum(a.nbytes for a in e[0]) + e[1].nbytes
-    while len(memo) > 1 and sum(size(e) for e in memo.values()) > FIRST_SOLVE_MEMO_BYTES:
-        memo.pop(next(iter(memo)))           # the least recently used
+    if hit is not None:                      # the same key, another system: replaced
+        _memo.bytes -= size(hit)
+    memo[key] = (arrays, Z.copy())
+    _memo.bytes += size(memo[key])
+    while len(memo) > 1 and _memo.bytes > FIRST_SOLVE_MEMO_BYTES:
+        _memo.bytes -= size(memo.pop(next(iter(memo))))   # the least recently used
     return Z
 
 
