@@ -296,7 +296,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     return fair_patch_orders(X, F, n_fixed, (order,), rounds, pinned)[0]
 
 
-def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
+def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None, operator=True):
     """:func:`fair_patch` of one submesh at several orders, sharing the work
     the orders have in common: the same result for each order, to the bit.
 
@@ -311,16 +311,20 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
     X, F, n_fixed, rounds, pinned
         As in :func:`fair_patch`.
     orders : sequence of {1, 2, 3}
+    operator : bool
+        Also return each order's last K (False: None in its place, for a
+        caller that reads only the positions, such as the band test).
 
     Returns
     -------
     results : list of (Xu, K)
         :func:`fair_patch`'s result for each order, in the order given.
     """
+    op = _as_sparse if operator else (lambda K, n: None)
     X = np.array(X, np.float64)
     n = len(X)
     if n == n_fixed:
-        return [(X[n_fixed:], uniform_laplacian(F, n)) for _ in orders]
+        return [(X[n_fixed:], uniform_laplacian(F, n) if operator else None) for _ in orders]
     pin = np.zeros(n, bool)
     pin[:n_fixed] = True
     if pinned is not None and len(pinned):
@@ -328,7 +332,7 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
     fixed = np.flatnonzero(pin)
     unknown = np.flatnonzero(~pin)
     if unknown.size == 0:
-        return [(X[n_fixed:], uniform_laplacian(F, n)) for _ in orders]
+        return [(X[n_fixed:], uniform_laplacian(F, n) if operator else None) for _ in orders]
     small = kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK
     first = {}     # uniform order -> (positions after the first solve, its K, the first cotangent round's K and M)
     out = []
@@ -339,7 +343,7 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
             Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL,
                                                        MAX_ROUNDS, UNIFORM_MAX_ORDER)
             if ok:
-                out.append((Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()))
+                out.append((Xs[n_fixed:], op((ptr, col, val), n)))
                 continue
         u = min(order, UNIFORM_MAX_ORDER)
         if u not in first:
@@ -352,7 +356,7 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
         if ops is None and int(rounds) > 0:
             ops = first[u][2] = _round_operators(X1, F)
         Xo, Ko = _cotan_rounds(X1.copy(), F, fixed, unknown, order, rounds, K, ops)
-        out.append((Xo[n_fixed:], _as_sparse(Ko, n)))
+        out.append((Xo[n_fixed:], op(Ko, n)))
     return out
 
 

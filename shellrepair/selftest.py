@@ -533,7 +533,7 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
     # coarser than the scan, to c² of it
     floor = sagitta(ctx.V, ctx.F[ctx.ring_faces(loop, rings)]) * coarse ** 2
     X0, Fs, nf, g, scale, org = P0
-    faired = fair_patch_orders(X0, Fs, nf, candidates, rounds=TEST_ROUNDS)   # their common work done once
+    faired = fair_patch_orders(X0, Fs, nf, candidates, rounds=TEST_ROUNDS, operator=False)   # their common work done once
     for o, (Xu, _) in zip(candidates, faired):
         X = org + scale * np.vstack([X0[:nf], Xu])
         Tp = Fs[len(Fs) - len(T):]
