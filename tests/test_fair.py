@@ -240,6 +240,57 @@ def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monke
     assert fair_counted(X, 2)[1] == a        # outside the memo's scope nothing is remembered
 
 
+def _energy_rows_python(ptr, col, val, D, order, unknown, fixed):
+    """Rows ``unknown`` of K (D K)^(order−1) in Python floats: each entry's
+    sum starts from 0.0 and adds its terms in the order the row's expansion
+    meets them (a dict keeps its columns in first-touch order); columns
+    sorted, split into the unknowns' and the fixed block."""
+    n = len(ptr) - 1
+    pos = np.empty(n, np.int64)
+    pos[unknown], pos[fixed] = np.arange(len(unknown)), np.arange(len(fixed))
+    is_fixed = np.zeros(n, bool)
+    is_fixed[fixed] = True
+    rows_u, rows_f = [], []
+    for v in unknown:
+        acc = {}
+        for q in range(ptr[v], ptr[v + 1]):
+            acc[col[q]] = acc.get(col[q], 0.0) + float(val[q])
+        for _ in range(order - 1):
+            nxt = {}
+            for w, a in acc.items():
+                sw = a * float(D[w])
+                for q in range(ptr[w], ptr[w + 1]):
+                    nxt[col[q]] = nxt.get(col[q], 0.0) + sw * float(val[q])
+            acc = nxt
+        cols = sorted(acc)
+        rows_u.append([(pos[j], acc[j]) for j in cols if not is_fixed[j]])
+        rows_f.append([(pos[j], acc[j]) for j in cols if is_fixed[j]])
+    return rows_u, rows_f
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
+    from shellrepair.intrinsic import _laplacian_arrays
+
+    X, F, nf = _bumpy_grid(16, 3)
+    (ptr, col, val), M = _laplacian_arrays(X, F)        # spare diagonal slots kept: repeated columns
+    n = len(X)
+    rng = np.random.default_rng(order)
+    unknown = np.sort(rng.choice(n, n // 2, replace=False))
+    fixed = np.setdiff1d(np.arange(n), unknown)
+    D = 1.0 / M
+    pos = np.empty(n, np.int64)
+    pos[unknown], pos[fixed] = np.arange(unknown.size), np.arange(fixed.size)
+    is_fixed = np.zeros(n, np.bool_)
+    is_fixed[fixed] = True
+    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, is_fixed)
+    ref_u, ref_f = _energy_rows_python(ptr, col, val, D, order, unknown, fixed)
+    for i in range(unknown.size):
+        assert list(zip(uc[up[i]:up[i + 1]].tolist(), uv[up[i]:up[i + 1]].tolist())) == ref_u[i]
+        assert list(zip(fc[fp[i]:fp[i + 1]].tolist(), fv[fp[i]:fp[i + 1]].tolist())) == ref_f[i]
+
+
 @pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("seed", range(3))
 def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
