@@ -289,6 +289,20 @@ def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
     for i in range(unknown.size):
         assert list(zip(uc[up[i]:up[i + 1]].tolist(), uv[up[i]:up[i + 1]].tolist())) == ref_u[i]
         assert list(zip(fc[fp[i]:fp[i + 1]].tolist(), fv[fp[i]:fp[i + 1]].tolist())) == ref_f[i]
+    # a fan of 90 triangles: rows of over 64 columns (sorted another way)
+    k = 90
+    T = np.array([[0, 1 + i, 1 + (i + 1) % k] for i in range(k)], np.int64)
+    ptr, col, val = kernels._laplacian_rows(T, rng.random((k, 3)), k + 1, False)
+    D = 1.0 + rng.random(k + 1)
+    unknown, fixed = np.array([0, 5, 40], np.int64), np.setdiff1d(np.arange(k + 1), [0, 5, 40])
+    pos = np.empty(k + 1, np.int64)
+    pos[unknown], pos[fixed] = np.arange(3), np.arange(fixed.size)
+    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.isin(np.arange(k + 1), fixed))
+    ref_u, ref_f = _energy_rows_python(ptr, col, val, D, order, unknown, fixed)
+    assert up[1] + fp[1] == k + 1 > 64
+    for i in range(3):
+        assert list(zip(uc[up[i]:up[i + 1]].tolist(), uv[up[i]:up[i + 1]].tolist())) == ref_u[i]
+        assert list(zip(fc[fp[i]:fp[i + 1]].tolist(), fv[fp[i]:fp[i + 1]].tolist())) == ref_f[i]
 
 
 @pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
