@@ -371,14 +371,14 @@ _memo = threading.local()
 
 
 def first_solve_memo(on):
-    """Start (``on`` True) or end, and forget, the memo of large uniform
-    first solves in this thread (:func:`_first_solve`)."""
+    """Start (``on`` True) or end, and forget, the memo of the sparse
+    path's uniform first solves in this thread (:func:`_first_solve`)."""
     _memo.entries = {} if on else None
     _memo.bytes = 0
 
 
 def _first_solve(Quu, Quf, Xf):
-    """The uniform first solve, Q_uu⁻¹ (−Q_uf X_f), remembered for large patches.
+    """The uniform first solve, Q_uu⁻¹ (−Q_uf X_f), remembered in a fill's run.
 
     ``order="auto"`` fills a hole at order 2, then, where the band test asks
     for order 3, fairs the same refined patch at order 3
