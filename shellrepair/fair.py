@@ -296,7 +296,7 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     return fair_patch_orders(X, F, n_fixed, (order,), rounds, pinned)[0]
 
 
-def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
+def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None, operator=True):
     """:func:`fair_patch` of one submesh at several orders, sharing the work
     the orders have in common: the same result for each order, to the bit.
 
@@ -311,16 +311,20 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
     X, F, n_fixed, rounds, pinned
         As in :func:`fair_patch`.
     orders : sequence of {1, 2, 3}
+    operator : bool
+        Also return each order's last K (False: None in its place, for a
+        caller that reads only the positions, such as the band test).
 
     Returns
     -------
     results : list of (Xu, K)
         :func:`fair_patch`'s result for each order, in the order given.
     """
+    op = _as_sparse if operator else (lambda K, n: None)
     X = np.array(X, np.float64)
     n = len(X)
     if n == n_fixed:
-        return [(X[n_fixed:], uniform_laplacian(F, n)) for _ in orders]
+        return [(X[n_fixed:], uniform_laplacian(F, n) if operator else None) for _ in orders]
     pin = np.zeros(n, bool)
     pin[:n_fixed] = True
     if pinned is not None and len(pinned):
@@ -328,7 +332,7 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
     fixed = np.flatnonzero(pin)
     unknown = np.flatnonzero(~pin)
     if unknown.size == 0:
-        return [(X[n_fixed:], uniform_laplacian(F, n)) for _ in orders]
+        return [(X[n_fixed:], uniform_laplacian(F, n) if operator else None) for _ in orders]
     small = kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK
     first = {}     # uniform order -> (positions after the first solve, its K, the first cotangent round's K and M)
     out = []
@@ -339,7 +343,7 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
             Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL,
                                                        MAX_ROUNDS, UNIFORM_MAX_ORDER)
             if ok:
-                out.append((Xs[n_fixed:], sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()))
+                out.append((Xs[n_fixed:], op((ptr, col, val), n)))
                 continue
         u = min(order, UNIFORM_MAX_ORDER)
         if u not in first:
@@ -352,13 +356,14 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None):
         if ops is None and int(rounds) > 0:
             ops = first[u][2] = _round_operators(X1, F)
         Xo, Ko = _cotan_rounds(X1.copy(), F, fixed, unknown, order, rounds, K, ops)
-        out.append((Xo[n_fixed:], _as_sparse(Ko, n)))
+        out.append((Xo[n_fixed:], op(Ko, n)))
     return out
 
 
 #: The uniform first solves of at least this many unknowns are remembered
-#: (:func:`_first_solve`) ...
-FIRST_SOLVE_MEMO_UNKNOWNS = 1000
+#: (:func:`_first_solve`; every one on the sparse path: the smaller patches
+#: fair_small solves dense are not kept) ...
+FIRST_SOLVE_MEMO_UNKNOWNS = 1
 #: ... up to this many bytes of their matrices, right-hand sides and solutions.
 FIRST_SOLVE_MEMO_BYTES = 64 << 20
 
@@ -366,13 +371,14 @@ _memo = threading.local()
 
 
 def first_solve_memo(on):
-    """Start (``on`` True) or end, and forget, the memo of large uniform
-    first solves in this thread (:func:`_first_solve`)."""
+    """Start (``on`` True) or end, and forget, the memo of the sparse
+    path's uniform first solves in this thread (:func:`_first_solve`)."""
     _memo.entries = {} if on else None
+    _memo.bytes = 0
 
 
 def _first_solve(Quu, Quf, Xf):
-    """The uniform first solve, Q_uu⁻¹ (−Q_uf X_f), remembered for large patches.
+    """The uniform first solve, Q_uu⁻¹ (−Q_uf X_f), remembered in a fill's run.
 
     ``order="auto"`` fills a hole at order 2, then, where the band test asks
     for order 3, fairs the same refined patch at order 3
@@ -380,7 +386,8 @@ def _first_solve(Quu, Quf, Xf):
     plate, and the order-3 submesh's extra ring of fixed scan does not enter
     the unknowns' rows (their K² reads two rings), so the system is the
     same, entry for entry (the ~12k-unknown hole of ``eval/bench_fill.py``:
-    one factorisation of ~0.1-0.15 s). Between :func:`first_solve_memo`
+    one factorisation of ~0.1-0.15 s; the 350-unknown holes of
+    bumpy_sphere-discs-medium: ~1.5 ms each). Between :func:`first_solve_memo`
     ``(True)`` and ``(False)`` (the fill of a run of holes,
     :func:`shellrepair.fill._run_chunk`), a system of at least
     ``FIRST_SOLVE_MEMO_UNKNOWNS`` unknowns is kept with its solution (per
@@ -401,10 +408,13 @@ def _first_solve(Quu, Quf, Xf):
         memo[key] = hit                      # most recently used last
         return hit[1].copy()
     Z = _Factor(Quu, Quf)._solve(R)
-    memo[key] = (arrays, Z.copy())
     size = lambda e: sum(a.nbytes for a in e[0]) + e[1].nbytes
-    while len(memo) > 1 and sum(size(e) for e in memo.values()) > FIRST_SOLVE_MEMO_BYTES:
-        memo.pop(next(iter(memo)))           # the least recently used
+    if hit is not None:                      # the same key, another system: replaced
+        _memo.bytes -= size(hit)
+    memo[key] = (arrays, Z.copy())
+    _memo.bytes += size(memo[key])
+    while len(memo) > 1 and _memo.bytes > FIRST_SOLVE_MEMO_BYTES:
+        _memo.bytes -= size(memo.pop(next(iter(memo))))   # the least recently used
     return Z
 
 

@@ -1332,34 +1332,60 @@ def _matvec(ptr, col, val, x):
 @njit(cache=True, nogil=True)
 def _cholesky_solve(Q, B):
     """Solve Q x = B (Q symmetric positive definite) by Cholesky; ok False
-    when a pivot is not positive."""
+    when a pivot is not positive.
+
+    The factor's entries are those of the textbook row-by-row Cholesky
+    (``L[i, j] = (Q[i, j] − Σ_k L[i, k] L[j, k]) / L[j, j]``, the sum taken
+    for k = 0, 1, ... in turn; tests/test_kernels.py holds a Python
+    version to the bit), computed a column at a time: column j of L, kept
+    as row j of ``Lt``, is Q's row j less each earlier column k scaled by
+    L[j, k], k ascending. Every entry sees the same operations in the same
+    order, but the inner loop runs over independent entries, which the
+    compiler vectorises (the row-by-row form's inner loop is one chain of
+    dependent subtractions): ~2-3x faster at 150-400 unknowns. The forward
+    substitution likewise subtracts column by column (each entry's terms in
+    the same order), the backward one row by row.
+    """
     n = Q.shape[0]
-    Lc = np.zeros((n, n))
+    Lt = np.zeros((n, n))     # Lt[k, i] = L[i, k]
+    s = np.empty(n)
     for j in range(n):
-        s = Q[j, j]
+        m = n - j
+        sj = s[j:]            # (loops from 0 over views: the compiler then vectorises them)
+        for i in range(m):
+            sj[i] = Q[j + i, j]
         for k in range(j):
-            s -= Lc[j, k] * Lc[j, k]
-        if not s > 0.0:
+            row = Lt[k, j:]
+            c = row[0]
+            for i in range(m):
+                sj[i] = sj[i] - row[i] * c
+        if not sj[0] > 0.0:
             return B, False
-        d = np.sqrt(s)
-        Lc[j, j] = d
-        for i in range(j + 1, n):
-            s = Q[i, j]
-            for k in range(j):
-                s -= Lc[i, k] * Lc[j, k]
-            Lc[i, j] = s / d
+        d = np.sqrt(sj[0])
+        out = Lt[j, j:]
+        out[0] = d
+        for i in range(1, m):
+            out[i] = sj[i] / d
     X = B.copy()
+    x = np.empty(n)
     for c in range(B.shape[1]):
         for i in range(n):
-            s = X[i, c]
-            for k in range(i):
-                s -= Lc[i, k] * X[k, c]
-            X[i, c] = s / Lc[i, i]
+            x[i] = B[i, c]
+        for k in range(n):    # forward: x[i] −= L[i, k] x[k], k ascending, then / L[i, i]
+            xk = x[k] / Lt[k, k]
+            x[k] = xk
+            row = Lt[k, k + 1:]
+            xr = x[k + 1:]
+            for i in range(n - k - 1):
+                xr[i] = xr[i] - row[i] * xk
         for i in range(n - 1, -1, -1):
-            s = X[i, c]
+            t = x[i]
+            row = Lt[i]
             for k in range(i + 1, n):
-                s -= Lc[k, i] * X[k, c]
-            X[i, c] = s / Lc[i, i]
+                t -= row[k] * x[k]
+            x[i] = t / row[i]
+        for i in range(n):
+            X[i, c] = x[i]
     return X, True
 
 
@@ -1619,20 +1645,19 @@ def nearest_distances(Q, T, idx):
 # fairing of large patches: the energy's blocks, assembled directly
 # --------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def _times_dk(ptr, col, val, D, acc, lst, cnt, acc2, stamp2, lst2, key):
+def _times_dk(ptr, col, val, D, acc, lst, cnt, acc2, mark2, lst2):
     """Sparse row r (``acc`` at columns ``lst[:cnt]``) times D K, K
-    symmetric, into ``acc2`` / ``lst2``; returns the new column count."""
+    symmetric, into ``acc2`` / ``lst2`` (``acc2`` zero and ``mark2`` clear
+    on entry); returns the new column count."""
     cnt2 = 0
     for t in range(cnt):
         w = lst[t]
         sw = acc[w] * D[w]
         for q in range(ptr[w], ptr[w + 1]):
             j = col[q]
-            if stamp2[j] != key:
-                stamp2[j] = key
-                acc2[j] = 0.0
-                lst2[cnt2] = j
-                cnt2 += 1
+            lst2[cnt2] = j            # listed once: the count moves on only for a new column
+            cnt2 += 1 - mark2[j]
+            mark2[j] = 1
             acc2[j] += sw * val[q]
     return cnt2
 
@@ -1644,12 +1669,19 @@ def _energy_rows(ptr, col, val, D, order, unk, pos, is_fixed):
     (columns ``pos`` of fixed vertices); each row's columns sorted.
 
     Row by row (Gustavson): the row of K, then (order − 1) times r ← (r D) K,
-    in scattered accumulators stamped per row and level."""
+    in scattered accumulators, one per level, that hold zeros between rows
+    (each row clears the entries it used): an entry's sum starts from 0.0
+    and adds its terms in the order the row's expansion meets them. A row's
+    columns are listed without branches (marks) and sorted by rank (each
+    column's count of smaller ones; the columns are distinct; a row of more
+    than 64 by a sort): ~1.3x the
+    speed of first-touch stamps and an insertion sort, the same arrays."""
     n = ptr.size - 1
     nu = unk.size
     acc1, acc2, acc3 = np.zeros(n), np.zeros(n), np.zeros(n)
-    st1, st2, st3 = np.full(n, -1, np.int64), np.full(n, -1, np.int64), np.full(n, -1, np.int64)
-    l1, l2, l3 = np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64)
+    m1, m2, m3 = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64)
+    l1, l2, l3 = np.empty(n + 1, np.int64), np.empty(n + 1, np.int64), np.empty(n + 1, np.int64)
+    srt = np.empty(n, np.int64)
     cap_u = max(16 * nu, 16)
     cap_f = max(4 * nu, 16)
     u_ptr = np.zeros(nu + 1, np.int64)
@@ -1662,29 +1694,30 @@ def _energy_rows(ptr, col, val, D, order, unk, pos, is_fixed):
     nuf = 0
     for i in range(nu):
         v = unk[i]
-        cnt = 0
+        cnt1 = 0
         for q in range(ptr[v], ptr[v + 1]):           # level 1: row v of K
             j = col[q]
-            if st1[j] != i:
-                st1[j] = i
-                acc1[j] = 0.0
-                l1[cnt] = j
-                cnt += 1
+            l1[cnt1] = j
+            cnt1 += 1 - m1[j]
+            m1[j] = 1
             acc1[j] += val[q]
+        cnt, cnt2 = cnt1, 0
         acc, lst = acc1, l1
         if order >= 2:
-            cnt = _times_dk(ptr, col, val, D, acc1, l1, cnt, acc2, st2, l2, i)
-            acc, lst = acc2, l2
+            cnt2 = _times_dk(ptr, col, val, D, acc1, l1, cnt1, acc2, m2, l2)
+            cnt, acc, lst = cnt2, acc2, l2
         if order >= 3:
-            cnt = _times_dk(ptr, col, val, D, acc2, l2, cnt, acc3, st3, l3, i)
+            cnt = _times_dk(ptr, col, val, D, acc2, l2, cnt2, acc3, m3, l3)
             acc, lst = acc3, l3
-        for t in range(1, cnt):                        # insertion sort: rows are short
-            j = lst[t]
-            k = t - 1
-            while k >= 0 and lst[k] > j:
-                lst[k + 1] = lst[k]
-                k -= 1
-            lst[k + 1] = j
+        if cnt <= 64:
+            for t in range(cnt):                       # the columns sorted, by rank
+                j = lst[t]
+                r = 0
+                for u in range(cnt):
+                    r += lst[u] < j
+                srt[r] = j
+        else:                                          # (a long row: rank sorting grows as its square)
+            srt[:cnt] = np.sort(lst[:cnt])
         if nuu + cnt > cap_u:
             cap_u = 2 * (nuu + cnt)
             u_col = np.concatenate((u_col[:nuu], np.empty(cap_u - nuu, np.int64)))
@@ -1694,7 +1727,7 @@ def _energy_rows(ptr, col, val, D, order, unk, pos, is_fixed):
             f_col = np.concatenate((f_col[:nuf], np.empty(cap_f - nuf, np.int64)))
             f_val = np.concatenate((f_val[:nuf], np.empty(cap_f - nuf)))
         for t in range(cnt):
-            j = lst[t]
+            j = srt[t]
             if is_fixed[j]:
                 f_col[nuf] = pos[j]
                 f_val[nuf] = acc[j]
@@ -1705,30 +1738,48 @@ def _energy_rows(ptr, col, val, D, order, unk, pos, is_fixed):
                 nuu += 1
         u_ptr[i + 1] = nuu
         f_ptr[i + 1] = nuf
+        for t in range(cnt1):                          # clear what the row used
+            j = l1[t]
+            acc1[j] = 0.0
+            m1[j] = 0
+        if order >= 2:
+            for t in range(cnt2):
+                j = l2[t]
+                acc2[j] = 0.0
+                m2[j] = 0
+        if order >= 3:
+            for t in range(cnt):
+                j = l3[t]
+                acc3[j] = 0.0
+                m3[j] = 0
     return u_ptr, u_col[:nuu].copy(), u_val[:nuu].copy(), f_ptr, f_col[:nuf].copy(), f_val[:nuf].copy()
 
 
 @njit(cache=True, nogil=True)
 def _symmetrise(ptr, col, val):
     """Q ← (Q + Qᵀ) / 2 in place, for sorted rows of a structurally
-    symmetric matrix: both entries get the same value, to the bit."""
+    symmetric matrix: both entries get the same value, to the bit.
+
+    Row i's entries (i, j), j > i, meet their mirrors (j, i) in row j in
+    increasing i, so each row j keeps a cursor that only moves forward to
+    the first column not below i: one pass over the entries (a binary
+    search per entry found the same slot)."""
     n = ptr.size - 1
+    cur = ptr[:-1].copy()
     for i in range(n):
         for q in range(ptr[i], ptr[i + 1]):
             j = col[q]
             if j <= i:
                 continue
-            lo, hi = ptr[j], ptr[j + 1]            # find (j, i) in row j
-            while lo < hi:
-                mid = (lo + hi) // 2
-                if col[mid] < i:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            if lo < ptr[j + 1] and col[lo] == i:
-                m = 0.5 * (val[q] + val[lo])
+            c = cur[j]
+            end = ptr[j + 1]
+            while c < end and col[c] < i:
+                c += 1
+            cur[j] = c
+            if c < end and col[c] == i:
+                m = 0.5 * (val[q] + val[c])
                 val[q] = m
-                val[lo] = m
+                val[c] = m
     return val
 
 

@@ -185,7 +185,11 @@ def rim_bend(ctx, loop, rings=max(CANDIDATES)):
         (faces without area left out; 0 when no edge has two such faces).
     """
     T = ctx.F[ctx.ring_faces(np.asarray(loop, np.int64), rings)]
-    c, _ = _edge_bends(ctx.V, T)
+    return _largest_bend(_edge_bends(ctx.V, T)[0])
+
+
+def _largest_bend(c):
+    """:func:`rim_bend` from the bends' cosines."""
     if c.size == 0:
         return 0.0
     return float(np.degrees(np.arccos(np.clip(c.min(), -1.0, 1.0))))
@@ -237,7 +241,11 @@ def sagitta(V, T):
     s : float
         The RMS of θh/8 over the interior edges of ``T`` (0 when none).
     """
-    c, h = _edge_bends(V, np.asarray(T, np.int64))
+    return _sagitta_of(*_edge_bends(V, np.asarray(T, np.int64)))
+
+
+def _sagitta_of(c, h):
+    """:func:`sagitta` from :func:`_edge_bends`' cosines and lengths."""
     if c.size == 0:
         return 0.0
     theta = np.arccos(np.clip(c, -1.0, 1.0))
@@ -270,6 +278,12 @@ def probe_band(ctx, loop, rings):
         one other simple loop (it touches another boundary, wraps around a
         thin part or reaches the end of the scan).
     """
+    got = _probe_band(ctx, loop, rings)
+    return None if got is None else got[:4]
+
+
+def _probe_band(ctx, loop, rings):
+    """:func:`probe_band`, with the band's faces (ids in ``ctx``) last."""
     from .holes import boundary_loops
     from .topology import euler_characteristic
 
@@ -300,7 +314,7 @@ def probe_band(ctx, loop, rings):
     if len(probe) != 1:
         return None
     known = np.setdiff1d(uniq(Fb), probe[0])
-    return ctx.V[g], Fk, probe[0].astype(np.int64), known
+    return ctx.V[g], Fk, probe[0].astype(np.int64), known, band
 
 
 def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
@@ -499,7 +513,8 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
 
     loop = np.asarray(loop, np.int64)
     k = len(loop)
-    bend = rim_bend(ctx, loop, max(candidates))
+    bends = _edge_bends(ctx.V, ctx.F[ctx.ring_faces(loop, max(candidates))])   # rim_bend's, kept for sagitta
+    bend = _largest_bend(bends[0])
     if bend > SMOOTH_BEND_DEG:     # no smooth curvature to continue: order 2, untested
         return OrderTest(DEFAULT_ORDER, why=f"an edge within {max(candidates)} rings of the rim bends {bend:.0f}°, "
                                             f"over {SMOOTH_BEND_DEG:g}° (a crease, fine detail or noise)")
@@ -513,14 +528,14 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
     rings = band_rings(k) if rings is None else int(rings)
     probe = None
     while probe is None and rings >= BAND_MIN:
-        probe = probe_band(ctx, loop, rings)
+        probe = _probe_band(ctx, loop, rings)
         if probe is None:
             rings -= 2 if rings > BAND_MIN + 1 else 1
     if probe is None:
         if verdict is not None and shared and not relative:   # the scan's verdict, scaled to this rim
             return _scaled(verdict, ctx.V, loop, why="no clean band of scan around the hole")
         return OrderTest(DEFAULT_ORDER, why="no clean band of scan around the hole")
-    Vl, Fl, ploop, known = probe
+    Vl, Fl, ploop, known, band = probe
     origin = Vl.mean(axis=0)        # a local frame: scans far from the origin keep their digits
     lctx = _Context(Mesh(V=Vl - origin, F=Fl))
     Q = Vl[known] - origin
@@ -531,9 +546,10 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
         return OrderTest(DEFAULT_ORDER, rings=rings, why="the band could not be triangulated")
     # the scan resolves the surface to its sagitta; a fill refined c times
     # coarser than the scan, to c² of it
-    floor = sagitta(ctx.V, ctx.F[ctx.ring_faces(loop, rings)]) * coarse ** 2
+    # (the band's faces are rim_bend's when the band is max(candidates) rings wide)
+    floor = (_sagitta_of(*bends) if rings == max(candidates) else sagitta(ctx.V, ctx.F[band])) * coarse ** 2
     X0, Fs, nf, g, scale, org = P0
-    faired = fair_patch_orders(X0, Fs, nf, candidates, rounds=TEST_ROUNDS)   # their common work done once
+    faired = fair_patch_orders(X0, Fs, nf, candidates, rounds=TEST_ROUNDS, operator=False)   # their common work done once
     for o, (Xu, _) in zip(candidates, faired):
         X = org + scale * np.vstack([X0[:nf], Xu])
         Tp = Fs[len(Fs) - len(T):]

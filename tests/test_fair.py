@@ -193,6 +193,9 @@ def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, m
     if len(X) - nf > fair.SMALL_UNKNOWNS or not numba:
         # orders 2 and 3 share the uniform thin-plate solve: one factorisation fewer
         assert n_together == len(shared) - n_together - 1
+    # without the operators (the band test's call): the same positions, no K
+    for (Xu, K), (ref, _) in zip(fair.fair_patch_orders(X, F, nf, (1, 2, 3), rounds=2, operator=False), together):
+        assert np.array_equal(Xu, ref) and K is None
 
 
 def _count_factorisations(monkeypatch):
@@ -235,6 +238,103 @@ def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monke
     assert (a2, b2, b3) == (a, b - 1, b)     # only the identical system was taken from the memo
     assert not np.array_equal(moved, got3)
     assert fair_counted(X, 2)[1] == a        # outside the memo's scope nothing is remembered
+
+
+def _energy_rows_python(ptr, col, val, D, order, unknown, fixed):
+    """Rows ``unknown`` of K (D K)^(order−1) in Python floats: each entry's
+    sum starts from 0.0 and adds its terms in the order the row's expansion
+    meets them (a dict keeps its columns in first-touch order); columns
+    sorted, split into the unknowns' and the fixed block."""
+    n = len(ptr) - 1
+    pos = np.empty(n, np.int64)
+    pos[unknown], pos[fixed] = np.arange(len(unknown)), np.arange(len(fixed))
+    is_fixed = np.zeros(n, bool)
+    is_fixed[fixed] = True
+    rows_u, rows_f = [], []
+    for v in unknown:
+        acc = {}
+        for q in range(ptr[v], ptr[v + 1]):
+            acc[col[q]] = acc.get(col[q], 0.0) + float(val[q])
+        for _ in range(order - 1):
+            nxt = {}
+            for w, a in acc.items():
+                sw = a * float(D[w])
+                for q in range(ptr[w], ptr[w + 1]):
+                    nxt[col[q]] = nxt.get(col[q], 0.0) + sw * float(val[q])
+            acc = nxt
+        cols = sorted(acc)
+        rows_u.append([(pos[j], acc[j]) for j in cols if not is_fixed[j]])
+        rows_f.append([(pos[j], acc[j]) for j in cols if is_fixed[j]])
+    return rows_u, rows_f
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
+    from shellrepair.intrinsic import _laplacian_arrays
+
+    X, F, nf = _bumpy_grid(16, 3)
+    (ptr, col, val), M = _laplacian_arrays(X, F)        # spare diagonal slots kept: repeated columns
+    n = len(X)
+    rng = np.random.default_rng(order)
+    unknown = np.sort(rng.choice(n, n // 2, replace=False))
+    fixed = np.setdiff1d(np.arange(n), unknown)
+    D = 1.0 / M
+    pos = np.empty(n, np.int64)
+    pos[unknown], pos[fixed] = np.arange(unknown.size), np.arange(fixed.size)
+    is_fixed = np.zeros(n, np.bool_)
+    is_fixed[fixed] = True
+    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, is_fixed)
+    ref_u, ref_f = _energy_rows_python(ptr, col, val, D, order, unknown, fixed)
+    for i in range(unknown.size):
+        assert list(zip(uc[up[i]:up[i + 1]].tolist(), uv[up[i]:up[i + 1]].tolist())) == ref_u[i]
+        assert list(zip(fc[fp[i]:fp[i + 1]].tolist(), fv[fp[i]:fp[i + 1]].tolist())) == ref_f[i]
+    # a fan of 90 triangles: rows of over 64 columns (sorted another way)
+    k = 90
+    T = np.array([[0, 1 + i, 1 + (i + 1) % k] for i in range(k)], np.int64)
+    ptr, col, val = kernels._laplacian_rows(T, rng.random((k, 3)), k + 1, False)
+    D = 1.0 + rng.random(k + 1)
+    unknown, fixed = np.array([0, 5, 40], np.int64), np.setdiff1d(np.arange(k + 1), [0, 5, 40])
+    pos = np.empty(k + 1, np.int64)
+    pos[unknown], pos[fixed] = np.arange(3), np.arange(fixed.size)
+    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.isin(np.arange(k + 1), fixed))
+    ref_u, ref_f = _energy_rows_python(ptr, col, val, D, order, unknown, fixed)
+    assert up[1] + fp[1] == k + 1 > 64
+    for i in range(3):
+        assert list(zip(uc[up[i]:up[i + 1]].tolist(), uv[up[i]:up[i + 1]].tolist())) == ref_u[i]
+        assert list(zip(fc[fp[i]:fp[i + 1]].tolist(), fv[fp[i]:fp[i + 1]].tolist())) == ref_f[i]
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("seed", range(3))
+def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
+    """kernels._symmetrise on sorted rows of a structurally symmetric
+    matrix (with mirrored entries missing too, kept as they are) against
+    SciPy's (Q + Qᵀ) / 2, entry for entry."""
+    rng = np.random.default_rng(seed)
+    n = 60
+    A = sp.random(n, n, density=0.15, random_state=seed, format="csr")
+    S = (A + A.T + sp.eye(n)).tocsr()                # the pattern: symmetric
+    S.sort_indices()
+    Q = S.copy()
+    Q.data = rng.normal(size=Q.nnz)                  # the values: not
+    ref = ((Q + Q.T) * 0.5).tocsr()
+    ref.sort_indices()
+    got = kernels._symmetrise(Q.indptr.astype(np.int64), Q.indices.astype(np.int64), Q.data.copy())
+    assert np.array_equal(ref.indptr, Q.indptr) and np.array_equal(ref.indices, Q.indices)
+    assert np.array_equal(got, ref.data)
+    # an entry without its mirror stays as it was
+    keep = np.ones(Q.nnz, bool)
+    r = np.repeat(np.arange(n), np.diff(Q.indptr))
+    off = np.flatnonzero(r != Q.indices)
+    keep[off[:5]] = False
+    T = sp.csr_matrix((Q.data[keep], Q.indices[keep], np.concatenate([[0], np.cumsum(np.bincount(r[keep], minlength=n))])),
+                      shape=(n, n))
+    got = kernels._symmetrise(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data.copy())
+    Td = T.toarray()
+    G = sp.csr_matrix((got, T.indices, T.indptr), shape=(n, n)).toarray()
+    both = (Td != 0) & (Td.T != 0)
+    assert np.array_equal(G[both], ((Td + Td.T) * 0.5)[both]) and np.array_equal(G[~both], Td[~both])
 
 
 @pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")

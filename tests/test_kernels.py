@@ -241,6 +241,61 @@ def test_the_dense_fairing_equals_the_sparse_solve_to_round_off(order, seed, mon
         assert np.array_equal(got[pinned], X[nf:][pinned])
 
 
+def _textbook_cholesky_solve(Q, B):
+    """Q x = B by the row-by-row Cholesky, each sum taken k = 0, 1, ... in
+    turn, in Python floats (the operations the compiled kernel must repeat)."""
+    n = len(Q)
+    L = [[0.0] * n for _ in range(n)]
+    for j in range(n):
+        s = float(Q[j, j])
+        for k in range(j):
+            s -= L[j][k] * L[j][k]
+        if not s > 0.0:
+            return None
+        L[j][j] = d = float(np.sqrt(s))
+        for i in range(j + 1, n):
+            s = float(Q[i, j])
+            for k in range(j):
+                s -= L[i][k] * L[j][k]
+            L[i][j] = s / d
+    X = np.array(B, np.float64)
+    for c in range(X.shape[1]):
+        x = [float(v) for v in X[:, c]]
+        for i in range(n):
+            s = x[i]
+            for k in range(i):
+                s -= L[i][k] * x[k]
+            x[i] = s / L[i][i]
+        for i in range(n - 1, -1, -1):
+            s = x[i]
+            for k in range(i + 1, n):
+                s -= L[k][i] * x[k]
+            x[i] = s / L[i][i]
+        X[:, c] = x
+    return X
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_dense_cholesky_equals_the_textbook_one_to_the_bit(seed):
+    """kernels._cholesky_solve (fair_small's solve, column by column)
+    against the row-by-row factorisation: dense, sparse with exact zeros,
+    nearly singular; and a matrix that is not positive definite is refused."""
+    rng = np.random.default_rng(seed)
+    for n in (1, 2, 3, 7, 16, 33, 61):
+        A = rng.normal(size=(n, n))
+        if seed == 1:
+            A[rng.random((n, n)) < 0.8] = 0.0      # exact zeros in Q and fill-in in L
+        Q = A @ A.T + (1e-6 if seed == 2 else n) * np.eye(n)
+        Q = 0.5 * (Q + Q.T)
+        B = rng.normal(size=(n, 3))
+        got, ok = kernels._cholesky_solve(Q, B)
+        ref = _textbook_cholesky_solve(Q, B)
+        assert ok and np.array_equal(got, ref)
+        assert np.abs(Q @ got - B).max() <= 1e-6 * max(1.0, np.abs(B).max()) * np.linalg.cond(Q)
+    Q = np.diag([1.0, -1.0, 2.0])
+    assert not kernels._cholesky_solve(Q, np.ones((3, 3)))[1] and _textbook_cholesky_solve(Q, np.ones((3, 3))) is None
+
+
 def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypatch):
     """Same faces and flags, original vertices bit-identical, new vertices
     within FAIR_TOLERANCE mean edges (the dense fairing is the one kernel
