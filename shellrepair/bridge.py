@@ -65,7 +65,7 @@ from scipy.spatial import cKDTree
 from . import kernels
 
 __all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
-           "resample_tube", "split_pinched", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
+           "resample_tube", "split_pinched", "wrapped_pairs", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
 #: Arcs are followed at most this many loop diameters (or one full turn):
 #: the search horizon for a partner loop, not a decision threshold.
@@ -819,7 +819,93 @@ def _find_bands(ctx, scan):
     pairs = band_pairs(sights, hole)
     # pairs whose loops each send most of their arcs to the other: read by _fill_pair
     ctx.bands_mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, mutual in pairs if mutual}
+    used = {x for i, j, _, _ in pairs for x in (i, j)}
+    rest = [a for a in sorted(sights) if a not in used and hole[a]]
+    if len(rest) >= 2:
+        wrapped = wrapped_pairs(ctx.V, loops, rest, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], touching)
+        if wrapped:
+            pairs = pairs + wrapped
     return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
+
+
+def wrapped_pairs(V, loops, ids, faces_near, touching=()):
+    """Pairs of loops that wrap one handle (a thin tube, an arm) and face
+    each other across the band missing between them, found from the scan at
+    their rims where their continuation arcs do not pair them.
+
+    A loop *wraps* when the scan meets the loop's best-fit plane steeply
+    all round: at a strict majority of its rim vertices the scan normal
+    (at the base of the continuation arc) is nearer the plane's radial
+    direction (from the loop's centre to the vertex) than the plane's
+    normal. The rim of a hole smaller than a hemisphere of the surface
+    around it has normals along the plane's normal; the rim of a cut
+    across a tube has them radial. Loop A *heads to* loop B when at a
+    strict majority of A's rim vertices the scan arrives heading towards
+    B's centre (``T · (c_B - p) > 0``, ``T`` the arc's direction): across
+    a tube the scan on each side of the band heads into the band, towards
+    the other side, while the two rims of a scan that is itself a band
+    (two large holes) head away from each other.
+
+    Arcs miss such a pair when the loops cross the tube obliquely: the arc
+    leaves the rim along the scan's direction, mostly round the tube, with
+    the tube's curvature, and the circle comes back round to the loop it
+    left instead of following the tube (a helix) to the other loop.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loops : list of Loop
+    ids : list of int
+        Indices of the ``hole`` loops not paired by their arcs.
+    faces_near : callable
+        As for :func:`loop_sights`.
+    touching : set of (int, int)
+        Loops that share a vertex (never paired).
+
+    Returns
+    -------
+    pairs : list of (i, j, score, mutual)
+        As :func:`band_pairs` (``mutual`` False: the fill compares the
+        tube with the caps); score is the smaller of the two loops'
+        fractions of rim vertices heading to the other. Each loop once,
+        nearest centres first; loops farther apart than ``MAX_REACH`` times
+        the larger diameter are not paired.
+    """
+    rims = [np.asarray(loops[a].vertices, np.int64) for a in ids]
+    arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
+    info = {}
+    for a, lp, (U, T, N, kap, s0, ok) in zip(ids, rims, arcs):
+        if ok.sum() < 3:
+            continue
+        P = V[lp]
+        c = P.mean(axis=0)
+        _, _, vt = np.linalg.svd(P - c, full_matrices=False)
+        n = vt[2]
+        R = (P - c) - ((P - c) @ n)[:, None] * n
+        R /= np.maximum(np.linalg.norm(R, axis=1, keepdims=True), 1e-300)
+        radial = np.abs(np.sum(N * R, axis=1)) > np.abs(N @ n)
+        if 2 * np.count_nonzero(radial & ok) > np.count_nonzero(ok):
+            info[a] = (c, P[ok], T[ok])
+    keys = sorted(info)
+    cand = []
+    for x, a in enumerate(keys):
+        for b in keys[x + 1:]:
+            if (a, b) in touching:
+                continue
+            ca, cb = info[a][0], info[b][0]
+            if np.linalg.norm(cb - ca) > MAX_REACH * max(loops[a].diameter, loops[b].diameter):
+                continue
+            fa = np.mean(np.sum(info[a][2] * (cb - info[a][1]), axis=1) > 0)
+            fb = np.mean(np.sum(info[b][2] * (ca - info[b][1]), axis=1) > 0)
+            if fa > 0.5 and fb > 0.5:
+                cand.append((float(np.linalg.norm(cb - ca)), a, b, float(min(fa, fb))))
+    used, pairs = set(), []
+    for _, a, b, sc in sorted(cand):
+        if a in used or b in used:
+            continue
+        used.update((a, b))
+        pairs.append((a, b, sc, False))
+    return pairs
 
 
 def _touching(loops, ids):
