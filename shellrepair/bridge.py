@@ -819,7 +819,18 @@ def _find_bands(ctx, scan):
     pairs = band_pairs(sights, hole)
     # pairs whose loops each send most of their arcs to the other: read by _fill_pair
     ctx.bands_mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, mutual in pairs if mutual}
-    used = {x for i, j, _, _ in pairs for x in (i, j)}
+    # three loops bounding one region (shellrepair.pants): the pairs among
+    # them are kept as the pants' fallback (a pair reaching out of the
+    # triple leaves the triple to the pairs, as before)
+    from .pants import pants_triples
+
+    ctx.band_triples = []
+    for tri in pants_triples(sights, hole, touching):
+        inside = [t for t in pairs if t[0] in tri or t[1] in tri]
+        if all(t[0] in tri and t[1] in tri for t in inside):
+            pairs = [t for t in pairs if t not in inside]
+            ctx.band_triples.append((*(loops[x] for x in tri), [(loops[i], loops[j]) for i, j, _, _ in inside]))
+    used = {x for i, j, _, _ in pairs for x in (i, j)} | {L.id for t in ctx.band_triples for L in t[:3]}
     rest = [a for a in sorted(sights) if a not in used and hole[a]]
     if len(rest) >= 2:
         wrapped = wrapped_pairs(ctx.V, loops, rest, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], touching)
