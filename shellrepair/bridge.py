@@ -852,7 +852,9 @@ def wrapped_pairs(V, loops, ids, faces_near, touching=()):
     around it has normals along the plane's normal; the rim of a cut
     across a tube has them radial. Loop A *heads to* loop B when at a
     strict majority of A's rim vertices the scan arrives heading towards
-    B's centre (``T · (c_B - p) > 0``, ``T`` the arc's direction): across
+    B's centre (``T·u > SIGHT_SLACK``, ``T`` the arc's direction, ``u``
+    the unit vector from the vertex to the centre: within about 80°; a
+    direction across the line to the centre is not heading to it): across
     a tube the scan on each side of the band heads into the band, towards
     the other side, while the two rims of a scan that is itself a band
     (two large holes) head away from each other.
@@ -906,8 +908,7 @@ def wrapped_pairs(V, loops, ids, faces_near, touching=()):
             ca, cb = info[a][0], info[b][0]
             if np.linalg.norm(cb - ca) > MAX_REACH * max(loops[a].diameter, loops[b].diameter):
                 continue
-            fa = np.mean(np.sum(info[a][2] * (cb - info[a][1]), axis=1) > 0)
-            fb = np.mean(np.sum(info[b][2] * (ca - info[b][1]), axis=1) > 0)
+            fa, fb = _heading(info[a][2], info[a][1], cb), _heading(info[b][2], info[b][1], ca)
             if fa > 0.5 and fb > 0.5:
                 cand.append((float(np.linalg.norm(cb - ca)), a, b, float(min(fa, fb))))
     used, pairs = set(), []
@@ -917,6 +918,16 @@ def wrapped_pairs(V, loops, ids, faces_near, touching=()):
         used.update((a, b))
         pairs.append((a, b, sc, False))
     return pairs
+
+
+def _heading(T, P, c):
+    """Share of the rim vertices ``P`` whose scan direction ``T`` heads to
+    the point ``c``: more than ``SIGHT_SLACK`` (the direction estimates'
+    accuracy) towards it, so that a direction across the line to ``c``
+    counts as not heading to it."""
+    D = c - P
+    D = D / np.maximum(np.linalg.norm(D, axis=1, keepdims=True), 1e-300)
+    return float(np.mean(np.sum(T * D, axis=1) > SIGHT_SLACK))
 
 
 def _touching(loops, ids):

@@ -14,8 +14,9 @@ Which loops bound one region
 Loops B and C are the legs of waist A when (by :func:`loop_sights`):
 
 * a strict majority of B's arcs land on A, and of C's arcs on A;
-* a strict majority of A's arcs land on B and C together, and neither B
-  nor C alone gets one (otherwise A and that leg are an ordinary band).
+* a strict majority of A's arcs land on B and C together, and some on
+  each (A's arcs may favour one leg: its split between the two follows
+  their sizes and where the arcs start).
 
 How the pants is built
 ----------------------
@@ -82,14 +83,14 @@ def pants_triples(sights, eligible, touching=()):
             legs.setdefault(y, []).append((f, x))
     cand = []
     for a, ls in legs.items():
-        if a not in sights or majority_on(a)[0] is not None or len(ls) < 2:
+        if a not in sights or not eligible[a] or len(ls) < 2:
             continue
         counts, m = sights[a]
         ls = sorted(ls, reverse=True)
         # the two legs that take the most of the waist's arcs
         best = sorted(ls, key=lambda t: (-int(counts[t[1]]), -t[0], t[1]))[:2]
         (fb, b), (fc, c) = best
-        if (b, c) in touching or 2 * int(counts[b] + counts[c]) <= m:
+        if (b, c) in touching or not (counts[b] and counts[c]) or 2 * int(counts[b] + counts[c]) <= m:
             continue
         cand.append((min(fb, fc), a, min(b, c), max(b, c)))
     used, out = set(), []
