@@ -63,3 +63,24 @@ def test_pants_manifold_check_counts_boundaries_and_genus():
     flipped = tube.copy()
     flipped[0] = flipped[0][::-1]
     assert not pants_is_manifold(flipped, k, [3, 3])
+
+
+def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(genus2, monkeypatch):
+    """No first pants: the band the arcs pair and the cap, as without triples."""
+    import shellrepair.pants as pants
+
+    V, F = genus2
+    V2, F2, _ = shapes.remove_faces(V, F, V[F].mean(axis=1)[:, 2] < -0.2)
+    M = Mesh(V=V2, F=F2)
+
+    def no_pants(*args, **kwargs):
+        raise ValueError("forced")
+
+    monkeypatch.setattr(pants, "pants_initial", no_pants)
+    R, rep = repair_mesh(M)
+    assert "forced" in rep["bridges"][0]["pants"]
+    monkeypatch.setattr(pants, "pants_triples", lambda *a, **k: [])
+    R0, rep0 = repair_mesh(M)
+    assert np.array_equal(R.V, R0.V) and np.array_equal(R.F, R0.F)
+    assert rep["holes_after"] == rep0["holes_after"] == 0
+    assert [b["chosen"] for b in rep["bridges"]] == [b["chosen"] for b in rep0["bridges"]]
