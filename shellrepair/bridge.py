@@ -51,6 +51,11 @@ an edge of the scan. Then (see :func:`shellrepair.fill._fill_pair`):
   an option that fails its checks loses, and between valid ones the lower
   energy wins.
 
+Two loops that cross a thin tube obliquely send their arcs round the tube
+and back to themselves; :func:`wrapped_pairs` pairs such loops from the scan
+at their rims (they wrap the tube and head to each other). Three loops that
+bound one region are filled by :mod:`shellrepair.pants`.
+
 The tube's rings, and the plain zip used when no guide can be built, are
 matched by arc length from the cyclic shift of the second loop (walked
 backwards) that best matches the first, so loops of very different vertex
@@ -787,7 +792,12 @@ def _find_bands(ctx, scan):
     Only loops classed ``hole`` are paired (a border is never bridged);
     borders still stop arcs. Only loops with another loop within reach of
     their arcs (``MAX_REACH`` diameters) have their arcs followed. Loops
-    that share a vertex are never paired. Sets ``ctx.bands_mutual``.
+    that share a vertex are never paired. Sets ``ctx.bands_mutual``, and
+    ``ctx.band_triples``: ``(waist, leg, leg, pairs)`` per region bounded
+    by three loops (:func:`shellrepair.pants.pants_triples`; ``pairs`` the
+    bands among them, its fallback), whose loops are not in the pairs
+    returned. Hole loops left unpaired by their arcs may still be paired as
+    wrapping one tube (:func:`wrapped_pairs`).
     """
     loops = scan.loops
     hole = np.array([L.kind == "hole" for L in loops], bool)

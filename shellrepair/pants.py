@@ -146,12 +146,10 @@ def pants_initial(PA, PB, PC, arcs, spacing, reach):
         arcs_d.append(np.concatenate([x[ob], fill, y[oc], fill]))
     arcs_d[5] = arcs_d[5].astype(bool)
     Pg, Tg = guide_tube(PA, PD, arcs[0], tuple(arcs_d), spacing=spacing, reach=reach)
-    kd = len(PD)
     local = np.concatenate([np.arange(ka), ids, k + m + np.arange(len(Pg))])
     T = local[Tg]
     # (a triangle on two copies of one vertex is no triangle)
     T = T[(T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])]
-    assert kd == len(ids)
     return np.vstack([S, Pg]) if m or len(Pg) else np.zeros((0, 3)), T
 
 
