@@ -51,6 +51,11 @@ an edge of the scan. Then (see :func:`shellrepair.fill._fill_pair`):
   an option that fails its checks loses, and between valid ones the lower
   energy wins.
 
+Two loops that cross a thin tube obliquely send their arcs round the tube
+and back to themselves; :func:`wrapped_pairs` pairs such loops from the scan
+at their rims (they wrap the tube and head to each other). Three loops that
+bound one region are filled by :mod:`shellrepair.pants`.
+
 The tube's rings, and the plain zip used when no guide can be built, are
 matched by arc length from the cyclic shift of the second loop (walked
 backwards) that best matches the first, so loops of very different vertex
@@ -65,7 +70,7 @@ from scipy.spatial import cKDTree
 from . import kernels
 
 __all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
-           "resample_tube", "split_pinched", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
+           "resample_tube", "split_pinched", "wrapped_pairs", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
 #: Arcs are followed at most this many loop diameters (or one full turn):
 #: the search horizon for a partner loop, not a decision threshold.
@@ -787,7 +792,12 @@ def _find_bands(ctx, scan):
     Only loops classed ``hole`` are paired (a border is never bridged);
     borders still stop arcs. Only loops with another loop within reach of
     their arcs (``MAX_REACH`` diameters) have their arcs followed. Loops
-    that share a vertex are never paired. Sets ``ctx.bands_mutual``.
+    that share a vertex are never paired. Sets ``ctx.bands_mutual``, and
+    ``ctx.band_triples``: ``(waist, leg, leg, pairs)`` per region bounded
+    by three loops (:func:`shellrepair.pants.pants_triples`; ``pairs`` the
+    bands among them, its fallback), whose loops are not in the pairs
+    returned. Hole loops left unpaired by their arcs may still be paired as
+    wrapping one tube (:func:`wrapped_pairs`).
     """
     loops = scan.loops
     hole = np.array([L.kind == "hole" for L in loops], bool)
@@ -819,7 +829,115 @@ def _find_bands(ctx, scan):
     pairs = band_pairs(sights, hole)
     # pairs whose loops each send most of their arcs to the other: read by _fill_pair
     ctx.bands_mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, mutual in pairs if mutual}
+    # three loops bounding one region (shellrepair.pants): the pairs among
+    # them are kept as the pants' fallback (a pair reaching out of the
+    # triple leaves the triple to the pairs, as before)
+    from .pants import pants_triples
+
+    ctx.band_triples = []
+    for tri in pants_triples(sights, hole, touching):
+        inside = [t for t in pairs if t[0] in tri or t[1] in tri]
+        if all(t[0] in tri and t[1] in tri for t in inside):
+            pairs = [t for t in pairs if t not in inside]
+            ctx.band_triples.append((*(loops[x] for x in tri), [(loops[i], loops[j]) for i, j, _, _ in inside]))
+    used = {x for i, j, _, _ in pairs for x in (i, j)} | {L.id for t in ctx.band_triples for L in t[:3]}
+    rest = [a for a in sorted(sights) if a not in used and hole[a]]
+    if len(rest) >= 2:
+        wrapped = wrapped_pairs(ctx.V, loops, rest, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], touching)
+        if wrapped:
+            pairs = pairs + wrapped
     return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
+
+
+def wrapped_pairs(V, loops, ids, faces_near, touching=()):
+    """Pairs of loops that wrap one handle (a thin tube, an arm) and face
+    each other across the band missing between them, found from the scan at
+    their rims where their continuation arcs do not pair them.
+
+    A loop *wraps* when the scan meets the loop's best-fit plane steeply
+    all round: at a strict majority of its rim vertices the scan normal
+    (at the base of the continuation arc) is nearer the plane's radial
+    direction (from the loop's centre to the vertex) than the plane's
+    normal. The rim of a hole smaller than a hemisphere of the surface
+    around it has normals along the plane's normal; the rim of a cut
+    across a tube has them radial. Loop A *heads to* loop B when at a
+    strict majority of A's rim vertices the scan arrives heading towards
+    B's centre (``T·u > SIGHT_SLACK``, ``T`` the arc's direction, ``u``
+    the unit vector from the vertex to the centre: within about 80°; a
+    direction across the line to the centre is not heading to it): across
+    a tube the scan on each side of the band heads into the band, towards
+    the other side, while the two rims of a scan that is itself a band
+    (two large holes) head away from each other.
+
+    Arcs miss such a pair when the loops cross the tube obliquely: the arc
+    leaves the rim along the scan's direction, mostly round the tube, with
+    the tube's curvature, and the circle comes back round to the loop it
+    left instead of following the tube (a helix) to the other loop.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loops : list of Loop
+    ids : list of int
+        Indices of the ``hole`` loops not paired by their arcs.
+    faces_near : callable
+        As for :func:`loop_sights`.
+    touching : set of (int, int)
+        Loops that share a vertex (never paired).
+
+    Returns
+    -------
+    pairs : list of (i, j, score, mutual)
+        As :func:`band_pairs` (``mutual`` False: the fill compares the
+        tube with the caps); score is the smaller of the two loops'
+        fractions of rim vertices heading to the other. Each loop once,
+        nearest centres first; loops farther apart than ``MAX_REACH`` times
+        the larger diameter are not paired.
+    """
+    rims = [np.asarray(loops[a].vertices, np.int64) for a in ids]
+    arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
+    info = {}
+    for a, lp, (U, T, N, kap, s0, ok) in zip(ids, rims, arcs):
+        if ok.sum() < 3:
+            continue
+        P = V[lp]
+        c = P.mean(axis=0)
+        _, _, vt = np.linalg.svd(P - c, full_matrices=False)
+        n = vt[2]
+        R = (P - c) - ((P - c) @ n)[:, None] * n
+        R /= np.maximum(np.linalg.norm(R, axis=1, keepdims=True), 1e-300)
+        radial = np.abs(np.sum(N * R, axis=1)) > np.abs(N @ n)
+        if 2 * np.count_nonzero(radial & ok) > np.count_nonzero(ok):
+            info[a] = (c, P[ok], T[ok])
+    keys = sorted(info)
+    cand = []
+    for x, a in enumerate(keys):
+        for b in keys[x + 1:]:
+            if (a, b) in touching:
+                continue
+            ca, cb = info[a][0], info[b][0]
+            if np.linalg.norm(cb - ca) > MAX_REACH * max(loops[a].diameter, loops[b].diameter):
+                continue
+            fa, fb = _heading(info[a][2], info[a][1], cb), _heading(info[b][2], info[b][1], ca)
+            if fa > 0.5 and fb > 0.5:
+                cand.append((float(np.linalg.norm(cb - ca)), a, b, float(min(fa, fb))))
+    used, pairs = set(), []
+    for _, a, b, sc in sorted(cand):
+        if a in used or b in used:
+            continue
+        used.update((a, b))
+        pairs.append((a, b, sc, False))
+    return pairs
+
+
+def _heading(T, P, c):
+    """Share of the rim vertices ``P`` whose scan direction ``T`` heads to
+    the point ``c``: more than ``SIGHT_SLACK`` (the direction estimates'
+    accuracy) towards it, so that a direction across the line to ``c``
+    counts as not heading to it."""
+    D = c - P
+    D = D / np.maximum(np.linalg.norm(D, axis=1, keepdims=True), 1e-300)
+    return float(np.mean(np.sum(T * D, axis=1) > SIGHT_SLACK))
 
 
 def _touching(loops, ids):

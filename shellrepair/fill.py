@@ -940,6 +940,9 @@ _WORKER_CTX = None
 def _run_unit(ctx, unit):
     if isinstance(unit, HoleUnit):
         return [_fill_one(ctx, *unit)], None
+    from .pants import PantsUnit, fill_pants     # (h-pants) three loops, one region
+    if isinstance(unit, PantsUnit):
+        return fill_pants(ctx, unit)
     return _fill_pair(ctx, *unit)
 
 

@@ -74,6 +74,7 @@ from .report import table1_dict
 from .topology import edge_count_delta, edge_topology
 from . import fill as _fill
 from .bridge import _find_bands, split_pinched
+from .pants import PantsUnit, expand, pants_unit
 from .selftest import scan_verdict
 from .fill import SEED_SMOOTH_PASSES, Outcome, _run_chunk, _seed_patches, _worker
 from .merge import _Accepted, _merge
@@ -179,7 +180,10 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     if bridge != "never" and method == "fair":
         pairs = _find_bands(ctx, scan)
     paired = {L.id for A, B, _ in pairs for L in (A, B)}
+    triples = getattr(ctx, "band_triples", [])     # (h-pants) three loops bounding one region
+    paired |= {L.id for t in triples for L in t[:3]}
     units = [BandUnit(A, B, order, smooth, bridge) for A, B, _ in pairs]
+    units += [pants_unit(A, B, C, fb, order, smooth, bridge) for A, B, C, fb in triples]
     units += [HoleUnit(h.id, h.vertices, order, smooth) for h in holes if h.id not in paired]
     units.sort(key=lambda u: u.first_id)
     if method == "seed":
@@ -214,11 +218,13 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
         end_line()
 
     # sequential merge: patches against each other, in hole order
+    units, unit_out = expand(units, unit_out)     # (h-pants) a pants unit's parts
     acc = _Accepted()
     rows = {}
     bridges = []
     for u, (outs, record) in zip(units, unit_out):
-        loops = [u.A, u.B] if isinstance(u, BandUnit) else [scan.loops[u.hole_id]]
+        loops = ([u.A, u.B] if isinstance(u, BandUnit) else [u.A, u.B, u.C] if isinstance(u, PantsUnit)
+                 else [scan.loops[u.hole_id]])
         tube_rejected = None
         tube_ok = False
         for L, (patch, reason, secs, _) in zip(loops, outs):

@@ -96,12 +96,18 @@ def test_checks_of_many_patches_at_once_are_those_of_each():
                      "patch would cross the scan", "non-finite patch positions", None]
 
 
-def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it():
+def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(monkeypatch):
     # a random scanner case (stress seed 61803, case 15: a genus-2 solid
     # 28 % unseen from 9 views): hole 3's patch crossed hole 2's and the
     # hole stayed open; it is now filled again on the scan with the
-    # accepted patches appended, so its checks keep it off them
+    # accepted patches appended, so its checks keep it off them. (Loops 2,
+    # 3 and 6 bound one region, now filled by one pants: the triples are
+    # turned off here to keep the refill tested on this case.)
     import numpy as np
+
+    import shellrepair.pants
+
+    monkeypatch.setattr(shellrepair.pants, "pants_triples", lambda *a, **k: [])
 
     from eval import stress
     from shellrepair.io import Mesh

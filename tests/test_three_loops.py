@@ -1,0 +1,86 @@
+"""A region bounded by three loops is filled by one pair of pants.
+
+The genus-2 shape (two tori joined) missing its bottom below a plane: the
+scan is the top with the two tori's holes, the missing region the bottom,
+bounded by the outline (the waist) and the two holes' inner rims (the
+legs). Capping the three loops (or a tube and a cap) cuts the handles; one
+pants (:mod:`shellrepair.pants`) keeps the genus.
+"""
+
+import numpy as np
+import pytest
+
+from eval import shapes
+from eval.stress import _genus2
+from shellrepair import Mesh, detect_holes
+from shellrepair.pants import pants_is_manifold, pants_triples
+from shellrepair.repair import repair_mesh
+from shellrepair.topology import euler_characteristic
+
+from test_bands import assert_closed_and_clean, filled_rms_permille
+
+
+@pytest.fixture(scope="module")
+def genus2():
+    V, F, _ = _genus2(True)
+    assert euler_characteristic(F, len(V)) == -2
+    return V, F
+
+
+@pytest.mark.parametrize("z_cut", [-0.1, -0.2])
+def test_the_bottom_of_a_genus_2_shape_is_one_pants_and_keeps_the_genus(genus2, z_cut):
+    """At main's 2b26b10 the loops got a tube and a cap: chi 0, genus 1."""
+    V, F = genus2
+    V2, F2, _ = shapes.remove_faces(V, F, V[F].mean(axis=1)[:, 2] < z_cut)
+    assert [L.kind for L in detect_holes(V2, F2).loops] == ["hole"] * 3
+    M = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(M)
+    assert [(len(b["loops"]), b["chosen"]) for b in rep["bridges"]] == [(3, "tube")]
+    assert_closed_and_clean(M, R, rep)
+    assert rep["euler_after"] == euler_characteristic(R.F, len(R.V)) == -2
+    assert filled_rms_permille(V, F, R) < 6.0
+
+
+def test_triples_need_both_legs_to_land_on_the_waist():
+    counts = {0: (np.array([0, 25, 22, 1]), 48), 1: (np.array([41, 0, 2, 0]), 48),
+              2: (np.array([42, 1, 0, 0]), 48), 3: (np.array([1, 0, 0, 40]), 48)}
+    eligible = np.ones(4, bool)
+    assert pants_triples(counts, eligible) == [(0, 1, 2)]
+    lonely = dict(counts)
+    lonely[2] = (np.array([20, 1, 27, 0]), 48)          # most of leg 2's arcs land on itself
+    assert pants_triples(lonely, eligible) == []
+    assert pants_triples(counts, np.array([True, True, False, True])) == []
+    assert pants_triples(counts, eligible, touching={(1, 2), (2, 1)}) == []
+
+
+def test_pants_manifold_check_counts_boundaries_and_genus():
+    # a triangle strip pants is hard to write by hand: a tube (2 loops) is
+    # not a pants, and a pants with one face flipped is not oriented
+    k = 3 + 3
+    tube = np.array([[1, 0, 3], [1, 3, 5], [2, 1, 5], [2, 5, 4], [0, 2, 4], [0, 4, 3]])
+    assert pants_is_manifold(tube, k, [3, 3])
+    assert not pants_is_manifold(tube, k, [3, 2, 1])
+    flipped = tube.copy()
+    flipped[0] = flipped[0][::-1]
+    assert not pants_is_manifold(flipped, k, [3, 3])
+
+
+def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(genus2, monkeypatch):
+    """No first pants: the band the arcs pair and the cap, as without triples."""
+    import shellrepair.pants as pants
+
+    V, F = genus2
+    V2, F2, _ = shapes.remove_faces(V, F, V[F].mean(axis=1)[:, 2] < -0.2)
+    M = Mesh(V=V2, F=F2)
+
+    def no_pants(*args, **kwargs):
+        raise ValueError("forced")
+
+    monkeypatch.setattr(pants, "pants_initial", no_pants)
+    R, rep = repair_mesh(M)
+    assert "forced" in rep["bridges"][0]["pants"]
+    monkeypatch.setattr(pants, "pants_triples", lambda *a, **k: [])
+    R0, rep0 = repair_mesh(M)
+    assert np.array_equal(R.V, R0.V) and np.array_equal(R.F, R0.F)
+    assert rep["holes_after"] == rep0["holes_after"] == 0
+    assert [b["chosen"] for b in rep["bridges"]] == [b["chosen"] for b in rep0["bridges"]]
