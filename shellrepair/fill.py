@@ -940,7 +940,7 @@ _WORKER_CTX = None
 def _run_unit(ctx, unit):
     if isinstance(unit, HoleUnit):
         return [_fill_one(ctx, *unit)], None
-    from .pants import PantsUnit, fill_pants     # (h-pants) three loops, one region
+    from .pants import PantsUnit, fill_pants     # three loops bounding one region
     if isinstance(unit, PantsUnit):
         return fill_pants(ctx, unit)
     return _fill_pair(ctx, *unit)

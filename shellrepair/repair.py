@@ -180,7 +180,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     if bridge != "never" and method == "fair":
         pairs = _find_bands(ctx, scan)
     paired = {L.id for A, B, _ in pairs for L in (A, B)}
-    triples = getattr(ctx, "band_triples", [])     # (h-pants) three loops bounding one region
+    triples = getattr(ctx, "band_triples", [])     # three loops bounding one region
     paired |= {L.id for t in triples for L in t[:3]}
     units = [BandUnit(A, B, order, smooth, bridge) for A, B, _ in pairs]
     units += [pants_unit(A, B, C, fb, order, smooth, bridge) for A, B, C, fb in triples]
@@ -218,7 +218,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
         end_line()
 
     # sequential merge: patches against each other, in hole order
-    units, unit_out = expand(units, unit_out)     # (h-pants) a pants unit's parts
+    units, unit_out = expand(units, unit_out)     # a pants unit: its parts, one per loop
     acc = _Accepted()
     rows = {}
     bridges = []
