@@ -219,6 +219,10 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
 
     # sequential merge: patches against each other, in hole order
     units, unit_out = expand(units, unit_out)     # a pants unit: its parts, one per loop
+    # a pants that fell back to a band and a cap: the cap's loop is a hole
+    # like any other (refilled below where its patch crossed another's)
+    paired = {L.id for u in units if isinstance(u, (BandUnit, PantsUnit))
+              for L in ((u.A, u.B, u.C) if isinstance(u, PantsUnit) else (u.A, u.B))}
     acc = _Accepted()
     rows = {}
     bridges = []

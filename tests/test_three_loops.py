@@ -84,3 +84,24 @@ def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(gen
     assert np.array_equal(R.V, R0.V) and np.array_equal(R.F, R0.F)
     assert rep["holes_after"] == rep0["holes_after"] == 0
     assert [b["chosen"] for b in rep["bridges"]] == [b["chosen"] for b in rep0["bridges"]]
+
+
+def test_a_failed_pants_leaves_its_capped_loop_to_the_refill_like_any_hole():
+    """Stress case s42424-02 (a genus-2 shape 39 % unseen): the pants of
+    loops 3, 7, 14 crosses the scan everywhere it is tried and falls back to
+    the band of 3 and 14 (capped) and a cap on 7, whose cap crosses hole 3's.
+    Loop 7 is then a hole like any other and is filled again around the
+    patches accepted before it. (Before this was fixed the fallback's loops
+    all counted as a band's and loop 7 stayed open.)"""
+    from eval import stress
+
+    shapes_ok = ["torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2", "dumbbell", "star", "bumpy",
+                 "nefertiti", "armadillo", "cheburashka", "rocker", "fandisk"]   # the draw's list with ../shared
+    c = stress.stress_case(2, 42424, shapes_ok=shapes_ok)
+    assert "genus2" in c.name
+    R, rep = repair_mesh(Mesh(V=c.V, F=c.F))
+    assert any("pants of loops 3, 7, 14 failed" in (b.get("pants") or "") for b in rep["bridges"])
+    row = {h["id"]: h for h in rep["holes"]}[7]
+    assert row["status"] == "filled" and "filled again around the patches accepted before it" in row["option"]
+    assert np.array_equal(R.V[:len(c.V)], c.V) and np.array_equal(R.F[:len(c.F)], c.F)
+    assert rep["nonmanifold_edges_after"] == 0
