@@ -842,10 +842,12 @@ def _find_bands(ctx, scan):
             ctx.band_triples.append((*(loops[x] for x in tri), [(loops[i], loops[j]) for i, j, _, _ in inside]))
     used = {x for i, j, _, _ in pairs for x in (i, j)} | {L.id for t in ctx.band_triples for L in t[:3]}
     rest = [a for a in sorted(sights) if a not in used and hole[a]]
+    wrapped = []
     if len(rest) >= 2:
         wrapped = wrapped_pairs(ctx.V, loops, rest, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], touching)
-        if wrapped:
-            pairs = pairs + wrapped
+        pairs = pairs + wrapped
+    # read by _fill_pair: such a pair's caps are filled as the holes alone would be
+    ctx.bands_wrapped = {frozenset((loops[i].id, loops[j].id)) for i, j, _, _ in wrapped}
     return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
 
 

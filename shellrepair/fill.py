@@ -682,7 +682,12 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     # one budget for the band (both loops' edges): the tube's attempts after
     # its first are made only while it lasts, the caps get their shares
     budget = _Budget(len(loop))
+    # a pair found only as wrapping one tube (bridge.wrapped_pairs) may be
+    # two holes that merely wrap a thin part: its caps are filled as those
+    # holes would be alone (``order`` as given, "auto" included)
+    cap_order = order if frozenset((A.id, B.id)) in getattr(ctx, "bands_wrapped", set()) else None
     order = 2 if order == "auto" else order
+    cap_order = order if cap_order is None else cap_order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
     first = "along the continuation arcs"
@@ -756,7 +761,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         for L in (A, B):
             part = budget.part(share * len(L.vertices) / len(loop))
             cap_faults[L.id] = []
-            out.append(_fill_one(ctx, L.id, L.vertices, order, smooth, energy=True, budget=part,
+            out.append(_fill_one(ctx, L.id, L.vertices, cap_order, smooth, energy=True, budget=part,
                                  defer=cap_faults[L.id]))
             budget.absorb(part)
         return out

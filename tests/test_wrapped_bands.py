@@ -97,3 +97,26 @@ def test_the_two_rims_of_a_band_of_a_sphere_head_away_from_each_other():
     assert wrapped == []
     R, rep = repair_mesh(Mesh(V=V2, F=F2))
     assert rep["holes_after"] == 0 and rep["euler_after"] == 2
+
+
+def test_two_discs_that_wrap_a_thin_tube_keep_the_caps_they_get_alone_when_the_tube_fails():
+    """Stress case s42424-05: five discs on a thin torus (radius ratio
+    0.15), two of them wide enough to wrap the tube and facing each other,
+    so they are offered a tube; it folds onto the scan, and the caps are
+    kept. Those caps are filled exactly as the holes alone would be (the
+    default order test included): before, a band's caps were order 2 and
+    the case's RMS doubled (0.96 -> 1.94 per mille)."""
+    from eval import stress
+
+    c = stress.stress_case(5, 42424)
+    assert "torus-0.15" in c.name
+    M = Mesh(V=c.V, F=c.F)
+    R, rep = repair_mesh(M)
+    wrapped = [b for b in rep["bridges"] if b["chosen"] == "caps"]
+    assert len(wrapped) == 1
+    alone = {h["id"]: h for h in repair_mesh(M, bridge="never")[1]["holes"]}
+    for h in rep["holes"]:
+        assert h["status"] == "filled"
+        if h["id"] in wrapped[0]["loops"]:
+            assert h["option"] == alone[h["id"]]["option"]
+    assert_closed_and_clean(M, R, rep)
