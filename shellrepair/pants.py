@@ -331,7 +331,7 @@ def fill_pants(ctx, unit):
         e = pants.energy[_fill.ENERGY] if pants.energy is not None else None
         record = {"loops": [int(A.id), int(B.id), int(C.id)], "kinds": [A.kind, B.kind, C.kind],
                   "tube_energy": None if e is None else round(float(e), 6), "caps_energy": None,
-                  "chosen": "tube", "reason": f"pants: the arcs of loops {B.id} and {C.id} land on loop {A.id}, "
+                  "chosen": "tube", "shape": "pants", "reason": f"pants: the arcs of loops {B.id} and {C.id} land on loop {A.id}, "
                                               f"and loop {A.id}'s on the two"}
         outs = [_fill.Outcome(pants, "", secs, []),
                 _fill.Outcome(None, f"joined with loop {A.id} by a pants", secs, []),

@@ -247,7 +247,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
                                new_faces=int(len(patch.T)), option=patch.option)
             elif record is not None and record.get("chosen") == "tube":
                 if tube_ok:
-                    row.update(status="filled", option="tube", new_vertices=0, new_faces=0)
+                    row.update(status="filled", option=record.get("shape", "tube"), new_vertices=0, new_faces=0)
                 else:
                     row["reason"] = tube_rejected or row["reason"]
             if L.kind == "hole":

@@ -36,6 +36,8 @@ def test_the_bottom_of_a_genus_2_shape_is_one_pants_and_keeps_the_genus(genus2, 
     M = Mesh(V=V2, F=F2)
     R, rep = repair_mesh(M)
     assert [(len(b["loops"]), b["chosen"]) for b in rep["bridges"]] == [(3, "tube")]
+    legs = rep["bridges"][0]["loops"][1:]
+    assert [h["option"] for h in rep["holes"] if h["id"] in legs] == ["pants", "pants"]
     assert_closed_and_clean(M, R, rep)
     assert rep["euler_after"] == euler_characteristic(R.F, len(R.V)) == -2
     assert filled_rms_permille(V, F, R) < 6.0
