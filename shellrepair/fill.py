@@ -651,6 +651,26 @@ def _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget):
     return (P, T) if np.isfinite(P).all() else None
 
 
+def _edges_across(ctx, loops):
+    """Edges the scan has between the ``loops``' vertices, other than the
+    loops' own edges (sorted pairs): a patch joining the loops (a tube, a
+    pants) that made one again would be non-manifold."""
+    verts = np.concatenate([L.vertices for L in loops])
+    edges = {tuple(e) for e in _edges_of(ctx.F[ctx.faces_of(verts)]).tolist()}
+    return edges - {tuple(sorted(e)) for L in loops
+                    for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
+
+
+def _check_joining(ctx, patch, scan_edges, what):
+    """:func:`_check_patch` of a patch joining loops, which also must not
+    repeat one of their ``scan_edges`` (:func:`_edges_across`; ``what``
+    names the patch in the reason)."""
+    why, bad = _check_patch(ctx, patch)
+    if why is None and any(e in scan_edges for e in _scan_edges(patch)):
+        why = f"the {what} would repeat an edge of the scan"
+    return why, bad
+
+
 def _fill_pair(ctx, A, B, order, smooth, mode):
     """A missing region bounded by loops A and B: a tube, or a cap on each.
 
@@ -700,12 +720,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
     tube_faults = []       # (tube, faulty triangles, how it was started) of the tubes that failed their checks
-    # edges the scan has between the two loops' vertices (other than the
-    # loops' own edges): a tube that made one again would be non-manifold
-    Fl = ctx.F[ctx.faces_of(loop)]
-    scan_edges = {tuple(e) for e in _edges_of(Fl).tolist()}
-    own = {tuple(sorted(e)) for L in (A, B) for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
-    scan_edges -= own
+    scan_edges = _edges_across(ctx, (A, B))
 
     def attempt(first, init, o, fair=True, pinned=None, built=None):
         """(the patch if it passes its checks, the faulty triangles, the patch built);
@@ -720,9 +735,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                 why_tube = str(exc)
                 return None, np.zeros(0, np.int64), None
             budget.spend(p)
-        why, bad = _check_patch(ctx, p)
-        if why is None and any(e in scan_edges for e in _scan_edges(p)):
-            why = "the tube would repeat an edge of the scan"
+        why, bad = _check_joining(ctx, p, scan_edges, "tube")
         if why is None:
             how = f"faired order {o}" if fair else "refined, not faired"
             if pinned is not None:
@@ -734,10 +747,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         return None, bad, p
 
     def check_tube(ctx_, p):
-        why, bad = _check_patch(ctx_, p)
-        if why is None and any(e in scan_edges for e in _scan_edges(p)):
-            why = "the tube would repeat an edge of the scan"   # (no triangles to blame: not mended further)
-        return why, bad
+        return _check_joining(ctx_, p, scan_edges, "tube")   # (a repeated edge: no triangles to blame, not mended)
 
     def caps_crossing(caps):
         """Why the two caps cannot both be used, or ''."""

@@ -263,7 +263,6 @@ def fill_pants(ctx, unit):
 
     from . import fill as _fill
     from .bridge import MAX_REACH, continuation_arcs
-    from .merge import _edges_of, _scan_edges
     from .patch import PatchError, _rim_data, build_patch
 
     t0 = time.perf_counter()
@@ -273,15 +272,11 @@ def fill_pants(ctx, unit):
     k = len(loop)
     order = 2 if unit.order == "auto" else unit.order
     budget = _fill._Budget(k)
-    scan_edges = {tuple(e) for e in _edges_of(ctx.F[ctx.faces_of(loop)]).tolist()}
-    scan_edges -= {tuple(sorted(e)) for L in (A, B, C)
-                   for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
+    scan_edges = _fill._edges_across(ctx, (A, B, C))
     why = []
 
     def check(ctx_, p):
-        w, bad = _fill._check_patch(ctx_, p)
-        if w is None and any(e in scan_edges for e in _scan_edges(p)):
-            w = "the pants would repeat an edge of the scan"
+        w, bad = _fill._check_joining(ctx_, p, scan_edges, "pants")
         if w is None and not pants_is_manifold(p.T, k, sizes):
             w = "the pants is not one surface bounded by the three loops"
         return w, bad
