@@ -335,7 +335,7 @@ def arc_points(U, T, N, kappa, s):
 
 
 def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n_arcs=ARCS_PER_LOOP,
-                n_samples=ARC_SAMPLES, slack=SIGHT_SLACK):
+                n_samples=ARC_SAMPLES, slack=SIGHT_SLACK, arcs_out=None):
     """Which loop each loop's continuation arcs land on first.
 
     Parameters
@@ -348,6 +348,9 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
         ``faces_near(loop_vertices)`` -> scan faces within three rings.
     candidates : iterable of int, optional
         Indices of the loops whose arcs are followed (default all).
+    arcs_out : dict, optional
+        Filled with each followed loop's :func:`continuation_arcs` (by
+        index), for a caller that reads them again (:func:`wrapped_pairs`).
 
     Returns
     -------
@@ -368,6 +371,8 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
               if len(loops[a].vertices) >= 2 * SELF_SKIP + 2]
     rims = [np.asarray(loops[a].vertices, np.int64) for a in follow]
     all_arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
+    if arcs_out is not None:
+        arcs_out.update(zip(follow, all_arcs))
     # per followed loop with arcs: its evenly spaced arcs (rows), all loops'
     # rows together; every quantity below is per row or per sample, so it
     # is what the loop alone gives
@@ -818,7 +823,8 @@ def _find_bands(ctx, scan):
     cand = _with_partner(ctx, loops, cand, hole, touching)
     if not cand:
         return []
-    sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], candidates=cand)
+    arcs = {}
+    sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], candidates=cand, arcs_out=arcs)
     # loops that touch (share a vertex, e.g. the pinched pieces of a slit)
     # are one opening split at a pinch, not the two ends of a band
     for a, (counts, m) in sights.items():
@@ -844,14 +850,14 @@ def _find_bands(ctx, scan):
     rest = [a for a in sorted(sights) if a not in used and hole[a]]
     wrapped = []
     if len(rest) >= 2:
-        wrapped = wrapped_pairs(ctx.V, loops, rest, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], touching)
+        wrapped = wrapped_pairs(ctx.V, loops, rest, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], touching, arcs)
         pairs = pairs + wrapped
     # read by _fill_pair: such a pair's caps are filled as the holes alone would be
     ctx.bands_wrapped = {frozenset((loops[i].id, loops[j].id)) for i, j, _, _ in wrapped}
     return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
 
 
-def wrapped_pairs(V, loops, ids, faces_near, touching=()):
+def wrapped_pairs(V, loops, ids, faces_near, touching=(), arcs=None):
     """Pairs of loops that wrap one handle (a thin tube, an arm) and face
     each other across the band missing between them, found from the scan at
     their rims where their continuation arcs do not pair them.
@@ -886,6 +892,9 @@ def wrapped_pairs(V, loops, ids, faces_near, touching=()):
         As for :func:`loop_sights`.
     touching : set of (int, int)
         Loops that share a vertex (never paired).
+    arcs : dict, optional
+        Loops' :func:`continuation_arcs` already known (by index; from
+        :func:`loop_sights`' ``arcs_out``); the others are computed.
 
     Returns
     -------
@@ -897,9 +906,13 @@ def wrapped_pairs(V, loops, ids, faces_near, touching=()):
         the larger diameter are not paired.
     """
     rims = [np.asarray(loops[a].vertices, np.int64) for a in ids]
-    arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
+    known = {} if arcs is None else arcs
+    todo = [x for x, a in enumerate(ids) if a not in known]
+    found = dict(zip(todo, _continuation_arcs_many(V, [faces_near(rims[x]) for x in todo],
+                                                   [rims[x] for x in todo]))) if todo else {}
     info = {}
-    for a, lp, (U, T, N, kap, s0, ok) in zip(ids, rims, arcs):
+    for x, (a, lp) in enumerate(zip(ids, rims)):
+        U, T, N, kap, s0, ok = found[x] if x in found else known[a]
         if ok.sum() < 3:
             continue
         P = V[lp]
