@@ -50,6 +50,12 @@ def interpolation_rate(before, after):
     return 100.0 * (before - after) / before
 
 
+def _and(ids):
+    """``[3, 7, 14]`` -> ``"3, 7 and 14"``."""
+    ids = [str(i) for i in ids]
+    return ids[0] if len(ids) == 1 else ", ".join(ids[:-1]) + " and " + ids[-1]
+
+
 def _r(x, nd=6):
     return float(np.round(float(x), nd)) if x is not None else None
 
@@ -211,7 +217,7 @@ def table1_text(d, *, limit=30):
         lines.append("  filled by: " + ", ".join(f"{k} ×{v}" for k, v in sorted(kinds.items(), key=lambda t: -t[1])))
     for b in d.get("bridges") or []:
         if b["chosen"] == "tube" or "hole" in b.get("kinds", ()):  # borders that stay open need no line
-            lines.append(f"  loops {b['loops'][0]} and {b['loops'][1]}: {b['chosen']} ({b['reason']})")
+            lines.append(f"  loops {_and(b['loops'])}: {b.get('shape') or b['chosen']} ({b['reason']})")
     open_rows = [h for h in d["holes"] if h["status"] != "filled"]
     if open_rows:
         lines.append("  left open:")

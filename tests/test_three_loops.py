@@ -107,3 +107,13 @@ def test_a_failed_pants_leaves_its_capped_loop_to_the_refill_like_any_hole():
     assert row["status"] == "filled" and "filled again around the patches accepted before it" in row["option"]
     assert np.array_equal(R.V[:len(c.V)], c.V) and np.array_equal(R.F[:len(c.F)], c.F)
     assert rep["nonmanifold_edges_after"] == 0
+
+
+def test_the_text_report_names_all_three_loops_of_a_pants(genus2):
+    from shellrepair.report import table1_text
+
+    V, F = genus2
+    V2, F2, _ = shapes.remove_faces(V, F, V[F].mean(axis=1)[:, 2] < -0.2)
+    R, rep = repair_mesh(Mesh(V=V2, F=F2))
+    a, b, c = rep["bridges"][0]["loops"]
+    assert f"  loops {a}, {b} and {c}: pants (pants: " in table1_text(rep)
