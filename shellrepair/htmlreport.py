@@ -359,6 +359,7 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
     html : str
     """
     from . import __version__
+    from .report import loops_phrase
 
     name = Path(str(report.get("file", "scan"))).name
     h, h2 = f"h{level}", f"h{level + 1}"
@@ -380,7 +381,8 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
     bridges = report.get("bridges") or []
     if bridges:
         parts.append(f"<{h2}>Bands</{h2}><ul>" + "".join(
-            f"<li>loops {_e(b.get('loops'))}: {_e(b.get('chosen'))} ({_e(b.get('reason'))})</li>"
+            f"<li>loops {_e(loops_phrase(b['loops']))}: {_e(b.get('shape') or b.get('chosen'))} "
+            f"({_e(b.get('reason'))})</li>"
             for b in bridges) + "</ul>")
     notes = report.get("notes") or []
     parts.append(f"<{h2}>Loading notes</{h2}>")

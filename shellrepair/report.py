@@ -50,7 +50,7 @@ def interpolation_rate(before, after):
     return 100.0 * (before - after) / before
 
 
-def _and(ids):
+def loops_phrase(ids):
     """``[3, 7, 14]`` -> ``"3, 7 and 14"``."""
     ids = [str(i) for i in ids]
     return ids[0] if len(ids) == 1 else ", ".join(ids[:-1]) + " and " + ids[-1]
@@ -217,7 +217,7 @@ def table1_text(d, *, limit=30):
         lines.append("  filled by: " + ", ".join(f"{k} ×{v}" for k, v in sorted(kinds.items(), key=lambda t: -t[1])))
     for b in d.get("bridges") or []:
         if b["chosen"] == "tube" or "hole" in b.get("kinds", ()):  # borders that stay open need no line
-            lines.append(f"  loops {_and(b['loops'])}: {b.get('shape') or b['chosen']} ({b['reason']})")
+            lines.append(f"  loops {loops_phrase(b['loops'])}: {b.get('shape') or b['chosen']} ({b['reason']})")
     open_rows = [h for h in d["holes"] if h["status"] != "filled"]
     if open_rows:
         lines.append("  left open:")

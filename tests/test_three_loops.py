@@ -109,7 +109,8 @@ def test_a_failed_pants_leaves_its_capped_loop_to_the_refill_like_any_hole():
     assert rep["nonmanifold_edges_after"] == 0
 
 
-def test_the_text_report_names_all_three_loops_of_a_pants(genus2):
+def test_the_text_and_html_reports_name_all_three_loops_of_a_pants(genus2):
+    from shellrepair.htmlreport import scan_section
     from shellrepair.report import table1_text
 
     V, F = genus2
@@ -117,3 +118,4 @@ def test_the_text_report_names_all_three_loops_of_a_pants(genus2):
     R, rep = repair_mesh(Mesh(V=V2, F=F2))
     a, b, c = rep["bridges"][0]["loops"]
     assert f"  loops {a}, {b} and {c}: pants (pants: " in table1_text(rep)
+    assert f"<li>loops {a}, {b} and {c}: pants (pants: " in scan_section(rep)
