@@ -219,9 +219,11 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
 
     # sequential merge: patches against each other, in hole order
     units, unit_out = expand(units, unit_out)     # a pants unit: its parts, one per loop
-    # a pants that fell back to a band and a cap: the cap's loop is a hole
-    # like any other (refilled below where its patch crossed another's)
-    paired = {L.id for u in units if isinstance(u, (BandUnit, PantsUnit))
+    # the loops a tube or a pants joins; a band filled by caps (its tube
+    # failed or cost more) and a pants that fell back to a band and a cap
+    # leave holes like any other, refilled below where a patch crossed another's
+    paired = {L.id for u, (_, record) in zip(units, unit_out) if isinstance(u, (BandUnit, PantsUnit))
+              and (record is None or record.get("chosen") != "caps")
               for L in ((u.A, u.B, u.C) if isinstance(u, PantsUnit) else (u.A, u.B))}
     acc = _Accepted()
     rows = {}
