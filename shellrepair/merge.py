@@ -106,6 +106,14 @@ class _Accepted:
         """Put ``patch`` (the same hole, the same scan edges) in item ``j``'s place."""
         self._set(j, (patch, C, np.where(ids < 0, ids - 10 ** 12 * (j + 1), ids)))
 
+    def exchange(self, j, patch, C, ids):
+        """Put ``patch`` in item ``j``'s place where it joins other loops than
+        the item's (a tube in place of one of its loops' caps): the scan edges
+        the item created go, the patch's come."""
+        self.edges.difference_update(_scan_edges(self.items[j][0]))
+        self.edges.update(_scan_edges(patch))
+        self.replace(j, patch, C, ids)
+
     def _set(self, j, item):
         """Item ``j`` becomes ``item`` (patch, corners, ids); its box follows."""
         self.items[j] = item

@@ -59,6 +59,7 @@ intuitive framework for real-time freeform modeling", SIGGRAPH 2004.
 
 from __future__ import annotations
 
+import re
 import time
 from typing import Any, Optional
 
@@ -256,6 +257,8 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
                 rows[L.id] = row
         if record is not None:
             bridges.append(record)
+    if method == "fair" and bridge != "never":
+        _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges)
     _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method)
     rows = [rows[h.id] for h in holes if h.id in rows]
     accepted = [it[0] for it in acc.items]
@@ -296,6 +299,47 @@ def _note_swap(rows, swapped):
     if swapped is not None and swapped.hole_id in rows:
         rows[swapped.hole_id].update(reason=swapped.option, option=swapped.option,
                                      new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)))
+
+
+_CROSSED = re.compile(r"patch would cross the patch of hole (\d+)$")
+
+
+def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges):
+    """Two single holes whose caps cross each other cannot both be capped:
+    the region missing between them is a band their continuation arcs did
+    not pair (on a fat torus's inner side half of each loop's arcs land on
+    the other loop and half on itself, no majority). Each such pair, in
+    hole order, is filled as a band (:func:`shellrepair.fill._fill_pair`:
+    its caps, which cross, then the tube); a tube that passes its checks
+    and crosses no other accepted patch takes the place of the earlier
+    hole's cap. ``rows``, ``bridges`` and ``paired`` (the two loops) are
+    updated in place; a pair left as it was goes on to
+    :func:`_refill_crossed`."""
+    for hid in sorted(rows):
+        row = rows[hid]
+        m = _CROSSED.match(str(row["reason"]))
+        if row["status"] != "failed" or m is None or hid in paired:
+            continue
+        other = int(m.group(1))
+        if other in paired or other not in rows or rows[other]["status"] != "filled":
+            continue
+        A, B = scan.loops[other], scan.loops[hid]
+        j = next((k for k, it in enumerate(acc.items) if it[0].hole_id == other), None)
+        if j is None or A.kind != "hole" or np.intersect1d(A.vertices, B.vertices).size:
+            continue
+        outs, record = _fill._fill_pair(ctx, A, B, order, smooth, mode)
+        row["seconds"] = round(row["seconds"] + outs[0].seconds, 4)
+        tube = outs[0].patch if record.get("chosen") == "tube" else None
+        why, corners = acc.conflict(ctx, tube, skip=j) if tube is not None else ("", None)
+        if why is not None:
+            continue
+        acc.exchange(j, tube, *corners)
+        record["reason"] = f"the two holes' caps cross each other; {record['reason']}"
+        bridges.append(record)
+        paired.update((other, hid))
+        rows[other].update(status="filled", reason=tube.option, option=tube.option,
+                           new_vertices=int(len(tube.P)), new_faces=int(len(tube.T)))
+        row.update(status="filled", reason=outs[1].reason, option="tube", new_vertices=0, new_faces=0)
 
 
 def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method):

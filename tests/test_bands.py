@@ -672,3 +672,42 @@ def test_loops_left_out_of_the_band_search_land_on_no_loop_they_could_pair_with(
         monkeypatch.undo()
         assert with_filter == without
     assert dropped >= 1
+
+
+# --------------------------------------------------------------------------
+# two holes whose caps cross each other
+# --------------------------------------------------------------------------
+def test_holes_whose_caps_cross_each_other_are_joined_by_a_tube(monkeypatch):
+    """The torus's inner band with the arcs' pairing taken away: each loop
+    is filled alone, the two caps cross (both span the torus's hole), so the
+    pair is filled as a band after all, and the tube keeps the genus."""
+    import shellrepair.repair as rp
+
+    monkeypatch.setattr(rp, "_find_bands", lambda ctx, scan: [])
+    V, F, V2, F2, _ = torus_inner_band(3)
+    M = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(M)
+    assert [(b["chosen"], b["reason"].split(";")[0]) for b in rep["bridges"]] == [
+        ("tube", "the two holes' caps cross each other")]
+    assert_closed_and_clean(M, R, rep)
+    assert rep["euler_after"] == 0
+    assert filled_rms_permille(V, F, R) < 5.0
+
+
+def test_a_fat_torus_seen_from_a_ring_keeps_its_genus():
+    """Stress case s86420-04 (torus r/R = 0.7, 4 views): two coaxial loops
+    on the inner side send half their arcs to each other and half to
+    themselves, so the arcs pair nothing; each cap crosses the other. At
+    e950432 loop 1 stayed open (its refill around loop 0's cap ran out of
+    budget); now the two are one tube."""
+    from eval import stress
+
+    c = stress.stress_case(4, 86420, shapes_ok=["torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2",
+                                                "dumbbell", "star", "bumpy", "nefertiti", "armadillo",
+                                                "cheburashka", "rocker", "fandisk"])
+    assert "torus-0.7" in c.name
+    M = Mesh(V=c.V, F=c.F)
+    R, rep = repair_mesh(M)
+    assert [sorted(b["loops"]) for b in rep["bridges"] if b["chosen"] == "tube"] == [[0, 1]]
+    assert_closed_and_clean(M, R, rep)
+    assert rep["euler_after"] == 0
