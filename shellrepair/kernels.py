@@ -24,6 +24,9 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   the same);
 * :func:`separated`: pairs a certified plane test rules out before the
   exact crossing tests;
+* :func:`cross_status`: the crossing test of triangle pairs where its float
+  filters decide (:func:`shellrepair.intersect.triangles_cross`), the rest
+  left to it;
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
@@ -67,7 +70,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "cross_status", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -659,6 +662,168 @@ def separated(A, Aid, ai, B, Bid, bj, side_bound, tiny):
     c = np.ascontiguousarray
     return _separated(c(A, np.float64), c(Aid, np.int64), c(ai, np.int64), c(B, np.float64), c(Bid, np.int64),
                       c(bj, np.int64), float(side_bound), float(tiny))
+
+
+#: :func:`cross_status` codes: the pair does not cross, crosses, or was not
+#: decided by the float filters (the caller's exact NumPy test decides).
+APART, CROSS, UNDECIDED = 0, 1, 2
+
+
+@njit(cache=True, nogil=True)
+def _o3d(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, o3d_bound, tiny):
+    """:func:`shellrepair.predicates.orient3d` of one row where its float
+    filter (or its exact-zero shortcuts) decides, else 2: the same
+    products, sums and bound."""
+    adx, bdx, cdx = ax - dx, bx - dx, cx - dx
+    ady, bdy, cdy = ay - dy, by - dy, cy - dy
+    adz, bdz, cdz = az - dz, bz - dz, cz - dz
+    bdxcdy, cdxbdy = bdx * cdy, cdx * bdy
+    cdxady, adxcdy = cdx * ady, adx * cdy
+    adxbdy, bdxady = adx * bdy, bdx * ady
+    det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady)
+    perm = (abs(adz) * (abs(bdxcdy) + abs(cdxbdy))
+            + abs(bdz) * (abs(cdxady) + abs(adxcdy))
+            + abs(cdz) * (abs(adxbdy) + abs(bdxady)))
+    if abs(det) > o3d_bound * perm and perm >= tiny and np.isfinite(perm):
+        return 1 if det > 0 else -1
+    # exactly zero without arithmetic: two equal points, or the four in one axis-aligned plane
+    if ((ax == bx and ay == by and az == bz) or (ax == cx and ay == cy and az == cz)
+            or (ax == dx and ay == dy and az == dz) or (bx == cx and by == cy and bz == cz)
+            or (bx == dx and by == dy and bz == dz) or (cx == dx and cy == dy and cz == dz)
+            or (ax == bx and ax == cx and ax == dx) or (ay == by and ay == cy and ay == dy)
+            or (az == bz and az == cz and az == dz)):
+        return 0
+    return 2
+
+
+@njit(cache=True, nogil=True)
+def _side_signs(T, P, known, s, side_bound, o3d_bound, tiny):
+    """:func:`shellrepair.intersect._plane_signs` of one pair into ``s``
+    (the sides of P's corners of T's plane; 2 where the filters cannot
+    decide); returns whether every sign was decided."""
+    t0x, t0y, t0z = T[0, 0], T[0, 1], T[0, 2]
+    e1x, e1y, e1z = T[1, 0] - t0x, T[1, 1] - t0y, T[1, 2] - t0z
+    e2x, e2y, e2z = T[2, 0] - t0x, T[2, 1] - t0y, T[2, 2] - t0z
+    n0, n1, n2 = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    m0 = abs(e1y * e2z) + abs(e1z * e2y)
+    m1 = abs(e1z * e2x) + abs(e1x * e2z)
+    m2 = abs(e1x * e2y) + abs(e1y * e2x)
+    ok = True
+    for i in range(3):
+        if known[i]:
+            s[i] = 0
+            continue
+        w0, w1, w2 = P[i, 0] - t0x, P[i, 1] - t0y, P[i, 2] - t0z
+        det = n0 * w0 + n1 * w1 + n2 * w2
+        perm = m0 * abs(w0) + m1 * abs(w1) + m2 * abs(w2)
+        if abs(det) > side_bound * perm and perm >= tiny and np.isfinite(perm):
+            s[i] = -1 if det > 0 else 1
+        else:
+            s[i] = _o3d(t0x, t0y, t0z, T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2],
+                        P[i, 0], P[i, 1], P[i, 2], o3d_bound, tiny)
+            if s[i] == 2:
+                ok = False
+    return ok
+
+
+@njit(cache=True, nogil=True)
+def _alone_corner(s):
+    """intersect._alone of one sign row: the corner alone on its side."""
+    npos = 0
+    for i in range(3):
+        if s[i] > 0:
+            npos += 1
+    want = 1 if npos == 1 else -1
+    for i in range(3):
+        if (s[i] > 0) if want == 1 else (s[i] < 0):
+            return i
+    return 0
+
+
+@njit(cache=True, nogil=True)
+def _cross_one(a, ia, b, ib, sa, sb, side_bound, o3d_bound, tiny):
+    """One pair of :func:`_cross_status`: ``a``, ``b`` (3,3) corners, ``ia``,
+    ``ib`` (3,) corner ids; ``sa``, ``sb`` (3,) scratch."""
+    ka = np.zeros(3, np.bool_)
+    kb = np.zeros(3, np.bool_)
+    for x in range(3):
+        for y in range(3):
+            if ia[x] == ib[y]:
+                ka[x] = True
+                kb[y] = True
+    if not _side_signs(a, b, kb, sb, side_bound, o3d_bound, tiny):
+        return UNDECIDED
+    pos_b = sb[0] > 0 or sb[1] > 0 or sb[2] > 0
+    neg_b = sb[0] < 0 or sb[1] < 0 or sb[2] < 0
+    if sb[0] == 0 and sb[1] == 0 and sb[2] == 0:
+        return UNDECIDED                           # in one plane: the NumPy test
+    if not (pos_b and neg_b):
+        return APART
+    if not _side_signs(b, a, ka, sa, side_bound, o3d_bound, tiny):
+        return UNDECIDED
+    if sa[0] == 0 and sa[1] == 0 and sa[2] == 0:
+        return UNDECIDED
+    if not ((sa[0] > 0 or sa[1] > 0 or sa[2] > 0) and (sa[0] < 0 or sa[1] < 0 or sa[2] < 0)):
+        return APART
+    # both straddle: intersect._straddling_cross (Guigue-Devillers)
+    ra, rb = _alone_corner(sa), _alone_corner(sb)
+    pa, qa, xa = ra, (ra + 1) % 3, (ra + 2) % 3
+    pb, qb, xb = rb, (rb + 1) % 3, (rb + 2) % 3
+    if sa[ra] < 0:
+        qb, xb = xb, qb
+    if sb[rb] < 0:
+        qa, xa = xa, qa
+    s1 = _o3d(a[pa, 0], a[pa, 1], a[pa, 2], a[qa, 0], a[qa, 1], a[qa, 2],
+              b[pb, 0], b[pb, 1], b[pb, 2], b[qb, 0], b[qb, 1], b[qb, 2], o3d_bound, tiny)
+    if s1 != 2 and s1 >= 0:
+        return APART
+    s2 = _o3d(a[pa, 0], a[pa, 1], a[pa, 2], a[xa, 0], a[xa, 1], a[xa, 2],
+              b[xb, 0], b[xb, 1], b[xb, 2], b[pb, 0], b[pb, 1], b[pb, 2], o3d_bound, tiny)
+    if s2 != 2 and s2 >= 0:
+        return APART
+    if s1 == 2 or s2 == 2:
+        return UNDECIDED
+    return CROSS
+
+
+@njit(cache=True, nogil=True)
+def _cross_status(A, Aid, ai, B, Bid, bj, side_bound, o3d_bound, tiny):
+    out = np.empty(ai.size, np.int8)
+    sa = np.empty(3, np.int64)
+    sb = np.empty(3, np.int64)
+    for q in range(ai.size):
+        i, j = ai[q], bj[q]
+        out[q] = _cross_one(A[i], Aid[i], B[j], Bid[j], sa, sb, side_bound, o3d_bound, tiny)
+    return out
+
+
+def cross_status(A, Aid, ai, B, Bid, bj, side_bound, o3d_bound, tiny):
+    """Do the triangle pairs (A[ai], B[bj]) cross? The tests of
+    :func:`shellrepair.intersect.triangles_cross` (ids equal: corners known
+    to be shared) for the pairs its float filters decide: the plane sides,
+    then, for pairs that straddle each other's plane, the two orient3d
+    signs of the segment overlap, each by the filter and the exact-zero
+    shortcuts of :func:`shellrepair.predicates.orient3d`. Every decided
+    answer is the exact one; pairs that need exact arithmetic or lie in
+    one plane (or have a zero-area triangle) are left ``UNDECIDED`` for
+    the NumPy test.
+
+    Parameters
+    ----------
+    A, B : (a,3,3), (b,3,3) float64
+    Aid, Bid : (a,3), (b,3) int64
+    ai, bj : (p,) int64
+    side_bound, o3d_bound, tiny : float
+        The plane filter's and orient3d's error factors, the smallest trusted permanent.
+
+    Returns
+    -------
+    status : (p,) int8
+        ``APART``, ``CROSS`` or ``UNDECIDED`` per pair.
+    """
+    c = np.ascontiguousarray
+    return _cross_status(c(A, np.float64), c(Aid, np.int64), c(ai, np.int64), c(B, np.float64),
+                         c(Bid, np.int64), c(bj, np.int64), float(side_bound), float(o3d_bound), float(tiny))
 
 
 # --------------------------------------------------------------------------
@@ -2443,6 +2608,8 @@ def warm_up():
           np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
+    cross_status(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 0.25, np.array([[3, 4, 5]]),
+                 np.zeros(1, np.int64), 1e-15, 1e-15, 1e-280)
     nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
