@@ -436,8 +436,15 @@ def _pairs_cross(A, Aid, ai, B, Bid, bj):
     u = np.flatnonzero(st == kernels.UNDECIDED)
     for s in range(0, len(u), 200_000):
         a, b = ai[u[s:s + 200_000]], bj[u[s:s + 200_000]]
-        hit[u[s:s + 200_000]] = triangles_cross(A[a], B[b], Aid[a][:, :, None] == Bid[b][:, None, :])
+        hit[u[s:s + 200_000]] = pair_intersections_numpy(A[a], Aid[a], B[b], Bid[b])
     return hit
+
+
+def pair_intersections_numpy(A, Aid, B, Bid):
+    """:func:`pair_intersections` in NumPy (the compiled filters' oracle)."""
+    Aid = np.asarray(Aid)
+    Bid = np.asarray(Bid)
+    return triangles_cross(A, B, Aid[:, :, None] == Bid[:, None, :])
 
 
 class TriangleIndex:
@@ -707,12 +714,15 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
     if kernels.ENABLED and hasattr(index, "faces_near") and np.isfinite(Q).all():
         # the near faces' boxes against the patch's (kernels.box_pairs): a
         # superset of the crossing pairs, as the sphere pairs below are
-        qmin, qmax = Q.min(axis=1), Q.max(axis=1)
-        f = index.faces_near(qmin.min(axis=0) + index.origin, qmax.max(axis=0) + index.origin)
-        Ff = index.F[f]
-        Tf = index.V[Ff] - index.origin
-        ai, bj = kernels.box_pairs(qmin, qmax, Tf.min(axis=1), Tf.max(axis=1))
-        hit = _pairs_cross(Q, np.asarray(Pid, np.int64), ai, Tf, Ff, bj)
+        P = Q.reshape(-1, 3)
+        f = index.faces_near(P.min(axis=0) + index.origin, P.max(axis=0) + index.origin)
+        Pid = np.asarray(Pid, np.int64)
+        ai, bj, st = kernels.patch_pairs(Q, Pid, f, index.V, index.F, index.origin, SIDE_BOUND, O3D_BOUND, TINY)
+        hit = st == kernels.CROSS
+        u = np.flatnonzero(st == kernels.UNDECIDED)
+        if u.size:   # in one plane, or signs the filters cannot certify: the exact tests
+            a, b = ai[u], f[bj[u]]
+            hit[u] = pair_intersections_numpy(Q[a], Pid[a], index.V[index.F[b]] - index.origin, index.F[b])
         if return_pairs:
             return np.column_stack([ai[hit], f[bj[hit]]])
         return uniq(ai[hit]) if return_faces else int(hit.sum())

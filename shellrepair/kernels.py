@@ -26,7 +26,8 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   exact crossing tests;
 * :func:`cross_status`: the crossing test of triangle pairs where its float
   filters decide (:func:`shellrepair.intersect.triangles_cross`), the rest
-  left to it;
+  left to it, and :func:`patch_pairs`: a patch's candidate pairs with the
+  scan and their tests in one call;
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
@@ -70,7 +71,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "cross_status", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "cross_status", "patch_pairs", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -340,27 +341,41 @@ def _faces_in_box(vkey, vorder, V, vf_order, vf_start, big, lo2, h, ny, lo, hi, 
     c01 = max(np.floor((lo[1] - lo2[1]) / h), 0.0)
     c10 = np.floor((hi[0] - lo2[0]) / h)
     c11 = min(np.floor((hi[1] - lo2[1]) / h), ny - 1.0)
-    found = np.empty(64, np.int64)
+    # the vertices in the box, then their faces: arrays sized in advance (an
+    # array grown inside the loops costs reference counts at every step)
+    nrow = int(c10) - int(c00) + 1 if not (c10 < c00 or c11 < c01) else 0
+    ra = np.empty(max(nrow, 0), np.int64)
+    rb = np.empty(max(nrow, 0), np.int64)
+    total = 0
+    for r in range(nrow):
+        row = int(c00) + r
+        ra[r] = np.searchsorted(vkey, row * ny + int(c01), side="left")
+        rb[r] = np.searchsorted(vkey, row * ny + int(c11), side="right")
+        total += rb[r] - ra[r]
+    inbox = np.empty(total, np.int64)
+    nv = 0
+    bound = big.size
+    for r in range(nrow):
+        for p in range(ra[r], rb[r]):
+            v = vorder[p]
+            if (lo[0] <= V[v, 0] <= hi[0] and lo[1] <= V[v, 1] <= hi[1]
+                    and lo[2] <= V[v, 2] <= hi[2]):
+                inbox[nv] = v
+                nv += 1
+                bound += vf_start[v + 1] - vf_start[v]
+    found = np.empty(bound, np.int64)
     nf = 0
-    if not (c10 < c00 or c11 < c01):
-        for row in range(int(c00), int(c10) + 1):
-            a = np.searchsorted(vkey, row * ny + int(c01), side="left")
-            b = np.searchsorted(vkey, row * ny + int(c11), side="right")
-            for p in range(a, b):
-                v = vorder[p]
-                if (lo[0] <= V[v, 0] <= hi[0] and lo[1] <= V[v, 1] <= hi[1]
-                        and lo[2] <= V[v, 2] <= hi[2]):
-                    for q in range(vf_start[v], vf_start[v + 1]):
-                        f = vf_order[q] // 3
-                        if not fmark[f]:
-                            fmark[f] = True
-                            found = _grow(found, nf)
-                            found[nf] = f
-                            nf += 1
+    for k in range(nv):
+        v = inbox[k]
+        for q in range(vf_start[v], vf_start[v + 1]):
+            f = vf_order[q] // 3
+            if not fmark[f]:
+                fmark[f] = True
+                found[nf] = f
+                nf += 1
     for f in big:
         if not fmark[f]:
             fmark[f] = True
-            found = _grow(found, nf)
             found[nf] = f
             nf += 1
     for j in range(nf):
@@ -697,88 +712,93 @@ def _o3d(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, o3d_bound, tiny):
 
 
 @njit(cache=True, nogil=True)
-def _side_signs(T, P, known, s, side_bound, o3d_bound, tiny):
-    """:func:`shellrepair.intersect._plane_signs` of one pair into ``s``
-    (the sides of P's corners of T's plane; 2 where the filters cannot
-    decide); returns whether every sign was decided."""
-    t0x, t0y, t0z = T[0, 0], T[0, 1], T[0, 2]
-    e1x, e1y, e1z = T[1, 0] - t0x, T[1, 1] - t0y, T[1, 2] - t0z
-    e2x, e2y, e2z = T[2, 0] - t0x, T[2, 1] - t0y, T[2, 2] - t0z
+def _side(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, n0, n1, n2, m0, m1, m2, px, py, pz,
+          side_bound, o3d_bound, tiny):
+    """The side of p of the plane through t0, t1, t2 (normal n, its
+    permanent factors m): intersect._plane_signs of one point, 2 where the
+    filters cannot decide."""
+    w0, w1, w2 = px - t0x, py - t0y, pz - t0z
+    det = n0 * w0 + n1 * w1 + n2 * w2
+    perm = m0 * abs(w0) + m1 * abs(w1) + m2 * abs(w2)
+    if abs(det) > side_bound * perm and perm >= tiny and np.isfinite(perm):
+        return -1 if det > 0 else 1
+    return _o3d(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, px, py, pz, o3d_bound, tiny)
+
+
+@njit(cache=True, nogil=True)
+def _side_signs(TT, t, PP, p, known, side_bound, o3d_bound, tiny):
+    """:func:`shellrepair.intersect._plane_signs` of one pair: the sides of
+    the corners of ``PP[p]`` of the plane of ``TT[t]`` (2 where the filters
+    cannot decide; 0 for corners whose bit is set in ``known``)."""
+    t0x, t0y, t0z = TT[t, 0, 0], TT[t, 0, 1], TT[t, 0, 2]
+    t1x, t1y, t1z = TT[t, 1, 0], TT[t, 1, 1], TT[t, 1, 2]
+    t2x, t2y, t2z = TT[t, 2, 0], TT[t, 2, 1], TT[t, 2, 2]
+    e1x, e1y, e1z = t1x - t0x, t1y - t0y, t1z - t0z
+    e2x, e2y, e2z = t2x - t0x, t2y - t0y, t2z - t0z
     n0, n1, n2 = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
     m0 = abs(e1y * e2z) + abs(e1z * e2y)
     m1 = abs(e1z * e2x) + abs(e1x * e2z)
     m2 = abs(e1x * e2y) + abs(e1y * e2x)
-    ok = True
-    for i in range(3):
-        if known[i]:
-            s[i] = 0
-            continue
-        w0, w1, w2 = P[i, 0] - t0x, P[i, 1] - t0y, P[i, 2] - t0z
-        det = n0 * w0 + n1 * w1 + n2 * w2
-        perm = m0 * abs(w0) + m1 * abs(w1) + m2 * abs(w2)
-        if abs(det) > side_bound * perm and perm >= tiny and np.isfinite(perm):
-            s[i] = -1 if det > 0 else 1
-        else:
-            s[i] = _o3d(t0x, t0y, t0z, T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2],
-                        P[i, 0], P[i, 1], P[i, 2], o3d_bound, tiny)
-            if s[i] == 2:
-                ok = False
-    return ok
+    s0 = s1 = s2 = 0
+    if not known & 1:
+        s0 = _side(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, n0, n1, n2, m0, m1, m2,
+                   PP[p, 0, 0], PP[p, 0, 1], PP[p, 0, 2], side_bound, o3d_bound, tiny)
+    if not known & 2:
+        s1 = _side(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, n0, n1, n2, m0, m1, m2,
+                   PP[p, 1, 0], PP[p, 1, 1], PP[p, 1, 2], side_bound, o3d_bound, tiny)
+    if not known & 4:
+        s2 = _side(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, n0, n1, n2, m0, m1, m2,
+                   PP[p, 2, 0], PP[p, 2, 1], PP[p, 2, 2], side_bound, o3d_bound, tiny)
+    return s0, s1, s2
 
 
 @njit(cache=True, nogil=True)
-def _alone_corner(s):
-    """intersect._alone of one sign row: the corner alone on its side."""
-    npos = 0
-    for i in range(3):
-        if s[i] > 0:
-            npos += 1
-    want = 1 if npos == 1 else -1
-    for i in range(3):
-        if (s[i] > 0) if want == 1 else (s[i] < 0):
-            return i
-    return 0
+def _alone_corner(s0, s1, s2):
+    """intersect._alone of one sign row: the corner alone on its side (the
+    first positive one when one is positive, else the first negative one)."""
+    if (s0 > 0) + (s1 > 0) + (s2 > 0) == 1:
+        return 0 if s0 > 0 else 1 if s1 > 0 else 2
+    return 0 if s0 < 0 else 1 if s1 < 0 else 2
 
 
 @njit(cache=True, nogil=True)
-def _cross_one(a, ia, b, ib, sa, sb, side_bound, o3d_bound, tiny):
-    """One pair of :func:`_cross_status`: ``a``, ``b`` (3,3) corners, ``ia``,
-    ``ib`` (3,) corner ids; ``sa``, ``sb`` (3,) scratch."""
-    ka = np.zeros(3, np.bool_)
-    kb = np.zeros(3, np.bool_)
+def _cross_one(A, Aid, i, B, Bid, j, side_bound, o3d_bound, tiny):
+    """One pair of :func:`_cross_status`, ``A[i]`` and ``B[j]``."""
+    ka = 0       # bit x: corner x of A is a corner of B (the same id)
+    kb = 0
     for x in range(3):
         for y in range(3):
-            if ia[x] == ib[y]:
-                ka[x] = True
-                kb[y] = True
-    if not _side_signs(a, b, kb, sb, side_bound, o3d_bound, tiny):
+            if Aid[i, x] == Bid[j, y]:
+                ka |= 1 << x
+                kb |= 1 << y
+    b0, b1, b2 = _side_signs(A, i, B, j, kb, side_bound, o3d_bound, tiny)
+    if b0 == 2 or b1 == 2 or b2 == 2:
         return UNDECIDED
-    pos_b = sb[0] > 0 or sb[1] > 0 or sb[2] > 0
-    neg_b = sb[0] < 0 or sb[1] < 0 or sb[2] < 0
-    if sb[0] == 0 and sb[1] == 0 and sb[2] == 0:
+    if b0 == 0 and b1 == 0 and b2 == 0:
         return UNDECIDED                           # in one plane: the NumPy test
-    if not (pos_b and neg_b):
+    if not ((b0 > 0 or b1 > 0 or b2 > 0) and (b0 < 0 or b1 < 0 or b2 < 0)):
         return APART
-    if not _side_signs(b, a, ka, sa, side_bound, o3d_bound, tiny):
+    a0, a1, a2 = _side_signs(B, j, A, i, ka, side_bound, o3d_bound, tiny)
+    if a0 == 2 or a1 == 2 or a2 == 2:
         return UNDECIDED
-    if sa[0] == 0 and sa[1] == 0 and sa[2] == 0:
+    if a0 == 0 and a1 == 0 and a2 == 0:
         return UNDECIDED
-    if not ((sa[0] > 0 or sa[1] > 0 or sa[2] > 0) and (sa[0] < 0 or sa[1] < 0 or sa[2] < 0)):
+    if not ((a0 > 0 or a1 > 0 or a2 > 0) and (a0 < 0 or a1 < 0 or a2 < 0)):
         return APART
     # both straddle: intersect._straddling_cross (Guigue-Devillers)
-    ra, rb = _alone_corner(sa), _alone_corner(sb)
+    ra, rb = _alone_corner(a0, a1, a2), _alone_corner(b0, b1, b2)
     pa, qa, xa = ra, (ra + 1) % 3, (ra + 2) % 3
     pb, qb, xb = rb, (rb + 1) % 3, (rb + 2) % 3
-    if sa[ra] < 0:
+    if (a0, a1, a2)[ra] < 0:
         qb, xb = xb, qb
-    if sb[rb] < 0:
+    if (b0, b1, b2)[rb] < 0:
         qa, xa = xa, qa
-    s1 = _o3d(a[pa, 0], a[pa, 1], a[pa, 2], a[qa, 0], a[qa, 1], a[qa, 2],
-              b[pb, 0], b[pb, 1], b[pb, 2], b[qb, 0], b[qb, 1], b[qb, 2], o3d_bound, tiny)
+    s1 = _o3d(A[i, pa, 0], A[i, pa, 1], A[i, pa, 2], A[i, qa, 0], A[i, qa, 1], A[i, qa, 2],
+              B[j, pb, 0], B[j, pb, 1], B[j, pb, 2], B[j, qb, 0], B[j, qb, 1], B[j, qb, 2], o3d_bound, tiny)
     if s1 != 2 and s1 >= 0:
         return APART
-    s2 = _o3d(a[pa, 0], a[pa, 1], a[pa, 2], a[xa, 0], a[xa, 1], a[xa, 2],
-              b[xb, 0], b[xb, 1], b[xb, 2], b[pb, 0], b[pb, 1], b[pb, 2], o3d_bound, tiny)
+    s2 = _o3d(A[i, pa, 0], A[i, pa, 1], A[i, pa, 2], A[i, xa, 0], A[i, xa, 1], A[i, xa, 2],
+              B[j, xb, 0], B[j, xb, 1], B[j, xb, 2], B[j, pb, 0], B[j, pb, 1], B[j, pb, 2], o3d_bound, tiny)
     if s2 != 2 and s2 >= 0:
         return APART
     if s1 == 2 or s2 == 2:
@@ -789,11 +809,8 @@ def _cross_one(a, ia, b, ib, sa, sb, side_bound, o3d_bound, tiny):
 @njit(cache=True, nogil=True)
 def _cross_status(A, Aid, ai, B, Bid, bj, side_bound, o3d_bound, tiny):
     out = np.empty(ai.size, np.int8)
-    sa = np.empty(3, np.int64)
-    sb = np.empty(3, np.int64)
     for q in range(ai.size):
-        i, j = ai[q], bj[q]
-        out[q] = _cross_one(A[i], Aid[i], B[j], Bid[j], sa, sb, side_bound, o3d_bound, tiny)
+        out[q] = _cross_one(A, Aid, ai[q], B, Bid, bj[q], side_bound, o3d_bound, tiny)
     return out
 
 
@@ -824,6 +841,106 @@ def cross_status(A, Aid, ai, B, Bid, bj, side_bound, o3d_bound, tiny):
     c = np.ascontiguousarray
     return _cross_status(c(A, np.float64), c(Aid, np.int64), c(ai, np.int64), c(B, np.float64),
                          c(Bid, np.int64), c(bj, np.int64), float(side_bound), float(o3d_bound), float(tiny))
+
+
+@njit(cache=True, nogil=True)
+def _min3(a, b, c):
+    """np.min of three values (NaN propagates)."""
+    m = a
+    if b < m or b != b:
+        m = b
+    if m == m and (c < m or c != c):
+        m = c
+    return m
+
+
+@njit(cache=True, nogil=True)
+def _max3(a, b, c):
+    """np.max of three values (NaN propagates)."""
+    m = a
+    if b > m or b != b:
+        m = b
+    if m == m and (c > m or c != c):
+        m = c
+    return m
+
+
+@njit(cache=True, nogil=True)
+def _boxes(T):
+    lo = np.empty((T.shape[0], 3))
+    hi = np.empty((T.shape[0], 3))
+    for t in range(T.shape[0]):
+        for c in range(3):
+            lo[t, c] = _min3(T[t, 0, c], T[t, 1, c], T[t, 2, c])
+            hi[t, c] = _max3(T[t, 0, c], T[t, 1, c], T[t, 2, c])
+    return lo, hi
+
+
+#: Patch triangles × faces up to which :func:`patch_pairs` compares all
+#: boxes (above: :func:`box_pairs`' grid); the same pairs either way.
+PAIRS_BRUTE = 8192
+
+
+@njit(cache=True, nogil=True)
+def _patch_pairs(Q, Qid, f, V, F, origin, side_bound, o3d_bound, tiny):
+    nf = f.size
+    T = np.empty((nf, 3, 3))
+    Tid = np.empty((nf, 3), np.int64)
+    for j in range(nf):
+        for k in range(3):
+            v = F[f[j], k]
+            Tid[j, k] = v
+            for c in range(3):
+                T[j, k, c] = V[v, c] - origin[c]
+    qlo, qhi = _boxes(Q)
+    tlo, thi = _boxes(T)
+    if Q.shape[0] * nf <= PAIRS_BRUTE:
+        ai = np.empty(Q.shape[0] * nf, np.int64)     # (no growing in the loop: that costs
+        bj = np.empty(Q.shape[0] * nf, np.int64)     # reference counts at every step)
+        n = 0
+        for i in range(Q.shape[0]):
+            for j in range(nf):
+                if (qlo[i, 0] <= thi[j, 0] and tlo[j, 0] <= qhi[i, 0] and qlo[i, 1] <= thi[j, 1]
+                        and tlo[j, 1] <= qhi[i, 1] and qlo[i, 2] <= thi[j, 2] and tlo[j, 2] <= qhi[i, 2]):
+                    ai[n] = i
+                    bj[n] = j
+                    n += 1
+        ai, bj = ai[:n], bj[:n]
+    else:
+        ai, bj = _box_pairs(qlo, qhi, tlo, thi, False)
+    st = _cross_status(Q, Qid, ai, T, Tid, bj, side_bound, o3d_bound, tiny)
+    return ai, bj, st
+
+
+def patch_pairs(Q, Qid, f, V, F, origin, side_bound, o3d_bound, tiny):
+    """:func:`cross_status` of a patch against some faces of a mesh, their
+    candidate pairs found here: the faces' corners minus ``origin``, both
+    sides' boxes, the overlapping pairs (:func:`box_pairs`), then the
+    tests (:func:`shellrepair.intersect.patch_vs_index`'s steps in one call).
+
+    Parameters
+    ----------
+    Q : (t,3,3) float64
+        Patch triangle corners minus ``origin``, finite.
+    Qid : (t,3) int64
+        Their corner ids in the mesh's numbering (new vertices: ids no face uses).
+    f : (r,) int64
+        The faces to test.
+    V : (n,3) float64
+    F : (m,3) int64
+    origin : (3,) float64
+    side_bound, o3d_bound, tiny : float
+        As for :func:`cross_status`.
+
+    Returns
+    -------
+    ai, bj : (p,) int64
+        The pairs (patch triangle, index into ``f``) whose boxes overlap, sorted by ``ai``.
+    status : (p,) int8
+    """
+    c = np.ascontiguousarray
+    return _patch_pairs(c(Q, np.float64), c(Qid, np.int64), c(f, np.int64), c(V, np.float64), c(F, np.int64),
+                        c(origin, np.float64), float(side_bound), float(o3d_bound), float(tiny))
 
 
 # --------------------------------------------------------------------------
@@ -2610,6 +2727,7 @@ def warm_up():
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
     cross_status(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 0.25, np.array([[3, 4, 5]]),
                  np.zeros(1, np.int64), 1e-15, 1e-15, 1e-280)
+    patch_pairs(Tr + 0.25, np.array([[-1, 1, -2]]), np.array([0, 1], np.int64), X, T, np.zeros(3), 1e-15, 1e-15, 1e-280)
     nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
