@@ -935,6 +935,8 @@ def embeds_by_projection(P, T, n_loop, axis=None):
     outline = 0.5 * float(np.sum(q[:, 0] * qn[:, 1] - qn[:, 0] * q[:, 1]))
     if outline == 0.0:
         return False
+    if kernels.ENABLED and np.isfinite(Q).all():
+        return kernels.projection_embeds(Q, T, k, np.sign(outline), PROJECTION_AREA_TOL)
     e1, e2 = Q[T[:, 1]] - Q[T[:, 0]], Q[T[:, 2]] - Q[T[:, 0]]
     areas = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) * np.sign(outline)
     # the patch must turn the other way round from its loop: loop edges appear

@@ -28,6 +28,8 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   filters decide (:func:`shellrepair.intersect.triangles_cross`), the rest
   left to it, and :func:`patch_pairs`: a patch's candidate pairs with the
   scan and their tests in one call;
+* :func:`projection_embeds`: the projected area and outline tests of
+  :func:`shellrepair.intersect.embeds_by_projection`;
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
@@ -71,7 +73,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "cross_status", "patch_pairs", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -941,6 +943,62 @@ def patch_pairs(Q, Qid, f, V, F, origin, side_bound, o3d_bound, tiny):
     c = np.ascontiguousarray
     return _patch_pairs(c(Q, np.float64), c(Qid, np.int64), c(f, np.int64), c(V, np.float64), c(F, np.int64),
                         c(origin, np.float64), float(side_bound), float(o3d_bound), float(tiny))
+
+
+@njit(cache=True, nogil=True)
+def _projection_embeds(Q, T, k, sgn, area_tol):
+    t = T.shape[0]
+    areas = np.empty(t)
+    amax = 0.0
+    for r in range(t):
+        a, b, c = T[r, 0], T[r, 1], T[r, 2]
+        e1x, e1y = Q[b, 0] - Q[a, 0], Q[b, 1] - Q[a, 1]
+        e2x, e2y = Q[c, 0] - Q[a, 0], Q[c, 1] - Q[a, 1]
+        ar = -(0.5 * (e1x * e2y - e1y * e2x) * sgn)
+        if ar != ar:
+            return False                  # NaN: NumPy's max and comparisons fail too
+        areas[r] = ar
+        amax = max(amax, abs(ar))
+    for r in range(t):
+        if not areas[r] > area_tol * amax:
+            return False
+    lo0 = hi0 = Q[0, 0]
+    lo1 = hi1 = Q[0, 1]
+    for i in range(1, k):
+        lo0, hi0 = min(lo0, Q[i, 0]), max(hi0, Q[i, 0])
+        lo1, hi1 = min(lo1, Q[i, 1]), max(hi1, Q[i, 1])
+    span = max(hi0 - lo0, hi1 - lo1)
+    if span == 0.0:
+        span = 1.0
+    return _outline_simple(Q[:k], 1e-12 * span * span)
+
+
+def projection_embeds(Q, T, k, sgn, area_tol):
+    """The tail of :func:`shellrepair.intersect.embeds_by_projection` in one
+    call: every projected patch triangle turns against the loop with an
+    area above ``area_tol`` times the largest, and the loop's outline (the
+    first ``k`` rows of ``Q``) is simple (:func:`outline_simple`, with
+    :func:`shellrepair.intersect._outline_is_simple`'s tolerance); the same
+    products, comparisons and tolerance, so the same answer.
+
+    Parameters
+    ----------
+    Q : (n,2) float64
+        Projected patch vertices, loop first, finite.
+    T : (t,3) int64
+        Patch triangles, t >= 1.
+    k : int
+        Loop length, >= 3.
+    sgn : float
+        Sign of the loop's projected area (+1.0 or -1.0).
+    area_tol : float
+
+    Returns
+    -------
+    ok : bool
+    """
+    return bool(_projection_embeds(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(T, np.int64),
+                                   int(k), float(sgn), float(area_tol)))
 
 
 # --------------------------------------------------------------------------
@@ -2728,6 +2786,7 @@ def warm_up():
     cross_status(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 0.25, np.array([[3, 4, 5]]),
                  np.zeros(1, np.int64), 1e-15, 1e-15, 1e-280)
     patch_pairs(Tr + 0.25, np.array([[-1, 1, -2]]), np.array([0, 1], np.int64), X, T, np.zeros(3), 1e-15, 1e-15, 1e-280)
+    projection_embeds(X[:, :2], T, 4, 1.0, 1e-9)
     nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))

@@ -761,3 +761,40 @@ def test_patch_pairs_are_the_overlapping_boxes_with_their_answers(seed):
         assert np.array_equal(st, kernels.cross_status(Q, ids, ai, Tf, F[f], bj, SIDE_BOUND, O3D_BOUND, TINY))
         assert (st == kernels.CROSS).sum() > 0 and len(ai) > 50
         assert (n_patch * len(f) > kernels.PAIRS_BRUTE) == (n_patch == 400)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_projection_certificate_equals_the_numpy_one(seed, monkeypatch):
+    """embeds_by_projection with kernels.projection_embeds equals its NumPy
+    tail: fans over wavy loops (simple, self-crossing, with a repeated
+    vertex, with triangles turned over or of zero area), at offset 1e6 too."""
+    from shellrepair.intersect import embeds_by_projection
+
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(3, 40))
+    t = np.sort(rng.uniform(0, 2 * np.pi, k))
+    radius = 1.0 + 0.3 * np.sin(2 * t + rng.uniform(0, 6))[:, None]
+    loop = np.column_stack([np.cos(t), np.sin(t), 0.2 * np.sin(3 * t)]) * radius
+    inner = rng.normal(scale=0.2, size=(3, 3))
+    inner[0] = [0.0, 0.0, 0.1]
+    P = np.vstack([loop, inner])
+    T = np.array([[(i + 1) % k, i, k] for i in range(k)])               # a fan, against the loop
+    cases = [(P, T), (P, np.array([[(i + 1) % k, i, k + i % 3] for i in range(k)]))]
+    Q = P.copy()
+    Q[k] = [3.0, 0.0, 0.0]                                              # the centre outside: turned over
+    cases.append((Q, T))
+    cases.append((P[np.r_[rng.permutation(k), k:k + 3]], T))            # a self-crossing outline
+    Q = P.copy()
+    Q[k // 2] = Q[0]                                                    # a repeated vertex
+    cases.append((Q, T))
+    cases.append((P, np.vstack([T, [[0, 0, k]]])))                      # a zero-area triangle
+    cases += [(Q + 1e6, T) for Q, T in cases]
+    answers = []
+    for Q, Tq in cases:
+        got = {}
+        for on in (True, False):
+            monkeypatch.setattr(kernels, "ENABLED", on)
+            got[on] = embeds_by_projection(Q, Tq, k)
+        assert got[True] == got[False]
+        answers.append(got[True])
+    assert not answers[2] and answers[0]                  # turned over: no; a plain fan: yes
