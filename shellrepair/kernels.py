@@ -554,6 +554,7 @@ def _box_pairs(Amin, Amax, Bmin, Bmax, self_pairs):
     out_b = np.empty(16, np.int64)
     npair = 0
     r = np.empty(6, np.int64)
+    buf = np.empty(nb, np.int64)   # one query's pairs: the outputs grow once a query, not inside its loops
     for i in range(na):
         skip = False
         for c in range(3):
@@ -564,6 +565,7 @@ def _box_pairs(Amin, Amax, Bmin, Bmax, self_pairs):
         for c in range(3):
             r[c] = min(max(int((Amin[i, c] - lo[c]) / cell[c]), 0), dims[c] - 1)
             r[3 + c] = min(max(int((Amax[i, c] - lo[c]) / cell[c]), 0), dims[c] - 1)
+        m = 0
         for x in range(r[0], r[3] + 1):
             for y in range(r[1], r[4] + 1):
                 for z in range(r[2], r[5] + 1):
@@ -576,11 +578,15 @@ def _box_pairs(Amin, Amax, Bmin, Bmax, self_pairs):
                         if (Amin[i, 0] <= Bmax[j, 0] and Bmin[j, 0] <= Amax[i, 0]
                                 and Amin[i, 1] <= Bmax[j, 1] and Bmin[j, 1] <= Amax[i, 1]
                                 and Amin[i, 2] <= Bmax[j, 2] and Bmin[j, 2] <= Amax[i, 2]):
-                            out_a = _grow(out_a, npair)
-                            out_b = _grow(out_b, npair)
-                            out_a[npair] = i
-                            out_b[npair] = j
-                            npair += 1
+                            buf[m] = j
+                            m += 1
+        while out_a.size < npair + m:
+            out_a = _grow(out_a, out_a.size)
+            out_b = _grow(out_b, out_b.size)
+        for t in range(m):
+            out_a[npair + t] = i
+            out_b[npair + t] = buf[t]
+        npair += m
     return out_a[:npair], out_b[:npair]
 
 
