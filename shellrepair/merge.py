@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 
 from . import kernels
 from .geometry import bounding_spheres
-from .intersect import ball_pairs, pair_intersections
+from .intersect import _pairs_cross, ball_pairs, pair_intersections
 from .io import Mesh
 from .patch import _corners
 
@@ -114,6 +114,7 @@ class _Accepted:
             near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
             if near.size:
                 lo1, hi1 = C.min(axis=1), C.max(axis=1)
+                finite = kernels.ENABLED and bool(np.isfinite(C).all())
                 if not kernels.ENABLED:
                     c1, r1 = bounding_spheres(C)
             for j in near:
@@ -134,7 +135,8 @@ class _Accepted:
                     ai, bi = ball_pairs(tree, c1, r1 + r2.max())
                     box = np.all((lo1[ai] <= hi2[bi]) & (lo2[bi] <= hi1[ai]), axis=1)
                     ai, bi = ai[box], bi[box]
-                if ai.size and pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
+                if ai.size and (_pairs_cross(C, ids, ai, D, oid, bi) if finite and np.isfinite(D).all()
+                                else pair_intersections(C[ai], ids[ai], D[bi], oid[bi])).any():
                     self.clash = int(j)
                     return f"patch would cross the patch of hole {other.hole_id}", None
         return None, (C, ids)

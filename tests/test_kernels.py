@@ -798,3 +798,21 @@ def test_projection_certificate_equals_the_numpy_one(seed, monkeypatch):
         assert got[True] == got[False]
         answers.append(got[True])
     assert not answers[2] and answers[0]                  # turned over: no; a plain fan: yes
+
+
+def test_scan_edges_are_the_loop_edges_of_the_sorted_edge_list():
+    """merge._scan_edges (masks per edge column) lists what sorting every
+    patch edge and keeping those between loop vertices lists, in that order."""
+    from types import SimpleNamespace
+
+    from shellrepair.merge import _edges_of, _scan_edges
+
+    rng = np.random.default_rng(5)
+    loop = rng.permutation(1000)[:30]
+    T = rng.integers(0, 45, (200, 3))                # ids >= 30: new vertices
+    patch = SimpleNamespace(loop=loop, T=T)
+    k = len(loop)
+    E = _edges_of(np.where(T < k, loop[np.minimum(T, k - 1)], -1))
+    want = [tuple(e) for e in E[(E >= 0).all(axis=1)].tolist()]
+    assert _scan_edges(patch) == want and len(want) > 50
+    assert _scan_edges(SimpleNamespace(loop=loop, T=T[:0])) == []
