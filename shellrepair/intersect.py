@@ -28,6 +28,12 @@ one plane are judged in it: projected along the axis of a non-zero normal
 component, their interiors overlap unless one of the six edge lines
 separates them (orient2d).
 
+With the compiled kernels on, the same tests run pair by pair in one
+call (:func:`shellrepair.kernels.cross_status`) for the pairs whose
+signs the float filters certify (nearly all of a scan's); pairs in one
+plane, with a zero-area triangle, or with a sign only exact arithmetic
+settles go to the NumPy tests above, so every answer is theirs.
+
 Candidate pairs for a patch come from the scan faces near its box
 (:class:`NearFaces`: vertices bucketed in xy columns, vertex-to-face
 lists), so a check costs about its own size, not the scan's;
@@ -712,8 +718,9 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
         return none
     Q = Pt - index.origin
     if kernels.ENABLED and hasattr(index, "faces_near") and np.isfinite(Q).all():
-        # the near faces' boxes against the patch's (kernels.box_pairs): a
-        # superset of the crossing pairs, as the sphere pairs below are
+        # the near faces' boxes against the patch's (kernels.patch_pairs): a
+        # superset of the crossing pairs, as the sphere pairs below are, and
+        # their tests where the compiled filters decide
         P = Q.reshape(-1, 3)
         f = index.faces_near(P.min(axis=0) + index.origin, P.max(axis=0) + index.origin)
         Pid = np.asarray(Pid, np.int64)
