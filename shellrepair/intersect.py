@@ -28,6 +28,12 @@ one plane are judged in it: projected along the axis of a non-zero normal
 component, their interiors overlap unless one of the six edge lines
 separates them (orient2d).
 
+With the compiled kernels on, the same tests run pair by pair in one
+call (:func:`shellrepair.kernels.cross_status`) for the pairs whose
+signs the float filters certify (nearly all of a scan's); pairs in one
+plane, with a zero-area triangle, or with a sign only exact arithmetic
+settles go to the NumPy tests above, so every answer is theirs.
+
 Candidate pairs for a patch come from the scan faces near its box
 (:class:`NearFaces`: vertices bucketed in xy columns, vertex-to-face
 lists), so a check costs about its own size, not the scan's;
@@ -51,7 +57,7 @@ import itertools
 import numpy as np
 
 from .geometry import bounding_spheres, concat_ranges, cross, plane_frame, uniq
-from .predicates import EPS, TINY, orient2d, orient3d
+from .predicates import EPS, O3D_BOUND, TINY, orient2d, orient3d
 from . import kernels
 from . import fastmesh
 from .topology import vertex_faces
@@ -419,6 +425,31 @@ def pair_intersections(A, Aid, B, Bid):
     """
     Aid = np.asarray(Aid)
     Bid = np.asarray(Bid)
+    if kernels.ENABLED and len(A) and np.isfinite(A).all() and np.isfinite(B).all():
+        r = np.arange(len(A))
+        return _pairs_cross(A, Aid, r, B, Bid, r)
+    return triangles_cross(A, B, Aid[:, :, None] == Bid[:, None, :])
+
+
+def _pairs_cross(A, Aid, ai, B, Bid, bj):
+    """:func:`pair_intersections` of the pairs (A[ai], B[bj]) (finite
+    corners, kernels on): the compiled filters decide most pairs
+    (:func:`shellrepair.kernels.cross_status`), the exact NumPy tests the
+    rest (pairs in one plane, zero-area triangles, signs the filters
+    cannot certify); the same answers as :func:`triangles_cross`."""
+    st = kernels.cross_status(A, Aid, ai, B, Bid, bj, SIDE_BOUND, O3D_BOUND, TINY)
+    hit = st == kernels.CROSS
+    u = np.flatnonzero(st == kernels.UNDECIDED)
+    for s in range(0, len(u), 200_000):
+        a, b = ai[u[s:s + 200_000]], bj[u[s:s + 200_000]]
+        hit[u[s:s + 200_000]] = pair_intersections_numpy(A[a], Aid[a], B[b], Bid[b])
+    return hit
+
+
+def pair_intersections_numpy(A, Aid, B, Bid):
+    """:func:`pair_intersections` in NumPy (the compiled filters' oracle)."""
+    Aid = np.asarray(Aid)
+    Bid = np.asarray(Bid)
     return triangles_cross(A, B, Aid[:, :, None] == Bid[:, None, :])
 
 
@@ -687,15 +718,21 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
         return none
     Q = Pt - index.origin
     if kernels.ENABLED and hasattr(index, "faces_near") and np.isfinite(Q).all():
-        # the near faces' boxes against the patch's (kernels.box_pairs): a
-        # superset of the crossing pairs, as the sphere pairs below are
-        qmin, qmax = Q.min(axis=1), Q.max(axis=1)
-        f = index.faces_near(qmin.min(axis=0) + index.origin, qmax.max(axis=0) + index.origin)
-        Tf = index.V[index.F[f]] - index.origin
-        ai, bj = kernels.box_pairs(qmin, qmax, Tf.min(axis=1), Tf.max(axis=1))
-        keep = ~kernels.separated(Q, Pid, ai, Tf, index.F[f], bj, SIDE_BOUND, TINY)   # plane-separated pairs never cross
-        ai, bj = ai[keep], bj[keep]
-        bi, T = f[bj], Tf[bj]
+        # the near faces' boxes against the patch's (kernels.patch_pairs): a
+        # superset of the crossing pairs, as the sphere pairs below are, and
+        # their tests where the compiled filters decide
+        P = Q.reshape(-1, 3)
+        f = index.faces_near(P.min(axis=0) + index.origin, P.max(axis=0) + index.origin)
+        Pid = np.asarray(Pid, np.int64)
+        ai, bj, st = kernels.patch_pairs(Q, Pid, f, index.V, index.F, index.origin, SIDE_BOUND, O3D_BOUND, TINY)
+        hit = st == kernels.CROSS
+        u = np.flatnonzero(st == kernels.UNDECIDED)
+        if u.size:   # in one plane, or signs the filters cannot certify: the exact tests
+            a, b = ai[u], f[bj[u]]
+            hit[u] = pair_intersections_numpy(Q[a], Pid[a], index.V[index.F[b]] - index.origin, index.F[b])
+        if return_pairs:
+            return np.column_stack([ai[hit], f[bj[hit]]])
+        return uniq(ai[hit]) if return_faces else int(hit.sum())
     else:
         ai, bi = index.candidate_pairs(*bounding_spheres(Q))
         if ai.size == 0:
@@ -718,10 +755,9 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
 
 
 def patch_vs_index_many(items, index):
-    """:func:`patch_vs_index` with ``return_faces=True`` for several patches:
-    each patch's candidate pairs are found on its own (its own box), and
-    the exact tests of all of them run as one batch. The tests are exact
-    per pair, so each patch gets what its own call gives.
+    """:func:`patch_vs_index` with ``return_faces=True`` for several patches,
+    each on its own (its own box, its own pairs): the tests are exact per
+    pair, so each patch gets what its own call gives.
 
     Parameters
     ----------
@@ -734,43 +770,7 @@ def patch_vs_index_many(items, index):
     bad : list of (h,) int64
         Per patch, its triangles that cross the indexed ones.
     """
-    out = [None] * len(items)
-    if not (kernels.ENABLED and hasattr(index, "faces_near")) or len(index.F) == 0:
-        return [patch_vs_index(Pt, Pid, index, return_faces=True) for Pt, Pid in items]
-    Qs, Ids, Ts, As, Bs, who, offs = [], [], [], [], [], [], {}
-    base = 0
-    for i, (Pt, Pid) in enumerate(items):
-        Q = np.asarray(Pt, np.float64) - index.origin
-        if len(Q) == 0 or not np.isfinite(Q).all():
-            out[i] = patch_vs_index(Pt, Pid, index, return_faces=True)
-            continue
-        qmin, qmax = Q.min(axis=1), Q.max(axis=1)
-        f = index.faces_near(qmin.min(axis=0) + index.origin, qmax.max(axis=0) + index.origin)
-        Tf = index.V[index.F[f]] - index.origin
-        ai, bj = kernels.box_pairs(qmin, qmax, Tf.min(axis=1), Tf.max(axis=1))
-        keep = ~kernels.separated(Q, Pid, ai, Tf, index.F[f], bj, SIDE_BOUND, TINY)   # as patch_vs_index
-        ai, bj = ai[keep], bj[keep]
-        Qs.append(Q)
-        Ids.append(np.asarray(Pid, np.int64))
-        Ts.append(Tf[bj])
-        As.append(ai + base)
-        Bs.append(f[bj])
-        who.append(np.full(ai.size, i, np.int64))
-        offs[i] = base
-        base += len(Q)
-    if not Qs:
-        return out
-    Q, Pid, T = np.concatenate(Qs), np.concatenate(Ids), np.concatenate(Ts)
-    ai, bi, who = np.concatenate(As), np.concatenate(Bs), np.concatenate(who)
-    hit = np.zeros(len(ai), bool)
-    for s in range(0, len(ai), 200_000):
-        sl = slice(s, s + 200_000)
-        hit[sl] = pair_intersections(Q[ai[sl]], Pid[ai[sl]], T[sl], index.F[bi[sl]])
-    bounds = np.searchsorted(who, np.arange(len(items) + 1))    # each patch's pairs: one run, in item order
-    for i, b in offs.items():
-        sl = slice(bounds[i], bounds[i + 1])
-        out[i] = np.unique(ai[sl][hit[sl]] - b)
-    return out
+    return [patch_vs_index(Pt, Pid, index, return_faces=True) for Pt, Pid in items]
 
 
 def crossing_pairs(C, ids):
@@ -802,8 +802,8 @@ def crossing_pairs(C, ids):
         # overlapping boxes (kernels.box_pairs): a superset of the crossing
         # pairs, as the sphere pairs below are; the exact tests decide
         i, j = kernels.box_pairs(C.min(axis=1), C.max(axis=1))
-        keep = ~kernels.separated(C, ids, i, C, ids, j, SIDE_BOUND, TINY)   # plane-separated pairs never cross
-        P = np.column_stack([i[keep], j[keep]])
+        hit = _pairs_cross(C, ids, i, C, ids, j)
+        return np.column_stack([i[hit], j[hit]])
     else:
         P = _sphere_box_pairs(C)
     if len(P) == 0:
@@ -942,6 +942,8 @@ def embeds_by_projection(P, T, n_loop, axis=None):
     outline = 0.5 * float(np.sum(q[:, 0] * qn[:, 1] - qn[:, 0] * q[:, 1]))
     if outline == 0.0:
         return False
+    if kernels.ENABLED and np.isfinite(Q).all():
+        return kernels.projection_embeds(Q, T, k, np.sign(outline), PROJECTION_AREA_TOL)
     e1, e2 = Q[T[:, 1]] - Q[T[:, 0]], Q[T[:, 2]] - Q[T[:, 0]]
     areas = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) * np.sign(outline)
     # the patch must turn the other way round from its loop: loop edges appear

@@ -24,6 +24,12 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   the same);
 * :func:`separated`: pairs a certified plane test rules out before the
   exact crossing tests;
+* :func:`cross_status`: the crossing test of triangle pairs where its float
+  filters decide (:func:`shellrepair.intersect.triangles_cross`), the rest
+  left to it, and :func:`patch_pairs`: a patch's candidate pairs with the
+  scan and their tests in one call;
+* :func:`projection_embeds`: the projected area and outline tests of
+  :func:`shellrepair.intersect.embeds_by_projection`;
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with the
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
@@ -67,7 +73,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -337,27 +343,41 @@ def _faces_in_box(vkey, vorder, V, vf_order, vf_start, big, lo2, h, ny, lo, hi, 
     c01 = max(np.floor((lo[1] - lo2[1]) / h), 0.0)
     c10 = np.floor((hi[0] - lo2[0]) / h)
     c11 = min(np.floor((hi[1] - lo2[1]) / h), ny - 1.0)
-    found = np.empty(64, np.int64)
+    # the vertices in the box, then their faces: arrays sized in advance (an
+    # array grown inside the loops costs reference counts at every step)
+    nrow = int(c10) - int(c00) + 1 if not (c10 < c00 or c11 < c01) else 0
+    ra = np.empty(max(nrow, 0), np.int64)
+    rb = np.empty(max(nrow, 0), np.int64)
+    total = 0
+    for r in range(nrow):
+        row = int(c00) + r
+        ra[r] = np.searchsorted(vkey, row * ny + int(c01), side="left")
+        rb[r] = np.searchsorted(vkey, row * ny + int(c11), side="right")
+        total += rb[r] - ra[r]
+    inbox = np.empty(total, np.int64)
+    nv = 0
+    bound = big.size
+    for r in range(nrow):
+        for p in range(ra[r], rb[r]):
+            v = vorder[p]
+            if (lo[0] <= V[v, 0] <= hi[0] and lo[1] <= V[v, 1] <= hi[1]
+                    and lo[2] <= V[v, 2] <= hi[2]):
+                inbox[nv] = v
+                nv += 1
+                bound += vf_start[v + 1] - vf_start[v]
+    found = np.empty(bound, np.int64)
     nf = 0
-    if not (c10 < c00 or c11 < c01):
-        for row in range(int(c00), int(c10) + 1):
-            a = np.searchsorted(vkey, row * ny + int(c01), side="left")
-            b = np.searchsorted(vkey, row * ny + int(c11), side="right")
-            for p in range(a, b):
-                v = vorder[p]
-                if (lo[0] <= V[v, 0] <= hi[0] and lo[1] <= V[v, 1] <= hi[1]
-                        and lo[2] <= V[v, 2] <= hi[2]):
-                    for q in range(vf_start[v], vf_start[v + 1]):
-                        f = vf_order[q] // 3
-                        if not fmark[f]:
-                            fmark[f] = True
-                            found = _grow(found, nf)
-                            found[nf] = f
-                            nf += 1
+    for k in range(nv):
+        v = inbox[k]
+        for q in range(vf_start[v], vf_start[v + 1]):
+            f = vf_order[q] // 3
+            if not fmark[f]:
+                fmark[f] = True
+                found[nf] = f
+                nf += 1
     for f in big:
         if not fmark[f]:
             fmark[f] = True
-            found = _grow(found, nf)
             found[nf] = f
             nf += 1
     for j in range(nf):
@@ -534,6 +554,7 @@ def _box_pairs(Amin, Amax, Bmin, Bmax, self_pairs):
     out_b = np.empty(16, np.int64)
     npair = 0
     r = np.empty(6, np.int64)
+    buf = np.empty(nb, np.int64)   # one query's pairs: the outputs grow once a query, not inside its loops
     for i in range(na):
         skip = False
         for c in range(3):
@@ -544,6 +565,7 @@ def _box_pairs(Amin, Amax, Bmin, Bmax, self_pairs):
         for c in range(3):
             r[c] = min(max(int((Amin[i, c] - lo[c]) / cell[c]), 0), dims[c] - 1)
             r[3 + c] = min(max(int((Amax[i, c] - lo[c]) / cell[c]), 0), dims[c] - 1)
+        m = 0
         for x in range(r[0], r[3] + 1):
             for y in range(r[1], r[4] + 1):
                 for z in range(r[2], r[5] + 1):
@@ -556,11 +578,15 @@ def _box_pairs(Amin, Amax, Bmin, Bmax, self_pairs):
                         if (Amin[i, 0] <= Bmax[j, 0] and Bmin[j, 0] <= Amax[i, 0]
                                 and Amin[i, 1] <= Bmax[j, 1] and Bmin[j, 1] <= Amax[i, 1]
                                 and Amin[i, 2] <= Bmax[j, 2] and Bmin[j, 2] <= Amax[i, 2]):
-                            out_a = _grow(out_a, npair)
-                            out_b = _grow(out_b, npair)
-                            out_a[npair] = i
-                            out_b[npair] = j
-                            npair += 1
+                            buf[m] = j
+                            m += 1
+        while out_a.size < npair + m:
+            out_a = _grow(out_a, out_a.size)
+            out_b = _grow(out_b, out_b.size)
+        for t in range(m):
+            out_a[npair + t] = i
+            out_b[npair + t] = buf[t]
+        npair += m
     return out_a[:npair], out_b[:npair]
 
 
@@ -659,6 +685,326 @@ def separated(A, Aid, ai, B, Bid, bj, side_bound, tiny):
     c = np.ascontiguousarray
     return _separated(c(A, np.float64), c(Aid, np.int64), c(ai, np.int64), c(B, np.float64), c(Bid, np.int64),
                       c(bj, np.int64), float(side_bound), float(tiny))
+
+
+#: :func:`cross_status` codes: the pair does not cross, crosses, or was not
+#: decided by the float filters (the caller's exact NumPy test decides).
+APART, CROSS, UNDECIDED = 0, 1, 2
+
+
+@njit(cache=True, nogil=True)
+def _o3d(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, o3d_bound, tiny):
+    """:func:`shellrepair.predicates.orient3d` of one row where its float
+    filter (or its exact-zero shortcuts) decides, else 2: the same
+    products, sums and bound."""
+    adx, bdx, cdx = ax - dx, bx - dx, cx - dx
+    ady, bdy, cdy = ay - dy, by - dy, cy - dy
+    adz, bdz, cdz = az - dz, bz - dz, cz - dz
+    bdxcdy, cdxbdy = bdx * cdy, cdx * bdy
+    cdxady, adxcdy = cdx * ady, adx * cdy
+    adxbdy, bdxady = adx * bdy, bdx * ady
+    det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady)
+    perm = (abs(adz) * (abs(bdxcdy) + abs(cdxbdy))
+            + abs(bdz) * (abs(cdxady) + abs(adxcdy))
+            + abs(cdz) * (abs(adxbdy) + abs(bdxady)))
+    if abs(det) > o3d_bound * perm and perm >= tiny and np.isfinite(perm):
+        return 1 if det > 0 else -1
+    # exactly zero without arithmetic: two equal points, or the four in one axis-aligned plane
+    if ((ax == bx and ay == by and az == bz) or (ax == cx and ay == cy and az == cz)
+            or (ax == dx and ay == dy and az == dz) or (bx == cx and by == cy and bz == cz)
+            or (bx == dx and by == dy and bz == dz) or (cx == dx and cy == dy and cz == dz)
+            or (ax == bx and ax == cx and ax == dx) or (ay == by and ay == cy and ay == dy)
+            or (az == bz and az == cz and az == dz)):
+        return 0
+    return 2
+
+
+@njit(cache=True, nogil=True)
+def _side(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, n0, n1, n2, m0, m1, m2, px, py, pz,
+          side_bound, o3d_bound, tiny):
+    """The side of p of the plane through t0, t1, t2 (normal n, its
+    permanent factors m): intersect._plane_signs of one point, 2 where the
+    filters cannot decide."""
+    w0, w1, w2 = px - t0x, py - t0y, pz - t0z
+    det = n0 * w0 + n1 * w1 + n2 * w2
+    perm = m0 * abs(w0) + m1 * abs(w1) + m2 * abs(w2)
+    if abs(det) > side_bound * perm and perm >= tiny and np.isfinite(perm):
+        return -1 if det > 0 else 1
+    return _o3d(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, px, py, pz, o3d_bound, tiny)
+
+
+@njit(cache=True, nogil=True)
+def _side_signs(TT, t, PP, p, known, side_bound, o3d_bound, tiny):
+    """:func:`shellrepair.intersect._plane_signs` of one pair: the sides of
+    the corners of ``PP[p]`` of the plane of ``TT[t]`` (2 where the filters
+    cannot decide; 0 for corners whose bit is set in ``known``)."""
+    t0x, t0y, t0z = TT[t, 0, 0], TT[t, 0, 1], TT[t, 0, 2]
+    t1x, t1y, t1z = TT[t, 1, 0], TT[t, 1, 1], TT[t, 1, 2]
+    t2x, t2y, t2z = TT[t, 2, 0], TT[t, 2, 1], TT[t, 2, 2]
+    e1x, e1y, e1z = t1x - t0x, t1y - t0y, t1z - t0z
+    e2x, e2y, e2z = t2x - t0x, t2y - t0y, t2z - t0z
+    n0, n1, n2 = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    m0 = abs(e1y * e2z) + abs(e1z * e2y)
+    m1 = abs(e1z * e2x) + abs(e1x * e2z)
+    m2 = abs(e1x * e2y) + abs(e1y * e2x)
+    s0 = s1 = s2 = 0
+    if not known & 1:
+        s0 = _side(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, n0, n1, n2, m0, m1, m2,
+                   PP[p, 0, 0], PP[p, 0, 1], PP[p, 0, 2], side_bound, o3d_bound, tiny)
+    if not known & 2:
+        s1 = _side(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, n0, n1, n2, m0, m1, m2,
+                   PP[p, 1, 0], PP[p, 1, 1], PP[p, 1, 2], side_bound, o3d_bound, tiny)
+    if not known & 4:
+        s2 = _side(t0x, t0y, t0z, t1x, t1y, t1z, t2x, t2y, t2z, n0, n1, n2, m0, m1, m2,
+                   PP[p, 2, 0], PP[p, 2, 1], PP[p, 2, 2], side_bound, o3d_bound, tiny)
+    return s0, s1, s2
+
+
+@njit(cache=True, nogil=True)
+def _alone_corner(s0, s1, s2):
+    """intersect._alone of one sign row: the corner alone on its side (the
+    first positive one when one is positive, else the first negative one)."""
+    if (s0 > 0) + (s1 > 0) + (s2 > 0) == 1:
+        return 0 if s0 > 0 else 1 if s1 > 0 else 2
+    return 0 if s0 < 0 else 1 if s1 < 0 else 2
+
+
+@njit(cache=True, nogil=True)
+def _cross_one(A, Aid, i, B, Bid, j, side_bound, o3d_bound, tiny):
+    """One pair of :func:`_cross_status`, ``A[i]`` and ``B[j]``."""
+    ka = 0       # bit x: corner x of A is a corner of B (the same id)
+    kb = 0
+    for x in range(3):
+        for y in range(3):
+            if Aid[i, x] == Bid[j, y]:
+                ka |= 1 << x
+                kb |= 1 << y
+    b0, b1, b2 = _side_signs(A, i, B, j, kb, side_bound, o3d_bound, tiny)
+    if b0 == 2 or b1 == 2 or b2 == 2:
+        return UNDECIDED
+    if b0 == 0 and b1 == 0 and b2 == 0:
+        return UNDECIDED                           # in one plane: the NumPy test
+    if not ((b0 > 0 or b1 > 0 or b2 > 0) and (b0 < 0 or b1 < 0 or b2 < 0)):
+        return APART
+    a0, a1, a2 = _side_signs(B, j, A, i, ka, side_bound, o3d_bound, tiny)
+    if a0 == 2 or a1 == 2 or a2 == 2:
+        return UNDECIDED
+    if a0 == 0 and a1 == 0 and a2 == 0:
+        return UNDECIDED
+    if not ((a0 > 0 or a1 > 0 or a2 > 0) and (a0 < 0 or a1 < 0 or a2 < 0)):
+        return APART
+    # both straddle: intersect._straddling_cross (Guigue-Devillers)
+    ra, rb = _alone_corner(a0, a1, a2), _alone_corner(b0, b1, b2)
+    pa, qa, xa = ra, (ra + 1) % 3, (ra + 2) % 3
+    pb, qb, xb = rb, (rb + 1) % 3, (rb + 2) % 3
+    if (a0, a1, a2)[ra] < 0:
+        qb, xb = xb, qb
+    if (b0, b1, b2)[rb] < 0:
+        qa, xa = xa, qa
+    s1 = _o3d(A[i, pa, 0], A[i, pa, 1], A[i, pa, 2], A[i, qa, 0], A[i, qa, 1], A[i, qa, 2],
+              B[j, pb, 0], B[j, pb, 1], B[j, pb, 2], B[j, qb, 0], B[j, qb, 1], B[j, qb, 2], o3d_bound, tiny)
+    if s1 != 2 and s1 >= 0:
+        return APART
+    s2 = _o3d(A[i, pa, 0], A[i, pa, 1], A[i, pa, 2], A[i, xa, 0], A[i, xa, 1], A[i, xa, 2],
+              B[j, xb, 0], B[j, xb, 1], B[j, xb, 2], B[j, pb, 0], B[j, pb, 1], B[j, pb, 2], o3d_bound, tiny)
+    if s2 != 2 and s2 >= 0:
+        return APART
+    if s1 == 2 or s2 == 2:
+        return UNDECIDED
+    return CROSS
+
+
+@njit(cache=True, nogil=True)
+def _cross_status(A, Aid, ai, B, Bid, bj, side_bound, o3d_bound, tiny):
+    out = np.empty(ai.size, np.int8)
+    for q in range(ai.size):
+        out[q] = _cross_one(A, Aid, ai[q], B, Bid, bj[q], side_bound, o3d_bound, tiny)
+    return out
+
+
+def cross_status(A, Aid, ai, B, Bid, bj, side_bound, o3d_bound, tiny):
+    """Do the triangle pairs (A[ai], B[bj]) cross? The tests of
+    :func:`shellrepair.intersect.triangles_cross` (ids equal: corners known
+    to be shared) for the pairs its float filters decide: the plane sides,
+    then, for pairs that straddle each other's plane, the two orient3d
+    signs of the segment overlap, each by the filter and the exact-zero
+    shortcuts of :func:`shellrepair.predicates.orient3d`. Every decided
+    answer is the exact one; pairs that need exact arithmetic or lie in
+    one plane (or have a zero-area triangle) are left ``UNDECIDED`` for
+    the NumPy test.
+
+    Parameters
+    ----------
+    A, B : (a,3,3), (b,3,3) float64
+    Aid, Bid : (a,3), (b,3) int64
+    ai, bj : (p,) int64
+    side_bound, o3d_bound, tiny : float
+        The plane filter's and orient3d's error factors, the smallest trusted permanent.
+
+    Returns
+    -------
+    status : (p,) int8
+        ``APART``, ``CROSS`` or ``UNDECIDED`` per pair.
+    """
+    c = np.ascontiguousarray
+    return _cross_status(c(A, np.float64), c(Aid, np.int64), c(ai, np.int64), c(B, np.float64),
+                         c(Bid, np.int64), c(bj, np.int64), float(side_bound), float(o3d_bound), float(tiny))
+
+
+@njit(cache=True, nogil=True)
+def _min3(a, b, c):
+    """np.min of three values (NaN propagates)."""
+    m = a
+    if b < m or b != b:
+        m = b
+    if m == m and (c < m or c != c):
+        m = c
+    return m
+
+
+@njit(cache=True, nogil=True)
+def _max3(a, b, c):
+    """np.max of three values (NaN propagates)."""
+    m = a
+    if b > m or b != b:
+        m = b
+    if m == m and (c > m or c != c):
+        m = c
+    return m
+
+
+@njit(cache=True, nogil=True)
+def _boxes(T):
+    lo = np.empty((T.shape[0], 3))
+    hi = np.empty((T.shape[0], 3))
+    for t in range(T.shape[0]):
+        for c in range(3):
+            lo[t, c] = _min3(T[t, 0, c], T[t, 1, c], T[t, 2, c])
+            hi[t, c] = _max3(T[t, 0, c], T[t, 1, c], T[t, 2, c])
+    return lo, hi
+
+
+#: Patch triangles × faces up to which :func:`patch_pairs` compares all
+#: boxes (above: :func:`box_pairs`' grid); the same pairs either way.
+PAIRS_BRUTE = 8192
+
+
+@njit(cache=True, nogil=True)
+def _patch_pairs(Q, Qid, f, V, F, origin, side_bound, o3d_bound, tiny):
+    nf = f.size
+    T = np.empty((nf, 3, 3))
+    Tid = np.empty((nf, 3), np.int64)
+    for j in range(nf):
+        for k in range(3):
+            v = F[f[j], k]
+            Tid[j, k] = v
+            for c in range(3):
+                T[j, k, c] = V[v, c] - origin[c]
+    qlo, qhi = _boxes(Q)
+    tlo, thi = _boxes(T)
+    if Q.shape[0] * nf <= PAIRS_BRUTE:
+        ai = np.empty(Q.shape[0] * nf, np.int64)     # (no growing in the loop: that costs
+        bj = np.empty(Q.shape[0] * nf, np.int64)     # reference counts at every step)
+        n = 0
+        for i in range(Q.shape[0]):
+            for j in range(nf):
+                if (qlo[i, 0] <= thi[j, 0] and tlo[j, 0] <= qhi[i, 0] and qlo[i, 1] <= thi[j, 1]
+                        and tlo[j, 1] <= qhi[i, 1] and qlo[i, 2] <= thi[j, 2] and tlo[j, 2] <= qhi[i, 2]):
+                    ai[n] = i
+                    bj[n] = j
+                    n += 1
+        ai, bj = ai[:n], bj[:n]
+    else:
+        ai, bj = _box_pairs(qlo, qhi, tlo, thi, False)
+    st = _cross_status(Q, Qid, ai, T, Tid, bj, side_bound, o3d_bound, tiny)
+    return ai, bj, st
+
+
+def patch_pairs(Q, Qid, f, V, F, origin, side_bound, o3d_bound, tiny):
+    """:func:`cross_status` of a patch against some faces of a mesh, their
+    candidate pairs found here: the faces' corners minus ``origin``, both
+    sides' boxes, the overlapping pairs (:func:`box_pairs`), then the
+    tests (:func:`shellrepair.intersect.patch_vs_index`'s steps in one call).
+
+    Parameters
+    ----------
+    Q : (t,3,3) float64
+        Patch triangle corners minus ``origin``, finite.
+    Qid : (t,3) int64
+        Their corner ids in the mesh's numbering (new vertices: ids no face uses).
+    f : (r,) int64
+        The faces to test.
+    V : (n,3) float64
+    F : (m,3) int64
+    origin : (3,) float64
+    side_bound, o3d_bound, tiny : float
+        As for :func:`cross_status`.
+
+    Returns
+    -------
+    ai, bj : (p,) int64
+        The pairs (patch triangle, index into ``f``) whose boxes overlap, sorted by ``ai``.
+    status : (p,) int8
+    """
+    c = np.ascontiguousarray
+    return _patch_pairs(c(Q, np.float64), c(Qid, np.int64), c(f, np.int64), c(V, np.float64), c(F, np.int64),
+                        c(origin, np.float64), float(side_bound), float(o3d_bound), float(tiny))
+
+
+@njit(cache=True, nogil=True)
+def _projection_embeds(Q, T, k, sgn, area_tol):
+    t = T.shape[0]
+    areas = np.empty(t)
+    amax = 0.0
+    for r in range(t):
+        a, b, c = T[r, 0], T[r, 1], T[r, 2]
+        e1x, e1y = Q[b, 0] - Q[a, 0], Q[b, 1] - Q[a, 1]
+        e2x, e2y = Q[c, 0] - Q[a, 0], Q[c, 1] - Q[a, 1]
+        ar = -(0.5 * (e1x * e2y - e1y * e2x) * sgn)
+        if ar != ar:
+            return False                  # NaN: NumPy's max and comparisons fail too
+        areas[r] = ar
+        amax = max(amax, abs(ar))
+    for r in range(t):
+        if not areas[r] > area_tol * amax:
+            return False
+    lo0 = hi0 = Q[0, 0]
+    lo1 = hi1 = Q[0, 1]
+    for i in range(1, k):
+        lo0, hi0 = min(lo0, Q[i, 0]), max(hi0, Q[i, 0])
+        lo1, hi1 = min(lo1, Q[i, 1]), max(hi1, Q[i, 1])
+    span = max(hi0 - lo0, hi1 - lo1)
+    if span == 0.0:
+        span = 1.0
+    return _outline_simple(Q[:k], 1e-12 * span * span)
+
+
+def projection_embeds(Q, T, k, sgn, area_tol):
+    """The tail of :func:`shellrepair.intersect.embeds_by_projection` in one
+    call: every projected patch triangle turns against the loop with an
+    area above ``area_tol`` times the largest, and the loop's outline (the
+    first ``k`` rows of ``Q``) is simple (:func:`outline_simple`, with
+    :func:`shellrepair.intersect._outline_is_simple`'s tolerance); the same
+    products, comparisons and tolerance, so the same answer.
+
+    Parameters
+    ----------
+    Q : (n,2) float64
+        Projected patch vertices, loop first, finite.
+    T : (t,3) int64
+        Patch triangles, t >= 1.
+    k : int
+        Loop length, >= 3.
+    sgn : float
+        Sign of the loop's projected area (+1.0 or -1.0).
+    area_tol : float
+
+    Returns
+    -------
+    ok : bool
+    """
+    return bool(_projection_embeds(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(T, np.int64),
+                                   int(k), float(sgn), float(area_tol)))
 
 
 # --------------------------------------------------------------------------
@@ -2443,6 +2789,10 @@ def warm_up():
           np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
+    cross_status(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 0.25, np.array([[3, 4, 5]]),
+                 np.zeros(1, np.int64), 1e-15, 1e-15, 1e-280)
+    patch_pairs(Tr + 0.25, np.array([[-1, 1, -2]]), np.array([0, 1], np.int64), X, T, np.zeros(3), 1e-15, 1e-15, 1e-280)
+    projection_embeds(X[:, :2], T, 4, 1.0, 1e-9)
     nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))

@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 
 from . import kernels
 from .geometry import bounding_spheres
-from .intersect import ball_pairs, pair_intersections
+from .intersect import _pairs_cross, ball_pairs, pair_intersections
 from .io import Mesh
 from .patch import _corners
 
@@ -25,10 +25,19 @@ def _edges_of(T):
 
 
 def _scan_edges(patch):
-    """Edges the patch creates between scan vertices, as (a, b) with a < b."""
+    """Edges the patch creates between scan vertices, as (a, b) with a < b
+    (in :func:`_edges_of`'s order: the triangles' first edges, then their
+    second and third ones)."""
     k = len(patch.loop)
-    E = _edges_of(np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -1))
-    return [tuple(e) for e in E[(E >= 0).all(axis=1)].tolist()]
+    T = np.asarray(patch.T)
+    on = T < k                       # corners at loop (scan) vertices
+    lo, hi = [], []
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        m = on[:, a] & on[:, b]
+        x, y = patch.loop[T[m, a]], patch.loop[T[m, b]]
+        lo.append(np.minimum(x, y))
+        hi.append(np.maximum(x, y))
+    return list(zip(np.concatenate(lo).tolist(), np.concatenate(hi).tolist()))
 
 
 class _Accepted:
@@ -42,6 +51,9 @@ class _Accepted:
     def __init__(self):
         self.items = []
         self._near = []    # per item: (c, r, tree, lo, hi) once built, else None
+        self._boxes = []   # per item: its triangles' boxes (lo, hi) once built, else None
+        self._own = []     # per item: its scan edges once listed, else None
+        self._last = None  # (patch, its scan edges) of the last conflict check
         self.lo = np.zeros((0, 3))
         self.hi = np.zeros((0, 3))
         self.edges = set()
@@ -50,10 +62,31 @@ class _Accepted:
         oid = np.where(ids < 0, ids - 10 ** 12 * (len(self.items) + 1), ids)  # new vertices differ per patch
         self.items.append((patch, C, oid))
         self._near.append(None)
+        self._boxes.append(None)
+        self._own.append(None)
         P = C.reshape(-1, 3)
         self.lo = np.vstack([self.lo, P.min(axis=0)])
         self.hi = np.vstack([self.hi, P.max(axis=0)])
-        self.edges.update(_scan_edges(patch))
+        self.edges.update(self._edges(patch))
+
+    def _edges(self, patch):
+        """:func:`_scan_edges` of ``patch``, taken from the last conflict check when it was this patch's."""
+        if self._last is not None and self._last[0] is patch:
+            return self._last[1]
+        return _scan_edges(patch)
+
+    def _item_edges(self, j):
+        """Item ``j``'s scan edges, listed once."""
+        if self._own[j] is None:
+            self._own[j] = set(_scan_edges(self.items[j][0]))
+        return self._own[j]
+
+    def _item_boxes(self, j):
+        """Item ``j``'s triangles' boxes (lo, hi), built once."""
+        if self._boxes[j] is None:
+            C = self.items[j][1]
+            self._boxes[j] = (C.min(axis=1), C.max(axis=1))
+        return self._boxes[j]
 
     def _spheres(self, j):
         """Item ``j``'s triangle spheres, their tree and the triangles' boxes."""
@@ -69,8 +102,10 @@ class _Accepted:
         (None for an edge clash). ``skip``: an item left out of the check
         (the one the patch would replace)."""
         self.clash = None
-        own = _scan_edges(self.items[skip][0]) if skip is not None else ()
-        if any(e in self.edges and e not in own for e in _scan_edges(patch)):
+        own = self._item_edges(skip) if skip is not None else ()
+        mine = _scan_edges(patch)
+        self._last = (patch, mine)
+        if any(e in self.edges and e not in own for e in mine):
             return "an earlier patch already created an edge this patch needs", None
         C, ids = _corners(ctx, patch)
         if self.items:
@@ -78,15 +113,17 @@ class _Accepted:
             lo, hi = P.min(axis=0), P.max(axis=0)
             near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
             if near.size:
-                c1, r1 = bounding_spheres(C)
                 lo1, hi1 = C.min(axis=1), C.max(axis=1)
+                finite = kernels.ENABLED and bool(np.isfinite(C).all())
+                if not kernels.ENABLED:
+                    c1, r1 = bounding_spheres(C)
             for j in near:
                 if j == skip:
                     continue
                 other, D, oid = self.items[j]
-                c2, r2, tree, lo2, hi2 = self._spheres(j)
                 # triangles that cross have overlapping boxes: only those get the exact tests
                 if kernels.ENABLED:
+                    lo2, hi2 = self._item_boxes(j)
                     # the boxes directly (a grid, kernels.box_pairs): the spheres'
                     # reach is the largest triangle's, so a patch with a few long
                     # triangles made every nearby patch's query return thousands
@@ -94,10 +131,12 @@ class _Accepted:
                     ai, bi = kernels.box_pairs(lo1, hi1, lo2[sel], hi2[sel])
                     bi = sel[bi]
                 else:
+                    c2, r2, tree, lo2, hi2 = self._spheres(j)
                     ai, bi = ball_pairs(tree, c1, r1 + r2.max())
                     box = np.all((lo1[ai] <= hi2[bi]) & (lo2[bi] <= hi1[ai]), axis=1)
                     ai, bi = ai[box], bi[box]
-                if ai.size and pair_intersections(C[ai], ids[ai], D[bi], oid[bi]).any():
+                if ai.size and (_pairs_cross(C, ids, ai, D, oid, bi) if finite and np.isfinite(D).all()
+                                else pair_intersections(C[ai], ids[ai], D[bi], oid[bi])).any():
                     self.clash = int(j)
                     return f"patch would cross the patch of hole {other.hole_id}", None
         return None, (C, ids)
@@ -118,6 +157,8 @@ class _Accepted:
         """Item ``j`` becomes ``item`` (patch, corners, ids); its box follows."""
         self.items[j] = item
         self._near[j] = None
+        self._boxes[j] = None
+        self._own[j] = None
         P = item[1].reshape(-1, 3)
         self.lo[j], self.hi[j] = P.min(axis=0), P.max(axis=0)
 

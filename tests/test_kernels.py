@@ -663,3 +663,156 @@ def test_point_triangle_distances_equal_the_numpy_version_to_the_bit(seed, monke
         monkeypatch.undo()
         assert np.array_equal(got, ref)
     assert got.max() > 1.0 and got.min() == 0.0                    # far points and exact hits were both measured
+
+
+def _crossing_pairs_mix(seed):
+    """Triangle pairs of every kind the crossing test meets: random ones
+    near each other, pairs in one plane (overlapping, touching, apart),
+    pairs sharing a vertex or an edge (the same ids at the same positions),
+    corners exactly on the other's plane, near-coplanar ones (the filters
+    cannot decide), zero-area triangles, and all of it at a 1e6 offset."""
+    rng = np.random.default_rng(seed)
+    p = 3000
+    A = rng.normal(size=(p, 3, 3))
+    B = A[rng.permutation(p)] * 0.6 + rng.normal(scale=0.4, size=(p, 1, 3))
+    Aid = np.arange(3 * p).reshape(p, 3)
+    Bid = 3 * p + np.arange(3 * p).reshape(p, 3)
+    kind = rng.integers(0, 8, p)
+    flat = kind == 1                                   # one plane
+    A[flat, :, 2] = 0.0
+    B[flat, :, 2] = 0.0
+    lattice = kind == 2                                # one plane, corners on a coarse lattice
+    A[lattice] = np.round(A[lattice] * 2) / 2
+    A[lattice, :, 2] = 0.0
+    B[lattice] = np.round(B[lattice] * 2) / 2
+    B[lattice, :, 2] = 0.0
+    for k, n_shared in ((3, 1), (4, 2)):               # a shared vertex, a shared edge
+        m = np.flatnonzero(kind == k)
+        B[m, :n_shared] = A[m, :n_shared]
+        Bid[m, :n_shared] = Aid[m, :n_shared]
+    m = np.flatnonzero(kind == 5)                      # a corner on the other's plane
+    B[m, 0] = A[m].mean(axis=1)
+    m = np.flatnonzero(kind == 6)                      # nearly one plane
+    A[m, :, 2] = 0.0
+    B[m, :, 2] = rng.choice([0.0, 1e-17, -1e-300, 3e-16], size=(m.size, 3))
+    m = np.flatnonzero(kind == 7)                      # zero-area: collinear, repeated corner
+    A[m, 2] = 0.5 * (A[m, 0] + A[m, 1])
+    B[m[::2], 1] = B[m[::2], 0]
+    if seed % 2:
+        A, B = A + 1e6, B + 1e6
+    return A, Aid, B, Bid, kind
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_crossing_filters_decide_as_the_exact_test(seed):
+    """kernels.cross_status answers only where its filters are certain, and
+    then as triangles_cross does; pair_intersections with the kernels
+    equals the NumPy one on every pair (random, coplanar, shared vertices
+    and edges, degenerate, 1e6 offsets)."""
+    from shellrepair.intersect import SIDE_BOUND, pair_intersections, pair_intersections_numpy
+    from shellrepair.predicates import O3D_BOUND, TINY
+
+    A, Aid, B, Bid, kind = _crossing_pairs_mix(seed)
+    r = np.arange(len(A))
+    st = kernels.cross_status(A, Aid, r, B, Bid, r, SIDE_BOUND, O3D_BOUND, TINY)
+    ref = pair_intersections_numpy(A, Aid, B, Bid)
+    done = st != kernels.UNDECIDED
+    assert np.array_equal(st[done] == kernels.CROSS, ref[done])
+    assert np.array_equal(pair_intersections(A, Aid, B, Bid), ref)
+    assert ref.sum() > 100 and (~ref).sum() > 100               # both answers occur
+    assert done[kind == 0].mean() > 0.95 and (~done[np.isin(kind, [1, 2])]).all()   # coplanar: the NumPy test
+    # pairs given by index (each triangle used by many pairs)
+    rng = np.random.default_rng(seed)
+    ai, bj = rng.integers(0, len(A), 5000), rng.integers(0, len(B), 5000)
+    st = kernels.cross_status(A, Aid, ai, B, Bid, bj, SIDE_BOUND, O3D_BOUND, TINY)
+    ref = pair_intersections_numpy(A[ai], Aid[ai], B[bj], Bid[bj])
+    done = st != kernels.UNDECIDED
+    assert np.array_equal(st[done] == kernels.CROSS, ref[done])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_patch_pairs_are_the_overlapping_boxes_with_their_answers(seed):
+    """kernels.patch_pairs (the faces' corners, boxes, pairs and tests in one
+    call) gives the pairs box_pairs gives and cross_status's answers, both
+    with all boxes compared (small) and with the grid (large)."""
+    from shellrepair.intersect import SIDE_BOUND
+    from shellrepair.predicates import O3D_BOUND, TINY
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.05, seed=seed)
+    offset = 1e6 if seed == 2 else 0.0
+    near = np.flatnonzero(np.linalg.norm(V[F].mean(axis=1) - [0, 0, 1], axis=1) < 0.6)
+    V = V + offset
+    origin = V.mean(axis=0)
+    rng = np.random.default_rng(seed)
+    for n_patch in (12, 400):
+        P = rng.normal(size=(60, 3)) * 0.2 + [0.0, 0.0, 0.95] + offset
+        T = np.array([rng.choice(60, 3, replace=False) for _ in range(n_patch)])
+        Pt, ids = P[T], -1 - T
+        Pt[:5] = V[F[:5]]                              # five coincide with scan faces
+        ids[:5] = F[:5]
+        ids[5:8, 0] = F[10:13, 0]                      # three share a corner with one
+        Pt[5:8, 0] = V[F[10:13, 0]]
+        f = np.union1d(near, np.arange(13))
+        Q = Pt - origin
+        ai, bj, st = kernels.patch_pairs(Q, ids, f, V, F, origin, SIDE_BOUND, O3D_BOUND, TINY)
+        Tf = V[F[f]] - origin
+        a2, b2 = kernels.box_pairs(Q.min(axis=1), Q.max(axis=1), Tf.min(axis=1), Tf.max(axis=1))
+        assert sorted(zip(ai.tolist(), bj.tolist())) == sorted(zip(a2.tolist(), b2.tolist()))
+        assert np.array_equal(st, kernels.cross_status(Q, ids, ai, Tf, F[f], bj, SIDE_BOUND, O3D_BOUND, TINY))
+        assert (st == kernels.CROSS).sum() > 0 and len(ai) > 50
+        assert (n_patch * len(f) > kernels.PAIRS_BRUTE) == (n_patch == 400)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_projection_certificate_equals_the_numpy_one(seed, monkeypatch):
+    """embeds_by_projection with kernels.projection_embeds equals its NumPy
+    tail: fans over wavy loops (simple, self-crossing, with a repeated
+    vertex, with triangles turned over or of zero area), at offset 1e6 too."""
+    from shellrepair.intersect import embeds_by_projection
+
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(3, 40))
+    t = np.sort(rng.uniform(0, 2 * np.pi, k))
+    radius = 1.0 + 0.3 * np.sin(2 * t + rng.uniform(0, 6))[:, None]
+    loop = np.column_stack([np.cos(t), np.sin(t), 0.2 * np.sin(3 * t)]) * radius
+    inner = rng.normal(scale=0.2, size=(3, 3))
+    inner[0] = [0.0, 0.0, 0.1]
+    P = np.vstack([loop, inner])
+    T = np.array([[(i + 1) % k, i, k] for i in range(k)])               # a fan, against the loop
+    cases = [(P, T), (P, np.array([[(i + 1) % k, i, k + i % 3] for i in range(k)]))]
+    Q = P.copy()
+    Q[k] = [3.0, 0.0, 0.0]                                              # the centre outside: turned over
+    cases.append((Q, T))
+    cases.append((P[np.r_[rng.permutation(k), k:k + 3]], T))            # a self-crossing outline
+    Q = P.copy()
+    Q[k // 2] = Q[0]                                                    # a repeated vertex
+    cases.append((Q, T))
+    cases.append((P, np.vstack([T, [[0, 0, k]]])))                      # a zero-area triangle
+    cases += [(Q + 1e6, T) for Q, T in cases]
+    answers = []
+    for Q, Tq in cases:
+        got = {}
+        for on in (True, False):
+            monkeypatch.setattr(kernels, "ENABLED", on)
+            got[on] = embeds_by_projection(Q, Tq, k)
+        assert got[True] == got[False]
+        answers.append(got[True])
+    assert not answers[2] and answers[0]                  # turned over: no; a plain fan: yes
+
+
+def test_scan_edges_are_the_loop_edges_of_the_sorted_edge_list():
+    """merge._scan_edges (masks per edge column) lists what sorting every
+    patch edge and keeping those between loop vertices lists, in that order."""
+    from types import SimpleNamespace
+
+    from shellrepair.merge import _edges_of, _scan_edges
+
+    rng = np.random.default_rng(5)
+    loop = rng.permutation(1000)[:30]
+    T = rng.integers(0, 45, (200, 3))                # ids >= 30: new vertices
+    patch = SimpleNamespace(loop=loop, T=T)
+    k = len(loop)
+    E = _edges_of(np.where(T < k, loop[np.minimum(T, k - 1)], -1))
+    want = [tuple(e) for e in E[(E >= 0).all(axis=1)].tolist()]
+    assert _scan_edges(patch) == want and len(want) > 50
+    assert _scan_edges(SimpleNamespace(loop=loop, T=T[:0])) == []
