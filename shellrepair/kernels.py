@@ -262,6 +262,49 @@ def _grow(a, size):
 
 
 @njit(cache=True, nogil=True)
+def _ring_collect(front, nfr, vf_order, vf_start, fmark, found, nf):
+    # One ring's new faces appended to found (room checked by the caller).
+    for i in range(nfr):
+        v = front[i]
+        for p in range(vf_start[v], vf_start[v + 1]):
+            f = vf_order[p] // 3
+            if not fmark[f]:
+                fmark[f] = True
+                found[nf] = f
+                nf += 1
+    return nf
+
+
+@njit(cache=True, nogil=True)
+def _ring_expand(found, f0, nf, F, vmark, marked, nm, front):
+    # The new vertices of faces found[f0:nf]: marked and the next front.
+    nfr = 0
+    for j in range(f0, nf):
+        fj = found[j]
+        for c in range(3):
+            w = F[fj, c]
+            if not vmark[w]:
+                vmark[w] = True
+                marked[nm] = w
+                nm += 1
+                front[nfr] = w
+                nfr += 1
+    return nm, nfr
+
+
+@njit(cache=True, nogil=True)
+def _room(a, size):
+    # a, or a larger copy when it holds fewer than size entries (the loops
+    # that fill the buffers take them as arguments and never reassign
+    # them, so they compile to plain loads and stores).
+    if size <= a.size:
+        return a
+    b = np.empty(max(2 * a.size, size), a.dtype)
+    b[:a.size] = a
+    return b
+
+
+@njit(cache=True, nogil=True)
 def _ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
     marked = np.empty(max(verts.size, 16), np.int64)
     nm = 0
@@ -270,36 +313,22 @@ def _ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
     for v in verts:
         if not vmark[v]:
             vmark[v] = True
-            marked = _grow(marked, nm)
             marked[nm] = v
             nm += 1
             front[nfr] = v
             nfr += 1
-    found = np.empty(64, np.int64)
+    found = np.empty(max(64, 8 * verts.size), np.int64)
     nf = 0
     for _ in range(max(1, rings)):
-        f0 = nf
+        need = nf
         for i in range(nfr):
-            v = front[i]
-            for p in range(vf_start[v], vf_start[v + 1]):
-                f = vf_order[p] // 3
-                if not fmark[f]:
-                    fmark[f] = True
-                    found = _grow(found, nf)
-                    found[nf] = f
-                    nf += 1
-        nfr = 0
-        for j in range(f0, nf):
-            for c in range(3):
-                w = F[found[j], c]
-                if not vmark[w]:
-                    vmark[w] = True
-                    marked = _grow(marked, nm)
-                    marked[nm] = w
-                    nm += 1
-                    front = _grow(front, nfr)
-                    front[nfr] = w
-                    nfr += 1
+            need += vf_start[front[i] + 1] - vf_start[front[i]]
+        found = _room(found, need)
+        f0 = nf
+        nf = _ring_collect(front, nfr, vf_order, vf_start, fmark, found, nf)
+        marked = _room(marked, nm + 3 * (nf - f0))
+        front = _room(front, 3 * (nf - f0))
+        nm, nfr = _ring_expand(found, f0, nf, F, vmark, marked, nm, front)
         if nfr == 0:
             break
     for i in range(nm):
