@@ -361,6 +361,73 @@ def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
 
 
 @njit(cache=True, nogil=True)
+def _submesh(faces, F, loop, T):
+    m = faces.size
+    flat = np.empty(3 * m, np.int64)
+    for i in range(m):
+        for c in range(3):
+            flat[3 * i + c] = F[faces[i], c]
+    srt = np.sort(flat)
+    g = np.empty(srt.size, np.int64)
+    ng = 0
+    for i in range(srt.size):
+        if ng == 0 or srt[i] != g[ng - 1]:
+            g[ng] = srt[i]
+            ng += 1
+    g = g[:ng].copy()
+    k = loop.size
+    loc = np.searchsorted(g, loop)
+    ok = ng > 0
+    for i in range(k):
+        if not ok or g[min(loc[i], ng - 1)] != loop[i]:
+            ok = False
+            break
+    Fs = np.empty((m + T.shape[0], 3), np.int64)
+    if ok:
+        r = np.searchsorted(g, flat)
+        for i in range(m):
+            for c in range(3):
+                Fs[i, c] = r[3 * i + c]
+        for i in range(T.shape[0]):
+            for c in range(3):
+                t = T[i, c]
+                Fs[m + i, c] = loc[t] if t < k else ng + t - k
+    return g, Fs, loc, ok
+
+
+def submesh(faces, F, loop, T):
+    """The local numbering of a hole's submesh (as
+    :func:`shellrepair.patch._submesh`): the scan faces ``faces`` and the
+    patch ``T`` over the loop's positions and new vertices.
+
+    Parameters
+    ----------
+    faces : (m,) int64
+        Scan faces (:func:`ring_faces`).
+    F : (f,3) int64
+    loop : (k,) int64
+        Global loop vertices, each on one of ``faces``.
+    T : (t,3) int64
+        Patch triangles: index i < k is ``loop[i]``, index k + j new vertex j.
+
+    Returns
+    -------
+    g : (nf,) int64
+        The faces' vertices, sorted (local index i is ``g[i]``).
+    Fs : (m + t,3) int64
+        The faces in local indices, then the patch with new vertex j at
+        ``nf + j``.
+    loc_loop : (k,) int64
+        The loop's local indices.
+    ok : bool
+        False when some loop vertex is on none of ``faces`` (``Fs`` and
+        ``loc_loop`` are then not set).
+    """
+    return _submesh(np.ascontiguousarray(faces, np.int64), np.ascontiguousarray(F, np.int64), np.ascontiguousarray(loop, np.int64),
+                    np.ascontiguousarray(T, np.int64))
+
+
+@njit(cache=True, nogil=True)
 def _faces_in_box(vkey, vorder, V, vf_order, vf_start, big, lo2, h, ny, lo, hi, fmark):
     c00 = max(np.floor((lo[0] - lo2[0]) / h), 0.0)
     c01 = max(np.floor((lo[1] - lo2[1]) / h), 0.0)
@@ -2452,6 +2519,7 @@ def warm_up():
     order, start = vertex_faces(T, 4)
     faces_in_boxes(np.zeros((4, 3)), T, np.zeros((1, 3)), np.ones((1, 3)))
     ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
+    submesh(np.array([0, 1], np.int64), T, np.array([0, 1, 2], np.int64), np.array([[0, 2, 1], [0, 3, 2]], np.int64))
     L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])

@@ -385,6 +385,17 @@ def _submesh(ctx, loop, Pl, T, rings):
     the fixed vertices)."""
     k = len(loop)
     rf = ctx.ring_faces(loop, rings)
+    if kernels.ENABLED:
+        g, Fs, loc_loop, ok = kernels.submesh(rf, ctx.F, loop, T)
+        if ok:
+            return g, Fs, len(g), loc_loop
+    return _submesh_numpy(ctx, loop, T, rf)
+
+
+def _submesh_numpy(ctx, loop, T, rf):
+    """:func:`_submesh` in NumPy from its ring faces ``rf`` (the compiled
+    numbering's test oracle)."""
+    k = len(loop)
     Fg = ctx.F[rf]
     g = uniq(Fg)
     Fr = np.searchsorted(g, Fg)
