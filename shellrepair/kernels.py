@@ -428,6 +428,133 @@ def submesh(faces, F, loop, T):
 
 
 @njit(cache=True, nogil=True)
+def _outline_label(X, Y, x, y):
+    # Where (x, y) lies against the closed outline (X, Y): 0 outside, 1
+    # inside, 2 at a corner (within 1e-12), 3 on a side; the crossing
+    # counts of the rays to the right and to the left of the point, with
+    # the coordinates taken relative to it.
+    k = X.size
+    right = 0
+    left = 0
+    xb = X[k - 1] - x
+    yb = Y[k - 1] - y
+    for i in range(k):
+        xa = X[i] - x
+        ya = Y[i] - y
+        if -1e-12 < xa < 1e-12 and -1e-12 < ya < 1e-12:
+            return 2
+        if (ya > 0) != (yb > 0):
+            if (xa * yb - xb * ya) / (yb - ya) > 0:
+                right += 1
+        if (ya < 0) != (yb < 0):
+            if (xa * yb - xb * ya) / (yb - ya) < 0:
+                left += 1
+        xb = xa
+        yb = ya
+    if (right & 1) != (left & 1):
+        return 3
+    return 1 if right & 1 else 0
+
+
+@njit(cache=True, nogil=True)
+def _inside_outline(Q, S):
+    X = Q[:, 0].copy()
+    Y = Q[:, 1].copy()
+    keep = np.empty(S.shape[0], np.int64)
+    n = 0
+    for t in range(S.shape[0]):
+        a, b, c = S[t, 0], S[t, 1], S[t, 2]
+        x = (Q[a, 0] + Q[b, 0] + Q[c, 0]) / 3.0
+        y = (Q[a, 1] + Q[b, 1] + Q[c, 1]) / 3.0
+        if _outline_label(X, Y, x, y) != 0:
+            keep[n] = t
+            n += 1
+    out = np.empty((n, 3), np.int64)
+    for i in range(n):
+        for c in range(3):
+            out[i, c] = S[keep[i], c]
+    return out
+
+
+def inside_outline(Q, S):
+    """The triangles of ``S`` whose centroid is inside the outline ``Q``,
+    on its sides or at its corners (as
+    :func:`shellrepair.triangulate._delaunay_in_projection`'s test by
+    ``skimage.measure.points_in_poly``: a crossing count, corners within
+    1e-12).
+
+    Parameters
+    ----------
+    Q : (k,2) float64
+        The outline's corners in order (closed implicitly).
+    S : (t,3) int64
+        Triangles over ``Q``'s rows.
+
+    Returns
+    -------
+    S_in : (r,3) int64
+        The rows of ``S`` kept, in order.
+    """
+    return _inside_outline(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(S, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _loop_cover(S, n, k):
+    t = S.shape[0]
+    out = np.empty((t, 3), np.int64)
+    mx = abs(n[0])
+    for i in range(t):
+        a = abs(n[i])
+        if a > mx or np.isnan(a):
+            if not np.isnan(mx):
+                mx = a
+    lim = 1e-12 * mx
+    seen = np.zeros(k, np.bool_)
+    ok = True
+    for i in range(t):
+        if abs(n[i]) <= lim:
+            ok = False
+        if n[i] < 0:
+            out[i, 0], out[i, 1], out[i, 2] = S[i, 0], S[i, 2], S[i, 1]
+        else:
+            out[i, 0], out[i, 1], out[i, 2] = S[i, 0], S[i, 1], S[i, 2]
+        for c in range(3):
+            x = out[i, c]
+            y = out[i, (c + 1) % 3]
+            if x == (y + 1) % k:
+                seen[y] = True
+    if ok:
+        for j in range(k):
+            if not seen[j]:
+                ok = False
+                break
+    return out, ok
+
+
+def loop_cover(S, n, k):
+    """Orient the triangles ``S`` by the signs of ``n`` and test that they
+    triangulate the loop of ``k`` positions (as
+    :func:`shellrepair.triangulate._delaunay_in_projection`).
+
+    Parameters
+    ----------
+    S : (t,3) int64
+    n : (t,) float64
+        Each triangle's normal along the viewing axis (unnormalised).
+    k : int
+
+    Returns
+    -------
+    S_oriented : (t,3) int64
+        ``S``, the rows with negative ``n`` turned (corners 0, 2, 1).
+    ok : bool
+        Every ``|n|`` above 1e-12 of the largest, and every loop edge
+        ``(i, i+1)`` the reversed half-edge ``i+1 -> i`` of some triangle.
+    """
+    return _loop_cover(np.ascontiguousarray(S, np.int64), np.ascontiguousarray(n, np.float64), int(k))
+
+
+@njit(cache=True, nogil=True)
 def _faces_in_box(vkey, vorder, V, vf_order, vf_start, big, lo2, h, ny, lo, hi, fmark):
     c00 = max(np.floor((lo[0] - lo2[0]) / h), 0.0)
     c01 = max(np.floor((lo[1] - lo2[1]) / h), 0.0)
@@ -2520,6 +2647,7 @@ def warm_up():
     faces_in_boxes(np.zeros((4, 3)), T, np.zeros((1, 3)), np.ones((1, 3)))
     ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
     submesh(np.array([0, 1], np.int64), T, np.array([0, 1, 2], np.int64), np.array([[0, 2, 1], [0, 3, 2]], np.int64))
+    loop_cover(inside_outline(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), T[:1]), np.ones(1), 3)
     L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])

@@ -76,3 +76,83 @@ def test_submesh_of_a_loop_off_its_faces_takes_the_numpy_path():
     g, Fs, loc, ok = kernels.submesh(np.zeros(0, np.int64), F, np.array([1, 2, 3], np.int64),
                                      np.array([[0, 1, 2]], np.int64))
     assert not ok and g.size == 0
+
+
+def _outlines(seed):
+    """Loops of many kinds: star-shaped with noise, self-overlapping,
+    with collinear runs, repeated corners and a 1e6 offset."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for k in (3, 4, 7, 12, 30):
+        t = np.sort(rng.uniform(0, 2 * np.pi, k))
+        r = rng.uniform(0.3, 1.0, k)
+        P = np.column_stack([r * np.cos(t), r * np.sin(t), 0.05 * rng.standard_normal(k)])
+        out.append(P)
+        out.append(P[::-1].copy())                                  # the other way round
+        out.append(P + 1e6)                                         # far from the origin
+        W = P.copy()
+        W[: k // 2] = W[: k // 2][::-1]                             # overlapping itself
+        out.append(W)
+    g = np.linspace(0, 1, 5)
+    square = np.array([[x, 0, 0] for x in g] + [[1, y, 0] for y in g[1:]] + [[x, 1, 0] for x in g[-2::-1]]
+                      + [[0, y, 0] for y in g[-2:0:-1]], float)                   # collinear runs, cocircular
+    out.append(square)
+    dup = square.copy()
+    dup[3] = dup[2]                                                 # a repeated corner
+    out.append(dup)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_inside_outline_labels_equal_points_in_poly(seed):
+    from skimage.measure import points_in_poly
+
+    rng = np.random.default_rng(seed)
+    for P in _outlines(seed):
+        Q = np.ascontiguousarray(P[:, :2])
+        k = len(Q)
+        # centroids of random triples, corners, side midpoints and points far out
+        S = rng.integers(0, k, (60, 3))
+        S[:k, :] = np.arange(k)[:, None]                       # centroid = a corner
+        S[k:2 * k, 0] = S[k:2 * k, 1] = np.arange(k)           # (2a + b) / 3: on a side's line
+        S[k:2 * k, 2] = (np.arange(k) + 1) % k
+        got = kernels.inside_outline(Q, S)
+        want = S[points_in_poly(Q[S].mean(axis=1), Q)]
+        assert got.dtype == want.dtype and np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_delaunay_in_projection_compiled_equals_numpy(seed, monkeypatch):
+    from shellrepair import triangulate as tr
+
+    rng = np.random.default_rng(seed)
+    answers = 0
+    for P in _outlines(seed):
+        for axis in (np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0]), rng.standard_normal(3)):
+            k = len(P)
+            for forbidden in (set(), {(0, k // 2)}, {(0, 1)}):
+                got = tr._delaunay_in_projection(P, axis, forbidden)
+                monkeypatch.setattr(kernels, "ENABLED", False)
+                want = tr._delaunay_in_projection(P, axis, forbidden)
+                monkeypatch.setattr(kernels, "ENABLED", True)
+                assert (got is None) == (want is None)
+                if want is not None:
+                    answers += 1
+                    assert got.dtype == want.dtype and np.array_equal(got, want)
+    assert answers > 10   # the comparison covers accepted triangulations, not only rejections
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_loop_cover_equals_the_numpy_checks_on_flat_and_nan_normals(seed):
+    from shellrepair.triangulate import _loop_cover_oriented
+
+    rng = np.random.default_rng(seed)
+    for k in (3, 5, 9):
+        fan = np.column_stack([np.zeros(k - 2, np.int64), np.arange(1, k - 1), np.arange(2, k)])
+        for S in (fan, fan[:, ::-1].copy(), rng.integers(0, k, (k - 2, 3))):
+            for n in (rng.standard_normal(len(S)), -np.abs(rng.standard_normal(len(S))),
+                      np.where(rng.random(len(S)) < 0.3, 0.0, 1.0), np.r_[np.nan, np.ones(len(S) - 1)],
+                      np.r_[np.ones(len(S) - 1), np.nan], np.r_[1e-13, np.ones(len(S) - 1)]):
+                a, ok_a = _loop_cover_oriented(S, n, k)
+                b, ok_b = kernels.loop_cover(S, n, k)
+                assert ok_a == ok_b and a.dtype == b.dtype and np.array_equal(a, b)
