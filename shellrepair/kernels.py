@@ -361,41 +361,42 @@ def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
 
 
 @njit(cache=True, nogil=True)
-def _submesh(faces, F, loop, T):
+def _submesh(faces, F, loop, T, vpos):
     m = faces.size
-    flat = np.empty(3 * m, np.int64)
+    seen = np.empty(3 * m, np.int64)
+    ng = 0
     for i in range(m):
         for c in range(3):
-            flat[3 * i + c] = F[faces[i], c]
-    srt = np.sort(flat)
-    g = np.empty(srt.size, np.int64)
-    ng = 0
-    for i in range(srt.size):
-        if ng == 0 or srt[i] != g[ng - 1]:
-            g[ng] = srt[i]
-            ng += 1
-    g = g[:ng].copy()
+            w = F[faces[i], c]
+            if vpos[w] < 0:
+                vpos[w] = 0
+                seen[ng] = w
+                ng += 1
+    g = np.sort(seen[:ng])
+    for i in range(ng):
+        vpos[g[i]] = i
     k = loop.size
-    loc = np.searchsorted(g, loop)
-    ok = ng > 0
+    loc = np.empty(k, np.int64)
+    ok = True
     for i in range(k):
-        if not ok or g[min(loc[i], ng - 1)] != loop[i]:
+        loc[i] = vpos[loop[i]]
+        if loc[i] < 0:
             ok = False
-            break
     Fs = np.empty((m + T.shape[0], 3), np.int64)
     if ok:
-        r = np.searchsorted(g, flat)
         for i in range(m):
             for c in range(3):
-                Fs[i, c] = r[3 * i + c]
+                Fs[i, c] = vpos[F[faces[i], c]]
         for i in range(T.shape[0]):
             for c in range(3):
                 t = T[i, c]
                 Fs[m + i, c] = loc[t] if t < k else ng + t - k
+    for i in range(ng):
+        vpos[g[i]] = -1
     return g, Fs, loc, ok
 
 
-def submesh(faces, F, loop, T):
+def submesh(faces, F, loop, T, vpos):
     """The local numbering of a hole's submesh (as
     :func:`shellrepair.patch._submesh`): the scan faces ``faces`` and the
     patch ``T`` over the loop's positions and new vertices.
@@ -409,6 +410,8 @@ def submesh(faces, F, loop, T):
         Global loop vertices, each on one of ``faces``.
     T : (t,3) int64
         Patch triangles: index i < k is ``loop[i]``, index k + j new vertex j.
+    vpos : (n,) int64
+        Scratch, all -1 (one entry per scan vertex); left all -1.
 
     Returns
     -------
@@ -424,7 +427,7 @@ def submesh(faces, F, loop, T):
         ``loc_loop`` are then not set).
     """
     return _submesh(np.ascontiguousarray(faces, np.int64), np.ascontiguousarray(F, np.int64), np.ascontiguousarray(loop, np.int64),
-                    np.ascontiguousarray(T, np.int64))
+                    np.ascontiguousarray(T, np.int64), vpos)
 
 
 @njit(cache=True, nogil=True)
@@ -2646,7 +2649,7 @@ def warm_up():
     order, start = vertex_faces(T, 4)
     faces_in_boxes(np.zeros((4, 3)), T, np.zeros((1, 3)), np.ones((1, 3)))
     ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
-    submesh(np.array([0, 1], np.int64), T, np.array([0, 1, 2], np.int64), np.array([[0, 2, 1], [0, 3, 2]], np.int64))
+    submesh(np.array([0, 1], np.int64), T, np.array([0, 1, 2], np.int64), np.array([[0, 2, 1], [0, 3, 2]], np.int64), np.full(4, -1, np.int64))
     loop_cover(inside_outline(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), T[:1]), np.ones(1), 3)
     L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)

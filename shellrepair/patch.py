@@ -121,6 +121,7 @@ class _Context:
         self._vf = None   # vertex-to-face lists, built on first use (vf_order, vf_start)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
+        self._vpos = None                         # scratch of kernels.submesh, made on first use
         self.planarity = {}  # loop id -> planarity measured by detect_holes
         self.axes = {}       # loop id -> (loop vertices, best-fit plane axis) measured by detect_holes
         self.topo = None     # the mesh's EdgeTopology, when the caller has it
@@ -386,7 +387,9 @@ def _submesh(ctx, loop, Pl, T, rings):
     k = len(loop)
     rf = ctx.ring_faces(loop, rings)
     if kernels.ENABLED:
-        g, Fs, loc_loop, ok = kernels.submesh(rf, ctx.F, loop, T)
+        if ctx._vpos is None:
+            ctx._vpos = np.full(ctx.n, -1, np.int64)   # scratch of kernels.submesh, left all -1
+        g, Fs, loc_loop, ok = kernels.submesh(rf, ctx.F, loop, T, ctx._vpos)
         if ok:
             return g, Fs, len(g), loc_loop
     return _submesh_numpy(ctx, loop, T, rf)

@@ -61,6 +61,7 @@ def test_submesh_numbering_equals_the_numpy_one(seed):
             assert got[2] == want[2]
             for a, b in ((got[0], want[0]), (got[1], want[1]), (got[3], want[3])):
                 assert a.dtype == b.dtype and np.array_equal(a, b)
+            assert (ctx._vpos == -1).all()
 
 
 def test_submesh_of_a_loop_off_its_faces_takes_the_numpy_path():
@@ -70,12 +71,14 @@ def test_submesh_of_a_loop_off_its_faces_takes_the_numpy_path():
     F = np.ascontiguousarray(mesh.F, np.int64)
     faces = np.array([0, 1], np.int64)
     far = int(np.setdiff1d(np.arange(len(mesh.V)), F[faces].ravel())[0])
+    vpos = np.full(len(mesh.V), -1, np.int64)
     g, Fs, loc, ok = kernels.submesh(faces, F, np.array([F[0, 0], far, F[0, 1]], np.int64),
-                                     np.array([[0, 1, 2]], np.int64))
+                                     np.array([[0, 1, 2]], np.int64), vpos)
     assert not ok and np.array_equal(g, np.unique(F[faces]))
     g, Fs, loc, ok = kernels.submesh(np.zeros(0, np.int64), F, np.array([1, 2, 3], np.int64),
-                                     np.array([[0, 1, 2]], np.int64))
+                                     np.array([[0, 1, 2]], np.int64), vpos)
     assert not ok and g.size == 0
+    assert (vpos == -1).all()   # the scratch is left as it was given
 
 
 def _outlines(seed):
