@@ -2420,7 +2420,9 @@ def ring_sums(E, li, level, X, Nv):
 
 
 @njit(cache=True, nogil=True)
-def _block_ids(Fcat, fcount, loopcat, sizes, n):
+def _block_ids(Fcat, fcount, loopcat, sizes, n, vpos):
+    if vpos.size:
+        return _block_ids_marked(Fcat, fcount, loopcat, sizes, n, vpos)
     nb = fcount.size
     ukey = np.empty(3 * Fcat.shape[0] + loopcat.size, np.int64)
     L = np.empty(Fcat.shape, np.int64)
@@ -2459,7 +2461,59 @@ def _block_ids(Fcat, fcount, loopcat, sizes, n):
     return ukey[:nu], L, li
 
 
-def block_ids(Fcat, fcount, loopcat, sizes, n):
+@njit(cache=True, nogil=True)
+def _block_ids_marked(Fcat, fcount, loopcat, sizes, n, vpos):
+    # _block_ids with a vertex-position scratch (all -1, left so): each
+    # block's distinct vertices marked and sorted, then read off.
+    nb = fcount.size
+    ukey = np.empty(3 * Fcat.shape[0] + loopcat.size, np.int64)
+    L = np.empty(Fcat.shape, np.int64)
+    li = np.empty(loopcat.size, np.int64)
+    seen = np.empty(max(1, 3 * Fcat.shape[0] + loopcat.size), np.int64)
+    nu = 0
+    f0 = 0
+    p0 = 0
+    for blk in range(nb):
+        f1, p1 = f0 + fcount[blk], p0 + sizes[blk]
+        m = 0
+        for f in range(f0, f1):
+            for c in range(3):
+                w = Fcat[f, c]
+                if vpos[w] < 0:
+                    vpos[w] = 0
+                    seen[m] = w
+                    m += 1
+        for i in range(p0, p1):
+            w = loopcat[i]
+            if vpos[w] < 0:
+                vpos[w] = 0
+                seen[m] = w
+                m += 1
+        vs = np.sort(seen[:m])
+        base = np.int64(blk) * n
+        for i in range(m):
+            ukey[nu + i] = base + vs[i]
+            vpos[vs[i]] = nu + i
+        for f in range(f0, f1):
+            for c in range(3):
+                L[f, c] = vpos[Fcat[f, c]]
+        for i in range(p0, p1):
+            li[i] = vpos[loopcat[i]]
+        for i in range(m):
+            vpos[vs[i]] = -1
+        nu += m
+        f0, p0 = f1, p1
+    return ukey[:nu], L, li
+
+
+#: :func:`block_ids` marks vertices in a scratch of one entry per mesh vertex
+#: when the mesh has at most this many vertices per face corner and loop
+#: vertex given (the scratch then costs less than sorting each block's
+#: corners); else it sorts them. The results are the same.
+BLOCK_SCRATCH_RATIO = 8
+
+
+def block_ids(Fcat, fcount, loopcat, sizes, n, scratch=None):
     """Local vertex numbers of several blocks of faces and loops
     (:func:`shellrepair.bridge._continuation_arcs_many`): the keys
     ``block * n + vertex`` of every block's vertices, sorted and unique
@@ -2479,6 +2533,10 @@ def block_ids(Fcat, fcount, loopcat, sizes, n):
         Loop vertices per block.
     n : int
         Number of vertices of the mesh.
+    scratch : bool, optional
+        Number the vertices through a scratch of ``n`` entries (True) or by
+        sorting each block's corners (False); by default the scratch when
+        ``n`` is at most ``BLOCK_SCRATCH_RATIO`` times the entries given.
 
     Returns
     -------
@@ -2487,7 +2545,11 @@ def block_ids(Fcat, fcount, loopcat, sizes, n):
     li : (p,) int64
     """
     i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
-    return _block_ids(i(Fcat).reshape(-1, 3), i(fcount), i(loopcat), i(sizes), np.int64(n))
+    Fcat, loopcat = i(Fcat).reshape(-1, 3), i(loopcat)
+    if scratch is None:
+        scratch = n <= BLOCK_SCRATCH_RATIO * (Fcat.size + loopcat.size)
+    vpos = np.full(int(n) if scratch else 0, -1, np.int64)
+    return _block_ids(Fcat, i(fcount), loopcat, i(sizes), np.int64(n), vpos)
 
 
 @njit(cache=True, nogil=True)
@@ -2679,6 +2741,7 @@ def warm_up():
     face_cross(np.array([1], np.int64), T, X)
     ring_sums(E, np.array([0], np.int64), np.array([0, 1, 1, 2], np.int64), X, X)
     _, Lb, _ = block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4)
+    block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4, scratch=False)
     corner_normal_sums(Lb, T, X, 4)
     angle_parts(X[:2], X[2:])
     unfolded(X[:1], X[1:2], X[2:3], X[3:])

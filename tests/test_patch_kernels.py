@@ -159,3 +159,26 @@ def test_loop_cover_equals_the_numpy_checks_on_flat_and_nan_normals(seed):
                 a, ok_a = _loop_cover_oriented(S, n, k)
                 b, ok_b = kernels.loop_cover(S, n, k)
                 assert ok_a == ok_b and a.dtype == b.dtype and np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("scratch", [True, False])
+def test_block_ids_equal_unique_and_searchsorted_by_marks_and_by_sorting(seed, scratch):
+    """Both ways of numbering the arcs' blocks (a scratch of one entry per
+    vertex, or each block's corners sorted) give np.unique's keys and
+    np.searchsorted's positions; empty blocks, repeated and face-less loop
+    vertices included."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(80, 400))
+    fcount = rng.integers(0, 40, 6)
+    fcount[seed % 6] = 0
+    sizes = rng.integers(1, 12, 6)
+    Fcat = rng.integers(0, n, (int(fcount.sum()), 3))
+    loopcat = rng.integers(0, n, int(sizes.sum()))
+    lid_f = np.repeat(np.arange(6), fcount)
+    lid_p = np.repeat(np.arange(6), sizes)
+    fkey, pkey = lid_f[:, None] * n + Fcat, lid_p * n + loopcat
+    want = np.unique(np.concatenate([fkey.ravel(), pkey]))
+    ukey, L, li = kernels.block_ids(Fcat, fcount, loopcat, sizes, n, scratch=scratch)
+    assert np.array_equal(ukey, want)
+    assert np.array_equal(L, np.searchsorted(want, fkey)) and np.array_equal(li, np.searchsorted(want, pkey))
