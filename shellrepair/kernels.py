@@ -558,6 +558,86 @@ def loop_cover(S, n, k):
 
 
 @njit(cache=True, nogil=True)
+def _patch_corners(V, loop, P, T):
+    k = loop.size
+    t = T.shape[0]
+    C = np.empty((t, 3, 3))
+    ids = np.empty((t, 3), np.int64)
+    for i in range(t):
+        for c in range(3):
+            j = T[i, c]
+            if j < k:
+                v = loop[j]
+                ids[i, c] = v
+                for d in range(3):
+                    C[i, c, d] = V[v, d]
+            else:
+                ids[i, c] = k - 1 - j
+                for d in range(3):
+                    C[i, c, d] = P[j - k, d]
+    return C, ids
+
+
+def patch_corners(V, loop, P, T):
+    """A patch's triangle corners and their ids (as
+    :func:`shellrepair.patch._corners`).
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loop : (k,) int64
+    P : (q,3) float64
+        The patch's new vertices.
+    T : (t,3) int64
+        Index i < k is ``loop[i]``, index k + j is ``P[j]``.
+
+    Returns
+    -------
+    C : (t,3,3) float64
+    ids : (t,3) int64
+        The scan vertex, or ``-(1 + j)`` for new vertex j.
+    """
+    c = lambda x, d: np.ascontiguousarray(x, d)  # noqa: E731
+    return _patch_corners(c(V, np.float64), c(loop, np.int64), c(P, np.float64).reshape(-1, 3), c(T, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _rim_sigma(V, loop, sig_sum, sig_cnt):
+    k = loop.size
+    out = np.empty(k)
+    for i in range(k):
+        if sig_cnt[i] > 0:
+            out[i] = sig_sum[i] / max(sig_cnt[i], 1.0)
+        else:
+            a, b = loop[i], loop[(i + 1) % k]
+            d0 = V[b, 0] - V[a, 0]
+            d1 = V[b, 1] - V[a, 1]
+            d2 = V[b, 2] - V[a, 2]
+            out[i] = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    return out
+
+
+def rim_sigma(V, loop, sig_sum, sig_cnt):
+    """Per loop vertex, the mean length of the scan edges at it, or the
+    length of its loop edge where it has none (as
+    :func:`shellrepair.patch._rim_sigma`).
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loop : (k,) int64
+    sig_sum, sig_cnt : (k,) float64
+        Sums and counts of the edge lengths (:func:`rim_walk`).
+
+    Returns
+    -------
+    sigma : (k,) float64
+    """
+    c = lambda x, d: np.ascontiguousarray(x, d)  # noqa: E731
+    return _rim_sigma(c(V, np.float64), c(loop, np.int64), c(sig_sum, np.float64), c(sig_cnt, np.float64))
+
+
+@njit(cache=True, nogil=True)
 def _faces_in_box(vkey, vorder, V, vf_order, vf_start, big, lo2, h, ny, lo, hi, fmark):
     c00 = max(np.floor((lo[0] - lo2[0]) / h), 0.0)
     c01 = max(np.floor((lo[1] - lo2[1]) / h), 0.0)
@@ -2713,6 +2793,8 @@ def warm_up():
     ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
     submesh(np.array([0, 1], np.int64), T, np.array([0, 1, 2], np.int64), np.array([[0, 2, 1], [0, 3, 2]], np.int64), np.full(4, -1, np.int64))
     loop_cover(inside_outline(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), T[:1]), np.ones(1), 3)
+    patch_corners(np.zeros((4, 3)), np.array([0, 1, 2], np.int64), np.zeros((1, 3)), T)
+    rim_sigma(np.zeros((4, 3)), np.array([0, 1, 2], np.int64), np.ones(3), np.array([1.0, 0.0, 2.0]))
     L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])

@@ -348,6 +348,13 @@ def _rim_faces(ctx, loop):
 
 
 def _rim_sigma(ctx, loop, sig_sum, sig_cnt):
+    if kernels.ENABLED:
+        return kernels.rim_sigma(ctx.V, loop, sig_sum, sig_cnt)
+    return _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt)
+
+
+def _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt):
+    """:func:`_rim_sigma` in NumPy (the compiled one's test oracle)."""
     sigma = sig_sum / np.maximum(sig_cnt, 1)
     loop_len = np.linalg.norm(ctx.V[np.concatenate([loop[1:], loop[:1]])] - ctx.V[loop], axis=1)   # np.roll by -1
     return np.where(sig_cnt > 0, sigma, loop_len)
@@ -600,6 +607,15 @@ def _scan_allowed(ctx, loop):
 
 
 def _corners(ctx, patch):
+    """A patch's triangle corners (t,3,3) and ids (t,3): the scan vertex,
+    or ``-(1 + j)`` for new vertex j."""
+    if kernels.ENABLED:
+        return kernels.patch_corners(ctx.V, patch.loop, patch.P, patch.T)
+    return _corners_numpy(ctx, patch)
+
+
+def _corners_numpy(ctx, patch):
+    """:func:`_corners` in NumPy (the compiled one's test oracle)."""
     k = len(patch.loop)
     allp = np.vstack([ctx.V[patch.loop], patch.P])
     ids = np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -(1 + patch.T - k))

@@ -16,6 +16,12 @@ from shellrepair.patch import _Context, _submesh, _submesh_numpy
 pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
 
 
+def _same_bits(a, b):
+    """Same dtype, shape and bytes (-0.0 is not 0.0, NaN is NaN)."""
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
 def _perforated_torus(seed):
     V, F = shapes.torus(1.0, 0.35, 40, 16)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.3, seed=seed)
@@ -182,3 +188,28 @@ def test_block_ids_equal_unique_and_searchsorted_by_marks_and_by_sorting(seed, s
     ukey, L, li = kernels.block_ids(Fcat, fcount, loopcat, sizes, n, scratch=scratch)
     assert np.array_equal(ukey, want)
     assert np.array_equal(L, np.searchsorted(want, fkey)) and np.array_equal(li, np.searchsorted(want, pkey))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_patch_corners_and_rim_sigma_equal_numpy(seed):
+    """Corners and ids of patches with and without new vertices, and the
+    rim scale with some rim vertices lacking scan edges (their loop edge
+    instead), non-finite positions included: to the bit."""
+    from shellrepair.patch import Patch, _corners, _corners_numpy, _rim_sigma, _rim_sigma_numpy
+
+    mesh = _perforated_torus(seed)
+    ctx = _Context(mesh)
+    rng = np.random.default_rng(seed)
+    V = ctx.V.copy()
+    V[rng.integers(0, len(V), 3)] = [np.nan, np.inf, -0.0]
+    ctx.V = V
+    for k, q in ((3, 0), (8, 5), (20, 1)):
+        loop = rng.choice(len(V), k, replace=False).astype(np.int64)
+        P = rng.standard_normal((q, 3)) * 1e3
+        T = rng.integers(0, k + q, (k + 2 * q, 3))
+        patch = Patch(hole_id=0, loop=loop, P=P, T=T)
+        for a, b in zip(_corners(ctx, patch), _corners_numpy(ctx, patch)):
+            assert _same_bits(a, b)
+        cnt = rng.integers(0, 4, k).astype(np.float64)
+        tot = rng.random(k) * cnt
+        assert _same_bits(_rim_sigma(ctx, loop, tot, cnt), _rim_sigma_numpy(ctx, loop, tot, cnt))
