@@ -213,3 +213,28 @@ def test_patch_corners_and_rim_sigma_equal_numpy(seed):
         cnt = rng.integers(0, 4, k).astype(np.float64)
         tot = rng.random(k) * cnt
         assert _same_bits(_rim_sigma(ctx, loop, tot, cnt), _rim_sigma_numpy(ctx, loop, tot, cnt))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_boundary_loops_of_a_few_faces_of_a_large_mesh_are_the_same_numbered_compactly(seed, monkeypatch):
+    """A small face set of a large mesh (its boundary vertices numbered
+    among themselves) and the same faces numbered over all vertices give
+    the same loops and chains in the same order; pinched sets included."""
+    from shellrepair import holes
+
+    mesh = _perforated_torus(seed)
+    ctx = _Context(mesh)
+    rng = np.random.default_rng(seed)
+    for rings in (1, 2, 4):
+        seedv = rng.integers(0, ctx.n, int(rng.integers(1, 4)))
+        Fs = ctx.F[ctx.ring_faces(seedv, rings)]
+        if seed % 2:
+            Fs = Fs[rng.random(len(Fs)) > 0.15]          # ragged: pinches and open chains
+        n = ctx.n * 50
+        got = holes.boundary_loops(Fs, n)
+        monkeypatch.setattr(holes, "COMPACT_RATIO", 10 ** 12)   # never compact
+        want = holes.boundary_loops(Fs, n)
+        monkeypatch.undo()
+        assert len(got[0]) == len(want[0]) and len(got[1]) == len(want[1])
+        for a, b in zip(got[0] + got[1], want[0] + want[1]):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
