@@ -238,3 +238,35 @@ def test_boundary_loops_of_a_few_faces_of_a_large_mesh_are_the_same_numbered_com
         assert len(got[0]) == len(want[0]) and len(got[1]) == len(want[1])
         for a, b in zip(got[0] + got[1], want[0] + want[1]):
             assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("compiled", [True, False])
+def test_edge_topology_of_a_few_faces_of_a_large_mesh_equals_the_full_numbering(seed, compiled, monkeypatch):
+    """Every field of the topology of a small face set is the same whether
+    its vertices are numbered among themselves or over the whole mesh
+    (non-manifold and flipped faces included), and a vertex id out of
+    range is still refused."""
+    from shellrepair import fastmesh, topology
+
+    if compiled:
+        fastmesh._kernels()                   # loaded: used for any size
+    else:
+        monkeypatch.setattr(fastmesh, "enabled", lambda n_faces: False)
+    mesh = _perforated_torus(seed)
+    ctx = _Context(mesh)
+    rng = np.random.default_rng(seed)
+    Fs = ctx.F[ctx.ring_faces(rng.integers(0, ctx.n, 2), 3)].copy()
+    Fs = np.vstack([Fs, Fs[:2], Fs[2:3, ::-1]])            # an edge with 3+ faces, a flipped face
+    n = 50 * ctx.n
+    got = topology.edge_topology(Fs, n)
+    monkeypatch.setattr(topology, "COMPACT_RATIO", 10 ** 12)
+    want = topology.edge_topology(Fs, n)
+    monkeypatch.setattr(topology, "COMPACT_RATIO", 4)
+    for name in ("edges", "edge_count", "boundary_he", "nonmanifold_edges", "he_order", "edge_of_he"):
+        a, b = getattr(got, name), getattr(want, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b), name
+    assert got.consistent == want.consistent and got.faces is Fs
+    assert len(want.nonmanifold_edges) and (want.consistent is None) == (not compiled)
+    with pytest.raises(ValueError, match="outside"):
+        topology.edge_topology(np.array([[0, 1, n]]), n)
