@@ -121,7 +121,7 @@ class _Context:
         self._vf = None   # vertex-to-face lists, built on first use (vf_order, vf_start)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
-        self._vpos = None                         # scratch of kernels.submesh, made on first use
+        self._vpos = None                         # scratch vertex positions (vpos()), made on first use
         self.planarity = {}  # loop id -> planarity measured by detect_holes
         self.axes = {}       # loop id -> (loop vertices, best-fit plane axis) measured by detect_holes
         self.topo = None     # the mesh's EdgeTopology, when the caller has it
@@ -175,6 +175,13 @@ class _Context:
             return None
         reg = self.region()
         return reg if reg is not None and reg.covered[verts].all() else None
+
+    def vpos(self):
+        """Scratch of one int64 per vertex, all -1 (made on first use); a
+        user sets the entries it needs and sets them back to -1."""
+        if self._vpos is None:
+            self._vpos = np.full(self.n, -1, np.int64)
+        return self._vpos
 
     def pre_for(self, hole_id, loop):
         """The batch's first-attempt work for this hole and loop, or None."""
@@ -394,9 +401,7 @@ def _submesh(ctx, loop, Pl, T, rings):
     k = len(loop)
     rf = ctx.ring_faces(loop, rings)
     if kernels.ENABLED:
-        if ctx._vpos is None:
-            ctx._vpos = np.full(ctx.n, -1, np.int64)   # scratch of kernels.submesh, left all -1
-        g, Fs, loc_loop, ok = kernels.submesh(rf, ctx.F, loop, T, ctx._vpos)
+        g, Fs, loc_loop, ok = kernels.submesh(rf, ctx.F, loop, T, ctx.vpos())
         if ok:
             return g, Fs, len(g), loc_loop
     return _submesh_numpy(ctx, loop, T, rf)
@@ -710,14 +715,17 @@ def _turns_into_opening(ctx, loop):
     axis /= length
     T = ctx.F[ctx.faces_of(loop)]
     n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-    pos = np.full(ctx.n, -1, np.int64)
+    pos = ctx.vpos()       # loop positions by vertex, O(k) (a fresh array of n per hole was O(n))
     pos[loop] = np.arange(len(loop))
     num = np.zeros(len(loop))
     den = np.zeros(len(loop))
-    for j in range(3):
-        at = pos[T[:, j]]
-        on = at >= 0
-        np.add.at(num, at[on], (n @ axis)[on])
-        np.add.at(den, at[on], np.linalg.norm(n, axis=1)[on])
+    try:
+        for j in range(3):
+            at = pos[T[:, j]]
+            on = at >= 0
+            np.add.at(num, at[on], (n @ axis)[on])
+            np.add.at(den, at[on], np.linalg.norm(n, axis=1)[on])
+    finally:
+        pos[loop] = -1
     turning = num < 0   # facing out through the opening (its normal points into the object)
     return 2 * int(np.count_nonzero(turning & (den > 0))) > len(loop)

@@ -270,3 +270,16 @@ def test_edge_topology_of_a_few_faces_of_a_large_mesh_equals_the_full_numbering(
     assert len(want.nonmanifold_edges) and (want.consistent is None) == (not compiled)
     with pytest.raises(ValueError, match="outside"):
         topology.edge_topology(np.array([[0, 1, n]]), n)
+
+
+def test_turns_into_opening_leaves_the_vertex_scratch_clear():
+    """The base test reads loop positions from the context's scratch and
+    sets them back: later users find it all -1."""
+    from shellrepair.holes import boundary_loops
+    from shellrepair.patch import _turns_into_opening
+
+    mesh = _perforated_torus(1)
+    ctx = _Context(mesh)
+    for loop in boundary_loops(mesh.F, len(mesh.V))[0]:
+        _turns_into_opening(ctx, np.asarray(loop, np.int64))
+        assert (ctx.vpos() == -1).all()
