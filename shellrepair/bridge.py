@@ -64,6 +64,8 @@ counts or with unrelated start vertices zip without a twist.
 
 from __future__ import annotations
 
+from itertools import chain
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -1027,12 +1029,15 @@ def _with_partner(ctx, loops, cand, hole, touching=None):
     counts = np.array([len(x) for x in near], np.int64)
     if counts.sum():
         row = np.repeat(np.arange(len(test)), counts)
-        nb = np.concatenate([np.asarray(x, np.int64) for x in near])
+        nb = np.fromiter(chain.from_iterable(near), np.int64, count=int(counts.sum()))
         who = owner[nb]
         d = np.linalg.norm(V[allv[nb]] - c[row], axis=1)
         ta = np.asarray(test, np.int64)
         ok = (who != ta[row]) & (d <= R[row] + edge[who] * (1 + 1e-9))
-        keep += [a for a in {a for a, b in zip(ta[row[ok]].tolist(), who[ok].tolist()) if (a, b) not in touching}]
+        # each (loop, partner) pair once, then the pairs that do not touch
+        m = np.int64(len(loops))
+        ab = np.unique(ta[row[ok]] * m + who[ok])
+        keep += list({a for a, b in zip((ab // m).tolist(), (ab % m).tolist()) if (a, b) not in touching})
     return sorted(keep)
 
 

@@ -70,7 +70,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .geometry import cross, plane_frame
+from .geometry import cross, plane_frame, uniq
 from . import fastmesh
 from .topology import components_of_pieces, edge_topology, face_areas, face_pieces
 
@@ -205,6 +205,12 @@ class HoleScan:
 # --------------------------------------------------------------------------
 # loops
 # --------------------------------------------------------------------------
+#: :func:`boundary_loops` numbers the boundary vertices among themselves
+#: when the mesh has more than this many vertices per boundary vertex (a
+#: small face set of a large scan); the loops are the same either way.
+COMPACT_RATIO = 4
+
+
 def boundary_loops(F, n_vertices, topo=None):
     """Boundary loops of a triangle mesh.
 
@@ -232,17 +238,25 @@ def boundary_loops(F, n_vertices, topo=None):
     src = ends[:, 0]
     dst = ends[:, 1]
     n = int(n_vertices)
-    out_count = np.bincount(src, minlength=n)
-    order = np.argsort(src, kind="stable")
-    start = np.zeros(n + 1, np.int64)          # src[order][start[v]:start[v+1]] == v
+    if COMPACT_RATIO * 2 * bhe.size < n:
+        # few boundary vertices on many: number them among themselves (an
+        # increasing map, so every order below is the same), O(b log b)
+        # instead of O(n) per call
+        keys = uniq(np.concatenate([src, dst]))
+        sc, dc, n = np.searchsorted(keys, src), np.searchsorted(keys, dst), len(keys)
+    else:
+        sc, dc = src, dst
+    out_count = np.bincount(sc, minlength=n)
+    order = np.argsort(sc, kind="stable")
+    start = np.zeros(n + 1, np.int64)          # sc[order][start[v]:start[v+1]] == v
     np.cumsum(out_count, out=start[1:])
 
     nxt = np.full(bhe.size, -1, dtype=np.int64)
-    single = out_count[dst] == 1
-    nxt[single] = order[start[dst[single]]]
-    multi = np.flatnonzero(out_count[dst] > 1)
+    single = out_count[dc] == 1
+    nxt[single] = order[start[dc[single]]]
+    multi = np.flatnonzero(out_count[dc] > 1)
     if multi.size:
-        _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt)
+        _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt, dc)
 
     loops, chains = [], []
     # has_prev: chains must start at a half-edge nobody points to
@@ -271,9 +285,10 @@ def boundary_loops(F, n_vertices, topo=None):
     return loops, chains
 
 
-def _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt):
+def _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt, dc):
     """At vertices with several outgoing boundary half-edges, continue along
-    the fan of faces the incoming half-edge belongs to."""
+    the fan of faces the incoming half-edge belongs to (``dc``: ``dst`` in
+    the numbering ``start`` is indexed by)."""
     pinch = np.unique(dst[multi])
     near = np.flatnonzero(np.isin(F, pinch).any(axis=1))
     he_face = {}
@@ -306,7 +321,7 @@ def _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt):
         else:
             unresolved.append(i)
     for i in unresolved:
-        v = int(dst[i])
+        v = int(dc[i])
         for j in order[start[v]:start[v + 1]]:
             if int(j) not in taken:
                 nxt[i] = j

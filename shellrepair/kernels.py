@@ -268,6 +268,49 @@ def _grow(a, size):
 
 
 @njit(cache=True, nogil=True)
+def _ring_collect(front, nfr, vf_order, vf_start, fmark, found, nf):
+    # One ring's new faces appended to found (room checked by the caller).
+    for i in range(nfr):
+        v = front[i]
+        for p in range(vf_start[v], vf_start[v + 1]):
+            f = vf_order[p] // 3
+            if not fmark[f]:
+                fmark[f] = True
+                found[nf] = f
+                nf += 1
+    return nf
+
+
+@njit(cache=True, nogil=True)
+def _ring_expand(found, f0, nf, F, vmark, marked, nm, front):
+    # The new vertices of faces found[f0:nf]: marked and the next front.
+    nfr = 0
+    for j in range(f0, nf):
+        fj = found[j]
+        for c in range(3):
+            w = F[fj, c]
+            if not vmark[w]:
+                vmark[w] = True
+                marked[nm] = w
+                nm += 1
+                front[nfr] = w
+                nfr += 1
+    return nm, nfr
+
+
+@njit(cache=True, nogil=True)
+def _room(a, size):
+    # a, or a larger copy when it holds fewer than size entries (the loops
+    # that fill the buffers take them as arguments and never reassign
+    # them, so they compile to plain loads and stores).
+    if size <= a.size:
+        return a
+    b = np.empty(max(2 * a.size, size), a.dtype)
+    b[:a.size] = a
+    return b
+
+
+@njit(cache=True, nogil=True)
 def _ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
     marked = np.empty(max(verts.size, 16), np.int64)
     nm = 0
@@ -276,36 +319,22 @@ def _ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
     for v in verts:
         if not vmark[v]:
             vmark[v] = True
-            marked = _grow(marked, nm)
             marked[nm] = v
             nm += 1
             front[nfr] = v
             nfr += 1
-    found = np.empty(64, np.int64)
+    found = np.empty(max(64, 8 * verts.size), np.int64)
     nf = 0
     for _ in range(max(1, rings)):
-        f0 = nf
+        need = nf
         for i in range(nfr):
-            v = front[i]
-            for p in range(vf_start[v], vf_start[v + 1]):
-                f = vf_order[p] // 3
-                if not fmark[f]:
-                    fmark[f] = True
-                    found = _grow(found, nf)
-                    found[nf] = f
-                    nf += 1
-        nfr = 0
-        for j in range(f0, nf):
-            for c in range(3):
-                w = F[found[j], c]
-                if not vmark[w]:
-                    vmark[w] = True
-                    marked = _grow(marked, nm)
-                    marked[nm] = w
-                    nm += 1
-                    front = _grow(front, nfr)
-                    front[nfr] = w
-                    nfr += 1
+            need += vf_start[front[i] + 1] - vf_start[front[i]]
+        found = _room(found, need)
+        f0 = nf
+        nf = _ring_collect(front, nfr, vf_order, vf_start, fmark, found, nf)
+        marked = _room(marked, nm + 3 * (nf - f0))
+        front = _room(front, 3 * (nf - f0))
+        nm, nfr = _ring_expand(found, f0, nf, F, vmark, marked, nm, front)
         if nfr == 0:
             break
     for i in range(nm):
@@ -335,6 +364,283 @@ def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
     faces : (r,) int64
     """
     return _ring_faces(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F, vmark, fmark)
+
+
+@njit(cache=True, nogil=True)
+def _submesh(faces, F, loop, T, vpos):
+    m = faces.size
+    seen = np.empty(3 * m, np.int64)
+    ng = 0
+    for i in range(m):
+        for c in range(3):
+            w = F[faces[i], c]
+            if vpos[w] < 0:
+                vpos[w] = 0
+                seen[ng] = w
+                ng += 1
+    g = np.sort(seen[:ng])
+    for i in range(ng):
+        vpos[g[i]] = i
+    k = loop.size
+    loc = np.empty(k, np.int64)
+    ok = True
+    for i in range(k):
+        loc[i] = vpos[loop[i]]
+        if loc[i] < 0:
+            ok = False
+    Fs = np.empty((m + T.shape[0], 3), np.int64)
+    if ok:
+        for i in range(m):
+            for c in range(3):
+                Fs[i, c] = vpos[F[faces[i], c]]
+        for i in range(T.shape[0]):
+            for c in range(3):
+                t = T[i, c]
+                Fs[m + i, c] = loc[t] if t < k else ng + t - k
+    for i in range(ng):
+        vpos[g[i]] = -1
+    return g, Fs, loc, ok
+
+
+def submesh(faces, F, loop, T, vpos):
+    """The local numbering of a hole's submesh (as
+    :func:`shellrepair.patch._submesh`): the scan faces ``faces`` and the
+    patch ``T`` over the loop's positions and new vertices.
+
+    Parameters
+    ----------
+    faces : (m,) int64
+        Scan faces (:func:`ring_faces`).
+    F : (f,3) int64
+    loop : (k,) int64
+        Global loop vertices, each on one of ``faces``.
+    T : (t,3) int64
+        Patch triangles: index i < k is ``loop[i]``, index k + j new vertex j.
+    vpos : (n,) int64
+        Scratch, all -1 (one entry per scan vertex); left all -1.
+
+    Returns
+    -------
+    g : (nf,) int64
+        The faces' vertices, sorted (local index i is ``g[i]``).
+    Fs : (m + t,3) int64
+        The faces in local indices, then the patch with new vertex j at
+        ``nf + j``.
+    loc_loop : (k,) int64
+        The loop's local indices.
+    ok : bool
+        False when some loop vertex is on none of ``faces`` (``Fs`` and
+        ``loc_loop`` are then not set).
+    """
+    return _submesh(np.ascontiguousarray(faces, np.int64), np.ascontiguousarray(F, np.int64), np.ascontiguousarray(loop, np.int64),
+                    np.ascontiguousarray(T, np.int64), vpos)
+
+
+@njit(cache=True, nogil=True)
+def _outline_label(X, Y, x, y):
+    # Where (x, y) lies against the closed outline (X, Y): 0 outside, 1
+    # inside, 2 at a corner (within 1e-12), 3 on a side; the crossing
+    # counts of the rays to the right and to the left of the point, with
+    # the coordinates taken relative to it.
+    k = X.size
+    right = 0
+    left = 0
+    xb = X[k - 1] - x
+    yb = Y[k - 1] - y
+    for i in range(k):
+        xa = X[i] - x
+        ya = Y[i] - y
+        if -1e-12 < xa < 1e-12 and -1e-12 < ya < 1e-12:
+            return 2
+        if (ya > 0) != (yb > 0):
+            if (xa * yb - xb * ya) / (yb - ya) > 0:
+                right += 1
+        if (ya < 0) != (yb < 0):
+            if (xa * yb - xb * ya) / (yb - ya) < 0:
+                left += 1
+        xb = xa
+        yb = ya
+    if (right & 1) != (left & 1):
+        return 3
+    return 1 if right & 1 else 0
+
+
+@njit(cache=True, nogil=True)
+def _inside_outline(Q, S):
+    X = Q[:, 0].copy()
+    Y = Q[:, 1].copy()
+    keep = np.empty(S.shape[0], np.int64)
+    n = 0
+    for t in range(S.shape[0]):
+        a, b, c = S[t, 0], S[t, 1], S[t, 2]
+        x = (Q[a, 0] + Q[b, 0] + Q[c, 0]) / 3.0
+        y = (Q[a, 1] + Q[b, 1] + Q[c, 1]) / 3.0
+        if _outline_label(X, Y, x, y) != 0:
+            keep[n] = t
+            n += 1
+    out = np.empty((n, 3), np.int64)
+    for i in range(n):
+        for c in range(3):
+            out[i, c] = S[keep[i], c]
+    return out
+
+
+def inside_outline(Q, S):
+    """The triangles of ``S`` whose centroid is inside the outline ``Q``,
+    on its sides or at its corners (as
+    :func:`shellrepair.triangulate._delaunay_in_projection`'s test by
+    ``skimage.measure.points_in_poly``: a crossing count, corners within
+    1e-12).
+
+    Parameters
+    ----------
+    Q : (k,2) float64
+        The outline's corners in order (closed implicitly).
+    S : (t,3) int64
+        Triangles over ``Q``'s rows.
+
+    Returns
+    -------
+    S_in : (r,3) int64
+        The rows of ``S`` kept, in order.
+    """
+    return _inside_outline(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(S, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _loop_cover(S, n, k):
+    t = S.shape[0]
+    out = np.empty((t, 3), np.int64)
+    mx = abs(n[0])
+    for i in range(t):
+        a = abs(n[i])
+        if a > mx or np.isnan(a):
+            if not np.isnan(mx):
+                mx = a
+    lim = 1e-12 * mx
+    seen = np.zeros(k, np.bool_)
+    ok = True
+    for i in range(t):
+        if abs(n[i]) <= lim:
+            ok = False
+        if n[i] < 0:
+            out[i, 0], out[i, 1], out[i, 2] = S[i, 0], S[i, 2], S[i, 1]
+        else:
+            out[i, 0], out[i, 1], out[i, 2] = S[i, 0], S[i, 1], S[i, 2]
+        for c in range(3):
+            x = out[i, c]
+            y = out[i, (c + 1) % 3]
+            if x == (y + 1) % k:
+                seen[y] = True
+    if ok:
+        for j in range(k):
+            if not seen[j]:
+                ok = False
+                break
+    return out, ok
+
+
+def loop_cover(S, n, k):
+    """Orient the triangles ``S`` by the signs of ``n`` and test that they
+    triangulate the loop of ``k`` positions (as
+    :func:`shellrepair.triangulate._delaunay_in_projection`).
+
+    Parameters
+    ----------
+    S : (t,3) int64
+    n : (t,) float64
+        Each triangle's normal along the viewing axis (unnormalised).
+    k : int
+
+    Returns
+    -------
+    S_oriented : (t,3) int64
+        ``S``, the rows with negative ``n`` turned (corners 0, 2, 1).
+    ok : bool
+        Every ``|n|`` above 1e-12 of the largest, and every loop edge
+        ``(i, i+1)`` the reversed half-edge ``i+1 -> i`` of some triangle.
+    """
+    return _loop_cover(np.ascontiguousarray(S, np.int64), np.ascontiguousarray(n, np.float64), int(k))
+
+
+@njit(cache=True, nogil=True)
+def _patch_corners(V, loop, P, T):
+    k = loop.size
+    t = T.shape[0]
+    C = np.empty((t, 3, 3))
+    ids = np.empty((t, 3), np.int64)
+    for i in range(t):
+        for c in range(3):
+            j = T[i, c]
+            if j < k:
+                v = loop[j]
+                ids[i, c] = v
+                for d in range(3):
+                    C[i, c, d] = V[v, d]
+            else:
+                ids[i, c] = k - 1 - j
+                for d in range(3):
+                    C[i, c, d] = P[j - k, d]
+    return C, ids
+
+
+def patch_corners(V, loop, P, T):
+    """A patch's triangle corners and their ids (as
+    :func:`shellrepair.patch._corners`).
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loop : (k,) int64
+    P : (q,3) float64
+        The patch's new vertices.
+    T : (t,3) int64
+        Index i < k is ``loop[i]``, index k + j is ``P[j]``.
+
+    Returns
+    -------
+    C : (t,3,3) float64
+    ids : (t,3) int64
+        The scan vertex, or ``-(1 + j)`` for new vertex j.
+    """
+    c = lambda x, d: np.ascontiguousarray(x, d)  # noqa: E731
+    return _patch_corners(c(V, np.float64), c(loop, np.int64), c(P, np.float64).reshape(-1, 3), c(T, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _rim_sigma(V, loop, sig_sum, sig_cnt):
+    k = loop.size
+    out = np.empty(k)
+    for i in range(k):
+        if sig_cnt[i] > 0:
+            out[i] = sig_sum[i] / max(sig_cnt[i], 1.0)
+        else:
+            a, b = loop[i], loop[(i + 1) % k]
+            d0 = V[b, 0] - V[a, 0]
+            d1 = V[b, 1] - V[a, 1]
+            d2 = V[b, 2] - V[a, 2]
+            out[i] = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    return out
+
+
+def rim_sigma(V, loop, sig_sum, sig_cnt):
+    """Per loop vertex, the mean length of the scan edges at it, or the
+    length of its loop edge where it has none (as
+    :func:`shellrepair.patch._rim_sigma`).
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loop : (k,) int64
+    sig_sum, sig_cnt : (k,) float64
+        Sums and counts of the edge lengths (:func:`rim_walk`).
+
+    Returns
+    -------
+    sigma : (k,) float64
+    """
+    c = lambda x, d: np.ascontiguousarray(x, d)  # noqa: E731
+    return _rim_sigma(c(V, np.float64), c(loop, np.int64), c(sig_sum, np.float64), c(sig_cnt, np.float64))
 
 
 @njit(cache=True, nogil=True)
@@ -2540,7 +2846,9 @@ def ring_sums(E, li, level, X, Nv):
 
 
 @njit(cache=True, nogil=True)
-def _block_ids(Fcat, fcount, loopcat, sizes, n):
+def _block_ids(Fcat, fcount, loopcat, sizes, n, vpos):
+    if vpos.size:
+        return _block_ids_marked(Fcat, fcount, loopcat, sizes, n, vpos)
     nb = fcount.size
     ukey = np.empty(3 * Fcat.shape[0] + loopcat.size, np.int64)
     L = np.empty(Fcat.shape, np.int64)
@@ -2579,7 +2887,59 @@ def _block_ids(Fcat, fcount, loopcat, sizes, n):
     return ukey[:nu], L, li
 
 
-def block_ids(Fcat, fcount, loopcat, sizes, n):
+@njit(cache=True, nogil=True)
+def _block_ids_marked(Fcat, fcount, loopcat, sizes, n, vpos):
+    # _block_ids with a vertex-position scratch (all -1, left so): each
+    # block's distinct vertices marked and sorted, then read off.
+    nb = fcount.size
+    ukey = np.empty(3 * Fcat.shape[0] + loopcat.size, np.int64)
+    L = np.empty(Fcat.shape, np.int64)
+    li = np.empty(loopcat.size, np.int64)
+    seen = np.empty(max(1, 3 * Fcat.shape[0] + loopcat.size), np.int64)
+    nu = 0
+    f0 = 0
+    p0 = 0
+    for blk in range(nb):
+        f1, p1 = f0 + fcount[blk], p0 + sizes[blk]
+        m = 0
+        for f in range(f0, f1):
+            for c in range(3):
+                w = Fcat[f, c]
+                if vpos[w] < 0:
+                    vpos[w] = 0
+                    seen[m] = w
+                    m += 1
+        for i in range(p0, p1):
+            w = loopcat[i]
+            if vpos[w] < 0:
+                vpos[w] = 0
+                seen[m] = w
+                m += 1
+        vs = np.sort(seen[:m])
+        base = np.int64(blk) * n
+        for i in range(m):
+            ukey[nu + i] = base + vs[i]
+            vpos[vs[i]] = nu + i
+        for f in range(f0, f1):
+            for c in range(3):
+                L[f, c] = vpos[Fcat[f, c]]
+        for i in range(p0, p1):
+            li[i] = vpos[loopcat[i]]
+        for i in range(m):
+            vpos[vs[i]] = -1
+        nu += m
+        f0, p0 = f1, p1
+    return ukey[:nu], L, li
+
+
+#: :func:`block_ids` marks vertices in a scratch of one entry per mesh vertex
+#: when the mesh has at most this many vertices per face corner and loop
+#: vertex given (the scratch then costs less than sorting each block's
+#: corners); else it sorts them. The results are the same.
+BLOCK_SCRATCH_RATIO = 8
+
+
+def block_ids(Fcat, fcount, loopcat, sizes, n, scratch=None):
     """Local vertex numbers of several blocks of faces and loops
     (:func:`shellrepair.bridge._continuation_arcs_many`): the keys
     ``block * n + vertex`` of every block's vertices, sorted and unique
@@ -2599,6 +2959,10 @@ def block_ids(Fcat, fcount, loopcat, sizes, n):
         Loop vertices per block.
     n : int
         Number of vertices of the mesh.
+    scratch : bool, optional
+        Number the vertices through a scratch of ``n`` entries (True) or by
+        sorting each block's corners (False); by default the scratch when
+        ``n`` is at most ``BLOCK_SCRATCH_RATIO`` times the entries given.
 
     Returns
     -------
@@ -2607,7 +2971,11 @@ def block_ids(Fcat, fcount, loopcat, sizes, n):
     li : (p,) int64
     """
     i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
-    return _block_ids(i(Fcat).reshape(-1, 3), i(fcount), i(loopcat), i(sizes), np.int64(n))
+    Fcat, loopcat = i(Fcat).reshape(-1, 3), i(loopcat)
+    if scratch is None:
+        scratch = n <= BLOCK_SCRATCH_RATIO * (Fcat.size + loopcat.size)
+    vpos = np.full(int(n) if scratch else 0, -1, np.int64)
+    return _block_ids(Fcat, i(fcount), loopcat, i(sizes), np.int64(n), vpos)
 
 
 @njit(cache=True, nogil=True)
@@ -2769,6 +3137,10 @@ def warm_up():
     order, start = vertex_faces(T, 4)
     faces_in_boxes(np.zeros((4, 3)), T, np.zeros((1, 3)), np.ones((1, 3)))
     ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
+    submesh(np.array([0, 1], np.int64), T, np.array([0, 1, 2], np.int64), np.array([[0, 2, 1], [0, 3, 2]], np.int64), np.full(4, -1, np.int64))
+    loop_cover(inside_outline(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), T[:1]), np.ones(1), 3)
+    patch_corners(np.zeros((4, 3)), np.array([0, 1, 2], np.int64), np.zeros((1, 3)), T)
+    rim_sigma(np.zeros((4, 3)), np.array([0, 1, 2], np.int64), np.ones(3), np.array([1.0, 0.0, 2.0]))
     L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
     intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
@@ -2801,6 +3173,7 @@ def warm_up():
     face_cross(np.array([1], np.int64), T, X)
     ring_sums(E, np.array([0], np.int64), np.array([0, 1, 1, 2], np.int64), X, X)
     _, Lb, _ = block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4)
+    block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4, scratch=False)
     corner_normal_sums(Lb, T, X, 4)
     angle_parts(X[:2], X[2:])
     unfolded(X[:1], X[1:2], X[2:3], X[3:])

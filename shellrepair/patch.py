@@ -121,6 +121,7 @@ class _Context:
         self._vf = None   # vertex-to-face lists, built on first use (vf_order, vf_start)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
+        self._vpos = None                         # scratch vertex positions (vpos()), made on first use
         self.planarity = {}  # loop id -> planarity measured by detect_holes
         self.axes = {}       # loop id -> (loop vertices, best-fit plane axis) measured by detect_holes
         self.topo = None     # the mesh's EdgeTopology, when the caller has it
@@ -174,6 +175,13 @@ class _Context:
             return None
         reg = self.region()
         return reg if reg is not None and reg.covered[verts].all() else None
+
+    def vpos(self):
+        """Scratch of one int64 per vertex, all -1 (made on first use); a
+        user sets the entries it needs and sets them back to -1."""
+        if self._vpos is None:
+            self._vpos = np.full(self.n, -1, np.int64)
+        return self._vpos
 
     def pre_for(self, hole_id, loop):
         """The batch's first-attempt work for this hole and loop, or None."""
@@ -347,6 +355,13 @@ def _rim_faces(ctx, loop):
 
 
 def _rim_sigma(ctx, loop, sig_sum, sig_cnt):
+    if kernels.ENABLED:
+        return kernels.rim_sigma(ctx.V, loop, sig_sum, sig_cnt)
+    return _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt)
+
+
+def _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt):
+    """:func:`_rim_sigma` in NumPy (the compiled one's test oracle)."""
     sigma = sig_sum / np.maximum(sig_cnt, 1)
     loop_len = np.linalg.norm(ctx.V[np.concatenate([loop[1:], loop[:1]])] - ctx.V[loop], axis=1)   # np.roll by -1
     return np.where(sig_cnt > 0, sigma, loop_len)
@@ -385,6 +400,17 @@ def _submesh(ctx, loop, Pl, T, rings):
     the fixed vertices)."""
     k = len(loop)
     rf = ctx.ring_faces(loop, rings)
+    if kernels.ENABLED:
+        g, Fs, loc_loop, ok = kernels.submesh(rf, ctx.F, loop, T, ctx.vpos())
+        if ok:
+            return g, Fs, len(g), loc_loop
+    return _submesh_numpy(ctx, loop, T, rf)
+
+
+def _submesh_numpy(ctx, loop, T, rf):
+    """:func:`_submesh` in NumPy from its ring faces ``rf`` (the compiled
+    numbering's test oracle)."""
+    k = len(loop)
     Fg = ctx.F[rf]
     g = uniq(Fg)
     Fr = np.searchsorted(g, Fg)
@@ -586,6 +612,15 @@ def _scan_allowed(ctx, loop):
 
 
 def _corners(ctx, patch):
+    """A patch's triangle corners (t,3,3) and ids (t,3): the scan vertex,
+    or ``-(1 + j)`` for new vertex j."""
+    if kernels.ENABLED:
+        return kernels.patch_corners(ctx.V, patch.loop, patch.P, patch.T)
+    return _corners_numpy(ctx, patch)
+
+
+def _corners_numpy(ctx, patch):
+    """:func:`_corners` in NumPy (the compiled one's test oracle)."""
     k = len(patch.loop)
     allp = np.vstack([ctx.V[patch.loop], patch.P])
     ids = np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -(1 + patch.T - k))
@@ -680,14 +715,17 @@ def _turns_into_opening(ctx, loop):
     axis /= length
     T = ctx.F[ctx.faces_of(loop)]
     n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-    pos = np.full(ctx.n, -1, np.int64)
+    pos = ctx.vpos()       # loop positions by vertex, O(k) (a fresh array of n per hole was O(n))
     pos[loop] = np.arange(len(loop))
     num = np.zeros(len(loop))
     den = np.zeros(len(loop))
-    for j in range(3):
-        at = pos[T[:, j]]
-        on = at >= 0
-        np.add.at(num, at[on], (n @ axis)[on])
-        np.add.at(den, at[on], np.linalg.norm(n, axis=1)[on])
+    try:
+        for j in range(3):
+            at = pos[T[:, j]]
+            on = at >= 0
+            np.add.at(num, at[on], (n @ axis)[on])
+            np.add.at(den, at[on], np.linalg.norm(n, axis=1)[on])
+    finally:
+        pos[loop] = -1
     turning = num < 0   # facing out through the opening (its normal points into the object)
     return 2 * int(np.count_nonzero(turning & (den > 0))) > len(loop)

@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from . import fastmesh
-from .geometry import cross
+from .geometry import cross, uniq
 
 #: Faces per chunk in per-face geometry over the whole mesh.
 CHUNK = 1 << 16
@@ -121,6 +121,8 @@ def edge_topology(F, n_vertices=None):
     """
     F = np.ascontiguousarray(F, dtype=np.int64)
     n = int(F.max()) + 1 if n_vertices is None else int(n_vertices)
+    if n > COMPACT_RATIO * F.size and F.size:
+        return _edge_topology_compact(F, n)
     got = fastmesh.edge_topology_arrays(F, n) if fastmesh.enabled(len(F)) else None
     if got is not None:
         order, edges, count, boundary_he, consistent = got
@@ -130,6 +132,26 @@ def edge_topology(F, n_vertices=None):
         consistent = None
     return EdgeTopology(edges=edges, edge_count=count, boundary_he=boundary_he, nonmanifold_edges=edges[count > 2],
                         he_order=order, faces=F, consistent=consistent, _edge_of_he=edge_of_he)
+
+
+#: :func:`edge_topology` numbers the vertices of faces among themselves when
+#: there are more than this many vertices per face corner (a few faces of a
+#: large mesh: its work is then that of the faces, not O(n)).
+COMPACT_RATIO = 4
+
+
+def _edge_topology_compact(F, n):
+    """:func:`edge_topology` of faces using few of ``n`` vertices: built on
+    the vertices renumbered in increasing order (every order and grouping
+    is the same), the edges numbered back."""
+    if F.min() < 0 or F.max() >= n:
+        raise ValueError("a face refers to a vertex outside [0, n_vertices)")
+    keys = uniq(F)
+    topo = edge_topology(np.searchsorted(keys, F), len(keys))
+    edges = keys[topo.edges]
+    return EdgeTopology(edges=edges, edge_count=topo.edge_count, boundary_he=topo.boundary_he,
+                        nonmanifold_edges=edges[topo.edge_count > 2], he_order=topo.he_order, faces=F,
+                        consistent=topo.consistent, _edge_of_he=topo._edge_of_he)
 
 
 def _edge_topology_numpy(F, n):

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import kernels
 from .geometry import cross, dot, plane_frame
 
 from .errors import MeshError
@@ -172,6 +173,22 @@ def _delaunay_in_projection(P, axis, forbidden):
     S = tri.simplices.astype(np.int64)
     if len(S) < k - 2 or tri.coplanar.size:
         return None
+    if kernels.ENABLED:
+        S = kernels.inside_outline(Q, S)
+        if len(S) != k - 2:
+            return None
+        n = cross(P[S[:, 1]] - P[S[:, 0]], P[S[:, 2]] - P[S[:, 0]]) @ a
+        S, ok = kernels.loop_cover(S, n, k)
+        if not ok:
+            return None
+        return _none_forbidden(S, forbidden)
+    return _loop_cover_numpy(P, Q, S, a, k, forbidden)
+
+
+def _loop_cover_numpy(P, Q, S, a, k, forbidden):
+    """The checks of :func:`_delaunay_in_projection` on its Delaunay
+    triangles ``S`` in NumPy (the compiled checks' test oracle): ``S``
+    kept inside the outline and oriented, or None."""
     # keep triangles whose centroid is inside the outline (even-odd rule)
     from skimage.measure import points_in_poly
     inside = points_in_poly(Q[S].mean(axis=1), Q)
@@ -180,18 +197,31 @@ def _delaunay_in_projection(P, axis, forbidden):
         return None
     # orient each along the axis (our convention: normal along the axis)
     n = cross(P[S[:, 1]] - P[S[:, 0]], P[S[:, 2]] - P[S[:, 0]]) @ a
+    S, ok = _loop_cover_oriented(S, n, k)
+    return _none_forbidden(S, forbidden) if ok else None
+
+
+def _loop_cover_oriented(S, n, k):
+    """``S`` turned to face along ``n``'s signs, and whether it covers the
+    loop: no triangle flat (``|n|`` at most 1e-12 of the largest), every
+    loop edge present (NumPy; :func:`shellrepair.kernels.loop_cover`'s
+    oracle)."""
     S = np.where((n < 0)[:, None], S[:, [0, 2, 1]], S)
     n = np.abs(n)
     if (n <= 1e-12 * np.max(n)).any():
-        return None
+        return S, False
     # every loop edge exactly once, reversed (i+1 -> i): the half-edges
     # (i+1 mod k) -> i cover every i
     he = np.concatenate([S[:, [0, 1]], S[:, [1, 2]], S[:, [2, 0]]])
     seen = np.zeros(k, bool)
     seen[he[he[:, 0] == (he[:, 1] + 1) % k, 1]] = True
-    if not seen.all():
-        return None
+    return S, bool(seen.all())
+
+
+def _none_forbidden(S, forbidden):
+    """``S``, or None when one of its edges joins a forbidden pair."""
     if forbidden:
+        he = np.concatenate([S[:, [0, 1]], S[:, [1, 2]], S[:, [2, 0]]])
         und = {(int(min(x, y)), int(max(x, y))) for x, y in he.tolist()}
         if und & set(forbidden):
             return None
