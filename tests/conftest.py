@@ -32,3 +32,9 @@ def two_pinched_holes():
     remove = np.zeros(len(F), bool)
     remove[cell_faces(2, 2) + cell_faces(3, 3)] = True
     return V, F[~remove], (3 * ny + 3)
+
+
+#: The shapes eval.stress draws from when ../shared is there: a stress case
+#: built with this list is the same case with or without ../shared.
+STRESS_SHAPES = ["torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2", "dumbbell", "star", "bumpy",
+                 "nefertiti", "armadillo", "cheburashka", "rocker", "fandisk"]

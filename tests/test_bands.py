@@ -188,10 +188,10 @@ def test_a_band_seen_both_ways_whose_tubes_all_cross_is_mended_before_it_is_capp
     and 31 of 48), but every tube crossed the scan at 2 to 71 triangles and
     the two caps closed the band, genus 0 where the truth has genus 1; the
     tube's last layer now comes before the caps."""
+    from conftest import STRESS_SHAPES
     from eval import stress
 
-    shapes = ["torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2", "dumbbell", "star", "bumpy",
-              "nefertiti", "armadillo", "cheburashka", "rocker", "fandisk"]   # the draw's list with ../shared
+    shapes = STRESS_SHAPES
     c = stress.stress_case(11, 33333, shapes_ok=shapes)
     assert "torus-0.3" in c.name
     M = Mesh(V=c.V, F=c.F)
@@ -700,11 +700,10 @@ def test_a_fat_torus_seen_from_a_ring_keeps_its_genus():
     themselves, so the arcs pair nothing; each cap crosses the other. At
     e950432 loop 1 stayed open (its refill around loop 0's cap ran out of
     budget); now the two are one tube."""
+    from conftest import STRESS_SHAPES
     from eval import stress
 
-    c = stress.stress_case(4, 86420, shapes_ok=["torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2",
-                                                "dumbbell", "star", "bumpy", "nefertiti", "armadillo",
-                                                "cheburashka", "rocker", "fandisk"])
+    c = stress.stress_case(4, 86420, shapes_ok=STRESS_SHAPES)
     assert "torus-0.7" in c.name
     M = Mesh(V=c.V, F=c.F)
     R, rep = repair_mesh(M)

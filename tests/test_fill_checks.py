@@ -112,12 +112,12 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
 
     monkeypatch.setattr(shellrepair.repair, "_tube_crossed_caps", lambda *a, **k: None)
 
+    from conftest import STRESS_SHAPES
     from eval import stress
     from shellrepair.io import Mesh
     from shellrepair.repair import repair_mesh
 
-    shapes = ["torus-0.15", "torus-0.3", "torus-0.5", "torus-0.7", "genus2", "dumbbell", "star", "bumpy",
-              "nefertiti", "armadillo", "cheburashka", "rocker", "fandisk"]   # the draw's list with ../shared
+    shapes = STRESS_SHAPES
     c = stress.stress_case(15, 61803, shapes_ok=shapes)
     assert "genus2" in c.name
     R, rep = repair_mesh(Mesh(V=c.V, F=c.F))
