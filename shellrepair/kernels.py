@@ -67,7 +67,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "edge_bend_pairs", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1460,7 +1460,10 @@ def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_roun
     X = X.copy()
     ones = np.ones(n)
     ptr, col, val = _laplacian_rows(F, np.zeros((0, 3)), n, True)
-    Xu, ok = _fair_round(ptr, col, val, ones, min(order, uniform_max_order), X, fixed, unk_pos, unk)
+    # the solves read K without its spare zero slots (_drop_spare_diagonal:
+    # each added a zero product, so no sum changes; half the entries)
+    pc, cc, vc = _drop_spare_diagonal(ptr, col, val)
+    Xu, ok = _fair_round(pc, cc, vc, ones, min(order, uniform_max_order), X, fixed, unk_pos, unk)
     if not ok:
         return X, False, ptr, col, val
     for i in range(nu):
@@ -1502,7 +1505,8 @@ def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_roun
             break
         floor = degenerate_area + 1e-3 * np.median(M)
         D = 1.0 / np.maximum(M, floor)
-        Xn, ok = _fair_round(ptr2, col2, val2, D, order, X, fixed, unk_pos, unk)
+        pc, cc, vc = _drop_spare_diagonal(ptr2, col2, val2)
+        Xn, ok = _fair_round(pc, cc, vc, D, order, X, fixed, unk_pos, unk)
         if not ok or not np.isfinite(Xn).all():
             break
         for i in range(nu):
@@ -1549,6 +1553,77 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
     return _fair_small(np.ascontiguousarray(X, np.float64), np.ascontiguousarray(F, np.int64),
                        np.ascontiguousarray(fixed, np.bool_), int(order), int(rounds), float(degenerate_area),
                        float(flip_tol), int(flip_rounds), int(uniform_max_order))
+
+
+@njit(cache=True, nogil=True)
+def _edge_bend_pairs(V, T):
+    m = T.shape[0]
+    N = np.zeros((m, 3))
+    ok = np.zeros(m, np.bool_)
+    for f in range(m):
+        a, b, c = T[f, 0], T[f, 1], T[f, 2]
+        u0, u1, u2 = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
+        v0, v1, v2 = V[c, 0] - V[a, 0], V[c, 1] - V[a, 1], V[c, 2] - V[a, 2]
+        n0, n1, n2 = u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
+        ln = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
+        if ln > 0:
+            ok[f] = True
+            N[f, 0], N[f, 1], N[f, 2] = n0 / ln, n1 / ln, n2 / ln
+    # the sides (smaller vertex, larger) in the order of
+    # np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), sorted
+    # stably by (smaller, larger): np.lexsort's order
+    top = 0
+    for f in range(m):
+        for s in range(3):
+            top = max(top, T[f, s])
+    key = np.empty(3 * m, np.int64)
+    for s in range(3):
+        for f in range(m):
+            p, q = T[f, s], T[f, (s + 1) % 3]
+            key[s * m + f] = min(p, q) * (top + 1) + max(p, q)
+    o = np.argsort(key, kind="mergesort")
+    a = np.empty(3 * m, np.int64)
+    b = np.empty(3 * m, np.int64)
+    h = np.empty(3 * m)
+    k = 0
+    for t in range(3 * m - 1):
+        e1, e2 = o[t], o[t + 1]
+        if key[e1] != key[e2]:
+            continue
+        fa, fb = e1 % m, e2 % m
+        if not (ok[fa] and ok[fb]):
+            continue
+        a[k], b[k] = fa, fb
+        i, j = key[e1] // (top + 1), key[e1] % (top + 1)
+        d0, d1, d2 = V[j, 0] - V[i, 0], V[j, 1] - V[i, 1], V[j, 2] - V[i, 2]
+        h[k] = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+        k += 1
+    return N, a[:k].copy(), b[:k].copy(), h[:k].copy()
+
+
+def edge_bend_pairs(V, T):
+    """The parts of :func:`shellrepair.selftest._edge_bends`, compiled: the
+    faces' unit normals (zero for a face without area), the two faces of
+    each interior edge (both with area), in the order of its sort of the
+    edges, and the edges' lengths; each number with the NumPy version's
+    operations in its order (the cosines, NumPy's einsum of the normals'
+    pairs, stay with the caller: einsum's order of a row's three products
+    depends on the CPU's vector width).
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    T : (m,3) int64, m >= 1
+
+    Returns
+    -------
+    N : (m,3) float64
+    a, b : (e,) int64
+        Faces (rows of ``T``) of each interior edge, in sorted edge order.
+    h : (e,) float64
+        The edges' lengths.
+    """
+    return _edge_bend_pairs(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(T, np.int64))
 
 
 # --------------------------------------------------------------------------
@@ -2443,6 +2518,7 @@ def warm_up():
           np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
+    edge_bend_pairs(X, T)
     nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
