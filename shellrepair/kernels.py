@@ -67,7 +67,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "edge_bend_pairs", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "intrinsic_flips", "rim_edges", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1204,7 +1204,9 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
 
     The same rounds, choices and results; the opposite angles and the fold
     test stay NumPy's own (``angle``, ``unfolded``: refine's functions),
-    so every decision sees the same numbers.
+    so every decision sees the same numbers. ``angle`` None: both from
+    :func:`relax_round_parts` (refine's compiled angle parts and fold
+    test, one pass a round) and NumPy's arctan2.
 
     Returns
     -------
@@ -1218,6 +1220,8 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
     if nt < 2:
         return T, changed, True
     T = np.array(T, np.int64)
+    if angle is None:
+        P = np.ascontiguousarray(P, np.float64)
     forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
     ks, twin, active = _pair_half_edges(T, n)
     if dirty is not None:
@@ -1230,9 +1234,13 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
             settled = True
             break
         g = _relax_gather(T, twin, np.ascontiguousarray(active, np.int64), n)
-        pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
-        excess = angle(pa - pc, pb - pc) + angle(pa - pd, pb - pd) - np.pi
-        unf = np.ascontiguousarray(unfolded(pa, pb, pc, pd), np.bool_)
+        if angle is None:     # the compiled parts of both (refine's own numbers), NumPy's arctan2
+            cr1, dt1, cr2, dt2, unf = _relax_round_parts(P, g)
+            excess = np.arctan2(cr1, dt1) + np.arctan2(cr2, dt2) - np.pi
+        else:
+            pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
+            excess = angle(pa - pc, pb - pc) + angle(pa - pd, pb - pd) - np.pi
+            unf = np.ascontiguousarray(unfolded(pa, pb, pc, pd), np.bool_)
         status, active, ck_keys, ck_vals = _relax_apply(T, twin, changed, is_loop, forb, ks, ck_keys, ck_vals, g,
                                                         np.ascontiguousarray(excess), unf, float(flip_eps), n)
         if status == 2:
@@ -1624,6 +1632,50 @@ def edge_bend_pairs(V, T):
         The edges' lengths.
     """
     return _edge_bend_pairs(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(T, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _angle_part(a0, a1, a2, b0, b1, b2, q0, q1, q2):
+    """:func:`_angle_parts` of (a − q, b − q), one row: its operations."""
+    u0, u1, u2 = a0 - q0, a1 - q1, a2 - q2
+    v0, v1, v2 = b0 - q0, b1 - q1, b2 - q2
+    c0 = u1 * v2 - u2 * v1
+    c1 = u2 * v0 - u0 * v2
+    c2 = u0 * v1 - u1 * v0
+    return np.sqrt(c0 * c0 + c1 * c1 + c2 * c2), u0 * v0 + u1 * v1 + u2 * v2
+
+
+@njit(cache=True, nogil=True)
+def _relax_round_parts(P, g):
+    m = g.shape[0]
+    cr1, dt1 = np.empty(m), np.empty(m)
+    cr2, dt2 = np.empty(m), np.empty(m)
+    pa, pb = np.empty((m, 3)), np.empty((m, 3))
+    pc, pd = np.empty((m, 3)), np.empty((m, 3))
+    for r in range(m):
+        for i in range(3):
+            pa[r, i], pb[r, i] = P[g[r, 2], i], P[g[r, 3], i]
+            pc[r, i], pd[r, i] = P[g[r, 4], i], P[g[r, 5], i]
+        cr1[r], dt1[r] = _angle_part(pa[r, 0], pa[r, 1], pa[r, 2], pb[r, 0], pb[r, 1], pb[r, 2],
+                                     pc[r, 0], pc[r, 1], pc[r, 2])
+        cr2[r], dt2[r] = _angle_part(pa[r, 0], pa[r, 1], pa[r, 2], pb[r, 0], pb[r, 1], pb[r, 2],
+                                     pd[r, 0], pd[r, 1], pd[r, 2])
+    return cr1, dt1, cr2, dt2, _unfolded(pa, pb, pc, pd)
+
+
+def relax_round_parts(P, g):
+    """One relaxation round's numbers for the candidate edges of
+    :func:`_relax_gather` (rows of ``g``: h1, h2, a, b, c, d, f1, f2):
+    :func:`angle_parts` of the angles at c and at d facing edge a-b
+    (``(a − c, b − c)``, ``(a − d, b − d)``) and :func:`unfolded` of the
+    flip, in one pass with the same operations (the arctan2 stays NumPy's).
+
+    Returns
+    -------
+    cr1, dt1, cr2, dt2 : (m,) float64
+    unf : (m,) bool
+    """
+    return _relax_round_parts(np.ascontiguousarray(P, np.float64), np.ascontiguousarray(g, np.int64))
 
 
 # --------------------------------------------------------------------------
@@ -2519,6 +2571,7 @@ def warm_up():
     for order in (1, 2, 3):
         fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
     edge_bend_pairs(X, T)
+    relax_round_parts(X, np.array([[0, 1, 1, 2, 0, 3, 0, 1]], np.int64))
     nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
