@@ -72,7 +72,7 @@ import scipy.sparse.linalg as spla
 from . import kernels
 from .intrinsic import intrinsic_laplacian
 
-__all__ = ["fair_patch", "fair_patch_orders", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
+__all__ = ["fair_patch", "fair_patch_orders", "Operator", "as_matrix", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
 
 #: Rounds of cotangent re-evaluation after the uniform first solve.
 COTAN_ROUNDS = 2
@@ -175,6 +175,61 @@ def _as_sparse(K, n):
         return K
     ptr, col, val = K
     return sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
+
+
+class Operator:
+    """:func:`fair_patch`'s K, assembled as a CSC matrix when first read.
+
+    Most callers read only the positions (a fill without colours or
+    properties never interpolates with K), and assembling SciPy's matrix
+    from the compiled kernels' CSR arrays cost as much as a small patch's
+    whole fairing. :meth:`tocsc` (or :func:`as_matrix`) gives the matrix;
+    any other attribute, and ``-``, ``!=``, ``abs``, ``@``, are the matrix's.
+    """
+
+    __slots__ = ("_arrays", "_n", "_K")
+
+    def __init__(self, K, n):
+        self._arrays, self._n, self._K = K, int(n), None
+
+    def tocsc(self):
+        """The (n,n) CSC matrix (assembled once)."""
+        if self._K is None:
+            self._K = _as_sparse(self._arrays, self._n)
+            self._arrays = None
+        return self._K
+
+    @property
+    def shape(self):
+        return (self._n, self._n)
+
+    def __getattr__(self, name):
+        return getattr(self.tocsc(), name)
+
+    def __sub__(self, other):
+        return self.tocsc() - as_matrix(other)
+
+    def __rsub__(self, other):
+        return as_matrix(other) - self.tocsc()
+
+    def __ne__(self, other):
+        return self.tocsc() != as_matrix(other)
+
+    def __eq__(self, other):
+        return self.tocsc() == as_matrix(other)
+
+    __hash__ = None
+
+    def __abs__(self):
+        return abs(self.tocsc())
+
+    def __matmul__(self, other):
+        return self.tocsc() @ other
+
+
+def as_matrix(K):
+    """K as a SciPy sparse matrix: an :class:`Operator`'s, or K itself."""
+    return K.tocsc() if isinstance(K, Operator) else K
 
 
 class _Factor:
@@ -290,8 +345,9 @@ def fair_patch(X, F, n_fixed, order=2, rounds=COTAN_ROUNDS, pinned=None):
     -------
     Xu : (n - n_fixed, 3) float64
         Faired positions of the free vertices.
-    K : (n,n) CSC
-        The order-1 operator of the last round (for interpolating colours).
+    K : (n,n) CSC, as an :class:`Operator`
+        The order-1 operator of the last round (for interpolating colours;
+        assembled when first read: :func:`as_matrix`).
     """
     return fair_patch_orders(X, F, n_fixed, (order,), rounds, pinned)[0]
 
@@ -320,7 +376,7 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None, o
     results : list of (Xu, K)
         :func:`fair_patch`'s result for each order, in the order given.
     """
-    op = _as_sparse if operator else (lambda K, n: None)
+    op = Operator if operator else (lambda K, n: None)
     X = np.array(X, np.float64)
     n = len(X)
     if n == n_fixed:
@@ -515,7 +571,7 @@ def harmonic_interpolate(K, values_fixed, n_fixed):
 
     Parameters
     ----------
-    K : (n,n) sparse
+    K : (n,n) sparse, or :func:`fair_patch`'s :class:`Operator`
         Order-1 operator of the submesh.
     values_fixed : (n_fixed, c) float64
     n_fixed : int
@@ -524,7 +580,7 @@ def harmonic_interpolate(K, values_fixed, n_fixed):
     -------
     values_free : (n - n_fixed, c) float64
     """
-    K = sp.csc_matrix(K)
+    K = sp.csc_matrix(as_matrix(K))
     n = K.shape[0]
     if n == n_fixed:
         return np.zeros((0, values_fixed.shape[1]))

@@ -16,6 +16,12 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   vertices and one over the faces;
 * :func:`ring_faces`: the faces within some rings of a vertex set
   (:meth:`shellrepair.patch._Context.ring_faces`);
+* :func:`submesh`: a hole's submesh in local numbering
+  (:func:`shellrepair.patch._submesh`); :func:`patch_corners`,
+  :func:`rim_sigma`: a patch's triangle corners and its rim scale
+  (:func:`shellrepair.patch._corners`, :func:`shellrepair.patch._rim_sigma`);
+* :func:`inside_outline`, :func:`loop_cover`: the inside test and the cover
+  test of :func:`shellrepair.triangulate._delaunay_in_projection`;
 * :func:`grid_sort`, :func:`faces_in_box`: the vertex grid of
   :class:`shellrepair.intersect.NearFaces` and its box query;
 * :func:`box_pairs`: candidate triangle pairs for the crossing tests
@@ -34,12 +40,15 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   cotangents and areas of the result
   (:func:`shellrepair.intrinsic._flip_to_delaunay`);
 * :func:`relax`: a patch's Delaunay edge flips
-  (:func:`shellrepair.refine._relax`), the angles still NumPy's;
+  (:func:`shellrepair.refine._relax`), the angles still NumPy's, and
+  :func:`relax_round_parts`: one round's angle parts and fold tests;
 * :func:`rim_edges`: a loop's rim scale and scan normals from the faces
   around it (:func:`shellrepair.patch._rim_data`);
 * :func:`fair_small`: a small patch's whole fairing
   (:func:`shellrepair.fair.fair_patch`), the solves dense: equal to
   round-off, not to the bit (the one kernel with a tolerance, stated there);
+* :func:`edge_bend_pairs`: the face normals, interior-edge face pairs and
+  edge lengths of :func:`shellrepair.selftest._edge_bends`;
 * :func:`nearest_distances`: points to their candidate triangles, the
   order test's distances (:func:`shellrepair.selftest.point_mesh_distance`);
 * :func:`energy_blocks`: the unknown and fixed blocks of a large patch's
@@ -73,7 +82,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "grid_sort", "relax", "faces_in_box", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "fair_small", "nearest_distances", "max_sq_distance", "outline_simple", "boxes_meeting", "energy_blocks", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -1856,7 +1865,9 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
 
     The same rounds, choices and results; the opposite angles and the fold
     test stay NumPy's own (``angle``, ``unfolded``: refine's functions),
-    so every decision sees the same numbers.
+    so every decision sees the same numbers. ``angle`` None: both from
+    :func:`relax_round_parts` (refine's compiled angle parts and fold
+    test, one pass a round) and NumPy's arctan2.
 
     Returns
     -------
@@ -1870,6 +1881,8 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
     if nt < 2:
         return T, changed, True
     T = np.array(T, np.int64)
+    if angle is None:
+        P = np.ascontiguousarray(P, np.float64)
     forb = np.sort(forb[:, 0] * n + forb[:, 1]) if len(forb) else np.zeros(0, np.int64)
     ks, twin, active = _pair_half_edges(T, n)
     if dirty is not None:
@@ -1882,9 +1895,13 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
             settled = True
             break
         g = _relax_gather(T, twin, np.ascontiguousarray(active, np.int64), n)
-        pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
-        excess = angle(pa - pc, pb - pc) + angle(pa - pd, pb - pd) - np.pi
-        unf = np.ascontiguousarray(unfolded(pa, pb, pc, pd), np.bool_)
+        if angle is None:     # the compiled parts of both (refine's own numbers), NumPy's arctan2
+            cr1, dt1, cr2, dt2, unf = _relax_round_parts(P, g)
+            excess = np.arctan2(cr1, dt1) + np.arctan2(cr2, dt2) - np.pi
+        else:
+            pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
+            excess = angle(pa - pc, pb - pc) + angle(pa - pd, pb - pd) - np.pi
+            unf = np.ascontiguousarray(unfolded(pa, pb, pc, pd), np.bool_)
         status, active, ck_keys, ck_vals = _relax_apply(T, twin, changed, is_loop, forb, ks, ck_keys, ck_vals, g,
                                                         np.ascontiguousarray(excess), unf, float(flip_eps), n)
         if status == 2:
@@ -2112,7 +2129,10 @@ def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_roun
     X = X.copy()
     ones = np.ones(n)
     ptr, col, val = _laplacian_rows(F, np.zeros((0, 3)), n, True)
-    Xu, ok = _fair_round(ptr, col, val, ones, min(order, uniform_max_order), X, fixed, unk_pos, unk)
+    # the solves read K without its spare zero slots (_drop_spare_diagonal:
+    # each added a zero product, so no sum changes; half the entries)
+    pc, cc, vc = _drop_spare_diagonal(ptr, col, val)
+    Xu, ok = _fair_round(pc, cc, vc, ones, min(order, uniform_max_order), X, fixed, unk_pos, unk)
     if not ok:
         return X, False, ptr, col, val
     for i in range(nu):
@@ -2154,7 +2174,8 @@ def _fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_roun
             break
         floor = degenerate_area + 1e-3 * np.median(M)
         D = 1.0 / np.maximum(M, floor)
-        Xn, ok = _fair_round(ptr2, col2, val2, D, order, X, fixed, unk_pos, unk)
+        pc, cc, vc = _drop_spare_diagonal(ptr2, col2, val2)
+        Xn, ok = _fair_round(pc, cc, vc, D, order, X, fixed, unk_pos, unk)
         if not ok or not np.isfinite(Xn).all():
             break
         for i in range(nu):
@@ -2201,6 +2222,121 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
     return _fair_small(np.ascontiguousarray(X, np.float64), np.ascontiguousarray(F, np.int64),
                        np.ascontiguousarray(fixed, np.bool_), int(order), int(rounds), float(degenerate_area),
                        float(flip_tol), int(flip_rounds), int(uniform_max_order))
+
+
+@njit(cache=True, nogil=True)
+def _edge_bend_pairs(V, T):
+    m = T.shape[0]
+    N = np.zeros((m, 3))
+    ok = np.zeros(m, np.bool_)
+    for f in range(m):
+        a, b, c = T[f, 0], T[f, 1], T[f, 2]
+        u0, u1, u2 = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
+        v0, v1, v2 = V[c, 0] - V[a, 0], V[c, 1] - V[a, 1], V[c, 2] - V[a, 2]
+        n0, n1, n2 = u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
+        ln = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
+        if ln > 0:
+            ok[f] = True
+            N[f, 0], N[f, 1], N[f, 2] = n0 / ln, n1 / ln, n2 / ln
+    # the sides (smaller vertex, larger) in the order of
+    # np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), sorted
+    # stably by (smaller, larger): np.lexsort's order
+    top = 0
+    for f in range(m):
+        for s in range(3):
+            top = max(top, T[f, s])
+    key = np.empty(3 * m, np.int64)
+    for s in range(3):
+        for f in range(m):
+            p, q = T[f, s], T[f, (s + 1) % 3]
+            key[s * m + f] = min(p, q) * (top + 1) + max(p, q)
+    o = np.argsort(key, kind="mergesort")
+    a = np.empty(3 * m, np.int64)
+    b = np.empty(3 * m, np.int64)
+    h = np.empty(3 * m)
+    k = 0
+    for t in range(3 * m - 1):
+        e1, e2 = o[t], o[t + 1]
+        if key[e1] != key[e2]:
+            continue
+        fa, fb = e1 % m, e2 % m
+        if not (ok[fa] and ok[fb]):
+            continue
+        a[k], b[k] = fa, fb
+        i, j = key[e1] // (top + 1), key[e1] % (top + 1)
+        d0, d1, d2 = V[j, 0] - V[i, 0], V[j, 1] - V[i, 1], V[j, 2] - V[i, 2]
+        h[k] = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+        k += 1
+    return N, a[:k].copy(), b[:k].copy(), h[:k].copy()
+
+
+def edge_bend_pairs(V, T):
+    """The parts of :func:`shellrepair.selftest._edge_bends`, compiled: the
+    faces' unit normals (zero for a face without area), the two faces of
+    each interior edge (both with area), in the order of its sort of the
+    edges, and the edges' lengths; each number with the NumPy version's
+    operations in its order (the cosines, NumPy's einsum of the normals'
+    pairs, stay with the caller: einsum's order of a row's three products
+    depends on the CPU's vector width).
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    T : (m,3) int64, m >= 1
+
+    Returns
+    -------
+    N : (m,3) float64
+    a, b : (e,) int64
+        Faces (rows of ``T``) of each interior edge, in sorted edge order.
+    h : (e,) float64
+        The edges' lengths.
+    """
+    return _edge_bend_pairs(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(T, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _angle_part(a0, a1, a2, b0, b1, b2, q0, q1, q2):
+    """:func:`_angle_parts` of (a − q, b − q), one row: its operations."""
+    u0, u1, u2 = a0 - q0, a1 - q1, a2 - q2
+    v0, v1, v2 = b0 - q0, b1 - q1, b2 - q2
+    c0 = u1 * v2 - u2 * v1
+    c1 = u2 * v0 - u0 * v2
+    c2 = u0 * v1 - u1 * v0
+    return np.sqrt(c0 * c0 + c1 * c1 + c2 * c2), u0 * v0 + u1 * v1 + u2 * v2
+
+
+@njit(cache=True, nogil=True)
+def _relax_round_parts(P, g):
+    m = g.shape[0]
+    cr1, dt1 = np.empty(m), np.empty(m)
+    cr2, dt2 = np.empty(m), np.empty(m)
+    pa, pb = np.empty((m, 3)), np.empty((m, 3))
+    pc, pd = np.empty((m, 3)), np.empty((m, 3))
+    for r in range(m):
+        for i in range(3):
+            pa[r, i], pb[r, i] = P[g[r, 2], i], P[g[r, 3], i]
+            pc[r, i], pd[r, i] = P[g[r, 4], i], P[g[r, 5], i]
+        cr1[r], dt1[r] = _angle_part(pa[r, 0], pa[r, 1], pa[r, 2], pb[r, 0], pb[r, 1], pb[r, 2],
+                                     pc[r, 0], pc[r, 1], pc[r, 2])
+        cr2[r], dt2[r] = _angle_part(pa[r, 0], pa[r, 1], pa[r, 2], pb[r, 0], pb[r, 1], pb[r, 2],
+                                     pd[r, 0], pd[r, 1], pd[r, 2])
+    return cr1, dt1, cr2, dt2, _unfolded(pa, pb, pc, pd)
+
+
+def relax_round_parts(P, g):
+    """One relaxation round's numbers for the candidate edges of
+    :func:`_relax_gather` (rows of ``g``: h1, h2, a, b, c, d, f1, f2):
+    :func:`angle_parts` of the angles at c and at d facing edge a-b
+    (``(a − c, b − c)``, ``(a − d, b − d)``) and :func:`unfolded` of the
+    flip, in one pass with the same operations (the arctan2 stays NumPy's).
+
+    Returns
+    -------
+    cr1, dt1, cr2, dt2 : (m,) float64
+    unf : (m,) bool
+    """
+    return _relax_round_parts(np.ascontiguousarray(P, np.float64), np.ascontiguousarray(g, np.int64))
 
 
 # --------------------------------------------------------------------------
@@ -3165,6 +3301,8 @@ def warm_up():
                  np.zeros(1, np.int64), 1e-15, 1e-15, 1e-280)
     patch_pairs(Tr + 0.25, np.array([[-1, 1, -2]]), np.array([0, 1], np.int64), X, T, np.zeros(3), 1e-15, 1e-15, 1e-280)
     projection_embeds(X[:, :2], T, 4, 1.0, 1e-9)
+    edge_bend_pairs(X, T)
+    relax_round_parts(X, np.array([[0, 1, 1, 2, 0, 3, 0, 1]], np.int64))
     nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))

@@ -206,7 +206,7 @@ def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
     """:func:`_relax_numpy`, its bookkeeping compiled (:func:`shellrepair.kernels.relax`,
     the same result) when Numba is there."""
     if kernels.ENABLED:
-        out = kernels.relax(P, T, is_loop, forb, max_rounds, dirty, _angle_compiled, kernels.unfolded, FLIP_EPS)
+        out = kernels.relax(P, T, is_loop, forb, max_rounds, dirty, None, None, FLIP_EPS)   # (_angle_compiled's numbers)
         if out is not None:   # None: a tie the vectorised writes order; redone below
             return out
     return _relax_numpy(P, T, is_loop, forb, max_rounds, dirty)

@@ -202,6 +202,11 @@ def _edge_bends(V, T):
 
     if len(T) < 2:
         return np.zeros(0), np.zeros(0)
+    from . import kernels
+
+    if kernels.ENABLED:    # the same numbers, the normals, sort and lengths compiled
+        N, a, b, h = kernels.edge_bend_pairs(V, T)
+        return np.einsum("ij,ij->i", N[a], N[b]), h
     N = face_normals(V, T)
     ln = np.linalg.norm(N, axis=1)
     ok = ln > 0
@@ -395,7 +400,11 @@ def _closest_on_triangles(P, A, B, C):
 
 
 def _mean_edge(V, loop):
-    return float(np.mean(np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1)))
+    loop = np.asarray(loop)
+    nxt = np.empty_like(loop)     # np.roll(loop, -1), without its checks
+    nxt[:-1] = loop[1:]
+    nxt[-1:] = loop[:1]
+    return float(np.mean(np.linalg.norm(V[nxt] - V[loop], axis=1)))
 
 
 def size_class(k):

@@ -358,3 +358,22 @@ def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
     for a, b in zip(got, ref):
         for x, y in zip(a, b):
             assert np.array_equal(x, y)
+
+
+@pytest.mark.parametrize("k", [12, 40])       # the dense small-patch path and the sparse one
+def test_the_returned_operator_is_assembled_when_read_and_equals_the_eager_matrix(k, monkeypatch):
+    X, F, nf = _bumpy_grid(k, 3)
+    Xu, K = fair.fair_patch(X, F, nf, order=2)
+    assert isinstance(K, fair.Operator) and K.shape == (len(X), len(X))
+    M = fair.as_matrix(K)
+    assert sp.isspmatrix_csc(M) and M is K.tocsc()          # assembled once
+    with monkeypatch.context() as m:                         # the matrix assembled at once, as before
+        m.setattr(fair, "Operator", fair._as_sparse)
+        Xe, E = fair.fair_patch(X, F, nf, order=2)
+    assert sp.isspmatrix_csc(E) and np.array_equal(Xu, Xe)
+    assert np.array_equal(M.indptr, E.indptr) and np.array_equal(M.indices, E.indices)
+    assert np.array_equal(M.data, E.data)
+    assert (K != E).nnz == 0 and abs(K - E).max() == 0 and (K @ X).shape == X.shape
+    # interpolation reads the operator as it read the eager matrix
+    values = np.linspace(0.0, 1.0, nf)[:, None]
+    assert np.array_equal(fair.harmonic_interpolate(K, values, nf), fair.harmonic_interpolate(E, values, nf))

@@ -816,3 +816,106 @@ def test_scan_edges_are_the_loop_edges_of_the_sorted_edge_list():
     want = [tuple(e) for e in E[(E >= 0).all(axis=1)].tolist()]
     assert _scan_edges(patch) == want and len(want) > 50
     assert _scan_edges(SimpleNamespace(loop=loop, T=T[:0])) == []
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+@pytest.mark.parametrize("seed", range(3))
+def test_the_dense_fairing_round_reads_k_without_its_spare_slots_to_the_bit(order, seed):
+    """fair_small's solves take K without _laplacian_rows' spare zero
+    diagonal slots (each only added a zero product): every round's
+    positions as with the spare slots, uniform and cotangent weights."""
+    X, F, nf = _submesh_with_free_middle(9 + 3 * seed, seed)
+    n = len(X)
+    fixed = np.arange(n) < nf
+    unk = np.flatnonzero(~fixed)
+    unk_pos = np.full(n, -1, np.int64)
+    unk_pos[unk] = np.arange(unk.size)
+    rng = np.random.default_rng(seed)
+    W = 0.5 * rng.uniform(0.1, 2.0, size=F.shape)          # positive weights, as on a Delaunay mesh
+    D = 1.0 / rng.uniform(0.2, 1.0, size=n)
+    for ptr, col, val, d in (kernels._laplacian_rows(F, np.zeros((0, 3)), n, True) + (np.ones(n),),
+                             kernels._laplacian_rows(F, W, n, False) + (D,)):
+        pc, cc, vc = kernels._drop_spare_diagonal(ptr, col, val)
+        assert pc[-1] < ptr[-1]                              # there were spare slots to drop
+        full, ok1 = kernels._fair_round(ptr, col, val, d, order, X, fixed, unk_pos, unk)
+        lean, ok2 = kernels._fair_round(pc, cc, vc, d, order, X, fixed, unk_pos, unk)
+        assert ok1 and ok2 and np.array_equal(full, lean)
+
+
+def _bend_meshes():
+    """Seeded meshes for the bend kernel: noisy grids (ids far from 0 in a
+    large vertex array), one with faces without area, one with an edge of
+    three faces, one face alone."""
+    out = []
+    for seed in range(6):
+        rng = np.random.default_rng(seed)
+        V, F = shapes.grid(6 + seed, 5 + seed)
+        V = V + rng.normal(scale=0.05, size=V.shape)
+        off = int(rng.integers(0, 10_000))
+        big = rng.normal(size=(off + len(V), 3)) * 1e3
+        big[off:] = V + np.array([1e6, -2e6, 5e5]) * (seed % 2)       # far from the origin, every other seed
+        out.append((big, F[rng.permutation(len(F))] + off))
+    V, F = shapes.grid(5, 5)
+    V[F[3]] = V[F[3][0]]                                     # a face collapsed to a point
+    V[F[7][2]] = 0.5 * (V[F[7][0]] + V[F[7][1]])             # and a collinear one
+    out.append((V, F))
+    V, F = shapes.grid(4, 4)
+    a, b = F[0][0], F[0][1]
+    out.append((np.vstack([V, [[0.3, 0.2, 1.0]]]), np.vstack([F, [[b, a, len(V)]]])))   # edge ab: three faces
+    out.append((V, F[:1]))
+    return out
+
+
+@pytest.mark.parametrize("case", range(9))
+def test_edge_bends_equal_the_numpy_ones_to_the_bit(case, monkeypatch):
+    from shellrepair import selftest
+
+    V, T = _bend_meshes()[case]
+    got = selftest._edge_bends(V, T)
+    monkeypatch.setattr(kernels, "ENABLED", False)
+    ref = selftest._edge_bends(V, T)
+    assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+    if len(T) > 1:
+        assert got[0].size > 0 and np.all(np.abs(got[0]) <= 1.0 + 1e-15) and np.all(got[1] > 0)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed):
+    """relax_round_parts (the angle parts at c and d and the fold test of
+    each candidate edge in one pass) gives refine._angle's arctan2
+    arguments and refine._unfolded's verdicts to the bit, on random quads
+    of mixed scales, degenerate, flat and far-offset ones included; and
+    the relaxation that uses it (refine._relax) flips as the NumPy rounds do."""
+    from shellrepair import refine, triangulate
+
+    rng = np.random.default_rng(seed)
+    m = 300
+    P = rng.normal(size=(4 * m, 3)) * 10.0 ** rng.integers(-4, 3, (4 * m, 1))
+    P[m:m + 40] = P[:40]                            # c = a: degenerate angles
+    P[:80, 2] = 0.0
+    P[2 * m:2 * m + 60] += 1e6
+    g = np.zeros((m, 8), np.int64)
+    g[:, 2:6] = rng.integers(0, 4 * m, size=(m, 4))
+    g[:40, 4] = g[:40, 2]
+    cr1, dt1, cr2, dt2, unf = kernels.relax_round_parts(P, g)
+    pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
+    assert np.array_equal(np.arctan2(cr1, dt1), refine._angle_compiled(pa - pc, pb - pc))
+    assert np.array_equal(np.arctan2(cr2, dt2), refine._angle_compiled(pa - pd, pb - pd))
+    # and NumPy's _angle where no side has length 0 (at a = c the compiled
+    # dot product is −0.0 where np.sum gives +0.0: arctan2 π against 0, as
+    # _angle_compiled has always given; no patch has coincident vertices)
+    sound = np.flatnonzero(np.any(pa != pc, axis=1) & np.any(pb != pc, axis=1))
+    assert m - 50 <= sound.size <= m - 40            # (random ids may meet too)
+    assert np.array_equal(np.arctan2(cr1, dt1)[sound], refine._angle(pa - pc, pb - pc)[sound])
+    assert np.array_equal(np.arctan2(cr2, dt2), refine._angle(pa - pd, pb - pd))
+    assert np.array_equal(unf, refine._unfolded(pa, pb, pc, pd)) and unf.any() and not unf.all()
+    k = 20 + 6 * seed
+    t = np.sort(rng.uniform(0, 2 * np.pi, k))
+    Q = np.column_stack([np.cos(t), np.sin(t) * (1 + 0.2 * seed), 0.3 * np.cos(2 * t)])
+    Q2, T2 = refine.refine_patch(Q, triangulate.triangulate_loop(Q), np.full(k, 0.2), k)
+    is_loop = np.arange(len(Q2)) < k
+    Qj = Q2 + rng.normal(scale=0.04, size=Q2.shape) * (~is_loop)[:, None]
+    forb = np.zeros((0, 2), np.int64)
+    a = refine._relax_numpy(Qj, T2.copy(), is_loop, forb)
+    b = refine._relax(Qj, T2.copy(), is_loop, forb)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2] and a[1].any()
