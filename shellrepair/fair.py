@@ -608,12 +608,17 @@ def thin_plate_energy(X, F, rows):
     -------
     E : float
         Dimensionless (∫ (2H)² dA for a smooth surface): the same for a
-        scaled copy, so tubes and caps of different sizes compare.
+        scaled copy, so tubes and caps of different sizes compare; inf
+        where the sum overflows or is undefined (a patch whose fairing blew
+        up to huge but finite positions), so such a patch loses every
+        comparison.
     """
-    K, M = _cotan_operators(np.asarray(X, np.float64), np.asarray(F, np.int64))
-    KX = np.asarray(K[rows] @ X)
-    m = np.maximum(M[rows], 1e-300)
-    return float(np.sum(np.sum(KX * KX, axis=1) / m))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # a blown-up patch: inf, below
+        K, M = _cotan_operators(np.asarray(X, np.float64), np.asarray(F, np.int64))
+        KX = np.asarray(K[rows] @ X)
+        m = np.maximum(M[rows], 1e-300)
+        E = float(np.sum(np.sum(KX * KX, axis=1) / m))
+    return E if np.isfinite(E) else np.inf
 
 
 def curvature_variation_energy(X, F, S):
@@ -632,14 +637,17 @@ def curvature_variation_energy(X, F, S):
     Returns
     -------
     E : float
-        In units of 1/length²: compare options at the same scale.
+        In units of 1/length²: compare options at the same scale; inf where
+        the sum overflows or is undefined (as :func:`thin_plate_energy`).
     """
     X = np.asarray(X, np.float64)
-    K, M = _cotan_operators(X, np.asarray(F, np.int64))
-    Hn = np.asarray(K @ X) / np.maximum(M, 1e-300)[:, None]
     inS = np.zeros(len(X), bool)
     inS[np.asarray(S, np.int64)] = True
-    C = sp.triu(-K, k=1).tocoo()
-    keep = inS[C.row] & inS[C.col]
-    d = Hn[C.row[keep]] - Hn[C.col[keep]]
-    return float(np.sum(C.data[keep] * np.sum(d * d, axis=1)))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # a blown-up patch: inf, below
+        K, M = _cotan_operators(X, np.asarray(F, np.int64))
+        Hn = np.asarray(K @ X) / np.maximum(M, 1e-300)[:, None]
+        C = sp.triu(-K, k=1).tocoo()
+        keep = inS[C.row] & inS[C.col]
+        d = Hn[C.row[keep]] - Hn[C.col[keep]]
+        E = float(np.sum(C.data[keep] * np.sum(d * d, axis=1)))
+    return E if np.isfinite(E) else np.inf

@@ -377,3 +377,26 @@ def test_the_returned_operator_is_assembled_when_read_and_equals_the_eager_matri
     # interpolation reads the operator as it read the eager matrix
     values = np.linspace(0.0, 1.0, nf)[:, None]
     assert np.array_equal(fair.harmonic_interpolate(K, values, nf), fair.harmonic_interpolate(E, values, nf))
+
+
+def test_a_blown_up_patch_has_infinite_energy_without_warnings():
+    """A fairing that diverged to huge but finite positions (one vertex at
+    1e200) overflows the energy sums: both energies are inf, quietly, so the
+    patch loses every comparison; the same fan unmoved has finite energies."""
+    import warnings
+
+    from shellrepair.fair import curvature_variation_energy, thin_plate_energy
+
+    k = 8
+    t = np.linspace(0, 2 * np.pi, k, endpoint=False)
+    X = np.vstack([np.column_stack([np.cos(t), np.sin(t), 0.1 * np.cos(2 * t)]), [[0.0, 0.0, 0.2]]])
+    F = np.array([[i, (i + 1) % k, k] for i in range(k)], np.int64)
+    rows = np.arange(k + 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        e0, c0 = thin_plate_energy(X, F, rows), curvature_variation_energy(X, F, rows)
+        Xb = X.copy()
+        Xb[k] = [3e200, -1e200, 2e200]
+        e1, c1 = thin_plate_energy(Xb, F, rows), curvature_variation_energy(Xb, F, rows)
+    assert np.isfinite(e0) and np.isfinite(c0) and e0 > 0
+    assert e1 == np.inf and c1 == np.inf
