@@ -681,15 +681,7 @@ def _faces_in_box(vkey, vorder, V, vf_order, vf_start, big, lo2, h, ny, lo, hi, 
                 nv += 1
                 bound += vf_start[v + 1] - vf_start[v]
     found = np.empty(bound, np.int64)
-    nf = 0
-    for k in range(nv):
-        v = inbox[k]
-        for q in range(vf_start[v], vf_start[v + 1]):
-            f = vf_order[q] // 3
-            if not fmark[f]:
-                fmark[f] = True
-                found[nf] = f
-                nf += 1
+    nf = _ring_collect(inbox, nv, vf_order, vf_start, fmark, found, 0)   # the box's vertices' faces
     for f in big:
         if not fmark[f]:
             fmark[f] = True
