@@ -3,9 +3,9 @@
     shellrepair holes SCAN [--json] [--max-hole N] [--fill-borders] [--closed auto|yes|no]
     shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3] [--smooth N]
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
-                       [--bridge auto|never|always]
+                       [--bridge auto|never|always] [--base auto|flat|faired]
     shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
-                      [--fill-borders] [--bridge auto|never|always] [--json]
+                      [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
                        [--before MESH] [--unit mm|cm|m] [--age A] [--up AXIS]
 
@@ -172,6 +172,10 @@ def _repair_options(p):
                         f"(default: the cores there are, {default_jobs()})")
     p.add_argument("--bridge", choices=("auto", "never", "always"), default="auto",
                    help="two facing loops bounding a missing band: tube or caps (default auto: lower energy)")
+    p.add_argument("--base", choices=("auto", "flat", "faired"), default="auto",
+                   help="a planar opening the scan's walls stand across (an unscanned base, or a cut): "
+                        "flat cap, faired fill continuing the walls, or auto (default): flat where the scan "
+                        "turns into the opening along most of its rim")
 
 
 def _hole_options(p):
@@ -224,7 +228,7 @@ def _options(args):
 
     return RepairOptions(order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                          fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
-                         bridge=args.bridge, closed=_closed(args))
+                         bridge=args.bridge, closed=_closed(args), base=args.base)
 
 
 def _closed(args):

@@ -26,6 +26,7 @@ __all__ = ["RepairOptions"]
 _ORDERS = (1, 2, 3, "auto")
 _METHODS = ("fair", "seed")
 _BRIDGES = ("auto", "never", "always")
+_BASES = ("auto", "flat", "faired")
 
 
 def _whole(x):
@@ -61,6 +62,15 @@ class RepairOptions:
     closed : bool or None
         How each piece is read: None infers it from its normals, True reads
         every piece as part of a closed object, False as a single view.
+    base : {"auto", "flat", "faired"}
+        A planar opening of a scan whose walls stand across its plane (the
+        unscanned underside of a figure that stood on a table, or a cut
+        through the figure): ``"auto"`` (default) caps it flat where the
+        scan turns into the opening's plane along most of its rim and fairs
+        it otherwise (:func:`shellrepair.patch._turns_into_opening`);
+        ``"flat"`` caps every such opening flat (the object's real base is
+        there); ``"faired"`` continues the walls into a faired fill. Planar
+        openings of CAD parts are capped flat in every case.
     """
 
     order: object = "auto"
@@ -71,6 +81,7 @@ class RepairOptions:
     jobs: int = 1
     bridge: str = "auto"
     closed: bool | None = None
+    base: str = "auto"
 
     def __post_init__(self):
         if isinstance(self.order, bool) or self.order not in _ORDERS:
@@ -89,6 +100,8 @@ class RepairOptions:
             raise MeshError(f"bridge must be 'auto', 'never' or 'always', got {self.bridge!r}")
         if self.closed not in (None, True, False):
             raise MeshError(f"closed must be None, True or False, got {self.closed!r}")
+        if self.base not in _BASES:
+            raise MeshError(f"base must be 'auto', 'flat' or 'faired', got {self.base!r}")
         # NumPy integers in, plain ints kept (reports are JSON)
         for name in ("smooth", "jobs") + (("max_hole",) if self.max_hole is not None else ()) + \
                 (("order",) if self.order != "auto" else ()):

@@ -124,6 +124,7 @@ class _Context:
         self._vpos = None                         # scratch vertex positions (vpos()), made on first use
         self.planarity = {}  # loop id -> planarity measured by detect_holes
         self.axes = {}       # loop id -> (loop vertices, best-fit plane axis) measured by detect_holes
+        self.base = "auto"   # RepairOptions.base: how a scan's planar opening met edge-on is filled
         self.topo = None     # the mesh's EdgeTopology, when the caller has it
         self._index = None
         self._full_index = None
@@ -652,7 +653,11 @@ EDGE_ON_CAD_PLANARITY = 1e-6
 
 
 def _meets_edge_on(ctx, loop, hole_id=None):
-    """Is the loop a planar opening whose surrounding walls stand across its plane?"""
+    """Is the loop a planar opening whose surrounding walls stand across its
+    plane, to be capped flat? On a scan, by ``ctx.base``
+    (:class:`shellrepair.options.RepairOptions`): ``"flat"`` every such
+    opening, ``"faired"`` none, ``"auto"`` where the walls turn into it
+    (:func:`_turns_into_opening`); a CAD face's outline always."""
     from .holes import loop_stats
 
     if ctx.planarity.get(hole_id, 0.0) > EDGE_ON_PLANARITY:  # measured already: not planar
@@ -679,7 +684,8 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
     if float(np.sum(a * cosines) / a.sum()) > EDGE_ON_COS:
         return False
-    return _turns_into_opening(ctx, loop)
+    base = getattr(ctx, "base", "auto")    # the user's word on what the opening is, when given
+    return base == "flat" or (base == "auto" and _turns_into_opening(ctx, loop))
 
 
 def _face_cross(ctx, faces):

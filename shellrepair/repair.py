@@ -119,6 +119,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     progress = as_callback(progress)
     order, smooth, max_hole, fill_borders = opts.order, opts.smooth, opts.max_hole, opts.fill_borders
     method, jobs, bridge, closed = opts.method, opts.jobs, opts.bridge, opts.closed
+    base = opts.base
     mesh = as_mesh(mesh)  # a (V, F) pair, an open3d or trimesh mesh, or a path
     t0 = time.perf_counter()
     _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
@@ -146,6 +147,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     def context(index):
         c = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
         c.topo = topo
+        c.base = base
         if index:
             _ = c.index
         return c
@@ -282,7 +284,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
                                                                                topo.nonmanifold_edges.shape[0])),
                                 "nonmanifold_edges_after": int(topo.nonmanifold_edges.shape[0]
                                                                + delta["nonmanifold_edges"]),
-                                "smooth": smooth, "jobs": jobs, "bridge": bridge,
+                                "smooth": smooth, "jobs": jobs, "bridge": bridge, "base": base,
                                 "closed": {None: "auto", True: "yes", False: "no"}[closed],
                                 "bridges": bridges,
                                 "pinched_bands": [{"loops": [int(a), int(b)], "parts": [int(i) for i in ids]}

@@ -48,3 +48,34 @@ def test_a_base_whose_edge_the_scan_rounds_into_gets_a_flat_cap():
     assert rep["holes"][0]["option"].startswith("flat cap")
     z = R.V[R.vertex_filled][:, 2]
     assert np.abs(z - V[rim, 2].mean()).max() < 0.01           # in the opening's plane
+
+
+def test_the_user_says_what_a_planar_opening_is():
+    """base="flat": walls cut straight across are capped in the opening's
+    plane all the same (the figure stood there); base="faired": walls that
+    round into the opening are continued below it. The report says which."""
+    V, F, rim = walls_open_below(fillet=False)
+    R, rep = repair_mesh(Mesh(V=V, F=F), fill_borders=True, base="flat")
+    assert rep["holes_after"] == 0 and rep["base"] == "flat"
+    assert rep["holes"][0]["option"].startswith("flat cap")
+    assert np.abs(R.V[R.vertex_filled][:, 2] - V[rim, 2].mean()).max() < 0.01
+    V, F, rim = walls_open_below(fillet=True)
+    R, rep = repair_mesh(Mesh(V=V, F=F), fill_borders=True, base="faired")
+    assert rep["holes_after"] == 0 and rep["base"] == "faired"
+    assert rep["holes"][0]["option"].startswith("faired order")
+    assert R.V[R.vertex_filled][:, 2].max() < V[rim, 2].min()
+    assert np.array_equal(R.V[: len(V)], V)                        # the scan's own vertices untouched
+
+
+def test_base_takes_three_words():
+    import pytest
+
+    from shellrepair.cli import _parser
+    from shellrepair.errors import MeshError
+    from shellrepair.options import RepairOptions
+
+    with pytest.raises(MeshError, match="base must be 'auto', 'flat' or 'faired'"):
+        RepairOptions(base="round")
+    assert _parser().parse_args(["repair", "x.ply", "--base", "flat"]).base == "flat"
+    assert _parser().parse_args(["batch", "d", "-o", "o", "--base", "faired"]).base == "faired"
+    assert _parser().parse_args(["repair", "x.ply"]).base == "auto"
