@@ -73,8 +73,9 @@ browser:
 holes: $(STAMP)
 	$(PY) -m shellrepair.cli holes $(SCAN)
 
+# any repair option through ARGS: make repair SCAN=bust.ply ARGS="--base flat"
 repair: $(STAMP)
-	$(PY) -m shellrepair.cli repair $(SCAN) -o $(OUT) --report $(REPORT)
+	$(PY) -m shellrepair.cli repair $(SCAN) -o $(OUT) --report $(REPORT) $(ARGS)
 
 # every scan of a folder, on all cores (Dask worker processes; installed here
 # when missing): make batch DIR=scans OUTDIR=scans/repaired [JOBS=2]
@@ -82,7 +83,7 @@ repair: $(STAMP)
 batch: $(STAMP)
 	@$(PY) -c 'import distributed' 2>/dev/null || $(PY) -m pip install -q -e '.[cluster]' \
 	  || echo "Dask did not install: scans run one at a time"
-	$(PY) -m shellrepair.cli batch $(DIR) -o $(OUTDIR) $(if $(JOBS),--jobs $(JOBS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
+	$(PY) -m shellrepair.cli batch $(DIR) -o $(OUTDIR) $(if $(JOBS),--jobs $(JOBS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(ARGS)
 
 render: $(STAMP)
 	test -f $(OUT) || $(MAKE) repair SCAN=$(SCAN)
