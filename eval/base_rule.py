@@ -42,31 +42,10 @@ MODES = ("rule", "faired", "flat")
 
 def turning_share(ctx, loop):
     """The rule's statistic: the share of rim vertices whose first-ring
-    faces, area-weighted, face out through the opening (as
-    :func:`shellrepair.patch._turns_into_opening` counts them)."""
-    from shellrepair.geometry import cross
+    faces face out through the opening (:func:`shellrepair.patch.rim_turning`)."""
+    from shellrepair.patch import rim_turning
 
-    P = ctx.V[loop]
-    Q = np.roll(P, -1, axis=0)
-    axis = np.array([np.sum((P[:, 1] - Q[:, 1]) * (P[:, 2] + Q[:, 2])),
-                     np.sum((P[:, 2] - Q[:, 2]) * (P[:, 0] + Q[:, 0])),
-                     np.sum((P[:, 0] - Q[:, 0]) * (P[:, 1] + Q[:, 1]))])
-    length = float(np.linalg.norm(axis))
-    if not np.isfinite(length) or length == 0:
-        return float("nan")
-    axis /= length
-    T = ctx.F[ctx.faces_of(loop)]
-    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-    pos = np.full(len(ctx.V), -1, np.int64)
-    pos[loop] = np.arange(len(loop))
-    num = np.zeros(len(loop))
-    den = np.zeros(len(loop))
-    for j in range(3):
-        at = pos[T[:, j]]
-        on = at >= 0
-        np.add.at(num, at[on], (n @ axis)[on])
-        np.add.at(den, at[on], np.linalg.norm(n, axis=1)[on])
-    return float(np.mean((num < 0) & (den > 0)))
+    return rim_turning(ctx, loop) / len(loop)
 
 
 def run_case(case, truth, facts):

@@ -710,6 +710,13 @@ def _turns_into_opening(ctx, loop):
     opening is a base, to be capped flat, when more than half of its rim
     vertices turn into it; otherwise the faired fill continues the walls.
     """
+    return 2 * rim_turning(ctx, loop) > len(loop)
+
+
+def rim_turning(ctx, loop):
+    """How many of the loop's vertices have first-ring faces that face out
+    through the opening (:func:`_turns_into_opening`'s count; 0 for a loop
+    with no orientation, such as one folded onto itself)."""
     P = ctx.V[loop]
     Q = np.roll(P, -1, axis=0)
     axis = np.array([np.sum((P[:, 1] - Q[:, 1]) * (P[:, 2] + Q[:, 2])),
@@ -717,7 +724,7 @@ def _turns_into_opening(ctx, loop):
                      np.sum((P[:, 0] - Q[:, 0]) * (P[:, 1] + Q[:, 1]))])
     length = float(np.linalg.norm(axis))
     if not np.isfinite(length) or length == 0:
-        return False
+        return 0
     axis /= length
     T = ctx.F[ctx.faces_of(loop)]
     n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
@@ -734,4 +741,4 @@ def _turns_into_opening(ctx, loop):
     finally:
         pos[loop] = -1
     turning = num < 0   # facing out through the opening (its normal points into the object)
-    return 2 * int(np.count_nonzero(turning & (den > 0))) > len(loop)
+    return int(np.count_nonzero(turning & (den > 0)))
