@@ -2295,7 +2295,8 @@ def _angle_part(a0, a1, a2, b0, b1, b2, q0, q1, q2):
     c0 = u1 * v2 - u2 * v1
     c1 = u2 * v0 - u0 * v2
     c2 = u0 * v1 - u1 * v0
-    return np.sqrt(c0 * c0 + c1 * c1 + c2 * c2), u0 * v0 + u1 * v1 + u2 * v2
+    # the dot product from 0.0, as np.sum's reduction starts: +0.0 where every product is −0.0
+    return np.sqrt(c0 * c0 + c1 * c1 + c2 * c2), 0.0 + u0 * v0 + u1 * v1 + u2 * v2
 
 
 @njit(cache=True, nogil=True)
@@ -3142,7 +3143,7 @@ def _angle_parts(u, v):
         c1 = u[r, 2] * v[r, 0] - u[r, 0] * v[r, 2]
         c2 = u[r, 0] * v[r, 1] - u[r, 1] * v[r, 0]
         cr[r] = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-        dt[r] = u[r, 0] * v[r, 0] + u[r, 1] * v[r, 1] + u[r, 2] * v[r, 2]
+        dt[r] = 0.0 + u[r, 0] * v[r, 0] + u[r, 1] * v[r, 1] + u[r, 2] * v[r, 2]   # from 0.0, as np.sum
     return cr, dt
 
 

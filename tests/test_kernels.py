@@ -617,7 +617,12 @@ def test_relaxation_angle_and_fold_terms_equal_the_numpy_ones(seed):
     pc[80:120] += 1e6
     pd[80:120] += 1e6
     u, v = pa - pc, pb - pc
+    u[120:160] = 0.0                                # a side of length 0 ...
+    u[120:140] *= -1.0                              # ... some as -0.0: the angle is 0, not π
+    v[150:160] = -v[150:160]
     assert np.array_equal(_angle_compiled(u, v), _angle(u, v))
+    assert (_angle_compiled(u, v)[120:160] == 0.0).all()
+    assert np.array_equal(np.signbit(kernels.angle_parts(u, v)[1]), np.signbit(np.sum(u * v, axis=1)))
     want = _unfolded(pa, pb, pc, pd)
     assert np.array_equal(kernels.unfolded(pa, pb, pc, pd), want)
     assert want.any() and not want.all()
@@ -901,12 +906,13 @@ def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed
     pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
     assert np.array_equal(np.arctan2(cr1, dt1), refine._angle_compiled(pa - pc, pb - pc))
     assert np.array_equal(np.arctan2(cr2, dt2), refine._angle_compiled(pa - pd, pb - pd))
-    # and NumPy's _angle where no side has length 0 (at a = c the compiled
-    # dot product is −0.0 where np.sum gives +0.0: arctan2 π against 0, as
-    # _angle_compiled has always given; no patch has coincident vertices)
-    sound = np.flatnonzero(np.any(pa != pc, axis=1) & np.any(pb != pc, axis=1))
-    assert m - 50 <= sound.size <= m - 40            # (random ids may meet too)
-    assert np.array_equal(np.arctan2(cr1, dt1)[sound], refine._angle(pa - pc, pb - pc)[sound])
+    # and NumPy's _angle, sides of length 0 included (there every product
+    # is ±0.0 and the dot product, summed from 0.0 as np.sum does, is +0.0:
+    # arctan2 gives 0, not π)
+    zero = ~np.any(pa != pc, axis=1) | ~np.any(pb != pc, axis=1)
+    assert 40 <= zero.sum() <= 50                    # (random ids may meet too)
+    assert np.array_equal(np.arctan2(cr1, dt1), refine._angle(pa - pc, pb - pc))
+    assert (np.arctan2(cr1, dt1)[zero] == 0.0).all()
     assert np.array_equal(np.arctan2(cr2, dt2), refine._angle(pa - pd, pb - pd))
     assert np.array_equal(unf, refine._unfolded(pa, pb, pc, pd)) and unf.any() and not unf.all()
     k = 20 + 6 * seed
