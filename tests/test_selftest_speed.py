@@ -214,3 +214,26 @@ def test_the_order_test_decides_and_measures_the_same_with_the_old_steps(seed, m
         if x is not None:
             assert (x.order, x.rings, x.why, x.shared) == (y.order, y.rings, y.why, y.shared)
             assert x.errors == y.errors and x.floor == y.floor  # the floats themselves, not near
+
+
+def test_the_walk_reads_the_region_lists_where_ring_faces_does(monkeypatch):
+    from shellrepair import patch
+    from shellrepair.topology import edge_topology as topology
+
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)               # the large-scan path: a region around the loops
+    V, F = shapes.bumpy_sphere(5, amplitude=0.03, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.12, seed=1)
+    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx.topo = topology(F2, len(V2))
+    reg = ctx.region()
+    assert reg is not None and 0 < reg.faces.size < len(F2)
+    holes = detect_holes(V2, F2).holes
+    for h in holes:
+        loop = np.asarray(h.vertices, np.int64)
+        faces, off = selftest._ring_walk(ctx, loop, 10)
+        assert ctx._vf is None                                     # answered from the region's lists
+        for r in (2, 3, 10):
+            assert np.array_equal(np.sort(faces[:off[r]]), ctx.ring_faces(loop, r))
+    far = np.concatenate([holes[0].vertices, np.flatnonzero(~reg.covered)[:1]])
+    faces, off = selftest._ring_walk(ctx, far, 2)                  # a vertex outside: the whole mesh's lists
+    assert ctx._vf is not None and np.array_equal(np.sort(faces), ctx._ring_faces_numpy(far, 2))
