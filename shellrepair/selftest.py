@@ -465,7 +465,7 @@ def _closest_on_triangles(P, A, B, C):
 
 def _mean_edge(V, loop):
     """The mean edge length of a loop."""
-    if kernels.ENABLED and len(loop):
+    if kernels.ENABLED and len(loop) and V.dtype == np.float64 and V.flags.c_contiguous:   # (else a copy of V)
         return kernels.loop_mean_edge(V, loop)
     return _mean_edge_numpy(V, loop)
 
