@@ -67,7 +67,16 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`angle_parts`, :func:`unfolded`: the products and sums of the
   relaxation's opposite angles (the arctan2 left to NumPy) and its fold
   test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
-* :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`).
+* :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`);
+* :func:`ring_walk`, :func:`band_split`: the band test's rings around a hole
+  in one walk and its band split from the region around it
+  (:func:`shellrepair.selftest._probe_band`); :func:`centroids`,
+  :func:`nearest_triangle_distances`: the order test's centroid query and
+  distances (:func:`shellrepair.selftest.point_mesh_distance`; the latter
+  is :func:`nearest_distances` read from ``V`` and ``F``, on scalars);
+  :func:`boundary_cycles`: :func:`shellrepair.holes.boundary_loops` where
+  the boundary is simple; :func:`loop_mean_edge`: a loop's mean edge
+  (NumPy's pairwise sum, replicated).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -82,7 +91,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -3246,6 +3255,431 @@ def split_test(P, Tr, s, alpha):
 
 
 # --------------------------------------------------------------------------
+# the order test (shellrepair.selftest): its band's rings and split, the
+# distances of points to their nearest triangles
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _ring_walk(verts, rings, vf_order, vf_start, F, vmark, fmark):
+    # _ring_faces' walk, its faces kept in walk order with each ring's end
+    marked = np.empty(max(verts.size, 16), np.int64)
+    nm = 0
+    front = np.empty(max(verts.size, 16), np.int64)
+    nfr = 0
+    for v in verts:
+        if not vmark[v]:
+            vmark[v] = True
+            marked[nm] = v
+            nm += 1
+            front[nfr] = v
+            nfr += 1
+    R = max(1, rings)
+    off = np.zeros(R + 1, np.int64)
+    found = np.empty(max(64, 8 * verts.size), np.int64)
+    nf = 0
+    for r in range(R):
+        need = nf
+        for i in range(nfr):
+            need += vf_start[front[i] + 1] - vf_start[front[i]]
+        found = _room(found, need)
+        f0 = nf
+        nf = _ring_collect(front, nfr, vf_order, vf_start, fmark, found, nf)
+        off[r + 1:] = nf
+        marked = _room(marked, nm + 3 * (nf - f0))
+        front = _room(front, 3 * (nf - f0))
+        nm, nfr = _ring_expand(found, f0, nf, F, vmark, marked, nm, front)
+        if nfr == 0:
+            break
+    for i in range(nm):
+        vmark[marked[i]] = False
+    for j in range(nf):
+        fmark[found[j]] = False
+    return found[:nf].copy(), off
+
+
+def ring_walk(verts, rings, vf_order, vf_start, F, vmark, fmark):
+    """:func:`ring_faces`' walk with every ring count up to ``rings`` in it:
+    the faces in the order the walk finds them, ring by ring, and each
+    ring's end, so that ``np.sort(faces[:off[r]])`` is ``ring_faces(verts,
+    r, ...)`` for each ``1 <= r <= rings`` (the band test reads its band,
+    the region around it and narrower bands from one walk).
+
+    Parameters
+    ----------
+    verts, rings, vf_order, vf_start, F, vmark, fmark
+        As in :func:`ring_faces`.
+
+    Returns
+    -------
+    faces : (f,) int64
+        In walk order.
+    off : (max(rings, 1) + 1,) int64
+        ``off[r]``: how many of ``faces`` lie within ``r`` rings (``off[0] = 0``).
+    """
+    return _ring_walk(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F, vmark, fmark)
+
+
+@njit(cache=True, nogil=True)
+def _band_split(walk, nb, nr, F, loop, vpos):
+    o = np.argsort(walk[:nr])
+    region = np.empty(nr, np.int64)
+    inb = np.empty(nr, np.bool_)
+    for i in range(nr):
+        region[i] = walk[o[i]]
+        inb[i] = o[i] < nb
+    seen = np.empty(3 * nr, np.int64)
+    ng = 0
+    for i in range(nr):
+        for c in range(3):
+            w = F[region[i], c]
+            if vpos[w] < 0:
+                vpos[w] = 0
+                seen[ng] = w
+                ng += 1
+    g = np.sort(seen[:ng])
+    for i in range(ng):
+        vpos[g[i]] = i
+    Fb = np.empty((nb, 3), np.int64)
+    Fk = np.empty((nr - nb, 3), np.int64)
+    band = np.empty(nb, np.int64)
+    used = np.zeros(ng, np.bool_)
+    nvb = 0
+    ib = 0
+    ik = 0
+    for i in range(nr):
+        f = region[i]
+        if inb[i]:
+            band[ib] = f
+            for c in range(3):
+                v = vpos[F[f, c]]
+                Fb[ib, c] = v
+                if not used[v]:
+                    used[v] = True
+                    nvb += 1
+            ib += 1
+        else:
+            for c in range(3):
+                Fk[ik, c] = vpos[F[f, c]]
+            ik += 1
+    for i in range(ng):
+        vpos[g[i]] = -1
+    return g, Fb, Fk, band, np.searchsorted(g, loop), nvb
+
+
+def band_split(walk, nb, nr, F, loop, vpos):
+    """The band test's local copy of the scan around a hole
+    (:func:`shellrepair.selftest._probe_band`): the region's faces
+    ``walk[:nr]`` (:func:`ring_walk`, the band's the first ``nb``) numbered
+    over their vertices, split into the band's faces and the kept ones.
+
+    Parameters
+    ----------
+    walk : (f,) int64
+        Faces in :func:`ring_walk` order, ``nb <= nr <= f``.
+    nb, nr : int
+    F : (m,3) int64
+    loop : (k,) int64
+        The hole's loop (global ids).
+    vpos : (n,) int64
+        Scratch, all -1; left all -1.
+
+    Returns
+    -------
+    g : (n_l,) int64
+        The region's vertices, sorted (local id -> global id).
+    Fb, Fk : (nb,3), (nr-nb,3) int64
+        The band's faces and the kept ones, local ids, each in increasing
+        face id.
+    band : (nb,) int64
+        The band's face ids, sorted.
+    loc_loop : (k,) int64
+        ``np.searchsorted(g, loop)``.
+    nvb : int
+        How many vertices the band's faces use.
+    """
+    return _band_split(np.ascontiguousarray(walk, np.int64), int(nb), int(nr), F,
+                       np.ascontiguousarray(loop, np.int64), vpos)
+
+
+@njit(cache=True, nogil=True)
+def _centroids(V, F):
+    m = F.shape[0]
+    C = np.empty((m, 3))
+    for f in range(m):
+        a, b, c = F[f, 0], F[f, 1], F[f, 2]
+        for k in range(3):
+            C[f, k] = (V[a, k] + V[b, k] + V[c, k]) / 3.0
+    return C
+
+
+def centroids(V, F):
+    """Triangle centroids, ``V[F].mean(axis=1)`` (NumPy's sums and division)
+    without the (m,3,3) corner array.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+
+    Returns
+    -------
+    C : (m,3) float64
+    """
+    return _centroids(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _segment_distance(p0, p1, p2, s0, s1, s2, e0, e1, e2):
+    # the closest point of segment S-E to P and its distance: _closest_distance's edge step
+    D0, D1, D2 = e0 - s0, e1 - s1, e2 - s2
+    t = ((p0 - s0) * D0 + (p1 - s1) * D1 + (p2 - s2) * D2) / max(D0 * D0 + D1 * D1 + D2 * D2, 1e-300)
+    if t < 0.0:
+        t = 0.0
+    elif t > 1.0:
+        t = 1.0
+    y0, y1, y2 = s0 + t * D0, s1 + t * D1, s2 + t * D2
+    f0, f1, f2 = p0 - y0, p1 - y1, p2 - y2
+    return np.sqrt(f0 * f0 + f1 * f1 + f2 * f2), y0, y1, y2
+
+
+@njit(cache=True, nogil=True)
+def _point_triangle(p0, p1, p2, a0, a1, a2, b0, b1, b2, c0, c1, c2):
+    # _closest_distance on scalars (no array views): the same operations in the same order
+    ab0, ab1, ab2 = b0 - a0, b1 - a1, b2 - a2
+    ac0, ac1, ac2 = c0 - a0, c1 - a1, c2 - a2
+    ap0, ap1, ap2 = p0 - a0, p1 - a1, p2 - a2
+    d00 = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
+    d01 = ab0 * ac0 + ab1 * ac1 + ab2 * ac2
+    d11 = ac0 * ac0 + ac1 * ac1 + ac2 * ac2
+    d20 = ap0 * ab0 + ap1 * ab1 + ap2 * ab2
+    d21 = ap0 * ac0 + ap1 * ac1 + ap2 * ac2
+    den = d00 * d11 - d01 * d01
+    ok = den > 1e-30 * max(d00 * d11, 1e-300)
+    inv = 1.0 / den if ok else 0.0
+    v = (d11 * d20 - d01 * d21) * inv
+    w = (d00 * d21 - d01 * d20) * inv
+    x0 = a0 + v * ab0 + w * ac0
+    x1 = a1 + v * ab1 + w * ac1
+    x2 = a2 + v * ab2 + w * ac2
+    if ok and v >= 0 and w >= 0 and v + w <= 1:
+        e0, e1, e2 = p0 - x0, p1 - x1, p2 - x2
+        return np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    best = np.inf
+    dy, y0, y1, y2 = _segment_distance(p0, p1, p2, a0, a1, a2, b0, b1, b2)
+    if dy < best:
+        best, x0, x1, x2 = dy, y0, y1, y2
+    dy, y0, y1, y2 = _segment_distance(p0, p1, p2, b0, b1, b2, c0, c1, c2)
+    if dy < best:
+        best, x0, x1, x2 = dy, y0, y1, y2
+    dy, y0, y1, y2 = _segment_distance(p0, p1, p2, c0, c1, c2, a0, a1, a2)
+    if dy < best:
+        best, x0, x1, x2 = dy, y0, y1, y2
+    e0, e1, e2 = p0 - x0, p1 - x1, p2 - x2
+    return np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+
+
+@njit(cache=True, nogil=True)
+def _nearest_triangle_distances(Q, V, F, idx):
+    p, kk = idx.shape
+    d = np.empty(p)
+    for i in range(p):
+        q0, q1, q2 = Q[i, 0], Q[i, 1], Q[i, 2]
+        m = 0.0
+        for j in range(kk):
+            f = idx[i, j]
+            a, b, c = F[f, 0], F[f, 1], F[f, 2]
+            x = _point_triangle(q0, q1, q2, V[a, 0], V[a, 1], V[a, 2], V[b, 0], V[b, 1], V[b, 2],
+                                V[c, 0], V[c, 1], V[c, 2])
+            if j == 0 or np.isnan(m):
+                m = x if j == 0 else m
+            elif np.isnan(x) or x < m:
+                m = x
+        d[i] = m
+    return d
+
+
+def nearest_triangle_distances(Q, V, F, idx):
+    """:func:`nearest_distances` of the triangles ``V[F]``, read from ``V``
+    and ``F`` (no (m,3,3) corner array) and with the point-triangle step on
+    scalars: the same operations in the same order, the same numbers to the
+    bit, several times faster.
+
+    Parameters
+    ----------
+    Q : (p,3) float64
+    V : (n,3) float64
+    F : (m,3) int64
+    idx : (p,kk) int64
+        Candidate triangles (rows of ``F``) of each point.
+
+    Returns
+    -------
+    d : (p,) float64
+    """
+    return _nearest_triangle_distances(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(V, np.float64),
+                                       np.ascontiguousarray(F, np.int64), np.ascontiguousarray(idx, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _boundary_cycles(F, n, bhe):
+    b = bhe.size
+    src = np.empty(b, np.int64)
+    dst = np.empty(b, np.int64)
+    out_count = np.zeros(n, np.int64)
+    first_out = np.full(n, -1, np.int64)
+    for i in range(b):
+        f, c = bhe[i] // 3, bhe[i] % 3
+        src[i] = F[f, c]
+        dst[i] = F[f, (c + 1) % 3]
+        out_count[src[i]] += 1
+        first_out[src[i]] = i
+    nxt = np.empty(b, np.int64)
+    has_prev = np.zeros(b, np.bool_)
+    verts = np.empty(b, np.int64)
+    off = np.zeros(b + 1, np.int64)
+    for i in range(b):
+        if out_count[dst[i]] != 1:           # a pinch or a chain's end: boundary_loops' general case
+            return False, verts[:0], off[:1]
+        j = first_out[dst[i]]
+        if has_prev[j]:                      # two half-edges lead to one: not a permutation
+            return False, verts[:0], off[:1]
+        has_prev[j] = True
+        nxt[i] = j
+    visited = np.zeros(b, np.bool_)
+    nv = 0
+    nl = 0
+    for begin in range(b):
+        if visited[begin]:
+            continue
+        cur = begin
+        while not visited[cur]:
+            visited[cur] = True
+            verts[nv] = src[cur]
+            nv += 1
+            cur = nxt[cur]
+        nl += 1
+        off[nl] = nv
+    return True, verts, off[:nl + 1].copy()
+
+
+def boundary_cycles(F, n, bhe):
+    """:func:`shellrepair.holes.boundary_loops` where the boundary is simple:
+    each boundary vertex with one boundary half-edge out of it, and each
+    boundary half-edge followed by exactly one (no pinch, no open chain).
+    There the loops are the cycles of the boundary half-edges, each walked
+    from its first half-edge in ``bhe``'s order, as ``boundary_loops`` walks
+    them; elsewhere ``ok`` is False and the caller calls it.
+
+    Parameters
+    ----------
+    F : (m,3) int64
+    n : int
+        Vertex count (ids in ``[0, n)``).
+    bhe : (b,) int64
+        The boundary half-edges (``3 f + c``), sorted
+        (:attr:`shellrepair.topology.EdgeTopology.boundary_he`).
+
+    Returns
+    -------
+    ok : bool
+    verts : (b,) int64
+        The loops' vertices one after another (when ``ok``).
+    off : (loops + 1,) int64
+        Loop ``i`` is ``verts[off[i]:off[i + 1]]``.
+    """
+    return _boundary_cycles(np.ascontiguousarray(F, np.int64), int(n), np.ascontiguousarray(bhe, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _pairwise_block(a, lo, n):
+    # NumPy's pairwise summation of a[lo:lo+n], n <= 128 (numpy/_core/src/umath/
+    # loops_utils.h.src: a plain sum below 8 values, else 8 partial sums)
+    if n < 8:
+        res = -0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = 8
+    while i < n - (n % 8):
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@njit(cache=True, nogil=True)
+def _pairwise_sum(a, lo, n):
+    # NumPy's pairwise summation of a[lo:lo+n]: above 128 values, the sum of
+    # the halves split at a multiple of 8, left first; its recursion on an
+    # explicit stack (a recursive kernel does not load from Numba's cache)
+    if n <= 128:
+        return _pairwise_block(a, lo, n)
+    s_lo = np.empty(256, np.int64)
+    s_n = np.empty(256, np.int64)
+    s_join = np.zeros(256, np.bool_)
+    vals = np.empty(128)
+    top = 1
+    s_lo[0], s_n[0], s_join[0] = lo, n, False
+    nv = 0
+    while top > 0:
+        top -= 1
+        lo_, n_, join = s_lo[top], s_n[top], s_join[top]
+        if join:             # both halves summed: left + right
+            vals[nv - 2] = vals[nv - 2] + vals[nv - 1]
+            nv -= 1
+        elif n_ <= 128:
+            vals[nv] = _pairwise_block(a, lo_, n_)
+            nv += 1
+        else:
+            n2 = n_ // 2
+            n2 -= n2 % 8
+            s_lo[top], s_n[top], s_join[top] = lo_, n_, True
+            s_lo[top + 1], s_n[top + 1], s_join[top + 1] = lo_ + n2, n_ - n2, False
+            s_lo[top + 2], s_n[top + 2], s_join[top + 2] = lo_, n2, False
+            top += 3
+    return vals[0]
+
+
+@njit(cache=True, nogil=True)
+def _loop_mean_edge(V, loop):
+    k = loop.size
+    d = np.empty(k)
+    for i in range(k):
+        a, b = loop[i], loop[(i + 1) % k]
+        e0, e1, e2 = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
+        d[i] = np.sqrt((e0 * e0 + e1 * e1) + e2 * e2)
+    return _pairwise_sum(d, 0, k) / k
+
+
+def loop_mean_edge(V, loop):
+    """The mean edge length of a closed loop,
+    ``np.mean(np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1))`` with
+    NumPy's sums (its pairwise summation) in its order.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loop : (k,) int64, k >= 1
+
+    Returns
+    -------
+    mean : float
+    """
+    return _loop_mean_edge(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(loop, np.int64))
+
+
+# --------------------------------------------------------------------------
 _WARM = False
 
 
@@ -3309,6 +3743,13 @@ def warm_up():
     angle_parts(X[:2], X[2:])
     unfolded(X[:1], X[1:2], X[2:3], X[3:])
     split_test(X, T, np.ones(4), 1.5)
+    vo, vs = vertex_faces(T, 4)
+    walk, off = ring_walk(np.array([0], np.int64), 2, vo, vs, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
+    band_split(walk, int(off[1]), int(off[2]), T, np.array([0], np.int64), np.full(4, -1, np.int64))
+    centroids(X, T)
+    nearest_triangle_distances(X[:2], X, T, np.zeros((2, 2), np.int64))
+    boundary_cycles(T, 4, np.array([0, 1, 2], np.int64))
+    loop_mean_edge(X, np.array([0, 1, 2], np.int64))
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))

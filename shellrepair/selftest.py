@@ -80,6 +80,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import kernels
 from .fair import fair_patch_orders
 from .geometry import uniq
 
@@ -192,7 +193,9 @@ def _largest_bend(c):
     """:func:`rim_bend` from the bends' cosines."""
     if c.size == 0:
         return 0.0
-    return float(np.degrees(np.arccos(np.clip(c.min(), -1.0, 1.0))))
+    m = float(c.min())
+    # np.clip on the scalar costs microseconds: the same clip (NaN stays NaN), in Python
+    return float(np.degrees(np.arccos(m if m != m else (-1.0 if m < -1.0 else (1.0 if m > 1.0 else m)))))
 
 
 def _edge_bends(V, T):
@@ -202,8 +205,6 @@ def _edge_bends(V, T):
 
     if len(T) < 2:
         return np.zeros(0), np.zeros(0)
-    from . import kernels
-
     if kernels.ENABLED:    # the same numbers, the normals, sort and lengths compiled
         N, a, b, h = kernels.edge_bend_pairs(V, T)
         return np.einsum("ij,ij->i", N[a], N[b]), h
@@ -287,12 +288,73 @@ def probe_band(ctx, loop, rings):
     return None if got is None else got[:4]
 
 
-def _probe_band(ctx, loop, rings):
-    """:func:`probe_band`, with the band's faces (ids in ``ctx``) last."""
-    from .holes import boundary_loops
-    from .topology import euler_characteristic
+def _probe_band(ctx, loop, rings, walk=None):
+    """:func:`probe_band`, with the band's faces (ids in ``ctx``) last.
+
+    ``walk``: :func:`_ring_walk` of the loop over at least ``rings +
+    MARGIN_RINGS`` rings, when the caller has it (compiled kernels only)."""
+    from .topology import edge_topology
 
     loop = np.asarray(loop, np.int64)
+    parts = _band_parts(ctx, loop, rings, walk)
+    if parts is None:
+        return None
+    g, Fb, Fk, band, loc_loop, nvb = parts
+    n = len(g)
+    # the band must be an annulus: two boundary loops, one of them the hole's
+    topo = edge_topology(Fb, n)        # (euler_characteristic's and boundary_loops', built once)
+    if nvb - topo.edges.shape[0] + Fb.shape[0] != 0:
+        return None
+    bl, chains = _boundary_loops(Fb, n, topo)
+    if len(bl) != 2 or chains:
+        return None
+    same = [set(b.tolist()) == set(loc_loop.tolist()) for b in bl]
+    if sum(same) != 1:
+        return None
+    outer = set(bl[same.index(False)].tolist())
+    # the same loop as a hole of the kept scan (its half-edge order)
+    kl, _ = _boundary_loops(Fk, n)
+    probe = [b for b in kl if set(b.tolist()) == outer]
+    if len(probe) != 1:
+        return None
+    ploop = probe[0].astype(np.int64)
+    keep = np.zeros(n, bool)           # np.setdiff1d(uniq(Fb), ploop), by marks
+    keep[Fb] = True
+    keep[ploop] = False
+    return ctx.V[g], Fk, ploop, np.flatnonzero(keep), band
+
+
+def _boundary_loops(F, n, topo=None):
+    """:func:`shellrepair.holes.boundary_loops` of ``F``; where the boundary
+    is simple (no pinch, no open chain), its cycles walked in one compiled
+    pass (:func:`shellrepair.kernels.boundary_cycles`: the same loops)."""
+    from .holes import boundary_loops
+    from .topology import edge_topology
+
+    if kernels.ENABLED:
+        topo = edge_topology(F, n) if topo is None else topo
+        ok, verts, off = kernels.boundary_cycles(F, n, topo.boundary_he)
+        if ok:
+            return [verts[off[i]:off[i + 1]] for i in range(len(off) - 1)], []
+    return boundary_loops(F, n, topo=topo)
+
+
+def _band_parts(ctx, loop, rings, walk=None):
+    """The band of ``rings`` rings around ``loop`` and the region of
+    ``MARGIN_RINGS`` more: ``(g, Fb, Fk, band, loc_loop, nvb)`` as
+    :func:`shellrepair.kernels.band_split` gives them, or None when the
+    band is empty or is the whole region."""
+    if not kernels.ENABLED:
+        return _band_parts_numpy(ctx, loop, rings)
+    faces, off = _ring_walk(ctx, loop, rings + MARGIN_RINGS) if walk is None else walk
+    nb, nr = int(off[rings]), int(off[rings + MARGIN_RINGS])
+    if nb == 0 or nb == nr:
+        return None
+    return kernels.band_split(faces, nb, nr, _faces(ctx), loop, ctx.vpos())
+
+
+def _band_parts_numpy(ctx, loop, rings):
+    """:func:`_band_parts` in NumPy (the compiled split's test oracle)."""
     band = ctx.ring_faces(loop, rings)
     region = ctx.ring_faces(loop, rings + MARGIN_RINGS)
     if band.size == 0 or band.size == region.size:
@@ -301,25 +363,26 @@ def _probe_band(ctx, loop, rings):
     Fl = np.searchsorted(g, ctx.F[region])
     inband = np.isin(region, band)
     Fb, Fk = Fl[inband], Fl[~inband]
-    n = len(g)
-    # the band must be an annulus: two boundary loops, one of them the hole's
-    if euler_characteristic(Fb, n) != 0:
-        return None
-    bl, chains = boundary_loops(Fb, n)
-    loc_loop = np.searchsorted(g, loop)
-    if len(bl) != 2 or chains:
-        return None
-    same = [set(b.tolist()) == set(loc_loop.tolist()) for b in bl]
-    if sum(same) != 1:
-        return None
-    outer = set(bl[same.index(False)].tolist())
-    # the same loop as a hole of the kept scan (its half-edge order)
-    kl, _ = boundary_loops(Fk, n)
-    probe = [b for b in kl if set(b.tolist()) == outer]
-    if len(probe) != 1:
-        return None
-    known = np.setdiff1d(uniq(Fb), probe[0])
-    return ctx.V[g], Fk, probe[0].astype(np.int64), known, band
+    return g, Fb, Fk, band, np.searchsorted(g, loop), uniq(Fb).size
+
+
+def _faces(ctx):
+    """``ctx.F`` as the kernels take it (C-contiguous int64)."""
+    F = ctx.F
+    return F if F.flags.c_contiguous and F.dtype == np.int64 else np.ascontiguousarray(F, np.int64)
+
+
+def _ring_walk(ctx, loop, rings):
+    """:func:`shellrepair.kernels.ring_walk` of ``loop`` in ``ctx``, on the
+    vertex-face lists :meth:`~shellrepair.patch._Context.ring_faces` reads
+    (the region's where they are complete, else the whole mesh's)."""
+    F = _faces(ctx)
+    reg = ctx._local_lists(loop)
+    if reg is not None:
+        got = kernels.ring_walk(loop, rings, reg.vf_order, reg.vf_start, F, ctx._vmark, ctx._fmark)
+        if reg.covered[F[got[0]]].all():   # every list the walk read was complete
+            return got
+    return kernels.ring_walk(loop, rings, ctx.vf_order, ctx.vf_start, F, ctx._vmark, ctx._fmark)
 
 
 def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
@@ -340,16 +403,17 @@ def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
     d : (p,) float64
     """
     Q = np.asarray(Q, np.float64)
-    T = np.asarray(V, np.float64)[np.asarray(F, np.int64)]
-    if len(Q) == 0 or len(T) == 0:
+    V = np.asarray(V, np.float64)
+    F = np.asarray(F, np.int64)
+    if len(Q) == 0 or len(F) == 0:
         return np.full(len(Q), np.inf)
-    kk = min(int(nearest), len(T))
+    kk = min(int(nearest), len(F))
+    if kernels.ENABLED:    # the same operations, compiled
+        _, idx = cKDTree(kernels.centroids(V, F)).query(Q, k=kk)
+        return kernels.nearest_triangle_distances(Q, V, F, np.asarray(idx).reshape(len(Q), kk))
+    T = V[F]
     _, idx = cKDTree(T.mean(axis=1)).query(Q, k=kk)
     idx = np.asarray(idx).reshape(len(Q), kk)
-    from . import kernels
-
-    if kernels.ENABLED:    # the same operations, compiled
-        return kernels.nearest_distances(Q, T, idx)
     P = np.repeat(Q, kk, axis=0)
     Tn = T[idx.ravel()]
     E = P - _closest_on_triangles(P, Tn[:, 0], Tn[:, 1], Tn[:, 2])
@@ -359,7 +423,7 @@ def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
 
 def _dot3(a, b):
     """Row-wise dot products of (n,3) arrays, summed left to right (as the
-    compiled :func:`shellrepair.kernels.nearest_distances` does; einsum's
+    compiled :func:`shellrepair.kernels.nearest_triangle_distances` does; einsum's
     order depends on the CPU's vector width)."""
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
@@ -400,6 +464,14 @@ def _closest_on_triangles(P, A, B, C):
 
 
 def _mean_edge(V, loop):
+    """The mean edge length of a loop."""
+    if kernels.ENABLED and len(loop) and V.dtype == np.float64 and V.flags.c_contiguous:   # (else a copy of V)
+        return kernels.loop_mean_edge(V, loop)
+    return _mean_edge_numpy(V, loop)
+
+
+def _mean_edge_numpy(V, loop):
+    """:func:`_mean_edge` in NumPy (the compiled one's test oracle)."""
     loop = np.asarray(loop)
     nxt = np.empty_like(loop)     # np.roll(loop, -1), without its checks
     nxt[:-1] = loop[1:]
@@ -536,8 +608,10 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
         return OrderTest(DEFAULT_ORDER, why=f"{k} rim edges, not tested")
     rings = band_rings(k) if rings is None else int(rings)
     probe = None
+    # one walk gives the band and region of every width tried (each a prefix of the widest)
+    walk = _ring_walk(ctx, loop, rings + MARGIN_RINGS) if kernels.ENABLED and rings >= BAND_MIN else None
     while probe is None and rings >= BAND_MIN:
-        probe = _probe_band(ctx, loop, rings)
+        probe = _probe_band(ctx, loop, rings, walk)
         if probe is None:
             rings -= 2 if rings > BAND_MIN + 1 else 1
     if probe is None:
