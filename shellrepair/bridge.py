@@ -1075,7 +1075,7 @@ def _with_partner(ctx, loops, cand, hole, touching=None):
     reach = MAX_REACH * np.maximum([loops[a].diameter for a in test], 1e-300)
     R = (r + 2 * e + reach * (1 + 1 / ARC_SAMPLES + SIGHT_SLACK)) * (1 + 1e-9)
     tree = cKDTree(V[allv])
-    near = tree.query_ball_point(c, R + edge[ids].max() * (1 + 1e-9))
+    near = tree.query_ball_point(c, R + edge[ids].max() * (1 + 1e-9), return_sorted=False)   # (order unused)
     counts = np.array([len(x) for x in near], np.int64)
     if counts.sum():
         row = np.repeat(np.arange(len(test)), counts)
@@ -1087,7 +1087,8 @@ def _with_partner(ctx, loops, cand, hole, touching=None):
         # each (loop, partner) pair once, then the pairs that do not touch
         m = np.int64(len(loops))
         ab = np.unique(ta[row[ok]] * m + who[ok])
-        keep += list({a for a, b in zip((ab // m).tolist(), (ab % m).tolist()) if (a, b) not in touching})
+        tk = np.array([a * int(m) + b for a, b in touching], np.int64)
+        keep += np.unique(ab[~np.isin(ab, tk)] // m).tolist()
     return sorted(keep)
 
 
