@@ -161,6 +161,20 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     """
     if not loops:
         return []
+    *cols, bounds = _continuation_arcs_cat(V, F_nears, loops, smooth)
+    return [tuple(x[bounds[i]:bounds[i + 1]] for x in cols) for i in range(len(bounds) - 1)]
+
+
+def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
+    """:func:`_continuation_arcs_many` with the loops' rows concatenated.
+
+    Returns
+    -------
+    U, T, N, kappa, s0, ok : arrays of ``sum(len(loop))`` rows
+        What :func:`continuation_arcs` returns, loop after loop.
+    bounds : (len(loops)+1,) int64
+        Loop ``i``'s rows are ``bounds[i]:bounds[i+1]``.
+    """
     n = np.int64(len(V))
     loops = [np.asarray(lp, np.int64) for lp in loops]
     F_nears = [np.asarray(f, np.int64).reshape(-1, 3) for f in F_nears]
@@ -249,7 +263,7 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
     ok &= tl[:, 0] > 0
     T = np.divide(T, tl, out=np.zeros_like(T), where=tl > 0)
     bounds = np.concatenate([[0], np.cumsum(sizes)])
-    return [tuple(x[bounds[i]:bounds[i + 1]] for x in (q1, T, N, kap, s0, ok)) for i in range(len(loops))]
+    return q1, T, N, kap, s0, ok, bounds
 
 
 def _ring_sums(E, li, level, X, Nv):
@@ -362,61 +376,100 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
     """
     if not loops:
         return {}
-    sizes = [len(L.vertices) for L in loops]
+    sizes = np.array([len(L.vertices) for L in loops], np.int64)
     allv = np.concatenate([np.asarray(L.vertices, np.int64) for L in loops])
     owner = np.repeat(np.arange(len(loops)), sizes)
-    place = np.concatenate([np.arange(s) for s in sizes])
+    place = np.arange(len(allv)) - np.repeat(np.cumsum(sizes) - sizes, sizes)
     edge = np.array([L.mean_edge for L in loops], np.float64)
-    tree = cKDTree(V[allv])
-    out = {}
     follow = [a for a in (range(len(loops)) if candidates is None else candidates)
               if len(loops[a].vertices) >= 2 * SELF_SKIP + 2]
+    if not follow:
+        return {}
     rims = [np.asarray(loops[a].vertices, np.int64) for a in follow]
-    all_arcs = _continuation_arcs_many(V, [faces_near(lp) for lp in rims], rims)
+    *cols, bounds = _continuation_arcs_cat(V, [faces_near(lp) for lp in rims], rims)
     if arcs_out is not None:
-        arcs_out.update(zip(follow, all_arcs))
+        arcs_out.update((a, tuple(x[bounds[i]:bounds[i + 1]] for x in cols)) for i, a in enumerate(follow))
     # per followed loop with arcs: its evenly spaced arcs (rows), all loops'
     # rows together; every quantity below is per row or per sample, so it
     # is what the loop alone gives
+    ok = cols[5]
+    rows = np.flatnonzero(ok)
+    nok = np.add.reduceat(ok, bounds[:-1]).astype(np.int64)      # every followed loop has vertices
+    keep = np.ones(len(rows), bool)
     picks = {}
-    ent_a, ent_k, idxs, rowsrc = [], [], [], []
-    for a, loop, arcs in zip(follow, rims, all_arcs):
-        idx = np.flatnonzero(arcs[5])
-        if idx.size == 0:
-            continue
-        if idx.size > n_arcs:
-            if idx.size not in picks:
-                picks[idx.size] = np.linspace(0, idx.size - 1, n_arcs).round().astype(np.int64)
-            idx = idx[picks[idx.size]]
-        ent_a.append(a)
-        ent_k.append(len(loop))
-        idxs.append(idx)
-    if not idxs:
-        return out
-    used = [arcs for arcs in all_arcs if arcs[5].any()]
-    m = np.array([len(i) for i in idxs], np.int64)
+    ok_first = np.cumsum(nok) - nok
+    for i in np.flatnonzero(nok > n_arcs).tolist():
+        c = int(nok[i])
+        if c not in picks:
+            picks[c] = np.linspace(0, c - 1, n_arcs).round().astype(np.int64)
+        keep[ok_first[i]:ok_first[i] + c] = False
+        keep[ok_first[i] + picks[c]] = True
+    has = np.flatnonzero(nok > 0)
+    if has.size == 0:
+        return {}
+    rows = rows[keep]
+    fol = np.asarray(follow, np.int64)
+    ent_a = fol[has]
+    m = np.bincount(np.repeat(np.arange(len(follow)), nok)[keep], minlength=len(follow))[has]
     first = np.concatenate([[0], np.cumsum(m)])
-    U, T, N, kap, s0 = (np.concatenate([x[i] for x, i in zip((arcs[c] for arcs in used), idxs)])
-                        for c in range(5))
-    reach = np.repeat([max_reach * max(loops[a].diameter, 1e-300) for a in ent_a], m)
+    U, T, N, kap, s0 = (x[rows] for x in cols[:5])
+    reach = np.repeat([max_reach * max(loops[a].diameter, 1e-300) for a in ent_a.tolist()], m)
     turn = np.where(np.abs(kap) > 0, 2 * np.pi / np.maximum(np.abs(kap), 1e-300), np.inf)
     length = np.minimum(reach, turn)
+    # only an arc's first landing counts (see _landings_numpy)
+    ent = np.repeat(np.arange(len(ent_a)), m)
+    arow = np.repeat(ent_a, m)
+    krow = np.repeat(sizes[ent_a], m)
+    irow = rows - np.repeat(bounds[:-1][has], m)
+    status, trees = -1, []
+
+    def tree_of(P):      # one cKDTree of the rim vertices, built when first needed
+        if not trees:
+            trees.append(cKDTree(P))
+        return trees[0]
+
+    if kernels.ENABLED:
+        landed, status = kernels.arc_landings(U, T, N, kap, s0, length, n_samples, slack, ent, len(ent_a), V[allv],
+                                              owner, place, edge, arow, krow, irow, SELF_SKIP,
+                                              rank_of=lambda P: _leaf_rank(tree_of(P)))
+    if status != 0:
+        landed = _landings_numpy(U, T, N, kap, s0, length, n_samples, slack, ent, first, tree_of(V[allv]),
+                                 owner, place, edge, arow, krow, irow)
+    out = {}
+    for e, a in enumerate(ent_a.tolist()):
+        got = landed[first[e]:first[e + 1]]
+        out[a] = (np.bincount(got[got >= 0], minlength=len(loops)), int(m[e]))
+    return out
+
+
+def _leaf_rank(tree):
+    """Each point's position in a ``cKDTree``'s leaf order (``tree.indices``):
+    of points at one place, the tree's query keeps the first."""
+    rank = np.empty(len(tree.indices), np.int64)
+    rank[tree.indices] = np.arange(len(tree.indices))
+    return rank
+
+
+def _landings_numpy(U, T, N, kap, s0, length, n_samples, slack, ent, first, tree, owner, place, edge, arow, krow,
+                    irow):
+    """The loop each arc lands on first (-1: none), the NumPy version of
+    :func:`shellrepair.kernels.arc_landings` (its oracle; arguments as
+    there, ``first`` the followed loops' first rows and ``tree`` a
+    ``cKDTree`` of the rim vertices).
+
+    Samples are looked up from the rim outwards, in growing runs, and an
+    arc stops at its first landing (a sample's lookup does not depend on
+    which others are asked with it); a run's samples of all arcs still
+    going are made (:func:`arc_points` is per sample) and looked up
+    together, bounded by the largest loop's bound: a sample's nearest rim
+    vertex is the same under any bound that reaches it, and one beyond its
+    own loop's bound is no landing.
+    """
     frac = np.arange(1, n_samples + 1) / n_samples
     s = s0[:, None] + length[:, None] * frac[None]
     h = (length / n_samples)[:, None]
     tol = h + slack * (s - s0[:, None])                       # (m, j) without the target's edge
     bound = np.maximum.reduceat(tol.max(axis=1), first[:-1]) + edge.max()
-    # only an arc's first landing counts: samples are looked up from the rim
-    # outwards, in growing runs, and an arc stops at its first landing (a
-    # sample's lookup does not depend on which others are asked with it);
-    # a run's samples of all arcs still going are made (arc_points is per
-    # sample) and looked up together, bounded by the largest loop's bound:
-    # a sample's nearest rim vertex is the same under any bound that reaches
-    # it, and one beyond its own loop's bound is no landing, as before
-    ent = np.repeat(np.arange(len(idxs)), m)
-    arow = np.repeat(ent_a, m)
-    krow = np.repeat(ent_k, m)
-    irow = np.concatenate(idxs)
     landed = np.full(len(irow), -1, np.int64)
     rows = np.arange(len(irow))
     for c0, c1 in _sample_runs(n_samples):
@@ -439,10 +492,7 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
         done = hit.any(axis=1)
         landed[rows[done]] = who[done, np.argmax(hit[done], axis=1)]
         rows = rows[~done]
-    for e, a in enumerate(ent_a):
-        got = landed[first[e]:first[e + 1]]
-        out[a] = (np.bincount(got[got >= 0], minlength=len(loops)), int(m[e]))
-    return out
+    return landed
 
 
 def _sample_runs(n):
@@ -1025,7 +1075,7 @@ def _with_partner(ctx, loops, cand, hole, touching=None):
     reach = MAX_REACH * np.maximum([loops[a].diameter for a in test], 1e-300)
     R = (r + 2 * e + reach * (1 + 1 / ARC_SAMPLES + SIGHT_SLACK)) * (1 + 1e-9)
     tree = cKDTree(V[allv])
-    near = tree.query_ball_point(c, R + edge[ids].max() * (1 + 1e-9))
+    near = tree.query_ball_point(c, R + edge[ids].max() * (1 + 1e-9), return_sorted=False)   # (order unused)
     counts = np.array([len(x) for x in near], np.int64)
     if counts.sum():
         row = np.repeat(np.arange(len(test)), counts)
@@ -1037,7 +1087,8 @@ def _with_partner(ctx, loops, cand, hole, touching=None):
         # each (loop, partner) pair once, then the pairs that do not touch
         m = np.int64(len(loops))
         ab = np.unique(ta[row[ok]] * m + who[ok])
-        keep += list({a for a, b in zip((ab // m).tolist(), (ab % m).tolist()) if (a, b) not in touching})
+        tk = np.array([a * int(m) + b for a, b in touching], np.int64)
+        keep += np.unique(ab[~np.isin(ab, tk)] // m).tolist()
     return sorted(keep)
 
 

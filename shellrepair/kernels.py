@@ -64,6 +64,10 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   (:func:`shellrepair.bridge._ring_sums`, the continuation arcs), and
   :func:`block_ids`, :func:`corner_normal_sums`: the arcs' local vertex
   numbers and vertex normal sums;
+* :func:`arc_landings`: where each continuation arc lands first, arc by
+  arc, sample by sample, in a k-d tree of the rim vertices
+  (:func:`shellrepair.bridge._landings_numpy`, which asks SciPy's
+  ``cKDTree`` run by run);
 * :func:`angle_parts`, :func:`unfolded`: the products and sums of the
   relaxation's opposite angles (the arctan2 left to NumPy) and its fold
   test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
@@ -91,7 +95,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -3142,6 +3146,317 @@ def corner_normal_sums(L, Fcat, V, nv):
                                np.ascontiguousarray(V, np.float64), int(nv))
 
 
+#: Points per leaf of :func:`arc_landings`' k-d tree of rim vertices.
+_KD_LEAF = 8
+
+
+@njit(cache=True, nogil=True)
+def _kd_select(order, P, ax, a, z, k):
+    # Wirth's selection: order[a:z] rearranged in place so that the points
+    # before position k lie at most, and those after at least, at order[k]
+    # along axis ax
+    lo, hi = a, z - 1
+    while lo < hi:
+        x = P[order[k], ax]
+        i, j = lo, hi
+        while i <= j:
+            while P[order[i], ax] < x:
+                i += 1
+            while x < P[order[j], ax]:
+                j -= 1
+            if i <= j:
+                order[i], order[j] = order[j], order[i]
+                i += 1
+                j -= 1
+        if j < k:
+            lo = i
+        if k < i:
+            hi = j
+
+
+@njit(cache=True, nogil=True)
+def _kd_build(P):
+    # a k-d tree by index medians along the widest axis: node b covers
+    # order[lo[b]:hi[b]]; an inner node's left child holds the points at
+    # most split[b] along axis[b], its right child those at least it
+    n = P.shape[0]
+    cap = n + 2      # a split node has more than _KD_LEAF points: leaves hold 4 or more
+    lo = np.empty(cap, np.int64)
+    hi = np.empty(cap, np.int64)
+    axis = np.full(cap, -1, np.int64)
+    split = np.zeros(cap)
+    left = np.full(cap, -1, np.int64)
+    order = np.arange(n)
+    lo[0], hi[0] = 0, n
+    nb = 1
+    todo = np.empty(cap, np.int64)
+    todo[0] = 0
+    nt = 1
+    while nt:
+        nt -= 1
+        b = todo[nt]
+        a, z = lo[b], hi[b]
+        if z - a <= _KD_LEAF:
+            continue
+        best, ax = -1.0, 0
+        for k in range(3):
+            mn, mx = np.inf, -np.inf
+            for i in range(a, z):
+                x = P[order[i], k]
+                mn = min(mn, x)
+                mx = max(mx, x)
+            if mx - mn > best:
+                best, ax = mx - mn, k
+        mid = a + (z - a) // 2
+        _kd_select(order, P, ax, a, z, mid)
+        axis[b] = ax
+        split[b] = P[order[mid], ax]
+        left[b] = nb
+        lo[nb], hi[nb] = a, mid
+        lo[nb + 1], hi[nb + 1] = mid, z
+        todo[nt] = nb
+        todo[nt + 1] = nb + 1
+        nt += 2
+        nb += 2
+    return order, lo[:nb], hi[:nb], axis[:nb], split[:nb], left[:nb]
+
+
+@njit(cache=True, nogil=True)
+def _sinc(x):
+    # np.sinc of one value: sin(y) / y, y = pi x (eps where y is 0)
+    y = np.pi * x
+    if y == 0.0:
+        y = 2.220446049250313e-16
+    return np.sin(y) / y
+
+
+@njit(cache=True, nogil=True)
+def _arc_key(j, r, owner, place, arow, krow, irow, skip):
+    # what a landing on rim vertex j decides for arc r: its loop, and
+    # whether it is the arc's own start (2 * loop + 1) or not (2 * loop)
+    w = owner[j]
+    if w == arow[r]:
+        g = abs(place[j] - irow[r])
+        if min(g, krow[r] - g) <= skip:
+            return 2 * w + 1
+    return 2 * w
+
+
+#: Ties :func:`arc_landings` keeps per sample; more sends it to NumPy.
+_MAX_TIES = 16
+
+
+@njit(cache=True, nogil=True)
+def _arc_landings(U, T, N, kap, s0, length, frac, slack, ent, nent, P, owner, place, edge, arow, krow, irow, skip,
+                  rank, landed, r0):
+    m = U.shape[0]
+    J = frac.size
+    # every operand finite, else the NumPy version decides (NaN bounds)
+    for r in range(m):
+        for k in range(3):
+            if not (np.isfinite(U[r, k]) and np.isfinite(T[r, k]) and np.isfinite(N[r, k])):
+                return 2, r0
+        if not (np.isfinite(kap[r]) and np.isfinite(s0[r]) and np.isfinite(length[r])):
+            return 2, r0
+    for i in range(P.shape[0]):
+        for k in range(3):
+            if not np.isfinite(P[i, k]):
+                return 2, r0
+    emax = -np.inf
+    for i in range(edge.size):
+        if not np.isfinite(edge[i]):
+            return 2, r0
+        emax = max(emax, edge[i])
+    # per loop the largest slack of its arcs' samples, plus the largest edge
+    bound = np.full(nent, -np.inf)
+    for r in range(m):
+        h = length[r] / J
+        for c in range(J):
+            s = s0[r] + length[r] * frac[c]
+            bound[ent[r]] = max(bound[ent[r]], h + slack * (s - s0[r]))
+    for e in range(nent):
+        bound[e] += emax
+    order, lo, hi, axis, split, left = _kd_build(P)
+    Q = np.empty((P.shape[0], 3))      # the points in leaf order
+    for i in range(P.shape[0]):
+        for k in range(3):
+            Q[i, k] = P[order[i], k]
+    stack = np.empty(256, np.int64)
+    side = np.empty((256, 3))      # per queued node, the sample's distance to its box along each axis
+    bmin = np.full(3, np.inf)
+    bmax = np.full(3, -np.inf)
+    for i in range(P.shape[0]):
+        for k in range(3):
+            bmin[k] = min(bmin[k], P[i, k])
+            bmax[k] = max(bmax[k], P[i, k])
+    x = np.empty(3)
+    ties = np.empty(_MAX_TIES, np.int64)
+    for r in range(r0, m):
+        rb = bound[ent[r]]
+        h = length[r] / J
+        for c in range(J):
+            s = s0[r] + length[r] * frac[c]
+            # only a vertex within the sample's slack plus the largest edge
+            # can be a landing (a margin over that radius: a wider search
+            # only costs time)
+            tol = h + slack * (s - s0[r])
+            rc = min(rb, (tol + emax) * (1.0 + 1e-9))
+            rb2 = rc * rc
+            ks = kap[r] * s
+            a = s * _sinc(ks / np.pi)
+            sc = _sinc(ks / (2 * np.pi))
+            bq = 0.5 * kap[r] * (s * s) * (sc * sc)
+            for k in range(3):
+                x[k] = U[r, k] + a * T[r, k] + bq * N[r, k]
+            # the rim vertices nearest the sample and nearer than the bound
+            # (cKDTree's squared distance, summed in its order); a box's
+            # squared distance, summed in that order from per-axis
+            # distances that round no higher than a point's, is no more
+            # than any of its points'
+            best = np.inf
+            nt = 0
+            stack[0] = 0
+            for k in range(3):
+                side[0, k] = max(0.0, bmin[k] - x[k], x[k] - bmax[k])
+            ns = 1
+            while ns:
+                ns -= 1
+                b = stack[ns]
+                lb = side[ns, 0] * side[ns, 0] + side[ns, 1] * side[ns, 1] + side[ns, 2] * side[ns, 2]
+                if lb > best or lb > rb2:
+                    continue
+                if axis[b] < 0:
+                    for i in range(lo[b], hi[b]):
+                        d0 = Q[i, 0] - x[0]
+                        d1 = Q[i, 1] - x[1]
+                        d2 = Q[i, 2] - x[2]
+                        dd = d0 * d0 + d1 * d1 + d2 * d2
+                        if dd > rb2 or dd > best:
+                            continue
+                        if dd < best:
+                            best = dd
+                            nt = 0
+                        if nt == _MAX_TIES:
+                            return 1, r
+                        ties[nt] = order[i]
+                        nt += 1
+                    continue
+                ax = axis[b]
+                diff = x[ax] - split[b]
+                if diff < 0:
+                    near, far, gap = left[b], left[b] + 1, split[b] - x[ax]
+                else:
+                    near, far, gap = left[b] + 1, left[b], diff
+                for k in range(3):
+                    side[ns + 1, k] = side[ns, k]
+                side[ns, ax] = max(side[ns, ax], gap)
+                stack[ns] = far
+                stack[ns + 1] = near
+                ns += 2
+            if nt == 0:
+                continue
+            d = np.sqrt(best)
+            if not d < rb:
+                continue
+            bj = ties[0]
+            if nt > 1:
+                # cKDTree keeps one of the vertices at the same distance:
+                # of points at one place, the first in its leaf order
+                # (rank); vertices that decide alike need no choice
+                key = _arc_key(bj, r, owner, place, arow, krow, irow, skip)
+                alike = True
+                same = True
+                for t in range(1, nt):
+                    j = ties[t]
+                    alike &= _arc_key(j, r, owner, place, arow, krow, irow, skip) == key
+                    same &= P[j, 0] == P[bj, 0] and P[j, 1] == P[bj, 1] and P[j, 2] == P[bj, 2]
+                if not alike:
+                    if not same:
+                        return 1, r
+                    if rank.size == 0:
+                        return 3, r
+                    for t in range(1, nt):
+                        if rank[ties[t]] < rank[bj]:
+                            bj = ties[t]
+            who = owner[bj]
+            if not d <= tol + edge[who]:
+                continue
+            if _arc_key(bj, r, owner, place, arow, krow, irow, skip) & 1:
+                continue
+            landed[r] = who
+            break
+    return 0, m
+
+
+def arc_landings(U, T, N, kap, s0, length, n_samples, slack, ent, nent, P, owner, place, edge, arow, krow, irow,
+                 skip, rank_of=None):
+    """The loop each continuation arc lands on first
+    (:func:`shellrepair.bridge.loop_sights`' walk along the arcs, the
+    NumPy version :func:`shellrepair.bridge._landings_numpy` its oracle),
+    arc by arc and sample by sample, each sample looked up in a k-d tree
+    of the rim vertices.
+
+    A sample lands on its nearest rim vertex (the squared distance summed
+    as SciPy's ``cKDTree`` sums it) when that vertex is nearer than its
+    loop's bound and within the sample's slack plus the target's mean
+    edge, and is not the arc's own start. Of several vertices at the same
+    distance that would decide differently, ``cKDTree`` keeps the first in
+    its own leaf order: for vertices at one place (a vertex shared by
+    touching loops) that order is read from a ``cKDTree`` of ``P``, built
+    by ``rank_of(P)`` when first needed; vertices at different places at
+    the same distance that decide differently give status 1.
+
+    Parameters
+    ----------
+    U, T, N : (m,3) float64
+        The arcs' base points, unit tangents and normals.
+    kap, s0, length : (m,) float64
+        Curvatures, base-to-rim lengths and lengths followed.
+    n_samples : int
+        Samples per arc, at ``s0 + length * (1..n_samples) / n_samples``.
+    slack : float
+        Lateral slack per unit of arc length.
+    ent : (m,) int64
+        Each arc's followed loop (0..nent-1): the loop's bound is the
+        largest slack of its arcs' samples plus the largest ``edge``.
+    nent : int
+    P : (p,3) float64
+        Rim vertices of every loop, loop after loop.
+    owner, place : (p,) int64
+        Each rim vertex's loop and position along it.
+    edge : (L,) float64
+        Loops' mean edge lengths.
+    arow, krow, irow : (m,) int64
+        Each arc's loop, that loop's vertex count and the arc's vertex.
+    skip : int
+        Rim vertices this many steps from the arc's own are its start.
+    rank_of : callable, optional
+        ``rank_of(P)`` -> (p,) int64, each vertex's position in the leaf
+        order of ``cKDTree(P)``; without it such ties give status 1.
+
+    Returns
+    -------
+    landed : (m,) int64
+        The loop each arc lands on first, -1 for none.
+    status : int
+        0; 1 where a tie the kernel cannot decide was met, 2 where an
+        operand is not finite (``landed`` is then unusable).
+    """
+    f = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    frac = np.arange(1, int(n_samples) + 1) / int(n_samples)
+    args = (f(U).reshape(-1, 3), f(T).reshape(-1, 3), f(N).reshape(-1, 3), f(kap), f(s0), f(length), frac,
+            float(slack), i(ent), int(nent), f(P).reshape(-1, 3), i(owner), i(place), f(edge), i(arow), i(krow),
+            i(irow), int(skip))
+    landed = np.full(len(args[0]), -1, np.int64)
+    status, r = _arc_landings(*args, np.zeros(0, np.int64), landed, 0)
+    if status == 3:
+        if rank_of is None:
+            return landed, 1
+        status, r = _arc_landings(*args, i(rank_of(args[10])), landed, r)
+    return landed, status
+
+
 @njit(cache=True, nogil=True)
 def _angle_parts(u, v):
     m = u.shape[0]
@@ -3740,6 +4055,10 @@ def warm_up():
     _, Lb, _ = block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4)
     block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4, scratch=False)
     corner_normal_sums(Lb, T, X, 4)
+    loops4 = np.array([0, 0, 1, 1], np.int64)
+    arc_landings(X[:2], X[1:3], X[2:], np.ones(2), np.ones(2), np.ones(2), 4, 0.15, np.array([0, 1], np.int64), 2,
+                 X, loops4, np.array([0, 1, 0, 1], np.int64), np.ones(2), np.array([0, 1], np.int64),
+                 np.array([2, 2], np.int64), np.array([0, 1], np.int64), 2, rank_of=lambda P: np.arange(len(P)))
     angle_parts(X[:2], X[2:])
     unfolded(X[:1], X[1:2], X[2:3], X[3:])
     split_test(X, T, np.ones(4), 1.5)
