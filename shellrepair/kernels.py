@@ -67,7 +67,9 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`angle_parts`, :func:`unfolded`: the products and sums of the
   relaxation's opposite angles (the arctan2 left to NumPy) and its fold
   test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
-* :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`).
+* :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`);
+* :func:`restricted_search`: the minimum-weight search over candidate
+  triangles, by interval length (:func:`shellrepair.triangulate.restricted_dp`).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -82,7 +84,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "restricted_search", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -3252,6 +3254,183 @@ def split_test(P, Tr, s, alpha):
                        np.ascontiguousarray(s, np.float64), float(alpha))
 
 
+@njit(cache=True, nogil=True)
+def _nan_max(x, y):
+    # np.maximum of two floats: the first where it is NaN or not smaller (NaN propagates)
+    return x if (x >= y or x != x) else y
+
+
+@njit(cache=True, nogil=True)
+def _clip_unit(d):
+    # np.clip(d, -1.0, 1.0): NaN stays NaN
+    if d < -1.0:
+        return -1.0
+    if d > 1.0:
+        return 1.0
+    return d
+
+
+@njit(cache=True, nogil=True)
+def _sorts_before(x, y):
+    # x strictly before y in NumPy's sort order of floats (NaN last)
+    return x < y or (y != y and x == x)
+
+
+@njit(cache=True, nogil=True)
+def _restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, area, bad0, top, tie):
+    m = b.shape[0]
+    inf = np.inf
+    WA = np.full(ne, inf)
+    WS = np.full(ne, inf)
+    N = np.zeros((ne, 3))
+    HN = np.zeros(ne, np.bool_)
+    sel = np.full(ne, -1, np.int64)        # each solved interval's candidate
+    best = np.full(ne, inf)                # the least finite worst cost among its candidates
+    sws = np.full(ne, inf)                 # the chosen candidate's area (inf where past the tie)
+    for i in range(k - 1):
+        e = base[i]
+        WA[e] = 0.0
+        WS[e] = 0.0
+        x, y, z = edge_normals[i, 0], edge_normals[i, 1], edge_normals[i, 2]
+        N[e, 0] = x
+        N[e, 1] = y
+        N[e, 2] = z
+        HN[e] = abs(x) + abs(y) + abs(z) > 0
+    r0, r1, r2 = edge_normals[k - 1, 0], edge_normals[k - 1, 1], edge_normals[k - 1, 2]
+    has_close = abs(r0) + abs(r1) + abs(r2) > 0
+    rim_zero = r0 == 0 and r1 == 0 and r2 == 0
+    # candidates by length c - a, stable (np.argsort(L, kind="stable") and its groups)
+    start = np.zeros(k + 1, np.int64)
+    for i in range(m):
+        start[c[i] - a[i] + 1] += 1
+    for s in range(k):
+        start[s + 1] += start[s]
+    fill = start[:k].copy()
+    order = np.empty(m, np.int64)
+    for i in range(m):
+        s = c[i] - a[i]
+        order[fill[s]] = i
+        fill[s] += 1
+    wa = np.empty(m)
+    ws = np.empty(m)
+    for length in range(2, k):
+        q0, q1 = start[length], start[length + 1]
+        # worst cost and area of each candidate, on the shorter intervals el, er
+        for q in range(q0, q1):
+            i = order[q]
+            l, r, t = el[i], er[i], et[i]
+            n0, n1, n2 = n[i, 0], n[i, 1], n[i, 2]
+            d1 = _clip_unit(n0 * N[l, 0] + n1 * N[l, 1] + n2 * N[l, 2])
+            d2 = _clip_unit(n0 * N[r, 0] + n1 * N[r, 1] + n2 * N[r, 2])
+            a1 = ((1.0 - d1) if nz[i] else 2.0) if HN[l] else 0.0
+            a2 = ((1.0 - d2) if nz[i] else 2.0) if HN[r] else 0.0
+            w = _nan_max(_nan_max(a1, a2), _nan_max(WA[l], WA[r]))
+            if has_close and t == top:      # the closing edge's scan face (triangulate._angle)
+                if (n0 == 0 and n1 == 0 and n2 == 0) or rim_zero:
+                    g = 2.0
+                else:
+                    g = 1.0 - _clip_unit(n0 * r0 + n1 * r1 + n2 * r2)
+                w = _nan_max(w, g)
+            if bad0[i]:
+                w = inf
+            wa[q] = w
+            ws[q] = area[i] + WS[l] + WS[r]
+            if np.isfinite(w) and w < best[t]:
+                best[t] = w
+        # per interval: the least area within ANGLE_TIE of the best cost, the first of equals
+        for q in range(q0, q1):
+            w = wa[q]
+            if not np.isfinite(w):
+                continue
+            i = order[q]
+            t = et[i]
+            s = ws[q] if w <= best[t] + tie else inf
+            if sel[t] < 0 or _sorts_before(s, sws[t]):
+                sel[t] = i
+                sws[t] = s
+        for q in range(q0, q1):
+            i = order[q]
+            t = et[i]
+            if sel[t] == i:
+                WA[t] = wa[q]
+                WS[t] = sws[t]
+                N[t, 0] = n[i, 0]
+                N[t, 1] = n[i, 1]
+                N[t, 2] = n[i, 2]
+                HN[t] = nz[i]
+    T = np.empty((max(k - 2, 0), 3), np.int64)
+    if not np.isfinite(WA[top]):
+        return T[:0], 1, 0, k - 1
+    # the triangles, depth first as restricted_dp's stack pops them
+    stack = np.empty((2 * k + 2, 3), np.int64)
+    stack[0, 0], stack[0, 1], stack[0, 2] = 0, k - 1, top
+    sp = 1
+    nt = 0
+    while sp > 0:
+        sp -= 1
+        i, j, e = stack[sp, 0], stack[sp, 1], stack[sp, 2]
+        if j - i < 2:
+            continue
+        s = sel[e]
+        if s < 0 or nt >= T.shape[0]:
+            return T[:nt], 2, i, j
+        mm = b[s]
+        T[nt, 0], T[nt, 1], T[nt, 2] = i, j, mm
+        nt += 1
+        stack[sp, 0], stack[sp, 1], stack[sp, 2] = i, mm, el[s]
+        stack[sp + 1, 0], stack[sp + 1, 1], stack[sp + 1, 2] = mm, j, er[s]
+        sp += 2
+    return T[:nt], 0, 0, 0
+
+
+def restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, area, bad0, top, tie):
+    """The group loop and the read-back of
+    :func:`shellrepair.triangulate.restricted_dp` (its NumPy form
+    :func:`shellrepair.triangulate._restricted_search_numpy`): intervals by
+    increasing length, each closed by the candidate of least worst
+    dihedral cost, the least area among costs within ``tie`` of it (the
+    first of equal areas, as ``np.lexsort`` orders them), with the same
+    products, clips and maxima.
+
+    Parameters
+    ----------
+    k : int
+        Loop length.
+    a, b, c : (m,) int64
+        The candidates' sorted corners.
+    el, er, et : (m,) int64
+        Their edges ``(a, b)``, ``(b, c)``, ``(a, c)`` as ids into the ``ne``
+        edge keys.
+    ne : int
+    base : (k-1,) int64
+        The ids of the loop edges ``(i, i+1)``.
+    edge_normals : (k,3) float64
+        Rim normals (zero rows unknown).
+    n : (m,3) float64, nz : (m,) bool, area : (m,) float64, bad0 : (m,) bool
+        The candidates' unit normals, whether they are not degenerate, their
+        areas, and whether they face against the axis.
+    top : int
+        The id of the interval ``(0, k-1)``.
+    tie : float
+        ``ANGLE_TIE``.
+
+    Returns
+    -------
+    T : (k-2,3) int64
+        Triangles ``(i, j, apex)`` in the read-back's order (fewer on failure).
+    status : int
+        0; 1 when no triangulation uses only the candidates; 2 when the
+        interval ``(i, j)`` has no apex.
+    i, j : int
+    """
+    ci = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    cf = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    cb = lambda x: np.ascontiguousarray(x, np.bool_)  # noqa: E731
+    T, status, i, j = _restricted_search(int(k), ci(a), ci(b), ci(c), ci(el), ci(er), ci(et), int(ne), ci(base),
+                                         cf(edge_normals), cf(n), cb(nz), cf(area), cb(bad0), int(top), float(tie))
+    return T, int(status), int(i), int(j)
+
+
 # --------------------------------------------------------------------------
 _WARM = False
 
@@ -3319,5 +3498,8 @@ def warm_up():
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))
+    from .triangulate import restricted_dp   # (triangulate imports this module)
+
+    restricted_dp(X, np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]], np.int64), np.eye(4, 3), set())
     _WARM = True
     return True
