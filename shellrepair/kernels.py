@@ -68,8 +68,9 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   relaxation's opposite angles (the arctan2 left to NumPy) and its fold
   test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
 * :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`);
-* :func:`restricted_search`: the minimum-weight search over candidate
-  triangles, by interval length (:func:`shellrepair.triangulate.restricted_dp`).
+* :func:`restricted_prepare`, :func:`restricted_search`: the candidate
+  triangles' edges and normals and the minimum-weight search over them by
+  interval length (:func:`shellrepair.triangulate.restricted_dp`).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -84,7 +85,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "restricted_search", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "restricted_prepare", "restricted_search", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -3277,6 +3278,135 @@ def _sorts_before(x, y):
 
 
 @njit(cache=True, nogil=True)
+def _forbidden_chord(p, q, k, fk):
+    # (p, q) is a chord (not a loop edge) and forbidden (restricted_dp's np.isin)
+    return q - p > 1 and not (p == 0 and q == k - 1) and _in_sorted(fk, p * k + q)
+
+
+@njit(cache=True, nogil=True)
+def _restricted_prepare(P, cand, fk):
+    k = P.shape[0]
+    m0 = cand.shape[0]
+    keep = np.empty(m0, np.int64)
+    m = 0
+    for r in range(m0):
+        x, y, z = cand[r, 0], cand[r, 1], cand[r, 2]
+        if not (x < y and y < z):
+            continue
+        if fk.size and (_forbidden_chord(x, y, k, fk) or _forbidden_chord(y, z, k, fk)
+                        or _forbidden_chord(x, z, k, fk)):
+            continue
+        if x < 0 or z >= k:     # an index NumPy would wrap or reject: the caller's NumPy decides
+            e = np.empty(0, np.int64)
+            return e, e, e, e, e, e, 0, e, -1, np.empty((0, 3)), np.empty((0, 3)), np.empty(0, np.bool_), \
+                np.empty(0), 1
+        keep[m] = r
+        m += 1
+    a = np.empty(m, np.int64)
+    b = np.empty(m, np.int64)
+    c = np.empty(m, np.int64)
+    for q in range(m):
+        a[q], b[q], c[q] = cand[keep[q], 0], cand[keep[q], 1], cand[keep[q], 2]
+    # edge ids: the loop edges (i, i+1), the interval (0, k-1), the candidates'
+    # (a, b), (b, c), (a, c); bucketed by first corner, each (i, j) one id
+    ne_all = k + 3 * m
+    ei = np.empty(ne_all, np.int64)
+    ej = np.empty(ne_all, np.int64)
+    for i in range(k - 1):
+        ei[i], ej[i] = i, i + 1
+    ei[k - 1], ej[k - 1] = 0, k - 1
+    for q in range(m):
+        s = k + 3 * q
+        ei[s], ej[s] = a[q], b[q]
+        ei[s + 1], ej[s + 1] = b[q], c[q]
+        ei[s + 2], ej[s + 2] = a[q], c[q]
+    start = np.zeros(k + 1, np.int64)
+    for s in range(ne_all):
+        start[ei[s] + 1] += 1
+    for i in range(k):
+        start[i + 1] += start[i]
+    fill = start[:k].copy()
+    rows = np.empty(ne_all, np.int64)
+    for s in range(ne_all):
+        rows[fill[ei[s]]] = s
+        fill[ei[s]] += 1
+    stamp = np.full(k, -1, np.int64)
+    idof = np.empty(k, np.int64)
+    eid = np.empty(ne_all, np.int64)
+    ne = 0
+    for i in range(k):
+        for p in range(start[i], start[i + 1]):
+            s = rows[p]
+            j = ej[s]
+            if stamp[j] != i:
+                stamp[j] = i
+                idof[j] = ne
+                ne += 1
+            eid[s] = idof[j]
+    base = eid[:k - 1].copy()
+    top = eid[k - 1]
+    el = np.empty(m, np.int64)
+    er = np.empty(m, np.int64)
+    et = np.empty(m, np.int64)
+    for q in range(m):
+        s = k + 3 * q
+        el[q], er[q], et[q] = eid[s], eid[s + 1], eid[s + 2]
+    # triangle (a, c, b): raw normal cross(P[c] - P[a], P[b] - P[a]), unit normal, area
+    raw = np.empty((m, 3))
+    n = np.empty((m, 3))
+    nz = np.empty(m, np.bool_)
+    area = np.empty(m)
+    for q in range(m):
+        ia, ib, ic = a[q], b[q], c[q]
+        u0, u1, u2 = P[ic, 0] - P[ia, 0], P[ic, 1] - P[ia, 1], P[ic, 2] - P[ia, 2]
+        v0, v1, v2 = P[ib, 0] - P[ia, 0], P[ib, 1] - P[ia, 1], P[ib, 2] - P[ia, 2]
+        r0 = u1 * v2 - u2 * v1
+        r1 = u2 * v0 - u0 * v2
+        r2 = u0 * v1 - u1 * v0
+        raw[q, 0], raw[q, 1], raw[q, 2] = r0, r1, r2
+        ln = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        nz[q] = ln > 0
+        d = ln if ln > 0 else 1.0
+        n[q, 0], n[q, 1], n[q, 2] = r0 / d, r1 / d, r2 / d
+        area[q] = 0.5 * ln
+    return a, b, c, el, er, et, ne, base, top, raw, n, nz, area, 0
+
+
+def restricted_prepare(P, cand, fk):
+    """The candidates of :func:`shellrepair.triangulate.restricted_dp` and
+    their edges and geometry (its NumPy setup, the same products): the
+    candidates kept (``a < b < c``, no chord in ``fk``), their edges
+    ``(a, b)``, ``(b, c)``, ``(a, c)`` as ids (any numbering, one id per
+    edge: the search reads them only as names), and each triangle
+    ``(a, c, b)``'s cross product, unit normal and area.
+
+    Parameters
+    ----------
+    P : (k,3) float64
+    cand : (t,3) int64
+    fk : (f,) int64
+        Sorted keys ``x·k + y`` of the forbidden pairs.
+
+    Returns
+    -------
+    a, b, c, el, er, et : (m,) int64
+    ne : int
+        Number of edge ids.
+    base : (k-1,) int64
+        The loop edges' ids.
+    top : int
+        The id of the interval ``(0, k-1)``.
+    raw, n : (m,3) float64, nz : (m,) bool, area : (m,) float64
+    status : int
+        0; 1 when a kept candidate has a corner outside ``[0, k)`` (nothing
+        else returned then).
+    """
+    out = _restricted_prepare(np.ascontiguousarray(P, np.float64), np.ascontiguousarray(cand, np.int64),
+                              np.ascontiguousarray(fk, np.int64))
+    return out[:6] + (int(out[6]), out[7], int(out[8])) + out[9:13] + (int(out[13]),)
+
+
+@njit(cache=True, nogil=True)
 def _restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, area, bad0, top, tie):
     m = b.shape[0]
     inf = np.inf
@@ -3386,7 +3516,7 @@ def _restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, ar
 def restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, area, bad0, top, tie):
     """The group loop and the read-back of
     :func:`shellrepair.triangulate.restricted_dp` (its NumPy form
-    :func:`shellrepair.triangulate._restricted_search_numpy`): intervals by
+    :func:`shellrepair.triangulate._restricted_dp_numpy`): intervals by
     increasing length, each closed by the candidate of least worst
     dihedral cost, the least area among costs within ``tie`` of it (the
     first of equal areas, as ``np.lexsort`` orders them), with the same
@@ -3500,6 +3630,6 @@ def warm_up():
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))
     from .triangulate import restricted_dp   # (triangulate imports this module)
 
-    restricted_dp(X, np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]], np.int64), np.eye(4, 3), set())
+    restricted_dp(X, np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]], np.int64), np.eye(4, 3), {(0, 2)})
     _WARM = True
     return True

@@ -599,36 +599,45 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
     MeshError
         If no triangulation of the loop uses only candidate triangles.
     """
+    if kernels.ENABLED:
+        T = _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis)
+        if T is not None:
+            return T
+    return _restricted_dp_numpy(P, cand, edge_normals, forbidden, axis)
+
+
+def _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis):
+    """:func:`restricted_dp` by :func:`shellrepair.kernels.restricted_prepare`
+    and :func:`shellrepair.kernels.restricted_search` (the axis test stays
+    NumPy's product); None where the inputs are not plain (float
+    positions, one rim normal per loop edge, corners inside the loop), for
+    the NumPy version to handle."""
+    P = np.asarray(P)
     k = len(P)
-    setup = _restricted_setup(P, cand, edge_normals, forbidden, axis)
-    a, b, c, el, er, et, keys, base, en, n, nz, area, bad0, top = setup
-    if kernels.ENABLED and (a.size == 0 or (a.min() >= 0 and c.max() < k)):   # (P[-1] would be read from the end)
-        T, status, i, j = kernels.restricted_search(k, a, b, c, el, er, et, len(keys), base, en, n, nz, area, bad0,
-                                                    top, ANGLE_TIE)
-        if status == 1:
-            raise MeshError(_NO_RESTRICTED)
-        if status == 2:
-            raise MeshError(f"restricted search: interval ({i}, {j}) has no apex")
-        return T
-    return _restricted_search_numpy(k, *setup)
+    en = np.asarray(edge_normals, np.float64)
+    if k < 3 or P.dtype != np.float64 or P.shape != (k, 3) or en.shape != (k, 3):
+        return None
+    cand = np.asarray(cand, np.int64).reshape(-1, 3)
+    fk = np.unique(np.array([x * k + y for x, y in forbidden], np.int64)) if forbidden else np.zeros(0, np.int64)
+    a, b, c, el, er, et, ne, base, top, raw, n, nz, area, status = kernels.restricted_prepare(P, cand, fk)
+    if status:
+        return None
+    bad0 = np.zeros(len(a), bool) if axis is None else raw @ axis <= 0
+    T, status, i, j = kernels.restricted_search(k, a, b, c, el, er, et, ne, base, en, n, nz, area, bad0, top,
+                                                ANGLE_TIE)
+    if status == 1:
+        raise MeshError(_NO_RESTRICTED)
+    if status == 2:
+        raise MeshError(f"restricted search: interval ({i}, {j}) has no apex")
+    return T
 
 
 _NO_RESTRICTED = "no triangulation of this loop uses only triangles of its Delaunay tetrahedralization"
 
 
 def _restricted_dp_numpy(P, cand, edge_normals, forbidden, axis=None):
-    """:func:`restricted_dp` in NumPy (the compiled search's test oracle)."""
-    return _restricted_search_numpy(len(P), *_restricted_setup(P, cand, edge_normals, forbidden, axis))
-
-
-def _restricted_setup(P, cand, edge_normals, forbidden, axis):
-    """The arrays of :func:`restricted_dp`'s search: the candidates kept
-    (corners ``a < b < c``, no forbidden chord), their edges as ids into
-    the sorted edge keys, the loop edges' ids, the rim normals, the
-    candidates' unit normals, whether they are not degenerate, their areas,
-    whether they face against ``axis``, and the id of the interval
-    ``(0, k-1)`` (see :func:`shellrepair.kernels.restricted_search`; the
-    edge keys ``a·k + b`` themselves in place of their count)."""
+    """:func:`restricted_dp` in NumPy, the interval lengths in groups (the
+    compiled search's test oracle)."""
     k = len(P)
     cand = np.asarray(cand, np.int64).reshape(-1, 3)
     a, b, c = cand[:, 0], cand[:, 1], cand[:, 2]
@@ -642,7 +651,18 @@ def _restricted_setup(P, cand, edge_normals, forbidden, axis):
     # edge ids: the loop edges (i, i+1) first, then every candidate's edges
     keys = np.unique(np.concatenate([np.arange(k - 1) * k + np.arange(1, k), [k - 1], a * k + b, b * k + c, a * k + c]))
     el, er, et = (np.searchsorted(keys, x) for x in (a * k + b, b * k + c, a * k + c))
+    ne = len(keys)
+    WA = np.full(ne, np.inf)
+    WS = np.full(ne, np.inf)
+    N = np.zeros((ne, 3))
+    HN = np.zeros(ne, bool)
+    apex = np.full(ne, -1, np.int64)
     base = np.searchsorted(keys, np.arange(k - 1) * k + np.arange(1, k))
+    WA[base] = 0.0
+    WS[base] = 0.0
+    # rim normals: the scan face across loop edge (i, i+1)
+    N[base] = edge_normals[:k - 1]
+    HN[base] = np.abs(edge_normals[:k - 1]).sum(axis=1) > 0
     raw = cross(P[c] - P[a], P[b] - P[a])           # triangle (a, c, b), the patch's orientation
     ln = np.sqrt(dot(raw, raw))
     nz = ln > 0
@@ -650,23 +670,6 @@ def _restricted_setup(P, cand, edge_normals, forbidden, axis):
     area = 0.5 * ln
     bad0 = np.zeros(len(a), bool) if axis is None else raw @ axis <= 0
     top = int(np.searchsorted(keys, k - 1))        # the interval (0, k-1): its rim edge closes the loop
-    return a, b, c, el, er, et, keys, base, np.asarray(edge_normals, np.float64), n, nz, area, bad0, top
-
-
-def _restricted_search_numpy(k, a, b, c, el, er, et, keys, base, edge_normals, n, nz, area, bad0, top):
-    """The search of :func:`restricted_dp` on the arrays of
-    :func:`_restricted_setup`, in NumPy: the interval lengths in groups."""
-    ne = len(keys)
-    WA = np.full(ne, np.inf)
-    WS = np.full(ne, np.inf)
-    N = np.zeros((ne, 3))
-    HN = np.zeros(ne, bool)
-    apex = np.full(ne, -1, np.int64)
-    WA[base] = 0.0
-    WS[base] = 0.0
-    # rim normals: the scan face across loop edge (i, i+1)
-    N[base] = edge_normals[:k - 1]
-    HN[base] = np.abs(edge_normals[:k - 1]).sum(axis=1) > 0
     rim_close = edge_normals[k - 1]
     has_close = bool(np.abs(rim_close).sum() > 0)
     L = c - a

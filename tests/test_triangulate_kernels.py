@@ -2,6 +2,7 @@
 NumPy search's triangulation to the bit.
 
 :func:`shellrepair.triangulate.restricted_dp` runs
+:func:`shellrepair.kernels.restricted_prepare` and
 :func:`shellrepair.kernels.restricted_search` when the kernels are on; its
 NumPy form :func:`shellrepair.triangulate._restricted_dp_numpy` is the
 oracle. Both are run on seeded random loops, planar and nearly planar
@@ -168,9 +169,22 @@ def test_restricted_search_is_compiled_once_by_warm_up():
     """warm_up compiles the search for the types restricted_dp passes: a
     call after it adds no signature."""
     kernels.warm_up()
-    before = set(kernels._restricted_search.signatures)
+    dispatchers = (kernels._restricted_prepare, kernels._restricted_search)
+    before = [set(d.signatures) for d in dispatchers]
     rng = np.random.default_rng(1)
     P = wavy_loop(12, rng)
     tr.restricted_dp(P, all_triples(12), rim_normals(P), {(0, 5)}, _axis(P))
     tr.restricted_dp(P, all_triples(12).astype(np.int32), np.zeros((12, 3), np.float32), set(), None)
-    assert set(kernels._restricted_search.signatures) == before and before
+    assert [set(d.signatures) for d in dispatchers] == before and all(before)
+
+
+def test_candidates_outside_the_loop_are_left_to_numpy():
+    """A corner index NumPy would wrap (-1) or reject (k) is not read by the
+    compiled search: the answer (or error) is NumPy's."""
+    rng = np.random.default_rng(3)
+    P = wavy_loop(8, rng)
+    C = all_triples(8)
+    for extra in ([-1, 0, 3], [-8, 2, 5]):
+        _same(P, np.vstack([C, extra]), rim_normals(P), set(), None)
+    with pytest.raises(IndexError):
+        tr.restricted_dp(P, np.vstack([C, [2, 5, 8]]), rim_normals(P), set(), None)
