@@ -68,6 +68,11 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   relaxation's opposite angles (the arctan2 left to NumPy) and its fold
   test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
 * :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`);
+* :func:`centred_area`, :func:`outline_cross`, :func:`cover_free`: a
+  loop's centred positions and vector area, and the projected Delaunay
+  triangulation's inside, normal and cover tests with the forbidden edges
+  (:func:`shellrepair.triangulate.triangulate_loop`,
+  :func:`shellrepair.triangulate._delaunay_in_projection`);
 * :func:`restricted_prepare`, :func:`restricted_search`: the candidate
   triangles' edges and normals and the minimum-weight search over them by
   interval length (:func:`shellrepair.triangulate.restricted_dp`).
@@ -85,7 +90,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "restricted_prepare", "restricted_search", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "restricted_prepare", "restricted_search", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -3278,6 +3283,122 @@ def _sorts_before(x, y):
 
 
 @njit(cache=True, nogil=True)
+def _centred_area(P):
+    k = P.shape[0]
+    m0 = m1 = m2 = 0.0
+    for i in range(k):
+        m0 += P[i, 0]
+        m1 += P[i, 1]
+        m2 += P[i, 2]
+    m0, m1, m2 = m0 / k, m1 / k, m2 / k
+    C = np.empty((k, 3))
+    for i in range(k):
+        C[i, 0], C[i, 1], C[i, 2] = P[i, 0] - m0, P[i, 1] - m1, P[i, 2] - m2
+    s0 = s1 = s2 = 0.0
+    for i in range(k):
+        j = i + 1 if i + 1 < k else 0
+        s0 += C[i, 1] * C[j, 2] - C[i, 2] * C[j, 1]
+        s1 += C[i, 2] * C[j, 0] - C[i, 0] * C[j, 2]
+        s2 += C[i, 0] * C[j, 1] - C[i, 1] * C[j, 0]
+    va = np.empty(3)
+    va[0], va[1], va[2] = -0.5 * s0, -0.5 * s1, -0.5 * s2
+    return C, va
+
+
+def centred_area(P):
+    """The loop ``P`` about its mean and minus its vector area, as
+    :func:`shellrepair.triangulate.triangulate_loop` computes them
+    (``C = P - P.mean(axis=0)``, ``-0.5 * cross(C, C rolled by -1).sum(axis=0)``):
+    NumPy sums a C-ordered array's columns row after row from 0.0, and so
+    does this.
+
+    Parameters
+    ----------
+    P : (k,3) float64, C-ordered (the caller's NumPy would sum an
+        F-ordered one pairwise)
+
+    Returns
+    -------
+    C : (k,3) float64
+    va : (3,) float64
+    """
+    return _centred_area(np.ascontiguousarray(P, np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _outline_cross(Q, S, P):
+    S = _inside_outline(Q, S)
+    raw = np.empty((S.shape[0], 3))
+    for t in range(S.shape[0]):
+        i0, i1, i2 = S[t, 0], S[t, 1], S[t, 2]
+        a0, a1, a2 = P[i1, 0] - P[i0, 0], P[i1, 1] - P[i0, 1], P[i1, 2] - P[i0, 2]
+        b0, b1, b2 = P[i2, 0] - P[i0, 0], P[i2, 1] - P[i0, 1], P[i2, 2] - P[i0, 2]
+        raw[t, 0] = a1 * b2 - a2 * b1
+        raw[t, 1] = a2 * b0 - a0 * b2
+        raw[t, 2] = a0 * b1 - a1 * b0
+    return S, raw
+
+
+def outline_cross(Q, S, P):
+    """:func:`inside_outline` and the kept triangles' cross products
+    ``(P[b] - P[a]) × (P[c] - P[a])`` (the normal test of
+    :func:`shellrepair.triangulate._delaunay_in_projection`, before its
+    product with the axis, which stays NumPy's).
+
+    Parameters
+    ----------
+    Q : (k,2) float64
+    S : (t,3) int64
+    P : (k,3) float64
+
+    Returns
+    -------
+    S_in : (r,3) int64
+    raw : (r,3) float64
+    """
+    return _outline_cross(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(S, np.int64),
+                          np.ascontiguousarray(P, np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _cover_free(S, n, k, fk):
+    out, ok = _loop_cover(S, n, k)
+    if not ok:
+        return out, 1
+    if fk.size:
+        for t in range(out.shape[0]):
+            for c in range(3):
+                x, y = out[t, c], out[t, (c + 1) % 3]
+                if _in_sorted(fk, min(x, y) * k + max(x, y)):
+                    return out, 2
+    return out, 0
+
+
+def cover_free(S, n, k, fk):
+    """:func:`loop_cover`, then whether an edge of the triangles joins a
+    forbidden pair (:func:`shellrepair.triangulate._none_forbidden`).
+
+    Parameters
+    ----------
+    S : (t,3) int64
+    n : (t,) float64
+    k : int
+    fk : (f,) int64
+        Sorted keys ``x·k + y`` of the forbidden pairs ``0 <= x < y < k``.
+
+    Returns
+    -------
+    S_oriented : (t,3) int64
+    status : int
+        0 a cover without a forbidden edge; 1 not a cover; 2 a cover
+        using a forbidden edge.
+    """
+    out, status = _cover_free(np.ascontiguousarray(S, np.int64), np.ascontiguousarray(n, np.float64), int(k),
+                              np.ascontiguousarray(fk, np.int64))
+    return out, int(status)
+
+
+@njit(cache=True, nogil=True)
 def _forbidden_chord(p, q, k, fk):
     # (p, q) is a chord (not a loop edge) and forbidden (restricted_dp's np.isin)
     return q - p > 1 and not (p == 0 and q == k - 1) and _in_sorted(fk, p * k + q)
@@ -3631,5 +3752,8 @@ def warm_up():
     from .triangulate import restricted_dp   # (triangulate imports this module)
 
     restricted_dp(X, np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]], np.int64), np.eye(4, 3), {(0, 2)})
+    C, _ = centred_area(X)
+    S, raw = outline_cross(C[:, :2], T, X)
+    cover_free(S, raw[:, 2], 4, np.array([3], np.int64))
     _WARM = True
     return True

@@ -139,32 +139,39 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
     forbidden = set() if forbidden is None else set(forbidden)
     idx = np.arange(k)
     edge_normals = np.asarray(edge_normals, np.float64)
+    C = None
     if isinstance(axis, str):
-        C = P - P.mean(axis=0)
-        va = -0.5 * cross(C, np.concatenate([C[1:], C[:1]])).sum(axis=0)   # np.roll by -1
+        if kernels.ENABLED and P.flags.c_contiguous:   # (NumPy sums an F-ordered P's columns pairwise)
+            C, va = kernels.centred_area(P)
+        else:
+            C = P - P.mean(axis=0)
+            va = -0.5 * cross(C, np.concatenate([C[1:], C[:1]])).sum(axis=0)   # np.roll by -1
         ln = np.linalg.norm(va)
         axis = va / ln if ln > 0 else None
     if axis is not None:
         axis = np.asarray(axis, np.float64)
     if axis is not None and fast:
-        T = _delaunay_in_projection(P, axis, forbidden)
+        T = _delaunay_in_projection(P, axis, forbidden, C)
         if T is not None and (allowed is None or np.asarray(allowed(T), bool).all()):
             return T
     return _triangulate(P, idx, edge_normals, forbidden, axis, allowed)
 
 
-def _delaunay_in_projection(P, axis, forbidden):
+def _delaunay_in_projection(P, axis, forbidden, C=None):
     """The Delaunay triangulation of the loop projected along ``axis``, when
     it is a triangulation of the loop: every loop edge present, k − 2
     triangles inside the outline, all facing along ``axis``, no forbidden
     chord. None otherwise (non-convex outlines whose edges are not Delaunay,
-    outlines that overlap themselves)."""
+    outlines that overlap themselves). ``C``: ``P - P.mean(axis=0)`` when
+    the caller has it."""
     from scipy.spatial import Delaunay, QhullError
 
     k = len(P)
     a = axis / np.linalg.norm(axis)
     u, v = plane_frame(a)
-    C = P - P.mean(axis=0)
+    if C is None:
+        plain = kernels.ENABLED and P.dtype == np.float64 and P.flags.c_contiguous
+        C = kernels.centred_area(P)[0] if plain else P - P.mean(axis=0)
     Q = np.column_stack([C @ u, C @ v])
     try:
         tri = Delaunay(Q)
@@ -173,16 +180,24 @@ def _delaunay_in_projection(P, axis, forbidden):
     S = tri.simplices.astype(np.int64)
     if len(S) < k - 2 or tri.coplanar.size:
         return None
-    if kernels.ENABLED:
-        S = kernels.inside_outline(Q, S)
+    if kernels.ENABLED and P.dtype == np.float64:
+        S, raw = kernels.outline_cross(Q, S, P)
         if len(S) != k - 2:
             return None
-        n = cross(P[S[:, 1]] - P[S[:, 0]], P[S[:, 2]] - P[S[:, 0]]) @ a
-        S, ok = kernels.loop_cover(S, n, k)
-        if not ok:
-            return None
-        return _none_forbidden(S, forbidden)
+        S, status = kernels.cover_free(S, raw @ a, k, _forbidden_keys(forbidden, k))
+        return S if status == 0 else None
     return _loop_cover_numpy(P, Q, S, a, k, forbidden)
+
+
+def _forbidden_keys(forbidden, k):
+    """Sorted keys ``x·k + y`` of the pairs ``0 <= x < y < k`` of
+    ``forbidden`` (the only ones a triangle's edge can be)."""
+    if not forbidden:
+        return _NO_KEYS
+    return np.unique(np.array([x * k + y for x, y in forbidden if 0 <= x < y < k], np.int64))
+
+
+_NO_KEYS = np.zeros(0, np.int64)
 
 
 def _loop_cover_numpy(P, Q, S, a, k, forbidden):

@@ -188,3 +188,85 @@ def test_candidates_outside_the_loop_are_left_to_numpy():
         _same(P, np.vstack([C, extra]), rim_normals(P), set(), None)
     with pytest.raises(IndexError):
         tr.restricted_dp(P, np.vstack([C, [2, 5, 8]]), rim_normals(P), set(), None)
+
+
+# --------------------------------------------------------------------------
+# the projected Delaunay layer's compiled steps
+# --------------------------------------------------------------------------
+@pytest.mark.parametrize("seed", range(4))
+def test_centred_loop_and_vector_area_equal_numpys_sums(seed):
+    """NumPy sums a C-ordered (k,3) array's columns row after row from 0.0;
+    the kernel does the same: equal to the bit for small and long loops,
+    at huge offsets, and for columns of negative zeros (0.0 + -0.0 = 0.0)."""
+    from shellrepair.geometry import cross
+
+    rng = np.random.default_rng(seed)
+    for k in (3, 4, 7, 8, 9, 100, 129, 1000, 4097):
+        for offset in (0.0, 1e6):
+            P = rng.normal(size=(k, 3)) * 10.0 ** rng.integers(-3, 3) + offset
+            if k == 9:
+                P[:, 1] = -0.0
+            C, va = kernels.centred_area(P)
+            Cn = P - P.mean(axis=0)
+            van = -0.5 * cross(Cn, np.roll(Cn, -1, axis=0)).sum(axis=0)
+            assert np.array_equal(C, Cn) and np.array_equal(va, van)
+            assert np.array_equal(np.signbit(C), np.signbit(Cn))
+
+
+def _outline_loops(rng):
+    """Star-shaped and wavy loops (accepted by the projection), loops that
+    fold over themselves (rejected), and loops with collinear runs."""
+    out = []
+    for _ in range(6):
+        k = int(rng.integers(3, 40))
+        out.append(wavy_loop(k, rng, noise=0.3, wave=0.4))
+        th = np.sort(rng.uniform(0, 2 * np.pi, k))
+        out.append(np.column_stack([np.cos(3 * th) * np.cos(th), np.cos(3 * th) * np.sin(th), 0.1 * rng.normal(size=k)]))
+    R = _rectangle(3, 2)
+    out.append(R)
+    out.append(R + 1e6)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_triangulate_loop_is_the_same_with_and_without_the_kernels(seed, monkeypatch):
+    """The whole first layer (and, where it declines, the search) with the
+    compiled centring, outline, normal, cover and forbidden-edge steps, and
+    with NumPy's: the same triangles in the same order, or the same error."""
+    rng = np.random.default_rng(300 + seed)
+    accepted = rejected = 0
+    for P in _outline_loops(rng):
+        k = len(P)
+        forbs = [set(), {(0, k // 2)}, {(0, 1), (k - 1, 0), (1, k - 1)}]
+        if k > 4:
+            forbs.append({(i, j) for i in range(k) for j in range(i + 2, k) if (i + j) % 3 == 0})
+        for Pin in (P, np.asfortranarray(P)):
+            for forb in forbs:
+                for axis in ("auto", np.array([0.0, 0.0, 1.0])):
+                    got = _answer(tr.triangulate_loop, Pin, None, forb, axis)
+                    direct = tr._delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
+                    monkeypatch.setattr(kernels, "ENABLED", False)
+                    want = _answer(tr.triangulate_loop, Pin, None, forb, axis)
+                    direct_np = tr._delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
+                    monkeypatch.setattr(kernels, "ENABLED", True)
+                    if isinstance(want, str) or isinstance(got, str):
+                        assert got == want
+                    else:
+                        assert got.dtype == want.dtype and np.array_equal(got, want)
+                    assert (direct is None) == (direct_np is None)
+                    if direct is not None:
+                        assert np.array_equal(direct, direct_np)
+                        accepted += 1
+                    else:
+                        rejected += 1
+    assert accepted > 10 and rejected > 10
+
+
+def test_cover_free_finds_a_forbidden_edge_in_either_direction():
+    S = np.array([[0, 1, 2], [0, 2, 3]], np.int64)     # the fan of a square, chord (0, 2)
+    n = np.array([-1.0, -1.0])
+    for fk, status in (([], 0), ([0 * 4 + 2], 2), ([1 * 4 + 3], 0), ([0 * 4 + 1], 2)):
+        out, st = kernels.cover_free(S, n, 4, np.array(fk, np.int64))
+        assert st == status
+        assert np.array_equal(out, S[:, [0, 2, 1]])
+    assert kernels.cover_free(S, np.array([-1.0, 1.0]), 4, np.zeros(0, np.int64))[1] == 1   # not a cover
