@@ -73,6 +73,10 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   triangulation's inside, normal and cover tests with the forbidden edges
   (:func:`shellrepair.triangulate.triangulate_loop`,
   :func:`shellrepair.triangulate._delaunay_in_projection`);
+* :func:`tet_faces`, :func:`loop_edges_present`: the triangles of a
+  tetrahedralization and the loop edges among them
+  (:func:`shellrepair.triangulate.delaunay_faces`,
+  :func:`shellrepair.triangulate._with_loop_edges`);
 * :func:`restricted_prepare`, :func:`restricted_search`: the candidate
   triangles' edges and normals and the minimum-weight search over them by
   interval length (:func:`shellrepair.triangulate.restricted_dp`).
@@ -90,7 +94,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "restricted_prepare", "restricted_search", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -3399,6 +3403,110 @@ def cover_free(S, n, k, fk):
 
 
 @njit(cache=True, nogil=True)
+def _tet_faces(S, n):
+    t = S.shape[0]
+    first = np.empty(4 * t, np.int64)       # each face's smallest corner
+    rest = np.empty(4 * t, np.int64)        # and b·n + c of the other two
+    v = np.empty(4, np.int64)
+    for i in range(t):
+        for c in range(4):              # the corners sorted (insertion)
+            x = S[i, c]
+            j = c
+            while j > 0 and v[j - 1] > x:
+                v[j] = v[j - 1]
+                j -= 1
+            v[j] = x
+        first[4 * i], rest[4 * i] = v[0], v[1] * n + v[2]
+        first[4 * i + 1], rest[4 * i + 1] = v[0], v[1] * n + v[3]
+        first[4 * i + 2], rest[4 * i + 2] = v[0], v[2] * n + v[3]
+        first[4 * i + 3], rest[4 * i + 3] = v[1], v[2] * n + v[3]
+    # the keys (a·n + b)·n + c in order: by a (counting sort), then by b·n + c
+    start = np.zeros(n + 1, np.int64)
+    for i in range(4 * t):
+        start[first[i] + 1] += 1
+    for a in range(n):
+        start[a + 1] += start[a]
+    fill = start[:n].copy()
+    srt = np.empty(4 * t, np.int64)
+    for i in range(4 * t):
+        srt[fill[first[i]]] = rest[i]
+        fill[first[i]] += 1
+    m = 0
+    D = np.empty((4 * t, 3), np.int64)
+    for a in range(n):
+        seg = srt[start[a]:start[a + 1]]
+        if seg.size > 16:
+            seg.sort()
+        else:
+            for p in range(1, seg.size):
+                x = seg[p]
+                j = p
+                while j > 0 and seg[j - 1] > x:
+                    seg[j] = seg[j - 1]
+                    j -= 1
+                seg[j] = x
+        for p in range(seg.size):
+            if p == 0 or seg[p] != seg[p - 1]:
+                D[m, 0], D[m, 1], D[m, 2] = a, seg[p] // n, seg[p] % n
+                m += 1
+    return D[:m].copy()
+
+
+def tet_faces(S, n):
+    """The triangles of tetrahedra ``S`` over ``n`` points, each once,
+    corners ascending, ordered by their key ``(a·n + b)·n + c``
+    (:func:`shellrepair.triangulate.delaunay_faces`'s sort, faces and
+    ``np.unique``).
+
+    Parameters
+    ----------
+    S : (t,4) int
+        Corners in ``[0, n)``.
+    n : int
+
+    Returns
+    -------
+    D : (f,3) int64
+    """
+    return _tet_faces(np.ascontiguousarray(S, np.int64), int(n))
+
+
+@njit(cache=True, nogil=True)
+def _loop_edges_present(D, k):
+    seen = np.zeros(k, np.bool_)
+    for i in range(D.shape[0]):
+        a, b, c = D[i, 0], D[i, 1], D[i, 2]
+        for p, q in ((a, b), (b, c), (a, c)):
+            if p < 0 or p >= k or q < 0 or q >= k:
+                return seen, False
+            if q == p + 1:
+                seen[p] = True
+            if p == 0 and q == k - 1:
+                seen[k - 1] = True
+    return seen, True
+
+
+def loop_edges_present(D, k):
+    """Which loop edges ``(i, i+1)`` (and ``(0, k-1)`` last) are an edge
+    ``(a, b)``, ``(b, c)`` or ``(a, c)`` of some row of ``D``
+    (:func:`shellrepair.triangulate._with_loop_edges`'s ``np.isin``).
+
+    Parameters
+    ----------
+    D : (t,3) int64
+    k : int
+
+    Returns
+    -------
+    seen : (k,) bool
+    ok : bool
+        False when a corner is outside ``[0, k)`` (``seen`` is then not
+        complete: its keys could alias, the caller's NumPy decides).
+    """
+    return _loop_edges_present(np.ascontiguousarray(D, np.int64), int(k))
+
+
+@njit(cache=True, nogil=True)
 def _forbidden_chord(p, q, k, fk):
     # (p, q) is a chord (not a loop edge) and forbidden (restricted_dp's np.isin)
     return q - p > 1 and not (p == 0 and q == k - 1) and _in_sorted(fk, p * k + q)
@@ -3755,5 +3863,6 @@ def warm_up():
     C, _ = centred_area(X)
     S, raw = outline_cross(C[:, :2], T, X)
     cover_free(S, raw[:, 2], 4, np.array([3], np.int64))
+    loop_edges_present(tet_faces(np.array([[3, 1, 0, 2]], np.int32), 4), 4)
     _WARM = True
     return True

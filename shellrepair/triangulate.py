@@ -315,10 +315,14 @@ def _with_loop_edges(D, k):
     tetrahedralization need not contain the loop's edges), the triangles on
     it with every other apex; only those may then cross other candidates."""
     n = np.int64(k)
-    E = np.concatenate([D[:, 0] * n + D[:, 1], D[:, 1] * n + D[:, 2], D[:, 0] * n + D[:, 2]])
-    i = np.arange(k - 1)
-    want = np.concatenate([i * n + i + 1, [k - 1]])
-    miss = np.flatnonzero(~np.isin(want, E))
+    seen, ok = kernels.loop_edges_present(D, k) if kernels.ENABLED else (None, False)
+    if ok:
+        miss = np.flatnonzero(~seen)
+    else:
+        E = np.concatenate([D[:, 0] * n + D[:, 1], D[:, 1] * n + D[:, 2], D[:, 0] * n + D[:, 2]])
+        i = np.arange(k - 1)
+        want = np.concatenate([i * n + i + 1, [k - 1]])
+        miss = np.flatnonzero(~np.isin(want, E))
     if miss.size == 0:
         return D
     extra = []
@@ -581,6 +585,8 @@ def delaunay_faces(P):
         tri = None
     if tri is None:
         return None
+    if kernels.ENABLED:
+        return kernels.tet_faces(tri.simplices, len(P))
     S = np.sort(tri.simplices.astype(np.int64), axis=1)
     D = np.concatenate([S[:, [0, 1, 2]], S[:, [0, 1, 3]], S[:, [0, 2, 3]], S[:, [1, 2, 3]]])
     n = np.int64(len(P))

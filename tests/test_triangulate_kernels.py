@@ -270,3 +270,37 @@ def test_cover_free_finds_a_forbidden_edge_in_either_direction():
         assert st == status
         assert np.array_equal(out, S[:, [0, 2, 1]])
     assert kernels.cover_free(S, np.array([-1.0, 1.0]), 4, np.zeros(0, np.int64))[1] == 1   # not a cover
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monkeypatch):
+    """delaunay_faces (sorted corners, sorted unique keys) and
+    _with_loop_edges (the loop edges the faces lack, each completed with
+    every apex) give the same arrays with the kernels and without, on
+    wavy and folded loops (which miss loop edges) and on rows holding a
+    corner outside the loop (left to NumPy)."""
+    rng = np.random.default_rng(400 + seed)
+    missing = 0
+    for _ in range(8):
+        k = int(rng.integers(4, 120))
+        th = np.sort(rng.uniform(0, 2 * np.pi, k))
+        folded = np.column_stack([np.cos(th), np.sin(2 * th) * 0.6, 0.8 * np.sin(3 * th)]) + 0.02 * rng.normal(size=(k, 3))
+        for P in (wavy_loop(k, rng), folded):
+            got = tr.delaunay_faces(P)
+            W = tr._with_loop_edges(got, k) if got is not None else None
+            monkeypatch.setattr(kernels, "ENABLED", False)
+            want = tr.delaunay_faces(P)
+            Wn = tr._with_loop_edges(want, k) if want is not None else None
+            monkeypatch.setattr(kernels, "ENABLED", True)
+            assert (got is None) == (want is None)
+            if want is None:
+                continue
+            assert got.dtype == want.dtype == np.int64 and np.array_equal(got, want)
+            assert np.array_equal(W, Wn)
+            missing += len(W) > len(got)
+    assert missing > 0   # some loops lacked a loop edge: the completion ran
+    D = np.array([[0, 1, 2], [1, 2, 3], [0, 2, 3], [2, 3, 4]], np.int64)   # corner 4 outside a 4-loop
+    assert not kernels.loop_edges_present(D, 4)[1]
+    got = tr._with_loop_edges(D, 4)
+    monkeypatch.setattr(kernels, "ENABLED", False)
+    assert np.array_equal(got, tr._with_loop_edges(D, 4))
