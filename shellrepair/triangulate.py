@@ -34,6 +34,8 @@ multiple 3D polygons", Eurographics Symposium on Geometry Processing, 2013.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import kernels
@@ -146,7 +148,7 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
         else:
             C = P - P.mean(axis=0)
             va = -0.5 * cross(C, np.concatenate([C[1:], C[:1]])).sum(axis=0)   # np.roll by -1
-        ln = np.linalg.norm(va)
+        ln = _length(va)
         axis = va / ln if ln > 0 else None
     if axis is not None:
         axis = np.asarray(axis, np.float64)
@@ -155,6 +157,15 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
         if T is not None and (allowed is None or np.asarray(allowed(T), bool).all()):
             return T
     return _triangulate(P, idx, edge_normals, forbidden, axis, allowed)
+
+
+def _length(x):
+    """``np.linalg.norm(x)`` of a vector: for a float64 one its own steps
+    (``sqrt(x.dot(x))``, the same dot product) without its Python
+    overhead."""
+    if x.dtype == np.float64 and x.ndim == 1:
+        return math.sqrt(x.dot(x))
+    return np.linalg.norm(x)
 
 
 def _delaunay_in_projection(P, axis, forbidden, C=None):
@@ -167,7 +178,7 @@ def _delaunay_in_projection(P, axis, forbidden, C=None):
     from scipy.spatial import Delaunay, QhullError
 
     k = len(P)
-    a = axis / np.linalg.norm(axis)
+    a = axis / _length(axis)
     u, v = plane_frame(a)
     if C is None:
         plain = kernels.ENABLED and P.dtype == np.float64 and P.flags.c_contiguous

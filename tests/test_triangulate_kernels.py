@@ -304,3 +304,15 @@ def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monk
     got = tr._with_loop_edges(D, 4)
     monkeypatch.setattr(kernels, "ENABLED", False)
     assert np.array_equal(got, tr._with_loop_edges(D, 4))
+
+
+def test_the_axis_length_is_numpys_norm():
+    """_length (the axis normalisation's) equals np.linalg.norm to the bit
+    on float64 vectors of every scale, and defers to it otherwise."""
+    rng = np.random.default_rng(9)
+    for _ in range(2000):
+        x = rng.normal(size=3) * 10.0 ** rng.integers(-150, 150)
+        assert tr._length(x) == np.linalg.norm(x)
+    for x in (np.zeros(3), np.array([np.inf, 1.0, 0.0]), np.array([3, 4, 0]), np.ones((2, 3))):
+        got, want = tr._length(x), np.linalg.norm(x)
+        assert got == want or (np.isnan(got) and np.isnan(want))
