@@ -80,7 +80,19 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   is :func:`nearest_distances` read from ``V`` and ``F``, on scalars);
   :func:`boundary_cycles`: :func:`shellrepair.holes.boundary_loops` where
   the boundary is simple; :func:`loop_mean_edge`: a loop's mean edge
-  (NumPy's pairwise sum, replicated).
+  (NumPy's pairwise sum, replicated);
+* :func:`centred_area`, :func:`outline_cross`, :func:`cover_free`: a
+  loop's centred positions and vector area, and the projected Delaunay
+  triangulation's inside, normal and cover tests with the forbidden edges
+  (:func:`shellrepair.triangulate.triangulate_loop`,
+  :func:`shellrepair.triangulate._delaunay_in_projection`);
+* :func:`tet_faces`, :func:`loop_edges_present`: the triangles of a
+  tetrahedralization and the loop edges among them
+  (:func:`shellrepair.triangulate.delaunay_faces`,
+  :func:`shellrepair.triangulate._with_loop_edges`);
+* :func:`restricted_prepare`, :func:`restricted_search`: the candidate
+  triangles' edges and normals and the minimum-weight search over them by
+  interval length (:func:`shellrepair.triangulate.restricted_dp`).
 
 Compilation is cached (``cache=True``, under ``__pycache__`` beside this
 file); :func:`warm_up` compiles every kernel on tiny inputs, and
@@ -95,7 +107,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -3569,6 +3581,532 @@ def split_test(P, Tr, s, alpha):
                        np.ascontiguousarray(s, np.float64), float(alpha))
 
 
+@njit(cache=True, nogil=True)
+def _nan_max(x, y):
+    # np.maximum of two floats: the first where it is NaN or not smaller (NaN propagates)
+    return x if (x >= y or x != x) else y
+
+
+@njit(cache=True, nogil=True)
+def _clip_unit(d):
+    # np.clip(d, -1.0, 1.0): NaN stays NaN
+    if d < -1.0:
+        return -1.0
+    if d > 1.0:
+        return 1.0
+    return d
+
+
+@njit(cache=True, nogil=True)
+def _sorts_before(x, y):
+    # x strictly before y in NumPy's sort order of floats (NaN last)
+    return x < y or (y != y and x == x)
+
+
+@njit(cache=True, nogil=True)
+def _centred_area(P):
+    k = P.shape[0]
+    m0 = m1 = m2 = 0.0
+    for i in range(k):
+        m0 += P[i, 0]
+        m1 += P[i, 1]
+        m2 += P[i, 2]
+    m0, m1, m2 = m0 / k, m1 / k, m2 / k
+    C = np.empty((k, 3))
+    for i in range(k):
+        C[i, 0], C[i, 1], C[i, 2] = P[i, 0] - m0, P[i, 1] - m1, P[i, 2] - m2
+    s0 = s1 = s2 = 0.0
+    for i in range(k):
+        j = i + 1 if i + 1 < k else 0
+        s0 += C[i, 1] * C[j, 2] - C[i, 2] * C[j, 1]
+        s1 += C[i, 2] * C[j, 0] - C[i, 0] * C[j, 2]
+        s2 += C[i, 0] * C[j, 1] - C[i, 1] * C[j, 0]
+    va = np.empty(3)
+    va[0], va[1], va[2] = -0.5 * s0, -0.5 * s1, -0.5 * s2
+    return C, va
+
+
+def centred_area(P):
+    """The loop ``P`` about its mean and minus its vector area, as
+    :func:`shellrepair.triangulate.triangulate_loop` computes them
+    (``C = P - P.mean(axis=0)``, ``-0.5 * cross(C, C rolled by -1).sum(axis=0)``):
+    NumPy sums a C-ordered array's columns row after row from 0.0, and so
+    does this.
+
+    Parameters
+    ----------
+    P : (k,3) float64, C-ordered (the caller's NumPy would sum an
+        F-ordered one pairwise)
+
+    Returns
+    -------
+    C : (k,3) float64
+    va : (3,) float64
+    """
+    return _centred_area(np.ascontiguousarray(P, np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _outline_cross(Q, S, P):
+    S = _inside_outline(Q, S)
+    raw = np.empty((S.shape[0], 3))
+    for t in range(S.shape[0]):
+        i0, i1, i2 = S[t, 0], S[t, 1], S[t, 2]
+        a0, a1, a2 = P[i1, 0] - P[i0, 0], P[i1, 1] - P[i0, 1], P[i1, 2] - P[i0, 2]
+        b0, b1, b2 = P[i2, 0] - P[i0, 0], P[i2, 1] - P[i0, 1], P[i2, 2] - P[i0, 2]
+        raw[t, 0] = a1 * b2 - a2 * b1
+        raw[t, 1] = a2 * b0 - a0 * b2
+        raw[t, 2] = a0 * b1 - a1 * b0
+    return S, raw
+
+
+def outline_cross(Q, S, P):
+    """:func:`inside_outline` and the kept triangles' cross products
+    ``(P[b] - P[a]) × (P[c] - P[a])`` (the normal test of
+    :func:`shellrepair.triangulate._delaunay_in_projection`, before its
+    product with the axis, which stays NumPy's).
+
+    Parameters
+    ----------
+    Q : (k,2) float64
+    S : (t,3) int64
+    P : (k,3) float64
+
+    Returns
+    -------
+    S_in : (r,3) int64
+    raw : (r,3) float64
+    """
+    return _outline_cross(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(S, np.int64),
+                          np.ascontiguousarray(P, np.float64))
+
+
+@njit(cache=True, nogil=True)
+def _cover_free(S, n, k, fk):
+    out, ok = _loop_cover(S, n, k)
+    if not ok:
+        return out, 1
+    if fk.size:
+        for t in range(out.shape[0]):
+            for c in range(3):
+                x, y = out[t, c], out[t, (c + 1) % 3]
+                if _in_sorted(fk, min(x, y) * k + max(x, y)):
+                    return out, 2
+    return out, 0
+
+
+def cover_free(S, n, k, fk):
+    """:func:`loop_cover`, then whether an edge of the triangles joins a
+    forbidden pair (:func:`shellrepair.triangulate._none_forbidden`).
+
+    Parameters
+    ----------
+    S : (t,3) int64
+    n : (t,) float64
+    k : int
+    fk : (f,) int64
+        Sorted keys ``x·k + y`` of the forbidden pairs ``0 <= x < y < k``.
+
+    Returns
+    -------
+    S_oriented : (t,3) int64
+    status : int
+        0 a cover without a forbidden edge; 1 not a cover; 2 a cover
+        using a forbidden edge.
+    """
+    out, status = _cover_free(np.ascontiguousarray(S, np.int64), np.ascontiguousarray(n, np.float64), int(k),
+                              np.ascontiguousarray(fk, np.int64))
+    return out, int(status)
+
+
+@njit(cache=True, nogil=True)
+def _tet_faces(S, n):
+    t = S.shape[0]
+    first = np.empty(4 * t, np.int64)       # each face's smallest corner
+    rest = np.empty(4 * t, np.int64)        # and b·n + c of the other two
+    v = np.empty(4, np.int64)
+    for i in range(t):
+        for c in range(4):              # the corners sorted (insertion)
+            x = S[i, c]
+            j = c
+            while j > 0 and v[j - 1] > x:
+                v[j] = v[j - 1]
+                j -= 1
+            v[j] = x
+        first[4 * i], rest[4 * i] = v[0], v[1] * n + v[2]
+        first[4 * i + 1], rest[4 * i + 1] = v[0], v[1] * n + v[3]
+        first[4 * i + 2], rest[4 * i + 2] = v[0], v[2] * n + v[3]
+        first[4 * i + 3], rest[4 * i + 3] = v[1], v[2] * n + v[3]
+    # the keys (a·n + b)·n + c in order: by a (counting sort), then by b·n + c
+    start = np.zeros(n + 1, np.int64)
+    for i in range(4 * t):
+        start[first[i] + 1] += 1
+    for a in range(n):
+        start[a + 1] += start[a]
+    fill = start[:n].copy()
+    srt = np.empty(4 * t, np.int64)
+    for i in range(4 * t):
+        srt[fill[first[i]]] = rest[i]
+        fill[first[i]] += 1
+    m = 0
+    D = np.empty((4 * t, 3), np.int64)
+    for a in range(n):
+        seg = srt[start[a]:start[a + 1]]
+        if seg.size > 16:
+            seg.sort()
+        else:
+            for p in range(1, seg.size):
+                x = seg[p]
+                j = p
+                while j > 0 and seg[j - 1] > x:
+                    seg[j] = seg[j - 1]
+                    j -= 1
+                seg[j] = x
+        for p in range(seg.size):
+            if p == 0 or seg[p] != seg[p - 1]:
+                D[m, 0], D[m, 1], D[m, 2] = a, seg[p] // n, seg[p] % n
+                m += 1
+    return D[:m].copy()
+
+
+def tet_faces(S, n):
+    """The triangles of tetrahedra ``S`` over ``n`` points, each once,
+    corners ascending, ordered by their key ``(a·n + b)·n + c``
+    (:func:`shellrepair.triangulate.delaunay_faces`'s sort, faces and
+    ``np.unique``).
+
+    Parameters
+    ----------
+    S : (t,4) int
+        Corners in ``[0, n)``.
+    n : int
+
+    Returns
+    -------
+    D : (f,3) int64
+    """
+    return _tet_faces(np.ascontiguousarray(S, np.int64), int(n))
+
+
+@njit(cache=True, nogil=True)
+def _loop_edges_present(D, k):
+    seen = np.zeros(k, np.bool_)
+    for i in range(D.shape[0]):
+        a, b, c = D[i, 0], D[i, 1], D[i, 2]
+        for p, q in ((a, b), (b, c), (a, c)):
+            if p < 0 or p >= k or q < 0 or q >= k:
+                return seen, False
+            if q == p + 1:
+                seen[p] = True
+            if p == 0 and q == k - 1:
+                seen[k - 1] = True
+    return seen, True
+
+
+def loop_edges_present(D, k):
+    """Which loop edges ``(i, i+1)`` (and ``(0, k-1)`` last) are an edge
+    ``(a, b)``, ``(b, c)`` or ``(a, c)`` of some row of ``D``
+    (:func:`shellrepair.triangulate._with_loop_edges`'s ``np.isin``).
+
+    Parameters
+    ----------
+    D : (t,3) int64
+    k : int
+
+    Returns
+    -------
+    seen : (k,) bool
+    ok : bool
+        False when a corner is outside ``[0, k)`` (``seen`` is then not
+        complete: its keys could alias, the caller's NumPy decides).
+    """
+    return _loop_edges_present(np.ascontiguousarray(D, np.int64), int(k))
+
+
+@njit(cache=True, nogil=True)
+def _forbidden_chord(p, q, k, fk):
+    # (p, q) is a chord (not a loop edge) and forbidden (restricted_dp's np.isin)
+    return q - p > 1 and not (p == 0 and q == k - 1) and _in_sorted(fk, p * k + q)
+
+
+@njit(cache=True, nogil=True)
+def _restricted_prepare(P, cand, fk):
+    k = P.shape[0]
+    m0 = cand.shape[0]
+    keep = np.empty(m0, np.int64)
+    m = 0
+    for r in range(m0):
+        x, y, z = cand[r, 0], cand[r, 1], cand[r, 2]
+        if not (x < y and y < z):
+            continue
+        if fk.size and (_forbidden_chord(x, y, k, fk) or _forbidden_chord(y, z, k, fk)
+                        or _forbidden_chord(x, z, k, fk)):
+            continue
+        if x < 0 or z >= k:     # an index NumPy would wrap or reject: the caller's NumPy decides
+            e = np.empty(0, np.int64)
+            return e, e, e, e, e, e, 0, e, -1, np.empty((0, 3)), np.empty((0, 3)), np.empty(0, np.bool_), \
+                np.empty(0), 1
+        keep[m] = r
+        m += 1
+    a = np.empty(m, np.int64)
+    b = np.empty(m, np.int64)
+    c = np.empty(m, np.int64)
+    for q in range(m):
+        a[q], b[q], c[q] = cand[keep[q], 0], cand[keep[q], 1], cand[keep[q], 2]
+    # edge ids: the loop edges (i, i+1), the interval (0, k-1), the candidates'
+    # (a, b), (b, c), (a, c); bucketed by first corner, each (i, j) one id
+    ne_all = k + 3 * m
+    ei = np.empty(ne_all, np.int64)
+    ej = np.empty(ne_all, np.int64)
+    for i in range(k - 1):
+        ei[i], ej[i] = i, i + 1
+    ei[k - 1], ej[k - 1] = 0, k - 1
+    for q in range(m):
+        s = k + 3 * q
+        ei[s], ej[s] = a[q], b[q]
+        ei[s + 1], ej[s + 1] = b[q], c[q]
+        ei[s + 2], ej[s + 2] = a[q], c[q]
+    start = np.zeros(k + 1, np.int64)
+    for s in range(ne_all):
+        start[ei[s] + 1] += 1
+    for i in range(k):
+        start[i + 1] += start[i]
+    fill = start[:k].copy()
+    rows = np.empty(ne_all, np.int64)
+    for s in range(ne_all):
+        rows[fill[ei[s]]] = s
+        fill[ei[s]] += 1
+    stamp = np.full(k, -1, np.int64)
+    idof = np.empty(k, np.int64)
+    eid = np.empty(ne_all, np.int64)
+    ne = 0
+    for i in range(k):
+        for p in range(start[i], start[i + 1]):
+            s = rows[p]
+            j = ej[s]
+            if stamp[j] != i:
+                stamp[j] = i
+                idof[j] = ne
+                ne += 1
+            eid[s] = idof[j]
+    base = eid[:k - 1].copy()
+    top = eid[k - 1]
+    el = np.empty(m, np.int64)
+    er = np.empty(m, np.int64)
+    et = np.empty(m, np.int64)
+    for q in range(m):
+        s = k + 3 * q
+        el[q], er[q], et[q] = eid[s], eid[s + 1], eid[s + 2]
+    # triangle (a, c, b): raw normal cross(P[c] - P[a], P[b] - P[a]), unit normal, area
+    raw = np.empty((m, 3))
+    n = np.empty((m, 3))
+    nz = np.empty(m, np.bool_)
+    area = np.empty(m)
+    for q in range(m):
+        ia, ib, ic = a[q], b[q], c[q]
+        u0, u1, u2 = P[ic, 0] - P[ia, 0], P[ic, 1] - P[ia, 1], P[ic, 2] - P[ia, 2]
+        v0, v1, v2 = P[ib, 0] - P[ia, 0], P[ib, 1] - P[ia, 1], P[ib, 2] - P[ia, 2]
+        r0 = u1 * v2 - u2 * v1
+        r1 = u2 * v0 - u0 * v2
+        r2 = u0 * v1 - u1 * v0
+        raw[q, 0], raw[q, 1], raw[q, 2] = r0, r1, r2
+        ln = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        nz[q] = ln > 0
+        d = ln if ln > 0 else 1.0
+        n[q, 0], n[q, 1], n[q, 2] = r0 / d, r1 / d, r2 / d
+        area[q] = 0.5 * ln
+    return a, b, c, el, er, et, ne, base, top, raw, n, nz, area, 0
+
+
+def restricted_prepare(P, cand, fk):
+    """The candidates of :func:`shellrepair.triangulate.restricted_dp` and
+    their edges and geometry (its NumPy setup, the same products): the
+    candidates kept (``a < b < c``, no chord in ``fk``), their edges
+    ``(a, b)``, ``(b, c)``, ``(a, c)`` as ids (any numbering, one id per
+    edge: the search reads them only as names), and each triangle
+    ``(a, c, b)``'s cross product, unit normal and area.
+
+    Parameters
+    ----------
+    P : (k,3) float64
+    cand : (t,3) int64
+    fk : (f,) int64
+        Sorted keys ``x·k + y`` of the forbidden pairs.
+
+    Returns
+    -------
+    a, b, c, el, er, et : (m,) int64
+    ne : int
+        Number of edge ids.
+    base : (k-1,) int64
+        The loop edges' ids.
+    top : int
+        The id of the interval ``(0, k-1)``.
+    raw, n : (m,3) float64, nz : (m,) bool, area : (m,) float64
+    status : int
+        0; 1 when a kept candidate has a corner outside ``[0, k)`` (nothing
+        else returned then).
+    """
+    out = _restricted_prepare(np.ascontiguousarray(P, np.float64), np.ascontiguousarray(cand, np.int64),
+                              np.ascontiguousarray(fk, np.int64))
+    return out[:6] + (int(out[6]), out[7], int(out[8])) + out[9:13] + (int(out[13]),)
+
+
+@njit(cache=True, nogil=True)
+def _restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, area, bad0, top, tie):
+    m = b.shape[0]
+    inf = np.inf
+    WA = np.full(ne, inf)
+    WS = np.full(ne, inf)
+    N = np.zeros((ne, 3))
+    HN = np.zeros(ne, np.bool_)
+    sel = np.full(ne, -1, np.int64)        # each solved interval's candidate
+    best = np.full(ne, inf)                # the least finite worst cost among its candidates
+    sws = np.full(ne, inf)                 # the chosen candidate's area (inf where past the tie)
+    for i in range(k - 1):
+        e = base[i]
+        WA[e] = 0.0
+        WS[e] = 0.0
+        x, y, z = edge_normals[i, 0], edge_normals[i, 1], edge_normals[i, 2]
+        N[e, 0] = x
+        N[e, 1] = y
+        N[e, 2] = z
+        HN[e] = abs(x) + abs(y) + abs(z) > 0
+    r0, r1, r2 = edge_normals[k - 1, 0], edge_normals[k - 1, 1], edge_normals[k - 1, 2]
+    has_close = abs(r0) + abs(r1) + abs(r2) > 0
+    rim_zero = r0 == 0 and r1 == 0 and r2 == 0
+    # candidates by length c - a, stable (np.argsort(L, kind="stable") and its groups)
+    start = np.zeros(k + 1, np.int64)
+    for i in range(m):
+        start[c[i] - a[i] + 1] += 1
+    for s in range(k):
+        start[s + 1] += start[s]
+    fill = start[:k].copy()
+    order = np.empty(m, np.int64)
+    for i in range(m):
+        s = c[i] - a[i]
+        order[fill[s]] = i
+        fill[s] += 1
+    wa = np.empty(m)
+    ws = np.empty(m)
+    for length in range(2, k):
+        q0, q1 = start[length], start[length + 1]
+        # worst cost and area of each candidate, on the shorter intervals el, er
+        for q in range(q0, q1):
+            i = order[q]
+            l, r, t = el[i], er[i], et[i]
+            n0, n1, n2 = n[i, 0], n[i, 1], n[i, 2]
+            d1 = _clip_unit(n0 * N[l, 0] + n1 * N[l, 1] + n2 * N[l, 2])
+            d2 = _clip_unit(n0 * N[r, 0] + n1 * N[r, 1] + n2 * N[r, 2])
+            a1 = ((1.0 - d1) if nz[i] else 2.0) if HN[l] else 0.0
+            a2 = ((1.0 - d2) if nz[i] else 2.0) if HN[r] else 0.0
+            w = _nan_max(_nan_max(a1, a2), _nan_max(WA[l], WA[r]))
+            if has_close and t == top:      # the closing edge's scan face (triangulate._angle)
+                if (n0 == 0 and n1 == 0 and n2 == 0) or rim_zero:
+                    g = 2.0
+                else:
+                    g = 1.0 - _clip_unit(n0 * r0 + n1 * r1 + n2 * r2)
+                w = _nan_max(w, g)
+            if bad0[i]:
+                w = inf
+            wa[q] = w
+            ws[q] = area[i] + WS[l] + WS[r]
+            if np.isfinite(w) and w < best[t]:
+                best[t] = w
+        # per interval: the least area within ANGLE_TIE of the best cost, the first of equals
+        for q in range(q0, q1):
+            w = wa[q]
+            if not np.isfinite(w):
+                continue
+            i = order[q]
+            t = et[i]
+            s = ws[q] if w <= best[t] + tie else inf
+            if sel[t] < 0 or _sorts_before(s, sws[t]):
+                sel[t] = i
+                sws[t] = s
+        for q in range(q0, q1):
+            i = order[q]
+            t = et[i]
+            if sel[t] == i:
+                WA[t] = wa[q]
+                WS[t] = sws[t]
+                N[t, 0] = n[i, 0]
+                N[t, 1] = n[i, 1]
+                N[t, 2] = n[i, 2]
+                HN[t] = nz[i]
+    T = np.empty((max(k - 2, 0), 3), np.int64)
+    if not np.isfinite(WA[top]):
+        return T[:0], 1, 0, k - 1
+    # the triangles, depth first as restricted_dp's stack pops them
+    stack = np.empty((2 * k + 2, 3), np.int64)
+    stack[0, 0], stack[0, 1], stack[0, 2] = 0, k - 1, top
+    sp = 1
+    nt = 0
+    while sp > 0:
+        sp -= 1
+        i, j, e = stack[sp, 0], stack[sp, 1], stack[sp, 2]
+        if j - i < 2:
+            continue
+        s = sel[e]
+        if s < 0 or nt >= T.shape[0]:
+            return T[:nt], 2, i, j
+        mm = b[s]
+        T[nt, 0], T[nt, 1], T[nt, 2] = i, j, mm
+        nt += 1
+        stack[sp, 0], stack[sp, 1], stack[sp, 2] = i, mm, el[s]
+        stack[sp + 1, 0], stack[sp + 1, 1], stack[sp + 1, 2] = mm, j, er[s]
+        sp += 2
+    return T[:nt], 0, 0, 0
+
+
+def restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, area, bad0, top, tie):
+    """The group loop and the read-back of
+    :func:`shellrepair.triangulate.restricted_dp` (its NumPy form
+    :func:`shellrepair.triangulate._restricted_dp_numpy`): intervals by
+    increasing length, each closed by the candidate of least worst
+    dihedral cost, the least area among costs within ``tie`` of it (the
+    first of equal areas, as ``np.lexsort`` orders them), with the same
+    products, clips and maxima.
+
+    Parameters
+    ----------
+    k : int
+        Loop length.
+    a, b, c : (m,) int64
+        The candidates' sorted corners.
+    el, er, et : (m,) int64
+        Their edges ``(a, b)``, ``(b, c)``, ``(a, c)`` as ids into the ``ne``
+        edge keys.
+    ne : int
+    base : (k-1,) int64
+        The ids of the loop edges ``(i, i+1)``.
+    edge_normals : (k,3) float64
+        Rim normals (zero rows unknown).
+    n : (m,3) float64, nz : (m,) bool, area : (m,) float64, bad0 : (m,) bool
+        The candidates' unit normals, whether they are not degenerate, their
+        areas, and whether they face against the axis.
+    top : int
+        The id of the interval ``(0, k-1)``.
+    tie : float
+        ``ANGLE_TIE``.
+
+    Returns
+    -------
+    T : (k-2,3) int64
+        Triangles ``(i, j, apex)`` in the read-back's order (fewer on failure).
+    status : int
+        0; 1 when no triangulation uses only the candidates; 2 when the
+        interval ``(i, j)`` has no apex.
+    i, j : int
+    """
+    ci = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    cf = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
+    cb = lambda x: np.ascontiguousarray(x, np.bool_)  # noqa: E731
+    T, status, i, j = _restricted_search(int(k), ci(a), ci(b), ci(c), ci(el), ci(er), ci(et), int(ne), ci(base),
+                                         cf(edge_normals), cf(n), cb(nz), cf(area), cb(bad0), int(top), float(tie))
+    return T, int(status), int(i), int(j)
+
+
 # --------------------------------------------------------------------------
 # the order test (shellrepair.selftest): its band's rings and split, the
 # distances of points to their nearest triangles
@@ -4072,5 +4610,12 @@ def warm_up():
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
     energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))
+    from .triangulate import restricted_dp   # (triangulate imports this module)
+
+    restricted_dp(X, np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]], np.int64), np.eye(4, 3), {(0, 2)})
+    C, _ = centred_area(X)
+    S, raw = outline_cross(C[:, :2], T, X)
+    cover_free(S, raw[:, 2], 4, np.array([3], np.int64))
+    loop_edges_present(tet_faces(np.array([[3, 1, 0, 2]], np.int32), 4), 4)
     _WARM = True
     return True

@@ -34,6 +34,8 @@ multiple 3D polygons", Eurographics Symposium on Geometry Processing, 2013.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import kernels
@@ -139,32 +141,48 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
     forbidden = set() if forbidden is None else set(forbidden)
     idx = np.arange(k)
     edge_normals = np.asarray(edge_normals, np.float64)
+    C = None
     if isinstance(axis, str):
-        C = P - P.mean(axis=0)
-        va = -0.5 * cross(C, np.concatenate([C[1:], C[:1]])).sum(axis=0)   # np.roll by -1
-        ln = np.linalg.norm(va)
+        if kernels.ENABLED and P.flags.c_contiguous:   # (NumPy sums an F-ordered P's columns pairwise)
+            C, va = kernels.centred_area(P)
+        else:
+            C = P - P.mean(axis=0)
+            va = -0.5 * cross(C, np.concatenate([C[1:], C[:1]])).sum(axis=0)   # np.roll by -1
+        ln = _length(va)
         axis = va / ln if ln > 0 else None
     if axis is not None:
         axis = np.asarray(axis, np.float64)
     if axis is not None and fast:
-        T = _delaunay_in_projection(P, axis, forbidden)
+        T = _delaunay_in_projection(P, axis, forbidden, C)
         if T is not None and (allowed is None or np.asarray(allowed(T), bool).all()):
             return T
     return _triangulate(P, idx, edge_normals, forbidden, axis, allowed)
 
 
-def _delaunay_in_projection(P, axis, forbidden):
+def _length(x):
+    """``np.linalg.norm(x)`` of a vector: for a float64 one its own steps
+    (``sqrt(x.dot(x))``, the same dot product) without its Python
+    overhead."""
+    if x.dtype == np.float64 and x.ndim == 1:
+        return math.sqrt(x.dot(x))
+    return np.linalg.norm(x)
+
+
+def _delaunay_in_projection(P, axis, forbidden, C=None):
     """The Delaunay triangulation of the loop projected along ``axis``, when
     it is a triangulation of the loop: every loop edge present, k − 2
     triangles inside the outline, all facing along ``axis``, no forbidden
     chord. None otherwise (non-convex outlines whose edges are not Delaunay,
-    outlines that overlap themselves)."""
+    outlines that overlap themselves). ``C``: ``P - P.mean(axis=0)`` when
+    the caller has it."""
     from scipy.spatial import Delaunay, QhullError
 
     k = len(P)
-    a = axis / np.linalg.norm(axis)
+    a = axis / _length(axis)
     u, v = plane_frame(a)
-    C = P - P.mean(axis=0)
+    if C is None:
+        plain = kernels.ENABLED and P.dtype == np.float64 and P.flags.c_contiguous
+        C = kernels.centred_area(P)[0] if plain else P - P.mean(axis=0)
     Q = np.column_stack([C @ u, C @ v])
     try:
         tri = Delaunay(Q)
@@ -173,16 +191,24 @@ def _delaunay_in_projection(P, axis, forbidden):
     S = tri.simplices.astype(np.int64)
     if len(S) < k - 2 or tri.coplanar.size:
         return None
-    if kernels.ENABLED:
-        S = kernels.inside_outline(Q, S)
+    if kernels.ENABLED and P.dtype == np.float64:
+        S, raw = kernels.outline_cross(Q, S, P)
         if len(S) != k - 2:
             return None
-        n = cross(P[S[:, 1]] - P[S[:, 0]], P[S[:, 2]] - P[S[:, 0]]) @ a
-        S, ok = kernels.loop_cover(S, n, k)
-        if not ok:
-            return None
-        return _none_forbidden(S, forbidden)
+        S, status = kernels.cover_free(S, raw @ a, k, _forbidden_keys(forbidden, k))
+        return S if status == 0 else None
     return _loop_cover_numpy(P, Q, S, a, k, forbidden)
+
+
+def _forbidden_keys(forbidden, k):
+    """Sorted keys ``x·k + y`` of the pairs ``0 <= x < y < k`` of
+    ``forbidden`` (the only ones a triangle's edge can be)."""
+    if not forbidden:
+        return _NO_KEYS
+    return np.unique(np.array([x * k + y for x, y in forbidden if 0 <= x < y < k], np.int64))
+
+
+_NO_KEYS = np.zeros(0, np.int64)
 
 
 def _loop_cover_numpy(P, Q, S, a, k, forbidden):
@@ -300,10 +326,14 @@ def _with_loop_edges(D, k):
     tetrahedralization need not contain the loop's edges), the triangles on
     it with every other apex; only those may then cross other candidates."""
     n = np.int64(k)
-    E = np.concatenate([D[:, 0] * n + D[:, 1], D[:, 1] * n + D[:, 2], D[:, 0] * n + D[:, 2]])
-    i = np.arange(k - 1)
-    want = np.concatenate([i * n + i + 1, [k - 1]])
-    miss = np.flatnonzero(~np.isin(want, E))
+    seen, ok = kernels.loop_edges_present(D, k) if kernels.ENABLED else (None, False)
+    if ok:
+        miss = np.flatnonzero(~seen)
+    else:
+        E = np.concatenate([D[:, 0] * n + D[:, 1], D[:, 1] * n + D[:, 2], D[:, 0] * n + D[:, 2]])
+        i = np.arange(k - 1)
+        want = np.concatenate([i * n + i + 1, [k - 1]])
+        miss = np.flatnonzero(~np.isin(want, E))
     if miss.size == 0:
         return D
     extra = []
@@ -566,6 +596,8 @@ def delaunay_faces(P):
         tri = None
     if tri is None:
         return None
+    if kernels.ENABLED:
+        return kernels.tet_faces(tri.simplices, len(P))
     S = np.sort(tri.simplices.astype(np.int64), axis=1)
     D = np.concatenate([S[:, [0, 1, 2]], S[:, [0, 1, 3]], S[:, [0, 2, 3]], S[:, [1, 2, 3]]])
     n = np.int64(len(P))
@@ -599,6 +631,45 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
     MeshError
         If no triangulation of the loop uses only candidate triangles.
     """
+    if kernels.ENABLED:
+        T = _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis)
+        if T is not None:
+            return T
+    return _restricted_dp_numpy(P, cand, edge_normals, forbidden, axis)
+
+
+def _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis):
+    """:func:`restricted_dp` by :func:`shellrepair.kernels.restricted_prepare`
+    and :func:`shellrepair.kernels.restricted_search` (the axis test stays
+    NumPy's product); None where the inputs are not plain (float
+    positions, one rim normal per loop edge, corners inside the loop), for
+    the NumPy version to handle."""
+    P = np.asarray(P)
+    k = len(P)
+    en = np.asarray(edge_normals, np.float64)
+    if k < 3 or P.dtype != np.float64 or P.shape != (k, 3) or en.shape != (k, 3):
+        return None
+    cand = np.asarray(cand, np.int64).reshape(-1, 3)
+    fk = np.unique(np.array([x * k + y for x, y in forbidden], np.int64)) if forbidden else np.zeros(0, np.int64)
+    a, b, c, el, er, et, ne, base, top, raw, n, nz, area, status = kernels.restricted_prepare(P, cand, fk)
+    if status:
+        return None
+    bad0 = np.zeros(len(a), bool) if axis is None else raw @ axis <= 0
+    T, status, i, j = kernels.restricted_search(k, a, b, c, el, er, et, ne, base, en, n, nz, area, bad0, top,
+                                                ANGLE_TIE)
+    if status == 1:
+        raise MeshError(_NO_RESTRICTED)
+    if status == 2:
+        raise MeshError(f"restricted search: interval ({i}, {j}) has no apex")
+    return T
+
+
+_NO_RESTRICTED = "no triangulation of this loop uses only triangles of its Delaunay tetrahedralization"
+
+
+def _restricted_dp_numpy(P, cand, edge_normals, forbidden, axis=None):
+    """:func:`restricted_dp` in NumPy, the interval lengths in groups (the
+    compiled search's test oracle)."""
     k = len(P)
     cand = np.asarray(cand, np.int64).reshape(-1, 3)
     a, b, c = cand[:, 0], cand[:, 1], cand[:, 2]
@@ -665,7 +736,7 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
         N[tt] = n[grp[first]]
         HN[tt] = nz[grp[first]]
     if not np.isfinite(WA[top]):
-        raise MeshError("no triangulation of this loop uses only triangles of its Delaunay tetrahedralization")
+        raise MeshError(_NO_RESTRICTED)
     tris = []
     stack = [(0, k - 1)]
     while stack:
