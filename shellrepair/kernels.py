@@ -346,36 +346,9 @@ def _room(a, size):
 
 @njit(cache=True, nogil=True)
 def _ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
-    marked = np.empty(max(verts.size, 16), np.int64)
-    nm = 0
-    front = np.empty(max(verts.size, 16), np.int64)
-    nfr = 0
-    for v in verts:
-        if not vmark[v]:
-            vmark[v] = True
-            marked[nm] = v
-            nm += 1
-            front[nfr] = v
-            nfr += 1
-    found = np.empty(max(64, 8 * verts.size), np.int64)
-    nf = 0
-    for _ in range(max(1, rings)):
-        need = nf
-        for i in range(nfr):
-            need += vf_start[front[i] + 1] - vf_start[front[i]]
-        found = _room(found, need)
-        f0 = nf
-        nf = _ring_collect(front, nfr, vf_order, vf_start, fmark, found, nf)
-        marked = _room(marked, nm + 3 * (nf - f0))
-        front = _room(front, 3 * (nf - f0))
-        nm, nfr = _ring_expand(found, f0, nf, F, vmark, marked, nm, front)
-        if nfr == 0:
-            break
-    for i in range(nm):
-        vmark[marked[i]] = False
-    for j in range(nf):
-        fmark[found[j]] = False
-    return np.sort(found[:nf])
+    faces, _ = _ring_walk(verts, rings, vf_order, vf_start, F, vmark, fmark)   # walk order ...
+    faces.sort()                                                                 # ... sorted
+    return faces
 
 
 def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
@@ -401,7 +374,9 @@ def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
 
 
 @njit(cache=True, nogil=True)
-def _submesh(faces, F, loop, T, vpos):
+def _number_vertices(faces, F, vpos):
+    # The distinct vertices of the faces ``faces``, sorted, each numbered
+    # by its place among them in vpos (which holds -1 for every vertex before).
     m = faces.size
     seen = np.empty(3 * m, np.int64)
     ng = 0
@@ -415,6 +390,14 @@ def _submesh(faces, F, loop, T, vpos):
     g = np.sort(seen[:ng])
     for i in range(ng):
         vpos[g[i]] = i
+    return g
+
+
+@njit(cache=True, nogil=True)
+def _submesh(faces, F, loop, T, vpos):
+    m = faces.size
+    g = _number_vertices(faces, F, vpos)
+    ng = g.size
     k = loop.size
     loc = np.empty(k, np.int64)
     ok = True
@@ -4179,18 +4162,8 @@ def _band_split(walk, nb, nr, F, loop, vpos):
     for i in range(nr):
         region[i] = walk[o[i]]
         inb[i] = o[i] < nb
-    seen = np.empty(3 * nr, np.int64)
-    ng = 0
-    for i in range(nr):
-        for c in range(3):
-            w = F[region[i], c]
-            if vpos[w] < 0:
-                vpos[w] = 0
-                seen[ng] = w
-                ng += 1
-    g = np.sort(seen[:ng])
-    for i in range(ng):
-        vpos[g[i]] = i
+    g = _number_vertices(region, F, vpos)
+    ng = g.size
     Fb = np.empty((nb, 3), np.int64)
     Fk = np.empty((nr - nb, 3), np.int64)
     band = np.empty(nb, np.int64)
