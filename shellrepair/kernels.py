@@ -49,8 +49,6 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   round-off, not to the bit (the one kernel with a tolerance, stated there);
 * :func:`edge_bend_pairs`: the face normals, interior-edge face pairs and
   edge lengths of :func:`shellrepair.selftest._edge_bends`;
-* :func:`nearest_distances`: points to their candidate triangles, the
-  order test's distances (:func:`shellrepair.selftest.point_mesh_distance`);
 * :func:`energy_blocks`: the unknown and fixed blocks of a large patch's
   fairing energy (:func:`shellrepair.fair._energy` and its slices), equal
   to round-off (the sums in another order; tests/test_fair.py);
@@ -77,7 +75,7 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   (:func:`shellrepair.selftest._probe_band`); :func:`centroids`,
   :func:`nearest_triangle_distances`: the order test's centroid query and
   distances (:func:`shellrepair.selftest.point_mesh_distance`; the latter
-  is :func:`nearest_distances` read from ``V`` and ``F``, on scalars);
+  each point's closest candidate triangle, on scalars);
   :func:`boundary_cycles`: :func:`shellrepair.holes.boundary_loops` where
   the boundary is simple; :func:`loop_mean_edge`: a loop's mean edge
   (NumPy's pairwise sum, replicated);
@@ -107,7 +105,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "nearest_distances", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -2341,96 +2339,6 @@ def relax_round_parts(P, g):
 
 
 # --------------------------------------------------------------------------
-# the order test's distances: points to their nearest triangles
-# --------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
-def _closest_distance(P, A, B, C):
-    """|P − X| for the closest point X of triangle ABC to P, with the same
-    operations in the same order as :func:`shellrepair.selftest._closest_on_triangles`
-    (then the norm of P − X)."""
-    ab = (B[0] - A[0], B[1] - A[1], B[2] - A[2])
-    ac = (C[0] - A[0], C[1] - A[1], C[2] - A[2])
-    ap = (P[0] - A[0], P[1] - A[1], P[2] - A[2])
-    d00 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]
-    d01 = ab[0] * ac[0] + ab[1] * ac[1] + ab[2] * ac[2]
-    d11 = ac[0] * ac[0] + ac[1] * ac[1] + ac[2] * ac[2]
-    d20 = ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]
-    d21 = ap[0] * ac[0] + ap[1] * ac[1] + ap[2] * ac[2]
-    den = d00 * d11 - d01 * d01
-    ok = den > 1e-30 * max(d00 * d11, 1e-300)
-    inv = 1.0 / den if ok else 0.0
-    v = (d11 * d20 - d01 * d21) * inv
-    w = (d00 * d21 - d01 * d20) * inv
-    inside = ok and v >= 0 and w >= 0 and v + w <= 1
-    x0 = A[0] + v * ab[0] + w * ac[0]
-    x1 = A[1] + v * ab[1] + w * ac[1]
-    x2 = A[2] + v * ab[2] + w * ac[2]
-    if inside:
-        e0, e1, e2 = P[0] - x0, P[1] - x1, P[2] - x2
-        return np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-    best = np.inf
-    for s in range(3):       # the edges AB, BC, CA
-        S = A if s == 0 else (B if s == 1 else C)
-        E = B if s == 0 else (C if s == 1 else A)
-        D0, D1, D2 = E[0] - S[0], E[1] - S[1], E[2] - S[2]
-        t = ((P[0] - S[0]) * D0 + (P[1] - S[1]) * D1 + (P[2] - S[2]) * D2) / max(D0 * D0 + D1 * D1 + D2 * D2,
-                                                                                   1e-300)
-        if t < 0.0:
-            t = 0.0
-        elif t > 1.0:
-            t = 1.0
-        y0, y1, y2 = S[0] + t * D0, S[1] + t * D1, S[2] + t * D2
-        e0, e1, e2 = P[0] - y0, P[1] - y1, P[2] - y2
-        dy = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-        if dy < best:
-            best = dy
-            x0, x1, x2 = y0, y1, y2
-    e0, e1, e2 = P[0] - x0, P[1] - x1, P[2] - x2
-    return np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-
-
-@njit(cache=True, nogil=True)
-def _nearest_distances(Q, T, idx):
-    p, kk = idx.shape
-    d = np.empty(p)
-    for i in range(p):
-        m = 0.0
-        for j in range(kk):
-            f = idx[i, j]
-            x = _closest_distance(Q[i], T[f, 0], T[f, 1], T[f, 2])
-            if j == 0 or np.isnan(m):
-                m = x if j == 0 else m
-            elif np.isnan(x) or x < m:
-                m = x
-        d[i] = m
-    return d
-
-
-def nearest_distances(Q, T, idx):
-    """Distance of each point to the closest of its candidate triangles:
-    ``min_j |Q_i − closest point of T[idx[i, j]]|``
-    (:func:`shellrepair.selftest.point_mesh_distance` after its centroid
-    query), equal to the NumPy version to the bit (NaN where any candidate
-    gives NaN, as NumPy's ``min``).
-
-    Parameters
-    ----------
-    Q : (p,3) float64
-    T : (m,3,3) float64
-        The triangles' corners.
-    idx : (p,kk) int64
-        Candidate triangles of each point.
-
-    Returns
-    -------
-    d : (p,) float64
-    """
-    return _nearest_distances(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(T, np.float64),
-                              np.ascontiguousarray(idx, np.int64))
-
-
-
-# --------------------------------------------------------------------------
 # fairing of large patches: the energy's blocks, assembled directly
 # --------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
@@ -4255,7 +4163,7 @@ def centroids(V, F):
 
 @njit(cache=True, nogil=True)
 def _segment_distance(p0, p1, p2, s0, s1, s2, e0, e1, e2):
-    # the closest point of segment S-E to P and its distance: _closest_distance's edge step
+    # the closest point of segment S-E to P and its distance: selftest._closest_on_triangles' edge step
     D0, D1, D2 = e0 - s0, e1 - s1, e2 - s2
     t = ((p0 - s0) * D0 + (p1 - s1) * D1 + (p2 - s2) * D2) / max(D0 * D0 + D1 * D1 + D2 * D2, 1e-300)
     if t < 0.0:
@@ -4269,7 +4177,7 @@ def _segment_distance(p0, p1, p2, s0, s1, s2, e0, e1, e2):
 
 @njit(cache=True, nogil=True)
 def _point_triangle(p0, p1, p2, a0, a1, a2, b0, b1, b2, c0, c1, c2):
-    # _closest_distance on scalars (no array views): the same operations in the same order
+    # selftest._closest_on_triangles on scalars (no array views): the same operations in the same order
     ab0, ab1, ab2 = b0 - a0, b1 - a1, b2 - a2
     ac0, ac1, ac2 = c0 - a0, c1 - a1, c2 - a2
     ap0, ap1, ap2 = p0 - a0, p1 - a1, p2 - a2
@@ -4324,10 +4232,11 @@ def _nearest_triangle_distances(Q, V, F, idx):
 
 
 def nearest_triangle_distances(Q, V, F, idx):
-    """:func:`nearest_distances` of the triangles ``V[F]``, read from ``V``
-    and ``F`` (no (m,3,3) corner array) and with the point-triangle step on
-    scalars: the same operations in the same order, the same numbers to the
-    bit, several times faster.
+    """For each point ``Q[i]``, its distance to the nearest of the triangles
+    ``V[F[idx[i]]]``, read from ``V`` and ``F`` (no (m,3,3) corner array)
+    with the point-triangle step on scalars: the operations of
+    :func:`shellrepair.selftest._closest_on_triangles` and the norm after it,
+    in their order, so the same numbers to the bit.
 
     Parameters
     ----------
@@ -4556,7 +4465,6 @@ def warm_up():
     projection_embeds(X[:, :2], T, 4, 1.0, 1e-9)
     edge_bend_pairs(X, T)
     relax_round_parts(X, np.array([[0, 1, 1, 2, 0, 3, 0, 1]], np.int64))
-    nearest_distances(X[:2], X[T], np.zeros((2, 2), np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
     outline_simple(X[:3, :2], 1e-12)
