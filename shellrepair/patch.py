@@ -684,8 +684,8 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
     if float(np.sum(a * cosines) / a.sum()) > EDGE_ON_COS:
         return False
-    base = getattr(ctx, "base", "auto")    # the user's word on what the opening is, when given
-    return base == "flat" or (base == "auto" and _turns_into_opening(ctx, loop))
+    # the user's word on what the opening is (RepairOptions.base), else the rule
+    return ctx.base == "flat" or (ctx.base == "auto" and _turns_into_opening(ctx, loop))
 
 
 def _face_cross(ctx, faces):
