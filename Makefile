@@ -45,6 +45,8 @@ $(STAMP): $(INSTALLED) $(SOURCES)
 	$(PY) -c "from shellrepair.reflectance import warm_up; warm_up()"
 	@echo "compiling the fill's kernels (once; cached beside shellrepair/kernels.py)"
 	$(PY) -c "from shellrepair.kernels import warm_up; warm_up()"
+	@echo "compiling the fairing's sparse Cholesky (Numba; cached beside shellrepair/cholesky.py)"
+	$(PY) -c "from shellrepair.cholesky import warm_up; warm_up()"
 	@echo "compiling the whole-mesh kernels (Numba; cached beside the package, so no run waits on the compiler)"
 	$(PY) -c "from shellrepair.fastmesh import warm_up; warm_up()"
 	touch $(STAMP)

@@ -69,7 +69,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import kernels
+from . import cholesky, kernels
 from .intrinsic import intrinsic_laplacian
 
 __all__ = ["fair_patch", "fair_patch_orders", "Operator", "as_matrix", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
@@ -233,19 +233,31 @@ def as_matrix(K):
 
 
 class _Factor:
-    """Q_uu, the unknowns' block of Q, factorised once: libigl's sparse LLᵀ
-    (``min_quad_with_fixed_precompute`` with no fixed rows), or SciPy's LU
-    where libigl fails or gives non-finite values. ``Q_uf`` couples the
-    unknowns to the fixed rows."""
+    """Q_uu, the unknowns' block of Q, factorised once: by
+    :func:`shellrepair.cholesky.factor` (nested dissection, dense fronts)
+    where the kernels are there, else (and where a front is not positive
+    definite) libigl's sparse LLᵀ (``min_quad_with_fixed_precompute`` with
+    no fixed rows), or SciPy's LU where libigl fails or gives non-finite
+    values. ``Q_uf`` couples the unknowns to the fixed rows."""
 
     def __init__(self, Quu, Quf):
         self.Quu, self.Quf = Quu, Quf
-        self.data = self.lu = None
+        self.data = self.lu = self.chol = None
+        if cholesky.ENABLED:
+            try:
+                self.chol = cholesky.factor(Quu)
+                return
+            except cholesky.NotPositiveDefinite:
+                self.chol = None
+        self._use_igl()
+
+    def _use_igl(self):
         try:
             import igl
 
             data = igl.min_quad_with_fixed_data()
-            igl.min_quad_with_fixed_precompute(Quu, np.zeros(0, np.int64), sp.csc_matrix((0, Quu.shape[0])), True, data)
+            igl.min_quad_with_fixed_precompute(self.Quu, np.zeros(0, np.int64), sp.csc_matrix((0, self.Quu.shape[0])),
+                                               True, data)
             self.data = data
         except Exception:  # SciPy's LU instead
             self._use_lu()
@@ -258,6 +270,12 @@ class _Factor:
     def _solve(self, R):
         """Q_uu⁻¹ R (R: (u,c))."""
         R = np.asarray(R, np.float64)
+        if self.chol is not None:
+            Z = self.chol.solve(R)
+            if np.isfinite(Z).all():
+                return Z
+            self.chol = None
+            self._use_igl()
         if self.data is not None:
             import igl
 

@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kernels
+from . import cholesky, kernels
 from .errors import MeshError
 from .geometry import concat_ranges, cross, uniq
 from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth, thin_plate_energy, uniform_laplacian)
@@ -118,6 +118,7 @@ class _Context:
                       if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
         if kernels.ENABLED:
             kernels.warm_up()   # compiled or loaded before any hole's time budget starts
+            cholesky.warm_up()
         self._vf = None   # vertex-to-face lists, built on first use (vf_order, vf_start)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)

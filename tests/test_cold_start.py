@@ -59,18 +59,19 @@ class _Compiles(ev.Listener):
 
 ev.register("numba:compile", _Compiles())
 
-from shellrepair import fastmesh, kernels
+from shellrepair import cholesky, fastmesh, kernels
 
 
 def signatures():
     table = {f"kernels.{k}": v for k, v in vars(kernels).items() if isinstance(v, CPUDispatcher)}
+    table.update({f"cholesky.{k}": v for k, v in vars(cholesky).items() if isinstance(v, CPUDispatcher)})
     if fastmesh._K is not None:
         table.update({f"fastmesh.{k}": v for k, v in vars(fastmesh._K).items()})
     return {k: sorted(str(s) for s in d.signatures) for k, d in table.items()}
 """
 
 _SETUP = _COMMON + """
-assert kernels.warm_up() and fastmesh.warm_up()
+assert kernels.warm_up() and cholesky.warm_up() and fastmesh.warm_up()
 print(json.dumps({"signatures": signatures(), "compiled": compiled}))
 """
 
@@ -193,7 +194,8 @@ def test_a_changed_module_is_built_before_the_next_run(module):
     lines = plan.stdout.splitlines()
     assert f"touch {stamp}" in lines
     build = lines[:lines.index(f"touch {stamp}")]
-    for step in ("compileall", "from shellrepair.kernels import warm_up", "from shellrepair.fastmesh import warm_up",
+    for step in ("compileall", "from shellrepair.kernels import warm_up", "from shellrepair.cholesky import warm_up",
+                 "from shellrepair.fastmesh import warm_up",
                  "from shellrepair.reflectance import warm_up"):
         assert any(step in x for x in build), f"{step} missing from the build: {build}"
     assert any("shellrepair.cli repair" in x for x in lines[lines.index(f"touch {stamp}"):])
