@@ -453,9 +453,12 @@ def _forward_rows(L, Z):
 @njit(cache=True)
 def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kids):
     """Multifrontal factorisation. Returns (ok, l_ptr, l_val): node i's
-    front columns are stored as an (nS+nB, nS) row-major block (L_SS on
-    top, lower triangle, then L_BS) at l_val[l_ptr[i]:l_ptr[i+1]]; ok False
-    where a pivot block is not positive definite."""
+    columns of L are stored at l_val[l_ptr[i]:l_ptr[i+1]] as L_SS (nS, nS)
+    row-major (zeros above the diagonal), then L_BSᵀ (nS, nB) row-major;
+    ok False where a pivot block is not positive definite. The update
+    matrices wait on a stack (packed lower triangles): in post-order a
+    node's children's are the topmost, so only those of the nodes whose
+    parent is not yet done are held."""
     k = node_start.size - 1
     l_ptr = np.zeros(k + 1, np.int64)
     for i in range(k):
@@ -463,13 +466,10 @@ def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kid
         nb = b_ptr[i + 1] - b_ptr[i]
         l_ptr[i + 1] = l_ptr[i] + (ns + nb) * ns
     l_val = np.empty(l_ptr[k], np.float64)
-    # update matrices of nodes whose parent is not done yet, by node
-    u_ptr = np.zeros(k + 1, np.int64)
-    for i in range(k):
-        nb = b_ptr[i + 1] - b_ptr[i]
-        u_ptr[i + 1] = u_ptr[i] + nb * nb
-    # (a stack would hold less; the sizes here are a few MB at most for the fills' patches)
-    u_val = np.empty(u_ptr[k], np.float64)
+    u_off = np.zeros(k, np.int64)        # each node's update matrix on the stack
+    cap = 1024
+    u_val = np.empty(cap, np.float64)
+    top = 0
     loc = np.full(n, -1, np.int64)
     for i in range(k):
         s0, s1 = node_start[i], node_start[i + 1]
@@ -492,11 +492,14 @@ def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kid
             ch = kids[c]
             cb0 = b_ptr[ch]
             cnb = b_ptr[ch + 1] - cb0
-            base = u_ptr[ch]
+            base = u_off[ch]
             for a in range(cnb):
                 ra = loc[b_idx[cb0 + a]]
+                row = base + a * (a + 1) // 2
                 for bcol in range(a + 1):
-                    Fm[ra, loc[b_idx[cb0 + bcol]]] += u_val[base + a * cnb + bcol]
+                    Fm[ra, loc[b_idx[cb0 + bcol]]] += u_val[row + bcol]
+        if first[i + 1] > first[i]:         # the children's matrices popped
+            top = u_off[kids[first[i]]]
         # factor the S block (lower triangle read), then the B rows
         if ns > 0:
             S = np.empty((ns, ns), np.float64)
@@ -529,10 +532,19 @@ def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kid
                 U = np.zeros((0, 0), np.float64)
         else:
             U = np.ascontiguousarray(Fm[ns:, ns:])
-        base = u_ptr[i]
+        need = top + nb * (nb + 1) // 2
+        if need > cap:
+            while need > cap:
+                cap *= 2
+            grown = np.empty(cap, np.float64)
+            grown[:top] = u_val[:top]
+            u_val = grown
+        u_off[i] = top
         for a in range(nb):
+            row = top + a * (a + 1) // 2
             for bcol in range(a + 1):
-                u_val[base + a * nb + bcol] = U[a, bcol]
+                u_val[row + bcol] = U[a, bcol]
+        top = need
         for p in range(s0, s1):
             loc[p] = -1
         for e in range(b_ptr[i], b_ptr[i + 1]):
