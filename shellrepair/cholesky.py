@@ -25,7 +25,11 @@ does the same factorisation in dense blocks:
    front gathers its columns of Q and its children's update matrices,
    factors the S block (LAPACK's Cholesky), solves for the B rows, and
    hands the Schur complement F_BB − L_BS L_BSᵀ to its parent. The work is
-   dense matrix products (BLAS), not sparse column updates.
+   dense matrix products (BLAS, on the calling thread alone:
+   :func:`shellrepair.blas.one_thread`; on two cores with the other one
+   busy, OpenBLAS's second thread made the 12k-unknown order-3
+   factorisation 10x slower, 1.79 s against 0.18 s), not sparse column
+   updates.
 4. **Solve** (:func:`_solve`): forward then backward substitution front
    by front.
 
@@ -42,6 +46,8 @@ from __future__ import annotations
 import os
 
 import numpy as np
+
+from . import blas
 
 __all__ = ["ENABLED", "Factor", "NotPositiveDefinite", "factor", "nd_order", "LEAF", "warm_up"]
 
@@ -70,36 +76,6 @@ except ImportError:  # fair.py uses libigl's factorisation instead
         return lambda f: f
 
 _WARM = False
-_LOCAL_THREADS = []     # [setter or None], found once (:func:`_blas_threads_setter`)
-
-
-def _blas_threads_setter():
-    """OpenBLAS's ``openblas_set_num_threads_local`` of the BLAS that Numba's
-    ``np.dot`` calls (SciPy's bundled OpenBLAS), or None where SciPy uses
-    another BLAS. The fronts' products are of a few hundred rows: on two
-    cores with the other one busy, OpenBLAS's second thread made the
-    12k-unknown order-3 factorisation 10x slower (1.79 s against 0.18 s),
-    so the factorisation runs them on the calling thread alone."""
-    if not _LOCAL_THREADS:
-        setter = None
-        try:
-            import ctypes
-            import glob
-
-            import scipy
-
-            libs = os.path.join(os.path.dirname(os.path.dirname(scipy.__file__)), "scipy.libs")
-            for path in sorted(glob.glob(os.path.join(libs, "libscipy_openblas*.so*"))):
-                lib = ctypes.CDLL(path)
-                if hasattr(lib, "openblas_set_num_threads_local"):
-                    setter = lib.openblas_set_num_threads_local
-                    setter.restype = ctypes.c_int
-                    setter.argtypes = [ctypes.c_int]
-                    break
-        except OSError:
-            setter = None
-        _LOCAL_THREADS.append(setter)
-    return _LOCAL_THREADS[0]
 
 
 class NotPositiveDefinite(ValueError):
@@ -712,13 +688,8 @@ class Factor:
             return np.zeros(B.shape)
         one = B.ndim == 1
         B2 = np.ascontiguousarray(B.reshape(self.n, -1))
-        setter = _blas_threads_setter()
-        before = setter(1) if setter is not None else None
-        try:
+        with blas.one_thread():
             X = _solve(B2, self.perm, self.node_start, self.b_ptr, self.b_idx, self.l_ptr, self.l_val)
-        finally:
-            if before is not None:
-                setter(before)
         return X[:, 0] if one else X
 
 
@@ -754,15 +725,11 @@ def factor(Q, leaf=LEAF):
         return Factor(0, np.zeros(0, np.int64), z, z, np.zeros(0, np.int64), z, np.zeros(0))
     perm, node_start, node_parent = _nd(ptr, idx, n, int(leaf))
     iperm, b_ptr, b_idx, first, kids = _symbolic(ptr, idx, n, perm, node_start, node_parent)
-    setter = _blas_threads_setter()
-    before = setter(1) if setter is not None else None
     try:
-        ok, l_ptr, l_val = _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kids)
+        with blas.one_thread():    # fronts of a few hundred rows: one thread is faster (shellrepair.blas)
+            ok, l_ptr, l_val = _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kids)
     except np.linalg.LinAlgError:   # LAPACK's Cholesky met a non-positive pivot
         ok = False
-    finally:
-        if before is not None:
-            setter(before)
     if not ok:
         raise NotPositiveDefinite("a front's pivot block is not positive definite")
     return Factor(n, perm, node_start, b_ptr, b_idx, l_ptr, l_val)

@@ -73,6 +73,7 @@ from .holes import detect_holes
 from .io import Mesh, manifold_mesh
 from .report import table1_dict
 from .topology import edge_count_delta, edge_topology
+from . import blas
 from . import fill as _fill
 from .bridge import _find_bands, split_pinched
 from .pants import PantsUnit, expand, pants_unit
@@ -114,6 +115,13 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
         Table 1 fields (see :func:`shellrepair.report.table1_dict`) plus
         per-hole details.
     """
+    with blas.one_thread():     # the fill's many small products: one BLAS thread (shellrepair.blas)
+        return _repair_mesh(mesh, options, progress=progress, **changes)
+
+
+def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, progress: ProgressArg = None,
+                 **changes: Any) -> tuple[Mesh, dict]:
+    """:func:`repair_mesh` on the calling thread's BLAS settings (one thread)."""
     opts = RepairOptions.make(options, **changes)  # checked once, messages name the option
     legacy_bar = progress is True
     progress = as_callback(progress)

@@ -150,15 +150,3 @@ def test_fairing_with_and_without_the_new_factorisation_agrees(monkeypatch):
         monkeypatch.setattr(cholesky, "ENABLED", True)
         assert np.abs(ours - igl_).max() < 1e-9 * 2.0
         assert np.abs(ours - X[order][nf:]).max() < 0.05     # and both are the surface, near enough
-
-
-def test_blas_threads_are_restored():
-    setter = cholesky._blas_threads_setter()
-    if setter is None:
-        pytest.skip("SciPy's BLAS is not its bundled OpenBLAS: nothing to set")
-    before = setter(2)
-    try:
-        cholesky.factor(grid_laplacian(30, 2))
-        assert setter(2) == 2      # the factorisation set 1 and put 2 back
-    finally:
-        setter(before)

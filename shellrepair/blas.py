@@ -1,0 +1,73 @@
+"""One BLAS thread for the fill: OpenBLAS's per-thread setting, set and restored.
+
+The fill is many small dense products (a hole's fronts in
+:mod:`shellrepair.cholesky`, NumPy's small matrix products around it).
+NumPy and SciPy each bundle an OpenBLAS, whose default is a thread per
+core; on a product of a few hundred rows the second thread costs more than
+it gives, and after each call OpenBLAS's workers spin for a while, taking
+the core the next step wanted (or another job's). Measured on
+``hard-30pct`` (default order, best of 5, two cores with another job
+running): 216 and 264 ms a repair with the default threads, 132 and 190 ms
+with one thread in both libraries; the outputs are the same to the bit
+(``eval/fingerprint.py``), as OpenBLAS splits a product's rows, not the
+sums, between threads.
+
+:func:`one_thread` sets the calling thread's count to one in every bundled
+OpenBLAS it finds (``openblas_set_num_threads_local``, OpenBLAS 0.3.27 on)
+and puts the previous counts back; other threads of the process, and a
+SciPy or NumPy linked to another BLAS, are left as they are.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import glob
+import os
+import threading
+
+__all__ = ["one_thread", "setters"]
+
+_SETTERS = None
+_LOCK = threading.Lock()
+#: Where NumPy's and SciPy's wheels keep their bundled libraries (beside the package).
+_BUNDLED = ("numpy.libs/libscipy_openblas*.so*", "scipy.libs/libscipy_openblas*.so*")
+
+
+def setters():
+    """The ``openblas_set_num_threads_local`` of each bundled OpenBLAS
+    (NumPy's, SciPy's: the one Numba's ``np.dot`` calls), found once; an
+    empty list where there is none."""
+    global _SETTERS
+    with _LOCK:
+        if _SETTERS is None:
+            found = []
+            try:
+                import numpy
+                import scipy
+
+                roots = sorted({os.path.dirname(os.path.dirname(m.__file__)) for m in (numpy, scipy)})
+                for root in roots:
+                    for pattern in _BUNDLED:
+                        for path in sorted(glob.glob(os.path.join(root, pattern))):
+                            f = getattr(ctypes.CDLL(path), "openblas_set_num_threads_local", None)
+                            if f is not None:
+                                f.restype = ctypes.c_int
+                                f.argtypes = [ctypes.c_int]
+                                found.append(f)
+            except (OSError, ImportError, AttributeError):
+                found = []
+            _SETTERS = found
+        return _SETTERS
+
+
+@contextlib.contextmanager
+def one_thread():
+    """Within the block, BLAS calls from this thread run on this thread alone."""
+    fs = setters()
+    before = [f(1) for f in fs]
+    try:
+        yield
+    finally:
+        for f, b in zip(fs, before):
+            f(b)
