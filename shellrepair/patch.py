@@ -25,7 +25,7 @@ import numpy as np
 from . import kernels
 from .errors import MeshError
 from .geometry import concat_ranges, cross, uniq
-from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth, thin_plate_energy, uniform_laplacian)
+from .fair import (fair_patch, harmonic_interpolate, patch_energies, taubin_smooth, uniform_laplacian)
 from .intersect import NearFaces, patch_vs_index
 from .refine import refine_patch, refine_patches
 from .topology import vertex_faces
@@ -572,8 +572,8 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
                 # vertices with complete neighbourhoods: patch, loop and ring 1
                 ring1 = np.searchsorted(g, np.unique(ctx.F[ctx.faces_of(loop)]))
                 S = np.unique(np.concatenate([ring1, np.arange(nf, len(X))]))
-                patch_energy = (thin_plate_energy(X, Fs, np.concatenate([loc_loop, np.arange(nf, len(X))])),
-                                curvature_variation_energy(X, Fs, S) / scale ** 2)
+                E, C = patch_energies(X, Fs, np.concatenate([loc_loop, np.arange(nf, len(X))]), S)
+                patch_energy = (E, C / scale ** 2)
         if smooth:
             Xs = taubin_smooth(X, Fs, nf, smooth)
             if pinned is not None and len(pinned):
