@@ -3,7 +3,10 @@
 The oracles are the per-call functions the shared / batched code replaced:
 :func:`shellrepair.fair.thin_plate_energy` and
 :func:`shellrepair.fair.curvature_variation_energy` (one intrinsic
-Laplacian each) for :func:`shellrepair.fair.patch_energies`.
+Laplacian each) for :func:`shellrepair.fair.patch_energies`; the step by
+step walk :func:`shellrepair.bridge._zip_walk` for the merged
+:func:`shellrepair.bridge._zip`; one :func:`shellrepair.bridge._lerp_loop`
+per array for :func:`shellrepair.bridge._lerp_arcs`.
 """
 
 import warnings
@@ -12,7 +15,7 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import fair
+from shellrepair import bridge, fair
 
 
 def _bumpy_patch(k, seed):
@@ -54,3 +57,60 @@ def test_shared_energies_of_a_blown_up_patch_are_infinite_quietly():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert fair.patch_energies(V, F, inner, deep) == (np.inf, np.inf)
+
+
+def _params(kind, k, rng):
+    """Ring parameters as guide_tube / resample_tube pass them: arc
+    lengths of a random loop, even ``arange(k) / k`` (ties between rings of
+    related counts), coarsely rounded (ties inside a ring), or unsorted
+    (the step-by-step fallback)."""
+    if kind == "arclength":
+        return bridge._arclength(rng.normal(size=(k, 3)))
+    if kind == "even":
+        return np.arange(k) / k
+    if kind == "rounded":
+        t = np.sort(np.round(rng.random(k), 1))
+        t[0] = 0.0
+        return t
+    t = rng.random(k)
+    t[0] = 0.0
+    return t
+
+
+@pytest.mark.parametrize("kind", ["arclength", "even", "rounded", "unsorted"])
+def test_merged_zip_equals_the_step_by_step_walk(kind):
+    rng = np.random.default_rng(["arclength", "even", "rounded", "unsorted"].index(kind))
+    for _ in range(300):
+        ka, kc = (int(x) for x in rng.integers(3, 40, 2))
+        ta, tc = _params(kind, ka, rng), _params(kind, kc, rng)
+        ia, ic = np.arange(ka) + 7, rng.permutation(kc) + 100
+        got, want = bridge._zip(ta, tc, ia, ic), bridge._zip_walk(ta, tc, ia, ic)
+        assert got.dtype == want.dtype == np.int64
+        assert np.array_equal(got, want)
+
+
+def test_zip_of_a_last_parameter_past_one_walks_step_by_step():
+    """Round-off can put a loop's last arc-length parameter a hair past 1
+    (the appended end): the parameters then do not run upwards, and the
+    triangles are still the walk's."""
+    ta = np.array([0.0, 0.4, np.nextafter(1.0, 2.0)])
+    tc = np.array([0.0, 0.5, 0.999])
+    ia, ic = np.arange(3), np.arange(3) + 3
+    assert np.array_equal(bridge._zip(ta, tc, ia, ic), bridge._zip_walk(ta, tc, ia, ic))
+    assert len(bridge._zip(ta, tc, ia, ic)) == 6
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_interpolating_arcs_together_equals_one_array_at_a_time(seed):
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(3, 50))
+    t = bridge._arclength(rng.normal(size=(k, 3)))
+    arcs = (rng.normal(size=(k, 3)), rng.normal(size=(k, 3)), rng.normal(size=(k, 3)),
+            rng.normal(size=k), rng.random(k), 1e6 * rng.random(k))
+    for m in (3, k, 2 * k + 1):
+        u = np.arange(m) / m
+        got = bridge._lerp_arcs(t, arcs, u)
+        for g, a in zip(got, arcs):
+            want = bridge._lerp_loop(t, a, u)
+            assert g.shape == want.shape
+            assert g.tobytes() == np.ascontiguousarray(want).tobytes()
