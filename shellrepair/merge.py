@@ -30,14 +30,10 @@ def _scan_edges(patch):
     second and third ones)."""
     k = len(patch.loop)
     T = np.asarray(patch.T)
-    on = T < k                       # corners at loop (scan) vertices
-    lo, hi = [], []
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        m = on[:, a] & on[:, b]
-        x, y = patch.loop[T[m, a]], patch.loop[T[m, b]]
-        lo.append(np.minimum(x, y))
-        hi.append(np.maximum(x, y))
-    return list(zip(np.concatenate(lo).tolist(), np.concatenate(hi).tolist()))
+    A, B = T.T, T[:, [1, 2, 0]].T    # row e: every triangle's edge e, so the mask reads edge by edge
+    m = (A < k) & (B < k)            # both corners at loop (scan) vertices
+    x, y = patch.loop[A[m]], patch.loop[B[m]]
+    return list(zip(np.minimum(x, y).tolist(), np.maximum(x, y).tolist()))
 
 
 class _Accepted:

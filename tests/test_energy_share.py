@@ -6,9 +6,12 @@ The oracles are the per-call functions the shared / batched code replaced:
 Laplacian each) for :func:`shellrepair.fair.patch_energies`; the step by
 step walk :func:`shellrepair.bridge._zip_walk` for the merged
 :func:`shellrepair.bridge._zip`; one :func:`shellrepair.bridge._lerp_loop`
-per array for :func:`shellrepair.bridge._lerp_arcs`.
+per array for :func:`shellrepair.bridge._lerp_arcs`; NumPy's ``mean`` and
+``linalg.norm`` for :func:`shellrepair.holes.loop_stats`; a walk over the
+triangles for :func:`shellrepair.merge._scan_edges`.
 """
 
+import types
 import warnings
 
 import numpy as np
@@ -16,6 +19,8 @@ import pytest
 
 from eval import shapes
 from shellrepair import bridge, fair
+from shellrepair.holes import loop_stats
+from shellrepair.merge import _scan_edges
 
 
 def _bumpy_patch(k, seed):
@@ -114,3 +119,46 @@ def test_interpolating_arcs_together_equals_one_array_at_a_time(seed):
             want = bridge._lerp_loop(t, a, u)
             assert g.shape == want.shape
             assert g.tobytes() == np.ascontiguousarray(want).tobytes()
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e6])
+def test_loop_stats_equal_numpys_mean_and_norms_to_the_bit(offset):
+    """Centre, edge lengths and vector area by NumPy's own functions (what
+    loop_stats called before it did their steps itself), at a scan's
+    coordinate offsets too."""
+    rng = np.random.default_rng(int(offset))
+    V = rng.normal(scale=3.0, size=(400, 3)) + offset
+    for _ in range(200):
+        loop = rng.choice(len(V), size=int(rng.integers(3, 60)), replace=False)
+        st = loop_stats(V, loop)
+        P = V[loop]
+        c = P.mean(axis=0)
+        Q = P - c
+        Qn = np.roll(Q, -1, axis=0)
+        perimeter = float(np.linalg.norm(Qn - Q, axis=1).sum())
+        area = float(np.linalg.norm(0.5 * np.cross(Q, Qn).sum(axis=0)))
+        assert st["center"].tobytes() == c.tobytes()
+        assert st["perimeter"] == perimeter and st["mean_edge"] == perimeter / len(loop)
+        assert st["area"] == area
+
+
+def _scan_edges_by_walk(loop, T):
+    """The scan edges a patch makes, edge slot by edge slot over its triangles."""
+    k, out = len(loop), []
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        for t in T.tolist():
+            if t[a] < k and t[b] < k:
+                x, y = int(loop[t[a]]), int(loop[t[b]])
+                out.append((min(x, y), max(x, y)))
+    return out
+
+
+def test_scan_edges_list_the_triangles_edges_slot_by_slot():
+    rng = np.random.default_rng(3)
+    for i in range(500):
+        k, q = int(rng.integers(3, 30)), int(rng.integers(0, 20))
+        T = rng.integers(0, k + q, size=(0 if i % 50 == 0 else int(rng.integers(1, 60)), 3)).astype(np.int64)
+        patch = types.SimpleNamespace(loop=rng.permutation(10 ** 6)[:k].astype(np.int64), T=T)
+        got = _scan_edges(patch)
+        assert got == _scan_edges_by_walk(patch.loop, T)
+        assert all(type(v) is int for e in got for v in e)   # hashable like the accepted edges' set
