@@ -8,7 +8,9 @@ step walk :func:`shellrepair.bridge._zip_walk` for the merged
 :func:`shellrepair.bridge._zip`; one :func:`shellrepair.bridge._lerp_loop`
 per array for :func:`shellrepair.bridge._lerp_arcs`; NumPy's ``mean`` and
 ``linalg.norm`` for :func:`shellrepair.holes.loop_stats`; a walk over the
-triangles for :func:`shellrepair.merge._scan_edges`.
+triangles for :func:`shellrepair.merge._scan_edges`; NumPy's ``min`` /
+``max`` reductions for :func:`shellrepair.geometry.bounds` and
+:func:`shellrepair.geometry.triangle_boxes`.
 """
 
 import types
@@ -19,6 +21,7 @@ import pytest
 
 from eval import shapes
 from shellrepair import bridge, fair
+from shellrepair.geometry import bounds, triangle_boxes
 from shellrepair.holes import loop_stats
 from shellrepair.merge import _scan_edges
 
@@ -162,3 +165,20 @@ def test_scan_edges_list_the_triangles_edges_slot_by_slot():
         got = _scan_edges(patch)
         assert got == _scan_edges_by_walk(patch.loop, T)
         assert all(type(v) is int for e in got for v in e)   # hashable like the accepted edges' set
+
+
+@pytest.mark.parametrize("t", [1, 7, 3000])
+def test_bounds_and_triangle_boxes_equal_numpys_reductions(t):
+    """The same values as NumPy's min / max over the corners (at scan
+    offsets, with repeated values); a NaN corner gives NaN, as there."""
+    rng = np.random.default_rng(t)
+    C = np.round(rng.normal(size=(t, 3, 3)), 2) + 1e6
+    P = C.reshape(-1, 3)
+    lo, hi = bounds(P)
+    assert lo.tobytes() == P.min(axis=0).tobytes() and hi.tobytes() == P.max(axis=0).tobytes()
+    blo, bhi = triangle_boxes(C)
+    assert blo.tobytes() == C.min(axis=1).tobytes() and bhi.tobytes() == C.max(axis=1).tobytes()
+    C[0, 1, 2] = np.nan
+    assert np.isnan(bounds(C.reshape(-1, 3))[0][2]) and np.isnan(bounds(C.reshape(-1, 3))[1][2])
+    assert np.isnan(triangle_boxes(C)[0][0, 2]) and np.isnan(triangle_boxes(C)[1][0, 2])
+    assert np.array_equal(np.isnan(triangle_boxes(C)[0]), np.isnan(C.min(axis=1)))
