@@ -190,6 +190,20 @@ class _Context:
         return pre if pre is not None and np.array_equal(pre.loop, loop) else None
 
     def faces_of(self, verts):
+        """Faces with a corner in ``verts`` (sorted): the compiled walk's
+        first ring (:func:`shellrepair.kernels.ring_faces`) when the kernels
+        are there, over the same vertex-face lists as :meth:`_faces_of_numpy`."""
+        if not kernels.ENABLED:
+            return self._faces_of_numpy(verts)
+        verts = np.asarray(verts, np.int64)
+        reg = self._local_lists(verts)
+        order, start = (reg.vf_order, reg.vf_start) if reg is not None else self.vf
+        F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
+        return kernels.ring_faces(verts, 1, order, start, F, self._vmark, self._fmark)
+
+    def _faces_of_numpy(self, verts):
+        """:meth:`faces_of` in NumPy (its test oracle; the NumPy ring walk's
+        step, which holds the scratch marks :meth:`faces_of` would use)."""
         verts = np.asarray(verts, np.int64)
         reg = self._local_lists(verts)
         order, start = (reg.vf_order, reg.vf_start) if reg is not None else self.vf
@@ -217,7 +231,7 @@ class _Context:
         marked_v, found = [front], []
         try:
             for _ in range(max(1, int(rings))):
-                f = self.faces_of(front)
+                f = self._faces_of_numpy(front)
                 f = f[~fm[f]]
                 fm[f] = True
                 found.append(f)

@@ -10,7 +10,8 @@ per array for :func:`shellrepair.bridge._lerp_arcs`; NumPy's ``mean`` and
 ``linalg.norm`` for :func:`shellrepair.holes.loop_stats`; a walk over the
 triangles for :func:`shellrepair.merge._scan_edges`; NumPy's ``min`` /
 ``max`` reductions for :func:`shellrepair.geometry.bounds` and
-:func:`shellrepair.geometry.triangle_boxes`.
+:func:`shellrepair.geometry.triangle_boxes`; the NumPy gathering
+``_faces_of_numpy`` for the compiled ``_Context.faces_of``.
 """
 
 import types
@@ -20,7 +21,10 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import bridge, fair
+from shellrepair import bridge, fair, kernels, patch
+from shellrepair.io import Mesh
+from shellrepair.patch import _Context
+from shellrepair.topology import edge_topology
 from shellrepair.geometry import bounds, triangle_boxes
 from shellrepair.holes import loop_stats
 from shellrepair.merge import _scan_edges
@@ -182,3 +186,28 @@ def test_bounds_and_triangle_boxes_equal_numpys_reductions(t):
     assert np.isnan(bounds(C.reshape(-1, 3))[0][2]) and np.isnan(bounds(C.reshape(-1, 3))[1][2])
     assert np.isnan(triangle_boxes(C)[0][0, 2]) and np.isnan(triangle_boxes(C)[1][0, 2])
     assert np.array_equal(np.isnan(triangle_boxes(C)[0]), np.isnan(C.min(axis=1)))
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="the compiled ring walk needs the kernels")
+def test_faces_of_by_the_ring_walk_equal_the_numpy_lists(monkeypatch):
+    """The faces at a set of vertices (repeated ones too), from the local
+    region's lists and then from the whole mesh's: the NumPy gathering's
+    faces, and the scratch marks are left clear."""
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    V, F = shapes.bumpy_sphere(5, amplitude=0.03, frequency=5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.12, seed=1)
+    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx.topo = edge_topology(F2, len(V2))
+    loops = np.unique(ctx.topo.ends(ctx.topo.boundary_he))
+    rng = np.random.default_rng(0)
+    sets = [loops, loops[:1], loops[:0], np.concatenate([loops[:9], loops[3:7]]), rng.permutation(loops)[:20]]
+    for verts in sets:
+        got = ctx.faces_of(verts)
+        assert got.dtype == np.int64 and np.array_equal(got, ctx._faces_of_numpy(verts))
+    assert ctx._vf is None                                  # all from the region
+    far = np.flatnonzero(~ctx.region().covered)[:5]
+    for verts in (far, np.concatenate([far, loops[:4], far])):
+        assert np.array_equal(ctx.faces_of(verts), ctx._faces_of_numpy(verts))
+        assert np.array_equal(ctx.faces_of(verts), np.flatnonzero(np.isin(F2, verts).any(axis=1)))
+    assert ctx._vf is not None
+    assert not ctx._vmark.any() and not ctx._fmark.any()
