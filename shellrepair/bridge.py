@@ -576,7 +576,29 @@ def _facing_order(PA, PB):
 def _zip(ta, tc, ia, ic):
     """Triangles zipping two rings walked the same way round, advancing the
     side whose next vertex comes first by (normalised) arc length ``ta``,
-    ``tc``; ``ia``, ``ic`` are the rings' vertex indices."""
+    ``tc``; ``ia``, ``ic`` are the rings' vertex indices.
+
+    The walk is a merge of the two rings' next parameters (ties to ``ia``):
+    where both run upwards, each step's place comes from one
+    ``searchsorted``; else (round-off past 1, NaN) :func:`_zip_walk` takes
+    the steps one by one. The triangles are the same either way."""
+    ka, kc = len(ia), len(ic)
+    na = np.append(np.asarray(ta, np.float64)[1:ka], 1.0)   # A's next parameter at each A step
+    nc = np.append(np.asarray(tc, np.float64)[1:kc], 1.0)
+    if not (na.size == ka and nc.size == kc and np.all(na[1:] >= na[:-1]) and np.all(nc[1:] >= nc[:-1])):
+        return _zip_walk(ta, tc, ia, ic)
+    ia, ic = np.asarray(ia, np.int64), np.asarray(ic, np.int64)
+    ca = np.searchsorted(nc, na, side="left")    # C steps taken before A step i
+    cc = np.searchsorted(na, nc, side="right")   # A steps taken before C step t
+    i, t = np.arange(ka), np.arange(kc)
+    tris = np.empty((ka + kc, 3), np.int64)
+    tris[i + ca] = np.column_stack([ia, ic[ca % kc], ia[(i + 1) % ka]])
+    tris[t + cc] = np.column_stack([ia[cc % ka], ic, ic[(t + 1) % kc]])
+    return tris
+
+
+def _zip_walk(ta, tc, ia, ic):
+    """:func:`_zip` one step at a time (any parameters)."""
     ka, kc = len(ia), len(ic)
     tris = []
     i = t = 0
@@ -631,6 +653,20 @@ def _lerp_loop(t, X, u):
     f = (u - tt[j]) / np.maximum(tt[j + 1] - tt[j], 1e-300)
     f = f.reshape((-1,) + (1,) * (X.ndim - 1))
     return (1 - f) * X[j] + f * X[(j + 1) % k]
+
+
+def _lerp_arcs(t, arcs, u):
+    """:func:`_lerp_loop` of each of the arrays ``arcs`` (k,) or (k,3) at
+    ``u``, in one call on their columns side by side (the same numbers:
+    every column is interpolated by itself)."""
+    X = np.column_stack(arcs)
+    L = _lerp_loop(t, X, u)
+    out, c = [], 0
+    for a in arcs:
+        w = 1 if a.ndim == 1 else a.shape[1]
+        out.append(L[:, c] if a.ndim == 1 else L[:, c:c + w])
+        c += w
+    return out
 
 
 def _landing(arcs, P, targets, reach, n=128):
@@ -744,24 +780,29 @@ def guide_tube(PA, PB, arcs_a, arcs_b, spacing, reach, rings=False):
         return (np.zeros((0, 3)), T, None, order) if rings else (np.zeros((0, 3)), T)
     want_rings, rings, params, ids = rings, [], [ta], [np.arange(ka)]
     base = ka + kb
-    def ring(tau, u):
+    side_a, side_c = (Ua, Ta, Na, Ka, S0a, Sa), (Uc, Tc, Nc, Kc, S0c, Sc)
+
+    def at(u):
+        """Both sides' arcs interpolated at ring parameters ``u``."""
+        return _lerp_arcs(ta, side_a, u), _lerp_arcs(tc, side_c, u)
+
+    def ring(tau, arcs_u):
+        (U, T, N, K, S0, S), (Uo, To, No, Ko, S0o, So) = arcs_u
         w = 3 * tau ** 2 - 2 * tau ** 3
-        XA = arc_points(_lerp_loop(ta, Ua, u), _lerp_loop(ta, Ta, u), _lerp_loop(ta, Na, u),
-                        _lerp_loop(ta, Ka, u), (_lerp_loop(ta, S0a, u) + tau * _lerp_loop(ta, Sa, u))[:, None])[:, 0]
-        XC = arc_points(_lerp_loop(tc, Uc, u), _lerp_loop(tc, Tc, u), _lerp_loop(tc, Nc, u),
-                        _lerp_loop(tc, Kc, u),
-                        (_lerp_loop(tc, S0c, u) + (1 - tau) * _lerp_loop(tc, Sc, u))[:, None])[:, 0]
+        XA = arc_points(U, T, N, K, (S0 + tau * S)[:, None])[:, 0]
+        XC = arc_points(Uo, To, No, Ko, (S0o + (1 - tau) * So)[:, None])[:, 0]
         return (1 - w) * XA + w * XC
 
     fine = max(ka, kb)
+    at_fine = at(np.arange(fine) / fine)   # the same parameters for every ring's first try
     for r in range(1, M + 1):
         tau = r / (M + 1)
         # as many vertices as the ring's length holds at ``spacing`` (at
         # most the finer loop's count): triangles stay about as long as wide
-        X = ring(tau, np.arange(fine) / fine)
+        X = ring(tau, at_fine)
         m = _ring_count(X, spacing, fine)
         u = np.arange(m) / m
-        rings.append(X if m == fine else ring(tau, u))
+        rings.append(X if m == fine else ring(tau, at(u)))
         params.append(u)
         ids.append(base + np.arange(m))
         base += m

@@ -631,8 +631,15 @@ def thin_plate_energy(X, F, rows):
         up to huge but finite positions), so such a patch loses every
         comparison.
     """
+    X = np.asarray(X, np.float64)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # a blown-up patch: inf, below
-        K, M = _cotan_operators(np.asarray(X, np.float64), np.asarray(F, np.int64))
+        K, M = _cotan_operators(X, np.asarray(F, np.int64))
+    return _thin_plate(K, M, X, rows)
+
+
+def _thin_plate(K, M, X, rows):
+    """:func:`thin_plate_energy` from the operators K, M of (X, F)."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         KX = np.asarray(K[rows] @ X)
         m = np.maximum(M[rows], 1e-300)
         E = float(np.sum(np.sum(KX * KX, axis=1) / m))
@@ -659,13 +666,45 @@ def curvature_variation_energy(X, F, S):
         the sum overflows or is undefined (as :func:`thin_plate_energy`).
     """
     X = np.asarray(X, np.float64)
-    inS = np.zeros(len(X), bool)
-    inS[np.asarray(S, np.int64)] = True
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # a blown-up patch: inf, below
         K, M = _cotan_operators(X, np.asarray(F, np.int64))
+    return _curvature_variation(K, M, X, S)
+
+
+def _curvature_variation(K, M, X, S):
+    """:func:`curvature_variation_energy` from the operators K, M of (X, F)."""
+    inS = np.zeros(len(X), bool)
+    inS[np.asarray(S, np.int64)] = True
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         Hn = np.asarray(K @ X) / np.maximum(M, 1e-300)[:, None]
         C = sp.triu(-K, k=1).tocoo()
         keep = inS[C.row] & inS[C.col]
         d = Hn[C.row[keep]] - Hn[C.col[keep]]
         E = float(np.sum(C.data[keep] * np.sum(d * d, axis=1)))
     return E if np.isfinite(E) else np.inf
+
+
+def patch_energies(X, F, rows, S):
+    """:func:`thin_plate_energy` over ``rows`` and
+    :func:`curvature_variation_energy` over ``S`` of one (X, F), from one
+    intrinsic cotangent Laplacian (the flips and the assembly done once):
+    the same two numbers, to the bit, as the two calls.
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+    rows : (r,) int64
+    S : (s,) int64
+
+    Returns
+    -------
+    E : float
+        The thin-plate energy (dimensionless).
+    C : float
+        The curvature-variation energy (1/length²).
+    """
+    X = np.asarray(X, np.float64)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # a blown-up patch: inf
+        K, M = _cotan_operators(X, np.asarray(F, np.int64))
+    return _thin_plate(K, M, X, rows), _curvature_variation(K, M, X, S)

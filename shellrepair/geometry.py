@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-__all__ = ["cross", "dot", "uniq", "plane_frame", "bounding_spheres", "concat_ranges"]
+__all__ = ["cross", "dot", "uniq", "plane_frame", "bounding_spheres", "bounds", "triangle_boxes", "concat_ranges"]
 
 
 def cross(a, b):
@@ -74,6 +74,43 @@ def bounding_spheres(T):
     """Centroid and radius (farthest corner) of each triangle of T (t,3,3)."""
     c = T.mean(axis=1)
     return c, np.sqrt(np.max(np.sum((T - c[:, None, :]) ** 2, axis=2), axis=1))
+
+
+def bounds(P):
+    """Column minima and maxima of an (n,d) array: ``P.min(axis=0)``,
+    ``P.max(axis=0)``, read from a column-major copy (NumPy reduces a
+    row-major array's columns a row at a time: ~15x slower at thousands of
+    rows). Minima and maxima pick an element, so the values are the same
+    (only a zero's sign might not be, which no comparison sees; NaN
+    propagates either way).
+
+    Parameters
+    ----------
+    P : (n,d) array, n >= 1
+
+    Returns
+    -------
+    lo, hi : (d,) arrays
+    """
+    Pt = np.ascontiguousarray(np.asarray(P).T)
+    return Pt.min(axis=1), Pt.max(axis=1)
+
+
+def triangle_boxes(C):
+    """Each triangle's box: ``C.min(axis=1)``, ``C.max(axis=1)`` of its
+    corners, by two elementwise minima / maxima (the values of
+    :func:`bounds`'s note; several times faster than the reduction).
+
+    Parameters
+    ----------
+    C : (t,3,d) array
+
+    Returns
+    -------
+    lo, hi : (t,d) arrays
+    """
+    a, b, c = C[:, 0], C[:, 1], C[:, 2]
+    return np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
 
 
 def concat_ranges(start, count):

@@ -65,6 +65,7 @@ as a single view; ``fill_borders=True`` turns every loop into a hole (rule
 
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import asdict, dataclass, field
 
@@ -372,14 +373,17 @@ def loop_stats(V, loop):
         oriented along the vector area.
     """
     P = np.asarray(V, np.float64)[np.asarray(loop, np.int64)]
-    c = P.mean(axis=0)
+    # NumPy's own steps without their Python set-up (a scan has thousands
+    # of loops): mean = the column sums over the count, norm = the square
+    # root of the summed squares (of the dot product for one vector)
+    c = P.sum(axis=0) / len(P)
     Q = P - c
     Qn = np.concatenate([Q[1:], Q[:1]])          # the next vertex of each (np.roll by -1)
     E = Qn - Q
-    lengths = np.linalg.norm(E, axis=1)
+    lengths = np.sqrt(np.add.reduce(E * E, axis=1))
     perimeter = float(lengths.sum())
     vec_area = 0.5 * cross(Q, Qn).sum(axis=0)    # np.cross's products, without its set-up
-    area = float(np.linalg.norm(vec_area))
+    area = math.sqrt(vec_area.dot(vec_area))
     diameter = _diameter(Q)
     _, s, vt = np.linalg.svd(Q, full_matrices=False)
     axis = vt[-1]

@@ -56,7 +56,7 @@ import itertools
 
 import numpy as np
 
-from .geometry import bounding_spheres, concat_ranges, cross, plane_frame, uniq
+from .geometry import bounding_spheres, bounds, concat_ranges, cross, plane_frame, triangle_boxes, uniq
 from .predicates import EPS, O3D_BOUND, TINY, orient2d, orient3d
 from . import kernels
 from . import fastmesh
@@ -721,8 +721,8 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
         # the near faces' boxes against the patch's (kernels.patch_pairs): a
         # superset of the crossing pairs, as the sphere pairs below are, and
         # their tests where the compiled filters decide
-        P = Q.reshape(-1, 3)
-        f = index.faces_near(P.min(axis=0) + index.origin, P.max(axis=0) + index.origin)
+        lo, hi = bounds(Q.reshape(-1, 3))
+        f = index.faces_near(lo + index.origin, hi + index.origin)
         Pid = np.asarray(Pid, np.int64)
         ai, bj, st = kernels.patch_pairs(Q, Pid, f, index.V, index.F, index.origin, SIDE_BOUND, O3D_BOUND, TINY)
         hit = st == kernels.CROSS
@@ -801,7 +801,7 @@ def crossing_pairs(C, ids):
     if kernels.ENABLED and len(C) <= KERNEL_PAIRS_MAX and np.isfinite(C).all():
         # overlapping boxes (kernels.box_pairs): a superset of the crossing
         # pairs, as the sphere pairs below are; the exact tests decide
-        i, j = kernels.box_pairs(C.min(axis=1), C.max(axis=1))
+        i, j = kernels.box_pairs(*triangle_boxes(C))
         hit = _pairs_cross(C, ids, i, C, ids, j)
         return np.column_stack([i[hit], j[hit]])
     else:

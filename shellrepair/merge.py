@@ -13,7 +13,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import kernels
-from .geometry import bounding_spheres
+from .geometry import bounding_spheres, bounds, triangle_boxes
 from .intersect import _pairs_cross, ball_pairs, pair_intersections
 from .io import Mesh
 from .patch import _corners
@@ -30,14 +30,10 @@ def _scan_edges(patch):
     second and third ones)."""
     k = len(patch.loop)
     T = np.asarray(patch.T)
-    on = T < k                       # corners at loop (scan) vertices
-    lo, hi = [], []
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        m = on[:, a] & on[:, b]
-        x, y = patch.loop[T[m, a]], patch.loop[T[m, b]]
-        lo.append(np.minimum(x, y))
-        hi.append(np.maximum(x, y))
-    return list(zip(np.concatenate(lo).tolist(), np.concatenate(hi).tolist()))
+    A, B = T.T, T[:, [1, 2, 0]].T    # row e: every triangle's edge e, so the mask reads edge by edge
+    m = (A < k) & (B < k)            # both corners at loop (scan) vertices
+    x, y = patch.loop[A[m]], patch.loop[B[m]]
+    return list(zip(np.minimum(x, y).tolist(), np.maximum(x, y).tolist()))
 
 
 class _Accepted:
@@ -64,9 +60,9 @@ class _Accepted:
         self._near.append(None)
         self._boxes.append(None)
         self._own.append(None)
-        P = C.reshape(-1, 3)
-        self.lo = np.vstack([self.lo, P.min(axis=0)])
-        self.hi = np.vstack([self.hi, P.max(axis=0)])
+        lo, hi = bounds(C.reshape(-1, 3))
+        self.lo = np.vstack([self.lo, lo])
+        self.hi = np.vstack([self.hi, hi])
         self.edges.update(self._edges(patch))
 
     def _edges(self, patch):
@@ -85,7 +81,7 @@ class _Accepted:
         """Item ``j``'s triangles' boxes (lo, hi), built once."""
         if self._boxes[j] is None:
             C = self.items[j][1]
-            self._boxes[j] = (C.min(axis=1), C.max(axis=1))
+            self._boxes[j] = triangle_boxes(C)
         return self._boxes[j]
 
     def _spheres(self, j):
@@ -109,11 +105,10 @@ class _Accepted:
             return "an earlier patch already created an edge this patch needs", None
         C, ids = _corners(ctx, patch)
         if self.items:
-            P = C.reshape(-1, 3)
-            lo, hi = P.min(axis=0), P.max(axis=0)
+            lo, hi = bounds(C.reshape(-1, 3))
             near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
             if near.size:
-                lo1, hi1 = C.min(axis=1), C.max(axis=1)
+                lo1, hi1 = triangle_boxes(C)
                 finite = kernels.ENABLED and bool(np.isfinite(C).all())
                 if not kernels.ENABLED:
                     c1, r1 = bounding_spheres(C)
@@ -159,8 +154,7 @@ class _Accepted:
         self._near[j] = None
         self._boxes[j] = None
         self._own[j] = None
-        P = item[1].reshape(-1, 3)
-        self.lo[j], self.hi[j] = P.min(axis=0), P.max(axis=0)
+        self.lo[j], self.hi[j] = bounds(item[1].reshape(-1, 3))
 
     def place(self, ctx, patch):
         """Accept ``patch`` if it clashes with no accepted patch; where it

@@ -25,7 +25,7 @@ import numpy as np
 from . import cholesky, kernels
 from .errors import MeshError
 from .geometry import concat_ranges, cross, uniq
-from .fair import (curvature_variation_energy, fair_patch, harmonic_interpolate, taubin_smooth, thin_plate_energy, uniform_laplacian)
+from .fair import (fair_patch, harmonic_interpolate, patch_energies, taubin_smooth, uniform_laplacian)
 from .intersect import NearFaces, patch_vs_index
 from .refine import refine_patch, refine_patches
 from .topology import vertex_faces
@@ -191,6 +191,20 @@ class _Context:
         return pre if pre is not None and np.array_equal(pre.loop, loop) else None
 
     def faces_of(self, verts):
+        """Faces with a corner in ``verts`` (sorted): the compiled walk's
+        first ring (:func:`shellrepair.kernels.ring_faces`) when the kernels
+        are there, over the same vertex-face lists as :meth:`_faces_of_numpy`."""
+        if not kernels.ENABLED:
+            return self._faces_of_numpy(verts)
+        verts = np.asarray(verts, np.int64)
+        reg = self._local_lists(verts)
+        order, start = (reg.vf_order, reg.vf_start) if reg is not None else self.vf
+        F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
+        return kernels.ring_faces(verts, 1, order, start, F, self._vmark, self._fmark)
+
+    def _faces_of_numpy(self, verts):
+        """:meth:`faces_of` in NumPy (its test oracle; the NumPy ring walk's
+        step, which holds the scratch marks :meth:`faces_of` would use)."""
         verts = np.asarray(verts, np.int64)
         reg = self._local_lists(verts)
         order, start = (reg.vf_order, reg.vf_start) if reg is not None else self.vf
@@ -218,7 +232,7 @@ class _Context:
         marked_v, found = [front], []
         try:
             for _ in range(max(1, int(rings))):
-                f = self.faces_of(front)
+                f = self._faces_of_numpy(front)
                 f = f[~fm[f]]
                 fm[f] = True
                 found.append(f)
@@ -573,8 +587,8 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
                 # vertices with complete neighbourhoods: patch, loop and ring 1
                 ring1 = np.searchsorted(g, np.unique(ctx.F[ctx.faces_of(loop)]))
                 S = np.unique(np.concatenate([ring1, np.arange(nf, len(X))]))
-                patch_energy = (thin_plate_energy(X, Fs, np.concatenate([loc_loop, np.arange(nf, len(X))])),
-                                curvature_variation_energy(X, Fs, S) / scale ** 2)
+                E, C = patch_energies(X, Fs, np.concatenate([loc_loop, np.arange(nf, len(X))]), S)
+                patch_energy = (E, C / scale ** 2)
         if smooth:
             Xs = taubin_smooth(X, Fs, nf, smooth)
             if pinned is not None and len(pinned):
