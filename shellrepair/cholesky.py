@@ -86,6 +86,27 @@ class NotPositiveDefinite(ValueError):
 # ordering
 # --------------------------------------------------------------------------
 @njit(cache=True)
+def _children(parent):
+    """Each node's children in increasing id: those of node i are
+    kids[first[i]:first[i+1]]."""
+    k = parent.size
+    first = np.zeros(k + 1, np.int64)
+    for i in range(k):
+        if parent[i] >= 0:
+            first[parent[i] + 1] += 1
+    for i in range(k):
+        first[i + 1] += first[i]
+    kids = np.empty(max(first[k], 1), np.int64)
+    fill = first[:k].copy()
+    for i in range(k):
+        p = parent[i]
+        if p >= 0:
+            kids[fill[p]] = i
+            fill[p] += 1
+    return first, kids
+
+
+@njit(cache=True)
 def _bfs(start, ptr, idx, inset, stamp, level, queue):
     """Levels from ``start`` over the vertices with ``inset == stamp``;
     returns (vertices reached, in queue[:count], the last level)."""
@@ -262,19 +283,7 @@ def _nd(ptr, idx, n, leaf):
         t_a[top], t_b[top], t_p[top] = a + r, a + j, node
         top += 1
     # post-order of the creation tree: children lists, then an explicit DFS
-    nchild = np.zeros(n_nodes + 1, np.int64)
-    for k in range(n_nodes):
-        if c_par[k] >= 0:
-            nchild[c_par[k] + 1] += 1
-    for k in range(n_nodes):
-        nchild[k + 1] += nchild[k]
-    kids = np.empty(max(n_nodes - 1, 1), np.int64)
-    fill = nchild[:n_nodes].copy()
-    for k in range(n_nodes):
-        p = c_par[k]
-        if p >= 0:
-            kids[fill[p]] = k
-            fill[p] += 1
+    nchild, kids = _children(c_par[:n_nodes])
     post = np.empty(n_nodes, np.int64)
     stack = np.empty(n_nodes, np.int64)
     nxt = nchild[:n_nodes].copy()    # next child to visit
@@ -342,35 +351,18 @@ def nd_order(ptr, idx, n, leaf=LEAF):
 # --------------------------------------------------------------------------
 @njit(cache=True)
 def _symbolic(ptr, idx, n, perm, node_start, node_parent):
-    """Each node's B set (later positions its subtree's columns reach),
-    sorted: (b_ptr, b_idx), and its children count."""
+    """Each node's B set (the later positions its subtree's columns reach),
+    sorted: returns (iperm, b_ptr, b_idx, first, kids), the children lists
+    as :func:`_children` gives them."""
     k = node_start.size - 1
     iperm = np.empty(n, np.int64)
     for p in range(n):
         iperm[perm[p]] = p
-    nkids = np.zeros(k, np.int64)
-    for i in range(k):
-        if node_parent[i] >= 0:
-            nkids[node_parent[i]] += 1
-    # children's B sets are needed by the parent: keep all (sizes known as we go)
     b_ptr = np.zeros(k + 1, np.int64)
     cap = max(4 * n, 16)
     b_idx = np.empty(cap, np.int64)
     mark = np.full(n, -1, np.int64)
-    # children of each node, to read their B sets
-    first = np.zeros(k + 1, np.int64)
-    for i in range(k):
-        if node_parent[i] >= 0:
-            first[node_parent[i] + 1] += 1
-    for i in range(k):
-        first[i + 1] += first[i]
-    kids = np.empty(max(first[k], 1), np.int64)
-    fill = first[:k].copy()
-    for i in range(k):
-        p = node_parent[i]
-        if p >= 0:
-            kids[fill[p]] = i
-            fill[p] += 1
+    first, kids = _children(node_parent)     # a node reads its children's B sets
     tmp = np.empty(n, np.int64)
     for i in range(k):
         s0, s1 = node_start[i], node_start[i + 1]
