@@ -4,17 +4,19 @@ A hole's fairing solves Q_uu x = b with Q_uu symmetric positive definite
 and the sparsity of a surface patch's k-ring stencil
 (:mod:`shellrepair.fair`). libigl's simplicial LLᵀ (Eigen's, with an AMD
 ordering) does that a column at a time: on the order-3 system of a
-12k-unknown patch (442k non-zeros) it took ~0.47 s, on the 350-unknown
+12k-unknown patch (442k non-zeros) it took ~0.5 s, on the 350-unknown
 holes of a bumpy sphere ~1 ms for 0.3 million multiply-adds. This module
 does the same factorisation in dense blocks:
 
 1. **Ordering** (:func:`nd_order`): nested dissection by breadth-first
-   levels. From a pseudo-peripheral vertex of the matrix graph, the level
-   holding the median vertex is a separator: no edge joins the levels
-   before it to the levels after it. Its vertices that touch no later level
-   go to the first half, the rest are the separator, numbered after both
-   halves, which are dissected in turn; a part of at most ``LEAF`` vertices
-   is not split. On a surface patch the levels are rings of the stencil's
+   levels. From a pseudo-peripheral vertex of the matrix graph, any level
+   is a separator: no edge joins the levels before it to the levels after
+   it. Of the levels that leave at least ``BALANCE`` of the part on either
+   side, the one with the fewest vertices touching the next level is taken
+   (the median vertex's level if none does); its vertices that touch no
+   later level go to the first half, the rest are the separator, numbered
+   after both halves, which are dissected in turn; a part of at most
+   ``LEAF`` vertices is not split. On a surface patch the levels are rings of the stencil's
    width around a far vertex, so a separator is a band across the patch,
    its length the patch's width: the orderings a mesh's geometry would give,
    read from the matrix alone.
@@ -53,11 +55,17 @@ __all__ = ["ENABLED", "Factor", "NotPositiveDefinite", "factor", "nd_order", "LE
 
 #: Parts of the dissection with at most this many vertices are not split
 #: (one dense front: below it a split saves less than the fronts' overhead).
+#: A speed setting only (any value gives the same solutions to round-off):
+#: over the 40 systems of a bumpy_sphere-discs-medium repair 16: 103 ms,
+#: 24: 93, 32: 92, 48: 87, 64: 86; over the 14 of the 1.3M two-disc case
+#: 16: 559 ms, 32: 384, 48: 376, 64: 436.
 LEAF = 48
 #: Fronts with at least this many entries in L_BS apply them in the solves
 #: as one BLAS product (smaller ones in loops: a call costs more there).
 GEMV_WORK = 4096
-#: A separating level leaves at least this share of its part on either side.
+#: A separating level leaves at least this share of its part on either side
+#: (a speed setting: against always the median vertex's level, the 1.3M
+#: two-disc case's three largest systems took 14-18 % fewer multiply-adds).
 BALANCE = 0.3
 #: Rows of the blocked triangular solves (one BLAS product per block).
 BLOCK = 64
