@@ -15,7 +15,8 @@ Voronoi mass matrix, the energy is xᵀ Q x with
     k = 3:  Q = K M⁻¹ K M⁻¹ K       (minimum variation of curvature)
 
 minimised with the fixed rows given: Q_uu x_u = −Q_uf x_f, one sparse LLᵀ
-factorisation of the unknowns' block Q_uu (libigl ``min_quad_with_fixed``),
+factorisation of the unknowns' block Q_uu (:mod:`shellrepair.cholesky`;
+libigl's ``min_quad_with_fixed`` without Numba),
 the three coordinates solved as three right-hand sides. The two blocks are
 assembled row by row by a compiled kernel
 (:func:`shellrepair.kernels.energy_blocks`), not by sparse products and
