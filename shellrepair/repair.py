@@ -121,7 +121,8 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
 
 def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, progress: ProgressArg = None,
                  **changes: Any) -> tuple[Mesh, dict]:
-    """:func:`repair_mesh` on the calling thread's BLAS settings (one thread)."""
+    """:func:`repair_mesh`'s work, with whatever BLAS thread count the caller
+    set (:func:`repair_mesh` sets one)."""
     opts = RepairOptions.make(options, **changes)  # checked once, messages name the option
     legacy_bar = progress is True
     progress = as_callback(progress)
