@@ -160,7 +160,6 @@ def _nd(ptr, idx, n, leaf):
     c_par = np.empty(2 * n + 2, np.int64)
     n_nodes = 0
     n_own = 0
-    top = 0
     t_a[0] = 0
     t_b[0] = n
     t_p[0] = -1
@@ -483,14 +482,8 @@ def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kid
                 for bcol in range(a + 1):
                     S[a, bcol] = Fm[a, bcol]
                     S[bcol, a] = Fm[a, bcol]
-            ok = True
-            for a in range(ns):
-                if not (S[a, a] > 0.0):
-                    ok = False
-            if not ok:
-                return False, l_ptr, l_val
             L = _chol(S)
-            if L.shape[0] == 0:
+            if L.shape[0] == 0:                        # a pivot not positive (_chol checks the diagonal first)
                 return False, l_ptr, l_val
             Z = np.ascontiguousarray(Fm[ns:, :ns].T)      # L_BSᵀ after the solve
             _forward_rows(L, Z)

@@ -249,7 +249,7 @@ class _Factor:
                 self.chol = cholesky.factor(Quu)
                 return
             except cholesky.NotPositiveDefinite:
-                self.chol = None
+                pass                     # libigl's LLᵀ (or SciPy's LU) below
         self._use_igl()
 
     def _use_igl(self):
