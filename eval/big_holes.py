@@ -19,10 +19,12 @@ holes of thousands. Each case here draws, from ``--seed``:
   ``k e / 2 pi`` for ``k`` drawn in that range and ``e`` the mean edge),
   at least three radii apart (:func:`eval.cases.disc_mask`).
 
-Ours (``repair_mesh`` with the default options) runs in this process, its
+Each tool of ``--tools`` (default ``ours-auto``: ``repair_mesh`` with the
+default options; any of eval/peers.py's names) runs in this process, our
 kernels loaded first (as eval/peers.py does); each case's RMS against the
 truth (:func:`eval.metrics.evaluate`, ‰ of the truth's diagonal), the
-report's seconds, holes closed, and every hole's order decision are written
+tool's seconds (ours: the report's), holes closed and boundary edges left
+(counted on the output), and, for ours, every hole's decision are written
 to ``eval/results/NAME.json`` and a table to ``NAME.md``. It asserts
 nothing; run it on two commits and compare the JSON files to see what a
 change did to large holes.
@@ -110,9 +112,8 @@ def _rotation(rng):
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
-def run(seed, n, name, out=RESULTS, only=None):
+def run(seed, n, name, out=RESULTS, only=None, tools=("ours-auto",)):
     from eval import peers
-    from shellrepair import repair_mesh
 
     peers._load_kernels()
     rows = []
@@ -121,31 +122,55 @@ def run(seed, n, name, out=RESULTS, only=None):
             continue
         cname, what, Vt, Ft, V, F = big_hole_case(i, seed)
         truth = metrics.TruthSurface(Vt, Ft)
-        t0 = time.perf_counter()
-        repaired, report = repair_mesh((V, F))
-        wall = time.perf_counter() - t0
-        m = metrics.evaluate(V, F, repaired.V, repaired.F, truth, self_intersections=False)
-        holes = report["holes"]
-        row = {"case": cname, "description": what, "faces": int(len(F)), "holes": len(holes),
-               "closed": sum(h["status"] == "filled" for h in holes),
-               "new_vertices": int(sum(h["new_vertices"] for h in holes)),
-               "rms_permille": m["rms_permille"], "max_permille": m["max_permille"],
-               "seconds": report["seconds"], "wall_seconds": wall,
-               "boundary_edges_after": report.get("boundary_edges_after"),
-               "decisions": [h.get("reason") for h in holes]}
-        rows.append(row)
-        print(f"{cname:28s} {row['closed']}/{row['holes']} holes, {row['new_vertices']:6d} new vertices, "
-              f"RMS {row['rms_permille']:.4g} ‰, {row['seconds']:.2f} s", flush=True)
+        for tool in tools:
+            rows.append(_run_tool(tool, cname, what, truth, V, F))
+            r = rows[-1]
+            print(f"{cname:28s} {tool:15s} {r['status']:6s} {r['closed']}/{r['holes']} holes, "
+                  f"{r['new_vertices']:6d} new vertices, RMS {r['rms_permille']:.4g} ‰, {r['seconds']:.2f} s", flush=True)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    doc = {"command": " ".join(sys.argv), "seed": seed, "n": n, "rows": rows}
+    doc = {"command": " ".join(sys.argv), "seed": seed, "n": n, "tools": list(tools), "rows": rows}
     (out / f"{name}.json").write_text(json.dumps(doc, indent=1))
     lines = [f"# Large holes in dense meshes, seed {seed}", "", f"`{doc['command']}`", "",
-             "| case | truth and holes | faces | closed | new vertices | RMS ‰ | max ‰ | s |", "|---|---|---|---|---|---|---|---|"]
-    lines += [f"| {r['case']} | {r['description']} | {r['faces']} | {r['closed']}/{r['holes']} | {r['new_vertices']} "
-              f"| {r['rms_permille']:.4g} | {r['max_permille']:.4g} | {r['seconds']:.2f} |" for r in rows]
+             "| case | truth and holes | faces | tool | closed | boundary edges after | new vertices | RMS ‰ | max ‰ | s |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines += [f"| {r['case']} | {r['description']} | {r['faces']} | {r['tool']} | {r['closed']}/{r['holes']} "
+              f"| {r['boundary_edges_after']} | {r['new_vertices']} | {r['rms_permille']:.4g} | {r['max_permille']:.4g} "
+              f"| {r['seconds']:.2f} |" for r in rows]
     (out / f"{name}.md").write_text("\n".join(lines) + "\n")
     return rows
+
+
+def _run_tool(tool, cname, what, truth, V, F):
+    """One tool on one case: its row (ours: the report's holes and decisions;
+    a peer: the holes counted on its output)."""
+    from eval import peers
+    from shellrepair import repair_mesh
+    from shellrepair.holes import boundary_loops
+    from shellrepair.topology import edge_topology
+
+    row = {"case": cname, "description": what, "faces": int(len(F)), "tool": tool,
+           "holes": len(boundary_loops(F, len(V))[0]), "status": "ok", "decisions": None}
+    try:
+        if tool == "ours-auto":     # in this process, with its report
+            repaired, report = repair_mesh((V, F))
+            Vo, Fo, secs = repaired.V, repaired.F, report["seconds"]
+            row["decisions"] = [h.get("reason") for h in report["holes"]]
+        else:
+            Vo, Fo, info = peers.run_tool(tool, V, F)
+            secs = info["seconds"]
+    except Exception as exc:        # a peer that fails: the row says so
+        row.update(status="failed", error=f"{type(exc).__name__}: {exc}"[:200], closed=0, new_vertices=0,
+                   rms_permille=float("nan"), max_permille=float("nan"), seconds=float("nan"),
+                   boundary_edges_after=None)
+        return row
+    m = metrics.evaluate(V, F, Vo, Fo, truth, self_intersections=False)
+    Fo = np.asarray(Fo, np.int64)
+    loops, chains = boundary_loops(Fo, len(Vo))
+    row.update(closed=max(row["holes"] - len(loops) - len(chains), 0), new_vertices=int(len(Vo) - len(V)),
+               boundary_edges_after=int(np.count_nonzero(edge_topology(Fo, len(Vo)).edge_count == 1)),
+               rms_permille=m["rms_permille"], max_permille=m["max_permille"], seconds=secs)
+    return row
 
 
 def main(argv=None):
@@ -153,11 +178,12 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--n", type=int, default=12)
     ap.add_argument("--only", default=None, help="comma-separated case indices")
+    ap.add_argument("--tools", default="ours-auto", help="comma-separated tools (eval/peers.py names)")
     ap.add_argument("--name", default=None, help="output file stem (default big_holes-SEED)")
     ap.add_argument("--out", default=str(RESULTS))
     a = ap.parse_args(argv)
     only = None if a.only is None else {int(x) for x in a.only.split(",")}
-    run(a.seed, a.n, a.name or f"big_holes-{a.seed}", a.out, only)
+    run(a.seed, a.n, a.name or f"big_holes-{a.seed}", a.out, only, tuple(a.tools.split(",")))
 
 
 if __name__ == "__main__":
