@@ -43,10 +43,9 @@ rings wide for a rim of ``k`` edges (``k / 2π`` is the hole's radius in rim
 edges): the test hole is about twice the real one across, so its centre
 lies on known scan next to the real hole, where the candidates differ most.
 A test hole that would have more than ``TEST_MAX_UNKNOWNS`` new vertices
-is refined at ``TEST_COARSEN`` times the rim's edge length, or coarser
-where that would still leave more than ``TEST_MAX_UNKNOWNS`` (the test only
+is refined at ``TEST_COARSEN`` times the rim's edge length (the test only
 ranks two orders; its resolution floor grows with the square of the edge
-length, :func:`_coarsening`). Small holes (fewer than ``SMALL_EDGES`` rim edges) are many on a
+length). Small holes (fewer than ``SMALL_EDGES`` rim edges) are many on a
 scan and cheap to fill, so they are not tested one by one: the test runs
 on at most ``SMALL_SAMPLE`` of them, spread evenly over their ids, and its
 verdict (errors in units of each test hole's rim edge, summed) holds for
@@ -653,14 +652,14 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
 def _refined(ctx, loop, rings):
     """The test hole triangulated and refined as :func:`~shellrepair.patch.build_patch`
     does, in the hole's local frame, with ``rings`` rings of scan around it;
-    coarser when the rim's density would give more than
-    ``TEST_MAX_UNKNOWNS`` new vertices (:func:`_coarsening`).
+    at ``TEST_COARSEN`` times the rim's edge length when the rim's density
+    would give more than ``TEST_MAX_UNKNOWNS`` new vertices.
 
     Returns ((X, Fs, nf, g, scale, origin), T, c): the submesh positions
     (fixed scan vertices first), its faces (the patch's last), the number
     of fixed vertices, their ids in ``ctx``, the frame, the patch
-    triangles, and the refinement's edge length in rim edges (1, or
-    :func:`_coarsening`'s).
+    triangles, and the refinement's edge length in rim edges (1 or
+    ``TEST_COARSEN``).
     """
     from .patch import _local_frame, _rim_data, _submesh
     from .refine import refine_patch
@@ -675,22 +674,11 @@ def _refined(ctx, loop, rings):
     e = Pl[T]
     area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1).sum()
     s2 = float(np.mean(sigma / scale)) ** 2
-    c = _coarsening(area / (np.sqrt(3.0) / 4.0 * s2) / 2.0)
+    c = TEST_COARSEN if area / (np.sqrt(3.0) / 4.0 * s2) / 2.0 > TEST_MAX_UNKNOWNS else 1.0
     Pl, T = refine_patch(Pl, T, c * sigma / scale, k, forbidden)
     g, Fs, nf, _ = _submesh(ctx, loop, Pl, T, rings=rings)
     X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
     return (X, Fs, nf, g, scale, origin), T, c
-
-
-def _coarsening(unknowns):
-    """The test's refinement edge in rim edges for a test hole that would
-    have ``unknowns`` new vertices at the rim's density: 1 up to
-    ``TEST_MAX_UNKNOWNS``, then ``TEST_COARSEN``, and coarser still where
-    that would leave more than ``TEST_MAX_UNKNOWNS`` (the count falls with
-    the square of the edge): a coarse test has at most about that many."""
-    if not unknowns > TEST_MAX_UNKNOWNS:
-        return 1.0
-    return max(TEST_COARSEN, float(np.sqrt(unknowns / TEST_MAX_UNKNOWNS)))
 
 
 def agrees(test, V, low, high):
