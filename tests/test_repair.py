@@ -317,6 +317,25 @@ def test_auto_order_keeps_order_2_where_order_3_departs_from_it(monkeypatch):
     assert opt.startswith("faired order 2") and "more than the two errors together: order 2 kept" in opt
 
 
+def test_auto_order_takes_order_3_on_a_hole_far_larger_than_its_band():
+    # a rim of over 2 pi BAND_MAX / BAND_FRACTION edges: the band test sees
+    # only the outer BAND_MAX rings; deeper in, order 3 and order 2 part by
+    # far more than the test's errors, yet order 3 is the closer one, and the
+    # agreement is judged within the band's depth of the rim
+    from shellrepair import selftest
+
+    V, F = shapes.icosphere(6)
+    top = int(np.argmax(V[:, 2]))
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[top], radius=0.5)
+    mesh = Mesh(V=V2, F=F2)
+    edges = detect_holes(V2, F2).loops[0].edges
+    assert edges > 2 * np.pi * selftest.BAND_MAX / selftest.BAND_FRACTION
+    R2, _ = repair_mesh(mesh, order=2)
+    Ra, rep = repair_mesh(mesh, order="auto")
+    assert rep["holes"][0]["option"].startswith("faired order 3")
+    assert sphere_error(Ra)[0] < 0.5 * sphere_error(R2)[0]
+
+
 def test_progress_moves_hole_by_hole_through_batched_runs(monkeypatch):
     import shellrepair.repair as repair
 

@@ -239,3 +239,13 @@ def test_order_3_on_the_order_2_refinement_equals_refining_again():
     again = build_patch(ctx, h.id, h.vertices, order=3, initial=p2.T0)
     reused = build_patch(ctx, h.id, h.vertices, order=3, initial=(p2.P, p2.T), refine=False)
     assert np.array_equal(again.T, reused.T) and np.array_equal(again.P, reused.P)
+
+
+def test_near_rim_counts_rings_from_the_rim_through_shared_triangles():
+    # a strip: rim vertices 0, 1; then pairs (2,3), (4,5), (6,7) one ring further each
+    T = np.array([[0, 1, 2], [1, 3, 2], [2, 3, 4], [3, 5, 4], [4, 5, 6], [5, 7, 6]])
+    k, n_new = 2, 6
+    assert selftest.near_rim(k, T, n_new, 1).tolist() == [0, 1]          # vertices 2, 3
+    assert selftest.near_rim(k, T, n_new, 2).tolist() == [0, 1, 2, 3]
+    assert selftest.near_rim(k, T, n_new, 10).tolist() == [0, 1, 2, 3, 4, 5]
+    assert selftest.near_rim(k, np.zeros((0, 3), np.int64), 0, 3).size == 0
