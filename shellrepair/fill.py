@@ -367,7 +367,11 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     2. Refine and fair that triangulation (order ``order``, then harmonic);
        if the faired patch crosses the scan, re-route the chords near the
        crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
-    3. Otherwise keep the checked flat triangulation, if there is one.
+    3. Otherwise, when a flat triangulation passed, the last layer first
+       mends the failed faired and harmonic attempts with the fewest faults
+       (as in 4: a refined, faired surface re-triangulated around its
+       faults); only where that fails is the checked flat triangulation
+       kept (a large opening's flat triangulation has no new vertex).
     4. If no triangulation passed (re-routing ran out of chords, rounds or
        budget), the harmonic patch on the first triangulation
        (:func:`_harmonic_last`); then the last layer mends the attempts
@@ -527,6 +531,12 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     else:
         reasons.append(f"the triangulation still crosses the scan after re-routing {len(avoid)} chords")
     if flat_ok is not None:
+        if faulty and defer is None:
+            t_mend = time.perf_counter()
+            mended = _mend_last(ctx, faulty, reasons)
+            budget.exclude(time.perf_counter() - t_mend)
+            if mended is not None:
+                return Outcome(mended, "", time.perf_counter() - t0, reasons)
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
     if first_flat is not None and not blocked and ("harmonic", 1) in options and "harmonic" not in tried:
@@ -576,13 +586,15 @@ def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):
 MEND_ATTEMPTS = 2
 
 
-def _mend_last(ctx, faulty, reasons, check=_check_patch, what="patch"):
+def _mend_last(ctx, faulty, reasons, check=None, what="patch"):
     """The last layer: the failed attempts with the fewest faults, mended
     where they fail (:mod:`~shellrepair.mend`); the mended patch, or None
     (each failure's cause appended to ``reasons``). ``faulty``: (patch,
     faulty triangles, option) per failed attempt; ``check`` as
-    :func:`_check_patch`."""
+    :func:`_check_patch` (default: it)."""
     from .mend import mend_patch
+
+    check = _check_patch if check is None else check
 
     tried = 0
     for patch, bad, option in sorted((f for f in faulty if f[1].size), key=lambda f: f[1].size):
