@@ -1395,6 +1395,7 @@ def _flips(T, L, n, max_rounds, flip_tol):
     best = np.empty(t)
     taken = np.zeros(t, np.bool_)
     seen = np.zeros(t, np.bool_)
+    second = np.zeros(t, np.bool_)
     cand = np.empty(3 * t, np.int64)
     exc = np.empty(3 * t)
     for _ in range(max_rounds):
@@ -1444,11 +1445,19 @@ def _flips(T, L, n, max_rounds, flip_tol):
                 g1, g2 = cand[j] // 3, twin[cand[j]] // 3
                 if taken[g2] and g2 != g1:
                     keep[j] = False
+        for j in range(nb):        # a second face kept by the first only
+            if keep[j]:
+                g2 = twin[cand[j]] // 3
+                if second[g2]:
+                    keep[j] = False
+                else:
+                    second[g2] = True
         k = 0
         for j in range(nb):
             h = cand[j]
             seen[h // 3] = False
             taken[h // 3] = False
+            second[twin[h] // 3] = False
             if keep[j]:
                 cand[k] = h
                 k += 1

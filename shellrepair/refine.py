@@ -353,8 +353,10 @@ def _independent_flips(cand, g1, g2, excess, ncd, nt):
 
     An edge flips if it is the worst (largest ``excess``) edge of both its
     faces ``g1``, ``g2``; of ties, the first in ``cand``'s order keeps each
-    face, and of edges that would make the same new edge (key ``ncd``) the
-    first. Returns the chosen entries of ``cand``.
+    face (as either of its two faces: two edges of one face that tie as its
+    worst never both flip, which would write that face twice and leave an
+    edge with three faces), and of edges that would make the same new edge
+    (key ``ncd``) the first. Returns the chosen entries of ``cand``.
     """
     best = np.full(nt, -np.inf)
     np.maximum.at(best, g1, excess)
@@ -367,6 +369,10 @@ def _independent_flips(cand, g1, g2, excess, ncd, nt):
     taken = np.zeros(nt, bool)
     taken[g1[keep]] = True
     keep &= ~taken[g2] | (g2 == g1)
+    kept = np.flatnonzero(keep)
+    _, first2 = np.unique(g2[kept], return_index=True)   # a second face kept by the first only
+    keep[:] = False
+    keep[kept[first2]] = True
     _, firstn = np.unique(ncd[keep], return_index=True)
     return cand[np.flatnonzero(keep)[firstn]]
 

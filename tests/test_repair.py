@@ -407,4 +407,8 @@ def test_first_attempts_made_for_a_chunk_at_once_change_no_hole(monkeypatch):
         assert np.array_equal(getattr(batched[0], name), getattr(alone[0], name))
     options = [h["option"] for h in batched[1]["holes"]]
     assert options == [h["option"] for h in alone[1]["holes"]]
-    assert any(o.startswith("faired") for o in options) and any(not o.startswith("faired") for o in options)
+    # some holes kept their first attempt, the others went through the retries
+    # (the faked crossing is on every attempt with new vertices, so they end
+    # flat or mended by the last layer)
+    retried = [("mended" in o or not o.startswith("faired")) for o in options]
+    assert any(retried) and not all(retried)
