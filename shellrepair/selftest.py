@@ -89,7 +89,8 @@ from . import kernels
 from .fair import fair_patch_orders
 from .geometry import uniq
 
-__all__ = ["choose_order", "scan_verdict", "agrees", "near_rim", "probe_band", "point_mesh_distance", "rim_bend", "OrderTest"]
+__all__ = ["choose_order", "scan_verdict", "agrees", "near_rim", "probe_band", "point_mesh_distance", "rim_bend",
+           "OrderTest"]
 
 #: Candidate orders, tried in this order (ties go to the first).
 CANDIDATES = (2, 3)
