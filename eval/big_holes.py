@@ -45,6 +45,7 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 
 from eval import cases, metrics, shapes  # noqa: E402
+from eval.stress import random_rotation  # noqa: E402
 
 RESULTS = ROOT / "eval" / "results"
 RIM_EDGES = (150, 600)
@@ -52,7 +53,12 @@ SHAPES = ("bumpy_sphere", "ellipsoid", "torus", "nefertiti", "armadillo")
 
 
 def _midpoint_split(V, F):
-    """Each triangle split in four at its edge midpoints (the same surface)."""
+    """Each triangle split in four at its edge midpoints (the same surface).
+
+    :func:`eval.shapes._subdivide` splits alike but lists the corners of
+    two of the four triangles from another corner; the cases of a seed, and
+    the results stored under eval/results/big_holes, were drawn with this
+    ordering (its faces differ after the discs are cut)."""
     E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     uniq, inv = np.unique(E, axis=0, return_inverse=True)
     inv = inv.reshape(-1)
@@ -90,7 +96,7 @@ def big_hole_case(index, seed):
     rng = np.random.default_rng([int(seed), int(index)])
     kind = SHAPES[int(rng.integers(len(SHAPES)))]
     V, F, what = _truth(kind, rng)
-    V = cases._f32(V @ _rotation(rng).T)
+    V = cases._f32(V @ random_rotation(rng).T)
     F = np.asarray(F, np.int64)
     e = float(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).mean())
     n_holes = int(rng.integers(1, 4))
@@ -101,15 +107,6 @@ def big_hole_case(index, seed):
     V2, F2, _ = shapes.remove_faces(V, F, remove)
     name = f"b{seed}-{index:02d}-{kind}"
     return name, f"{what}; {n_holes} disc(s) of ~{k:.0f} rim edges", V, F, V2, F2
-
-
-def _rotation(rng):
-    q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def run(seed, n, name, out=RESULTS, only=None, tools=("ours-auto",)):

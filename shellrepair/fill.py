@@ -531,12 +531,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     else:
         reasons.append(f"the triangulation still crosses the scan after re-routing {len(avoid)} chords")
     if flat_ok is not None:
-        if faulty and defer is None:
-            t_mend = time.perf_counter()
-            mended = _mend_last(ctx, faulty, reasons)
-            budget.exclude(time.perf_counter() - t_mend)
-            if mended is not None:
-                return Outcome(mended, "", time.perf_counter() - t0, reasons)
+        mended = _mend_last_timed(ctx, faulty, reasons, budget) if faulty and defer is None else None
+        if mended is not None:
+            return Outcome(mended, "", time.perf_counter() - t0, reasons)
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
     if first_flat is not None and not blocked and ("harmonic", 1) in options and "harmonic" not in tried:
@@ -554,9 +551,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
         defer.extend(faulty)
         return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
-    t_mend = time.perf_counter()
-    mended = _mend_last(ctx, faulty, reasons)
-    budget.exclude(time.perf_counter() - t_mend)
+    mended = _mend_last_timed(ctx, faulty, reasons, budget)
     if mended is not None:
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
@@ -584,6 +579,17 @@ def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):
 #: Failed attempts the last layer (:func:`~shellrepair.mend.mend_patch`)
 #: tries to mend, those with the fewest faulty triangles first.
 MEND_ATTEMPTS = 2
+
+
+def _mend_last_timed(ctx, faulty, reasons, budget, **kw):
+    """:func:`_mend_last` (``kw``: its ``check`` and ``what``), its seconds
+    left out of ``budget``'s wall clock (the last layer has bounds of its
+    own)."""
+    t = time.perf_counter()
+    try:
+        return _mend_last(ctx, faulty, reasons, **kw)
+    finally:
+        budget.exclude(time.perf_counter() - t)
 
 
 def _mend_last(ctx, faulty, reasons, check=None, what="patch"):
@@ -878,10 +884,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         # tube, so its last layer (the failed tubes mended where they
         # cross) comes before the caps, not only after them
         notes = []
-        t_mend = time.perf_counter()
-        tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({how})") for p, b, how in tube_faults], notes,
-                          check=check_tube, what="tube")
-        budget.exclude(time.perf_counter() - t_mend)
+        tube = _mend_last_timed(ctx, [(p, b, f"tube to loop {B.id} ({how})") for p, b, how in tube_faults], notes,
+                                budget, check=check_tube, what="tube")
         if notes:
             why_tube += "; " + "; ".join(notes)
         tube_faults = [] if tube is None else tube_faults   # (not mended again after the caps)
