@@ -10,7 +10,8 @@ two fixed directions (+z, +x): loops of 510 and 132 rim edges. The holes are
 few and large, so the fill's whole-mesh set-up and per-hole overheads show,
 not the number of holes.
 
-Ours (``repair_mesh`` at the default order, ``ours-auto``, and at order 2, one job; its time is the report's
+Ours (``repair_mesh`` at the default order, ``ours-auto``, and at order 2, one job; ``ours-cli``: the command
+line's default, order auto on all the cores, :mod:`eval.peers`; its time is the report's
 ``seconds``: detection, set-up, fill and merge), MeshLib's
 ``fillHoleNicely`` (hole search included) and CGAL's
 ``triangulate_refine_and_fair_hole`` run in the same run, each in its own
@@ -47,7 +48,7 @@ RESULTS = ROOT / "eval" / "results"
 SUBDIVISIONS, AMPLITUDE, FREQUENCY = 8, 0.03, 6
 #: (direction, chord radius) of the two holes.
 DISCS = (((0.0, 0.0, 1.0), 0.292), ((1.0, 0.0, 0.0), 0.0775))
-TOOLS = ("ours-auto", "ours-o2", "meshlib-nicely", "cgal")  # ours-auto: the default call
+TOOLS = ("ours-auto", "ours-cli", "ours-o2", "meshlib-nicely", "cgal")  # ours-auto: the default call
 
 
 def two_disc_case():

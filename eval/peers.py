@@ -23,6 +23,9 @@ ours-o1/o2/o3        ``shellrepair.repair.repair_mesh(mesh, order=k)``, its comp
                      kernels loaded before the call is timed (as a peer's
                      import loads its native library)
 ours-auto            ``repair_mesh(mesh, order="auto")`` (2 or 3 per hole by the band test, shellrepair.selftest)
+ours-cli             the command line's default (``shellrepair repair``, ``make repair``): ``order="auto"``
+                     and ``jobs`` the cores there are (a second thread runs the band tests beside the
+                     fills; the same output as ``ours-auto``)
 ours-seed            ``repair_mesh(mesh, method="seed")`` (the paper's method)
 pymeshlab            ``MeshSet.meshing_close_holes(maxholesize=<all boundary
                      edges + 1>)``, other parameters at their defaults
@@ -131,6 +134,12 @@ def ours_o3(V, F):
 
 def ours_auto(V, F):
     return _ours(V, F, order="auto")
+
+
+def ours_cli(V, F):
+    from shellrepair.batch import default_jobs
+
+    return _ours(V, F, order="auto", jobs=default_jobs())
 
 
 def ours_seed(V, F):
@@ -321,7 +330,7 @@ def pymeshfix_fill_holes(V, F):
 
 #: Tool name -> fill function, in the order of the tables.
 OURS = {"ours-o1": ours_o1, "ours-o2": ours_o2, "ours-o3": ours_o3, "ours-auto": ours_auto,
-        "ours-seed": ours_seed}
+        "ours-cli": ours_cli, "ours-seed": ours_seed}
 PEERS = {
     "pymeshlab": pymeshlab_close_holes,
     "open3d": open3d_fill_holes,

@@ -93,7 +93,7 @@ class NotPositiveDefinite(ValueError):
 # --------------------------------------------------------------------------
 # ordering
 # --------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _children(parent):
     """Each node's children in increasing id: those of node i are
     kids[first[i]:first[i+1]]."""
@@ -114,7 +114,7 @@ def _children(parent):
     return first, kids
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _bfs(start, ptr, idx, inset, stamp, level, queue):
     """Levels from ``start`` over the vertices with ``inset == stamp``;
     returns (vertices reached, in queue[:count], the last level)."""
@@ -138,7 +138,7 @@ def _bfs(start, ptr, idx, inset, stamp, level, queue):
     return tail, level[queue[tail - 1]]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _nd(ptr, idx, n, leaf):
     """Nested dissection (module docstring). Returns (perm, node_start,
     node_parent): new position p holds vertex perm[p]; node k owns
@@ -356,7 +356,7 @@ def nd_order(ptr, idx, n, leaf=LEAF):
 # --------------------------------------------------------------------------
 # symbolic and numeric factorisation
 # --------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _symbolic(ptr, idx, n, perm, node_start, node_parent):
     """Each node's B set (the later positions its subtree's columns reach),
     sorted: returns (iperm, b_ptr, b_idx, first, kids), the children lists
@@ -402,7 +402,7 @@ def _symbolic(ptr, idx, n, perm, node_start, node_parent):
     return iperm, b_ptr, b_idx[:b_ptr[k]].copy(), first, kids
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _forward_rows(L, Z):
     """Z ← L⁻¹ Z in place (L lower triangular, Z (ns, nb) row-major), by
     blocks of ``BLOCK`` rows: the products with the rows already solved are
@@ -425,7 +425,7 @@ def _forward_rows(L, Z):
                 Z[k, r] *= d
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kids):
     """Multifrontal factorisation. Returns (ok, l_ptr, l_val): node i's
     columns of L are stored at l_val[l_ptr[i]:l_ptr[i+1]] as L_SS (nS, nS)
@@ -521,7 +521,7 @@ def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kid
     return True, l_ptr, l_val
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _chol(S):
     """Lower Cholesky factor of the symmetric matrix S (LAPACK's potrf);
     a (0,0) array where S is not positive definite."""
@@ -535,7 +535,7 @@ def _chol(S):
     return L
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _solve3(Y, node_start, b_ptr, b_idx, l_ptr, l_val):
     """L Lᵀ x = y in place for three right-hand sides, already in the
     factorisation's order (Y: (n, 3)); scalar accumulators, each entry of L
@@ -628,7 +628,7 @@ def _solve3(Y, node_start, b_ptr, b_idx, l_ptr, l_val):
                 Y[s0 + r, 2] -= f * y2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _solve(B, perm, node_start, b_ptr, b_idx, l_ptr, l_val):
     """Q⁻¹ B for the factorisation's fronts (B: (n, c)): three columns at a
     time (:func:`_solve3`; a last group of one or two padded with zeros,

@@ -168,7 +168,7 @@ def _repair_options(p):
     from .batch import default_jobs
 
     p.add_argument("--jobs", type=int, default=default_jobs(), metavar="N",
-                   help=f"fill holes on N processes, same output for any N "
+                   help=f"fill holes on N processes (one run of holes: a helper thread), same output for any N "
                         f"(default: the cores there are, {default_jobs()})")
     p.add_argument("--bridge", choices=("auto", "never", "always"), default="auto",
                    help="two facing loops bounding a missing band: tube or caps (default auto: lower energy)")

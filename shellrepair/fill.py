@@ -319,7 +319,10 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     from .selftest import agrees, choose_order
 
     t0 = time.perf_counter()
-    test = choose_order(ctx, hole_id, loop)
+    beside = getattr(ctx, "beside", None)
+    test = beside.take_test(hole_id, loop) if beside is not None else None
+    if test is None:
+        test = choose_order(ctx, hole_id, loop)
     budget = budget or _Budget(len(loop))
     patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget, defer)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
@@ -330,9 +333,12 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
                 # the first option as built: its refined triangulation is the one
                 # order 3 would refine again (the fairing's first solve does not
                 # read the new vertices' starting positions)
-                p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=(patch.P, patch.T),
-                                 refine=False, energy=energy)
-                p3.T0, p3.disc = patch.T0, patch.disc
+                done, p3 = beside.take_o3(hole_id, patch.T) if beside is not None and not energy else (False, None)
+                if not done:
+                    p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=(patch.P, patch.T),
+                                     refine=False, energy=energy)
+                if p3 is not None:
+                    p3.T0, p3.disc = patch.T0, patch.disc
             else:
                 p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
                                  max_vertices=max(budget.left(), len(patch.P)))
@@ -1009,6 +1015,9 @@ def _first_attempts(ctx, chunk):
                                scan_aware=False)
         except PatchError:
             continue           # _fill_one_order meets the same error
+        beside = getattr(ctx, "beside", None)
+        if beside is not None and unit.order == "auto" and first == ("faired", 2):
+            beside.start_o3(ctx, pre, hole_id, loop, unit.smooth, flat.T0)
         try:
             patch, error = build_patch(ctx, hole_id, loop, order=first[1], smooth=unit.smooth, initial=flat.T0,
                                        energy=False), ""
@@ -1020,13 +1029,245 @@ def _first_attempts(ctx, chunk):
         pre.first = f._replace(check=next(checks)) if f.patch is not None else f
 
 
-def _run_chunk(ctx, chunk, on_unit=None):
+def _helper_context(ctx):
+    """A copy of ``ctx`` for a helper thread: the same whole-mesh
+    structures (the region around the loops built here first, so the two
+    threads share it) and the same batch's first-attempt work (``pre``),
+    its own scratch marks and positions."""
+    import copy
+
+    ctx.region()
+    h = copy.copy(ctx)
+    h._vmark = np.zeros(ctx.n, bool)
+    h._fmark = np.zeros(len(ctx.F), bool)
+    h._vpos = None
+    h.beside = None
+    return h
+
+
+#: The interpreter's thread switch interval (seconds) while a helper thread
+#: works beside the fill. Both threads spend most of their time in compiled
+#: kernels and solves that release the GIL, but take it back between them;
+#: a thread asking for it back waits until the holder drops it, at most
+#: this long. Measured beside a thread running Python code, on the 1.3M
+#: two-disc case's large hole (11,847 unknowns, order 3): its factorisation
+#: took 1.44x its time alone at Python's default of 5 ms and 1.03x at
+#: 0.2 ms; its energy's assembly 1.76x and 1.19x.
+SWITCH_SECONDS = 2e-4
+
+
+class HelperThread:
+    """One thread that runs the calls submitted to it, the lowest key first
+    (a context manager: leaving it waits for what was submitted, skipping
+    what was cancelled, and puts the interpreter's switch interval back).
+    The fill's helper beside a run (:class:`_Beside`)."""
+
+    def __init__(self, name="shellrepair-beside"):
+        import itertools
+        import queue
+        import sys
+        import threading
+
+        self._queue = queue.PriorityQueue()
+        self._serial = itertools.count()       # ties in submission order
+        self._interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(self._interval, SWITCH_SECONDS))
+        self._thread = threading.Thread(target=self._serve, name=name, daemon=True)
+        self._thread.start()
+
+    def submit(self, key, f, *args):
+        """Run ``f(*args)`` on the thread, before every call of a larger
+        ``key`` (a tuple) not begun; returns its
+        :class:`concurrent.futures.Future`."""
+        from concurrent.futures import Future
+
+        future = Future()
+        self._queue.put((tuple(key), next(self._serial), future, f, args))
+        return future
+
+    def _serve(self):
+        while True:
+            _, _, future, f, args = self._queue.get()
+            if future is None:
+                return
+            if not future.set_running_or_notify_cancel():
+                continue                               # cancelled before it began
+            try:
+                future.set_result(f(*args))
+            except BaseException as exc:               # handed to whoever takes the result
+                future.set_exception(exc)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        import sys
+
+        self._queue.put(((float("inf"),), next(self._serial), None, None, None))
+        self._thread.join()
+        sys.setswitchinterval(self._interval)
+
+
+class _Stolen:
+    """A result computed on the fill's thread in place of the helper's
+    (:meth:`_Beside._steal`): its value, or the exception it raised, given
+    back when taken, as a future's."""
+
+    def __init__(self, f, *args):
+        try:
+            self.value, self.error = f(*args), None
+        except Exception as exc:
+            self.value, self.error = None, exc
+
+    def cancel(self):
+        return False
+
+    def result(self):
+        if self.error is not None:
+            raise self.error
+        return self.value
+
+
+class _Failed:
+    """A build on the helper thread raised :class:`PatchError`."""
+
+
+class _Beside:
+    """Work a helper thread does beside a run's fills, for its
+    ``order="auto"`` holes (:func:`_run_chunk` with a ``pool``):
+
+    * each hole's band test (:func:`~shellrepair.selftest.choose_order`),
+      all started at once, in hole order;
+    * each hole's order-3 patch, started by :func:`_first_attempts` as soon
+      as the hole's first triangulation is refined (:meth:`start_o3`),
+      built only where the hole's test asks for order 3. :func:`_fill_one`
+      builds that same patch from the order-2 fill's triangulation, which
+      is this refined one where the first option passed (the fairing's
+      first solve does not read the new vertices' starting positions).
+
+    The fill takes each result (:meth:`take_test`, :meth:`take_o3`), or
+    cancels what the helper has not begun and does it itself: the output
+    is the same bits with or without the helper (the helper's work reads
+    only the scan and the batch's first-attempt work; its compiled
+    kernels and solves release the GIL, and its BLAS calls run on its own
+    thread as the fill's do)."""
+
+    def __init__(self, ctx, chunk, pool):
+        from .selftest import choose_order
+
+        self.pool = pool
+        self.ctx = ctx
+        self.helper = _helper_context(ctx)
+        self.tests = {}        # hole id -> (loop, future of its OrderTest)
+        self.o3 = {}           # hole id -> (refined T, future of its order-3 Patch, None or _Failed)
+        self.place = {}        # hole id -> its place in the run: a hole's test, then its order-3
+        for i, u in enumerate(chunk):   # patch, before the next hole's test
+            if isinstance(u, HoleUnit) and u.order == "auto":
+                loop = np.asarray(u.loop, np.int64)
+                self.place[u.hole_id] = i
+                self.tests[u.hole_id] = (loop, pool.submit((i, 0), self._on_helper, choose_order, self.helper,
+                                                           u.hole_id, loop))
+
+    @staticmethod
+    def _on_helper(f, *args, **kwargs):
+        from .blas import one_thread
+
+        with one_thread():       # this thread's BLAS calls on this thread, as the fill's are
+            return f(*args, **kwargs)
+
+    def take_test(self, hole_id, loop):
+        """The hole's band test, or None where it has not begun (cancelled:
+        the caller runs it) or was made for another loop. While the helper
+        is still on it, the caller runs the next tests the helper has not
+        begun (:meth:`_steal`)."""
+        got = self.tests.pop(hole_id, None)
+        if got is None:
+            return None
+        made_for, future = got
+        if not np.array_equal(made_for, loop):
+            future.cancel()
+            return None
+        if isinstance(future, _Stolen):
+            return future.result()
+        if future.cancel():
+            return None
+        while not future.done() and self._steal():
+            pass
+        return future.result()
+
+    def _steal(self):
+        """Run here (the fill's thread) the first test the helper has not
+        begun, kept for :meth:`take_test`; False when there is none."""
+        from .selftest import choose_order
+
+        for hole_id, (loop, future) in self.tests.items():    # in hole order
+            if not isinstance(future, _Stolen) and future.cancel():
+                self.tests[hole_id] = (loop, _Stolen(choose_order, self.ctx, hole_id, loop))
+                return True
+        return False
+
+    def start_o3(self, ctx, pre, hole_id, loop, smooth, T0):
+        """Start the order-3 patch of a hole whose first option is the
+        order-2 fairing of ``T0``: refine ``T0`` here, as
+        :func:`~shellrepair.patch.build_patch` would (kept in ``pre``, which
+        the order-2 build then reads), and fair it at order 3 on the
+        helper once the hole's test asks for order 3."""
+        from .patch import refine_patch
+
+        got = self.tests.get(hole_id)
+        if got is None or pre.T0 is None or not np.array_equal(T0, pre.T0):
+            return
+        if pre.refined is None:
+            sigma, _, forbidden = pre.rim
+            _, scale, Pl = pre.frame
+            pre.refined = refine_patch(Pl.copy(), pre.T0, sigma / scale, len(loop), forbidden | set())
+        origin, scale, _ = pre.frame
+        Pl, T = pre.refined
+        P = origin + scale * Pl[len(loop):]
+        test = got[1]
+
+        def build():
+            if test.cancelled() or test.exception() is not None or test.result().order != 3:
+                return None
+            try:
+                return build_patch(self.helper, hole_id, loop, order=3, smooth=smooth, initial=(P, T), refine=False)
+            except PatchError:
+                return _Failed
+
+        self.o3[hole_id] = (T, self.pool.submit((self.place[hole_id], 1), self._on_helper, build))
+
+    def take_o3(self, hole_id, T):
+        """(True, the order-3 patch or None where building it failed), or
+        (False, None) where the caller builds it (not begun, not asked
+        for, or made from another triangulation)."""
+        got = self.o3.pop(hole_id, None)
+        if got is None:
+            return False, None
+        made_from, future = got
+        if future.cancel() or not np.array_equal(made_from, T):
+            return False, None
+        p3 = future.result()
+        if p3 is None:
+            return False, None
+        return True, (None if p3 is _Failed else p3)
+
+    def cancel(self):
+        """Cancel what has not begun (a unit raised, or a result not taken)."""
+        for _, future in list(self.tests.values()) + list(self.o3.values()):
+            future.cancel()
+        self.tests, self.o3 = {}, {}
+
+
+def _run_chunk(ctx, chunk, on_unit=None, pool=None):
     """Fill a run of consecutive units (their first attempts batched);
-    ``on_unit()`` is called after each."""
+    ``on_unit()`` is called after each. ``pool``: a thread pool whose
+    thread works beside the fills on the ``order="auto"`` holes
+    (:class:`_Beside`; the same output as without)."""
     from .fair import first_solve_memo
 
     try:
         first_solve_memo(True)     # an order-3 fill of order="auto" repeats its order-2 fill's first solve
+        ctx.beside = _Beside(ctx, chunk, pool) if pool is not None else None
         _prefill(ctx, chunk)
         _first_attempts(ctx, chunk)
         out = []
@@ -1037,6 +1278,9 @@ def _run_chunk(ctx, chunk, on_unit=None):
         return out
     finally:
         ctx.pre = {}
+        if getattr(ctx, "beside", None) is not None:
+            ctx.beside.cancel()
+        ctx.beside = None
         first_solve_memo(False)
 
 

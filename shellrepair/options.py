@@ -55,7 +55,9 @@ class RepairOptions:
     method : {"fair", "seed"}
         The faired shells, or the paper's simple shape model.
     jobs : int
-        Processes building patches; the output is the same for any value.
+        Processes building patches (and, where the holes fill in this
+        process, more than one: a helper thread for ``order="auto"``'s band
+        tests and order-3 patches); the output is the same for any value.
     bridge : {"auto", "never", "always"}
         Bands between two loops: tube or caps by energy, caps only, or any
         valid tube.

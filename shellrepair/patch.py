@@ -131,6 +131,7 @@ class _Context:
         self._full_index = None
         self._region = None  # _Region near the boundary loops; False: none (whole-mesh structures)
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
+        self.beside = None  # fill._Beside: a helper thread's work beside a batch's fills
 
     @property
     def vf_order(self):

@@ -30,7 +30,9 @@ harmonically from the rim. Holes are filled in runs of ``BATCH``
 consecutive holes, one run at a time or by ``jobs`` processes; within a run
 the first attempt's rim data, triangulation and refinement are done for all
 its holes at once (the refinement as one disjoint union, with the same
-result as hole by hole). The checks between patches and the merge run
+result as hole by hole). Where the runs are filled in this process and
+``jobs`` is more than one, a second thread runs the ``order="auto"`` holes'
+band tests beside the fills (the test reads only the scan). The checks between patches and the merge run
 afterwards in hole order, so the output does not depend on ``jobs``.
 
 Whole-mesh structures (edges, vertex-to-face lists, the faces near a box)
@@ -222,8 +224,10 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 done[0] += 1
                 _progress(progress, done[0], len(units))
 
-            for chunk in chunks:
-                unit_out.extend(_run_chunk(ctx, chunk, tick))
+            # a spare core runs the order="auto" holes' band tests beside the fills
+            with _beside(jobs > 1 and order == "auto") as pool:
+                for chunk in chunks:
+                    unit_out.extend(_run_chunk(ctx, chunk, tick, pool=pool))
     if legacy_bar:  # progress=True: the terminal bar this call drew ends its line
         from .progress import end_line
 
@@ -303,6 +307,14 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                                 "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}
                                                  for b in scan.borders]})
     return repaired, report
+
+
+def _beside(use):
+    """A helper thread for work beside the fills (:class:`~shellrepair.fill.HelperThread`,
+    a context manager), or a ``None`` stand-in when ``use`` is false."""
+    import contextlib
+
+    return _fill.HelperThread() if use else contextlib.nullcontext()
 
 
 def _note_swap(rows, swapped):

@@ -1,0 +1,102 @@
+"""With more than one job, a second thread works beside the fills of
+``order="auto"``: it runs the holes' band tests and builds the order-3
+patches the tests ask for. The meshes and reports are the same, to the bit,
+as one thread's."""
+
+import threading
+
+import numpy as np
+import pytest
+
+import shellrepair.fill as fill
+import shellrepair.repair as repair
+import shellrepair.selftest as selftest
+from eval import shapes
+from shellrepair import repair_mesh
+from shellrepair.io import Mesh
+
+
+@pytest.fixture(scope="module")
+def smooth_holes():
+    """A smooth sphere with holes of several sizes; the largest takes order 3."""
+    V, F = shapes.icosphere(5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[int(np.argmax(V[:, 2])), int(np.argmin(V[:, 0])),
+                                                         int(np.argmax(V[:, 1])), int(np.argmin(V[:, 2]))],
+                                          radius=0.6)
+    V3, F3, _, _ = shapes.perforate_discs(V2, F2, n_holes=3, radius=0.15, seed=4)
+    return Mesh(V=V3, F=F3)
+
+
+def _record_threads(monkeypatch):
+    """The thread each band test runs on."""
+    seen = []
+    real = selftest.choose_order
+
+    def recording(*args, **kwargs):
+        seen.append(threading.current_thread().name)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(selftest, "choose_order", recording)
+    return seen
+
+
+def _same(a, b):
+    return (np.array_equal(a.V, b.V) and np.array_equal(a.F, b.F)
+            and np.array_equal(a.face_filled, b.face_filled))
+
+
+def _without_times(report):
+    return [{k: v for k, v in h.items() if k != "seconds"} for h in report["holes"]]
+
+
+def test_the_helper_tests_and_builds_order_3_and_changes_no_bit(smooth_holes, monkeypatch):
+    seen = _record_threads(monkeypatch)
+    taken = []
+    real_take = fill._Beside.take_o3
+
+    def take(self, hole_id, T):
+        got = real_take(self, hole_id, T)
+        taken.append(got[0])
+        return got
+
+    monkeypatch.setattr(fill._Beside, "take_o3", take)
+    one, rep1 = repair_mesh(smooth_holes, jobs=1)
+    on_main = list(seen)
+    seen.clear()
+    two, rep2 = repair_mesh(smooth_holes, jobs=2)
+    assert on_main and all(name == "MainThread" for name in on_main)
+    assert len(seen) == len(on_main)                         # the same tests, some on the helper
+    assert any(name.startswith("shellrepair-beside") for name in seen)
+    assert sum("faired order 3" in h["option"] for h in rep2["holes"]) >= 1
+    assert True in taken                                     # an order-3 patch built by the helper
+    assert _same(one, two)
+    assert _without_times(rep1) == _without_times(rep2)
+    assert rep2["holes_after"] == 0
+
+
+def test_work_the_helper_has_not_begun_is_done_by_the_fill(smooth_holes, monkeypatch):
+    """The fill takes back what the helper has not begun (it cancels it)
+    and does it itself: the same output."""
+    one, _ = repair_mesh(smooth_holes, jobs=1)
+    gate = threading.Event()
+    real_init, real_chunk = fill._Beside.__init__, repair._run_chunk
+
+    def held(self, ctx, chunk, pool):
+        pool.submit((-1,), gate.wait, 60)       # the helper is busy until the run's fills are done
+        real_init(self, ctx, chunk, pool)
+
+    def run_then_open(*args, **kwargs):
+        try:
+            return real_chunk(*args, **kwargs)
+        finally:
+            gate.set()
+
+    monkeypatch.setattr(fill._Beside, "__init__", held)
+    monkeypatch.setattr(repair, "_run_chunk", run_then_open)
+    seen = _record_threads(monkeypatch)
+    try:
+        two, rep = repair_mesh(smooth_holes, jobs=2)
+    finally:
+        gate.set()
+    assert seen and all(name == "MainThread" for name in seen)
+    assert _same(one, two) and rep["holes_after"] == 0
