@@ -16,6 +16,14 @@ sums, between threads.
 OpenBLAS it finds (``openblas_set_num_threads_local``, OpenBLAS 0.3.27 on)
 and puts the previous counts back; other threads of the process, and a
 SciPy or NumPy linked to another BLAS, are left as they are.
+
+:func:`one_thread_everywhere` sets the libraries' global counts to one as
+well, for the time two of the fill's threads call BLAS at once (the
+helper beside a run, :class:`shellrepair.fill.HelperThread`): with the
+global count above one, OpenBLAS serialised the two threads' calls even
+with each thread's own count at one (Numba-compiled 300x300 products on
+two threads: 2.0x the time of one alone; 1.2x with the global count at
+one).
 """
 
 from __future__ import annotations
@@ -26,7 +34,7 @@ import glob
 import os
 import threading
 
-__all__ = ["one_thread", "setters"]
+__all__ = ["one_thread", "one_thread_everywhere", "setters"]
 
 _SETTERS = None
 _LOCK = threading.Lock()
@@ -71,3 +79,53 @@ def one_thread():
     finally:
         for f, b in zip(fs, before):
             f(b)
+
+
+#: The global thread-count (getter, setter) names of the bundled OpenBLAS
+#: builds (SciPy's, NumPy's 64-bit-integer one).
+_GLOBAL = (("scipy_openblas_get_num_threads", "scipy_openblas_set_num_threads"),
+           ("scipy_openblas_get_num_threads64_", "scipy_openblas_set_num_threads64_"))
+_GLOBALS = None
+
+
+def _global_setters():
+    """(get, set) of each bundled OpenBLAS's global thread count, found once."""
+    global _GLOBALS
+    with _LOCK:
+        if _GLOBALS is None:
+            found = []
+            try:
+                import numpy
+                import scipy
+                roots = sorted({os.path.dirname(os.path.dirname(m.__file__)) for m in (numpy, scipy)})
+                for root in roots:
+                    for pattern in _BUNDLED:
+                        for path in sorted(glob.glob(os.path.join(root, pattern))):
+                            lib = ctypes.CDLL(path)
+                            for get_name, set_name in _GLOBAL:
+                                get, put = getattr(lib, get_name, None), getattr(lib, set_name, None)
+                                if get is not None and put is not None:
+                                    get.restype, get.argtypes = ctypes.c_int, []
+                                    put.restype, put.argtypes = None, [ctypes.c_int]
+                                    found.append((get, put))
+                                    break
+            except (OSError, ImportError, AttributeError):
+                found = []
+            _GLOBALS = found
+        return _GLOBALS
+
+
+@contextlib.contextmanager
+def one_thread_everywhere():
+    """Within the block, every thread's BLAS calls run on the calling
+    thread alone (the libraries' global counts, put back after; other
+    threads of the process see the change while the block runs)."""
+    gs = _global_setters()
+    before = [get() for get, _ in gs]
+    for _, put in gs:
+        put(1)
+    try:
+        yield
+    finally:
+        for (_, put), b in zip(gs, before):
+            put(b)

@@ -445,11 +445,27 @@ FIRST_SOLVE_MEMO_BYTES = 64 << 20
 _memo = threading.local()
 
 
+class _Memo:
+    """The remembered first solves of one fill's run (:func:`_first_solve`),
+    shared by the run's threads (the fill's and its helper's)."""
+
+    def __init__(self):
+        self.entries = {}
+        self.bytes = 0
+        self.lock = threading.Lock()
+
+
 def first_solve_memo(on):
     """Start (``on`` True) or end, and forget, the memo of the sparse
-    path's uniform first solves in this thread (:func:`_first_solve`)."""
-    _memo.entries = {} if on else None
-    _memo.bytes = 0
+    path's uniform first solves in this thread (:func:`_first_solve`);
+    ``on`` a memo this returned: use that one (another thread's, shared).
+
+    Returns
+    -------
+    memo : the memo now in use in this thread, or None
+    """
+    _memo.store = on if isinstance(on, _Memo) else (_Memo() if on else None)
+    return _memo.store
 
 
 def _first_solve(Quu, Quf, Xf):
@@ -466,30 +482,37 @@ def _first_solve(Quu, Quf, Xf):
     ``(True)`` and ``(False)`` (the fill of a run of holes,
     :func:`shellrepair.fill._run_chunk`), a system of at least
     ``FIRST_SOLVE_MEMO_UNKNOWNS`` unknowns is kept with its solution (per
-    thread; the least recently used dropped past ``FIRST_SOLVE_MEMO_BYTES``),
+    run, shared by its threads; the least recently used dropped past
+    ``FIRST_SOLVE_MEMO_BYTES``),
     and a later system whose matrix and right-hand side are equal to the bit
     takes that solution: the factorisation is deterministic, so the result
     is the one solving it again would give.
     """
     R = -(Quf @ Xf)
-    memo = getattr(_memo, "entries", None)
-    if memo is None or Quu.shape[0] < FIRST_SOLVE_MEMO_UNKNOWNS:
+    store = getattr(_memo, "store", None)
+    if store is None or Quu.shape[0] < FIRST_SOLVE_MEMO_UNKNOWNS:
         return _Factor(Quu, Quf)._solve(R)
     Q = sp.csc_matrix(Quu)
     arrays = (Q.indptr.copy(), Q.indices.copy(), Q.data.copy(), R.copy())   # before a factorisation sorts them
     key = (Quu.shape[0], Quu.nnz, hash(arrays[2].tobytes()), hash(arrays[3].tobytes()))
-    hit = memo.pop(key, None)
+    memo = store.entries
+    with store.lock:
+        hit = memo.pop(key, None)
+        if hit is not None:
+            memo[key] = hit                  # most recently used last
     if hit is not None and all(a.dtype == b.dtype and np.array_equal(a, b) for a, b in zip(arrays, hit[0])):
-        memo[key] = hit                      # most recently used last
         return hit[1].copy()
-    Z = _Factor(Quu, Quf)._solve(R)
+    Z = _Factor(Quu, Quf)._solve(R)          # (two threads may solve one system at once: the same Z)
     size = lambda e: sum(a.nbytes for a in e[0]) + e[1].nbytes
-    if hit is not None:                      # the same key, another system: replaced
-        _memo.bytes -= size(hit)
-    memo[key] = (arrays, Z.copy())
-    _memo.bytes += size(memo[key])
-    while len(memo) > 1 and _memo.bytes > FIRST_SOLVE_MEMO_BYTES:
-        _memo.bytes -= size(memo.pop(next(iter(memo))))   # the least recently used
+    entry = (arrays, Z.copy())
+    with store.lock:
+        old = memo.pop(key, None)            # the same key: another system, or this one again
+        if old is not None:
+            store.bytes -= size(old)
+        memo[key] = entry
+        store.bytes += size(entry)
+        while len(memo) > 1 and store.bytes > FIRST_SOLVE_MEMO_BYTES:
+            store.bytes -= size(memo.pop(next(iter(memo))))   # the least recently used
     return Z
 
 

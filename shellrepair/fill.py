@@ -1059,7 +1059,9 @@ SWITCH_SECONDS = 2e-4
 class HelperThread:
     """One thread that runs the calls submitted to it, the lowest key first
     (a context manager: leaving it waits for what was submitted, skipping
-    what was cancelled, and puts the interpreter's switch interval back).
+    what was cancelled, and puts the interpreter's switch interval and the
+    BLAS libraries' global thread counts back,
+    :func:`~shellrepair.blas.one_thread_everywhere`).
     The fill's helper beside a run (:class:`_Beside`)."""
 
     def __init__(self, name="shellrepair-beside"):
@@ -1068,10 +1070,14 @@ class HelperThread:
         import sys
         import threading
 
+        from .blas import one_thread_everywhere
+
         self._queue = queue.PriorityQueue()
         self._serial = itertools.count()       # ties in submission order
         self._interval = sys.getswitchinterval()
         sys.setswitchinterval(min(self._interval, SWITCH_SECONDS))
+        self._blas = one_thread_everywhere()   # two threads' BLAS calls side by side, not in turn
+        self._blas.__enter__()
         self._thread = threading.Thread(target=self._serve, name=name, daemon=True)
         self._thread.start()
 
@@ -1106,6 +1112,7 @@ class HelperThread:
         self._queue.put(((float("inf"),), next(self._serial), None, None, None))
         self._thread.join()
         sys.setswitchinterval(self._interval)
+        self._blas.__exit__(None, None, None)
 
 
 class _Stolen:
@@ -1152,11 +1159,12 @@ class _Beside:
     kernels and solves release the GIL, and its BLAS calls run on its own
     thread as the fill's do)."""
 
-    def __init__(self, ctx, chunk, pool):
+    def __init__(self, ctx, chunk, pool, memo=None):
         from .selftest import choose_order
 
         self.pool = pool
         self.ctx = ctx
+        self.memo = memo
         self.helper = _helper_context(ctx)
         self.tests = {}        # hole id -> (loop, future of its OrderTest)
         self.o3 = {}           # hole id -> (refined T, future of its order-3 Patch, None or _Failed)
@@ -1168,12 +1176,16 @@ class _Beside:
                 self.tests[u.hole_id] = (loop, pool.submit((i, 0), self._on_helper, choose_order, self.helper,
                                                            u.hole_id, loop))
 
-    @staticmethod
-    def _on_helper(f, *args, **kwargs):
+    def _on_helper(self, f, *args, **kwargs):
         from .blas import one_thread
+        from .fair import first_solve_memo
 
-        with one_thread():       # this thread's BLAS calls on this thread, as the fill's are
-            return f(*args, **kwargs)
+        first_solve_memo(self.memo)     # the run's first solves, as the fill's thread sees them
+        try:
+            with one_thread():          # this thread's BLAS calls on this thread, as the fill's are
+                return f(*args, **kwargs)
+        finally:
+            first_solve_memo(False)
 
     def take_test(self, hole_id, loop):
         """The hole's band test, or None where it has not begun (cancelled:
@@ -1266,8 +1278,8 @@ def _run_chunk(ctx, chunk, on_unit=None, pool=None):
     from .fair import first_solve_memo
 
     try:
-        first_solve_memo(True)     # an order-3 fill of order="auto" repeats its order-2 fill's first solve
-        ctx.beside = _Beside(ctx, chunk, pool) if pool is not None else None
+        memo = first_solve_memo(True)     # an order-3 fill of order="auto" repeats its order-2 fill's first solve
+        ctx.beside = _Beside(ctx, chunk, pool, memo) if pool is not None else None
         _prefill(ctx, chunk)
         _first_attempts(ctx, chunk)
         out = []

@@ -81,9 +81,9 @@ def test_work_the_helper_has_not_begun_is_done_by_the_fill(smooth_holes, monkeyp
     gate = threading.Event()
     real_init, real_chunk = fill._Beside.__init__, repair._run_chunk
 
-    def held(self, ctx, chunk, pool):
+    def held(self, ctx, chunk, pool, *args):
         pool.submit((-1,), gate.wait, 60)       # the helper is busy until the run's fills are done
-        real_init(self, ctx, chunk, pool)
+        real_init(self, ctx, chunk, pool, *args)
 
     def run_then_open(*args, **kwargs):
         try:

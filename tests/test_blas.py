@@ -31,6 +31,42 @@ def test_one_thread_inside_and_the_count_put_back():
             f(b)
 
 
+def test_one_thread_everywhere_sets_the_global_counts_and_puts_them_back():
+    gs = blas._global_setters()
+    if not gs:
+        pytest.skip("no bundled OpenBLAS with a global thread-count setter")
+    before = [get() for get, _ in gs]
+    try:
+        for _, put in gs:
+            put(3)
+        with pytest.raises(RuntimeError):
+            with blas.one_thread_everywhere():
+                assert [get() for get, _ in gs] == [1] * len(gs)
+                raise RuntimeError("a failed fill")
+        assert [get() for get, _ in gs] == [3] * len(gs)
+    finally:
+        for (_, put), b in zip(gs, before):
+            put(b)
+
+
+def test_the_helper_thread_puts_the_switch_interval_and_blas_counts_back():
+    import sys
+
+    from shellrepair.fill import SWITCH_SECONDS, HelperThread
+
+    gs = blas._global_setters()
+    interval = sys.getswitchinterval()
+    counts = [get() for get, _ in gs]
+    with HelperThread() as helper:
+        assert sys.getswitchinterval() == pytest.approx(min(interval, SWITCH_SECONDS), rel=1e-6)
+        assert [get() for get, _ in gs] == [1] * len(gs)
+        got = helper.submit((1,), lambda: 2)
+        first = helper.submit((0,), lambda: 1)
+        assert (first.result(), got.result()) == (1, 2)
+    assert sys.getswitchinterval() == pytest.approx(interval, rel=1e-6)
+    assert [get() for get, _ in gs] == counts
+
+
 def perforated_sphere(n=40, holes=((0.0, 0.0, 1.0), (1.0, 0.0, 0.0)), radius=0.45):
     """A UV sphere with two disc holes, large enough for the sparse fairing path."""
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 2 * n, endpoint=False), np.linspace(0, np.pi, n + 1)[1:-1])

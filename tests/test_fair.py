@@ -240,6 +240,39 @@ def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monke
     assert fair_counted(X, 2)[1] == a        # outside the memo's scope nothing is remembered
 
 
+def test_a_thread_given_the_runs_memo_takes_the_first_solves_made_in_another(monkeypatch):
+    """The fill's helper thread shares its run's memo (fill._Beside): an
+    order-3 fairing there takes the order-2 fill's first solve."""
+    import threading
+
+    X, F, nf = _bumpy_grid(40, 8)
+    ref3, _ = fair.fair_patch(X, F, nf, order=3)
+    made = _count_factorisations(monkeypatch)
+    fair.fair_patch(X, F, nf, order=3)
+    alone = len(made)
+    out = {}
+    memo = fair.first_solve_memo(True)
+    try:
+        fair.fair_patch(X, F, nf, order=2)
+
+        def helper():
+            fair.first_solve_memo(memo)
+            try:
+                before = len(made)
+                out["X"] = fair.fair_patch(X, F, nf, order=3)[0]
+                out["made"] = len(made) - before
+            finally:
+                fair.first_solve_memo(False)
+
+        t = threading.Thread(target=helper)
+        t.start()
+        t.join()
+        assert fair._memo.store is memo      # the other thread leaving it does not end it here
+    finally:
+        fair.first_solve_memo(False)
+    assert out["made"] == alone - 1 and np.array_equal(out["X"], ref3)
+
+
 def _energy_rows_python(ptr, col, val, D, order, unknown, fixed):
     """Rows ``unknown`` of K (D K)^(order−1) in Python floats: each entry's
     sum starts from 0.0 and adds its terms in the order the row's expansion
