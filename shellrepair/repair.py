@@ -208,10 +208,12 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         # fixed runs of units, whatever ``jobs`` is, so the output is too
         chunks = [units[i:i + BATCH] for i in range(0, len(units), BATCH)]
         unit_out = []
-        if jobs > 1 and len(chunks) > 1:
+        import multiprocessing as mp
+        # a daemonic process (a worker of a multiprocessing pool) may not
+        # start processes: its runs are filled here, with the helper thread
+        if jobs > 1 and len(chunks) > 1 and not mp.current_process().daemon:
             _ = ctx.index  # built before forking (above), so workers share it
             _fill._WORKER_CTX = ctx
-            import multiprocessing as mp
             with mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
                 for out in pool.imap(_worker, chunks, chunksize=1):
                     unit_out.extend(out)

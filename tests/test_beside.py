@@ -100,3 +100,31 @@ def test_work_the_helper_has_not_begun_is_done_by_the_fill(smooth_holes, monkeyp
         gate.set()
     assert seen and all(name == "MainThread" for name in seen)
     assert _same(one, two) and rep["holes_after"] == 0
+
+
+def _repair_in_a_daemon(mesh, queue):
+    from shellrepair import repair_mesh as repair
+
+    R, rep = repair(mesh, jobs=2)
+    queue.put((R.V, R.F, rep["holes_after"]))
+
+
+def test_a_daemonic_process_fills_its_runs_itself():
+    """A worker of a multiprocessing pool may not start processes: with
+    more runs of holes than one, ``jobs=2`` there fills them in its own
+    process (the helper thread beside), the same bits as ``jobs=1``."""
+    import multiprocessing as mp
+
+    V, F = shapes.icosphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=30, radius=0.09, seed=5)
+    mesh = Mesh(V=V2, F=F2)
+    one, rep = repair_mesh(mesh, jobs=1)
+    assert rep["holes_before"] > repair.BATCH
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_repair_in_a_daemon, args=(mesh, queue), daemon=True)
+    child.start()
+    V3, F3, left = queue.get(timeout=120)
+    child.join(30)
+    assert child.exitcode == 0
+    assert left == 0 and np.array_equal(one.V, V3) and np.array_equal(one.F, F3)
