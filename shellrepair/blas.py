@@ -42,6 +42,17 @@ _LOCK = threading.Lock()
 _BUNDLED = ("numpy.libs/libscipy_openblas*.so*", "scipy.libs/libscipy_openblas*.so*")
 
 
+def _bundled():
+    """The bundled OpenBLAS libraries (NumPy's, SciPy's), loaded; an empty
+    list where there is none."""
+    import numpy
+    import scipy
+
+    roots = sorted({os.path.dirname(os.path.dirname(m.__file__)) for m in (numpy, scipy)})
+    return [ctypes.CDLL(path) for root in roots for pattern in _BUNDLED
+            for path in sorted(glob.glob(os.path.join(root, pattern)))]
+
+
 def setters():
     """The ``openblas_set_num_threads_local`` of each bundled OpenBLAS
     (NumPy's, SciPy's: the one Numba's ``np.dot`` calls), found once; an
@@ -51,18 +62,12 @@ def setters():
         if _SETTERS is None:
             found = []
             try:
-                import numpy
-                import scipy
-
-                roots = sorted({os.path.dirname(os.path.dirname(m.__file__)) for m in (numpy, scipy)})
-                for root in roots:
-                    for pattern in _BUNDLED:
-                        for path in sorted(glob.glob(os.path.join(root, pattern))):
-                            f = getattr(ctypes.CDLL(path), "openblas_set_num_threads_local", None)
-                            if f is not None:
-                                f.restype = ctypes.c_int
-                                f.argtypes = [ctypes.c_int]
-                                found.append(f)
+                for lib in _bundled():
+                    f = getattr(lib, "openblas_set_num_threads_local", None)
+                    if f is not None:
+                        f.restype = ctypes.c_int
+                        f.argtypes = [ctypes.c_int]
+                        found.append(f)
             except (OSError, ImportError, AttributeError):
                 found = []
             _SETTERS = found
@@ -95,20 +100,14 @@ def _global_setters():
         if _GLOBALS is None:
             found = []
             try:
-                import numpy
-                import scipy
-                roots = sorted({os.path.dirname(os.path.dirname(m.__file__)) for m in (numpy, scipy)})
-                for root in roots:
-                    for pattern in _BUNDLED:
-                        for path in sorted(glob.glob(os.path.join(root, pattern))):
-                            lib = ctypes.CDLL(path)
-                            for get_name, set_name in _GLOBAL:
-                                get, put = getattr(lib, get_name, None), getattr(lib, set_name, None)
-                                if get is not None and put is not None:
-                                    get.restype, get.argtypes = ctypes.c_int, []
-                                    put.restype, put.argtypes = None, [ctypes.c_int]
-                                    found.append((get, put))
-                                    break
+                for lib in _bundled():
+                    for get_name, set_name in _GLOBAL:
+                        get, put = getattr(lib, get_name, None), getattr(lib, set_name, None)
+                        if get is not None and put is not None:
+                            get.restype, get.argtypes = ctypes.c_int, []
+                            put.restype, put.argtypes = None, [ctypes.c_int]
+                            found.append((get, put))
+                            break
             except (OSError, ImportError, AttributeError):
                 found = []
             _GLOBALS = found
