@@ -24,8 +24,10 @@ ours-o1/o2/o3        ``shellrepair.repair.repair_mesh(mesh, order=k)``, its comp
                      import loads its native library)
 ours-auto            ``repair_mesh(mesh, order="auto")`` (2 or 3 per hole by the band test, shellrepair.selftest)
 ours-cli             the command line's default (``shellrepair repair``, ``make repair``): ``order="auto"``
-                     and ``jobs`` the cores there are (a second thread runs the band tests beside the
-                     fills; the same output as ``ours-auto``)
+                     and ``jobs`` the cores there are (a helper thread runs the band tests and the
+                     order-3 patches beside the fill; the same output as ``ours-auto``). In the
+                     benchmarks' daemonic workers a scan of more than 24 holes is filled in one
+                     process with the helper, where the command line would use processes
 ours-seed            ``repair_mesh(mesh, method="seed")`` (the paper's method)
 pymeshlab            ``MeshSet.meshing_close_holes(maxholesize=<all boundary
                      edges + 1>)``, other parameters at their defaults

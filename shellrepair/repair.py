@@ -30,10 +30,13 @@ harmonically from the rim. Holes are filled in runs of ``BATCH``
 consecutive holes, one run at a time or by ``jobs`` processes; within a run
 the first attempt's rim data, triangulation and refinement are done for all
 its holes at once (the refinement as one disjoint union, with the same
-result as hole by hole). Where the runs are filled in this process and
-``jobs`` is more than one, a second thread runs the ``order="auto"`` holes'
-band tests beside the fills (the test reads only the scan). The checks between patches and the merge run
-afterwards in hole order, so the output does not depend on ``jobs``.
+result as hole by hole). Where the runs are filled in this process (one
+run, or a daemonic process) and ``jobs`` is more than one, a second thread
+runs the ``order="auto"`` holes' band tests, and the order-3 patches they
+ask for, beside the fills (:class:`~shellrepair.fill.HelperThread`; that
+work reads only the scan and the run's first-attempt work). The checks
+between patches and the merge run afterwards in hole order, so the output
+does not depend on ``jobs``.
 
 Whole-mesh structures (edges, vertex-to-face lists, the faces near a box)
 are built once, vectorised; a patch is checked against the scan faces near
@@ -226,7 +229,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 done[0] += 1
                 _progress(progress, done[0], len(units))
 
-            # a spare core runs the order="auto" holes' band tests beside the fills
+            # a spare core runs the order="auto" holes' band tests and order-3 patches beside the fills
             with _beside(jobs > 1 and order == "auto") as pool:
                 for chunk in chunks:
                     unit_out.extend(_run_chunk(ctx, chunk, tick, pool=pool))
