@@ -114,17 +114,27 @@ def _global_setters():
         return _GLOBALS
 
 
+_EVERYWHERE = [0, []]    # blocks open (any thread), the counts before the first
+
+
 @contextlib.contextmanager
 def one_thread_everywhere():
     """Within the block, every thread's BLAS calls run on the calling
-    thread alone (the libraries' global counts, put back after; other
-    threads of the process see the change while the block runs)."""
+    thread alone (the libraries' global counts, put back when the last
+    open block ends, in whatever thread; other threads of the process see
+    the change while a block is open)."""
     gs = _global_setters()
-    before = [get() for get, _ in gs]
-    for _, put in gs:
-        put(1)
+    with _LOCK:
+        if _EVERYWHERE[0] == 0:
+            _EVERYWHERE[1] = [get() for get, _ in gs]
+            for _, put in gs:
+                put(1)
+        _EVERYWHERE[0] += 1
     try:
         yield
     finally:
-        for (_, put), b in zip(gs, before):
-            put(b)
+        with _LOCK:
+            _EVERYWHERE[0] -= 1
+            if _EVERYWHERE[0] == 0:
+                for (_, put), b in zip(gs, _EVERYWHERE[1]):
+                    put(b)

@@ -31,22 +31,42 @@ def test_one_thread_inside_and_the_count_put_back():
             f(b)
 
 
-def test_one_thread_everywhere_sets_the_global_counts_and_puts_them_back():
+@pytest.fixture
+def counts_at_3():
+    """The bundled libraries' global thread counts set to 3 (put back
+    after); their (get, set) pairs."""
     gs = blas._global_setters()
     if not gs:
         pytest.skip("no bundled OpenBLAS with a global thread-count setter")
     before = [get() for get, _ in gs]
-    try:
-        for _, put in gs:
-            put(3)
-        with pytest.raises(RuntimeError):
-            with blas.one_thread_everywhere():
-                assert [get() for get, _ in gs] == [1] * len(gs)
-                raise RuntimeError("a failed fill")
-        assert [get() for get, _ in gs] == [3] * len(gs)
-    finally:
-        for (_, put), b in zip(gs, before):
-            put(b)
+    for _, put in gs:
+        put(3)
+    yield gs
+    for (_, put), b in zip(gs, before):
+        put(b)
+
+
+def test_one_thread_everywhere_sets_the_global_counts_and_puts_them_back(counts_at_3):
+    gs = counts_at_3
+    with pytest.raises(RuntimeError):
+        with blas.one_thread_everywhere():
+            assert [get() for get, _ in gs] == [1] * len(gs)
+            raise RuntimeError("a failed fill")
+    assert [get() for get, _ in gs] == [3] * len(gs)
+
+
+def test_overlapping_blocks_put_the_counts_back_when_the_last_ends(counts_at_3):
+    """Two fills with helpers in two threads of one caller: the blocks
+    overlap, and the first to end must not give the other back its
+    libraries' threads."""
+    gs = counts_at_3
+    first, second = blas.one_thread_everywhere(), blas.one_thread_everywhere()
+    first.__enter__()
+    second.__enter__()
+    first.__exit__(None, None, None)
+    assert [get() for get, _ in gs] == [1] * len(gs)
+    second.__exit__(None, None, None)
+    assert [get() for get, _ in gs] == [3] * len(gs)
 
 
 def test_the_helper_thread_puts_the_switch_interval_and_blas_counts_back():
