@@ -17,6 +17,7 @@ model (``method="seed"``).
 
 from __future__ import annotations
 
+import threading
 import time
 from typing import NamedTuple
 
@@ -1054,6 +1055,8 @@ def _helper_context(ctx):
 #: took 1.44x its time alone at Python's default of 5 ms and 1.03x at
 #: 0.2 ms; its energy's assembly 1.76x and 1.19x.
 SWITCH_SECONDS = 2e-4
+_SWITCH = [0, None]      # helper threads running (any fill), the interval before the first
+_SWITCH_LOCK = threading.Lock()
 
 
 class HelperThread:
@@ -1074,8 +1077,11 @@ class HelperThread:
 
         self._queue = queue.PriorityQueue()
         self._serial = itertools.count()       # ties in submission order
-        self._interval = sys.getswitchinterval()
-        sys.setswitchinterval(min(self._interval, SWITCH_SECONDS))
+        with _SWITCH_LOCK:                     # (helpers of overlapping fills: the last puts it back)
+            if _SWITCH[0] == 0:
+                _SWITCH[1] = sys.getswitchinterval()
+                sys.setswitchinterval(min(_SWITCH[1], SWITCH_SECONDS))
+            _SWITCH[0] += 1
         self._blas = one_thread_everywhere()   # two threads' BLAS calls side by side, not in turn
         self._blas.__enter__()
         self._thread = threading.Thread(target=self._serve, name=name, daemon=True)
@@ -1111,7 +1117,10 @@ class HelperThread:
 
         self._queue.put(((float("inf"),), next(self._serial), None, None, None))
         self._thread.join()
-        sys.setswitchinterval(self._interval)
+        with _SWITCH_LOCK:
+            _SWITCH[0] -= 1
+            if _SWITCH[0] == 0:
+                sys.setswitchinterval(_SWITCH[1])
         self._blas.__exit__(None, None, None)
 
 

@@ -85,6 +85,15 @@ def test_the_helper_thread_puts_the_switch_interval_and_blas_counts_back():
         assert (first.result(), got.result()) == (1, 2)
     assert sys.getswitchinterval() == pytest.approx(interval, rel=1e-6)
     assert [get() for get, _ in gs] == counts
+    # overlapping helpers (two fills in two threads of one caller): the last to end puts them back
+    a, b = HelperThread(), HelperThread()
+    a.__enter__()
+    b.__enter__()
+    a.__exit__(None, None, None)
+    assert sys.getswitchinterval() == pytest.approx(min(interval, SWITCH_SECONDS), rel=1e-6)
+    b.__exit__(None, None, None)
+    assert sys.getswitchinterval() == pytest.approx(interval, rel=1e-6)
+    assert [get() for get, _ in gs] == counts
 
 
 def perforated_sphere(n=40, holes=((0.0, 0.0, 1.0), (1.0, 0.0, 0.0)), radius=0.45):
