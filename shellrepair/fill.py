@@ -17,6 +17,8 @@ model (``method="seed"``).
 
 from __future__ import annotations
 
+import contextlib
+import sys
 import threading
 import time
 from typing import NamedTuple
@@ -1018,7 +1020,7 @@ def _first_attempts(ctx, chunk):
             continue           # _fill_one_order meets the same error
         beside = getattr(ctx, "beside", None)
         if beside is not None and unit.order == "auto" and first == ("faired", 2):
-            beside.start_o3(ctx, pre, hole_id, loop, unit.smooth, flat.T0)
+            beside.start_o3(pre, hole_id, loop, unit.smooth, flat.T0)
         try:
             patch, error = build_patch(ctx, hole_id, loop, order=first[1], smooth=unit.smooth, initial=flat.T0,
                                        energy=False), ""
@@ -1059,6 +1061,25 @@ _SWITCH = [0, None]      # helper threads running (any fill), the interval befor
 _SWITCH_LOCK = threading.Lock()
 
 
+@contextlib.contextmanager
+def _short_switch_interval():
+    """Within the block, the interpreter's switch interval at most
+    ``SWITCH_SECONDS``; put back when the last open block ends (the helpers
+    of overlapping fills, in any thread)."""
+    with _SWITCH_LOCK:
+        if _SWITCH[0] == 0:
+            _SWITCH[1] = sys.getswitchinterval()
+            sys.setswitchinterval(min(_SWITCH[1], SWITCH_SECONDS))
+        _SWITCH[0] += 1
+    try:
+        yield
+    finally:
+        with _SWITCH_LOCK:
+            _SWITCH[0] -= 1
+            if _SWITCH[0] == 0:
+                sys.setswitchinterval(_SWITCH[1])
+
+
 class HelperThread:
     """One thread that runs the calls submitted to it, the lowest key first
     (a context manager: leaving it waits for what was submitted, skipping
@@ -1070,20 +1091,14 @@ class HelperThread:
     def __init__(self, name="shellrepair-beside"):
         import itertools
         import queue
-        import sys
-        import threading
 
         from .blas import one_thread_everywhere
 
         self._queue = queue.PriorityQueue()
         self._serial = itertools.count()       # ties in submission order
-        with _SWITCH_LOCK:                     # (helpers of overlapping fills: the last puts it back)
-            if _SWITCH[0] == 0:
-                _SWITCH[1] = sys.getswitchinterval()
-                sys.setswitchinterval(min(_SWITCH[1], SWITCH_SECONDS))
-            _SWITCH[0] += 1
-        self._blas = one_thread_everywhere()   # two threads' BLAS calls side by side, not in turn
-        self._blas.__enter__()
+        self._settings = contextlib.ExitStack()
+        self._settings.enter_context(_short_switch_interval())
+        self._settings.enter_context(one_thread_everywhere())   # two threads' BLAS calls side by side, not in turn
         self._thread = threading.Thread(target=self._serve, name=name, daemon=True)
         self._thread.start()
 
@@ -1113,15 +1128,9 @@ class HelperThread:
         return self
 
     def __exit__(self, *exc):
-        import sys
-
         self._queue.put(((float("inf"),), next(self._serial), None, None, None))
         self._thread.join()
-        with _SWITCH_LOCK:
-            _SWITCH[0] -= 1
-            if _SWITCH[0] == 0:
-                sys.setswitchinterval(_SWITCH[1])
-        self._blas.__exit__(None, None, None)
+        self._settings.close()
 
 
 class _Stolen:
@@ -1185,14 +1194,14 @@ class _Beside:
                 self.tests[u.hole_id] = (loop, pool.submit((i, 0), self._on_helper, choose_order, self.helper,
                                                            u.hole_id, loop))
 
-    def _on_helper(self, f, *args, **kwargs):
+    def _on_helper(self, f, *args):
         from .blas import one_thread
         from .fair import first_solve_memo
 
         first_solve_memo(self.memo)     # the run's first solves, as the fill's thread sees them
         try:
             with one_thread():          # this thread's BLAS calls on this thread, as the fill's are
-                return f(*args, **kwargs)
+                return f(*args)
         finally:
             first_solve_memo(False)
 
@@ -1227,7 +1236,7 @@ class _Beside:
                 return True
         return False
 
-    def start_o3(self, ctx, pre, hole_id, loop, smooth, T0):
+    def start_o3(self, pre, hole_id, loop, smooth, T0):
         """Start the order-3 patch of a hole whose first option is the
         order-2 fairing of ``T0``: refine ``T0`` here, as
         :func:`~shellrepair.patch.build_patch` would (kept in ``pre``, which
@@ -1241,7 +1250,7 @@ class _Beside:
         if pre.refined is None:
             sigma, _, forbidden = pre.rim
             _, scale, Pl = pre.frame
-            pre.refined = refine_patch(Pl.copy(), pre.T0, sigma / scale, len(loop), forbidden | set())
+            pre.refined = refine_patch(Pl, pre.T0, sigma / scale, len(loop), forbidden)
         origin, scale, _ = pre.frame
         Pl, T = pre.refined
         P = origin + scale * Pl[len(loop):]
