@@ -33,8 +33,9 @@ time is recorded as such and the rest go on:
 * ``write``: :func:`shellrepair.io.write_mesh` of the repaired mesh (binary PLY);
 * ``cli``: the command line end to end, ``shellrepair repair scan.ply -o
   out.ply`` (read to write, with its defaults), in a fresh interpreter:
-  ``seconds`` is the whole child process (start-up and imports included),
-  ``peak_rss_mb`` its peak. Inside it, the whole-mesh steps are timed as
+  ``seconds`` is the whole child process (start-up and imports included;
+  the output's hash is taken by the parent afterwards), ``peak_rss_mb``
+  its peak. Inside it, the whole-mesh steps are timed as
   they run: ``load`` (:func:`shellrepair.io.read_mesh`: parse, clean,
   topology, orientation, areas), ``topology`` (the
   :func:`shellrepair.topology.edge_topology` call within it), ``detection``
@@ -432,15 +433,23 @@ def _run_cli_step(d):
     t0 = time.perf_counter()
     rc = cli.main(["repair", str(d / "scan.ply"), "-o", str(out), "--report", str(d / "cli_out.report.json")])
     secs = time.perf_counter() - t0
+    # the output's hash and the report are read by the parent, after this
+    # process has ended: the child's time is the command line's alone
+    return {"step": "cli", "exit_code": rc, "main_seconds": secs, "whole_mesh": steps}
+
+
+def _cli_outputs(d):
+    """What the ``cli`` step wrote: holes before and after (its report), the
+    output's hash and size."""
     import hashlib
 
+    out = Path(d) / "cli_out.ply"
     h = hashlib.sha256()
     with open(out, "rb") as fh:
         for blk in iter(lambda: fh.read(1 << 24), b""):
             h.update(blk)
-    rep = json.loads((d / "cli_out.report.json").read_text())
-    return {"step": "cli", "exit_code": rc, "main_seconds": secs, "whole_mesh": steps,
-            "holes_before": rep.get("holes_before"), "holes_after": rep.get("holes_after"),
+    rep = json.loads((Path(d) / "cli_out.report.json").read_text())
+    return {"holes_before": rep.get("holes_before"), "holes_after": rep.get("holes_after"),
             "output_sha256": h.hexdigest()[:16], "ply_mb": round(out.stat().st_size / MB ** 2, 1)}
 
 
@@ -821,6 +830,7 @@ def main(argv=None):
                 row = {"case": name, **run_step(step, d, args.timeout, profile=args.profile, log=log)}
                 if step == "cli" and row["status"] == "ok":
                     row["seconds"] = row["wall_seconds"]   # the whole process: start-up to exit
+                    row.update(_cli_outputs(d))
                     row["bandwidth"] = bandwidth_rows(row)
                 result["steps"].append(row)
                 msg = (f"{row.get('seconds', 0):8.2f} s  peak {row.get('peak_rss_mb', 0):7.0f} MB  "

@@ -163,10 +163,12 @@ def _repair_one(task, options, progress):
     """Read, repair and write one scan; returns its summary row fields.
     With ``task["picture"]`` (a path), also its before | after picture there."""
     from .io import atomic_write_many, mesh_bytes, read_mesh
+    from .patch import preload_kernels
     from .repair import repair_mesh
 
     scan, out, report_path, picture = task["scan"], task["out"], task["report"], task["picture"]
     t0 = time.perf_counter()
+    preload_kernels()    # loaded while the scan is read (once a process)
     mesh = read_mesh(scan, progress=progress)
     row = {"vertices": mesh.n_vertices, "faces": mesh.n_faces}
     repaired, report = repair_mesh(mesh, progress=progress, **options)  # options: RepairOptions.as_dict()

@@ -46,6 +46,7 @@ where a front is not positive definite: :class:`NotPositiveDefinite`).
 from __future__ import annotations
 
 import os
+import threading
 
 import numpy as np
 
@@ -84,6 +85,7 @@ except ImportError:  # fair.py uses libigl's factorisation instead
         return lambda f: f
 
 _WARM = False
+_WARM_LOCK = threading.Lock()
 
 
 class NotPositiveDefinite(ValueError):
@@ -736,13 +738,16 @@ def warm_up():
         return False
     if _WARM:
         return True
-    import scipy.sparse as sp
+    with _WARM_LOCK:   # a second caller (the background load, a fill) waits for the first
+        if _WARM:
+            return True
+        import scipy.sparse as sp
 
-    m = 3 * LEAF
-    T = sp.diags([-np.ones(m - 1), 2.5 * np.ones(m), -np.ones(m - 1)], [-1, 0, 1], format="csc")
-    f = factor(T)
-    f.solve(np.ones((m, 3)))
-    f.solve(np.ones(m))
-    nd_order(T.indptr, T.indices, m)
-    _WARM = True
+        m = 3 * LEAF
+        T = sp.diags([-np.ones(m - 1), 2.5 * np.ones(m), -np.ones(m - 1)], [-1, 0, 1], format="csc")
+        f = factor(T)
+        f.solve(np.ones((m, 3)))
+        f.solve(np.ones(m))
+        nd_order(T.indptr, T.indices, m)
+        _WARM = True
     return True

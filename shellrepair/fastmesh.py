@@ -381,11 +381,33 @@ def _areas_kernel(V, F, out):
         out[f] = 0.5 * np.sqrt((cx * cx + cz * cz) + cy * cy)
 
 
+#: Rows from which :func:`_in_halves` runs a row-wise kernel on two threads.
+HALVES_MIN_ROWS = 1_000_000
+
+
+def _in_halves(kernel, V, R, out):
+    """``kernel(V, R, out)`` for a kernel whose output row i depends only on
+    row i of ``R``: from ``HALVES_MIN_ROWS`` rows and with two cores or
+    more, the two halves of the rows on two threads (the kernels release
+    the GIL); the same values either way."""
+    n = len(R)
+    if n < HALVES_MIN_ROWS or (os.cpu_count() or 1) < 2:
+        kernel(V, R, out)
+        return
+    h = n // 2
+    t = threading.Thread(target=kernel, args=(V, R[h:], out[h:]), name="shellrepair-half")
+    t.start()
+    try:
+        kernel(V, R[:h], out[:h])
+    finally:
+        t.join()
+
+
 def face_areas(V, F):
     """Triangle areas, (m,) float64: ``0.5 |(b - a) × (c - a)|``, bit for bit
     as :func:`shellrepair.topology.face_areas` computes them."""
     out = np.empty(len(F))
-    _kernels().areas(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64), out)
+    _in_halves(_kernels().areas, np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64), out)
     return out
 
 
@@ -459,7 +481,7 @@ def edge_sq_lengths(V, E):
     """Squared lengths of the edges ``E`` (k,2), (k,) float64: one pass, no
     (k,3) temporaries; the sums of ``einsum("ij,ij->i", d, d)`` here."""
     out = np.empty(len(E))
-    _kernels().edge_sq(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(E, np.int64), out)
+    _in_halves(_kernels().edge_sq, np.ascontiguousarray(V, np.float64), np.ascontiguousarray(E, np.int64), out)
     return out
 
 

@@ -520,9 +520,11 @@ class NearFaces:
     F : (m,3) int64
     origin : (3,) float64, optional
         Queries come in coordinates minus ``origin``.
-    vf : (order, start), optional
+    vf : (order, start), or a callable returning it, optional
         Vertex-to-face lists: ``order`` sorts ``F.ravel()`` by vertex,
-        ``start[v]:start[v+1]`` are vertex v's entries (built if not given).
+        ``start[v]:start[v+1]`` are vertex v's entries (built if not given;
+        a callable is called last, when the rest is built: lists being
+        built on another thread).
     topo : EdgeTopology, optional
         The mesh's edges (:func:`shellrepair.topology.edge_topology`): edge
         lengths are then measured once per edge, not once per face corner.
@@ -567,7 +569,8 @@ class NearFaces:
             del longest
         if kernels.ENABLED and len(V) and np.isfinite(V[:, :2]).all():   # the same grid by two counting sorts
             self.lo2, self.h, self.vorder, self.vkey, self.ny = kernels.grid_sort(V, grow=self.grow)
-            self.vf_order, self.vf_start = (kernels.vertex_faces(F, len(V)) if vf is None else vf)
+            self.vf_order, self.vf_start = (kernels.vertex_faces(F, len(V)) if vf is None
+                                            else vf() if callable(vf) else vf)
             return
         # column by column: a reduction over axis 0 of the (n,2) view runs two values at a time
         lo = np.array([V[:, 0].min(), V[:, 1].min()]) if len(V) else np.zeros(2)
@@ -592,7 +595,7 @@ class NearFaces:
             self.vorder = np.argsort(key)
             self.vkey = key[self.vorder]
         del key
-        self.vf_order, self.vf_start = vertex_faces(F, len(V)) if vf is None else vf
+        self.vf_order, self.vf_start = vertex_faces(F, len(V)) if vf is None else vf() if callable(vf) else vf
 
     def faces_near(self, lo, hi):
         """Faces that may meet the box ``[lo, hi]`` (absolute coordinates)."""

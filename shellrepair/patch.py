@@ -106,6 +106,27 @@ class Patch:
         return G.astype(np.int64)
 
 
+def preload_kernels():
+    """Start loading the fill's compiled kernels (:func:`shellrepair.kernels.warm_up`,
+    :func:`shellrepair.cholesky.warm_up`) in a background thread, and return
+    at once: a command that reads a scan and then repairs it calls this
+    first, so that the loading (about a second of mostly Python work)
+    overlaps the reading, whose large steps run without the GIL. A fill
+    that starts before the loading ends waits for it, never loads twice.
+    Returns the thread, or None without the kernels."""
+    if not kernels.ENABLED:
+        return None
+    import threading
+
+    def load():
+        kernels.warm_up()
+        cholesky.warm_up()
+
+    t = threading.Thread(target=load, name="shellrepair-fill-kernels", daemon=True)
+    t.start()
+    return t
+
+
 class _Context:
     """Whole-mesh structures built once; per-hole work only reads them."""
 
@@ -153,15 +174,31 @@ class _Context:
         """The near-face index of the crossing checks: :class:`_LocalIndex`
         over the region (:meth:`region`) when there is one, else the
         whole-mesh :class:`~shellrepair.intersect.NearFaces`."""
+        return self.build_index()
+
+    def build_index(self, threads=1):
+        """:attr:`index`, built on first use; with ``threads`` above one, a
+        whole-mesh index has its vertex-face lists built on a thread of
+        their own beside its grid (both compiled loops that run without
+        the GIL)."""
         if self._index is None:
             reg = self.region()
-            self._index = _LocalIndex(self, reg) if reg is not None else self.whole_index()
+            self._index = _LocalIndex(self, reg) if reg is not None else self.whole_index(threads)
         return self._index
 
-    def whole_index(self):
-        """The whole-mesh :class:`~shellrepair.intersect.NearFaces`, built once."""
+    def whole_index(self, threads=1):
+        """The whole-mesh :class:`~shellrepair.intersect.NearFaces`, built once
+        (``threads``: as in :meth:`build_index`)."""
         if self._full_index is None:
-            self._full_index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=self.vf, topo=self.topo)
+            if threads > 1 and self._vf is None and kernels.ENABLED:
+                from concurrent.futures import ThreadPoolExecutor
+
+                with ThreadPoolExecutor(1) as ex:
+                    lists = ex.submit(lambda: self.vf)
+                    self._full_index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=lists.result,
+                                                 topo=self.topo)
+            else:
+                self._full_index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=self.vf, topo=self.topo)
         return self._full_index
 
     def region(self):

@@ -163,7 +163,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         c.topo = topo
         c.base = base
         if index:
-            _ = c.index
+            c.build_index(threads=2)
         return c
 
     def detect():

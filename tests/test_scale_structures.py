@@ -411,3 +411,30 @@ def test_kernels_refuse_a_face_outside_the_vertices():
     with pytest.raises(ValueError, match="outside"):
         fastmesh.edge_topology_arrays(np.array([[0, 1, 5]]), 4)
     assert fastmesh.warm_up() is True
+
+
+def test_row_kernels_on_two_threads_give_the_same_values(monkeypatch):
+    """Face areas and edge lengths run in two halves on two threads on a
+    large mesh: the same bits as one pass (each row is its own)."""
+    pytest.importorskip("numba")
+    from shellrepair import fastmesh
+
+    V, F = shapes.bumpy_sphere(5)
+    V = V * 1000 + 5e5                          # millimetres, far from the origin
+    E = edge_topology(F, len(V)).edges
+    monkeypatch.setattr(fastmesh, "HALVES_MIN_ROWS", 10 ** 12)
+    one = (fastmesh.face_areas(V, F), fastmesh.edge_sq_lengths(V, E))
+    monkeypatch.setattr(fastmesh, "HALVES_MIN_ROWS", 0)
+    monkeypatch.setattr(fastmesh.os, "cpu_count", lambda: 2)
+    started = []
+    real = fastmesh.threading.Thread
+
+    def counted(*a, **k):
+        started.append(k.get("name"))
+        return real(*a, **k)
+
+    monkeypatch.setattr(fastmesh.threading, "Thread", counted)
+    two = (fastmesh.face_areas(V, F), fastmesh.edge_sq_lengths(V, E))
+    assert started == ["shellrepair-half"] * 2
+    assert np.array_equal(one[0], two[0]) and np.array_equal(one[1], two[1])
+    np.testing.assert_array_max_ulp(two[0], face_areas(V, F), maxulp=1)   # NumPy's, as above

@@ -254,10 +254,18 @@ def _ply_binary_lists(data, pos, el, endian):
         raise MeshError(f"truncated: {name} data needs {need} bytes, {max(0, len(data) - pos)} left")
     if same:
         scalars = {p[0]: arr[p[0]] for p in props if p[1] == "scalar"}
-        lists = {p[0]: (first[j], arr[p[0]].reshape(-1).astype(np.int64))
+        lists = {p[0]: (first[j], _flat_int64(arr[p[0]]))
                  for j, p in enumerate(p for p in props if p[1] == "list") if p[3][0] != "f"}
         return _ply_list_table(props, scalars, lists, count), pos + need
     return _ply_binary_walk(data, pos, el, endian)
+
+
+def _flat_int64(a):
+    """``a.reshape(-1).astype(np.int64)`` in one pass: a field of a packed
+    record array is strided, so reshaping it copies before the cast would."""
+    out = np.empty(a.size, np.int64)
+    out.reshape(a.shape)[...] = a
+    return out
 
 
 def _gather(b, at, dt):
