@@ -163,13 +163,14 @@ def _repair_one(task, options, progress):
     """Read, repair and write one scan; returns its summary row fields.
     With ``task["picture"]`` (a path), also its before | after picture there."""
     from .io import atomic_write_many, mesh_bytes, read_mesh
-    from .patch import preload_kernels
-    from .repair import repair_mesh
+    from .preload import preload_fill
 
     scan, out, report_path, picture = task["scan"], task["out"], task["report"], task["picture"]
     t0 = time.perf_counter()
-    preload_kernels()    # loaded while the scan is read (once a process)
+    preload_fill()    # the fill's modules and kernels load while the scan is read
     mesh = read_mesh(scan, progress=progress)
+    from .repair import repair_mesh
+
     row = {"vertices": mesh.n_vertices, "faces": mesh.n_faces}
     repaired, report = repair_mesh(mesh, progress=progress, **options)  # options: RepairOptions.as_dict()
     report["file"] = task["shown_scan"]

@@ -276,8 +276,7 @@ def _same_file(a, b):
 
 def _repair(args):
     from .io import SUPPORTED, atomic_write_many, check_output_path, mesh_bytes, read_mesh
-    from .patch import preload_kernels
-    from .repair import repair_mesh
+    from .preload import preload_fill
     from .report import table1_text
 
     out = Path(args.output) if args.output else _default_output(args.scan)
@@ -301,8 +300,10 @@ def _repair(args):
     opts = _options(args)  # every check that needs no reading happens before the work
     t0 = time.perf_counter()
     bar = terminal_bar(args.quiet)
-    preload_kernels()    # loaded while the scan is read
+    preload_fill()    # the fill's modules and kernels load while the scan is read
     mesh = read_mesh(args.scan, progress=bar)
+    from .repair import repair_mesh
+
     repaired, report = repair_mesh(mesh, opts, progress=bar)
     report["file"] = str(args.scan)
     report["output"] = str(out)

@@ -106,27 +106,6 @@ class Patch:
         return G.astype(np.int64)
 
 
-def preload_kernels():
-    """Start loading the fill's compiled kernels (:func:`shellrepair.kernels.warm_up`,
-    :func:`shellrepair.cholesky.warm_up`) in a background thread, and return
-    at once: a command that reads a scan and then repairs it calls this
-    first, so that the loading (about a second of mostly Python work)
-    overlaps the reading, whose large steps run without the GIL. A fill
-    that starts before the loading ends waits for it, never loads twice.
-    Returns the thread, or None without the kernels."""
-    if not kernels.ENABLED:
-        return None
-    import threading
-
-    def load():
-        kernels.warm_up()
-        cholesky.warm_up()
-
-    t = threading.Thread(target=load, name="shellrepair-fill-kernels", daemon=True)
-    t.start()
-    return t
-
-
 class _Context:
     """Whole-mesh structures built once; per-hole work only reads them."""
 

@@ -1,6 +1,7 @@
-"""The command line starts loading the fill's compiled kernels while it
-reads the scan (:func:`shellrepair.patch.preload_kernels`): a repair that
-starts while they load waits for them, and gives the same mesh to the bit."""
+"""The command line starts loading the fill's modules and compiled kernels
+while it reads the scan (:func:`shellrepair.preload.preload_fill`): a
+repair that starts while they load waits for them, and gives the same mesh
+to the bit."""
 
 import subprocess
 import sys
@@ -17,12 +18,14 @@ ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = """
 import hashlib, sys
 from eval import shapes
-from shellrepair import cholesky, kernels, patch
+from shellrepair.preload import preload_fill
+
+preload = sys.argv[1] == "1"
+thread = preload_fill() if preload else None
+from shellrepair import cholesky, kernels
 from shellrepair.io import Mesh
 from shellrepair.repair import repair_mesh
 
-preload = sys.argv[1] == "1"
-thread = patch.preload_kernels() if preload else None
 V, F = shapes.bumpy_sphere(4, amplitude=0.03, frequency=5)
 V, F, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.15, seed=4)
 busy = thread is not None and thread.is_alive()
@@ -49,8 +52,12 @@ def test_a_repair_started_while_the_kernels_load_gives_the_same_mesh():
     assert with_preload[1:5] == ["3", "0", "True", "True"]
 
 
-def test_without_the_kernels_nothing_is_started(monkeypatch):
-    from shellrepair import patch
+def test_without_the_kernels_the_modules_still_load(monkeypatch):
+    from shellrepair import cholesky, preload
 
     monkeypatch.setattr(kernels, "ENABLED", False)
-    assert patch.preload_kernels() is None
+    warmed = []
+    monkeypatch.setattr(kernels, "warm_up", lambda: warmed.append("kernels"))
+    monkeypatch.setattr(cholesky, "warm_up", lambda: warmed.append("cholesky"))
+    preload.preload_fill().join()
+    assert warmed == []
