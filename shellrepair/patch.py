@@ -17,6 +17,7 @@ the orchestration in :mod:`~shellrepair.repair`.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -130,6 +131,11 @@ class _Context:
         self._index = None
         self._full_index = None
         self._region = None  # _Region near the boundary loops; False: none (whole-mesh structures)
+        # the region and the index are built once, by whichever thread asks
+        # first (the others wait); the whole-mesh lists may be on their way
+        # from another thread (a future, see whole_index)
+        self._build_lock = threading.RLock()
+        self._vf_future = None
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
         self.beside = None  # fill._Beside: a helper thread's work beside a batch's fills
 
@@ -145,7 +151,9 @@ class _Context:
     def vf(self):
         """Vertex-to-face lists ``(order, start)`` of the whole mesh, built once on first use."""
         if self._vf is None:
-            self._vf = (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n)
+            fut = self._vf_future
+            self._vf = (fut.result() if fut is not None
+                        else (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n))
         return self._vf
 
     @property
@@ -155,36 +163,53 @@ class _Context:
         whole-mesh :class:`~shellrepair.intersect.NearFaces`."""
         return self.build_index()
 
-    def build_index(self, threads=1):
-        """:attr:`index`, built on first use; with ``threads`` above one, a
-        whole-mesh index has its vertex-face lists built on a thread of
-        their own beside its grid (both compiled loops that run without
-        the GIL)."""
+    def build_index(self):
+        """:attr:`index`, built once, by the first thread to ask (the others wait)."""
         if self._index is None:
             reg = self.region()
-            self._index = _LocalIndex(self, reg) if reg is not None else self.whole_index(threads)
+            with self._build_lock:
+                if self._index is None:
+                    self._index = _LocalIndex(self, reg) if reg is not None else self.whole_index()
         return self._index
 
-    def whole_index(self, threads=1):
-        """The whole-mesh :class:`~shellrepair.intersect.NearFaces`, built once
-        (``threads``: as in :meth:`build_index`)."""
-        if self._full_index is None:
-            if threads > 1 and self._vf is None and kernels.ENABLED:
-                from concurrent.futures import ThreadPoolExecutor
+    def index_in_background(self, ex):
+        """Start building :attr:`index` on the executor ``ex`` (two workers
+        or more) and return its future once :attr:`vf` is arranged: the
+        whole-mesh vertex-face lists, where the index needs them, are built
+        on a worker of their own beside the index's grid. Meanwhile the
+        caller may use :attr:`vf` and :meth:`region` (waiting for the lists
+        only); :attr:`index` waits for the index."""
+        arranged = threading.Event()
 
-                with ThreadPoolExecutor(1) as ex:
-                    lists = ex.submit(lambda: self.vf)
-                    self._full_index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=lists.result,
+        def build():
+            try:
+                if self.region() is None and self._vf is None and self._vf_future is None and kernels.ENABLED:
+                    self._vf_future = ex.submit(kernels.vertex_faces, self.F, self.n)
+            finally:
+                arranged.set()
+            return self.build_index()
+
+        done = ex.submit(build)
+        arranged.wait()
+        return done
+
+    def whole_index(self):
+        """The whole-mesh :class:`~shellrepair.intersect.NearFaces`, built once
+        (its vertex-face lists are :attr:`vf`, asked for last)."""
+        if self._full_index is None:
+            with self._build_lock:
+                if self._full_index is None:
+                    self._full_index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=lambda: self.vf,
                                                  topo=self.topo)
-            else:
-                self._full_index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=self.vf, topo=self.topo)
         return self._full_index
 
     def region(self):
         """The :class:`_Region` around the boundary loops, or None (a mesh
         too small, too many loops, or no edge topology: whole-mesh lists)."""
         if self._region is None:
-            self._region = _build_region(self) or False
+            with self._build_lock:
+                if self._region is None:
+                    self._region = _build_region(self) or False
         return self._region or None
 
     def _local_lists(self, verts):

@@ -158,30 +158,34 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         topo = edge_topology(F, len(V))
     _progress(progress, 1, 2, "finding holes")
 
-    def context(index):
+    def context():
         c = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
         c.topo = topo
         c.base = base
-        if index:
-            c.build_index(threads=2)
         return c
 
     def detect():
         return detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, closed=closed, topo=topo,
                             pieces=known("pieces"), areas=known("face_areas"), measure=False)
 
+    index_built = None
     if jobs > 1:
-        # with cores to spare, the near-face index is built beside hole
-        # detection (both are NumPy work that mostly runs without the GIL)
+        # with cores to spare, the context (the kernels loaded) is made beside
+        # hole detection, then the near-face index is built beside the order
+        # test and the band search (compiled loops that release the GIL)
         from concurrent.futures import ThreadPoolExecutor
 
-        with ThreadPoolExecutor(1) as ex:
-            later = ex.submit(context, True)
+        ex = ThreadPoolExecutor(2)
+        try:
+            later = ex.submit(context)
             scan = detect()
             ctx = later.result()
+            index_built = ctx.index_in_background(ex)
+        finally:
+            ex.shutdown(wait=False)
     else:
         scan = detect()
-        ctx = context(False)
+        ctx = context()
     _progress(progress, 2, 2, "finding holes")
     splits = []
     if method == "fair":
@@ -203,6 +207,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     units += [pants_unit(A, B, C, fb, order, smooth, bridge) for A, B, C, fb in triples]
     units += [HoleUnit(h.id, h.vertices, order, smooth) for h in holes if h.id not in paired]
     units.sort(key=lambda u: u.first_id)
+    if index_built is not None:
+        index_built.result()   # the fills read it (and a failure to build it surfaces here)
     if method == "seed":
         patches = _seed_patches(ctx, holes, smooth or SEED_SMOOTH_PASSES, results)
         unit_out = [([Outcome(patches.get(h.id), results.get(h.id, ""), 0.0, [])], None) for h in holes]
@@ -215,7 +221,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         # a daemonic process (a worker of a multiprocessing pool) may not
         # start processes: its runs are filled here, with the helper thread
         if jobs > 1 and len(chunks) > 1 and not mp.current_process().daemon:
-            _ = ctx.index  # built before forking (above), so workers share it
+            _ = ctx.index  # built before forking, so workers share it
             _fill._WORKER_CTX = ctx
             with mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
                 for out in pool.imap(_worker, chunks, chunksize=1):

@@ -133,3 +133,43 @@ def test_a_repair_from_the_region_with_two_processes_equals_one(monkeypatch):
     monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
     (a, _), (b, _) = repair_mesh(Mesh(V=V, F=F)), repair_mesh(Mesh(V=V, F=F), jobs=2)
     assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V) and len(a.F) > len(F)
+
+
+def test_the_index_built_in_the_background_is_the_index_built_in_line(monkeypatch):
+    """repair_mesh with jobs > 1 builds the whole-mesh index on two workers
+    while the order test reads the vertex-face lists: those come from the
+    lists' own worker (once), and the index answers as one built in line."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    V, F = _holed(sub=5, n_holes=12, radius=0.08, seed=2)   # more loops than a region takes
+    line = _ctx(V, F)
+    calls = []
+    real = kernels.vertex_faces
+    monkeypatch.setattr(kernels, "vertex_faces", lambda *a: calls.append(1) or real(*a))
+    bg = _ctx(V, F)
+    with ThreadPoolExecutor(2) as ex:
+        done = bg.index_in_background(ex)
+        assert bg._vf_future is not None            # the lists are on their way
+        order, start = bg.vf                        # waits for them, builds nothing
+        index = done.result()
+    assert index is bg.index is bg.whole_index() and len(calls) == 1
+    want = line.index
+    assert np.array_equal(order, line.vf[0]) and np.array_equal(start, line.vf[1])
+    rng = np.random.default_rng(3)
+    for c in V[rng.integers(0, len(V), 20)]:
+        lo, hi = c - 0.05, c + 0.05
+        assert np.array_equal(index.faces_near(lo, hi), want.faces_near(lo, hi))
+
+
+def test_a_region_is_built_once_when_two_threads_ask(monkeypatch):
+    from concurrent.futures import ThreadPoolExecutor
+
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    V, F = _holed()
+    ctx = _ctx(V, F)
+    built = []
+    real = patch._build_region
+    monkeypatch.setattr(patch, "_build_region", lambda c: built.append(1) or real(c))
+    with ThreadPoolExecutor(2) as ex:
+        regs = list(ex.map(lambda _: ctx.region(), range(4)))
+    assert len(built) == 1 and all(r is regs[0] for r in regs) and regs[0] is not None
