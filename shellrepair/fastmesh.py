@@ -16,7 +16,9 @@ on first use only, and only for meshes of at least ``MIN_FACES`` faces
 (:func:`enabled`): loading them costs about half a second once per
 process, more than they save on a small mesh. :func:`warm_up` compiles
 them all (``make setup`` calls it), so that no user run waits on the
-compiler. Kernels release the GIL (``nogil``).
+compiler. Kernels release the GIL (``nogil``): from ``HALVES_MIN_ROWS``
+rows, with two cores or more, the edge topology, face areas and edge
+lengths run in two halves on two threads, with the same results.
 
 The environment variable ``SHELLREPAIR_NO_NUMBA=1`` turns them off.
 """
@@ -78,38 +80,35 @@ def _kernels():
         import numba
 
         jit = numba.njit(cache=True, nogil=True)
-        _K = SimpleNamespace(edge=jit(_edge_kernel), edge_ids=jit(_edge_ids_kernel), pieces=jit(_pieces_kernel),
+        _K = SimpleNamespace(edge_ids=jit(_edge_ids_kernel), pieces=jit(_pieces_kernel),
                              areas=jit(_areas_kernel), edge_sq=jit(_edge_sq_kernel), volumes=jit(_volumes_kernel),
-                             triple_hash=jit(_triple_hash_kernel), moments=jit(_moments_kernel))
+                             triple_hash=jit(_triple_hash_kernel), moments=jit(_moments_kernel),
+                             edge_count=jit(_edge_count_kernel), edge_scatter=jit(_edge_scatter_kernel),
+                             edge_bucket=jit(_edge_bucket_kernel), edge_list=jit(_edge_list_kernel),
+                             single=jit(_single_kernel))
     return _K
 
 
 # --------------------------------------------------------------------------
 # half-edge topology
 # --------------------------------------------------------------------------
-def _edge_kernel(F, n, shift):
-    m = F.shape[0]
-    m3 = 3 * m
-    low = (np.int64(1) << shift) - 1
-    # 1. half-edges per bucket of 2**shift lower vertices
-    nb = (n >> shift) + 1
-    bstart = np.zeros(nb + 1, np.int64)
-    for f in range(m):
+# the steps of edge_topology_arrays, each run on two halves (on two threads
+# for a large mesh): faces for steps 1-2, buckets (and their vertices) for 3-4
+def _edge_count_kernel(F, f0, f1, n, shift, bcount):
+    # step 1 over faces [f0, f1): half-edges per bucket (bcount[k + 1])
+    for f in range(f0, f1):
         for c in range(3):
             u = F[f, c]
             if u < 0 or u >= n:
                 raise ValueError("a face refers to a vertex outside [0, n_vertices)")
             v = F[f, c + 1] if c < 2 else F[f, 0]
-            bstart[((u if u < v else v) >> shift) + 1] += 1
-    for i in range(nb):
-        bstart[i + 1] += bstart[i]
-    # 2. into the buckets (few write streams: they stay in cache): the
-    #    higher vertex, the half-edge and its direction (1: from the higher
-    #    vertex) packed in one word, the lower vertex apart
-    key = np.empty(m3, np.int64)
-    lowv = np.empty(m3, np.int32)
-    bpos = bstart[:nb].copy()
-    for f in range(m):
+            bcount[((u if u < v else v) >> shift) + 1] += 1
+
+
+def _edge_scatter_kernel(F, f0, f1, shift, bpos, key, lowv):
+    # step 2 over faces [f0, f1), from each bucket's position bpos (advanced)
+    low = (np.int64(1) << shift) - 1
+    for f in range(f0, f1):
         for c in range(3):
             u = F[f, c]
             v = F[f, c + 1] if c < 2 else F[f, 0]
@@ -122,13 +121,14 @@ def _edge_kernel(F, n, shift):
             bpos[k] = p + 1
             key[p] = (b << _KEY_SHIFT) | ((3 * f + c) << 1) | (1 if u > v else 0)
             lowv[p] = a & low
-    # 3. each bucket by its lower vertex (a counting sort within the bucket),
-    #    then each vertex's entries by packed key: by higher vertex, then half-edge
-    slot = np.empty(m3, np.int64)
-    vstart = np.empty(n + 1, np.int64)
+
+
+def _edge_bucket_kernel(key, lowv, bstart, k0, k1, n, shift, slot, vstart):
+    # step 3 for buckets [k0, k1); returns their edges
+    low = (np.int64(1) << shift) - 1
     cnt = np.zeros((np.int64(1) << shift) + 1, np.int64)
     n_edges = 0
-    for k in range(nb):
+    for k in range(k0, k1):
         s0 = bstart[k]
         s1 = bstart[k + 1]
         a0 = k << shift
@@ -164,24 +164,26 @@ def _edge_kernel(F, n, shift):
                 if b != prev:
                     n_edges += 1
                     prev = b
-    vstart[n] = m3
-    # 4. edges, counts, whether an edge with two faces has both half-edges
-    #    one way; the slots become the half-edge ids
-    edges = np.empty((n_edges, 2), np.int64)
-    count = np.zeros(n_edges, np.int64)
+    return n_edges
+
+
+def _edge_list_kernel(slot, vstart, a0, a1, e0, edges, count):
+    # step 4 for vertices [a0, a1), their edges numbered from e0 (an edge's
+    # half-edges are all in its lower vertex's run); returns the edges with
+    # one face and whether every two-face edge has them opposite
     mask = (np.int64(1) << _HE_BITS) - 1
-    ei = -1
+    ei = e0 - 1
     n_single = 0
     consistent = True
     first_dir = 0
     same_dir = False
-    for a in range(n):
+    for a in range(a0, a1):
         prev = -1
         for i in range(vstart[a], vstart[a + 1]):
             b = slot[i] >> _KEY_SHIFT
             d = slot[i] & 1
             if b != prev:
-                if ei >= 0:
+                if ei >= e0:
                     if count[ei] == 1:
                         n_single += 1
                     elif count[ei] == 2 and same_dir:
@@ -195,21 +197,88 @@ def _edge_kernel(F, n, shift):
                 same_dir = d == first_dir
             count[ei] += 1
             slot[i] = (slot[i] >> 1) & mask
-    if ei >= 0:
+    if ei >= e0:
         if count[ei] == 1:
             n_single += 1
         elif count[ei] == 2 and same_dir:
             consistent = False
+    return n_single, consistent
+
+
+def _single_kernel(slot, count, n_single):
     single = np.empty(n_single, np.int64)
     j = 0
     i = 0
-    for e in range(n_edges):
+    for e in range(count.size):
         if count[e] == 1:
             single[j] = slot[i]
             j += 1
         i += count[e]
     single.sort()
-    return slot, edges, count, single, consistent
+    return single
+
+
+def _both(fn, a, b):
+    """``fn(*a)`` on a second thread and ``fn(*b)`` on this one; both results
+    (a kernel's exception is raised here)."""
+    box = {}
+
+    def run():
+        try:
+            box["r"] = fn(*a)
+        except BaseException as exc:   # raised again below, in the caller's thread
+            box["e"] = exc
+
+    t = threading.Thread(target=run, name="shellrepair-half")
+    t.start()
+    try:
+        rb = fn(*b)
+    finally:
+        t.join()
+    if "e" in box:
+        raise box["e"]
+    return box["r"], rb
+
+
+def _in_turn(fn, a, b):
+    """:func:`_both` on one thread: ``fn(*a)`` then ``fn(*b)``."""
+    return fn(*a), fn(*b)
+
+
+def _edge_topology_steps(F, n, shift, two=False):
+    """The half-edge topology's arrays (see :func:`edge_topology_arrays`) in
+    four steps, each in two halves: on two threads with ``two`` (the same
+    arrays either way)."""
+    run = _both if two else _in_turn
+    K = _kernels()
+    m = len(F)
+    m3 = 3 * m
+    nb = (n >> shift) + 1
+    h = m // 2
+    c0 = np.zeros(nb + 1, np.int64)
+    c1 = np.zeros(nb + 1, np.int64)
+    run(K.edge_count, (F, h, m, n, shift, c1), (F, 0, h, n, shift, c0))
+    bstart = np.cumsum(c0 + c1)
+    key = np.empty(m3, np.int64)
+    lowv = np.empty(m3, np.int32)
+    # the first half's half-edges first in each bucket, then the second's: as one pass files them
+    run(K.edge_scatter, (F, h, m, shift, bstart[:nb] + c0[1:], key, lowv),
+          (F, 0, h, shift, bstart[:nb].copy(), key, lowv))
+    del c0, c1
+    slot = np.empty(m3, np.int64)
+    vstart = np.empty(n + 1, np.int64)
+    kh = nb // 2
+    e_hi, e_lo = run(K.edge_bucket, (key, lowv, bstart, kh, nb, n, shift, slot, vstart),
+                       (key, lowv, bstart, 0, kh, n, shift, slot, vstart))
+    del key, lowv
+    vstart[n] = m3
+    edges = np.empty((e_lo + e_hi, 2), np.int64)
+    count = np.zeros(e_lo + e_hi, np.int64)
+    ah = min(kh << shift, n)
+    (s_hi, ok_hi), (s_lo, ok_lo) = run(K.edge_list, (slot, vstart, ah, n, e_lo, edges, count),
+                                         (slot, vstart, 0, ah, 0, edges, count))
+    single = K.single(slot, count, s_lo + s_hi)
+    return slot, edges, count, single, ok_lo and ok_hi
 
 
 def _edge_ids_kernel(he_order, edge_count):
@@ -256,14 +325,19 @@ def edge_topology_arrays(F, n):
     by bucket, by the lower vertex itself; each vertex's few entries are
     then sorted by ``(max(u, v), half-edge)`` packed in one 64-bit word
     (with the half-edge's direction in the lowest bit).
-    O(m) work, no global sort, no random access outside a bucket.
+    O(m) work, no global sort, no random access outside a bucket. From
+    ``HALVES_MIN_ROWS`` faces, with two cores, each step runs on two
+    threads: the faces in halves for the filing (the second half's entries
+    after the first's in each bucket, as one pass files them), the buckets
+    in halves for the sorting and the edge list (an edge's half-edges are
+    all under its lower vertex). The arrays are the same either way.
     """
     F = np.ascontiguousarray(F, np.int64)
     n = int(n)
     if n >= 2 ** (63 - _KEY_SHIFT) or 3 * len(F) >= 2 ** _HE_BITS:
         return None
     shift = max(1, min(_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
-    return _kernels().edge(F, n, shift)
+    return _edge_topology_steps(F, n, shift, two=len(F) >= HALVES_MIN_ROWS and (os.cpu_count() or 1) >= 2)
 
 
 def edge_ids(he_order, edge_count):
@@ -576,6 +650,7 @@ def warm_up():
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
     F = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
     order, edges, count, _, _ = edge_topology_arrays(F, 4)
+    _edge_topology_steps(F, 4, 1, two=True)
     edge_ids(order, count)
     face_pieces_labels(SimpleNamespace(he_order=order, edge_count=count), F, 2, manifold_only=True)
     face_areas(V, F)

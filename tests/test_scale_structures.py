@@ -438,3 +438,40 @@ def test_row_kernels_on_two_threads_give_the_same_values(monkeypatch):
     assert started == ["shellrepair-half"] * 2
     assert np.array_equal(one[0], two[0]) and np.array_equal(one[1], two[1])
     np.testing.assert_array_max_ulp(two[0], face_areas(V, F), maxulp=1)   # NumPy's, as above
+
+
+@pytest.mark.parametrize("shift", [1, 3, 12])
+def test_the_topology_on_two_threads_equals_it_on_one(shift):
+    """Faces in halves for the filing, buckets in halves for the sorting and
+    the edge list: the same arrays on two threads as on one, on every mesh
+    kind (shift 1 and 3: many small buckets, so the halves fall between
+    vertex runs the steps must keep whole), and NumPy's edges and counts."""
+    pytest.importorskip("numba")
+    from shellrepair import fastmesh
+    from shellrepair.topology import _edge_topology_numpy
+
+    for name, V, F in _kernel_meshes():
+        F = np.ascontiguousarray(F, np.int64)
+        two = fastmesh._edge_topology_steps(F, len(V), shift, two=True)
+        turn = fastmesh._edge_topology_steps(F, len(V), shift)
+        assert all(np.array_equal(a, b) for a, b in zip(turn[:4], two[:4])) and turn[4] == two[4], name
+        order, _, edges, count, boundary = _edge_topology_numpy(F, len(V))
+        assert np.array_equal(two[0], order) and np.array_equal(two[1], edges), name
+        assert np.array_equal(two[2], count) and np.array_equal(two[3], boundary), name
+    with pytest.raises(ValueError, match="outside"):
+        fastmesh._edge_topology_steps(np.array([[0, 1, 2], [0, 1, 5]], np.int64), 4, 1, two=True)
+
+
+def test_a_large_mesh_takes_the_two_thread_topology(monkeypatch):
+    pytest.importorskip("numba")
+    from shellrepair import fastmesh
+
+    V, F = shapes.icosphere(3)
+    calls = []
+    real = fastmesh._both
+    monkeypatch.setattr(fastmesh, "_both", lambda *a: calls.append(1) or real(*a))
+    monkeypatch.setattr(fastmesh.os, "cpu_count", lambda: 2)
+    small = fastmesh.edge_topology_arrays(F, len(V))
+    monkeypatch.setattr(fastmesh, "HALVES_MIN_ROWS", 10)
+    large = fastmesh.edge_topology_arrays(F, len(V))
+    assert calls == [1] * 4 and all(np.array_equal(a, b) for a, b in zip(small[:4], large[:4]))
