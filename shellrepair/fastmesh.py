@@ -263,20 +263,20 @@ def _edge_topology_steps(F, n, shift, two=False):
     lowv = np.empty(m3, np.int32)
     # the first half's half-edges first in each bucket, then the second's: as one pass files them
     run(K.edge_scatter, (F, h, m, shift, bstart[:nb] + c0[1:], key, lowv),
-          (F, 0, h, shift, bstart[:nb].copy(), key, lowv))
+        (F, 0, h, shift, bstart[:nb].copy(), key, lowv))
     del c0, c1
     slot = np.empty(m3, np.int64)
     vstart = np.empty(n + 1, np.int64)
     kh = nb // 2
     e_hi, e_lo = run(K.edge_bucket, (key, lowv, bstart, kh, nb, n, shift, slot, vstart),
-                       (key, lowv, bstart, 0, kh, n, shift, slot, vstart))
+                     (key, lowv, bstart, 0, kh, n, shift, slot, vstart))
     del key, lowv
     vstart[n] = m3
     edges = np.empty((e_lo + e_hi, 2), np.int64)
     count = np.zeros(e_lo + e_hi, np.int64)
     ah = min(kh << shift, n)
     (s_hi, ok_hi), (s_lo, ok_lo) = run(K.edge_list, (slot, vstart, ah, n, e_lo, edges, count),
-                                         (slot, vstart, 0, ah, 0, edges, count))
+                                       (slot, vstart, 0, ah, 0, edges, count))
     single = K.single(slot, count, s_lo + s_hi)
     return slot, edges, count, single, ok_lo and ok_hi
 
