@@ -34,6 +34,8 @@ import glob
 import os
 import threading
 
+from .counted import CountedSetting
+
 __all__ = ["one_thread", "one_thread_everywhere", "setters"]
 
 _SETTERS = None
@@ -114,27 +116,21 @@ def _global_setters():
         return _GLOBALS
 
 
-_EVERYWHERE = [0, []]    # blocks open (any thread), the counts before the first
-
-
-@contextlib.contextmanager
-def one_thread_everywhere():
-    """Within the block, every thread's BLAS calls run on the calling
-    thread alone (the libraries' global counts, put back when the last
-    open block ends, in whatever thread; other threads of the process see
-    the change while a block is open)."""
+def _global_counts_to_one():
     gs = _global_setters()
-    with _LOCK:
-        if _EVERYWHERE[0] == 0:
-            _EVERYWHERE[1] = [get() for get, _ in gs]
-            for _, put in gs:
-                put(1)
-        _EVERYWHERE[0] += 1
-    try:
-        yield
-    finally:
-        with _LOCK:
-            _EVERYWHERE[0] -= 1
-            if _EVERYWHERE[0] == 0:
-                for (_, put), b in zip(gs, _EVERYWHERE[1]):
-                    put(b)
+    before = [get() for get, _ in gs]
+    for _, put in gs:
+        put(1)
+    return before
+
+
+def _global_counts_back(before):
+    for (_, put), b in zip(_global_setters(), before):
+        put(b)
+
+
+#: Within a block ``with one_thread_everywhere():``, every thread's BLAS
+#: calls run on the calling thread alone: the libraries' global counts set
+#: to one, put back when the last open block ends, in whatever thread
+#: (other threads of the process see the change while a block is open).
+one_thread_everywhere = CountedSetting(_global_counts_to_one, _global_counts_back)

@@ -337,7 +337,7 @@ def edge_topology_arrays(F, n):
     if n >= 2 ** (63 - _KEY_SHIFT) or 3 * len(F) >= 2 ** _HE_BITS:
         return None
     shift = max(1, min(_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
-    return _edge_topology_steps(F, n, shift, two=len(F) >= HALVES_MIN_ROWS and (os.cpu_count() or 1) >= 2)
+    return _edge_topology_steps(F, n, shift, two=_two_threads(len(F)))
 
 
 def edge_ids(he_order, edge_count):
@@ -459,22 +459,22 @@ def _areas_kernel(V, F, out):
 HALVES_MIN_ROWS = 1_000_000
 
 
+def _two_threads(rows):
+    """Whether a step over ``rows`` rows runs in halves on two threads:
+    from ``HALVES_MIN_ROWS`` rows, with two cores or more."""
+    return rows >= HALVES_MIN_ROWS and (os.cpu_count() or 1) >= 2
+
+
 def _in_halves(kernel, V, R, out):
     """``kernel(V, R, out)`` for a kernel whose output row i depends only on
-    row i of ``R``: from ``HALVES_MIN_ROWS`` rows and with two cores or
-    more, the two halves of the rows on two threads (the kernels release
-    the GIL); the same values either way."""
-    n = len(R)
-    if n < HALVES_MIN_ROWS or (os.cpu_count() or 1) < 2:
+    row i of ``R``: where :func:`_two_threads`, the two halves of the rows
+    on two threads (the kernels release the GIL); the same values either
+    way."""
+    if not _two_threads(len(R)):
         kernel(V, R, out)
         return
-    h = n // 2
-    t = threading.Thread(target=kernel, args=(V, R[h:], out[h:]), name="shellrepair-half")
-    t.start()
-    try:
-        kernel(V, R[:h], out[:h])
-    finally:
-        t.join()
+    h = len(R) // 2
+    _both(kernel, (V, R[h:], out[h:]), (V, R[:h], out[:h]))
 
 
 def face_areas(V, F):

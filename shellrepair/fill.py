@@ -27,6 +27,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import kernels
+from .counted import CountedSetting
 from .fair import umbrella_smooth
 from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
 
@@ -1057,27 +1058,16 @@ def _helper_context(ctx):
 #: took 1.44x its time alone at Python's default of 5 ms and 1.03x at
 #: 0.2 ms; its energy's assembly 1.76x and 1.19x.
 SWITCH_SECONDS = 2e-4
-_SWITCH = [0, None]      # helper threads running (any fill), the interval before the first
-_SWITCH_LOCK = threading.Lock()
+def _short_interval():
+    before = sys.getswitchinterval()
+    sys.setswitchinterval(min(before, SWITCH_SECONDS))
+    return before
 
 
-@contextlib.contextmanager
-def _short_switch_interval():
-    """Within the block, the interpreter's switch interval at most
-    ``SWITCH_SECONDS``; put back when the last open block ends (the helpers
-    of overlapping fills, in any thread)."""
-    with _SWITCH_LOCK:
-        if _SWITCH[0] == 0:
-            _SWITCH[1] = sys.getswitchinterval()
-            sys.setswitchinterval(min(_SWITCH[1], SWITCH_SECONDS))
-        _SWITCH[0] += 1
-    try:
-        yield
-    finally:
-        with _SWITCH_LOCK:
-            _SWITCH[0] -= 1
-            if _SWITCH[0] == 0:
-                sys.setswitchinterval(_SWITCH[1])
+#: Within a block ``with _short_switch_interval():``, the interpreter's
+#: switch interval at most ``SWITCH_SECONDS``; put back when the last open
+#: block ends (the helpers of overlapping fills, in any thread).
+_short_switch_interval = CountedSetting(_short_interval, sys.setswitchinterval)
 
 
 class HelperThread:
