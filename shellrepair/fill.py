@@ -1176,13 +1176,18 @@ class _Beside:
         self.helper = _helper_context(ctx)
         self.tests = {}        # hole id -> (loop, future of its OrderTest)
         self.o3 = {}           # hole id -> (refined T, future of its order-3 Patch, None or _Failed)
-        self.place = {}        # hole id -> its place in the run: a hole's test, then its order-3
-        for i, u in enumerate(chunk):   # patch, before the next hole's test
-            if isinstance(u, HoleUnit) and u.order == "auto":
-                loop = np.asarray(u.loop, np.int64)
-                self.place[u.hole_id] = i
-                self.tests[u.hole_id] = (loop, pool.submit((i, 0), self._on_helper, choose_order, self.helper,
-                                                           u.hole_id, loop))
+        self.place = {}        # hole id -> its place in the helper's queue: a hole's test, then its
+        # order-3 patch, before the next hole's test; the largest rims first
+        # (their tests and order-3 patches are the longest work: the fill's
+        # thread runs the small holes' tests itself when it reaches them,
+        # :meth:`take_test`, instead of waiting at the end for a large one)
+        auto = [(i, u) for i, u in enumerate(chunk) if isinstance(u, HoleUnit) and u.order == "auto"]
+        for rank, (i, u) in enumerate(sorted(auto, key=lambda iu: (-len(iu[1].loop), iu[0]))):
+            self.place[u.hole_id] = rank
+        for i, u in auto:
+            loop = np.asarray(u.loop, np.int64)
+            self.tests[u.hole_id] = (loop, pool.submit((self.place[u.hole_id], 0), self._on_helper, choose_order,
+                                                       self.helper, u.hole_id, loop))
 
     def _on_helper(self, f, *args):
         from .blas import one_thread

@@ -2389,7 +2389,10 @@ def _energy_rows(ptr, col, val, D, order, unk, pos, is_fixed):
     m1, m2, m3 = np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64)
     l1, l2, l3 = np.empty(n + 1, np.int64), np.empty(n + 1, np.int64), np.empty(n + 1, np.int64)
     srt = np.empty(n, np.int64)
-    cap_u = max(16 * nu, 16)
+    # a row of Q reads ``order`` rings: 7, 19, 37 columns around a vertex of
+    # valence six (1 + 3 order (order + 1)); room for a few more, so that an
+    # order-3 system is not copied to larger arrays twice on the way
+    cap_u = max((4 + 3 * order * (order + 1)) * nu, 16)
     cap_f = max(4 * nu, 16)
     u_ptr = np.zeros(nu + 1, np.int64)
     u_col = np.empty(cap_u, np.int64)

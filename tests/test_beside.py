@@ -102,6 +102,32 @@ def test_work_the_helper_has_not_begun_is_done_by_the_fill(smooth_holes, monkeyp
     assert _same(one, two) and rep["holes_after"] == 0
 
 
+def test_the_helper_takes_the_largest_holes_first(monkeypatch):
+    """The helper's queue holds each hole's band test, then its order-3
+    patch, the longest rims first (ties in hole order): the fill's thread
+    runs the small holes' tests it reaches first, instead of waiting at the
+    end for a large hole the helper began late."""
+    from concurrent.futures import Future
+
+    class Queue:                      # records what is submitted, runs nothing
+        def __init__(self):
+            self.keys = []
+
+        def submit(self, key, f, *args):
+            self.keys.append((key, args[2]))       # (key, hole id)
+            return Future()
+
+    monkeypatch.setattr(fill, "_helper_context", lambda ctx: ctx)
+    rims = {0: 12, 1: 300, 2: 40, 3: 300, 4: 9, 5: 41}          # hole id -> rim edges, not in size order
+    chunk = [fill.HoleUnit(h, np.arange(k), "auto", None) for h, k in rims.items()]
+    chunk.insert(2, fill.HoleUnit(9, np.arange(500), 2, None))   # a fixed order: no test, no place
+    pool = Queue()
+    beside = fill._Beside(object(), chunk, pool)
+    assert sorted(beside.place, key=beside.place.get) == [1, 3, 5, 2, 0, 4]
+    assert sorted(pool.keys) == [((0, 0), 1), ((1, 0), 3), ((2, 0), 5), ((3, 0), 2), ((4, 0), 0), ((5, 0), 4)]
+    assert list(beside.tests) == [0, 1, 2, 3, 4, 5]             # the fill steals tests in hole order
+
+
 def _repair_in_a_daemon(mesh, queue):
     from shellrepair import repair_mesh as repair
 
