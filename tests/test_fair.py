@@ -370,6 +370,45 @@ def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
     assert np.array_equal(G[both], ((Td + Td.T) * 0.5)[both]) and np.array_equal(G[~both], Td[~both])
 
 
+def _wheel(spokes=40, rings=4):
+    """A disc of ``rings`` rings of ``spokes`` vertices around one centre of
+    valence ``spokes``, gently domed: rows of the energy longer than 64."""
+    r = np.repeat(np.arange(1, rings + 1), spokes) / rings
+    t = np.tile(np.arange(spokes), rings) * 2 * np.pi / spokes + 0.3 * np.repeat(np.arange(rings), spokes)
+    X = np.vstack([[0.0, 0.0, 0.3], np.column_stack([r * np.cos(t), r * np.sin(t), 0.3 * (1 - r * r)])])
+    F = [[0, 1 + i, 1 + (i + 1) % spokes] for i in range(spokes)]
+    for k in range(rings - 1):
+        a, b = 1 + k * spokes, 1 + (k + 1) * spokes
+        for i in range(spokes):
+            j = (i + 1) % spokes
+            F += [[a + i, b + i, b + j], [a + i, b + j, a + j]]
+    return X, np.array(F, np.int64)
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.parametrize("order", [2, 3])
+def test_the_energy_blocks_of_a_high_valence_vertex_equal_scipys_products(order):
+    """Rows of more than 64 columns (a valence-40 centre) are sorted another
+    way than short ones: the same blocks."""
+    from shellrepair.intrinsic import intrinsic_laplacian
+
+    X, F = _wheel()
+    n = len(X)
+    K, M = intrinsic_laplacian(X, F)
+    Minv = 1.0 / M
+    fixed = np.arange(n - 40, n)                                    # the outer ring
+    unknown = np.arange(n - 40)
+    (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(K.indptr, K.indices, K.data, Minv, order, unknown, fixed)
+    assert np.diff(up).max() > 64                                   # the long rows are there
+    Q = fair._energy(K, Minv, order)
+    scale = abs(Q).max()
+    Quu = sp.csr_matrix((uv, uc, up), shape=(unknown.size, unknown.size))
+    Quf = sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size))
+    assert abs(Quu - Q[unknown][:, unknown]).max() <= BLOCKS_TOLERANCE * scale
+    assert abs(Quf - Q[unknown][:, fixed]).max() <= BLOCKS_TOLERANCE * scale
+    assert all(np.all(np.diff(uc[up[i]:up[i + 1]]) > 0) for i in range(unknown.size))   # sorted rows
+
+
 @pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
