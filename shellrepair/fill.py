@@ -1152,7 +1152,7 @@ class _Beside:
     ``order="auto"`` holes (:func:`_run_chunk` with a ``pool``):
 
     * each hole's band test (:func:`~shellrepair.selftest.choose_order`),
-      all started at once, in hole order;
+      all queued at once, the longest rims first (ties in hole order);
     * each hole's order-3 patch, started by :func:`_first_attempts` as soon
       as the hole's first triangulation is refined (:meth:`start_o3`),
       built only where the hole's test asks for order 3. :func:`_fill_one`

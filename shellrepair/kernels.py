@@ -2386,9 +2386,10 @@ def _energy_rows(ptr, col, val, D, order, unk, pos, is_fixed):
     n = ptr.size - 1
     nu = unk.size
     acc1, acc2, acc3 = np.zeros(n), np.zeros(n), np.zeros(n)
-    # marks of one byte and column lists of four: with the three
-    # accumulators they stay within a core's L2 on a ~13k-vertex submesh
-    # (order 3, 11,847 unknowns: 27 -> 24 ms)
+    # marks of one byte and column lists of four (a fairing submesh has far
+    # fewer than 2^31 vertices): with the three accumulators they stay
+    # within a core's L2 on a ~13k-vertex submesh (order 3, 11,847
+    # unknowns: 27 -> 24 ms)
     m1, m2, m3 = np.zeros(n, np.uint8), np.zeros(n, np.uint8), np.zeros(n, np.uint8)
     l1, l2, l3 = np.empty(n + 1, np.int32), np.empty(n + 1, np.int32), np.empty(n + 1, np.int32)
     srt = np.empty(n, np.int64)
