@@ -163,14 +163,25 @@ class _Context:
         whole-mesh :class:`~shellrepair.intersect.NearFaces`."""
         return self.build_index()
 
+    def _once(self, name, build):
+        """The attribute ``name``, set to ``build()`` by the first thread
+        to find it None (the others wait for it, under ``_build_lock``)."""
+        got = getattr(self, name)
+        if got is None:
+            with self._build_lock:
+                got = getattr(self, name)
+                if got is None:
+                    got = build()
+                    setattr(self, name, got)
+        return got
+
     def build_index(self):
         """:attr:`index`, built once, by the first thread to ask (the others wait)."""
-        if self._index is None:
+        def build():
             reg = self.region()
-            with self._build_lock:
-                if self._index is None:
-                    self._index = _LocalIndex(self, reg) if reg is not None else self.whole_index()
-        return self._index
+            return _LocalIndex(self, reg) if reg is not None else self.whole_index()
+
+        return self._once("_index", build)
 
     def index_in_background(self, ex):
         """Start building :attr:`index` on the executor ``ex`` (two workers
@@ -196,21 +207,13 @@ class _Context:
     def whole_index(self):
         """The whole-mesh :class:`~shellrepair.intersect.NearFaces`, built once
         (its vertex-face lists are :attr:`vf`, asked for last)."""
-        if self._full_index is None:
-            with self._build_lock:
-                if self._full_index is None:
-                    self._full_index = NearFaces(self.V, self.F, origin=self.V.mean(axis=0), vf=lambda: self.vf,
-                                                 topo=self.topo)
-        return self._full_index
+        return self._once("_full_index", lambda: NearFaces(self.V, self.F, origin=self.V.mean(axis=0),
+                                                            vf=lambda: self.vf, topo=self.topo))
 
     def region(self):
         """The :class:`_Region` around the boundary loops, or None (a mesh
         too small, too many loops, or no edge topology: whole-mesh lists)."""
-        if self._region is None:
-            with self._build_lock:
-                if self._region is None:
-                    self._region = _build_region(self) or False
-        return self._region or None
+        return self._once("_region", lambda: _build_region(self) or False) or None
 
     def _local_lists(self, verts):
         """The region's vertex-face lists when they are complete at every
