@@ -1182,9 +1182,9 @@ class _Beside:
         # thread runs the small holes' tests itself when it reaches them,
         # :meth:`take_test`, instead of waiting at the end for a large one)
         auto = [(i, u) for i, u in enumerate(chunk) if isinstance(u, HoleUnit) and u.order == "auto"]
-        for rank, (i, u) in enumerate(sorted(auto, key=lambda iu: (-len(iu[1].loop), iu[0]))):
-            self.place[u.hole_id] = rank
-        for i, u in auto:
+        ranked = sorted(auto, key=lambda iu: (-len(iu[1].loop), iu[0]))
+        self.place.update((u.hole_id, rank) for rank, (_, u) in enumerate(ranked))
+        for _, u in auto:
             loop = np.asarray(u.loop, np.int64)
             self.tests[u.hole_id] = (loop, pool.submit((self.place[u.hole_id], 0), self._on_helper, choose_order,
                                                        self.helper, u.hole_id, loop))
