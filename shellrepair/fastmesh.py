@@ -123,10 +123,17 @@ def _edge_scatter_kernel(F, f0, f1, shift, bpos, key, lowv):
             lowv[p] = a & low
 
 
-def _edge_bucket_kernel(key, lowv, bstart, k0, k1, n, shift, slot, vstart):
-    # step 3 for buckets [k0, k1); returns their edges
+def _edge_bucket_kernel(key, lowv, bstart, k0, k1, n, shift, vstart):
+    # step 3 for buckets [k0, k1), in place: each bucket's entries of key
+    # filed by lower vertex within the bucket's own range (through a copy
+    # of the bucket, in cache); returns their edges
     low = (np.int64(1) << shift) - 1
     cnt = np.zeros((np.int64(1) << shift) + 1, np.int64)
+    big = 0
+    for k in range(k0, k1):
+        big = max(big, bstart[k + 1] - bstart[k])
+    tmp = np.empty(big, np.int64)
+    slot = key
     n_edges = 0
     for k in range(k0, k1):
         s0 = bstart[k]
@@ -142,8 +149,10 @@ def _edge_bucket_kernel(key, lowv, bstart, k0, k1, n, shift, slot, vstart):
         for j in range(na):
             vstart[a0 + j] = cnt[j]
         for i in range(s0, s1):
+            tmp[i - s0] = key[i]
+        for i in range(s0, s1):
             j = lowv[i]
-            slot[cnt[j]] = key[i]
+            slot[cnt[j]] = tmp[i - s0]
             cnt[j] += 1
         for j in range(na):
             s = vstart[a0 + j]
@@ -265,11 +274,12 @@ def _edge_topology_steps(F, n, shift, two=False):
     run(K.edge_scatter, (F, h, m, shift, bstart[:nb] + c0[1:], key, lowv),
         (F, 0, h, shift, bstart[:nb].copy(), key, lowv))
     del c0, c1
-    slot = np.empty(m3, np.int64)
     vstart = np.empty(n + 1, np.int64)
     kh = nb // 2
-    e_hi, e_lo = run(K.edge_bucket, (key, lowv, bstart, kh, nb, n, shift, slot, vstart),
-                     (key, lowv, bstart, 0, kh, n, shift, slot, vstart))
+    # the buckets sorted in place: key becomes the slots (each bucket keeps its range)
+    e_hi, e_lo = run(K.edge_bucket, (key, lowv, bstart, kh, nb, n, shift, vstart),
+                     (key, lowv, bstart, 0, kh, n, shift, vstart))
+    slot = key
     del key, lowv
     vstart[n] = m3
     edges = np.empty((e_lo + e_hi, 2), np.int64)

@@ -136,6 +136,7 @@ class _Context:
         # from another thread (a future, see whole_index)
         self._build_lock = threading.RLock()
         self._vf_future = None
+        self._region_future = None   # the region on its way from another thread (take_region)
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
         self.beside = None  # fill._Beside: a helper thread's work beside a batch's fills
 
@@ -213,7 +214,21 @@ class _Context:
     def region(self):
         """The :class:`_Region` around the boundary loops, or None (a mesh
         too small, too many loops, or no edge topology: whole-mesh lists)."""
-        return self._once("_region", lambda: _build_region(self) or False) or None
+        def build():
+            fut = self._region_future
+            return (fut.result() if fut is not None else _build_region(self)) or False
+
+        return self._once("_region", build) or None
+
+    def take_region(self, future, V, F, topo):
+        """Use the region a ``future`` is building (:func:`region_of` of
+        ``V``, ``F``, ``topo``, started before this context was made) when
+        those are this context's arrays and topology, the very objects: the
+        region :meth:`region` would build. Returns whether it was taken."""
+        ok = future is not None and V is self.V and F is self.F and topo is self.topo and self._region is None
+        if ok:
+            self._region_future = future
+        return ok
 
     def _local_lists(self, verts):
         """The region's vertex-face lists when they are complete at every
@@ -334,20 +349,31 @@ class _Region:
 
 def _build_region(ctx):
     """:class:`_Region` around the boundary loops of ``ctx.topo``, or None."""
-    if not kernels.ENABLED or ctx.topo is None or len(ctx.F) < LOCAL_MIN_FACES:
+    return region_of(ctx.V, ctx.F, ctx.topo)
+
+
+def region_of(V, F, topo):
+    """:class:`_Region` around the boundary loops of ``topo`` (the edge
+    topology of ``F``), or None (a mesh too small, too many loops, no
+    topology or no kernels: the whole-mesh lists serve instead).
+
+    A :class:`_Context` over the same ``V``, ``F`` and ``topo`` builds this
+    region; :meth:`_Context.take_region` accepts one built beforehand.
+    """
+    if not kernels.ENABLED or topo is None or len(F) < LOCAL_MIN_FACES:
         return None
-    bh = ctx.topo.boundary_he
+    bh = topo.boundary_he
     if bh.size == 0 or bh.size > LOCAL_MAX_EDGES:
         return None
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    E = ctx.topo.ends(bh)
+    E = topo.ends(bh)
     vs, inv = np.unique(E, return_inverse=True)
     inv = inv.reshape(-1, 2)
     nc, lab = connected_components(coo_matrix((np.ones(len(E)), (inv[:, 0], inv[:, 1])), shape=(len(vs), len(vs))),
                                    directed=False)
-    P = ctx.V[vs]
+    P = V[vs]
     if nc > LOCAL_MAX_LOOPS or not np.isfinite(P).all():
         return None
     lo = np.full((nc, 3), np.inf)
@@ -359,8 +385,8 @@ def _build_region(ctx):
     g = LOCAL_GROW * np.linalg.norm(hi - lo, axis=1) + LOCAL_RING_EDGES * longest
     lo -= g[:, None]
     hi += g[:, None]
-    found = kernels.faces_in_boxes(ctx.V, ctx.F, lo, hi)
-    return _Region(ctx.F, ctx.n, lo, hi, found) if found[0].size <= LOCAL_MAX_SHARE * len(ctx.F) else None
+    found = kernels.faces_in_boxes(V, F, lo, hi)
+    return _Region(F, len(V), lo, hi, found) if found[0].size <= LOCAL_MAX_SHARE * len(F) else None
 
 
 class _LocalIndex:

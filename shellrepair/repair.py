@@ -137,55 +137,70 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     mesh = as_mesh(mesh)  # a (V, F) pair, an open3d or trimesh mesh, or a path
     t0 = time.perf_counter()
     _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
-    known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh
-    topo = known("topology")
-    if not getattr(mesh, "fixes", None):
-        # not prepared by read_mesh: the same topology by position, made manifold (not re-oriented)
-        if topo is None:
-            topo = edge_topology(np.asarray(mesh.F, np.int64), len(mesh.V))
-        mesh = manifold_mesh(_as_mesh(mesh), orient=False, topo=topo)
-        known = mesh.cached
-        topo = known("topology")
-    V = np.asarray(mesh.V, np.float64)
-    F = np.asarray(mesh.F, np.int64)
-    # a vertex no face uses may be NaN or infinite (read_mesh keeps it, noted): the
-    # whole-mesh work sees a finite stand-in, the output gets the vertex back as it was
-    stand_in = np.zeros(len(V), bool) if np.isfinite(V).all() else ~np.isfinite(V).all(axis=1)
-    if stand_in.any():
-        V = V.copy()
-        V[stand_in] = V[F[0, 0]]
-    if topo is None:
-        topo = edge_topology(F, len(V))
-    _progress(progress, 1, 2, "finding holes")
-
-    def context():
-        c = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
-        c.topo = topo
-        c.base = base
-        return c
-
-    def detect():
-        return detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, closed=closed, topo=topo,
-                            pieces=known("pieces"), areas=known("face_areas"), measure=False)
-
     index_built = None
+    ex = None
     if jobs > 1:
-        # with cores to spare, the context (the kernels loaded) is made beside
-        # hole detection, then the near-face index is built beside the order
-        # test and the band search (compiled loops that release the GIL)
+        # with cores to spare: the region the crossing checks read is built
+        # beside making the mesh manifold and detecting holes, the context
+        # (the kernels loaded) beside the detection, then the near-face
+        # index beside the order test and the band search (compiled loops
+        # that release the GIL)
         from concurrent.futures import ThreadPoolExecutor
 
         ex = ThreadPoolExecutor(2)
-        try:
+    try:
+        known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh
+        topo = known("topology")
+        early = None    # (V, F, topology, the future of their region): started before the mesh is final
+        if not getattr(mesh, "fixes", None):
+            # not prepared by read_mesh: the same topology by position, made manifold (not re-oriented)
+            F0 = np.asarray(mesh.F, np.int64)
+            if topo is None:
+                topo = edge_topology(F0, len(mesh.V))
+            early = _early_region(ex, mesh.V, F0, topo)
+            mesh = manifold_mesh(_as_mesh(mesh), orient=False, topo=topo)
+            known = mesh.cached
+            topo = known("topology")
+        V = np.asarray(mesh.V, np.float64)
+        F = np.asarray(mesh.F, np.int64)
+        # a vertex no face uses may be NaN or infinite (read_mesh keeps it, noted): the
+        # whole-mesh work sees a finite stand-in, the output gets the vertex back as it was
+        stand_in = np.zeros(len(V), bool) if np.isfinite(V).all() else ~np.isfinite(V).all(axis=1)
+        if stand_in.any():
+            V = V.copy()
+            V[stand_in] = V[F[0, 0]]
+        if topo is None:
+            topo = edge_topology(F, len(V))
+        if early is not None and (early[0] is not V or early[1] is not F or early[2] is not topo):
+            early[3].cancel()   # the mesh changed on its way (made manifold): its region is built as usual
+            early = None
+        elif early is None:
+            early = _early_region(ex, V, F, topo)       # (read_mesh's mesh: final already)
+        _progress(progress, 1, 2, "finding holes")
+
+        def context():
+            c = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
+            c.topo = topo
+            c.base = base
+            if early is not None:
+                c.take_region(early[3], *early[:3])
+            return c
+
+        def detect():
+            return detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, closed=closed, topo=topo,
+                                pieces=known("pieces"), areas=known("face_areas"), measure=False)
+
+        if ex is not None:
             later = ex.submit(context)
             scan = detect()
             ctx = later.result()
             index_built = ctx.index_in_background(ex)
-        finally:
+        else:
+            scan = detect()
+            ctx = context()
+    finally:
+        if ex is not None:
             ex.shutdown(wait=False)
-    else:
-        scan = detect()
-        ctx = context()
     _progress(progress, 2, 2, "finding holes")
     splits = []
     if method == "fair":
@@ -407,6 +422,19 @@ def _progress(report, i, n, label="filling holes"):
     """Report ``i`` of ``n`` to the progress callback ``report`` (None: nothing)."""
     if report is not None:
         report(label, i, n)
+
+
+def _early_region(ex, V, F, topo):
+    """``(V, F, topo, future)``: the region around the boundary loops of
+    ``topo`` (:func:`shellrepair.patch.region_of`) started on the executor
+    ``ex``, for the context that will hold these very arrays
+    (:meth:`shellrepair.patch._Context.take_region`); None without an
+    executor, or when ``V`` is not float64 (the context's would be a copy)."""
+    if ex is None or topo is None or not isinstance(V, np.ndarray) or V.dtype != np.float64:
+        return None
+    from . import patch
+
+    return V, F, topo, ex.submit(patch.region_of, V, F, topo)
 
 
 def _as_mesh(mesh):

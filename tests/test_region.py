@@ -102,13 +102,13 @@ def test_a_repair_from_the_region_equals_the_whole_mesh_repair(grow, rings, monk
 
     V, F = _holed(n_holes=4, radius=0.1, seed=3)
     out = {}
-    real = patch._build_region
+    real = patch.region_of
     for local in (False, True):
         monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0 if local else 10 ** 12)
         monkeypatch.setattr(patch, "LOCAL_GROW", grow)
         monkeypatch.setattr(patch, "LOCAL_RING_EDGES", rings)
         built = []
-        monkeypatch.setattr(patch, "_build_region", lambda ctx: built.append(real(ctx)) or built[-1])
+        monkeypatch.setattr(patch, "region_of", lambda V, F, topo: built.append(real(V, F, topo)) or built[-1])
         out[local] = repair_mesh(Mesh(V=V, F=F))
         assert (built[0] is not None) == local
     (a, ra), (b, rb) = out[False], out[True]
@@ -168,8 +168,69 @@ def test_a_region_is_built_once_when_two_threads_ask(monkeypatch):
     V, F = _holed()
     ctx = _ctx(V, F)
     built = []
-    real = patch._build_region
-    monkeypatch.setattr(patch, "_build_region", lambda c: built.append(1) or real(c))
+    real = patch.region_of
+    monkeypatch.setattr(patch, "region_of", lambda V, F, topo: built.append(1) or real(V, F, topo))
     with ThreadPoolExecutor(2) as ex:
         regs = list(ex.map(lambda _: ctx.region(), range(4)))
     assert len(built) == 1 and all(r is regs[0] for r in regs) and regs[0] is not None
+
+
+def test_a_region_started_early_is_taken_only_for_the_contexts_own_arrays(monkeypatch):
+    """take_region accepts a region on its way only for the very arrays and
+    topology the context holds; region() then returns it."""
+    from concurrent.futures import Future
+
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    V, F = _holed()
+    ctx = _ctx(V, F)
+    fut = Future()
+    fut.set_result(patch.region_of(V, F, ctx.topo))
+    assert not ctx.take_region(fut, V.copy(), F, ctx.topo)                  # equal, not the same array
+    assert not ctx.take_region(fut, V, F.copy(), ctx.topo)
+    assert not ctx.take_region(fut, V, F, edge_topology(F, len(V)))          # another topology object
+    assert ctx.take_region(fut, V, F, ctx.topo)
+    assert ctx.region() is fut.result() and ctx.region() is not None
+
+
+@pytest.mark.parametrize("fixed", [False, True])
+def test_two_jobs_build_the_region_once_and_repair_as_one_job_does(fixed, monkeypatch):
+    """With two jobs the region is started before the mesh is made manifold
+    (a (V, F) pair) or at once (a mesh read_mesh prepared); it is built once
+    and the repair is the one a single job gives, to the bit."""
+    from shellrepair.io import manifold_mesh
+    from shellrepair.repair import repair_mesh
+
+    import threading
+
+    from shellrepair import repair
+
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    V, F = _holed(n_holes=4, radius=0.1, seed=3)
+    real = patch.region_of
+    real_manifold = repair.manifold_mesh
+    out = {}
+    for jobs in (1, 2):
+        built = []
+        started = threading.Event()
+        overlapped = []
+
+        def region_of(V_, F_, t):
+            started.set()
+            built.append(real(V_, F_, t))
+            return built[-1]
+
+        def manifold(*a, **k):       # the region is on its way while the mesh is made manifold
+            overlapped.append(started.wait(timeout=60 if jobs > 1 else 0))
+            return real_manifold(*a, **k)
+
+        monkeypatch.setattr(patch, "region_of", region_of)
+        monkeypatch.setattr(repair, "manifold_mesh", manifold)
+        mesh = real_manifold(Mesh(V=V, F=F), orient=False) if fixed else Mesh(V=V, F=F)
+        if fixed:
+            mesh.fixes = dict(mesh.fixes) or {"vertices_joined": 0}
+        out[jobs] = repair_mesh(mesh, jobs=jobs, order=2)
+        assert len(built) == 1 and built[0] is not None
+        assert overlapped == ([] if fixed else [jobs > 1])
+    (a, ra), (b, rb) = out[1], out[2]
+    assert ra["holes_before"] == 4 and ra["holes_after"] == rb["holes_after"] == 0
+    assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V) and np.array_equal(a.face_filled, b.face_filled)
