@@ -332,7 +332,8 @@ def edge_topology_arrays(F, n):
     Every half-edge ``u -> v`` is filed under its lower vertex
     ``min(u, v)`` in two steps that each stay in cache: first into buckets
     of ``2**12`` lower vertices (a few thousand write streams), then, bucket
-    by bucket, by the lower vertex itself; each vertex's few entries are
+    by bucket, by the lower vertex itself (in place: the bucket copied to
+    scratch in cache, filed back into its own range); each vertex's few entries are
     then sorted by ``(max(u, v), half-edge)`` packed in one 64-bit word
     (with the half-edge's direction in the lowest bit).
     O(m) work, no global sort, no random access outside a bucket. From
