@@ -137,6 +137,7 @@ class _Context:
         self._build_lock = threading.RLock()
         self._vf_future = None
         self._region_future = None   # the region on its way from another thread (take_region)
+        self._early_vf = None        # and the whole-mesh lists, where there is no region
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
         self.beside = None  # fill._Beside: a helper thread's work beside a batch's fills
 
@@ -196,7 +197,8 @@ class _Context:
         def build():
             try:
                 if self.region() is None and self._vf is None and self._vf_future is None and kernels.ENABLED:
-                    self._vf_future = ex.submit(kernels.vertex_faces, self.F, self.n)
+                    early = self._early_vf     # (started with the region: take_region)
+                    self._vf_future = early if early is not None else ex.submit(kernels.vertex_faces, self.F, self.n)
             finally:
                 arranged.set()
             return self.build_index()
@@ -220,14 +222,18 @@ class _Context:
 
         return self._once("_region", build) or None
 
-    def take_region(self, future, V, F, topo):
+    def take_region(self, future, V, F, topo, vf=None):
         """Use the region a ``future`` is building (:func:`region_of` of
         ``V``, ``F``, ``topo``, started before this context was made) when
         those are this context's arrays and topology, the very objects: the
-        region :meth:`region` would build. Returns whether it was taken."""
+        region :meth:`region` would build. ``vf``: a future of the
+        whole-mesh vertex-face lists of ``F`` (:attr:`vf`), started with
+        the region for when it is None (:func:`early_lists`). Returns
+        whether they were taken."""
         ok = future is not None and V is self.V and F is self.F and topo is self.topo and self._region is None
         if ok:
             self._region_future = future
+            self._early_vf = vf
         return ok
 
     def _local_lists(self, verts):
@@ -350,6 +356,28 @@ class _Region:
 def _build_region(ctx):
     """:class:`_Region` around the boundary loops of ``ctx.topo``, or None."""
     return region_of(ctx.V, ctx.F, ctx.topo)
+
+
+def early_lists(ex, V, F, topo):
+    """Start, on the executor ``ex`` (two workers or more), the region
+    around the boundary loops of ``topo`` (:func:`region_of`) and, where
+    there is none, the whole-mesh vertex-face lists of ``F``: the lists the
+    per-hole work reads (:meth:`_Context.take_region` takes both futures).
+
+    Returns
+    -------
+    region, vf : concurrent.futures.Future
+        ``vf``'s result is None where the region is not (the lists are
+        then not built).
+    """
+    region = ex.submit(region_of, V, F, topo)
+
+    def lists():
+        if region.result() is not None or not kernels.ENABLED:
+            return None
+        return kernels.vertex_faces(F, len(V))
+
+    return region, ex.submit(lists)
 
 
 def region_of(V, F, topo):

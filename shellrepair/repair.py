@@ -172,7 +172,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if topo is None:
             topo = edge_topology(F, len(V))
         if early is not None and (early[0] is not V or early[1] is not F or early[2] is not topo):
-            early[3].cancel()   # the mesh changed on its way (made manifold): its region is built as usual
+            for f in early[3:]:
+                f.cancel()      # the mesh changed on its way (made manifold): its region is built as usual
             early = None
         elif early is None:
             early = _early_region(ex, V, F, topo)       # (read_mesh's mesh: final already)
@@ -183,7 +184,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
             c.topo = topo
             c.base = base
             if early is not None:
-                c.take_region(early[3], *early[:3])
+                c.take_region(early[3], *early[:3], vf=early[4])
             return c
 
         def detect():
@@ -210,7 +211,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
     ctx.axes = {L.id: (L.vertices, L.axis) for L in scan.loops if L.axis is not None}
     if order == "auto" and method == "fair":    # one order for the small holes, tested on a few
-        ctx.auto_small = scan_verdict(ctx, holes)
+        with _beside(jobs > 1) as pool:           # (with two jobs: the tests on two threads)
+            ctx.auto_small = scan_verdict(ctx, holes, run=_fill.on_two_threads(ctx, pool))
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
@@ -425,16 +427,18 @@ def _progress(report, i, n, label="filling holes"):
 
 
 def _early_region(ex, V, F, topo):
-    """``(V, F, topo, future)``: the region around the boundary loops of
-    ``topo`` (:func:`shellrepair.patch.region_of`) started on the executor
-    ``ex``, for the context that will hold these very arrays
-    (:meth:`shellrepair.patch._Context.take_region`); None without an
-    executor, or when ``V`` is not float64 (the context's would be a copy)."""
+    """``(V, F, topo, region future, lists future)``: the region around the
+    boundary loops of ``topo`` and, where there is none, the whole-mesh
+    vertex-face lists, started on the executor ``ex``
+    (:func:`shellrepair.patch.early_lists`) for the context that will hold
+    these very arrays (:meth:`shellrepair.patch._Context.take_region`);
+    None without an executor, or when ``V`` is not float64 (the context's
+    would be a copy)."""
     if ex is None or topo is None or not isinstance(V, np.ndarray) or V.dtype != np.float64:
         return None
     from . import patch
 
-    return V, F, topo, ex.submit(patch.region_of, V, F, topo)
+    return (V, F, topo) + patch.early_lists(ex, V, F, topo)
 
 
 def _as_mesh(mesh):

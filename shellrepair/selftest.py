@@ -493,7 +493,7 @@ def size_class(k):
     return 1 + int(np.floor(np.log2(k / SMALL_EDGES)))
 
 
-def scan_verdict(ctx, holes, candidates=CANDIDATES):
+def scan_verdict(ctx, holes, candidates=CANDIDATES, run=None):
     """One order for each class of a scan's many holes, from the test on a few of them.
 
     The small holes (``MIN_EDGES <= edges < SMALL_EDGES``) always share one
@@ -508,6 +508,13 @@ def scan_verdict(ctx, holes, candidates=CANDIDATES):
     ctx : shellrepair.patch._Context
     holes : sequence of shellrepair.holes.Loop
         The holes to fill.
+    candidates : sequence of int
+    run : callable, optional
+        ``run(f, items)``: ``[f(ctx, *item) for item in items]``, in order
+        (on several threads, each with its own context:
+        :func:`shellrepair.fill.on_two_threads`). Default: here, in turn.
+        Each test's result does not depend on where it ran, and the
+        verdicts add them up in the same order: the same verdicts.
 
     Returns
     -------
@@ -522,26 +529,42 @@ def scan_verdict(ctx, holes, candidates=CANDIDATES):
     for h in holes:
         if h.edges >= MIN_EDGES:
             groups.setdefault(size_class(h.edges), []).append(h)
+    classes = [(c, _sample(group)) for c, group in sorted(groups.items()) if c == 0 or len(group) > SMALL_SAMPLE]
+    items = [(h.id, h.vertices, candidates) for _, picked in classes for h in picked]
+    if run is None:
+        tests = [_relative_test(ctx, *item) for item in items]
+    else:
+        tests = run(_relative_test, items)
     shared = {}
-    for c, group in sorted(groups.items()):
-        if c == 0 or len(group) > SMALL_SAMPLE:
-            v = _class_verdict(ctx, group, candidates)
-            if v is not None:
-                shared[c] = v
+    at = 0
+    for c, picked in classes:
+        v = _class_verdict(tests[at:at + len(picked)], candidates)
+        at += len(picked)
+        if v is not None:
+            shared[c] = v
     ctx.auto_shared = {c: v for c, v in shared.items() if c > 0}
     return shared.get(0)
 
 
-def _class_verdict(ctx, group, candidates):
-    """The test on at most ``SMALL_SAMPLE`` holes of ``group`` (spread
-    evenly over them), errors and floors in units of each test hole's rim
-    edge, summed: one verdict."""
+def _sample(group):
+    """At most ``SMALL_SAMPLE`` holes of ``group``, spread evenly over it."""
     pick = np.unique(np.round(np.linspace(0, len(group) - 1, min(SMALL_SAMPLE, len(group)))).astype(int))
+    return [group[i] for i in pick]
+
+
+def _relative_test(ctx, hole_id, loop, candidates):
+    """:func:`choose_order` with errors in units of the test hole's rim edge."""
+    return choose_order(ctx, hole_id, loop, candidates, relative=True)
+
+
+def _class_verdict(tests, candidates):
+    """One verdict from the tests on a class's sample (:func:`_sample`):
+    errors and floors in units of each test hole's rim edge, summed in the
+    sample's order; None when no test gave every candidate's error."""
     total = dict.fromkeys(candidates, 0.0)
     floor = 0.0
     n, rings = 0, 0
-    for i in pick:
-        t = choose_order(ctx, group[i].id, group[i].vertices, candidates, relative=True)
+    for t in tests:
         if len(t.errors) == len(candidates):
             for o in candidates:
                 total[o] += t.errors[o]

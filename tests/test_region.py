@@ -234,3 +234,24 @@ def test_two_jobs_build_the_region_once_and_repair_as_one_job_does(fixed, monkey
     (a, ra), (b, rb) = out[1], out[2]
     assert ra["holes_before"] == 4 and ra["holes_after"] == rb["holes_after"] == 0
     assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V) and np.array_equal(a.face_filled, b.face_filled)
+
+
+def test_without_a_region_two_jobs_start_the_whole_mesh_lists_early_and_build_them_once(monkeypatch):
+    """Where there is no region (here: a mesh below LOCAL_MIN_FACES), the
+    whole-mesh vertex-face lists are started with the region's attempt,
+    built once, and the repair is the one a single job gives."""
+    from shellrepair.repair import repair_mesh
+
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 10 ** 12)
+    V, F = _holed(n_holes=4, radius=0.1, seed=3)
+    real = kernels.vertex_faces
+    out = {}
+    for jobs in (1, 2):
+        whole = []
+        monkeypatch.setattr(kernels, "vertex_faces", lambda F_, n: (whole.append(len(F_)) if len(F_) == len(F)
+                                                                    else None) or real(F_, n))
+        out[jobs] = repair_mesh(Mesh(V=V, F=F), jobs=jobs, order="auto")
+        assert whole == [len(F)]
+    (a, ra), (b, rb) = out[1], out[2]
+    assert ra["holes_after"] == rb["holes_after"] == 0
+    assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V) and np.array_equal(a.face_filled, b.face_filled)

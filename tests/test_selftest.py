@@ -105,6 +105,64 @@ def test_small_holes_share_one_verdict_tested_on_a_few_of_them():
     assert sum("the scan's verdict on its holes of this size" in h["option"] for h in rep["holes"]) >= 10
 
 
+def test_the_small_holes_verdict_is_the_same_with_its_tests_on_two_threads():
+    """scan_verdict with its tests shared by this thread and a helper
+    thread (fill.on_two_threads) gives the same verdicts, to the bit, and
+    both threads ran tests."""
+    import threading
+
+    from shellrepair.fill import HelperThread, on_two_threads
+
+    V, F = shapes.bumpy_sphere(5)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=12, radius=0.09, seed=3)
+    got = []
+    for two in (False, True):
+        scan, ctx = context(V2, F2)
+        threads = set()
+        real = selftest._relative_test
+
+        def counted(c, *item):
+            threads.add(threading.current_thread().name)
+            return real(c, *item)
+
+        selftest._relative_test = counted
+        try:
+            if two:
+                with HelperThread() as pool:
+                    verdict = scan_verdict(ctx, scan.holes, run=on_two_threads(ctx, pool))
+            else:
+                verdict = scan_verdict(ctx, scan.holes)
+        finally:
+            selftest._relative_test = real
+        got.append((verdict, ctx.auto_shared))
+        assert len(threads) == (2 if two else 1)
+    (a, sa), (b, sb) = got
+    assert a is not None and a.shared >= 2
+    for x, y in [(a, b)] + [(sa[c], sb[c]) for c in sa]:
+        assert (x.order, x.rings, x.shared, x.why) == (y.order, y.rings, y.shared, y.why)
+        assert x.errors == y.errors and x.floor == y.floor       # the floats themselves
+    assert set(sa) == set(sb)
+
+
+def test_the_two_thread_runner_keeps_the_order_and_raises_a_calls_error():
+    from shellrepair.fill import HelperThread, on_two_threads
+
+    V, F = shapes.icosphere(2)
+    ctx = _Context(Mesh(V=V, F=F))
+    with HelperThread() as pool:
+        run = on_two_threads(ctx, pool)
+        assert run(lambda c, i: i * i, [(i,) for i in range(40)]) == [i * i for i in range(40)]
+
+        def bad(c, i):
+            if i == 7:
+                raise ValueError("item 7")
+            return i
+
+        with pytest.raises(ValueError, match="item 7"):
+            run(bad, [(i,) for i in range(20)])
+    assert on_two_threads(ctx, None)(lambda c, i: (c is ctx, i), [(1,), (2,)]) == [(True, 1), (True, 2)]
+
+
 def test_on_a_sculpted_bust_auto_is_as_true_as_order_2_and_truer_than_order_3():
     # 9 disc holes over the Nefertiti bust's relief: most rims hold an edge
     # bending over SMOOTH_BEND_DEG (sculpted detail, the scan's noise) and keep
