@@ -369,15 +369,26 @@ def early_lists(ex, V, F, topo):
     region, vf : concurrent.futures.Future
         ``vf``'s result is None where the region is not (the lists are
         then not built).
+    drop : callable
+        Call it when neither is wanted any more: what has not begun is
+        cancelled, the lists are not started.
     """
     region = ex.submit(region_of, V, F, topo)
+    dropped = threading.Event()
 
     def lists():
-        if region.result() is not None or not kernels.ENABLED:
+        if region.result() is not None or dropped.is_set() or not kernels.ENABLED:
             return None
         return kernels.vertex_faces(F, len(V))
 
-    return region, ex.submit(lists)
+    vf = ex.submit(lists)
+
+    def drop():
+        dropped.set()
+        region.cancel()
+        vf.cancel()
+
+    return region, vf, drop
 
 
 def region_of(V, F, topo):

@@ -151,7 +151,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     try:
         known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh
         topo = known("topology")
-        early = None    # (V, F, topology, the future of their region): started before the mesh is final
+        early = None    # (V, F, topology, their region's and lists' futures, drop): started before the mesh is final
         if not getattr(mesh, "fixes", None):
             # not prepared by read_mesh: the same topology by position, made manifold (not re-oriented)
             F0 = np.asarray(mesh.F, np.int64)
@@ -172,8 +172,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if topo is None:
             topo = edge_topology(F, len(V))
         if early is not None and (early[0] is not V or early[1] is not F or early[2] is not topo):
-            for f in early[3:]:
-                f.cancel()      # the mesh changed on its way (made manifold): its region is built as usual
+            early[5]()          # the mesh changed on its way (made manifold): its region is built as usual
             early = None
         elif early is None:
             early = _early_region(ex, V, F, topo)       # (read_mesh's mesh: final already)
@@ -427,7 +426,7 @@ def _progress(report, i, n, label="filling holes"):
 
 
 def _early_region(ex, V, F, topo):
-    """``(V, F, topo, region future, lists future)``: the region around the
+    """``(V, F, topo, region future, lists future, drop)``: the region around the
     boundary loops of ``topo`` and, where there is none, the whole-mesh
     vertex-face lists, started on the executor ``ex``
     (:func:`shellrepair.patch.early_lists`) for the context that will hold

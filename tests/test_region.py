@@ -255,3 +255,27 @@ def test_without_a_region_two_jobs_start_the_whole_mesh_lists_early_and_build_th
     (a, ra), (b, rb) = out[1], out[2]
     assert ra["holes_after"] == rb["holes_after"] == 0
     assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V) and np.array_equal(a.face_filled, b.face_filled)
+
+
+def test_a_mesh_made_manifold_on_its_way_drops_the_early_region_and_repairs_as_one_job(monkeypatch):
+    """A (V, F) pair whose making manifold changes the arrays (a triangle
+    touching the surface at one vertex: the vertex is split): the region
+    started on the pair is not used, the context builds its own, and two
+    jobs repair as one does."""
+    from shellrepair.repair import repair_mesh
+
+    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    V, F = _holed(n_holes=3, radius=0.1, seed=5)
+    V = np.vstack([V, V[0] + [0.1, 0.0, 0.0], V[0] + [0.0, 0.1, 0.0]])
+    F = np.vstack([F, [[0, len(V) - 2, len(V) - 1]]])
+    real = patch.region_of
+    out = {}
+    for jobs in (1, 2):
+        seen = []
+        monkeypatch.setattr(patch, "region_of", lambda V_, F_, t: seen.append(len(V_)) or real(V_, F_, t))
+        out[jobs] = repair_mesh(Mesh(V=V, F=F), jobs=jobs, order=2)
+        assert seen[-1] == len(V) + 1                 # the context's region: of the mesh with the split vertex
+        assert seen[:-1] == ([len(V)] if jobs > 1 else [])   # the early one, on the pair as given
+    (a, ra), (b, rb) = out[1], out[2]
+    assert ra["holes_before"] == rb["holes_before"] and ra["holes_after"] == rb["holes_after"]
+    assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V) and np.array_equal(a.face_filled, b.face_filled)
