@@ -66,7 +66,7 @@ from __future__ import annotations
 
 import re
 import time
-from typing import Any, Optional
+from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
@@ -151,7 +151,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     try:
         known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh
         topo = known("topology")
-        early = None    # (V, F, topology, their region's and lists' futures, drop): started before the mesh is final
+        early = None    # an _Early: the region and lists started before the mesh is final
         if not getattr(mesh, "fixes", None):
             # not prepared by read_mesh: the same topology by position, made manifold (not re-oriented)
             F0 = np.asarray(mesh.F, np.int64)
@@ -171,8 +171,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
             V[stand_in] = V[F[0, 0]]
         if topo is None:
             topo = edge_topology(F, len(V))
-        if early is not None and (early[0] is not V or early[1] is not F or early[2] is not topo):
-            early[5]()          # the mesh changed on its way (made manifold): its region is built as usual
+        if early is not None and not early.holds(V, F, topo):
+            early.drop()        # the mesh changed on its way (made manifold): its region is built as usual
             early = None
         elif early is None:
             early = _early_region(ex, V, F, topo)       # (read_mesh's mesh: final already)
@@ -183,7 +183,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
             c.topo = topo
             c.base = base
             if early is not None:
-                c.take_region(early[3], *early[:3], vf=early[4])
+                c.take_region(early.region, early.V, early.F, early.topo, vf=early.vf)
             return c
 
         def detect():
@@ -425,19 +425,32 @@ def _progress(report, i, n, label="filling holes"):
         report(label, i, n)
 
 
-def _early_region(ex, V, F, topo):
-    """``(V, F, topo, region future, lists future, drop)``: the region around the
-    boundary loops of ``topo`` and, where there is none, the whole-mesh
-    vertex-face lists, started on the executor ``ex``
+class _Early(NamedTuple):
+    """The region around the boundary loops of a mesh and, where there is
+    none, its whole-mesh vertex-face lists, on their way from an executor
     (:func:`shellrepair.patch.early_lists`) for the context that will hold
-    these very arrays (:meth:`shellrepair.patch._Context.take_region`);
-    None without an executor, or when ``V`` is not float64 (the context's
-    would be a copy)."""
+    these very arrays (:meth:`shellrepair.patch._Context.take_region`)."""
+
+    V: np.ndarray
+    F: np.ndarray
+    topo: Any
+    region: Any     # concurrent.futures.Future
+    vf: Any         # concurrent.futures.Future
+    drop: Any       # callable: neither is wanted any more
+
+    def holds(self, V, F, topo):
+        """Whether these are the arrays and topology it was started on (the very objects)."""
+        return self.V is V and self.F is F and self.topo is topo
+
+
+def _early_region(ex, V, F, topo):
+    """An :class:`_Early` started on the executor ``ex``; None without an
+    executor, or when ``V`` is not float64 (the context's would be a copy)."""
     if ex is None or topo is None or not isinstance(V, np.ndarray) or V.dtype != np.float64:
         return None
     from . import patch
 
-    return (V, F, topo) + patch.early_lists(ex, V, F, topo)
+    return _Early(V, F, topo, *patch.early_lists(ex, V, F, topo))
 
 
 def _as_mesh(mesh):
