@@ -133,31 +133,33 @@ _VF_BUCKET_SHIFT = 12
 
 
 @njit(cache=True, nogil=True)
-def _vertex_faces(flat, n, shift):
-    low = (np.int64(1) << shift) - 1
-    nb = (n >> shift) + 1
-    # 1. corners per bucket of 2**shift vertices; 2. into the buckets, in corner order
-    bstart = np.zeros(nb + 1, np.int64)
-    for i in range(flat.size):
+def _vf_count(flat, i0, i1, n, shift, bcount):
+    # 1. corners [i0, i1) per bucket of 2**shift vertices (bcount[k + 1])
+    for i in range(i0, i1):
         v = flat[i]
         if v < 0 or v >= n:
             raise ValueError("a face refers to a vertex outside [0, n_vertices)")
-        bstart[(v >> shift) + 1] += 1
-    for k in range(nb):
-        bstart[k + 1] += bstart[k]
-    tmp = np.empty(flat.size, np.int64)
-    bpos = bstart[:nb].copy()
-    for i in range(flat.size):
+        bcount[(v >> shift) + 1] += 1
+
+
+@njit(cache=True, nogil=True)
+def _vf_scatter(flat, i0, i1, shift, bpos, tmp):
+    # 2. corners [i0, i1) into their buckets, in corner order, from bpos (advanced)
+    low = (np.int64(1) << shift) - 1
+    for i in range(i0, i1):
         v = flat[i]
         k = v >> shift
         tmp[bpos[k]] = ((v & low) << _VF_BITS) | i
         bpos[k] += 1
-    # 3. each bucket by its vertex (a counting sort within the bucket, stable)
-    order = np.empty(flat.size, np.int64)
-    start = np.empty(n + 1, np.int64)
+
+
+@njit(cache=True, nogil=True)
+def _vf_buckets(tmp, bstart, k0, k1, n, shift, order, start):
+    # 3. buckets [k0, k1), each by its vertex (a counting sort within the bucket, stable)
+    low = (np.int64(1) << shift) - 1
     cnt = np.zeros((np.int64(1) << shift) + 1, np.int64)
     mask = (np.int64(1) << _VF_BITS) - 1
-    for k in range(nb):
+    for k in range(k0, k1):
         s0 = bstart[k]
         s1 = bstart[k + 1]
         a0 = k << shift
@@ -175,7 +177,60 @@ def _vertex_faces(flat, n, shift):
             j = tmp[i] >> _VF_BITS
             order[cnt[j]] = tmp[i] & mask
             cnt[j] += 1
-    start[n] = flat.size
+
+
+#: Corners from which :func:`vertex_faces` runs each of its steps in two
+#: halves on two threads (with two cores or more): the same lists.
+VF_HALVES_MIN = 3_000_000
+
+
+def _halves(fn, a, b, two):
+    """``fn(*a)`` and ``fn(*b)``: on two threads with ``two`` (the kernels
+    release the GIL; an exception is raised here), else in turn."""
+    if not two:
+        fn(*a)
+        fn(*b)
+        return
+    box = []
+
+    def run():
+        try:
+            fn(*a)
+        except BaseException as exc:   # raised again below, in the caller's thread
+            box.append(exc)
+
+    t = threading.Thread(target=run, name="shellrepair-half")
+    t.start()
+    try:
+        fn(*b)
+    finally:
+        t.join()
+    if box:
+        raise box[0]
+
+
+def _vertex_faces(flat, n, shift, two=False):
+    """The lists in three steps, each in two halves (corners for the first
+    two, buckets for the third): on two threads with ``two``, the same
+    arrays either way (the second half's corners after the first's in each
+    bucket, as one pass files them)."""
+    m3 = flat.size
+    h = m3 // 2
+    nb = (n >> shift) + 1
+    c0 = np.zeros(nb + 1, np.int64)
+    c1 = np.zeros(nb + 1, np.int64)
+    _halves(_vf_count, (flat, h, m3, n, shift, c1), (flat, 0, h, n, shift, c0), two)
+    bstart = np.cumsum(c0 + c1)
+    tmp = np.empty(m3, np.int64)
+    _halves(_vf_scatter, (flat, h, m3, shift, bstart[:nb] + c0[1:], tmp),
+            (flat, 0, h, shift, bstart[:nb].copy(), tmp), two)
+    del c0, c1
+    order = np.empty(m3, np.int64)
+    start = np.empty(n + 1, np.int64)
+    kh = nb // 2
+    _halves(_vf_buckets, (tmp, bstart, kh, nb, n, shift, order, start),
+            (tmp, bstart, 0, kh, n, shift, order, start), two)
+    start[n] = m3
     return order, start
 
 
@@ -211,7 +266,7 @@ def vertex_faces(F, n_vertices):
             raise ValueError(f"face indices must lie in [0, {n}), got {flat.min()}..{flat.max()}")
         return _vertex_faces_scipy(F, n)
     shift = max(1, min(_VF_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
-    return _vertex_faces(flat, n, shift)
+    return _vertex_faces(flat, n, shift, two=flat.size >= VF_HALVES_MIN and (os.cpu_count() or 1) >= 2)
 
 
 @njit(cache=True, nogil=True)

@@ -153,7 +153,7 @@ def test_warm_up_compiles_each_kernel_for_some_types(warm):
     # every kernel a Python function calls has a signature after the warm-ups
     # (the helpers only other kernels call have none: their code is inside
     # their callers' cached machine code)
-    called = {"kernels._vertex_faces", "kernels._fair_small", "kernels._relax_apply", "kernels._box_pairs",
+    called = {"kernels._vf_count", "kernels._vf_scatter", "kernels._vf_buckets", "kernels._fair_small", "kernels._relax_apply", "kernels._box_pairs",
               "fastmesh.edge_count", "fastmesh.edge_scatter", "fastmesh.edge_bucket", "fastmesh.edge_list",
               "fastmesh.single", "fastmesh.pieces", "fastmesh.volumes", "fastmesh.moments"}
     assert called <= {k for k, v in warm.items() if v}

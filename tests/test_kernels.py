@@ -73,8 +73,12 @@ def test_intrinsic_flips_equal_on_a_mesh_with_a_nonmanifold_edge():
     _same_flips(V, F)
 
 
-@pytest.mark.parametrize("sub", [2, 3])
-def test_vertex_faces_equal_the_sparse_counting_sort(sub):
+@pytest.mark.parametrize("sub", [2, 3, 6])
+@pytest.mark.parametrize("two", [False, True])
+def test_vertex_faces_equal_the_sparse_counting_sort(sub, two, monkeypatch):
+    # two: each step in two halves on two threads (forced on a small mesh;
+    # sub 6 has more than two buckets of vertices)
+    monkeypatch.setattr(kernels, "VF_HALVES_MIN", 0 if two else 10 ** 12)
     V, F = shapes.icosphere(sub)
     rng = np.random.default_rng(sub)
     F = F[rng.permutation(len(F))]
@@ -83,6 +87,8 @@ def test_vertex_faces_equal_the_sparse_counting_sort(sub):
         o2, s2 = kernels.vertex_faces(F, n)
         assert o2.dtype == np.int64 and s2.dtype == np.int64
         assert np.array_equal(o1, o2) and np.array_equal(s1, s2)
+    with pytest.raises(ValueError, match="outside"):
+        kernels.vertex_faces(np.vstack([F, [[0, 1, len(V) + 9]]]), len(V))
 
 
 def test_rim_data_equals_the_python_walk():
