@@ -184,52 +184,28 @@ def _vf_buckets(tmp, bstart, k0, k1, n, shift, order, start):
 VF_HALVES_MIN = 3_000_000
 
 
-def _halves(fn, a, b, two):
-    """``fn(*a)`` and ``fn(*b)``: on two threads with ``two`` (the kernels
-    release the GIL; an exception is raised here), else in turn."""
-    if not two:
-        fn(*a)
-        fn(*b)
-        return
-    box = []
-
-    def run():
-        try:
-            fn(*a)
-        except BaseException as exc:   # raised again below, in the caller's thread
-            box.append(exc)
-
-    t = threading.Thread(target=run, name="shellrepair-half")
-    t.start()
-    try:
-        fn(*b)
-    finally:
-        t.join()
-    if box:
-        raise box[0]
-
-
 def _vertex_faces(flat, n, shift, two=False):
     """The lists in three steps, each in two halves (corners for the first
     two, buckets for the third): on two threads with ``two``, the same
     arrays either way (the second half's corners after the first's in each
     bucket, as one pass files them)."""
+    from .fastmesh import _both, _in_turn
+
+    run = _both if two else _in_turn
     m3 = flat.size
     h = m3 // 2
     nb = (n >> shift) + 1
     c0 = np.zeros(nb + 1, np.int64)
     c1 = np.zeros(nb + 1, np.int64)
-    _halves(_vf_count, (flat, h, m3, n, shift, c1), (flat, 0, h, n, shift, c0), two)
+    run(_vf_count, (flat, h, m3, n, shift, c1), (flat, 0, h, n, shift, c0))
     bstart = np.cumsum(c0 + c1)
     tmp = np.empty(m3, np.int64)
-    _halves(_vf_scatter, (flat, h, m3, shift, bstart[:nb] + c0[1:], tmp),
-            (flat, 0, h, shift, bstart[:nb].copy(), tmp), two)
+    run(_vf_scatter, (flat, h, m3, shift, bstart[:nb] + c0[1:], tmp), (flat, 0, h, shift, bstart[:nb].copy(), tmp))
     del c0, c1
     order = np.empty(m3, np.int64)
     start = np.empty(n + 1, np.int64)
     kh = nb // 2
-    _halves(_vf_buckets, (tmp, bstart, kh, nb, n, shift, order, start),
-            (tmp, bstart, 0, kh, n, shift, order, start), two)
+    run(_vf_buckets, (tmp, bstart, kh, nb, n, shift, order, start), (tmp, bstart, 0, kh, n, shift, order, start))
     start[n] = m3
     return order, start
 
