@@ -434,18 +434,29 @@ def write_mesh(path: Union[str, os.PathLike], mesh: Mesh, *, binary: bool = True
     stage()
 
 
-def _validate(mesh):
-    V, F = mesh.V, mesh.F
-    if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] == 0:
-        raise MeshError("no vertices")
-    if F.shape[0] == 0:
-        raise MeshError("no faces: this is a point cloud, not a surface mesh")
-    lo, hi = F.min(), F.max()
-    if lo < 0 or hi >= V.shape[0]:
-        rows = np.flatnonzero(((F < 0) | (F >= V.shape[0])).any(axis=1))
-        i = int(rows[0])
-        raise MeshError(f"face {i} has vertex index {int(F[i][(F[i] < 0) | (F[i] >= V.shape[0])][0])} "
-                        f"out of range 0..{V.shape[0] - 1}")
+def check_references(V, F):
+    """Raise :class:`MeshError` where a face refers to a vertex outside
+    ``V`` or to a vertex with a NaN or infinite coordinate (the checks
+    :func:`read_mesh` makes; :func:`shellrepair.repair.repair_mesh` makes
+    them on arrays it is given).
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+
+    Returns
+    -------
+    bad : (n,) bool array
+        The vertices with a non-finite coordinate (no face uses them).
+    """
+    if F.size:
+        lo, hi = F.min(), F.max()
+        if lo < 0 or hi >= V.shape[0]:
+            rows = np.flatnonzero(((F < 0) | (F >= V.shape[0])).any(axis=1))
+            i = int(rows[0])
+            raise MeshError(f"face {i} has vertex index {int(F[i][(F[i] < 0) | (F[i] >= V.shape[0])][0])} "
+                            f"out of range 0..{V.shape[0] - 1}")
     bad = ~np.isfinite(V).all(axis=1)
     if bad.any():
         used = np.zeros(V.shape[0], bool)
@@ -455,6 +466,17 @@ def _validate(mesh):
             i = int(np.flatnonzero(bad_used)[0])
             raise MeshError(f"vertex {i} has a non-finite coordinate "
                             f"({int(bad_used.sum())} such vertices)")
+    return bad
+
+
+def _validate(mesh):
+    V, F = mesh.V, mesh.F
+    if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] == 0:
+        raise MeshError("no vertices")
+    if F.shape[0] == 0:
+        raise MeshError("no faces: this is a point cloud, not a surface mesh")
+    bad = check_references(V, F)
+    if bad.any():
         # nothing refers to them: they are kept, like every unreferenced vertex
         mesh.notes.append(f"{int(bad.sum())} unreferenced vertices with NaN or infinite coordinates "
                           "kept as they are")

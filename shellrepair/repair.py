@@ -75,7 +75,7 @@ from .convert import MeshLike, as_mesh
 from .options import RepairOptions
 from .progress import ProgressArg, as_callback
 from .holes import detect_holes
-from .io import Mesh, manifold_mesh
+from .io import Mesh, check_references, manifold_mesh
 from .report import table1_dict
 from .topology import edge_count_delta, edge_topology
 from . import blas
@@ -119,6 +119,14 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     report : dict
         Table 1 fields (see :func:`shellrepair.report.table1_dict`) plus
         per-hole details.
+
+    Raises
+    ------
+    MeshError
+        An option out of range, or a face that refers to a vertex outside
+        ``V`` or to a vertex with a NaN or infinite coordinate (one line,
+        as :func:`shellrepair.io.read_mesh` says it; a vertex no face uses
+        may be non-finite, and is given back as it was).
     """
     with blas.one_thread():     # the fill's many small products: one BLAS thread (shellrepair.blas)
         return _repair_mesh(mesh, options, progress=progress, **changes)
@@ -153,8 +161,11 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         topo = known("topology")
         early = None    # an _Early: the region and lists started before the mesh is final
         if not getattr(mesh, "fixes", None):
-            # not prepared by read_mesh: the same topology by position, made manifold (not re-oriented)
+            # not prepared by read_mesh: checked as it checks (a face on a vertex
+            # outside V or with a NaN coordinate: MeshError), the same topology by
+            # position, made manifold (not re-oriented)
             F0 = np.asarray(mesh.F, np.int64)
+            check_references(np.asarray(mesh.V, np.float64), F0)
             if topo is None:
                 topo = edge_topology(F0, len(mesh.V))
             early = _early_region(ex, mesh.V, F0, topo)

@@ -469,6 +469,30 @@ def test_ply_face_lists_of_any_int_type_and_endianness(tmp_path, index_type, cou
 # --------------------------------------------------------------------------
 # orientation
 # --------------------------------------------------------------------------
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_the_library_refuses_faces_on_a_nan_vertex_or_outside_v_in_one_line(jobs):
+    """repair_mesh given arrays checks them as read_mesh checks a file: a
+    face on a vertex with a NaN coordinate, or on a vertex outside V, is a
+    one-line MeshError. A NaN vertex no face uses is kept and given back."""
+    from shellrepair.errors import MeshError
+
+    V, F = shapes.bumpy_sphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.2, seed=1)
+    rim = detect_holes(V2, F2).holes[0].vertices[0]
+    V3 = V2.copy()
+    V3[rim] = np.nan
+    with pytest.raises(MeshError, match=f"^vertex {rim} has a non-finite coordinate \\(1 such vertices\\)$"):
+        repair_mesh(Mesh(V=V3, F=F2), jobs=jobs)
+    F3 = F2.copy()
+    F3[7, 2] = len(V2) + 3
+    with pytest.raises(MeshError, match=f"^face 7 has vertex index {len(V2) + 3} out of range"):
+        repair_mesh(Mesh(V=V2, F=F3), jobs=jobs)
+    V4 = np.vstack([V2, [[np.nan, 0.0, 0.0]]])         # unused: kept, the holes filled
+    out, rep = repair_mesh(Mesh(V=V4, F=F2), jobs=jobs)
+    assert rep["holes_after"] == 0
+    assert np.array_equal(out.V[:len(V4)], V4, equal_nan=True)
+
+
 def test_orient_faces_repairs_random_flips_and_keeps_faces_in_place():
     V, F = shapes.icosphere(3)
     rng = np.random.default_rng(3)
