@@ -85,7 +85,7 @@ from .topology import edge_topology, face_areas
 
 __all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path", "clean_faces", "manifold_mesh",
            "atomic_write", "atomic_write_many", "new_file_mode", "written_faces", "SUPPORTED",
-           "MAX_ABS_COORDINATE"]
+           "MAX_ABS_COORDINATE", "check_references"]
 
 #: Largest coordinate magnitude accepted. Squared lengths and cross
 #: products of larger values overflow float64 (max ~1.8e308); real scans in
