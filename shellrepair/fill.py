@@ -1123,21 +1123,21 @@ class HelperThread:
         self._settings.close()
 
 
-def on_two_threads(ctx, pool):
+def on_two_threads(ctx):
     """A ``run(f, items)`` for :func:`shellrepair.selftest.scan_verdict`:
     ``[f(c, *item) for item in items]``, in order, the items taken in turn
-    by this thread (``c`` is ``ctx``) and by the helper thread ``pool``
-    (a :class:`HelperThread`; ``c`` a :func:`_helper_context`: the same
-    scan, its own scratch), each running its BLAS calls on itself. A call's
-    result does not depend on the thread that made it. ``pool`` None: all
-    here, in turn. An exception is raised here once both threads stop."""
+    by this thread (``c`` is ``ctx``) and, from two items on, by a
+    :class:`HelperThread` started for them (``c`` a
+    :func:`_helper_context`: the same scan, its own scratch), each running
+    its BLAS calls on itself. A call's result does not depend on the thread
+    that made it. An exception is raised here once both threads stop."""
     import itertools
 
     from .blas import one_thread
 
     def run(f, items):
         n = len(items)
-        if pool is None or n < 2:
+        if n < 2:
             return [f(ctx, *item) for item in items]
         out = [None] * n
         turn = itertools.count()        # the next item (next() is atomic under the GIL)
@@ -1151,15 +1151,16 @@ def on_two_threads(ctx, pool):
                         return
                     out[i] = f(c, *items[i])
 
-        helper = pool.submit((-1,), work, _helper_context(ctx))
-        try:
-            work(ctx)
-        except BaseException:
-            stop.append(True)           # the helper stops after its current item
-            if not helper.cancel():
-                helper.exception()      # (waits; the error raised is this thread's)
-            raise
-        helper.result()
+        with HelperThread() as pool:
+            helper = pool.submit((0,), work, _helper_context(ctx))
+            try:
+                work(ctx)
+            except BaseException:
+                stop.append(True)       # the helper stops after its current item
+                if not helper.cancel():
+                    helper.exception()  # (waits; the error raised is this thread's)
+                raise
+            helper.result()
         return out
 
     return run

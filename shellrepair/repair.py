@@ -221,8 +221,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
     ctx.axes = {L.id: (L.vertices, L.axis) for L in scan.loops if L.axis is not None}
     if order == "auto" and method == "fair":    # one order for the small holes, tested on a few
-        with _beside(jobs > 1) as pool:           # (with two jobs: the tests on two threads)
-            ctx.auto_small = scan_verdict(ctx, holes, run=_fill.on_two_threads(ctx, pool))
+        # (with two jobs: the tests on two threads)
+        ctx.auto_small = scan_verdict(ctx, holes, run=_fill.on_two_threads(ctx) if jobs > 1 else None)
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":

@@ -111,7 +111,7 @@ def test_the_small_holes_verdict_is_the_same_with_its_tests_on_two_threads():
     both threads ran tests."""
     import threading
 
-    from shellrepair.fill import HelperThread, on_two_threads
+    from shellrepair.fill import on_two_threads
 
     V, F = shapes.bumpy_sphere(5)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=12, radius=0.09, seed=3)
@@ -128,8 +128,7 @@ def test_the_small_holes_verdict_is_the_same_with_its_tests_on_two_threads():
         selftest._relative_test = counted
         try:
             if two:
-                with HelperThread() as pool:
-                    verdict = scan_verdict(ctx, scan.holes, run=on_two_threads(ctx, pool))
+                verdict = scan_verdict(ctx, scan.holes, run=on_two_threads(ctx))
             else:
                 verdict = scan_verdict(ctx, scan.holes)
         finally:
@@ -145,22 +144,21 @@ def test_the_small_holes_verdict_is_the_same_with_its_tests_on_two_threads():
 
 
 def test_the_two_thread_runner_keeps_the_order_and_raises_a_calls_error():
-    from shellrepair.fill import HelperThread, on_two_threads
+    from shellrepair.fill import on_two_threads
 
     V, F = shapes.icosphere(2)
     ctx = _Context(Mesh(V=V, F=F))
-    with HelperThread() as pool:
-        run = on_two_threads(ctx, pool)
-        assert run(lambda c, i: i * i, [(i,) for i in range(40)]) == [i * i for i in range(40)]
+    run = on_two_threads(ctx)
+    assert run(lambda c, i: i * i, [(i,) for i in range(40)]) == [i * i for i in range(40)]
 
-        def bad(c, i):
-            if i == 7:
-                raise ValueError("item 7")
-            return i
+    def bad(c, i):
+        if i == 7:
+            raise ValueError("item 7")
+        return i
 
-        with pytest.raises(ValueError, match="item 7"):
-            run(bad, [(i,) for i in range(20)])
-    assert on_two_threads(ctx, None)(lambda c, i: (c is ctx, i), [(1,), (2,)]) == [(True, 1), (True, 2)]
+    with pytest.raises(ValueError, match="item 7"):
+        run(bad, [(i,) for i in range(20)])
+    assert run(lambda c, i: (c is ctx, i), [(1,)]) == [(True, 1)]      # one item: here, with ctx
 
 
 def test_on_a_sculpted_bust_auto_is_as_true_as_order_2_and_truer_than_order_3():
