@@ -106,7 +106,7 @@ import threading
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "liepa_tables", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -4046,6 +4046,143 @@ def restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, are
     return T, int(status), int(i), int(j)
 
 
+@njit(cache=True, nogil=True)
+def _liepa_tables(Q, rim, has_rim, forb, axis, use_axis, tie):
+    k = Q.shape[0]
+    inf = np.inf
+    # the tables by interval (i, j), and a copy by (j, i): the apex loop
+    # reads edge (i, m) from a row and edge (m, j) from a row of the copy
+    WA = np.full((k, k), inf)
+    WS = np.full((k, k), inf)
+    N = np.zeros((k, k, 3))
+    HN = np.zeros((k, k), np.bool_)
+    WAc = np.full((k, k), inf)
+    WSc = np.full((k, k), inf)
+    Nc = np.zeros((k, k, 3))
+    HNc = np.zeros((k, k), np.bool_)
+    forbc = np.ascontiguousarray(forb.T)
+    O = np.full((k, k), -1, np.int64)
+    for i in range(k - 1):
+        WA[i, i + 1] = 0.0
+        WS[i, i + 1] = 0.0
+        WAc[i + 1, i] = 0.0
+        WSc[i + 1, i] = 0.0
+        if has_rim[i]:
+            for c in range(3):
+                N[i, i + 1, c] = rim[i, c]
+                Nc[i + 1, i, c] = rim[i, c]
+        h = has_rim[i] and (rim[i, 0] != 0 or rim[i, 1] != 0 or rim[i, 2] != 0)
+        HN[i, i + 1] = h
+        HNc[i + 1, i] = h
+    c0, c1, c2 = rim[k - 1, 0], rim[k - 1, 1], rim[k - 1, 2]
+    close_zero = (abs(c0) + abs(c1)) + abs(c2) == 0
+    ax0, ax1, ax2 = axis[0], axis[1], axis[2]
+    wa = np.empty(k)
+    ws = np.empty(k)
+    nn = np.empty((k, 3))
+    nzs = np.empty(k, np.bool_)
+    for L in range(2, k):
+        for i in range(k - L):
+            j = i + L
+            q0, q1, q2 = Q[i, 0], Q[i, 1], Q[i, 2]
+            a0, a1, a2 = Q[j, 0] - q0, Q[j, 1] - q1, Q[j, 2] - q2
+            fij = forb[i, j]
+            for t in range(L - 1):
+                m = i + 1 + t
+                b0, b1, b2 = Q[m, 0] - q0, Q[m, 1] - q1, Q[m, 2] - q2
+                r0 = a1 * b2 - a2 * b1            # geometry.cross(Q[j] - Q[i], Q[m] - Q[i])
+                r1 = a2 * b0 - a0 * b2
+                r2 = a0 * b1 - a1 * b0
+                ln = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
+                nz = ln > 0
+                d = ln if nz else 1.0
+                n0, n1, n2 = r0 / d, r1 / d, r2 / d
+                area = 0.5 * ln
+                e1 = 0.0
+                if HN[i, m]:
+                    e1 = (1.0 - _clip_unit((n0 * N[i, m, 0] + n1 * N[i, m, 1]) + n2 * N[i, m, 2])) if nz else 2.0
+                e2 = 0.0
+                if HNc[j, m]:
+                    e2 = (1.0 - _clip_unit((n0 * Nc[j, m, 0] + n1 * Nc[j, m, 1]) + n2 * Nc[j, m, 2])) if nz else 2.0
+                w = _nan_max(_nan_max(e1, e2), _nan_max(WA[i, m], WAc[j, m]))
+                if L == k - 1 and has_rim[k - 1]:    # the closing edge's scan face (triangulate._angle)
+                    if close_zero or (abs(n0) + abs(n1)) + abs(n2) == 0:
+                        g = 2.0
+                    else:
+                        g = 1.0 - _clip_unit((n0 * c0 + n1 * c1) + n2 * c2)
+                    w = _nan_max(w, g)
+                bad = forb[i, m] or forbc[j, m] or fij
+                if use_axis and (r0 * ax0 + r1 * ax1) + r2 * ax2 <= 0:
+                    bad = True
+                wa[t] = inf if bad else w
+                ws[t] = (area + WS[i, m]) + WSc[j, m]
+                nn[t, 0], nn[t, 1], nn[t, 2] = n0, n1, n2
+                nzs[t] = nz
+            # np.min (NaN wins), then np.argmin of the areas within tie of it (first of equals, a NaN first)
+            best = wa[0]
+            for t in range(1, L - 1):
+                if best != best:
+                    break
+                x = wa[t]
+                if x < best or x != x:
+                    best = x
+            lim = best + tie
+            sel = 0
+            cur = ws[0] if wa[0] <= lim else inf
+            for t in range(1, L - 1):
+                if cur != cur:
+                    break
+                x = ws[t] if wa[t] <= lim else inf
+                if x < cur or x != x:
+                    cur = x
+                    sel = t
+            WA[i, j] = wa[sel]
+            WAc[j, i] = wa[sel]
+            WS[i, j] = cur
+            WSc[j, i] = cur
+            O[i, j] = i + 1 + sel
+            for c in range(3):
+                N[i, j, c] = nn[sel, c]
+                Nc[j, i, c] = nn[sel, c]
+            HN[i, j] = nzs[sel]
+            HNc[j, i] = nzs[sel]
+    return O, WA[0, k - 1]
+
+
+def liepa_tables(Q, rim, has_rim, forb, axis, tie):
+    """The tables of :func:`shellrepair.triangulate._dp` (Liepa's O(k³)
+    dynamic program), with its products, clips, maxima and first-of-equals
+    choices, one interval at a time.
+
+    Parameters
+    ----------
+    Q : (k,3) float64
+        The sub-loop's positions.
+    rim : (k,3) float64, has_rim : (k,) bool
+        The scan face's normal across sub-loop edge ``(i, i+1)`` (``(k-1,
+        0)`` last) and whether there is one.
+    forb : (k,k) bool
+        Forbidden chords ``(i, j)``, ``i < j``.
+    axis : (3,) float64 or None
+        Every triangle must face along it (``cross · axis > 0``).
+    tie : float
+        ``ANGLE_TIE``.
+
+    Returns
+    -------
+    O : (k,k) int64
+        The apex closing each interval ``(i, j)``.
+    worst : float
+        The whole loop's worst dihedral cost (inf: no triangulation).
+    """
+    use = axis is not None
+    ax = np.ascontiguousarray(axis if use else np.zeros(3), np.float64).reshape(3)
+    O, worst = _liepa_tables(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(rim, np.float64),
+                             np.ascontiguousarray(has_rim, np.bool_), np.ascontiguousarray(forb, np.bool_), ax,
+                             use, float(tie))
+    return O, float(worst)
+
+
 # --------------------------------------------------------------------------
 # the order test (shellrepair.selftest): its band's rings and split, the
 # distances of points to their nearest triangles
@@ -4546,6 +4683,8 @@ def warm_up():
         from .triangulate import restricted_dp   # (triangulate imports this module)
 
         restricted_dp(X, np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]], np.int64), np.eye(4, 3), {(0, 2)})
+        for ax in (None, np.ones(3)):
+            liepa_tables(X, np.eye(4, 3), np.ones(4, np.bool_), np.zeros((4, 4), np.bool_), ax, 1e-12)
         C, _ = centred_area(X)
         S, raw = outline_cross(C[:, :2], T, X)
         cover_free(S, raw[:, 2], 4, np.array([3], np.int64))

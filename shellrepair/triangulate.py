@@ -482,6 +482,37 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
                 ia, ib = sorted((pos[a], pos[b]))
                 if ib - ia > 1 and not (ia == 0 and ib == k - 1):
                     forb[ia, ib] = True
+    if kernels.ENABLED:
+        O, worst = kernels.liepa_tables(Q, rim, has_rim, forb, axis, ANGLE_TIE)
+    else:
+        O, worst = _dp_tables(Q, rim, has_rim, forb, axis)
+    if not np.isfinite(worst):
+        if axis is not None:
+            raise MeshError("no triangulation of this loop faces along its axis")
+        raise MeshError("every triangulation of this loop duplicates an existing edge")
+    tris = []
+    stack = [(0, k - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            continue
+        mm = int(O[a, b])
+        tris.append((idx[a], idx[b], idx[mm]))
+        stack.append((a, mm))
+        stack.append((mm, b))
+    return np.array(tris, np.int64)
+
+
+def _dp_tables(Q, rim, has_rim, forb, axis):
+    """The tables of :func:`_dp`, vectorised over all splits of one interval
+    length at a time (the compiled :func:`shellrepair.kernels.liepa_tables`'
+    test oracle).
+
+    Returns ``(O, worst)``: the apex closing each interval ``(i, j)`` and
+    the whole loop's worst dihedral cost (inf: no triangulation).
+    """
+    k = len(Q)
+    axis = None if axis is None else np.asarray(axis, np.float64)
     WA = np.full((k, k), np.inf)   # worst dihedral angle of the best triangulation of (i..j)
     WS = np.full((k, k), np.inf)   # its area
     O = np.full((k, k), -1, np.int64)
@@ -516,7 +547,7 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
         ws = area + _left(WS, r, L) + _right(WS, r, L)
         bad = _left(forb, r, L) | _right(forb, r, L) | np.diagonal(forb, L)[:, None]
         if axis is not None:  # embedding constraint: every triangle faces along the axis
-            bad |= raw @ axis <= 0
+            bad |= dot(raw, axis) <= 0
         wa = np.where(bad, np.inf, wa)
         best_a = wa.min(axis=1, keepdims=True)
         ws_masked = np.where(wa <= best_a + ANGLE_TIE, ws, np.inf)
@@ -526,21 +557,7 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
         O[i, j] = i + 1 + t
         N[i, j] = n[i, t]
         HN[i, j] = nz[i, t]
-    if not np.isfinite(WA[0, k - 1]):
-        if axis is not None:
-            raise MeshError("no triangulation of this loop faces along its axis")
-        raise MeshError("every triangulation of this loop duplicates an existing edge")
-    tris = []
-    stack = [(0, k - 1)]
-    while stack:
-        a, b = stack.pop()
-        if b - a < 2:
-            continue
-        mm = int(O[a, b])
-        tris.append((idx[a], idx[b], idx[mm]))
-        stack.append((a, mm))
-        stack.append((mm, b))
-    return np.array(tris, np.int64)
+    return O, WA[0, k - 1]
 
 
 def _left(X, r, L):

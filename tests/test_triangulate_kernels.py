@@ -191,6 +191,93 @@ def test_candidates_outside_the_loop_are_left_to_numpy():
 
 
 # --------------------------------------------------------------------------
+# Liepa's full dynamic program (the layer for loops the restricted search
+# cannot triangulate): compiled tables against the vectorised NumPy ones
+# --------------------------------------------------------------------------
+def _dp_inputs(rng, k, kind):
+    """A sub-loop's positions, rim normals (some unknown or zero), forbidden
+    chords and axis, of one of five kinds: planar, wavy, on a coarse grid
+    (collinear runs, equal areas: ties), with coincident points (zero-area
+    candidates), and with zero rim normals on known rim edges."""
+    th = np.sort(rng.uniform(0, 2 * np.pi, k))
+    Q = np.column_stack([np.cos(th), np.sin(th), rng.normal(0.0, 0.0 if kind == 0 else 0.3, k)])
+    if kind == 2:
+        Q = np.round(Q * 4) / 4
+    if kind == 3:
+        Q[rng.integers(0, k, 3)] = Q[0]
+    rim = rng.normal(size=(k, 3))
+    rim /= np.linalg.norm(rim, axis=1, keepdims=True)
+    has = rng.random(k) < 0.8
+    rim[~has] = 0.0
+    if kind == 4:
+        rim[rng.integers(0, k, 2)] = 0.0
+    forb = np.zeros((k, k), bool)
+    for _ in range(int(rng.integers(0, k))):
+        a, b = sorted(rng.integers(0, k, 2).tolist())
+        if b - a > 1 and not (a == 0 and b == k - 1):
+            forb[a, b] = True
+    return Q, rim, has, forb
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_liepa_tables_equal_numpys(seed):
+    """Every interval's apex and the loop's worst cost, to the bit: with and
+    without an axis (some loops have no triangulation facing along it, or
+    none avoiding the forbidden chords: worst is then inf in both), on
+    every kind of loop of _dp_inputs."""
+    rng = np.random.default_rng(700 + seed)
+    infinite = finite = 0
+    for trial in range(40):
+        k = int(rng.integers(4, 90))
+        Q, rim, has, forb = _dp_inputs(rng, k, trial % 5)
+        for axis in (None, rng.normal(size=3), np.array([0.0, 0.0, 1.0])):
+            O, worst = kernels.liepa_tables(Q, rim, has, forb, axis, tr.ANGLE_TIE)
+            O_np, worst_np = tr._dp_tables(Q, rim, has, forb, axis)
+            assert O.dtype == np.int64 and np.array_equal(O, O_np)
+            assert worst == worst_np
+            finite += bool(np.isfinite(worst))
+            infinite += not np.isfinite(worst)
+    assert finite > 20 and infinite > 20
+
+
+def test_full_dp_is_the_same_with_and_without_the_kernels(monkeypatch):
+    """tr._dp's triangles (or its error) on sub-loops of a larger loop, with
+    rim normals only where a sub-loop edge is a loop edge: the same either
+    way."""
+    rng = np.random.default_rng(11)
+    P = wavy_loop(60, rng, noise=0.3, wave=0.5)
+    en = rim_normals(P)
+    errors = 0
+    for idx in (np.arange(60), np.arange(10, 45), np.r_[50:60, 0:12], np.array([3, 9, 20, 21, 22, 40])):
+        for forb in (set(), {(int(idx[0]), int(idx[len(idx) // 2]))}):
+            for axis in (None, _axis(P[idx]), -_axis(P[idx])):
+                got = _answer(tr._dp, P, idx, en, forb, axis)
+                monkeypatch.setattr(kernels, "ENABLED", False)
+                want = _answer(tr._dp, P, idx, en, forb, axis)
+                monkeypatch.setattr(kernels, "ENABLED", True)
+                if isinstance(want, str) or isinstance(got, str):
+                    assert got == want
+                    errors += 1
+                else:
+                    assert got.dtype == want.dtype == np.int64 and np.array_equal(got, want)
+                    if len(idx) == len(P):
+                        assert_disc(got, len(P))
+    assert errors >= 1     # the reversed axis: no triangulation faces along it
+
+
+def test_liepa_tables_are_compiled_once_by_warm_up():
+    """warm_up compiles the tables for the types _dp passes (with and
+    without an axis): a call after it adds no signature."""
+    kernels.warm_up()
+    before = set(kernels._liepa_tables.signatures)
+    rng = np.random.default_rng(2)
+    P = wavy_loop(12, rng)
+    for axis in (None, _axis(P)):
+        _answer(tr._dp, P, np.arange(12), rim_normals(P), {(0, 5)}, axis)
+    assert set(kernels._liepa_tables.signatures) == before and before
+
+
+# --------------------------------------------------------------------------
 # the projected Delaunay layer's compiled steps
 # --------------------------------------------------------------------------
 @pytest.mark.parametrize("seed", range(4))
