@@ -477,6 +477,25 @@ class TriangleIndex:
         self.r_cut = min(float(r.max(initial=0.0)), 4 * med)
         self.big = np.flatnonzero(r > self.r_cut)
         self.tree = cKDTree(c)
+        self._boxes = None
+
+    def faces_near(self, lo, hi):
+        """Faces whose bounding boxes meet the box ``[lo, hi]`` (absolute
+        coordinates), sorted: with this, :func:`patch_vs_index` takes the
+        compiled pairs and tests (:func:`shellrepair.kernels.patch_pairs`),
+        which find the same crossings as the sphere pairs (the tests are
+        exact either way). The box is grown by a relative 1e-9 so that the
+        caller's shift by ``origin`` and back cannot drop a face by rounding
+        (a superset: the pairs are boxed again in the kernel).
+        """
+        if self._boxes is None:
+            T = self.V[self.F]
+            self._boxes = (T.min(axis=1), T.max(axis=1))
+        flo, fhi = self._boxes
+        lo = np.asarray(lo, np.float64)
+        hi = np.asarray(hi, np.float64)
+        slack = 1e-9 * (np.abs(lo) + np.abs(hi) + (hi - lo))
+        return np.flatnonzero(np.all((flo <= hi + slack) & (fhi >= lo - slack), axis=1))
 
     def candidate_pairs(self, C, R):
         """Pairs (query i, face j) whose bounding spheres may meet.

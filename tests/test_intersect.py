@@ -362,6 +362,52 @@ def test_near_faces_keeps_a_long_triangle_reaching_in_from_far_away():
         assert patch_vs_index(probe, np.array([[-1, -2, -3]]), near, return_faces=True).size == 1
 
 
+class _SpheresOnly:
+    """A TriangleIndex seen without faces_near: patch_vs_index then pairs by
+    bounding spheres and tests in NumPy (its path before the compiled one)."""
+
+    def __init__(self, index):
+        self.V, self.F, self.origin = index.V, index.F, index.origin
+        self.candidate_pairs = index.candidate_pairs
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e6])
+def test_a_small_index_finds_the_same_crossings_by_boxes_as_by_spheres(offset):
+    """TriangleIndex (the mender's index of kept patch triangles) gives
+    patch_vs_index its faces by box, for the compiled pairs and tests: the
+    same crossing triangles and the same counts as by sphere pairs, for fans
+    whose apex lies far off (long triangles: big spheres), probes sharing
+    corner ids with the indexed faces, and at a large offset."""
+    V, F = shapes.grid(25, 25)
+    rng = np.random.default_rng(5)
+    V = V + rng.normal(scale=0.004, size=V.shape) + offset
+    index = TriangleIndex(V, F, origin=V.mean(axis=0))
+    spheres = _SpheresOnly(index)
+    hits = shared = 0
+    for trial in range(60):
+        c = np.append(rng.uniform(0.1, 0.9, 2), 0.0) + offset
+        m = int(rng.integers(3, 12))
+        t = np.sort(rng.uniform(0, 2 * np.pi, m))
+        rim = c + np.column_stack([0.08 * np.cos(t), 0.08 * np.sin(t), rng.normal(scale=0.02, size=m)])
+        apex = c + [0.0, 0.0, rng.choice([-0.5, -0.01, 0.01, 0.5, 2.0])]
+        Pt = np.stack([np.roll(rim, -1, axis=0), rim, np.broadcast_to(apex, rim.shape)], axis=1)
+        ids = np.column_stack([-2 - np.roll(np.arange(m), -1), -2 - np.arange(m), np.full(m, -1)])
+        if trial % 3 == 0:      # one fan corner on a grid vertex, with its id: touching there is contact
+            v = int(np.argmin(np.linalg.norm(V - rim[0], axis=1)))
+            Pt[0, 1] = Pt[m - 1, 0] = V[v]
+            ids[0, 1] = ids[m - 1, 0] = v
+            shared += 1
+        got = patch_vs_index(Pt, ids, index, return_faces=True)
+        want = patch_vs_index(Pt, ids, spheres, return_faces=True)
+        assert np.array_equal(got, want)
+        assert patch_vs_index(Pt, ids, index) == patch_vs_index(Pt, ids, spheres)
+        hits += got.size
+    assert hits > 20 and shared == 20
+    lo, hi = index.V.min(axis=0), index.V.max(axis=0)
+    assert np.array_equal(index.faces_near(lo, hi), np.arange(len(F)))
+    assert index.faces_near(hi + 1.0, hi + 2.0).size == 0
+
+
 def test_near_face_pairs_are_the_same_by_tree_and_by_product_with_huge_faces_about():
     # a sheet with a few long triangles lying across it (a scan's flat base
     # seen from its wall): the tree path pairs them apart, the set of
