@@ -55,6 +55,16 @@ from seeds not looked at while designing, see tests/test_border_classes.py).
    holds most of the piece's area (``inside_fraction`` ≈ 1 for the rim of a
    height field, ≈ 0 for its holes): that loop is a *border*, every other
    loop of the piece is a *hole*.
+5. *Across a band*: a single-view piece's outer rim that faces a hole of
+   another piece across a gap is the far side of a missing band, and a
+   *hole*: the tip of a thin arm beyond a band the scanner missed is a
+   short dome that rules 2-4 read as one view. The test is the one by
+   which a repair pairs two holes across a band
+   (:func:`shellrepair.bridge.loop_sights`): the rim and the hole each
+   send a strict majority of their continuation arcs to the other. The
+   rims of one range scan do not pass it (the real dragon scan's 42, the
+   synthetic torus scans'); a rim facing a hole of its own piece (a torus
+   seen from above) keeps rule 4's reading.
 
 A bowl (normals in a closed hemisphere, few of them edge-on) is read as
 one view: its rim a border. ``closed=True`` (``--closed yes``)
@@ -923,4 +933,68 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
             L.kind = "hole"
             L.reason = (f"closed by the surrounding surface: inside the outer edge (loop {rim[p]}) "
                         f"of a single-view piece ({how})")
+    if closed is None and not fill_borders and rim:
+        _band_rims(V, F, scan, [scan.loops[i] for i in rim.values() if scan.loops[i].kind == "border"], pieces)
     return scan
+
+
+def _band_rims(V, F, scan, rims, piece_of):
+    """Rule 5 of the module docstring: the outer rim of a single-view piece
+    that faces a hole of another piece across a missing band is a hole.
+    Changes ``scan`` in place.
+
+    ``rims``: the outer rims classed border by rule 4 (not by ``max_hole``);
+    ``piece_of``: each loop's piece. A rim and a hole of another piece that
+    each send a strict majority of their continuation arcs to the other
+    (:func:`shellrepair.bridge.loop_sights`, the test by which a repair
+    pairs two holes across a band) are the two sides of one missing band;
+    loops that share a vertex are not paired. Each hole is the partner of
+    one rim at most (the rim sending it the larger share of its arcs).
+    """
+    holes = [L for L in scan.loops if L.kind == "hole"]
+    if not rims or not holes:
+        return
+    from .bridge import MAX_REACH, loop_sights
+
+    def centre(L):
+        return V[L.vertices].mean(axis=0)
+
+    # only rims with a hole within reach of their arcs (or within a hole's reach) are followed
+    hc = np.array([centre(L) for L in holes])
+    hr = np.array([0.5 * L.diameter for L in holes])
+    follow, near_holes = [], set()
+    for R in rims:
+        r = 0.5 * R.diameter
+        d = np.linalg.norm(hc - centre(R), axis=1)
+        near = np.flatnonzero(d <= (r + 2 * MAX_REACH * r) + hr + (2 * MAX_REACH * hr))
+        near = [j for j in near.tolist() if piece_of[holes[j].id] != piece_of[R.id]
+                and np.intersect1d(R.vertices, holes[j].vertices).size == 0]
+        if near:
+            follow.append(R.id)
+            near_holes.update(holes[j].id for j in near)
+    if not follow:
+        return
+    from .io import Mesh
+    from .patch import _Context
+
+    ctx = _Context(Mesh(V=np.asarray(V, np.float64), F=np.asarray(F, np.int64)))
+    sights = loop_sights(ctx.V, scan.loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)],
+                         candidates=sorted(set(follow) | near_holes))
+
+    def share(a, b):
+        counts, m = sights.get(a, (None, 0))
+        return counts[b] / m if m and 2 * counts[b] > m else 0.0
+
+    best = {}
+    for r in follow:
+        for h in sorted(near_holes):
+            if piece_of[r] != piece_of[h] and share(r, h) and share(h, r) \
+                    and np.intersect1d(scan.loops[r].vertices, scan.loops[h].vertices).size == 0:
+                if share(r, h) > best.get(h, (0.0, None))[0]:
+                    best[h] = (share(r, h), r)
+    for h, (f, r) in sorted(best.items()):
+        R = scan.loops[r]
+        R.kind = "hole"
+        R.reason = (f"closed by the surrounding surface: it and hole {h} face each other across a missing band "
+                    f"(each sends most of its continuation arcs to the other: {100 * f:.0f}% and "
+                    f"{100 * share(h, r):.0f}%), though its piece reads as a single view")

@@ -327,6 +327,55 @@ def test_a_thin_arm_cut_off_is_a_closed_piece(noise):
     assert lp.back_ratio < WRAP_RATIO and lp.edge_on > 0.8
 
 
+def arm_across_a_band(gap=0.1, tip=0.03):
+    """A thin arm with a band of height ``2 gap`` missing: the stump (a long
+    capped tube hanging down, open at z = -gap) and the fingertip (a capped
+    tube of wall ``tip`` only, open at z = +gap): a short dome, read as one
+    view by rules 2-4 (no back-facing surface, under half of it edge-on)."""
+    Vs, Fs = capped_tube(length=1.0)
+    Vs = Vs * [1, 1, -1] - [0, 0, gap]
+    Vt, Ft = capped_tube(length=tip)
+    Vt = Vt + [0, 0, gap]
+    return np.vstack([Vs, Vt]), np.vstack([Fs[:, [0, 2, 1]], Ft + len(Vs)])
+
+
+def test_the_tip_of_an_arm_beyond_a_missing_band_is_a_hole():
+    """Rule 5: the tip's rim and the stump's hole each send all their
+    continuation arcs to the other, so the rim is the far side of a band
+    (a hole), though the tip alone reads as one view. Alone, or with
+    --closed no, it keeps its rim."""
+    V, F = arm_across_a_band()
+    stump, tip = detect_holes(V, F).loops
+    assert stump.kind == "hole" and stump.reading == "closed"
+    assert tip.reading == "single view" and tip.back_ratio < WRAP_RATIO and tip.edge_on < EDGE_ON_SHARE
+    assert tip.kind == "hole" and "hole 0 face each other across a missing band" in tip.reason
+    assert "100% and 100%" in tip.reason
+    assert [L.kind for L in detect_holes(V, F, closed=False).loops] == ["border", "border"]
+    Vt, Ft = capped_tube(length=0.03)
+    assert [L.kind for L in detect_holes(Vt, Ft).loops] == ["border"]
+
+
+def test_an_arm_missing_a_band_is_bridged_into_one_closed_arm():
+    """The repair joins stump and tip by a tube: watertight, one piece,
+    sphere-like (χ 2), the scan's vertices unchanged, the new ones inside
+    the band and on the arm's radius 0.1 within 7 %."""
+    from shellrepair import repair_mesh
+    from shellrepair.io import Mesh
+
+    V, F = arm_across_a_band()
+    out, rep = repair_mesh(Mesh(V=V, F=F))
+    assert rep["holes_before"] == 2 and rep["holes_after"] == 0
+    assert all("tube" in h["reason"] for h in rep["holes"])
+    topo = edge_topology(out.F, len(out.V))
+    assert topo.n_boundary_edges == 0 and len(topo.nonmanifold_edges) == 0
+    assert face_pieces(topo, len(out.F))[0] == 1
+    assert len(np.unique(out.F)) - len(topo.edges) + len(out.F) == 2
+    assert np.array_equal(out.V[:len(V)], V)
+    new = out.V[len(V):]
+    assert len(new) and np.all(np.abs(new[:, 2]) < 0.1)
+    assert np.all(np.abs(np.hypot(new[:, 0], new[:, 1]) - 0.1) < 0.007)
+
+
 def test_edge_on_share_of_a_bowl_a_sheet_and_a_capped_tube():
     """A hemisphere has cos(80°) ≈ 17 % of its area within 10° of edge-on
     from its pole; a flat sheet none; a capped tube of radius 0.1 and
