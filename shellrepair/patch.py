@@ -724,15 +724,33 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
 
 def _scan_allowed(ctx, loop):
     """``allowed(T)`` for :func:`triangulate_loop`: True for the triangles
-    (loop positions) that cross no scan face."""
+    (loop positions) that cross no scan face.
+
+    A triangle's answer depends on its corners only (each is tested against
+    the scan on its own), so the answers are kept on ``ctx`` per loop: the
+    retries of one hole (re-routed chords, sub-loops, the mender) ask about
+    the same triangles many times (on a 699-edge hole, 13104 asked, 1611
+    different).
+    """
     loop = np.asarray(loop, np.int64)
+    k = np.int64(len(loop))
+    known = ctx.__dict__.setdefault("_allowed_answers", {}).setdefault(loop.tobytes(), {})
 
     def allowed(T):
-        T = np.asarray(T, np.int64)
-        ok = np.ones(len(T), bool)
-        if len(T):
-            ok[patch_vs_index(ctx.V[loop[T]], loop[T], ctx.index, return_faces=True)] = False
-        return ok
+        T = np.asarray(T, np.int64).reshape(-1, 3)
+        if not len(T):
+            return np.ones(0, bool)
+        S = np.sort(T, axis=1)
+        keys = ((S[:, 0] * k + S[:, 1]) * k + S[:, 2]).tolist()
+        got = np.fromiter((known.get(x, 2) for x in keys), np.int8, len(keys))
+        ask = np.flatnonzero(got == 2)
+        if ask.size:
+            Ta = T[ask]
+            ok = np.ones(ask.size, np.int8)
+            ok[patch_vs_index(ctx.V[loop[Ta]], loop[Ta], ctx.index, return_faces=True)] = 0
+            got[ask] = ok
+            known.update(zip((keys[i] for i in ask.tolist()), ok.tolist()))
+        return got.astype(bool)
 
     return allowed
 

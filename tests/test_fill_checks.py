@@ -126,3 +126,36 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
     assert np.array_equal(R.V[:len(c.V)], c.V)
     again = [h for h in rep["holes"] if "filled again around the patches accepted before it" in (h["option"] or "")]
     assert len(again) == 1
+
+
+def test_scan_answers_about_a_holes_triangles_are_kept_and_equal_fresh_ones(monkeypatch):
+    """The triangulation's ``allowed`` test (a triangle of loop positions
+    crosses no scan face) answers a triangle asked before, in any corner
+    order and from another ``allowed`` of the same loop, without asking the
+    scan again, and the answers are those of a fresh ask."""
+    import shellrepair.patch as patch_mod
+    from shellrepair.intersect import patch_vs_index
+
+    V, F = shapes.bumpy_sphere(3, amplitude=0.2, seed=4)
+    c = V[F].mean(axis=1)
+    V2, F2, _ = shapes.remove_faces(V, F, np.linalg.norm(c - c[0], axis=1) < 0.5)
+    loops, _ = boundary_loops(F2, len(V2))
+    loop = np.asarray(loops[0], np.int64)
+    ctx = _Context(Mesh(V=V2, F=F2))
+    k = len(loop)
+    rng = np.random.default_rng(0)
+    T = np.array([rng.choice(k, 3, replace=False) for _ in range(300)])
+    fresh = np.ones(len(T), bool)
+    fresh[patch_vs_index(V2[loop[T]], loop[T], ctx.index, return_faces=True)] = False
+    assert 0 < fresh.sum() < len(T)          # some chords cut through the bumps, some do not
+    asked = []
+    real = patch_mod.patch_vs_index
+    monkeypatch.setattr(patch_mod, "patch_vs_index", lambda Pt, *a, **kw: asked.append(len(Pt)) or real(Pt, *a, **kw))
+    first = patch_mod._scan_allowed(ctx, loop)
+    assert np.array_equal(first(T[:200]), fresh[:200]) and sum(asked) <= 200
+    n = sum(asked)
+    again = patch_mod._scan_allowed(ctx, loop)
+    assert np.array_equal(again(T[:, ::-1]), fresh)        # corners reversed, from a new allowed()
+    known = {tuple(t) for t in np.sort(T[:200], axis=1).tolist()}
+    new = [i for i, t in enumerate(np.sort(T, axis=1).tolist()) if tuple(t) not in known]
+    assert sum(asked) - n == len(new) < 100                # only the triangles not asked before
