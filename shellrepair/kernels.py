@@ -4050,15 +4050,20 @@ def restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, are
 def _liepa_tables(Q, rim, has_rim, forb, axis, use_axis, tie):
     k = Q.shape[0]
     inf = np.inf
+    Qx = np.ascontiguousarray(Q[:, 0])
+    Qy = np.ascontiguousarray(Q[:, 1])
+    Qz = np.ascontiguousarray(Q[:, 2])
     # the tables by interval (i, j), and a copy by (j, i): the apex loop
-    # reads edge (i, m) from a row and edge (m, j) from a row of the copy
+    # reads edge (i, m) from a row and edge (m, j) from a row of the copy;
+    # the normals as three planes, so that both loops over the apexes read
+    # (and the first one vectorises) along rows
     WA = np.full((k, k), inf)
     WS = np.full((k, k), inf)
-    N = np.zeros((k, k, 3))
-    HN = np.zeros((k, k), np.bool_)
     WAc = np.full((k, k), inf)
     WSc = np.full((k, k), inf)
-    Nc = np.zeros((k, k, 3))
+    Nx, Ny, Nz = np.zeros((k, k)), np.zeros((k, k)), np.zeros((k, k))
+    Ncx, Ncy, Ncz = np.zeros((k, k)), np.zeros((k, k)), np.zeros((k, k))
+    HN = np.zeros((k, k), np.bool_)
     HNc = np.zeros((k, k), np.bool_)
     forbc = np.ascontiguousarray(forb.T)
     O = np.full((k, k), -1, np.int64)
@@ -4068,9 +4073,8 @@ def _liepa_tables(Q, rim, has_rim, forb, axis, use_axis, tie):
         WAc[i + 1, i] = 0.0
         WSc[i + 1, i] = 0.0
         if has_rim[i]:
-            for c in range(3):
-                N[i, i + 1, c] = rim[i, c]
-                Nc[i + 1, i, c] = rim[i, c]
+            Nx[i, i + 1], Ny[i, i + 1], Nz[i, i + 1] = rim[i, 0], rim[i, 1], rim[i, 2]
+            Ncx[i + 1, i], Ncy[i + 1, i], Ncz[i + 1, i] = rim[i, 0], rim[i, 1], rim[i, 2]
         h = has_rim[i] and (rim[i, 0] != 0 or rim[i, 1] != 0 or rim[i, 2] != 0)
         HN[i, i + 1] = h
         HNc[i + 1, i] = h
@@ -4079,48 +4083,62 @@ def _liepa_tables(Q, rim, has_rim, forb, axis, use_axis, tie):
     ax0, ax1, ax2 = axis[0], axis[1], axis[2]
     wa = np.empty(k)
     ws = np.empty(k)
-    nn = np.empty((k, 3))
+    n0s, n1s, n2s = np.empty(k), np.empty(k), np.empty(k)
+    ar = np.empty(k)
+    axd = np.empty(k)
     nzs = np.empty(k, np.bool_)
     for L in range(2, k):
         for i in range(k - L):
             j = i + L
-            q0, q1, q2 = Q[i, 0], Q[i, 1], Q[i, 2]
-            a0, a1, a2 = Q[j, 0] - q0, Q[j, 1] - q1, Q[j, 2] - q2
+            n = L - 1
+            q0, q1, q2 = Qx[i], Qy[i], Qz[i]
+            a0, a1, a2 = Qx[j] - q0, Qy[j] - q1, Qz[j] - q2
             fij = forb[i, j]
-            for t in range(L - 1):
+            # each apex m = i + 1 + t: the triangle (i, j, m)'s unit normal and area
+            for t in range(n):
                 m = i + 1 + t
-                b0, b1, b2 = Q[m, 0] - q0, Q[m, 1] - q1, Q[m, 2] - q2
+                b0, b1, b2 = Qx[m] - q0, Qy[m] - q1, Qz[m] - q2
                 r0 = a1 * b2 - a2 * b1            # geometry.cross(Q[j] - Q[i], Q[m] - Q[i])
                 r1 = a2 * b0 - a0 * b2
                 r2 = a0 * b1 - a1 * b0
                 ln = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
                 nz = ln > 0
                 d = ln if nz else 1.0
-                n0, n1, n2 = r0 / d, r1 / d, r2 / d
-                area = 0.5 * ln
-                e1 = 0.0
-                if HN[i, m]:
-                    e1 = (1.0 - _clip_unit((n0 * N[i, m, 0] + n1 * N[i, m, 1]) + n2 * N[i, m, 2])) if nz else 2.0
-                e2 = 0.0
-                if HNc[j, m]:
-                    e2 = (1.0 - _clip_unit((n0 * Nc[j, m, 0] + n1 * Nc[j, m, 1]) + n2 * Nc[j, m, 2])) if nz else 2.0
-                w = _nan_max(_nan_max(e1, e2), _nan_max(WA[i, m], WAc[j, m]))
-                if L == k - 1 and has_rim[k - 1]:    # the closing edge's scan face (triangulate._angle)
+                n0s[t], n1s[t], n2s[t] = r0 / d, r1 / d, r2 / d
+                ar[t] = 0.5 * ln
+                nzs[t] = nz
+                axd[t] = (r0 * ax0 + r1 * ax1) + r2 * ax2
+            # its worst dihedral cost and total area (selects: np.clip, np.maximum with NaN first)
+            for t in range(n):
+                m = i + 1 + t
+                n0, n1, n2 = n0s[t], n1s[t], n2s[t]
+                nz = nzs[t]
+                d1 = (n0 * Nx[i, m] + n1 * Ny[i, m]) + n2 * Nz[i, m]
+                d1 = -1.0 if d1 < -1.0 else (1.0 if d1 > 1.0 else d1)
+                d2 = (n0 * Ncx[j, m] + n1 * Ncy[j, m]) + n2 * Ncz[j, m]
+                d2 = -1.0 if d2 < -1.0 else (1.0 if d2 > 1.0 else d2)
+                e1 = ((1.0 - d1) if nz else 2.0) if HN[i, m] else 0.0
+                e2 = ((1.0 - d2) if nz else 2.0) if HNc[j, m] else 0.0
+                x = e1 if ((e1 >= e2) | (e1 != e1)) else e2
+                u, v = WA[i, m], WAc[j, m]
+                y = u if ((u >= v) | (u != u)) else v
+                w = x if ((x >= y) | (x != x)) else y
+                bad = forb[i, m] | forbc[j, m] | fij | (use_axis & (axd[t] <= 0))
+                wa[t] = inf if bad else w
+                ws[t] = (ar[t] + WS[i, m]) + WSc[j, m]
+            if L == k - 1 and has_rim[k - 1]:    # the closing edge's scan face (triangulate._angle)
+                for t in range(n):
+                    if wa[t] == inf:
+                        continue
+                    n0, n1, n2 = n0s[t], n1s[t], n2s[t]
                     if close_zero or (abs(n0) + abs(n1)) + abs(n2) == 0:
                         g = 2.0
                     else:
                         g = 1.0 - _clip_unit((n0 * c0 + n1 * c1) + n2 * c2)
-                    w = _nan_max(w, g)
-                bad = forb[i, m] or forbc[j, m] or fij
-                if use_axis and (r0 * ax0 + r1 * ax1) + r2 * ax2 <= 0:
-                    bad = True
-                wa[t] = inf if bad else w
-                ws[t] = (area + WS[i, m]) + WSc[j, m]
-                nn[t, 0], nn[t, 1], nn[t, 2] = n0, n1, n2
-                nzs[t] = nz
+                    wa[t] = _nan_max(wa[t], g)
             # np.min (NaN wins), then np.argmin of the areas within tie of it (first of equals, a NaN first)
             best = wa[0]
-            for t in range(1, L - 1):
+            for t in range(1, n):
                 if best != best:
                     break
                 x = wa[t]
@@ -4129,7 +4147,7 @@ def _liepa_tables(Q, rim, has_rim, forb, axis, use_axis, tie):
             lim = best + tie
             sel = 0
             cur = ws[0] if wa[0] <= lim else inf
-            for t in range(1, L - 1):
+            for t in range(1, n):
                 if cur != cur:
                     break
                 x = ws[t] if wa[t] <= lim else inf
@@ -4141,9 +4159,8 @@ def _liepa_tables(Q, rim, has_rim, forb, axis, use_axis, tie):
             WS[i, j] = cur
             WSc[j, i] = cur
             O[i, j] = i + 1 + sel
-            for c in range(3):
-                N[i, j, c] = nn[sel, c]
-                Nc[j, i, c] = nn[sel, c]
+            Nx[i, j], Ny[i, j], Nz[i, j] = n0s[sel], n1s[sel], n2s[sel]
+            Ncx[j, i], Ncy[j, i], Ncz[j, i] = n0s[sel], n1s[sel], n2s[sel]
             HN[i, j] = nzs[sel]
             HNc[j, i] = nzs[sel]
     return O, WA[0, k - 1]
