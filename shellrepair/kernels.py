@@ -106,7 +106,7 @@ import threading
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "liepa_tables", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "liepa_tables", "chord_rows", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -4200,6 +4200,55 @@ def liepa_tables(Q, rim, has_rim, forb, axis, tie):
     return O, float(worst)
 
 
+@njit(cache=True, nogil=True)
+def _chord_rows(Q, q, fk):
+    k = Q.shape[0]
+    best = np.inf
+    bi, bj, ties = -1, -1, 0
+    for i in range(k - q):
+        x, y, z = Q[i, 0], Q[i, 1], Q[i, 2]
+        dmin = np.inf
+        jmin, count = -1, 0
+        for j in range(i + q, min(k, i + k - q + 1)):
+            if fk.size and _in_sorted(fk, i * k + j):
+                continue
+            dx, dy, dz = Q[j, 0] - x, Q[j, 1] - y, Q[j, 2] - z
+            d = np.sqrt((dx * dx + dy * dy) + dz * dz)     # np.linalg.norm(..., axis=1)
+            if d < dmin:
+                dmin, jmin, count = d, j, 1
+            elif d == dmin:
+                count += 1
+        if jmin >= 0 and dmin < best:
+            best, bi, bj, ties = dmin, i, jmin, count
+    return bi, bj, ties
+
+
+def chord_rows(Q, q, fk):
+    """The row-by-row search of :func:`shellrepair.triangulate._best_chord_rows`:
+    the row ``i`` whose nearest allowed partner ``j`` (``i + q <= j <=
+    min(k - 1, i + k - q)``) is nearest overall, the first such row.
+
+    Parameters
+    ----------
+    Q : (k,3) float64
+        The sub-loop's positions.
+    q : int
+    fk : (f,) int64
+        Sorted keys ``u·k + v`` (``u < v``) of the forbidden position pairs.
+
+    Returns
+    -------
+    i, j : int
+        ``i = -1`` when no row has an allowed partner; ``j`` the first of
+        the row's nearest partners.
+    ties : int
+        How many partners of row ``i`` are that near (more than one: the
+        row's pick is NumPy's argsort's, the caller's to make).
+    """
+    i, j, t = _chord_rows(np.ascontiguousarray(Q, np.float64), int(q), np.ascontiguousarray(fk, np.int64))
+    return int(i), int(j), int(t)
+
+
 # --------------------------------------------------------------------------
 # the order test (shellrepair.selftest): its band's rings and split, the
 # distances of points to their nearest triangles
@@ -4702,6 +4751,7 @@ def warm_up():
         restricted_dp(X, np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]], np.int64), np.eye(4, 3), {(0, 2)})
         for ax in (None, np.ones(3)):
             liepa_tables(X, np.eye(4, 3), np.ones(4, np.bool_), np.zeros((4, 4), np.bool_), ax, 1e-12)
+        chord_rows(X, 1, np.zeros(0, np.int64))
         C, _ = centred_area(X)
         S, raw = outline_cross(C[:, :2], T, X)
         cover_free(S, raw[:, 2], 4, np.array([3], np.int64))

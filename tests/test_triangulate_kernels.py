@@ -265,6 +265,41 @@ def test_full_dp_is_the_same_with_and_without_the_kernels(monkeypatch):
     assert errors >= 1     # the reversed axis: no triangulation faces along it
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_chord_search_is_the_row_by_row_one(seed):
+    """The long sub-loop's cutting chord (the nearest allowed pair at least
+    a quarter of the loop apart): kernels.chord_rows gives the row-by-row
+    search's answer or error, on wavy loops, loops on a coarse grid (equal
+    distances: the row's pick is NumPy's argsort's), repeated positions,
+    many forbidden chords, and loop ids that are not 0..k-1."""
+    rng = np.random.default_rng(900 + seed)
+    tied = 0
+    for trial in range(40):
+        k = int(rng.integers(8, 400))
+        P = wavy_loop(k, rng, noise=0.3, wave=0.4)
+        if trial % 4 == 1:
+            P = np.round(P * 3) / 3
+        if trial % 4 == 2:
+            P[::7] = P[0]
+        idx = np.arange(k) if trial % 2 else np.sort(rng.choice(3 * k, k, replace=False))
+        Pfull = np.zeros((3 * k, 3))
+        Pfull[idx] = P
+        forb = {tuple(sorted(rng.choice(idx, 2, replace=False).tolist())) for _ in range(int(rng.integers(0, 3 * k)))}
+        got = _answer(tr._best_chord_compiled, Pfull, idx, forb)
+        assert got == _answer(tr._best_chord_rows, Pfull, idx, forb)
+        if not isinstance(got, str):
+            i, j = got
+            d = np.linalg.norm(P[i + max(3, k // 4):min(k, i + k - max(3, k // 4) + 1)] - P[i], axis=1)
+            tied += int((d == d.min()).sum() > 1)
+    assert tied >= 1
+    # every chord forbidden: the same error
+    k = 12
+    P = wavy_loop(k, rng)
+    everything = {(a, b) for a in range(k) for b in range(a + 1, k)}
+    assert _answer(tr._best_chord_compiled, P, np.arange(k), everything) == \
+        _answer(tr._best_chord_rows, P, np.arange(k), everything)
+
+
 def test_liepa_tables_are_compiled_once_by_warm_up():
     """warm_up compiles the tables for the types _dp passes (with and
     without an axis): a call after it adds no signature."""
