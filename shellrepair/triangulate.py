@@ -381,13 +381,7 @@ def _best_chord(P, idx, forbidden):
     last = (hi + 1) // b * b - 1                 # the last whole block's end
     whole = last >= first + b - 1
     # forbidden partners, as (row, position) keys in this sub-loop's numbering
-    pos = {int(g): t for t, g in enumerate(idx.tolist())}
-    fk = []
-    for x, y in forbidden:
-        if x in pos and y in pos:
-            u, v = sorted((pos[x], pos[y]))
-            fk.append(u * k + v)
-    fk = np.unique(np.asarray(fk, np.int64))
+    fk = _position_keys(idx, forbidden)
     near = np.full(rows, np.inf)
     # the part-blocks at both ends of each window (all of it without a whole block)
     o = np.arange(2 * b)
@@ -425,15 +419,39 @@ def _best_chord(P, idx, forbidden):
             near[i] = min(near[i], d.min())
     i = int(np.argmin(near))
     if not np.isfinite(near[i]):
-        raise MeshError("no chord splits this loop without duplicating an existing edge")
-    # the row-by-row choice within row i (ties among equally near partners as argsort puts them)
+        raise MeshError(_NO_CHORD)
+    return i, _pick_in_row(Q, idx, i, q, forbidden)
+
+
+_NO_CHORD = "no chord splits this loop without duplicating an existing edge"
+
+
+def _position_keys(idx, forbidden):
+    """The forbidden pairs among the sub-loop ``idx``'s vertices, as sorted
+    keys ``u·k + v`` of their positions ``u < v`` (:func:`_forbidden_keys`
+    for a sub-loop whose ids are not its positions)."""
+    k = len(idx)
+    pos = {int(g): t for t, g in enumerate(idx.tolist())}
+    fk = []
+    for x, y in forbidden:
+        if x in pos and y in pos:
+            u, v = sorted((pos[x], pos[y]))
+            fk.append(u * k + v)
+    return np.unique(np.asarray(fk, np.int64))
+
+
+def _pick_in_row(Q, idx, i, q, forbidden):
+    """Row ``i``'s partner as the row-by-row search picks it: the first
+    allowed one in NumPy's argsort of the distances (which orders equally
+    near partners)."""
+    k = len(idx)
     j = np.arange(i + q, min(k, i + k - q + 1))
     d = np.linalg.norm(Q[j] - Q[i], axis=1)
     for t in np.argsort(d):
         u, v = sorted((int(idx[i]), int(idx[j[t]])))
         if (u, v) not in forbidden:
-            return i, int(j[t])
-    raise MeshError("no chord splits this loop without duplicating an existing edge")
+            return int(j[t])
+    raise MeshError(_NO_CHORD)
 
 
 #: Longest sub-loop whose chord is searched row by row in compiled code
@@ -448,24 +466,11 @@ def _best_chord_compiled(P, idx, forbidden):
     k = len(idx)
     Q = P[idx]
     q = max(3, k // 4)
-    pos = {int(g): t for t, g in enumerate(idx.tolist())}
-    fk = []
-    for x, y in forbidden:
-        if x in pos and y in pos:
-            u, v = sorted((pos[x], pos[y]))
-            fk.append(u * k + v)
-    fk = np.unique(np.asarray(fk, np.int64))
+    fk = _position_keys(idx, forbidden)
     i, j, ties = kernels.chord_rows(Q, q, fk)
     if i < 0:
-        raise MeshError("no chord splits this loop without duplicating an existing edge")
-    if ties > 1:
-        jj = np.arange(i + q, min(k, i + k - q + 1))
-        d = np.linalg.norm(Q[jj] - Q[i], axis=1)
-        for t in np.argsort(d):
-            u, v = sorted((int(idx[i]), int(idx[jj[t]])))
-            if (u, v) not in forbidden:
-                return i, int(jj[t])
-    return i, j
+        raise MeshError(_NO_CHORD)
+    return i, (_pick_in_row(Q, idx, i, q, forbidden) if ties > 1 else j)
 
 
 def _best_chord_rows(P, idx, forbidden):
@@ -486,7 +491,7 @@ def _best_chord_rows(P, idx, forbidden):
                     best = (float(d[t]), i, int(j[t]))
                 break
     if best[1] < 0:
-        raise MeshError("no chord splits this loop without duplicating an existing edge")
+        raise MeshError(_NO_CHORD)
     return best[1], best[2]
 
 
