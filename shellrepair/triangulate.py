@@ -17,10 +17,12 @@ answer:
    so this answer never crosses itself. An ``allowed`` test (the scan's
    faces) is asked about each answer's triangles; rejected ones leave the
    search space and the search runs again (``LAZY_ROUNDS``);
-3. Liepa's full O(k³) dynamic program, vectorised over all splits of one
-   interval length at a time, for loops up to ``DP_MAX`` edges;
+3. Liepa's full O(k³) dynamic program, for loops up to ``DP_MAX`` edges
+   (compiled, :func:`shellrepair.kernels.liepa_tables`; its NumPy oracle
+   is vectorised over all splits of one interval length at a time);
 4. longer loops are cut by a short chord between vertices far apart along
-   the loop, and each piece goes through layers 2–4 on its own vertices.
+   the loop (the nearest pair at least a quarter of the loop apart), and
+   each piece goes through layers 2–4 on its own vertices.
 
 No triangulation creates an edge the mesh already has: chords between loop
 vertices that are already joined by a mesh edge are forbidden.
