@@ -951,10 +951,13 @@ def _band_rims(V, F, scan, rims, piece_of):
     loops that share a vertex are not paired. Each hole is the partner of
     one rim at most (the rim sending it the larger share of its arcs).
     """
-    holes = [L for L in scan.loops if L.kind == "hole"]
+    from .bridge import MAX_REACH, SELF_SKIP, loop_sights
+
+    # loop_sights follows no loop shorter than this (a lone triangle's rim)
+    rims = [R for R in rims if len(R.vertices) >= 2 * SELF_SKIP + 2]
+    holes = [L for L in scan.loops if L.kind == "hole" and len(L.vertices) >= 2 * SELF_SKIP + 2]
     if not rims or not holes:
         return
-    from .bridge import MAX_REACH, loop_sights
 
     def centre(L):
         return V[L.vertices].mean(axis=0)

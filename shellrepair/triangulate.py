@@ -646,23 +646,24 @@ def delaunay_faces(P):
         Each face once, corners sorted ascending; None when the points span
         less than a volume even after joggling (Qhull ``QJ``) or a point was
         merged with another (duplicates), so the faces cannot serve as the
-        search space of every loop vertex. Read-only: the answers for the
-        last ``DELAUNAY_KEPT`` point sets are kept and given again.
+        search space of every loop vertex. The answers for the last
+        ``DELAUNAY_KEPT`` point sets are kept, and a copy given again.
     """
     P = np.asarray(P)
     key = (P.dtype.str, P.shape, P.tobytes())
     with _DELAUNAY_LOCK:
-        if key in _DELAUNAY:
+        D = _DELAUNAY.get(key, _DELAUNAY)
+        if D is not _DELAUNAY:
             _DELAUNAY.move_to_end(key)
-            return _DELAUNAY[key]
-    D = _delaunay_faces(P)
-    if D is not None:
-        D.flags.writeable = False
-    with _DELAUNAY_LOCK:
-        _DELAUNAY[key] = D
-        while len(_DELAUNAY) > DELAUNAY_KEPT:
-            _DELAUNAY.popitem(last=False)
-    return D
+    if D is _DELAUNAY:      # not kept
+        D = _delaunay_faces(P)
+        with _DELAUNAY_LOCK:
+            _DELAUNAY[key] = D
+            while len(_DELAUNAY) > DELAUNAY_KEPT:
+                _DELAUNAY.popitem(last=False)
+    # a copy: the caller may change it, and the kernels it goes to take
+    # writeable arrays (a read-only one is another signature to compile)
+    return None if D is None else D.copy()
 
 
 def _delaunay_faces(P):

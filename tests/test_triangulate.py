@@ -358,23 +358,28 @@ def test_plane_frame_of_one_axis_equals_the_array_version_to_the_bit():
     assert abs(u @ w) < 1e-15 and abs(np.linalg.norm(u) - 1) < 1e-15
 
 
-def test_a_tetrahedralization_asked_again_is_the_kept_one_and_read_only():
+def test_a_tetrahedralization_asked_again_is_the_kept_one(monkeypatch):
     """delaunay_faces keeps its last answers: the same points (the same
     array or a copy) give the same faces without a second Qhull call, other
-    points or another dtype their own; the kept array cannot be changed."""
+    points or another dtype their own; what a caller does to its copy does
+    not change the kept answer; the oldest answers are let go."""
     import shellrepair.triangulate as tr
 
     rng = np.random.default_rng(3)
     P = wavy_loop(40, rng)
     tr._DELAUNAY.clear()
+    calls = []
+    real = tr._delaunay_faces
+    monkeypatch.setattr(tr, "_delaunay_faces", lambda X: calls.append(len(X)) or real(X))
     D = delaunay_faces(P)
-    assert D is not None and not D.flags.writeable
-    assert delaunay_faces(P.copy()) is D
-    assert np.array_equal(D, tr._delaunay_faces(P))
-    other = delaunay_faces(P + [0.0, 0.0, 0.01])
-    assert other is not D and np.array_equal(delaunay_faces(P.astype(np.float32)), tr._delaunay_faces(P.astype(np.float32)))
-    with pytest.raises(ValueError):
-        D[0, 0] = 1
-    for s in range(tr.DELAUNAY_KEPT + 1):
-        delaunay_faces(P + s)
-    assert len(tr._DELAUNAY) == tr.DELAUNAY_KEPT and delaunay_faces(P) is not D   # the oldest was let go
+    assert D is not None and D.flags.writeable and np.array_equal(D, real(P))
+    D[:] = 0                                              # the caller's copy
+    again = delaunay_faces(P.copy())
+    assert np.array_equal(again, real(P)) and len(calls) == 1
+    assert np.array_equal(delaunay_faces(P.astype(np.float32)), real(P.astype(np.float32))) and len(calls) == 2
+    for s in range(tr.DELAUNAY_KEPT):
+        delaunay_faces(P + s + 1.0)
+    assert len(tr._DELAUNAY) == tr.DELAUNAY_KEPT
+    n = len(calls)
+    delaunay_faces(P)                                     # let go: asked of Qhull again
+    assert len(calls) == n + 1
