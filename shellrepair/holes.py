@@ -962,39 +962,34 @@ def _band_rims(V, F, scan, rims, piece_of):
     def centre(L):
         return V[L.vertices].mean(axis=0)
 
-    # only rims with a hole within reach of their arcs (or within a hole's reach) are followed
+    # the pairs to test: a rim and a hole of another piece, sharing no vertex,
+    # within reach of one another's arcs
     hc = np.array([centre(L) for L in holes])
     hr = np.array([0.5 * L.diameter for L in holes])
-    follow, near_holes = [], set()
+    pairs = []
     for R in rims:
         r = 0.5 * R.diameter
         d = np.linalg.norm(hc - centre(R), axis=1)
-        near = np.flatnonzero(d <= (r + 2 * MAX_REACH * r) + hr + (2 * MAX_REACH * hr))
-        near = [j for j in near.tolist() if piece_of[holes[j].id] != piece_of[R.id]
-                and np.intersect1d(R.vertices, holes[j].vertices).size == 0]
-        if near:
-            follow.append(R.id)
-            near_holes.update(holes[j].id for j in near)
-    if not follow:
+        for j in np.flatnonzero(d <= (r + 2 * MAX_REACH * r) + hr + (2 * MAX_REACH * hr)).tolist():
+            if piece_of[holes[j].id] != piece_of[R.id] and np.intersect1d(R.vertices, holes[j].vertices).size == 0:
+                pairs.append((R.id, holes[j].id))
+    if not pairs:
         return
     from .io import Mesh
     from .patch import _Context
 
     ctx = _Context(Mesh(V=np.asarray(V, np.float64), F=np.asarray(F, np.int64)))
     sights = loop_sights(ctx.V, scan.loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)],
-                         candidates=sorted(set(follow) | near_holes))
+                         candidates=sorted({x for p in pairs for x in p}))
 
     def share(a, b):
         counts, m = sights.get(a, (None, 0))
         return counts[b] / m if m and 2 * counts[b] > m else 0.0
 
     best = {}
-    for r in follow:
-        for h in sorted(near_holes):
-            if piece_of[r] != piece_of[h] and share(r, h) and share(h, r) \
-                    and np.intersect1d(scan.loops[r].vertices, scan.loops[h].vertices).size == 0:
-                if share(r, h) > best.get(h, (0.0, None))[0]:
-                    best[h] = (share(r, h), r)
+    for r, h in pairs:        # rims in their order, each one's holes by id: the first of equal shares wins
+        if share(r, h) and share(h, r) and share(r, h) > best.get(h, (0.0, None))[0]:
+            best[h] = (share(r, h), r)
     for h, (f, r) in sorted(best.items()):
         R = scan.loops[r]
         R.kind = "hole"

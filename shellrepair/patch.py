@@ -138,6 +138,9 @@ class _Context:
         self._vf_future = None
         self._region_future = None   # the region on its way from another thread (take_region)
         self._early_vf = None        # and the whole-mesh lists, where there is no region
+        # loop bytes -> {triangle key: 0/1}: the scan test's answers (_scan_allowed),
+        # shared with a helper thread's copy of this context
+        self.allowed_answers = {}
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
         self.beside = None  # fill._Beside: a helper thread's work beside a batch's fills
 
@@ -734,7 +737,7 @@ def _scan_allowed(ctx, loop):
     """
     loop = np.asarray(loop, np.int64)
     k = np.int64(len(loop))
-    known = ctx.__dict__.setdefault("_allowed_answers", {}).setdefault(loop.tobytes(), {})
+    known = ctx.allowed_answers.setdefault(loop.tobytes(), {})
 
     def allowed(T):
         T = np.asarray(T, np.int64).reshape(-1, 3)
