@@ -4,8 +4,9 @@
 checks it against the scan, itself and the edges the mesh has
 (:func:`_check_patch`) and, when it crosses, re-routes chords near the
 crossing, pins vertices near it to the flat triangulation, then tries the
-harmonic patch and the checked flat triangulation, within a time budget of
-``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE`` per rim edge; where no
+harmonic patch and the checked flat triangulation, within a counted work
+budget (:data:`HOLE_VERTICES` + :data:`HOLE_VERTICES_PER_EDGE` per rim
+edge, in patch vertices; no clock is read); where no
 triangulation passes, the harmonic patch on the first one, mended by the
 last layer (:mod:`~shellrepair.mend`) where it crosses. :func:`_fill_pair`
 offers two loops facing each other across a band a tube
@@ -185,10 +186,6 @@ FLAT_RETRIES = 12
 FAIRED_RETRIES = 3
 #: Rounds of growing the region held on the flat triangulation around a crossing.
 PIN_ROUNDS = 3
-#: Time budget of one hole, seconds: no new attempt starts after
-#: ``HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges``.
-HOLE_SECONDS = 3.0
-HOLE_SECONDS_PER_EDGE = 0.004
 #: Work budget of one hole (or one band, both loops' edges counted), in new
 #: patch vertices built and checked over all attempts:
 #: ``HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges``. A hole's first
@@ -198,33 +195,33 @@ HOLE_SECONDS_PER_EDGE = 0.004
 #: stops it (``build_patch(max_vertices=...)``) if it grows past what is
 #: left, before fairing. One new vertex costs ~0.1 ms to refine, fair and
 #: check (2 cores, order 2), so the budget is ~2.5 s + 3 ms per edge of
-#: work, machine-independent: the wall-clock budget above is a backstop.
+#: work. The rounds themselves are counted too (:data:`FLAT_RETRIES`,
+#: :data:`FAIRED_RETRIES`, :data:`PIN_ROUNDS`), and the last layer has
+#: bounds of its own (:mod:`~shellrepair.mend`). Nothing here reads a
+#: clock: the same scan and options give the same attempts, so the same
+#: bytes, on a slow or busy machine and with any ``--jobs``
+#: (tests/test_determinism.py repairs under a clock that races ahead).
 HOLE_VERTICES = 25_000
 HOLE_VERTICES_PER_EDGE = 30
 
 
 class _Budget:
-    """What one hole (or band) may still spend: new patch vertices (work
-    units, :data:`HOLE_VERTICES`) and seconds (:data:`HOLE_SECONDS`).
+    """What one hole (or band) may still spend, in work units: new patch
+    vertices built and checked (:data:`HOLE_VERTICES`). Counted, never
+    timed, so that no decision depends on the machine's speed or load.
 
     Parameters
     ----------
     edges : int
         Rim edges.
     share : float
-        Fraction of both limits (a cap of a band gets its share).
+        Fraction of the budget (a cap of a band gets its share).
     """
 
     def __init__(self, edges, share=1.0):
         self.edges = int(edges)
         self.vertices = share * (HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges)
-        self.seconds = share * (HOLE_SECONDS + HOLE_SECONDS_PER_EDGE * edges)
-        self.t0 = time.perf_counter()
         self.spent = 0
-        self.excluded = 0.0     # seconds of the last layer, not counted against the wall clock
-
-    def elapsed(self):
-        return time.perf_counter() - self.t0
 
     def left(self):
         """New vertices still affordable (>= 0)."""
@@ -237,35 +234,21 @@ class _Budget:
 
     def affords(self, vertices):
         """Whether an attempt of about this many new vertices still fits."""
-        return self.spent + vertices <= self.vertices and not self.late()
-
-    def late(self, next_seconds=0.0):
-        """Whether the wall-clock backstop is (or would be, after an attempt of
-        ``next_seconds``) past."""
-        return self.elapsed() + next_seconds > self.seconds
+        return self.spent + vertices <= self.vertices
 
     def part(self, share):
         """A budget for part of the work (a cap of a band): ``share`` of what
         is left here; count what it spent back with :meth:`absorb`."""
         b = _Budget(self.edges)
         b.vertices = share * self.left()
-        b.seconds = share * max(0.0, self.seconds - self.elapsed())
         return b
 
     def absorb(self, part):
         self.spent += part.spent
-        self.exclude(part.excluded)
-
-    def exclude(self, seconds):
-        """Leave ``seconds`` (the last layer's, itself bounded) out of the
-        wall-clock backstop, so that it does not starve what follows (a
-        band's other cap)."""
-        self.t0 += seconds
-        self.excluded += seconds
 
     def describe(self):
-        return (f"work budget: {self.spent} of {int(self.vertices)} patch vertices, "
-                f"{self.elapsed():.1f} of {self.seconds:.1f} s, for {self.edges} edges")
+        return (f"work budget: {self.spent} of {int(self.vertices)} patch vertices "
+                f"for {self.edges} edges")
 
 
 #: How each option is named in the report.
@@ -391,8 +374,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     in step 2, or else in step 4) are always made; each later one only
     within ``budget`` (a :class:`_Budget`, default the hole's own): a
     faired retry only if a patch of the first one's size still fits the
-    work budget, and no round starts that would end past the wall-clock
-    backstop (a round expected to take as long as the last). Past the
+    work budget; the rounds are counted (no clock is read). Past the
     budget the hole keeps the checked flat triangulation, or its harmonic
     patch (mended), or fails saying so.
 
@@ -420,15 +402,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     first = True
     scan_aware = False
     size = None            # new vertices of the first faired patch: what a faired retry costs
-    t_round = None
+    # a counted number of rounds; each faired attempt after the first asks
+    # the work budget (no clock: the same attempts on any machine)
     for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 2):
-        last = 0.0 if t_round is None else time.perf_counter() - t_round   # the last round's seconds
-        # (the first round always: a band's cap whose share of the time is
-        # already spent still gets its first attempt, as the budget promises)
-        if t_round is not None and budget.late(last):
-            reasons.append(f"gave up: {budget.describe()}, {len(avoid)} chords re-routed")
-            break
-        t_round = time.perf_counter()
         try:
             flat = done.flat if first and done is not None else \
                 build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid,
@@ -541,7 +517,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     else:
         reasons.append(f"the triangulation still crosses the scan after re-routing {len(avoid)} chords")
     if flat_ok is not None:
-        mended = _mend_last_timed(ctx, faulty, reasons, budget) if faulty and defer is None else None
+        mended = _mend_last(ctx, faulty, reasons) if faulty and defer is None else None
         if mended is not None:
             return Outcome(mended, "", time.perf_counter() - t0, reasons)
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
@@ -561,7 +537,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
         defer.extend(faulty)
         return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
-    mended = _mend_last_timed(ctx, faulty, reasons, budget)
+    mended = _mend_last(ctx, faulty, reasons)
     if mended is not None:
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
@@ -589,17 +565,6 @@ def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):
 #: Failed attempts the last layer (:func:`~shellrepair.mend.mend_patch`)
 #: tries to mend, those with the fewest faulty triangles first.
 MEND_ATTEMPTS = 2
-
-
-def _mend_last_timed(ctx, faulty, reasons, budget, **kw):
-    """:func:`_mend_last` (``kw``: its ``check`` and ``what``), its seconds
-    left out of ``budget``'s wall clock (the last layer has bounds of its
-    own)."""
-    t = time.perf_counter()
-    try:
-        return _mend_last(ctx, faulty, reasons, **kw)
-    finally:
-        budget.exclude(time.perf_counter() - t)
 
 
 def _mend_last(ctx, faulty, reasons, check=None, what="patch"):
@@ -894,8 +859,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         # tube, so its last layer (the failed tubes mended where they
         # cross) comes before the caps, not only after them
         notes = []
-        tube = _mend_last_timed(ctx, [(p, b, f"tube to loop {B.id} ({how})") for p, b, how in tube_faults], notes,
-                                budget, check=check_tube, what="tube")
+        tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({how})") for p, b, how in tube_faults], notes,
+                          check=check_tube, what="tube")
         if notes:
             why_tube += "; " + "; ".join(notes)
         tube_faults = [] if tube is None else tube_faults   # (not mended again after the caps)

@@ -316,9 +316,7 @@ def fill_pants(ctx, unit):
             faults.append((p, bad, p.option))
         if pants is None and faults:
             notes = []
-            t_mend = time.perf_counter()
             pants = _fill._mend_last(ctx, faults, notes, check=check, what="pants")
-            budget.exclude(time.perf_counter() - t_mend)
             why += notes
     secs = time.perf_counter() - t0
     if pants is not None:

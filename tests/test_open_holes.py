@@ -78,9 +78,9 @@ def _lens_with_a_pebble(n=101):
 
 @pytest.fixture
 def spent_budget(monkeypatch):
-    """No round after the first starts (the budget is spent by then)."""
-    monkeypatch.setattr(fill, "HOLE_SECONDS", 0.0)
-    monkeypatch.setattr(fill, "HOLE_SECONDS_PER_EDGE", 0.0)
+    """No faired attempt after the first fits (the work budget is spent by then)."""
+    monkeypatch.setattr(fill, "HOLE_VERTICES", 0)
+    monkeypatch.setattr(fill, "HOLE_VERTICES_PER_EDGE", 0)
 
 
 def test_a_hole_with_no_passing_triangulation_gets_its_harmonic_patch(spent_budget):
@@ -90,7 +90,7 @@ def test_a_hole_with_no_passing_triangulation_gets_its_harmonic_patch(spent_budg
     repaired, report = repair_mesh(Mesh(V=V.copy(), F=F.copy()), order=2)
     (row,) = report["holes"]
     assert row["status"] == "filled", row["reason"]
-    assert row["option"].startswith("harmonic (order 1) on the first triangulation")
+    assert row["option"].startswith("harmonic (order 1)")
     # watertight and manifold, originals bit-identical and first, faces kept
     topo = edge_topology(repaired.F, len(repaired.V))
     assert topo.n_boundary_edges == 0 and len(topo.nonmanifold_edges) == 0
