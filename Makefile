@@ -2,9 +2,14 @@
 PY      ?= .venv/bin/python
 # written when .venv holds the package and its test tools; remade when pyproject.toml changes
 INSTALLED = .venv/.shellrepair-installed
-# written when the package is byte-compiled and its Numba kernels compiled;
-# remade when a module changes (after a git pull), so no run pays the compiler
+# written when the package is byte-compiled and the fill's Numba kernels compiled
+# (all that holes / repair / batch --no-html run); remade when a module changes
+# (after a git pull), so no run pays the compiler
 STAMP    = .venv/.shellrepair-built
+# written when the shading is built too: its rho_dt table (~1 min, once per
+# machine) and its Numba kernels (minutes); what render, the HTML pictures of
+# batch and repair --html, the tests and the benchmarks add to the fill's build
+SHADING  = .venv/.shellrepair-built-shading
 SOURCES  = $(wildcard shellrepair/*.py shellrepair/*/*.py)
 SCAN    ?= data/bunny_zipper.ply
 OUT     ?= $(basename $(SCAN)).repaired.ply
@@ -19,13 +24,14 @@ VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c '
 
 .PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance stress docs
 
-# `make setup` forces the install and the build; every target that runs the
-# package depends on the build stamp, so a fresh clone installs on its first
-# command, a pulled change of a module is compiled before the run that needs
-# it, and later commands skip both (make compares timestamps).
+# `make setup` forces the install and both builds; every target that runs the
+# package depends on the build stamp it needs (the fill's, or the shading's
+# on top of it), so a fresh clone installs on its first command, a pulled
+# change of a module is compiled before the run that needs it, and later
+# commands skip both (make compares timestamps).
 setup: syslibs
-	rm -f $(INSTALLED) $(STAMP)
-	$(MAKE) --no-print-directory $(STAMP)
+	rm -f $(INSTALLED) $(STAMP) $(SHADING)
+	$(MAKE) --no-print-directory $(SHADING)
 
 $(INSTALLED): pyproject.toml
 	@$(MAKE) --no-print-directory syslibs
@@ -39,10 +45,6 @@ $(STAMP): $(INSTALLED) $(SOURCES)
 	@echo "building the package (first use, or a module changed since the last build)"
 	@echo "byte-compiling the package (an editable install does not; else the first run writes its .pyc)"
 	$(PY) -m compileall -q shellrepair
-	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"
-	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
-	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"
-	$(PY) -c "from shellrepair.reflectance import warm_up; warm_up()"
 	@echo "compiling the fill's kernels (once; cached beside shellrepair/kernels.py)"
 	$(PY) -c "from shellrepair.kernels import warm_up; warm_up()"
 	@echo "compiling the fairing's sparse Cholesky (Numba; cached beside shellrepair/cholesky.py)"
@@ -50,6 +52,16 @@ $(STAMP): $(INSTALLED) $(SOURCES)
 	@echo "compiling the whole-mesh kernels (Numba; cached beside the package, so no run waits on the compiler)"
 	$(PY) -c "from shellrepair.fastmesh import warm_up; warm_up()"
 	touch $(STAMP)
+
+# the shading, which no repair uses: only rendering does (render, the
+# pictures of batch's and repair --html's pages, the tests, the benchmarks)
+$(SHADING): $(STAMP) $(SOURCES)
+	@echo "building the shading (first use, or a module changed since the last build)"
+	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"
+	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
+	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"
+	$(PY) -c "from shellrepair.reflectance import warm_up; warm_up()"
+	touch $(SHADING)
 
 # open3d's wheel needs libusb (and libgomp); install them from Debian if missing.
 syslibs:
@@ -60,7 +72,7 @@ syslibs:
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
 
-test: $(STAMP) browser
+test: $(SHADING) browser
 	$(PY) -m pytest
 
 # the HTML report's test opens the page in Debian's headless chromium;
@@ -76,24 +88,27 @@ holes: $(STAMP)
 	$(PY) -m shellrepair.cli holes $(SCAN)
 
 # any repair option through ARGS: make repair SCAN=bust.ply ARGS="--base flat"
-repair: $(STAMP)
+# (ARGS="--html PAGE.html" draws a picture: then the shading is built first)
+repair: $(STAMP) $(if $(findstring --html,$(ARGS)),$(SHADING))
 	$(PY) -m shellrepair.cli repair $(SCAN) -o $(OUT) --report $(REPORT) $(ARGS)
 
 # every scan of a folder, on all cores (Dask worker processes; installed here
 # when missing): make batch DIR=scans OUTDIR=scans/repaired [JOBS=2]
-# [SCHEDULER=tcp://host:8786 for an existing Dask cluster]
-batch: $(STAMP)
+# [SCHEDULER=tcp://host:8786 for an existing Dask cluster]; its index.html
+# has a picture of each scan, drawn by the shading (built first unless
+# ARGS=--no-html)
+batch: $(STAMP) $(if $(findstring --no-html,$(ARGS)),,$(SHADING))
 	@$(PY) -c 'import distributed' 2>/dev/null || $(PY) -m pip install -q -e '.[cluster]' \
 	  || echo "Dask did not install: scans run one at a time"
 	$(PY) -m shellrepair.cli batch $(DIR) -o $(OUTDIR) $(if $(JOBS),--jobs $(JOBS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(ARGS)
 
-render: $(STAMP)
+render: $(SHADING)
 	test -f $(OUT) || $(MAKE) repair SCAN=$(SCAN)
 	$(PY) -m shellrepair.cli render $(OUT) --before $(SCAN) --highlight-filled -o $(basename $(SCAN)).before_after.png
 
 # accuracy and speed against the peers on the 19 cases, then the scale
 # benchmark (about 7 minutes in all)
-bench: $(STAMP)
+bench: $(SHADING)
 	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the benchmark records them as missing"
 	$(PY) eval/bench.py
 	$(PY) eval/bench_scale.py
@@ -130,7 +145,7 @@ clean:
 # the same cameras, material and aging map; SSIM and CIEDE2000 over the
 # filled pixels (eval/results/appearance.{json,md}, appearance_worst.png;
 # about 10 minutes on 7 cases x 4 tools)
-appearance: $(STAMP)
+appearance: $(SHADING)
 	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the run records them as missing"
 	$(PY) eval/appearance.py
 

@@ -180,23 +180,101 @@ def test_real_scans_compile_nothing_after_setup(warm, tmp_path, name):
     assert extra == {}, f"signatures the warm-ups do not compile: {extra}"
 
 
-@pytest.mark.skipif(not (ROOT / "Makefile").exists() or subprocess.run(["which", "make"], capture_output=True).returncode,
-                    reason="needs make and the checkout's Makefile")
-@pytest.mark.parametrize("module", ["shellrepair/kernels.py", "shellrepair/fastmesh.py",
-                                    "shellrepair/reflectance/_kernels.py", "shellrepair/repair.py"])
-def test_a_changed_module_is_built_before_the_next_run(module):
+_NEEDS_MAKE = pytest.mark.skipif(
+    not (ROOT / "Makefile").exists() or subprocess.run(["which", "make"], capture_output=True).returncode,
+    reason="needs make and the checkout's Makefile")
+#: The build steps: the fill's (stamp .venv/.shellrepair-built), then the
+#: shading's (.venv/.shellrepair-built-shading), which no repair uses.
+_FILL_STEPS = ("compileall", "from shellrepair.kernels import warm_up", "from shellrepair.cholesky import warm_up",
+               "from shellrepair.fastmesh import warm_up")
+_SHADING_STEPS = ("from shellrepair.shading import rho_dt_table", "from shellrepair.reflectance import warm_up")
+
+
+def _plan(module, *goal):
     # after a git pull that changes a module (here: make told it is new, by
-    # -W, so no file is touched), `make repair` first remakes the build stamp,
-    # whose recipe byte-compiles the package and runs the kernels' warm-ups
-    stamp = ".venv/.shellrepair-built"
-    plan = subprocess.run(["make", "-n", "-W", module, "repair"], cwd=ROOT, capture_output=True, text=True,
+    # -W, so no file is touched), what `make GOAL` would run
+    plan = subprocess.run(["make", "-n", "-W", module, *goal], cwd=ROOT, capture_output=True, text=True,
                           timeout=60)
     assert plan.returncode == 0, plan.stderr
-    lines = plan.stdout.splitlines()
+    return plan.stdout.splitlines()
+
+
+@_NEEDS_MAKE
+@pytest.mark.parametrize("module", ["shellrepair/kernels.py", "shellrepair/fastmesh.py",
+                                    "shellrepair/reflectance/_kernels.py", "shellrepair/repair.py"])
+@pytest.mark.parametrize("goal, run", [(("repair",), "shellrepair.cli repair"),
+                                       (("holes",), "shellrepair.cli holes"),
+                                       (("batch", "ARGS=--no-html"), "shellrepair.cli batch")])
+def test_a_changed_module_is_built_before_the_next_run(module, goal, run):
+    # `make repair` first remakes the fill's build stamp, whose recipe
+    # byte-compiles the package and runs the fill's warm-ups, and builds
+    # nothing of the shading (the rho_dt table, its kernels: minutes on a
+    # fresh clone, and no repair uses them)
+    stamp = ".venv/.shellrepair-built"
+    lines = _plan(module, *goal)
     assert f"touch {stamp}" in lines
     build = lines[:lines.index(f"touch {stamp}")]
-    for step in ("compileall", "from shellrepair.kernels import warm_up", "from shellrepair.cholesky import warm_up",
-                 "from shellrepair.fastmesh import warm_up",
-                 "from shellrepair.reflectance import warm_up"):
+    for step in _FILL_STEPS:
         assert any(step in x for x in build), f"{step} missing from the build: {build}"
-    assert any("shellrepair.cli repair" in x for x in lines[lines.index(f"touch {stamp}"):])
+    for step in _SHADING_STEPS:
+        assert not any(step in x for x in lines), f"{step} in the plan of make {' '.join(goal)}: {lines}"
+    assert any(run in x for x in lines[lines.index(f"touch {stamp}"):])
+
+
+@_NEEDS_MAKE
+@pytest.mark.parametrize("module", ["shellrepair/kernels.py", "shellrepair/reflectance/_kernels.py"])
+@pytest.mark.parametrize("goal, run", [(("render",), "shellrepair.cli render"), (("test",), "-m pytest"),
+                                       (("batch",), "shellrepair.cli batch"),
+                                       (("repair", "ARGS=--html x.html"), "shellrepair.cli repair")])
+def test_what_draws_builds_the_shading_after_the_fill(module, goal, run):
+    # render, the pictures of batch's and repair --html's pages, and the
+    # tests use the shading: the fill's build, then the shading's, then the run
+    lines = _plan(module, *goal)
+    fill, shading = "touch .venv/.shellrepair-built", "touch .venv/.shellrepair-built-shading"
+    assert fill in lines and shading in lines and lines.index(fill) < lines.index(shading)
+    for step in _FILL_STEPS:
+        assert any(step in x for x in lines[:lines.index(fill)]), f"{step} missing from the fill's build: {lines}"
+    for step in _SHADING_STEPS:
+        assert any(step in x for x in lines[lines.index(fill):lines.index(shading)]), \
+            f"{step} missing from the shading's build: {lines}"
+    assert any(run in x for x in lines[lines.index(shading):])
+
+
+_NO_SHADING = """
+import json, sys
+from pathlib import Path
+from shellrepair import cli
+
+scan, out = sys.argv[1], Path(sys.argv[2])
+(out / "in").mkdir()
+(out / "in" / "scan.ply").write_bytes(Path(scan).read_bytes())
+for args in (["holes", scan], ["repair", scan, "-o", str(out / "r.ply"), "--report", str(out / "r.json")],
+             ["batch", str(out / "in"), "-o", str(out / "batch"), "--no-html", "--jobs", "1"]):
+    try:
+        code = cli.main(args + ["-q"])
+    except SystemExit as e:
+        code = e.code
+    assert not code, (args, code)
+print(json.dumps(sorted(m for m in sys.modules if m.startswith("shellrepair"))))
+"""
+
+
+def test_a_repair_uses_nothing_of_the_shading(tmp_path):
+    # what `make repair` (and holes, batch --no-html) leave unbuilt must not
+    # be needed: the run imports no module of the shading and so neither
+    # builds the rho_dt table (nothing is written to the cache folder) nor
+    # compiles a shading kernel
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_DISABLE_JIT", "SHELLREPAIR_NO_NUMBA")}
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    env["SHELLREPAIR_CACHE_DIR"] = str(cache)
+    p = subprocess.run([sys.executable, "-c", _NO_SHADING, str(BUNNY), str(tmp_path)], cwd=ROOT, env=env,
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-3000:]
+    loaded = json.loads(p.stdout.strip().splitlines()[-1])
+    assert "shellrepair.repair" in loaded
+    drawing = [m for m in loaded if (m + ".").split(".")[1] in ("reflectance", "shading", "shader", "materials", "render",
+                                                        "aging", "htmlreport")]
+    assert drawing == [], f"a repair imported the shading: {drawing}"
+    assert list(cache.iterdir()) == []
