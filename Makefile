@@ -1,7 +1,9 @@
 # shellrepair: `make repair` and `make test` set up what they need on first use. See README.md.
 PY      ?= .venv/bin/python
-# written when .venv holds the package and its test tools; remade when pyproject.toml changes
+# written when .venv holds the package; remade when pyproject.toml changes
 INSTALLED = .venv/.shellrepair-installed
+# written when .venv holds the test tools too (the test extra: pytest, pymeshlab, dask, ...)
+TESTTOOLS = .venv/.shellrepair-installed-test
 # written when the package is byte-compiled and the fill's Numba kernels compiled
 # (all that holes / repair / batch --no-html run); remade when a module changes
 # (after a git pull), so no run pays the compiler
@@ -30,27 +32,32 @@ VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c '
 # change of a module is compiled before the run that needs it, and later
 # commands skip both (make compares timestamps).
 setup: syslibs
-	rm -f $(INSTALLED) $(STAMP) $(SHADING)
-	$(MAKE) --no-print-directory $(SHADING)
+	rm -f $(INSTALLED) $(TESTTOOLS) $(STAMP) $(SHADING)
+	$(MAKE) --no-print-directory $(SHADING) $(TESTTOOLS)
 
 $(INSTALLED): pyproject.toml
 	@$(MAKE) --no-print-directory syslibs
 	@echo "setting up .venv (first use, or pyproject.toml changed)"
 	test -x $(PY) || python3 -m venv .venv
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q -e .
 	touch $(INSTALLED)
+
+# the tests' tools, which no repair needs (pymeshlab alone is ~280 MB)
+$(TESTTOOLS): $(INSTALLED)
+	@echo "installing the test tools (the test extra)"
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(TESTTOOLS)
 
 $(STAMP): $(INSTALLED) $(SOURCES)
 	@echo "building the package (first use, or a module changed since the last build)"
 	@echo "byte-compiling the package (an editable install does not; else the first run writes its .pyc)"
 	$(PY) -m compileall -q shellrepair
-	@echo "compiling the fill's kernels (once; cached beside shellrepair/kernels.py)"
-	$(PY) -c "from shellrepair.kernels import warm_up; warm_up()"
-	@echo "compiling the fairing's sparse Cholesky (Numba; cached beside shellrepair/cholesky.py)"
-	$(PY) -c "from shellrepair.cholesky import warm_up; warm_up()"
-	@echo "compiling the whole-mesh kernels (Numba; cached beside the package, so no run waits on the compiler)"
-	$(PY) -c "from shellrepair.fastmesh import warm_up; warm_up()"
+	@echo "compiling the fill's kernels, the fairing's sparse Cholesky and the whole-mesh kernels"
+	@echo "(Numba, once, in two processes side by side; cached beside the package, so no run waits on the compiler)"
+	$(PY) -c "from shellrepair import kernels, fastmesh; kernels.warm_up(share=1); fastmesh.warm_up()" & first=$$!; \
+	$(PY) -c "from shellrepair import kernels, cholesky; kernels.warm_up(share=2); cholesky.warm_up()" \
+	  || { wait $$first; exit 1; }; wait $$first
 	touch $(STAMP)
 
 # the shading, which no repair uses: only rendering does (render, the
@@ -72,7 +79,7 @@ syslibs:
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
 
-test: $(SHADING) browser
+test: $(SHADING) $(TESTTOOLS) browser
 	$(PY) -m pytest
 
 # the HTML report's test opens the page in Debian's headless chromium;

@@ -185,8 +185,8 @@ _NEEDS_MAKE = pytest.mark.skipif(
     reason="needs make and the checkout's Makefile")
 #: The build steps: the fill's (stamp .venv/.shellrepair-built), then the
 #: shading's (.venv/.shellrepair-built-shading), which no repair uses.
-_FILL_STEPS = ("compileall", "from shellrepair.kernels import warm_up", "from shellrepair.cholesky import warm_up",
-               "from shellrepair.fastmesh import warm_up")
+_FILL_STEPS = ("compileall", "kernels.warm_up(share=1)", "kernels.warm_up(share=2)", "cholesky.warm_up()",
+               "fastmesh.warm_up()")
 _SHADING_STEPS = ("from shellrepair.shading import rho_dt_table", "from shellrepair.reflectance import warm_up")
 
 
