@@ -35,18 +35,21 @@ setup: syslibs
 	rm -f $(INSTALLED) $(TESTTOOLS) $(STAMP) $(SHADING)
 	$(MAKE) --no-print-directory $(SHADING) $(TESTTOOLS)
 
+# --no-compile: pip would byte-compile every module it installs (~15 s: open3d's
+# dash and plotly among them); Python writes the .pyc of those a run imports, and
+# the build's warm-ups do for the fill's, so a first repair is no slower for it
 $(INSTALLED): pyproject.toml
 	@$(MAKE) --no-print-directory syslibs
 	@echo "setting up .venv (first use, or pyproject.toml changed)"
 	test -x $(PY) || python3 -m venv .venv
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e .
+	$(PY) -m pip install -q --no-compile -e .
 	touch $(INSTALLED)
 
 # the tests' tools, which no repair needs (pymeshlab alone is ~280 MB)
 $(TESTTOOLS): $(INSTALLED)
 	@echo "installing the test tools (the test extra)"
-	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q --no-compile -e '.[test]'
 	touch $(TESTTOOLS)
 
 $(STAMP): $(INSTALLED) $(SOURCES)
