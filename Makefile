@@ -82,8 +82,10 @@ syslibs:
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq $$missing; \
 	fi
 
+# the tests on every core (pytest-xdist; tests/conftest.py locks Numba's cache
+# for the workers); one process: .venv/bin/python -m pytest -n 0
 test: $(SHADING) $(TESTTOOLS) browser
-	$(PY) -m pytest
+	$(PY) -m pytest -n auto
 
 # the HTML report's test opens the page in Debian's headless chromium;
 # installed here when apt can, else that test skips and says why

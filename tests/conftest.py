@@ -6,6 +6,12 @@ import numpy as np
 import pytest
 
 from eval import shapes
+from shellrepair import cachelock
+
+# `make test` runs the tests in parallel processes (pytest-xdist), which
+# compile kernels for the types the tests pass into one on-disk cache: one
+# process at a time reads and writes it (see shellrepair.cachelock)
+cachelock.install()
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
