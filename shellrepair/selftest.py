@@ -92,8 +92,11 @@ from .geometry import uniq
 __all__ = ["choose_order", "scan_verdict", "agrees", "near_rim", "probe_band", "point_mesh_distance", "rim_bend",
            "OrderTest"]
 
-#: Candidate orders, tried in this order (ties go to the first).
-CANDIDATES = (2, 3)
+#: Candidate orders of the probe test (:mod:`shellrepair.probe`; ties go
+#: to ``DEFAULT_ORDER``, then the lower order).
+CANDIDATES = (1, 2, 3)
+#: Candidate orders of the band test (``CRITERION = "band"``; ties go to the first).
+BAND_CANDIDATES = (2, 3)
 #: The order of holes that are not tested.
 DEFAULT_ORDER = 2
 #: Holes with fewer rim edges are not tested.
@@ -116,6 +119,11 @@ TEST_ROUNDS = 2
 #: length instead (about ``TEST_COARSEN²`` times fewer unknowns).
 TEST_MAX_UNKNOWNS = 1000
 TEST_COARSEN = 2.0
+#: How a hole's order is chosen: "band" (the band test) or "probe"
+#: (test holes of the hole's own size, :mod:`shellrepair.probe`).
+CRITERION = "band"
+#: The sagitta floor (:func:`sagitta`) is scaled by this before it decides.
+FLOOR_SCALE = 1.0
 #: Triangles nearest (by centroid) to each measured point searched for its closest point.
 NEAREST_TRIANGLES = 8
 #: Order 3 is tested only on a smooth rim: no edge within ``max(CANDIDATES)``
@@ -162,10 +170,12 @@ class OrderTest:
         if self.shared:
             return (f"auto: order {self.order}, the scan's verdict on its holes of this size (the band test on "
                     f"{self.shared}; errors here {errs})" + (f"; {self.why}" if self.why else ""))
+        if not self.rings:     # the test holes of the hole's size (CRITERION "probe")
+            return f"auto: order {self.order}, by {self.why}, RMS {errs}"
         return f"auto: order {self.order}, self-test on a {self.rings}-ring band of scan: {errs}"
 
 
-def rim_bend(ctx, loop, rings=max(CANDIDATES)):
+def rim_bend(ctx, loop, rings=max(BAND_CANDIDATES)):
     """The largest bend between two adjacent faces within ``rings`` rings of a rim.
 
     Order 3 continues the curvature it reads on the rings of scan around
@@ -493,7 +503,7 @@ def size_class(k):
     return 1 + int(np.floor(np.log2(k / SMALL_EDGES)))
 
 
-def scan_verdict(ctx, holes, candidates=CANDIDATES, run=None):
+def scan_verdict(ctx, holes, candidates=None, run=None):
     """One order for each class of a scan's many holes, from the test on a few of them.
 
     The small holes (``MIN_EDGES <= edges < SMALL_EDGES``) always share one
@@ -525,6 +535,9 @@ def scan_verdict(ctx, holes, candidates=CANDIDATES, run=None):
         use. The larger classes' verdicts are set as ``ctx.auto_shared``
         (class -> OrderTest) here.
     """
+    if candidates is None:
+        candidates = CANDIDATES if CRITERION == "probe" else BAND_CANDIDATES
+    candidates = tuple(candidates)
     groups = {}
     for h in holes:
         if h.edges >= MIN_EDGES:
@@ -595,7 +608,7 @@ def _scaled(verdict, V, loop, why=""):
                      rings=verdict.rings, shared=verdict.shared, floor=verdict.floor * scale, why=why)
 
 
-def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shared=True, rings=None):
+def choose_order(ctx, hole_id, loop, candidates=None, relative=False, shared=True, rings=None):
     """Pick the fairing order for one hole by the band test (module docstring).
 
     Parameters
@@ -623,6 +636,9 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
 
     loop = np.asarray(loop, np.int64)
     k = len(loop)
+    if CRITERION == "probe":
+        return _probe_test(ctx, loop, CANDIDATES if candidates is None else tuple(candidates), relative)
+    candidates = BAND_CANDIDATES if candidates is None else tuple(candidates)
     bends = _edge_bends(ctx.V, ctx.F[ctx.ring_faces(loop, max(candidates))])   # rim_bend's, kept for sagitta
     bend = _largest_bend(bends[0])
     if bend > SMOOTH_BEND_DEG:     # no smooth curvature to continue: order 2, untested
@@ -660,6 +676,7 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
     # coarser than the scan, to c² of it
     # (the band's faces are rim_bend's when the band is max(candidates) rings wide)
     floor = (_sagitta_of(*bends) if rings == max(candidates) else sagitta(ctx.V, ctx.F[band])) * coarse ** 2
+    floor *= FLOOR_SCALE
     X0, Fs, nf, g, scale, org = P0
     faired = fair_patch_orders(X0, Fs, nf, candidates, rounds=TEST_ROUNDS, operator=False)   # their common work done once
     for o, (Xu, _) in zip(candidates, faired):
@@ -676,6 +693,26 @@ def choose_order(ctx, hole_id, loop, candidates=CANDIDATES, relative=False, shar
         floor /= unit
     best = _best(errors, floor, candidates)
     return OrderTest(int(best), errors=errors, rings=rings, floor=floor)
+
+
+def _probe_test(ctx, loop, candidates, relative):
+    """:func:`choose_order` by test holes of the hole's own size (:mod:`shellrepair.probe`)."""
+    from .probe import probe_errors
+
+    k = len(loop)
+    if k < MIN_EDGES:
+        return OrderTest(DEFAULT_ORDER, why=f"{k} rim edges, not tested")
+    errors, n, scale = probe_errors(ctx, loop, candidates)
+    if not errors:
+        return OrderTest(DEFAULT_ORDER, why="no intact scan of the hole's size around it: the scan cannot tell")
+    why = f"{n} test holes of its size" if scale == 1.0 else f"{n} test holes of {scale:g} its radius"
+    if relative:
+        unit = _mean_edge(ctx.V, loop)
+        errors = {o: e / unit for o, e in errors.items()}
+    # ties (a test hole too small for new vertices fills alike at every
+    # order) go to the default order, then to the lower one
+    best = min(candidates, key=lambda o: (errors[o], o != DEFAULT_ORDER, o))
+    return OrderTest(int(best), errors=errors, rings=0, why=why)
 
 
 def _refined(ctx, loop, rings):

@@ -1,0 +1,339 @@
+"""Which patch continues this scan best, asked of the scan at the hole's own size.
+
+:func:`probe_errors` cuts test holes of the hole's own size (a disc of the
+hole's area, :func:`hole_radius`) into intact scan next to the hole,
+fills each with every candidate fairing order exactly as a hole is
+filled (triangulate, refine, fair: :func:`shellrepair.selftest._refined`
+and :func:`shellrepair.fair.fair_patch_orders`), and measures each fill
+against the scan that was cut away: the RMS distance of the removed
+vertices to the filled surface. The errors of all probes are pooled; the
+candidate with the lowest wins (:func:`shellrepair.selftest.choose_order`).
+
+Why at the hole's own size: the orders differ most deep inside a hole, and
+how much depends on the hole's size against the surface's curvature and
+relief. A band a few rings wide next to the rim (the earlier test) sees
+only the first rings, where every order is close to the scan; a small
+hole's verdict says nothing of a large one's.
+
+A probe is placed where the disc and a margin of ``MARGIN_EDGES`` rim
+edges around it are intact scan: no boundary edge (of a hole or of the
+scan's border) inside, and the disc one piece of surface (a thin part
+whose far side comes within the radius is not a disc). Candidates are the
+scan vertices in shells around the hole, from just outside its rim
+outwards (``SHELLS``); up to ``PROBES`` of them are taken, each as far as
+possible from those already taken (the same ones for the same scan). Where
+no probe fits (the hole is as large as the intact scan around it), the
+scan cannot tell, and the caller falls back to a documented default.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["hole_radius", "probe_errors", "PROBES"]
+
+#: Test holes per real hole.
+PROBES = 3
+#: Intact scan kept around a test hole, in rim edges (the fairing reads 3 rings).
+MARGIN_EDGES = 5.0
+#: Shells searched for probe centres: distance from the hole's rim, in units
+#: of the probe's radius (inner, outer), tried in turn until ``PROBES`` fit.
+SHELLS = ((1.2, 2.5), (2.5, 5.0), (5.0, 10.0))
+#: Probe radii tried, in units of the hole's (:func:`hole_radius`): the
+#: hole's own size first; smaller ones only where no probe of that size fits.
+SCALES = (1.0, 0.5, 0.25)
+#: Corners of the disc tried where no test hole of the hole's outline fits
+#: (an outline too long for the intact scan around it, such as a slit's).
+DISC_POINTS = 32
+#: Candidate centres checked per shell (spread evenly over the shell's vertices).
+CENTRES_PER_SHELL = 24
+
+
+def hole_radius(V, loop):
+    """Radius of the disc of the hole's area: the rim projected on its
+    best-fit plane, its polygon area A, ``sqrt(A / pi)``; at most the rim's
+    largest distance from its centroid.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loop : (k,) int64
+
+    Returns
+    -------
+    r : float
+    """
+    P = np.asarray(V, np.float64)[np.asarray(loop, np.int64)]
+    c = P.mean(axis=0)
+    Q = P - c
+    _, _, vt = np.linalg.svd(Q, full_matrices=False)
+    x, y = Q @ vt[0], Q @ vt[1]
+    area = 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+    rmax = float(np.sqrt((Q * Q).sum(axis=1).max()))
+    return min(float(np.sqrt(area / np.pi)), rmax)
+
+
+def hole_outline(V, loop):
+    """The hole's rim in its best-fit plane: (outline (k,2) about the rim's
+    centroid, in-plane axes e1, e2 (3,), normal (3,))."""
+    P = np.asarray(V, np.float64)[np.asarray(loop, np.int64)]
+    Q = P - P.mean(axis=0)
+    _, _, vt = np.linalg.svd(Q, full_matrices=False)
+    return np.column_stack([Q @ vt[0], Q @ vt[1]]), vt[0], vt[1], vt[2]
+
+
+def inside_polygon(x, y, poly):
+    """Even-odd test of points (x, y) against a closed polygon (k,2)."""
+    x = np.asarray(x, np.float64)[:, None]
+    y = np.asarray(y, np.float64)[:, None]
+    ax, ay = poly[:, 0][None], poly[:, 1][None]
+    bx, by = np.roll(poly[:, 0], -1)[None], np.roll(poly[:, 1], -1)[None]
+    straddle = (ay > y) != (by > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xc = ax + (y - ay) * (bx - ax) / (by - ay)
+    return (straddle & (x < xc)).sum(axis=1) % 2 == 1
+
+
+def _mean_edge(V, loop):
+    P = V[loop]
+    return float(np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).mean())
+
+
+def _component(F, seed_faces):
+    """Faces of ``F`` connected to ``seed_faces`` through shared edges (local ids)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(F)
+    if m == 0:
+        return np.zeros(0, np.int64)
+    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    fid = np.tile(np.arange(m), 3)
+    key = E[:, 0] * (int(F.max()) + 1) + E[:, 1]
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    a, b = fid[order[same]], fid[order[same + 1]]
+    g = coo_matrix((np.ones(len(a)), (a, b)), shape=(m, m))
+    _, lab = connected_components(g, directed=False)
+    keep = np.isin(lab, np.unique(lab[seed_faces]))
+    return np.flatnonzero(keep)
+
+
+def _probe(V, F, near_f, p_id, shape, margin):
+    """A test hole of the hole's shape around scan vertex ``p_id``, with
+    ``margin`` of intact scan around it; None where the scan is not intact
+    and one piece of surface there.
+
+    ``shape``: (outline (k,2), e1, normal) of the hole, scaled: the outline
+    is laid on the scan's tangent plane at the vertex, its first axis
+    ``e1`` turned into that plane (the hole's orientation kept).
+
+    Returns (Vl, Fl, ploop, Q): local positions, the local scan with the
+    test hole cut, the test hole's loop (local ids) and the removed
+    vertices' positions.
+    """
+    from .holes import boundary_loops
+
+    outline, e1, n0 = shape
+    p = V[p_id]
+    d = np.sqrt(((V[np.unique(F[near_f])] - p) ** 2).sum(axis=1))
+    r_out = float(np.sqrt((outline * outline).sum(axis=1).max()))
+    R = r_out + margin
+    T = F[near_f]
+    dv = np.sqrt(((V[T] - p) ** 2).sum(axis=2))
+    region = near_f[(dv <= R).all(axis=1)]
+    if region.size == 0:
+        return None
+    T = F[region]
+    seed = np.flatnonzero((T == p_id).any(axis=1))
+    if seed.size == 0:
+        return None
+    comp = _component(T, seed)
+    region, T = region[comp], T[comp]
+    g, Tl = np.unique(T, return_inverse=True)
+    Tl = Tl.reshape(-1, 3).astype(np.int64)
+    Vg = V[g] - p
+    dl = np.sqrt((Vg * Vg).sum(axis=1))
+    pl = int(np.searchsorted(g, p_id))
+    # the region's own boundary: only at its outer edge (else a hole or border is near)
+    loops, chains = boundary_loops(Tl, len(g))
+    if chains:
+        return None
+    on_edge = np.zeros(len(g), bool)
+    for L in loops:
+        if dl[L].min() < R - margin * 0.5:
+            return None
+        on_edge[L] = True
+    # the tangent frame at the vertex: the normal of the faces around it
+    at = Tl[(Tl == pl).any(axis=1)]
+    nrm = np.cross(Vg[at[:, 1]] - Vg[at[:, 0]], Vg[at[:, 2]] - Vg[at[:, 0]]).sum(axis=0)
+    ln = float(np.linalg.norm(nrm))
+    if ln <= 0:
+        return None
+    nrm /= ln
+    a = e1 - (e1 @ nrm) * nrm
+    if np.linalg.norm(a) < 1e-6:      # the hole's axis along this normal: any in-plane axis
+        a = np.cross(nrm, [1.0, 0.0, 0.0] if abs(nrm[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(nrm, a)
+    if n0 @ nrm < 0:                   # the outline's turn kept: its normal on the surface's side
+        b = -b
+    inside = inside_polygon(Vg @ a, Vg @ b, outline) & (dl <= r_out)
+    disc = inside[Tl].all(axis=1)
+    seed = np.flatnonzero(disc & (Tl == pl).any(axis=1))
+    if seed.size == 0:
+        return None
+    dfaces = np.flatnonzero(disc)
+    keep_d = _component(Tl[dfaces], np.flatnonzero((Tl[dfaces] == pl).any(axis=1)))
+    cut = np.zeros(len(Tl), bool)
+    cut[dfaces[keep_d]] = True
+    if (disc & ~cut).any():
+        return None          # faces of another sheet within the outline: not one piece of surface there
+    Fk = Tl[~cut]
+    lk, ck = boundary_loops(Fk, len(g))
+    if ck:
+        return None
+    inner_loops = [L for L in lk if not on_edge[L].any()]
+    if len(inner_loops) != 1:
+        return None
+    ploop = np.asarray(inner_loops[0], np.int64)
+    used = np.zeros(len(g), bool)
+    used[Fk] = True
+    removed = np.unique(Tl[cut])
+    removed = removed[~used[removed]]
+    if removed.size == 0 or len(ploop) < 3:
+        return None
+    # keep only the vertices the kept faces use (the removed ones are measured against)
+    ids = np.flatnonzero(used)
+    remap = np.full(len(g), -1, np.int64)
+    remap[ids] = np.arange(ids.size)
+    Vl = V[g]
+    return Vl[ids], remap[Fk], remap[ploop], Vl[removed]
+
+
+def _centres(V, F, near_f, loop, r, h, lo, hi, taken):
+    """Candidate probe centres in the shell ``lo..hi`` (units of ``r``)
+    beyond the rim: scan vertices, an even spread over them."""
+    from scipy.spatial import cKDTree
+
+    verts = np.unique(F[near_f])
+    dist, _ = cKDTree(V[loop]).query(V[verts])
+    sel = verts[(dist >= lo * r + h) & (dist <= hi * r + h)]
+    if sel.size == 0:
+        return sel
+    if sel.size > CENTRES_PER_SHELL:
+        sel = sel[np.round(np.linspace(0, sel.size - 1, CENTRES_PER_SHELL)).astype(np.int64)]
+    return sel
+
+
+def probe_errors(ctx, loop, candidates, max_probes=None):
+    """RMS error of each candidate order on test holes of this hole's size.
+
+    Parameters
+    ----------
+    ctx : shellrepair.patch._Context
+    loop : (k,) int64
+    candidates : sequence of int
+        Fairing orders.
+    max_probes : int, optional
+        Default :data:`PROBES`.
+
+    Returns
+    -------
+    errors : dict of int -> float
+        RMS distance (scan units) of the removed scan to each candidate's
+        fill, pooled over the probes; empty when no probe fits.
+    probes : int
+        How many test holes were filled.
+    scale : float
+        Their radius over the hole's (:data:`SCALES`; 0 when none fit).
+    """
+
+    V = ctx.V
+    loop = np.asarray(loop, np.int64)
+    r0 = hole_radius(V, loop)
+    outline, e1, _, n0 = hole_outline(V, loop)
+    t = np.linspace(0.0, 2.0 * np.pi, DISC_POINTS, endpoint=False)
+    disc = np.column_stack([np.cos(t), np.sin(t)]) * r0
+    for f in SCALES:          # the largest scale at which a test hole fits
+        for shape in (outline, disc):       # the hole's own outline, then a disc of its area
+            errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0))
+            if n:
+                return errors, n, f
+    return {}, 0, 0.0
+
+
+def _probe_errors(ctx, loop, candidates, max_probes, r, shape):
+    from .errors import MeshError
+    from .fair import fair_patch_orders
+    from .io import Mesh
+    from .patch import PatchError, _Context
+    from .selftest import _refined, point_mesh_distance
+
+    max_probes = PROBES if max_probes is None else int(max_probes)
+    V = ctx.V
+    h = _mean_edge(V, loop)
+    r = max(r, float(np.sqrt((shape[0] ** 2).sum(axis=1).max())))   # the outline's reach from its centre
+    if not np.isfinite(r) or r <= 0 or h <= 0:
+        return {}, 0
+    margin = MARGIN_EDGES * h
+    c = V[loop].mean(axis=0)
+    rim_r = float(np.sqrt(((V[loop] - c) ** 2).sum(axis=1)).max())
+    reach = rim_r + SHELLS[-1][1] * r + r + margin + 2 * h
+    # the scan near the hole: faces within as many rings of the rim as reach
+    # it at half the rim's edge length, then those with a corner within reach
+    # (a scan finer than that further out only loses far probes: a probe
+    # whose surroundings are cut short fails its check)
+    near_f = ctx.ring_faces(loop, int(np.ceil(2.0 * reach / h)))
+    T = V[ctx.F[near_f]]
+    near_f = near_f[(((T - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
+    sq = {o: 0.0 for o in candidates}
+    count = 0
+    probes = 0
+    taken = []
+    for lo, hi in SHELLS:
+        if probes >= max_probes:
+            break
+        cands = _centres(V, ctx.F, near_f, loop, r, h, lo, hi, taken)
+        # farthest first from what is taken (the first: the shell's first candidate)
+        left = list(cands)
+        while left and probes < max_probes:
+            if taken:
+                P = V[np.asarray(left)]
+                dmin = np.min(np.sqrt(((P[:, None, :] - V[np.asarray(taken)][None]) ** 2).sum(axis=2)), axis=1)
+                j = int(np.argmax(dmin))
+                if dmin[j] < r:      # overlapping an earlier probe: nothing new
+                    break
+            else:
+                j = 0
+            pid = int(left.pop(j))
+            got = _probe(V, ctx.F, near_f, pid, shape, margin)
+            if got is None:
+                continue
+            Vl, Fl, ploop, Q = got
+            origin = Vl.mean(axis=0)
+            try:
+                lctx = _Context(Mesh(V=Vl - origin, F=Fl))
+                P0, T, _ = _refined(lctx, ploop, max(candidates))
+            except (MeshError, PatchError, ValueError, IndexError):
+                continue
+            X0, Fs, nf, _, scale, org = P0
+            faired = fair_patch_orders(X0, Fs, nf, tuple(candidates), rounds=2, operator=False)
+            Tp = Fs[len(Fs) - len(T):]
+            dd = {}
+            for o, (Xu, _) in zip(candidates, faired):
+                X = org + scale * np.vstack([X0[:nf], Xu])
+                e = point_mesh_distance(Q - origin, X, Tp)
+                if not np.isfinite(e).all():
+                    break
+                dd[o] = float((e * e).sum())
+            else:
+                for o in candidates:
+                    sq[o] += dd[o]
+                count += len(Q)
+                probes += 1
+                taken.append(pid)
+    if not probes:
+        return {}, 0
+    return {o: float(np.sqrt(sq[o] / count)) for o in candidates}, probes
