@@ -22,7 +22,7 @@ tool                 call
 ours-o1/o2/o3        ``shellrepair.repair.repair_mesh(mesh, order=k)``, its compiled
                      kernels loaded before the call is timed (as a peer's
                      import loads its native library)
-ours-auto            ``repair_mesh(mesh, order="auto")`` (2 or 3 per hole by the band test, shellrepair.selftest)
+ours-auto            ``repair_mesh(mesh, order="auto")`` (1, 2 or 3 per hole by test holes of its size, shellrepair.selftest)
 ours-cli             the command line's default (``shellrepair repair``, ``make repair``): ``order="auto"``
                      and ``jobs`` the cores there are (a helper thread runs the band tests and the
                      order-3 patches beside the fill; the same output as ``ours-auto``). In the
@@ -94,7 +94,10 @@ def _ours(V, F, **kw):
             "reported_holes_after": report.get("holes_after"),
             "reported_rate": report.get("interpolation_rate"),
             "face_filled": None if ff is None else int(np.count_nonzero(ff)),
-            "statuses": _count_statuses(report.get("holes", []))}
+            "statuses": _count_statuses(report.get("holes", [])),
+            # holes where order="auto" found no intact scan of the hole's size to test on
+            "untold": sum("the scan cannot tell" in (h.get("option") or "") for h in report.get("holes", [])),
+            "reported_holes": len(report.get("holes", []))}
     return np.asarray(repaired.V, np.float64), np.asarray(repaired.F, np.int64), info
 
 

@@ -388,7 +388,7 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None, o
     orders : sequence of {1, 2, 3}
     operator : bool
         Also return each order's last K (False: None in its place, for a
-        caller that reads only the positions, such as the band test).
+        caller that reads only the positions, such as the order test).
 
     Returns
     -------
@@ -471,7 +471,7 @@ def first_solve_memo(on):
 def _first_solve(Quu, Quf, Xf):
     """The uniform first solve, Q_uu⁻¹ (−Q_uf X_f), remembered in a fill's run.
 
-    ``order="auto"`` fills a hole at order 2, then, where the band test asks
+    ``order="auto"`` fills a hole at order 2, then, where the order test asks
     for order 3, fairs the same refined patch at order 3
     (:func:`shellrepair.fill._fill_one`): both start from the uniform thin
     plate, and the order-3 submesh's extra ring of fixed scan does not enter

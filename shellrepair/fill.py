@@ -251,12 +251,6 @@ class _Budget:
                 f"for {self.edges} edges")
 
 
-#: ``order="auto"`` by the band test (``selftest.CRITERION = "band"``):
-#: order 3 replaces order 2 only where the two real fills agree with the
-#: test (:func:`shellrepair.selftest.agrees`). The probe test measures at
-#: the hole's own size, so its choice stands.
-CHECK_AGREES = True
-
 #: How each option is named in the report.
 OPTION_NAMES = {"faired": "faired order {order}", "harmonic": "harmonic (order 1)",
                 "flat cap": "flat cap: a planar opening the scan meets edge-on (order 1)"}
@@ -304,12 +298,12 @@ def _pin_region(patch, bad, pinned):
 
 
 def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
-    """Fill one hole; ``order="auto"`` picks 2 or 3 by a test on the scan
-    around the hole (:mod:`~shellrepair.selftest`). ``budget``: a
-    :class:`_Budget` (default: the hole's own)."""
+    """Fill one hole; ``order="auto"`` picks order 1, 2 or 3 by test holes
+    of its size cut into the scan beside it (:mod:`~shellrepair.selftest`).
+    ``budget``: a :class:`_Budget` (default: the hole's own)."""
     if order != "auto":
         return _fill_one_order(ctx, hole_id, loop, order, smooth, energy, budget, defer)
-    from .selftest import agrees, choose_order
+    from .selftest import choose_order
 
     t0 = time.perf_counter()
     beside = getattr(ctx, "beside", None)
@@ -343,16 +337,13 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         except PatchError:
             p3 = None
         if p3 is not None:
-            ok, gap = agrees(test, ctx.V, patch, p3) if CHECK_AGREES and test.rings else (True, 0.0)
-            if ok and _check_patch(ctx, p3)[0] is None:
+            if _check_patch(ctx, p3)[0] is None:
                 p3.option = patch.option.replace("order 2", "order 3") + f" ({test.describe()})"
                 # the merge falls back on order 2 where order 3 and another hole's patch cross
                 patch.option += f" ({test.describe()}; order 3 and another hole's patch would cross: order 2 kept)"
                 p3.fallback = patch
                 return Outcome(p3, reason, time.perf_counter() - t0, reasons)
-            patch.option += (f" ({test.describe()}; but order 3 lies {gap:.3g} from order 2 here, more than "
-                             f"the two errors together: order 2 kept)" if not ok else
-                             f" ({test.describe()}; order 3 crosses the scan: order 2 kept)")
+            patch.option += f" ({test.describe()}; order 3 crosses the scan: order 2 kept)"
             return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     patch.option += f" ({test.describe()})"
     return Outcome(patch, reason, time.perf_counter() - t0, reasons)
@@ -360,15 +351,12 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
 
 def band_order(ctx, loops):
     """The fairing order of a tube (or pants) joining ``loops`` under
-    ``order="auto"``: the band test of each loop
+    ``order="auto"``: the test of each loop
     (:func:`~shellrepair.selftest.choose_order`), its errors summed over
     the loops; the candidate with the lowest sum, as for one hole. Where no
     loop could be tested, :data:`shellrepair.selftest.DEFAULT_ORDER`."""
-    from . import selftest
     from .selftest import DEFAULT_ORDER, choose_order
 
-    if selftest.CRITERION != "probe":     # the band test was made for one hole's rim: tubes keep order 2
-        return DEFAULT_ORDER
     total, seen, n = {}, {}, 0
     for L in loops:
         t = choose_order(ctx, L.id, L.vertices)
@@ -1125,49 +1113,6 @@ class HelperThread:
         self._settings.close()
 
 
-def on_two_threads(ctx):
-    """A ``run(f, items)`` for :func:`shellrepair.selftest.scan_verdict`:
-    ``[f(c, *item) for item in items]``, in order, the items taken in turn
-    by this thread (``c`` is ``ctx``) and, from two items on, by a
-    :class:`HelperThread` started for them (``c`` a
-    :func:`_helper_context`: the same scan, its own scratch), each running
-    its BLAS calls on itself. A call's result does not depend on the thread
-    that made it. An exception is raised here once both threads stop."""
-    import itertools
-
-    from .blas import one_thread
-
-    def run(f, items):
-        n = len(items)
-        if n < 2:
-            return [f(ctx, *item) for item in items]
-        out = [None] * n
-        turn = itertools.count()        # the next item (next() is atomic under the GIL)
-        stop = []
-
-        def work(c):
-            with one_thread():
-                while not stop:
-                    i = next(turn)
-                    if i >= n:
-                        return
-                    out[i] = f(c, *items[i])
-
-        with HelperThread() as pool:
-            helper = pool.submit((0,), work, _helper_context(ctx))
-            try:
-                work(ctx)
-            except BaseException:
-                stop.append(True)       # the helper stops after its current item
-                if not helper.cancel():
-                    helper.exception()  # (waits; the error raised is this thread's)
-                raise
-            helper.result()
-        return out
-
-    return run
-
-
 class _Stolen:
     """A result computed on the fill's thread in place of the helper's
     (:meth:`_Beside._steal`): its value, or the exception it raised, given
@@ -1196,7 +1141,7 @@ class _Beside:
     """Work a helper thread does beside a run's fills, for its
     ``order="auto"`` holes (:func:`_run_chunk` with a ``pool``):
 
-    * each hole's band test (:func:`~shellrepair.selftest.choose_order`),
+    * each hole's order test (:func:`~shellrepair.selftest.choose_order`),
       all queued at once, the longest rims first (ties in hole order);
     * each hole's order-3 patch, started by :func:`_first_attempts` as soon
       as the hole's first triangulation is refined (:meth:`start_o3`),
@@ -1246,7 +1191,7 @@ class _Beside:
             first_solve_memo(False)
 
     def take_test(self, hole_id, loop):
-        """The hole's band test, or None where it has not begun (cancelled:
+        """The hole's order test, or None where it has not begun (cancelled:
         the caller runs it) or was made for another loop. While the helper
         is still on it, the caller runs the next tests the helper has not
         begun (:meth:`_steal`)."""

@@ -47,8 +47,6 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`fair_small`: a small patch's whole fairing
   (:func:`shellrepair.fair.fair_patch`), the solves dense: equal to
   round-off, not to the bit (the one kernel with a tolerance, stated there);
-* :func:`edge_bend_pairs`: the face normals, interior-edge face pairs and
-  edge lengths of :func:`shellrepair.selftest._edge_bends`;
 * :func:`energy_blocks`: the unknown and fixed blocks of a large patch's
   fairing energy (:func:`shellrepair.fair._energy` and its slices), equal
   to round-off (the sums in another order; tests/test_fair.py);
@@ -70,15 +68,11 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   relaxation's opposite angles (the arctan2 left to NumPy) and its fold
   test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
 * :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`);
-* :func:`ring_walk`, :func:`band_split`: the band test's rings around a hole
-  in one walk and its band split from the region around it
-  (:func:`shellrepair.selftest._probe_band`); :func:`centroids`,
+* :func:`ring_walk`: the rings around a loop in one walk, each ring's end
+  recorded (:func:`ring_faces`); :func:`centroids`,
   :func:`nearest_triangle_distances`: the order test's centroid query and
   distances (:func:`shellrepair.selftest.point_mesh_distance`; the latter
   each point's closest candidate triangle, on scalars);
-  :func:`boundary_cycles`: :func:`shellrepair.holes.boundary_loops` where
-  the boundary is simple; :func:`loop_mean_edge`: a loop's mean edge
-  (NumPy's pairwise sum, replicated);
 * :func:`centred_area`, :func:`outline_cross`, :func:`cover_free`: a
   loop's centred positions and vector area, and the projected Delaunay
   triangulation's inside, normal and cover tests with the forbidden edges
@@ -106,7 +100,7 @@ import threading
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "edge_bend_pairs", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "liepa_tables", "chord_rows", "ring_walk", "band_split", "centroids", "nearest_triangle_distances", "boundary_cycles", "loop_mean_edge", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "liepa_tables", "chord_rows", "ring_walk", "centroids", "nearest_triangle_distances", "warm_up"]
 
 try:
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
@@ -2264,77 +2258,6 @@ def fair_small(X, F, fixed, order, rounds, degenerate_area, flip_tol, flip_round
 
 
 @njit(cache=True, nogil=True)
-def _edge_bend_pairs(V, T):
-    m = T.shape[0]
-    N = np.zeros((m, 3))
-    ok = np.zeros(m, np.bool_)
-    for f in range(m):
-        a, b, c = T[f, 0], T[f, 1], T[f, 2]
-        u0, u1, u2 = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
-        v0, v1, v2 = V[c, 0] - V[a, 0], V[c, 1] - V[a, 1], V[c, 2] - V[a, 2]
-        n0, n1, n2 = u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
-        ln = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
-        if ln > 0:
-            ok[f] = True
-            N[f, 0], N[f, 1], N[f, 2] = n0 / ln, n1 / ln, n2 / ln
-    # the sides (smaller vertex, larger) in the order of
-    # np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), sorted
-    # stably by (smaller, larger): np.lexsort's order
-    top = 0
-    for f in range(m):
-        for s in range(3):
-            top = max(top, T[f, s])
-    key = np.empty(3 * m, np.int64)
-    for s in range(3):
-        for f in range(m):
-            p, q = T[f, s], T[f, (s + 1) % 3]
-            key[s * m + f] = min(p, q) * (top + 1) + max(p, q)
-    o = np.argsort(key, kind="mergesort")
-    a = np.empty(3 * m, np.int64)
-    b = np.empty(3 * m, np.int64)
-    h = np.empty(3 * m)
-    k = 0
-    for t in range(3 * m - 1):
-        e1, e2 = o[t], o[t + 1]
-        if key[e1] != key[e2]:
-            continue
-        fa, fb = e1 % m, e2 % m
-        if not (ok[fa] and ok[fb]):
-            continue
-        a[k], b[k] = fa, fb
-        i, j = key[e1] // (top + 1), key[e1] % (top + 1)
-        d0, d1, d2 = V[j, 0] - V[i, 0], V[j, 1] - V[i, 1], V[j, 2] - V[i, 2]
-        h[k] = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
-        k += 1
-    return N, a[:k].copy(), b[:k].copy(), h[:k].copy()
-
-
-def edge_bend_pairs(V, T):
-    """The parts of :func:`shellrepair.selftest._edge_bends`, compiled: the
-    faces' unit normals (zero for a face without area), the two faces of
-    each interior edge (both with area), in the order of its sort of the
-    edges, and the edges' lengths; each number with the NumPy version's
-    operations in its order (the cosines, NumPy's einsum of the normals'
-    pairs, stay with the caller: einsum's order of a row's three products
-    depends on the CPU's vector width).
-
-    Parameters
-    ----------
-    V : (n,3) float64
-    T : (m,3) int64, m >= 1
-
-    Returns
-    -------
-    N : (m,3) float64
-    a, b : (e,) int64
-        Faces (rows of ``T``) of each interior edge, in sorted edge order.
-    h : (e,) float64
-        The edges' lengths.
-    """
-    return _edge_bend_pairs(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(T, np.int64))
-
-
-@njit(cache=True, nogil=True)
 def _angle_part(a0, a1, a2, b0, b1, b2, q0, q1, q2):
     """:func:`_angle_parts` of (a − q, b − q), one row: its operations."""
     u0, u1, u2 = a0 - q0, a1 - q1, a2 - q2
@@ -4295,8 +4218,7 @@ def ring_walk(verts, rings, vf_order, vf_start, F, vmark, fmark):
     """:func:`ring_faces`' walk with every ring count up to ``rings`` in it:
     the faces in the order the walk finds them, ring by ring, and each
     ring's end, so that ``np.sort(faces[:off[r]])`` is ``ring_faces(verts,
-    r, ...)`` for each ``1 <= r <= rings`` (the band test reads its band,
-    the region around it and narrower bands from one walk).
+    r, ...)`` for each ``1 <= r <= rings``.
 
     Parameters
     ----------
@@ -4311,78 +4233,6 @@ def ring_walk(verts, rings, vf_order, vf_start, F, vmark, fmark):
         ``off[r]``: how many of ``faces`` lie within ``r`` rings (``off[0] = 0``).
     """
     return _ring_walk(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F, vmark, fmark)
-
-
-@njit(cache=True, nogil=True)
-def _band_split(walk, nb, nr, F, loop, vpos):
-    o = np.argsort(walk[:nr])
-    region = np.empty(nr, np.int64)
-    inb = np.empty(nr, np.bool_)
-    for i in range(nr):
-        region[i] = walk[o[i]]
-        inb[i] = o[i] < nb
-    g = _number_vertices(region, F, vpos)
-    ng = g.size
-    Fb = np.empty((nb, 3), np.int64)
-    Fk = np.empty((nr - nb, 3), np.int64)
-    band = np.empty(nb, np.int64)
-    used = np.zeros(ng, np.bool_)
-    nvb = 0
-    ib = 0
-    ik = 0
-    for i in range(nr):
-        f = region[i]
-        if inb[i]:
-            band[ib] = f
-            for c in range(3):
-                v = vpos[F[f, c]]
-                Fb[ib, c] = v
-                if not used[v]:
-                    used[v] = True
-                    nvb += 1
-            ib += 1
-        else:
-            for c in range(3):
-                Fk[ik, c] = vpos[F[f, c]]
-            ik += 1
-    for i in range(ng):
-        vpos[g[i]] = -1
-    return g, Fb, Fk, band, np.searchsorted(g, loop), nvb
-
-
-def band_split(walk, nb, nr, F, loop, vpos):
-    """The band test's local copy of the scan around a hole
-    (:func:`shellrepair.selftest._probe_band`): the region's faces
-    ``walk[:nr]`` (:func:`ring_walk`, the band's the first ``nb``) numbered
-    over their vertices, split into the band's faces and the kept ones.
-
-    Parameters
-    ----------
-    walk : (f,) int64
-        Faces in :func:`ring_walk` order, ``nb <= nr <= f``.
-    nb, nr : int
-    F : (m,3) int64
-    loop : (k,) int64
-        The hole's loop (global ids).
-    vpos : (n,) int64
-        Scratch, all -1; left all -1.
-
-    Returns
-    -------
-    g : (n_l,) int64
-        The region's vertices, sorted (local id -> global id).
-    Fb, Fk : (nb,3), (nr-nb,3) int64
-        The band's faces and the kept ones, local ids, each in increasing
-        face id.
-    band : (nb,) int64
-        The band's face ids, sorted.
-    loc_loop : (k,) int64
-        ``np.searchsorted(g, loop)``.
-    nvb : int
-        How many vertices the band's faces use.
-    """
-    return _band_split(np.ascontiguousarray(walk, np.int64), int(nb), int(nr), F,
-                       np.ascontiguousarray(loop, np.int64), vpos)
 
 
 @njit(cache=True, nogil=True)
@@ -4505,166 +4355,6 @@ def nearest_triangle_distances(Q, V, F, idx):
                                        np.ascontiguousarray(F, np.int64), np.ascontiguousarray(idx, np.int64))
 
 
-@njit(cache=True, nogil=True)
-def _boundary_cycles(F, n, bhe):
-    b = bhe.size
-    src = np.empty(b, np.int64)
-    dst = np.empty(b, np.int64)
-    out_count = np.zeros(n, np.int64)
-    first_out = np.full(n, -1, np.int64)
-    for i in range(b):
-        f, c = bhe[i] // 3, bhe[i] % 3
-        src[i] = F[f, c]
-        dst[i] = F[f, (c + 1) % 3]
-        out_count[src[i]] += 1
-        first_out[src[i]] = i
-    nxt = np.empty(b, np.int64)
-    has_prev = np.zeros(b, np.bool_)
-    verts = np.empty(b, np.int64)
-    off = np.zeros(b + 1, np.int64)
-    for i in range(b):
-        if out_count[dst[i]] != 1:           # a pinch or a chain's end: boundary_loops' general case
-            return False, verts[:0], off[:1]
-        j = first_out[dst[i]]
-        if has_prev[j]:                      # two half-edges lead to one: not a permutation
-            return False, verts[:0], off[:1]
-        has_prev[j] = True
-        nxt[i] = j
-    visited = np.zeros(b, np.bool_)
-    nv = 0
-    nl = 0
-    for begin in range(b):
-        if visited[begin]:
-            continue
-        cur = begin
-        while not visited[cur]:
-            visited[cur] = True
-            verts[nv] = src[cur]
-            nv += 1
-            cur = nxt[cur]
-        nl += 1
-        off[nl] = nv
-    return True, verts, off[:nl + 1].copy()
-
-
-def boundary_cycles(F, n, bhe):
-    """:func:`shellrepair.holes.boundary_loops` where the boundary is simple:
-    each boundary vertex with one boundary half-edge out of it, and each
-    boundary half-edge followed by exactly one (no pinch, no open chain).
-    There the loops are the cycles of the boundary half-edges, each walked
-    from its first half-edge in ``bhe``'s order, as ``boundary_loops`` walks
-    them; elsewhere ``ok`` is False and the caller calls it.
-
-    Parameters
-    ----------
-    F : (m,3) int64
-    n : int
-        Vertex count (ids in ``[0, n)``).
-    bhe : (b,) int64
-        The boundary half-edges (``3 f + c``), sorted
-        (:attr:`shellrepair.topology.EdgeTopology.boundary_he`).
-
-    Returns
-    -------
-    ok : bool
-    verts : (b,) int64
-        The loops' vertices one after another (when ``ok``).
-    off : (loops + 1,) int64
-        Loop ``i`` is ``verts[off[i]:off[i + 1]]``.
-    """
-    return _boundary_cycles(np.ascontiguousarray(F, np.int64), int(n), np.ascontiguousarray(bhe, np.int64))
-
-
-@njit(cache=True, nogil=True)
-def _pairwise_block(a, lo, n):
-    # NumPy's pairwise summation of a[lo:lo+n], n <= 128 (numpy/_core/src/umath/
-    # loops_utils.h.src: a plain sum below 8 values, else 8 partial sums)
-    if n < 8:
-        res = -0.0
-        for i in range(lo, lo + n):
-            res += a[i]
-        return res
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    i = 8
-    while i < n - (n % 8):
-        r0 += a[lo + i]
-        r1 += a[lo + i + 1]
-        r2 += a[lo + i + 2]
-        r3 += a[lo + i + 3]
-        r4 += a[lo + i + 4]
-        r5 += a[lo + i + 5]
-        r6 += a[lo + i + 6]
-        r7 += a[lo + i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[lo + i]
-        i += 1
-    return res
-
-
-@njit(cache=True, nogil=True)
-def _pairwise_sum(a, lo, n):
-    # NumPy's pairwise summation of a[lo:lo+n]: above 128 values, the sum of
-    # the halves split at a multiple of 8, left first; its recursion on an
-    # explicit stack (a recursive kernel does not load from Numba's cache)
-    if n <= 128:
-        return _pairwise_block(a, lo, n)
-    s_lo = np.empty(256, np.int64)
-    s_n = np.empty(256, np.int64)
-    s_join = np.zeros(256, np.bool_)
-    vals = np.empty(128)
-    top = 1
-    s_lo[0], s_n[0], s_join[0] = lo, n, False
-    nv = 0
-    while top > 0:
-        top -= 1
-        lo_, n_, join = s_lo[top], s_n[top], s_join[top]
-        if join:             # both halves summed: left + right
-            vals[nv - 2] = vals[nv - 2] + vals[nv - 1]
-            nv -= 1
-        elif n_ <= 128:
-            vals[nv] = _pairwise_block(a, lo_, n_)
-            nv += 1
-        else:
-            n2 = n_ // 2
-            n2 -= n2 % 8
-            s_lo[top], s_n[top], s_join[top] = lo_, n_, True
-            s_lo[top + 1], s_n[top + 1], s_join[top + 1] = lo_ + n2, n_ - n2, False
-            s_lo[top + 2], s_n[top + 2], s_join[top + 2] = lo_, n2, False
-            top += 3
-    return vals[0]
-
-
-@njit(cache=True, nogil=True)
-def _loop_mean_edge(V, loop):
-    k = loop.size
-    d = np.empty(k)
-    for i in range(k):
-        a, b = loop[i], loop[(i + 1) % k]
-        e0, e1, e2 = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
-        d[i] = np.sqrt((e0 * e0 + e1 * e1) + e2 * e2)
-    return _pairwise_sum(d, 0, k) / k
-
-
-def loop_mean_edge(V, loop):
-    """The mean edge length of a closed loop,
-    ``np.mean(np.linalg.norm(V[np.roll(loop, -1)] - V[loop], axis=1))`` with
-    NumPy's sums (its pairwise summation) in its order.
-
-    Parameters
-    ----------
-    V : (n,3) float64
-    loop : (k,) int64, k >= 1
-
-    Returns
-    -------
-    mean : float
-    """
-    return _loop_mean_edge(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(loop, np.int64))
-
-
 # --------------------------------------------------------------------------
 _WARM = False
 _WARM_LOCK = threading.Lock()
@@ -4751,7 +4441,6 @@ def _warm_second():
     cross_status(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 0.25, np.array([[3, 4, 5]]),
                  np.zeros(1, np.int64), 1e-15, 1e-15, 1e-280)
     projection_embeds(X[:, :2], T, 4, 1.0, 1e-9)
-    edge_bend_pairs(X, T)
     relax_round_parts(X, np.array([[0, 1, 1, 2, 0, 3, 0, 1]], np.int64))
     max_sq_distance(X)
     boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
@@ -4770,12 +4459,9 @@ def _warm_second():
     unfolded(X[:1], X[1:2], X[2:3], X[3:])
     split_test(X, T, np.ones(4), 1.5)
     vo, vs = vertex_faces(T, 4)
-    walk, off = ring_walk(np.array([0], np.int64), 2, vo, vs, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
-    band_split(walk, int(off[1]), int(off[2]), T, np.array([0], np.int64), np.full(4, -1, np.int64))
+    ring_walk(np.array([0], np.int64), 2, vo, vs, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
     centroids(X, T)
     nearest_triangle_distances(X[:2], X, T, np.zeros((2, 2), np.int64))
-    boundary_cycles(T, 4, np.array([0, 1, 2], np.int64))
-    loop_mean_edge(X, np.array([0, 1, 2], np.int64))
     rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
     from .triangulate import restricted_dp   # (triangulate imports this module)
 

@@ -32,7 +32,7 @@ the first attempt's rim data, triangulation and refinement are done for all
 its holes at once (the refinement as one disjoint union, with the same
 result as hole by hole). Where the runs are filled in this process (one
 run, or a daemonic process) and ``jobs`` is more than one, a second thread
-runs the ``order="auto"`` holes' band tests, and the order-3 patches they
+runs the ``order="auto"`` holes' order tests, and the order-3 patches they
 ask for, beside the fills (:class:`~shellrepair.fill.HelperThread`; that
 work reads only the scan and the run's first-attempt work). The checks
 between patches and the merge run afterwards in hole order, so the output
@@ -82,7 +82,6 @@ from . import blas
 from . import fill as _fill
 from .bridge import _find_bands, split_pinched
 from .pants import PantsUnit, expand, pants_unit
-from .selftest import scan_verdict
 from .fill import SEED_SMOOTH_PASSES, Outcome, _run_chunk, _seed_patches, _worker
 from .merge import _Accepted, _merge
 from .patch import BATCH, BandUnit, HoleUnit, Patch, _Context, build_patch
@@ -220,9 +219,6 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     holes = scan.holes
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
     ctx.axes = {L.id: (L.vertices, L.axis) for L in scan.loops if L.axis is not None}
-    if order == "auto" and method == "fair":    # one order for the small holes, tested on a few
-        # (with two jobs: the tests on two threads)
-        ctx.auto_small = scan_verdict(ctx, holes, run=_fill.on_two_threads(ctx) if jobs > 1 else None)
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
@@ -262,7 +258,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 done[0] += 1
                 _progress(progress, done[0], len(units))
 
-            # a spare core runs the order="auto" holes' band tests and order-3 patches beside the fills
+            # a spare core runs the order="auto" holes' order tests and order-3 patches beside the fills
             with _beside(jobs > 1 and order == "auto") as pool:
                 for chunk in chunks:
                     unit_out.extend(_run_chunk(ctx, chunk, tick, pool=pool))

@@ -853,43 +853,6 @@ def test_the_dense_fairing_round_reads_k_without_its_spare_slots_to_the_bit(orde
         assert ok1 and ok2 and np.array_equal(full, lean)
 
 
-def _bend_meshes():
-    """Seeded meshes for the bend kernel: noisy grids (ids far from 0 in a
-    large vertex array), one with faces without area, one with an edge of
-    three faces, one face alone."""
-    out = []
-    for seed in range(6):
-        rng = np.random.default_rng(seed)
-        V, F = shapes.grid(6 + seed, 5 + seed)
-        V = V + rng.normal(scale=0.05, size=V.shape)
-        off = int(rng.integers(0, 10_000))
-        big = rng.normal(size=(off + len(V), 3)) * 1e3
-        big[off:] = V + np.array([1e6, -2e6, 5e5]) * (seed % 2)       # far from the origin, every other seed
-        out.append((big, F[rng.permutation(len(F))] + off))
-    V, F = shapes.grid(5, 5)
-    V[F[3]] = V[F[3][0]]                                     # a face collapsed to a point
-    V[F[7][2]] = 0.5 * (V[F[7][0]] + V[F[7][1]])             # and a collinear one
-    out.append((V, F))
-    V, F = shapes.grid(4, 4)
-    a, b = F[0][0], F[0][1]
-    out.append((np.vstack([V, [[0.3, 0.2, 1.0]]]), np.vstack([F, [[b, a, len(V)]]])))   # edge ab: three faces
-    out.append((V, F[:1]))
-    return out
-
-
-@pytest.mark.parametrize("case", range(9))
-def test_edge_bends_equal_the_numpy_ones_to_the_bit(case, monkeypatch):
-    from shellrepair import selftest
-
-    V, T = _bend_meshes()[case]
-    got = selftest._edge_bends(V, T)
-    monkeypatch.setattr(kernels, "ENABLED", False)
-    ref = selftest._edge_bends(V, T)
-    assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
-    if len(T) > 1:
-        assert got[0].size > 0 and np.all(np.abs(got[0]) <= 1.0 + 1e-15) and np.all(got[1] > 0)
-
-
 @pytest.mark.parametrize("seed", range(4))
 def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed):
     """relax_round_parts (the angle parts at c and d and the fold test of
