@@ -211,6 +211,26 @@ def _component(F, seed_faces):
     return np.flatnonzero(keep)
 
 
+def _frame(P, e1, n0):
+    """In-plane axes (a, b) of the tangent plane at a vertex, from its
+    faces' corners ``P`` (f,3,3) relative to it: the normal of those faces
+    summed, ``a`` the hole's axis ``e1`` turned into the plane, ``b`` on the
+    side that keeps the outline's turn (``n0``); None without a normal."""
+    nrm = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]).sum(axis=0)
+    ln = float(np.linalg.norm(nrm))
+    if ln <= 0:
+        return None
+    nrm /= ln
+    a = e1 - (e1 @ nrm) * nrm
+    if np.linalg.norm(a) < 1e-6:      # the hole's axis along this normal: any in-plane axis
+        a = np.cross(nrm, [1.0, 0.0, 0.0] if abs(nrm[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(nrm, a)
+    if n0 @ nrm < 0:                   # the outline's turn kept: its normal on the surface's side
+        b = -b
+    return a, b
+
+
 def _probe(V, F, near, p_id, shape, margin):
     """A test hole of the hole's shape around scan vertex ``p_id``, with
     ``margin`` of intact scan around it; None where the scan is not intact
@@ -244,6 +264,18 @@ def _probe(V, F, near, p_id, shape, margin):
     seed = np.flatnonzero((T == p_id).any(axis=1))
     if seed.size == 0:
         return None
+    # the outline on the tangent plane at the vertex; no face around the
+    # vertex inside it (an outline narrower than the scan's faces there):
+    # no test hole, known before the region's pieces and loops are walked
+    frame = _frame(V[T[seed]] - p, e1, n0)
+    if frame is None:
+        return None
+    a, b = frame
+    P0 = V[T[seed]] - p
+    own = inside_polygon((P0 @ a).ravel(), (P0 @ b).ravel(), outline).reshape(-1, 3) \
+        & (np.sqrt((P0 * P0).sum(axis=2)) <= r_out)
+    if not own.all(axis=1).any():
+        return None
     comp = _component(T, seed)
     region, T = region[comp], T[comp]
     g, Tl = np.unique(T, return_inverse=True)
@@ -260,20 +292,6 @@ def _probe(V, F, near, p_id, shape, margin):
         if dl[L].min() < R - margin * 0.5:
             return None
         on_edge[L] = True
-    # the tangent frame at the vertex: the normal of the faces around it
-    at = Tl[(Tl == pl).any(axis=1)]
-    nrm = np.cross(Vg[at[:, 1]] - Vg[at[:, 0]], Vg[at[:, 2]] - Vg[at[:, 0]]).sum(axis=0)
-    ln = float(np.linalg.norm(nrm))
-    if ln <= 0:
-        return None
-    nrm /= ln
-    a = e1 - (e1 @ nrm) * nrm
-    if np.linalg.norm(a) < 1e-6:      # the hole's axis along this normal: any in-plane axis
-        a = np.cross(nrm, [1.0, 0.0, 0.0] if abs(nrm[0]) < 0.9 else [0.0, 1.0, 0.0])
-    a /= np.linalg.norm(a)
-    b = np.cross(nrm, a)
-    if n0 @ nrm < 0:                   # the outline's turn kept: its normal on the surface's side
-        b = -b
     inside = inside_polygon(Vg @ a, Vg @ b, outline) & (dl <= r_out)
     disc = inside[Tl].all(axis=1)
     seed = np.flatnonzero(disc & (Tl == pl).any(axis=1))
