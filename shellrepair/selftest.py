@@ -29,8 +29,9 @@ Where no test hole fits (the hole is as large as the intact scan around
 it) the scan cannot tell: the hole takes ``DEFAULT_ORDER`` and the report
 says so. Holes with fewer than ``MIN_EDGES`` rim edges are not tested (a
 patch of a few triangles, where the orders differ by less than the scan's
-own noise). The same test decides a tube's order, its loops' errors
-summed (:func:`shellrepair.fill.band_order`).
+own noise). A tube (the band between two loops) is tested by its own
+kind: test bands beside its loops, refilled as tubes
+(:func:`shellrepair.probe.tube_errors`, :func:`shellrepair.fill.band_order`).
 
 Judged by its regret (the default's RMS over the best forced order's,
 ``eval/regret.py``) on stress cases of seeds never used while developing

@@ -171,9 +171,9 @@ def test_a_band_whose_guide_fills_its_budget_gets_the_tube_resampled_on_the_fair
 
     V, F, V2, F2, _ = torus_inner_band(3)
     M = Mesh(V=V2, F=F2)
-    R0, rep0 = repair_mesh(M)
+    R0, rep0 = repair_mesh(M, order=2)      # (the first tube's guide, not the choice of order, is under test)
     monkeypatch.setattr(fill, "GUIDE_SHARE", 0.0)
-    R, rep = repair_mesh(M)
+    R, rep = repair_mesh(M, order=2)
     assert [b["chosen"] for b in rep["bridges"]] == ["tube"]
     assert "resampled on their faired coarse tube" in rep["holes"][0]["option"]
     assert_closed_and_clean(M, R, rep)
@@ -710,3 +710,26 @@ def test_a_fat_torus_seen_from_a_ring_keeps_its_genus():
     assert [sorted(b["loops"]) for b in rep["bridges"] if b["chosen"] == "tube"] == [[0, 1]]
     assert_closed_and_clean(M, R, rep)
     assert rep["euler_after"] == 0
+
+
+@pytest.mark.parametrize("kind, ratio", [
+    ("inner", 3), ("ring", 3), ("ring", 5),
+    pytest.param("inner", 5, marks=pytest.mark.xfail(strict=True, reason=(
+        "the test bands rank the held tube (0.00087) just ahead of order 3 (0.00098); "
+        "on the real band order 3 is truer (0.127 against 0.279 per mille)")))])
+def test_a_tubes_default_is_as_true_as_its_best_forced_order(kind, ratio):
+    """The tube's order, and whether it is held on its arcs or faired, come
+    from test bands of the tube's own kind cut beside its loops; where the
+    band is too long for one to fit, the scan cannot tell and the default
+    order's held-or-faired energy decides. Either way the default lies
+    within 10 % of the best forced order (an issue's torus seen from a
+    ring of views had 68.2 per mille by default against 1.08 at order 3)."""
+    V, F, V2, F2 = torus_inner_band(ratio)[:4] if kind == "inner" else torus_seen_from_a_ring(ratio)
+    M = Mesh(V=V2, F=F2)
+    rms = {}
+    for o in (1, 2, 3, "auto"):
+        R, rep = repair_mesh(M, order=o)
+        assert rep["holes_after"] == 0
+        rms[o] = filled_rms_permille(V, F, R)
+    assert "auto: " in rep["holes"][0]["option"]
+    assert rms["auto"] <= 1.1 * min(rms[1], rms[2], rms[3]), rms
