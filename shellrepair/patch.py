@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import cholesky, kernels
+from . import kernels
 from .errors import MeshError
 from .geometry import concat_ranges, cross, uniq
 from .fair import (fair_patch, harmonic_interpolate, patch_energies, taubin_smooth, uniform_laplacian)
@@ -117,9 +117,6 @@ class _Context:
         self.colors = mesh.vertex_colors
         self.props = {k: v for k, v in mesh.vertex_props.items()
                       if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
-        if kernels.ENABLED:
-            kernels.warm_up()   # compiled or loaded before any hole's time budget starts
-            cholesky.warm_up()
         self._vf = None   # vertex-to-face lists, built on first use (vf_order, vf_start)
         self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
         self._fmark = np.zeros(len(self.F), bool)
