@@ -367,8 +367,12 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     outline, e1, _, n0 = hole_outline(V, loop)
     t = np.linspace(0.0, 2.0 * np.pi, DISC_POINTS, endpoint=False)
     disc = np.column_stack([np.cos(t), np.sin(t)]) * r0
+    # an outline that does not hold its own centre holds no face around a
+    # probe's centre vertex either (that face has the vertex as a corner):
+    # every placement would be refused, so it is not tried
+    own = [outline] if inside_polygon(np.zeros(1), np.zeros(1), outline)[0] else []
     for f in SCALES:          # the largest scale at which a test hole fits
-        for shape in (outline, disc):       # the hole's own outline, then a disc of its area
+        for shape in own + [disc]:          # the hole's own outline, then a disc of its area
             errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0))
             if n:
                 return errors, n, f
