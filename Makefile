@@ -24,7 +24,7 @@ SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 # python3 -m venv needs ensurepip, which Debian ships apart
 VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
 
-.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance stress docs
+.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance stress regret docs
 
 # `make setup` forces the install and both builds; every target that runs the
 # package depends on the build stamp it needs (the fill's, or the shading's
@@ -168,3 +168,8 @@ SEED ?= 1000
 stress: $(STAMP)
 	$(PY) -m pip install -q -e '.[bench]' || echo "some peer tools did not install; the stress suite records them as missing"
 	$(PY) eval/stress.py --n $(N) --seed $(SEED)
+
+# the default's regret on the same cases: its RMS over the best of --order 1, 2, 3
+# forced, per case, and what the choice costs (eval/results/regret-seed$(SEED).md)
+regret: $(STAMP)
+	$(PY) eval/regret.py --n $(N) --seed $(SEED)
