@@ -160,8 +160,8 @@ def _order(text):
 def _repair_options(p):
     p.add_argument("--order", type=_order, default="auto", metavar="{1,2,3,auto}",
                    help="fairing order: 1 harmonic, 2 bilaplacian, 3 curvature-continuous, "
-                        "auto (default): 2 where the rim is not smooth, else 2 or 3 by refilling a band "
-                        "of scan around the hole")
+                        "auto (default): per hole, the order whose fills of test holes of the hole's size, "
+                        "cut into the scan beside it, lie closest to the scan cut away")
     p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch (default: 0)")
     p.add_argument("--method", choices=("fair", "seed"), default="fair",
                    help="fair: local faired shells (default); seed: the paper's smoothed-copy method")

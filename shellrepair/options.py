@@ -41,10 +41,11 @@ class RepairOptions:
     ----------
     order : {1, 2, 3, "auto"}
         Fairing order: harmonic, bilaplacian, curvature-continuous;
-        ``"auto"`` (default) picks 2 or 3 per hole: 2 where the rim is not
-        smooth (an edge near it bends more than 30°: creases, sculpted
-        detail, noise), otherwise by a test on the scan around it
-        (:mod:`shellrepair.selftest`).
+        ``"auto"`` (default) picks 1, 2 or 3 per hole: the order whose
+        fills of test holes of the hole's own size, cut into intact scan
+        beside it, lie closest to the scan cut away; a tube's by test
+        bands of its own kind (:mod:`shellrepair.selftest`,
+        :mod:`shellrepair.probe`).
     smooth : int
         Non-shrinking smoothing passes of each patch after fairing (for
         ``method="seed"``: passes over the whole duplicate).
@@ -56,7 +57,7 @@ class RepairOptions:
         The faired shells, or the paper's simple shape model.
     jobs : int
         Processes building patches (and, where the holes fill in this
-        process, more than one: a helper thread for ``order="auto"``'s band
+        process, more than one: a helper thread for ``order="auto"``'s order
         tests and order-3 patches); the output is the same for any value.
     bridge : {"auto", "never", "always"}
         Bands between two loops: tube or caps by energy, caps only, or any

@@ -1,5 +1,5 @@
 """With more than one job, a second thread works beside the fills of
-``order="auto"``: it runs the holes' band tests and builds the order-3
+``order="auto"``: it runs the holes' order tests and builds the order-3
 patches the tests ask for. The meshes and reports are the same, to the bit,
 as one thread's."""
 
@@ -28,7 +28,7 @@ def smooth_holes():
 
 
 def _record_threads(monkeypatch):
-    """The thread each band test runs on."""
+    """The thread each order test runs on."""
     seen = []
     real = selftest.choose_order
 
@@ -103,7 +103,7 @@ def test_work_the_helper_has_not_begun_is_done_by_the_fill(smooth_holes, monkeyp
 
 
 def test_the_helper_takes_the_largest_holes_first(monkeypatch):
-    """The helper's queue holds each hole's band test, then its order-3
+    """The helper's queue holds each hole's order test, then its order-3
     patch, the longest rims first (ties in hole order): the fill's thread
     runs the small holes' tests it reaches first, instead of waiting at the
     end for a large hole the helper began late."""

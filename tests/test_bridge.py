@@ -62,7 +62,7 @@ def test_torus_missing_its_inner_band_gets_a_tube(cut, r):
 
 
 def test_an_order_3_cap_crossing_another_falls_back_on_its_order_2_fill():
-    # at the default order both caps of this band test order 3; the first
+    # at the default order both caps of this band choose order 3; the first
     # one's order-3 cap bulges into the second's: the merge puts the first
     # hole's checked order-2 fill in its place and both close (before,
     # the second hole stayed open)

@@ -193,7 +193,7 @@ def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, m
     if len(X) - nf > fair.SMALL_UNKNOWNS or not numba:
         # orders 2 and 3 share the uniform thin-plate solve: one factorisation fewer
         assert n_together == len(shared) - n_together - 1
-    # without the operators (the band test's call): the same positions, no K
+    # without the operators (the order test's call): the same positions, no K
     for (Xu, K), (ref, _) in zip(fair.fair_patch_orders(X, F, nf, (1, 2, 3), rounds=2, operator=False), together):
         assert np.array_equal(Xu, ref) and K is None
 
