@@ -73,6 +73,10 @@ def _parser():
     r.add_argument("-o", "--output", help="output mesh (default: SCAN.repaired.ply)")
     r.add_argument("--report", help="JSON report (default: beside the output, .report.json)")
     _repair_options(r)
+    r.add_argument("--leave-open", type=_ids, default=(), metavar="ID,...",
+                   help="hole ids (as `shellrepair holes` lists them) to leave open on purpose (default: none)")
+    r.add_argument("--order-for", type=_id_orders, default={}, metavar="ID=N,...",
+                   help="a fairing order (1, 2, 3 or auto) for single holes, over --order (default: none)")
     r.add_argument("--json", action="store_true", help="print the JSON report instead of the table (default: the table)")
     r.add_argument("--html", metavar="PAGE.html", default=None,
                    help="also write a self-contained HTML page: Table 1, a before | after picture, the holes, "
@@ -157,6 +161,28 @@ def _order(text):
     raise argparse.ArgumentTypeError(f"must be 1, 2, 3 or auto, not {text!r}")
 
 
+def _ids(text):
+    try:
+        ids = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        ids = None
+    if not ids or any(i < 0 for i in ids):
+        raise argparse.ArgumentTypeError(f"must be hole ids separated by commas, such as 3,7, not {text!r}")
+    return tuple(ids)
+
+
+def _id_orders(text):
+    out = {}
+    for item in text.split(","):
+        hid, _, o = item.partition("=")
+        try:
+            out[int(hid)] = _order(o.strip())
+        except (ValueError, argparse.ArgumentTypeError):
+            raise argparse.ArgumentTypeError(f"must be ID=ORDER pairs separated by commas, such as 3=1,7=auto "
+                                             f"(ORDER 1, 2, 3 or auto), not {text!r}") from None
+    return out
+
+
 def _repair_options(p):
     p.add_argument("--order", type=_order, default="auto", metavar="{1,2,3,auto}",
                    help="fairing order: 1 harmonic, 2 bilaplacian, 3 curvature-continuous, "
@@ -228,7 +254,8 @@ def _options(args):
 
     return RepairOptions(order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                          fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
-                         bridge=args.bridge, closed=_closed(args), base=args.base)
+                         bridge=args.bridge, closed=_closed(args), base=args.base,
+                         leave_open=getattr(args, "leave_open", ()), order_for=getattr(args, "order_for", {}))
 
 
 def _closed(args):

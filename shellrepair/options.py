@@ -74,6 +74,12 @@ class RepairOptions:
         ``"flat"`` caps every such opening flat (the object's real base is
         there); ``"faired"`` continues the walls into a faired fill. Planar
         openings of CAD parts are capped flat in every case.
+    leave_open : tuple of int
+        Hole ids (as ``shellrepair holes`` lists them) left open on
+        purpose: reported as skipped, "left open by request".
+    order_for : dict of int -> {1, 2, 3, "auto"}
+        A fairing order for single holes (by id), over ``order``; a band
+        between two loops takes the order given for either of them.
     """
 
     order: object = "auto"
@@ -85,6 +91,8 @@ class RepairOptions:
     bridge: str = "auto"
     closed: bool | None = None
     base: str = "auto"
+    leave_open: tuple = ()
+    order_for: dict = dataclasses.field(default_factory=dict, hash=False)
 
     def __post_init__(self):
         if isinstance(self.order, bool) or self.order not in _ORDERS:
@@ -105,6 +113,18 @@ class RepairOptions:
             raise MeshError(f"closed must be None, True or False, got {self.closed!r}")
         if self.base not in _BASES:
             raise MeshError(f"base must be 'auto', 'flat' or 'faired', got {self.base!r}")
+        ids = tuple(self.leave_open) if isinstance(self.leave_open, (list, tuple, set, frozenset)) else None
+        if ids is None or not all(_whole(i) and i >= 0 for i in ids):
+            raise MeshError(f"leave_open must be hole ids (whole numbers, 0 or more), got {self.leave_open!r}")
+        object.__setattr__(self, "leave_open", tuple(sorted({int(i) for i in ids})))
+        if not isinstance(self.order_for, dict) or not all(
+                _whole(i) and i >= 0 and not isinstance(o, bool) and o in _ORDERS for i, o in self.order_for.items()):
+            raise MeshError(f"order_for must map hole ids to 1, 2, 3 or 'auto', got {self.order_for!r}")
+        object.__setattr__(self, "order_for", {int(i): (o if o == "auto" else int(o))
+                                               for i, o in sorted(self.order_for.items())})
+        both = set(self.leave_open) & set(self.order_for)
+        if both:
+            raise MeshError(f"hole {min(both)} is both left open and given an order")
         # NumPy integers in, plain ints kept (reports are JSON)
         for name in ("smooth", "jobs") + (("max_hole",) if self.max_hole is not None else ()) + \
                 (("order",) if self.order != "auto" else ()):

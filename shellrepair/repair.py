@@ -72,6 +72,7 @@ import numpy as np
 
 from .clean import describe_open_chains
 from .convert import MeshLike, as_mesh
+from .errors import MeshError
 from .options import RepairOptions
 from .progress import ProgressArg, as_callback
 from .holes import detect_holes
@@ -141,6 +142,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     order, smooth, max_hole, fill_borders = opts.order, opts.smooth, opts.max_hole, opts.fill_borders
     method, jobs, bridge, closed = opts.method, opts.jobs, opts.bridge, opts.closed
     base = opts.base
+    order_for = opts.order_for
     mesh = as_mesh(mesh)  # a (V, F) pair, an open3d or trimesh mesh, or a path
     t0 = time.perf_counter()
     _progress(progress, 0, 2, "finding holes")  # whole-mesh work before the per-hole bar
@@ -217,18 +219,27 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         # two hole loops sharing vertices: a band pinched there, filled as its parts
         scan, splits = split_pinched(V, F, topo, scan, pieces=known("pieces"))
     holes = scan.holes
+    _check_requested(opts, holes)
+    asked_open = set(opts.leave_open)
+    all_holes, holes = holes, [h for h in holes if h.id not in asked_open]
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
     ctx.axes = {L.id: (L.vertices, L.axis) for L in scan.loops if L.axis is not None}
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
         pairs = _find_bands(ctx, scan)
+    # a loop left open by request joins no band; its partner is filled alone
+    pairs = [p for p in pairs if not {p[0].id, p[1].id} & asked_open]
+    triples = [t for t in getattr(ctx, "band_triples", []) if not {L.id for L in t[:3]} & asked_open]
     paired = {L.id for A, B, _ in pairs for L in (A, B)}
-    triples = getattr(ctx, "band_triples", [])     # three loops bounding one region
     paired |= {L.id for t in triples for L in t[:3]}
-    units = [BandUnit(A, B, order, smooth, bridge) for A, B, _ in pairs]
-    units += [pants_unit(A, B, C, fb, order, smooth, bridge) for A, B, C, fb in triples]
-    units += [HoleUnit(h.id, h.vertices, order, smooth) for h in holes if h.id not in paired]
+
+    def order_of(*loops):     # the order asked for one of these loops, else the scan's
+        return next((order_for[L.id] for L in loops if L.id in order_for), order)
+
+    units = [BandUnit(A, B, order_of(A, B), smooth, bridge) for A, B, _ in pairs]
+    units += [pants_unit(A, B, C, fb, order_of(A, B, C), smooth, bridge) for A, B, C, fb in triples]
+    units += [HoleUnit(h.id, h.vertices, order_of(h), smooth) for h in holes if h.id not in paired]
     units.sort(key=lambda u: u.first_id)
     if index_built is not None:
         index_built.result()   # the fills read it (and a failure to build it surfaces here)
@@ -259,7 +270,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 _progress(progress, done[0], len(units))
 
             # a spare core runs the order="auto" holes' order tests and order-3 patches beside the fills
-            with _beside(jobs > 1 and order == "auto") as pool:
+            with _beside(jobs > 1 and "auto" in {u.order for u in units}) as pool:
                 for chunk in chunks:
                     unit_out.extend(_run_chunk(ctx, chunk, tick, pool=pool))
     if legacy_bar:  # progress=True: the terminal bar this call drew ends its line
@@ -308,8 +319,15 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
             bridges.append(record)
     if method == "fair" and bridge != "never":
         _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges)
-    _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method)
-    rows = [rows[h.id] for h in holes if h.id in rows]
+    _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, order_for)
+    for h in all_holes:
+        if h.id in asked_open:
+            rows[h.id] = {"id": h.id, "edges": h.edges, "status": "skipped",
+                          "reason": "left open by request", "new_vertices": 0, "new_faces": 0,
+                          "seconds": 0.0, "option": None, "requested": "left open"}
+        elif h.id in order_for and h.id in rows:
+            rows[h.id]["requested"] = f"order {order_for[h.id]}"
+    rows = [rows[h.id] for h in all_holes if h.id in rows]
     accepted = [it[0] for it in acc.items]
     repaired = _merge(mesh, V, F, accepted)
     if stand_in.any():
@@ -318,7 +336,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     # edges the appended faces touch (the rest of the mesh did not change)
     delta = edge_count_delta(topo, repaired.F[len(F):], len(repaired.V), n_before=len(V))
     n_new_v, n_new_f = len(repaired.V) - len(V), len(repaired.F) - len(F)
-    report = table1_dict(len(holes), rows, path=mesh.path, seconds=time.perf_counter() - t0,
+    report = table1_dict(len(all_holes), rows, path=mesh.path, seconds=time.perf_counter() - t0,
                          method=method, order=order, borders=len(scan.borders), open_chains=scan.open_chains,
                          extra={**{k: int(v) for k, v in mesh.fixes.items()},
                                 "border_edges_after": int(sum(b.edges for b in scan.borders)),
@@ -399,11 +417,23 @@ def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridge
         row.update(status="filled", reason=outs[1].reason, option="tube", new_vertices=0, new_faces=0)
 
 
-def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method):
+def _check_requested(opts, holes):
+    """Every hole id a request names (``leave_open``, ``order_for``) is one
+    of the scan's holes; else one error naming them, before any work."""
+    ids = {h.id for h in holes}
+    unknown = sorted((set(opts.leave_open) | set(opts.order_for)) - ids)
+    if unknown:
+        raise MeshError(f"no hole with id {', '.join(map(str, unknown))} in this scan (its holes: "
+                        f"{', '.join(map(str, sorted(ids))) or 'none'}; `shellrepair holes` lists them)")
+
+
+def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, order_for=None):
     """Fill again each single hole refused because its patch crosses an
     earlier hole's: on the scan with every accepted patch appended, so the
-    new fill's checks keep it off them (one round, in hole order; the row
-    is updated in place)."""
+    new fill's checks keep it off them (one round, in hole order, each at
+    its requested order where ``order_for`` has one; the row is updated in
+    place)."""
+    order_for = order_for or {}
     again = [h for h in holes if method == "fair" and h.id not in paired and h.id in rows
              and rows[h.id]["status"] == "failed"
              and str(rows[h.id]["reason"]).startswith("patch would cross the patch of hole")]
@@ -413,7 +443,8 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
     ctx2 = _Context(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
     for h in again:
         row = rows[h.id]
-        patch, reason, secs, _ = _fill._fill_one(ctx2, h.id, np.asarray(h.vertices, np.int64), order, smooth)
+        patch, reason, secs, _ = _fill._fill_one(ctx2, h.id, np.asarray(h.vertices, np.int64),
+                                                 order_for.get(h.id, order), smooth)
         row["seconds"] = round(row["seconds"] + secs, 4)
         if patch is not None:
             patch, reason, swapped = acc.place(ctx, patch)
