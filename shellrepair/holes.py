@@ -149,6 +149,9 @@ class Loop:
         Share of the piece's area within ``EDGE_ON_DEGREES`` of edge-on
         from its best view (rule 3; measured only where rule 2 does not
         already read the piece closed, else 0); None when not read.
+    center : tuple of 3 float or None
+        The mean of the rim's vertices, in the scan's units (where to look
+        for the loop); None for a loop made otherwise.
     """
 
     id: int
@@ -167,6 +170,7 @@ class Loop:
     back_ratio: float = None
     reading: str = ""
     edge_on: float = None
+    center: tuple = None
 
     @property
     def axis(self):
@@ -859,7 +863,8 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         scan.loops.append(Loop(id=i, vertices=lp, edges=int(lp.size), perimeter=st["perimeter"],
                                mean_edge=st["mean_edge"], area=st["area"], diameter=st["diameter"],
                                planarity=st["planarity"], component=comp,
-                               piece_area=None if piece_area is None else float(piece_area[piece])))
+                               piece_area=None if piece_area is None else float(piece_area[piece]),
+                               center=tuple(float(x) for x in st["center"])))
         scan.loops[-1]._axis = st["axis"]   # (not a field: kept for the fill, see Loop.axis)
     if not scan.loops:
         return scan

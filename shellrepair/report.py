@@ -82,6 +82,8 @@ def holes_dict(scan, *, path=None, n_vertices=None, n_faces=None, notes=()):
         d = lp.as_dict()
         for k in ("perimeter", "mean_edge", "area", "diameter", "planarity", "piece_area", "inside_fraction"):
             d[k] = _r(d[k], 9 if k != "inside_fraction" else 4)
+        if d.get("center") is not None:
+            d["center"] = [_r(x, 9) for x in d["center"]]
         loops.append(d)
     return {
         "file": None if path is None else str(path),
@@ -99,6 +101,11 @@ def holes_dict(scan, *, path=None, n_vertices=None, n_faces=None, notes=()):
     }
 
 
+def _centre(c):
+    """A loop's centre for the table (the scan's units), or '–'."""
+    return "–" if c is None else "(" + ", ".join(f"{x:.7g}" for x in c) + ")"
+
+
 def holes_table(d, *, limit=40):
     """A table a person reads, from :func:`holes_dict`'s output."""
     lines = [f"{d['file']}: {d['vertices']} vertices, {d['faces']} faces, {d['components']} components",
@@ -108,12 +115,13 @@ def holes_table(d, *, limit=40):
         lines.append(f"  note: {n}")
     if d["loops"]:
         lines.append(f"  {'id':>4} {'kind':<6} {'edges':>6} {'perimeter':>11} {'mean edge':>10} "
-                     f"{'area':>11} {'diameter':>10} {'planar':>7} {'comp':>4}  reason")
+                     f"{'area':>11} {'diameter':>10} {'planar':>7} {'comp':>4}  {'centre (x, y, z)':<38}  reason")
         rows = sorted(d["loops"], key=lambda x: -x["edges"])
         for lp in rows[:limit]:
             lines.append(f"  {lp['id']:>4} {lp['kind']:<6} {lp['edges']:>6} {lp['perimeter']:>11.5g} "
                          f"{lp['mean_edge']:>10.4g} {lp['area']:>11.5g} {lp['diameter']:>10.4g} "
-                         f"{lp['planarity']:>7.3f} {lp['component']:>4}  {lp['reason']}")
+                         f"{lp['planarity']:>7.3f} {lp['component']:>4}  {_centre(lp.get('center')):<38}  "
+                         f"{lp['reason']}")
         if len(rows) > limit:
             lines.append(f"  ... {len(rows) - limit} smaller loops (see --json)")
     return "\n".join(lines)

@@ -68,3 +68,20 @@ def test_the_command_line_takes_ids_and_id_order_pairs(tmp_path):
 def test_requests_are_checked_with_the_other_options(bad):
     with pytest.raises(MeshError):
         RepairOptions(**bad)
+
+
+def test_holes_lists_each_loops_id_and_centre_in_the_scans_units(tmp_path, capsys):
+    V, F, ids = three_holes()
+    shift = np.array([1.0e5, -2.0e5, 3.0e4])                 # millimetres far from the origin
+    p = tmp_path / "s.ply"
+    write_mesh(p, Mesh(V=V + shift, F=F))
+    assert main(["holes", str(p), "--json"]) == 0
+    import json
+    d = json.loads(capsys.readouterr().out)
+    scan = detect_holes(V + shift, F)
+    for lp in d["loops"]:
+        rim = scan.loops[lp["id"]].vertices
+        assert np.allclose(lp["center"], (V + shift)[rim].mean(axis=0), rtol=0, atol=1e-6)
+    assert main(["holes", str(p)]) == 0
+    table = capsys.readouterr().out
+    assert "centre (x, y, z)" in table and f"({lp['center'][0]:.7g}, " in table
