@@ -376,14 +376,13 @@ def band_order(ctx, loops):
         For the report.
     """
     from .probe import HELD, tube_errors
-    from .selftest import CANDIDATES, DEFAULT_ORDER
+    from .selftest import CANDIDATES, DEFAULT_ORDER, best_candidate
 
-    rank = lambda errs: min(errs, key=lambda o: (errs[o], o != DEFAULT_ORDER, str(o)))
     if len(loops) == 2:
         errs, n = tube_errors(ctx, loops[0], loops[1], tuple(CANDIDATES) + (HELD,))
         if errs:
-            best = rank(errs)     # (the held tube is among them only where both test bands were made)
-            faired = rank({o: e for o, e in errs.items() if o != HELD})
+            best = best_candidate(errs)     # (the held tube is among them only where both test bands were made)
+            faired = best_candidate({o: e for o, e in errs.items() if o != HELD})
             desc = ", ".join(f"{'held' if o == HELD else f'order {o}'} {e:.3g}" for o, e in errs.items())
             return int(faired), best == HELD, f"auto: by {n} test bands beside the loops, RMS {desc}"
     return DEFAULT_ORDER, None, (f"auto: order {DEFAULT_ORDER}, no test band fits beside the loops: the scan "

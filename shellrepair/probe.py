@@ -267,11 +267,11 @@ def _probe(V, F, near, p_id, shape, margin):
     # the outline on the tangent plane at the vertex; no face around the
     # vertex inside it (an outline narrower than the scan's faces there):
     # no test hole, known before the region's pieces and loops are walked
-    frame = _frame(V[T[seed]] - p, e1, n0)
+    P0 = V[T[seed]] - p
+    frame = _frame(P0, e1, n0)
     if frame is None:
         return None
     a, b = frame
-    P0 = V[T[seed]] - p
     own = inside_polygon((P0 @ a).ravel(), (P0 @ b).ravel(), outline).reshape(-1, 3) \
         & (np.sqrt((P0 * P0).sum(axis=2)) <= r_out)
     if not own.all(axis=1).any():
@@ -325,6 +325,40 @@ def _probe(V, F, near, p_id, shape, margin):
     return Vl[ids], remap[Fk], remap[ploop], Vl[removed]
 
 
+class _Pooled:
+    """Squared distances of the removed scan to each candidate's fill,
+    summed over test holes (or bands), and their RMS."""
+
+    def __init__(self, candidates):
+        self.candidates = tuple(candidates)
+        self.sq = dict.fromkeys(self.candidates, 0.0)
+        self.count = 0
+        self.tests = 0
+
+    def add(self, distances):
+        """One test: ``distances`` yields (candidate, (p,) distances) for
+        every candidate, lazily; the first with a non-finite distance drops
+        the whole test (the candidates after it are not built). Returns
+        whether the test counted."""
+        dd, n = {}, 0
+        for o, e in distances:
+            if not np.isfinite(e).all():
+                return False
+            dd[o] = float((e * e).sum())
+            n = len(e)
+        for o in self.candidates:
+            self.sq[o] += dd[o]
+        self.count += n
+        self.tests += 1
+        return True
+
+    def rms(self, keep=lambda o: True):
+        """{candidate: RMS} of those ``keep`` admits; empty before any test."""
+        if not self.tests:
+            return {}
+        return {o: float(np.sqrt(self.sq[o] / self.count)) for o in self.candidates if keep(o)}
+
+
 def _centres(rim_dist, r, h, lo, hi):
     """Candidate probe centres in the shell ``lo..hi`` (units of ``r``)
     beyond the rim: scan vertices, an even spread over them.
@@ -371,22 +405,25 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     # probe's centre vertex either (that face has the vertex as a corner):
     # every placement would be refused, so it is not tried
     own = [outline] if inside_polygon(np.zeros(1), np.zeros(1), outline)[0] else []
+    # the real rim's roughness, given to each test hole's rim (a ragged rim
+    # is noise a higher order carries on into the hole)
+    rough = rim_roughness(V, ctx.F[ctx.ring_faces(loop, 1)], loop)
     for f in SCALES:          # the largest scale at which a test hole fits
         for shape in own + [disc]:          # the hole's own outline, then a disc of its area
-            errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0))
+            errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough)
             if n:
                 return errors, n, f
     return {}, 0, 0.0
 
 
-def _probe_errors(ctx, loop, candidates, max_probes, r, shape):
+def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):
     from scipy.spatial import cKDTree
 
     from .errors import MeshError
     from .fair import fair_patch_orders
     from .io import Mesh
     from .patch import PatchError, _Context
-    from .selftest import _refined, point_mesh_distance
+    from .selftest import TEST_ROUNDS, _refined, point_mesh_distance
 
     max_probes = PROBES if max_probes is None else int(max_probes)
     V = ctx.V
@@ -408,20 +445,15 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape):
     near = (near_f, cKDTree(V[ctx.F[near_f]].mean(axis=1)))
     verts = np.unique(ctx.F[near_f])
     rim_dist = (verts, cKDTree(V[loop]).query(V[verts])[0])
-    # the real rim's roughness, given to each test hole's rim (a ragged rim
-    # is noise a higher order carries on into the hole)
-    rough = rim_roughness(V, ctx.F[ctx.ring_faces(loop, 1)], loop)
-    sq = {o: 0.0 for o in candidates}
-    count = 0
-    probes = 0
+    pool = _Pooled(candidates)
     taken = []
     for lo, hi in SHELLS:
-        if probes >= max_probes:
+        if pool.tests >= max_probes:
             break
         cands = _centres(rim_dist, r, h, lo, hi)
         # farthest first from what is taken (the first: the shell's first candidate)
         left = list(cands)
-        while left and probes < max_probes:
+        while left and pool.tests < max_probes:
             if taken:
                 P = V[np.asarray(left)]
                 dmin = np.min(np.sqrt(((P[:, None, :] - V[np.asarray(taken)][None]) ** 2).sum(axis=2)), axis=1)
@@ -443,24 +475,12 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape):
             except (MeshError, PatchError, ValueError, IndexError):
                 continue
             X0, Fs, nf, _, scale, org = P0
-            faired = fair_patch_orders(X0, Fs, nf, tuple(candidates), rounds=2, operator=False)
+            faired = fair_patch_orders(X0, Fs, nf, tuple(candidates), rounds=TEST_ROUNDS, operator=False)
             Tp = Fs[len(Fs) - len(T):]
-            dd = {}
-            for o, (Xu, _) in zip(candidates, faired):
-                X = org + scale * np.vstack([X0[:nf], Xu])
-                e = point_mesh_distance(Q - origin, X, Tp)
-                if not np.isfinite(e).all():
-                    break
-                dd[o] = float((e * e).sum())
-            else:
-                for o in candidates:
-                    sq[o] += dd[o]
-                count += len(Q)
-                probes += 1
+            if pool.add((o, point_mesh_distance(Q - origin, org + scale * np.vstack([X0[:nf], Xu]), Tp))
+                        for o, (Xu, _) in zip(candidates, faired)):
                 taken.append(pid)
-    if not probes:
-        return {}, 0
-    return {o: float(np.sqrt(sq[o] / count)) for o in candidates}, probes
+    return pool.rms(), pool.tests
 
 
 #: The tube's candidate that is not a fairing order: the first tube (along
@@ -505,16 +525,14 @@ def tube_errors(ctx, A, B, candidates):
         Pooled over the test bands; empty when none could be cut and filled.
     tests : int
     """
-    from .bridge import MAX_REACH, continuation_arcs, guide_tube
     from .errors import MeshError
-    from .holes import _diameter, boundary_loops
+    from .holes import boundary_loops
     from .io import Mesh
-    from .patch import PatchError, _Context, _rim_data, build_patch
+    from .patch import PatchError, _Context, build_patch
     from .selftest import point_mesh_distance
 
     V, F = ctx.V, ctx.F
-    sq = dict.fromkeys(candidates, 0.0)
-    count, tests = 0, 0
+    pool = _Pooled(candidates)
     gap = _band_length(ctx, A, B)     # how far the missing band runs from loop to loop
     if not np.isfinite(gap):
         return {}, 0
@@ -546,60 +564,60 @@ def tube_errors(ctx, A, B, candidates):
         try:
             lctx = _Context(Mesh(V=V[g] - origin, F=Fl))
             LA, LB = rims
-            PA, PB = lctx.V[LA], lctx.V[LB]
-            arcs = [continuation_arcs(lctx.V, lctx.F[lctx.ring_faces(x, 3)], x) for x in (LA, LB)]
-            tl = np.concatenate([LA, LB])
-            sigma = _rim_data(lctx, tl)[0]
-            reach = MAX_REACH * max(_diameter(PA), _diameter(PB))
-            Pg, Tg = guide_tube(PA, PB, *arcs, spacing=float(np.mean(sigma)), reach=reach)
+            Pg, Tg, _ = _first_tube(lctx, LA, LB)
             if not (len(Pg) and np.isfinite(Pg).all()):
                 continue
+            tl = np.concatenate([LA, LB])
             Q = V[removed] - origin
-            dd = {}
-            q = None              # the refined tube's new vertices (the same at every order)
-            for o in candidates:
-                if o == HELD:     # the first tube refined, every vertex held where the arcs put it
-                    if q is None:
-                        q = len(build_patch(lctx, 0, tl, order=2, initial=(Pg, Tg)).P)
-                    p = build_patch(lctx, 0, tl, order=2, initial=(Pg, Tg), pinned=np.arange(q))
-                else:
-                    p = build_patch(lctx, 0, tl, order=o, initial=(Pg, Tg))
-                    q = len(p.P)
-                e = point_mesh_distance(Q, np.vstack([lctx.V[tl], p.P]), p.T)
-                if not np.isfinite(e).all():
-                    break
-                dd[o] = float((e * e).sum())
-            else:
+
+            def fills():
+                q = None          # the refined tube's new vertices (the same at every order)
                 for o in candidates:
-                    sq[o] += dd[o]
-                count += len(Q)
-                tests += 1
+                    if o == HELD:     # the first tube refined, every vertex held where the arcs put it
+                        if q is None:
+                            q = len(build_patch(lctx, 0, tl, order=2, initial=(Pg, Tg)).P)
+                        p = build_patch(lctx, 0, tl, order=2, initial=(Pg, Tg), pinned=np.arange(q))
+                    else:
+                        p = build_patch(lctx, 0, tl, order=o, initial=(Pg, Tg))
+                        q = len(p.P)
+                    yield o, point_mesh_distance(Q, np.vstack([lctx.V[tl], p.P]), p.T)
+
+            pool.add(fills())
         except (MeshError, PatchError, ValueError, IndexError, FloatingPointError):
             continue
-    if not tests:
-        return {}, 0
     # the held tube follows both loops' arcs: a test beside one loop only
     # does not see the other's, so it is not judged there
-    return {o: float(np.sqrt(sq[o] / count)) for o in candidates if o != HELD or tests == 2}, tests
+    return pool.rms(keep=lambda o: o != HELD or pool.tests == 2), pool.tests
 
 
 def _band_length(ctx, A, B):
     """The length of the missing band between loops ``A`` and ``B`` along
-    the surface: the first tube's rings along both loops' continuation
-    arcs (:func:`shellrepair.bridge.guide_tube`), about one rim edge apart,
-    counted, times their spacing; inf where no first tube is made."""
-    from .bridge import MAX_REACH, continuation_arcs, guide_tube
-    from .holes import _diameter
-    from .patch import _rim_data
-
+    the surface: the first tube's rings (:func:`_first_tube`), about one
+    rim edge apart, counted, times their spacing; inf where no first tube
+    is made."""
     LA, LB = (np.asarray(L.vertices, np.int64) for L in (A, B))
     try:
-        PA, PB = ctx.V[LA], ctx.V[LB]
-        arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(x, 3)], x) for x in (LA, LB)]
-        spacing = float(np.mean(_rim_data(ctx, np.concatenate([LA, LB]))[0]))
-        Pg, _ = guide_tube(PA, PB, *arcs, spacing=spacing, reach=MAX_REACH * max(_diameter(PA), _diameter(PB)))
+        Pg, _, spacing = _first_tube(ctx, LA, LB)
     except (ValueError, IndexError, FloatingPointError):
         return float("inf")
     if not np.isfinite(Pg).all():
         return float("inf")
     return (len(Pg) / max(len(LA), 1) + 1.0) * spacing
+
+
+def _first_tube(ctx, LA, LB):
+    """The first tube between loops ``LA`` and ``LB`` of ``ctx`` along
+    their continuation arcs (:func:`shellrepair.bridge.guide_tube`, rings
+    at the rim's mean edge, arcs followed up to ``MAX_REACH`` times the
+    larger loop's diameter): (new vertices, triangles, ring spacing).
+    (:func:`shellrepair.fill._fill_pair` builds the real band's the same
+    way, with the loops' diameters as detect_holes measured them.)"""
+    from .bridge import MAX_REACH, continuation_arcs, guide_tube
+    from .holes import _diameter
+    from .patch import _rim_data
+
+    PA, PB = ctx.V[LA], ctx.V[LB]
+    arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(x, 3)], x) for x in (LA, LB)]
+    spacing = float(np.mean(_rim_data(ctx, np.concatenate([LA, LB]))[0]))
+    Pg, Tg = guide_tube(PA, PB, *arcs, spacing=spacing, reach=MAX_REACH * max(_diameter(PA), _diameter(PB)))
+    return Pg, Tg, spacing

@@ -47,7 +47,7 @@ from scipy.spatial import cKDTree
 
 from . import kernels
 
-__all__ = ["choose_order", "point_mesh_distance", "OrderTest", "CANDIDATES", "DEFAULT_ORDER"]
+__all__ = ["choose_order", "best_candidate", "point_mesh_distance", "OrderTest", "CANDIDATES", "DEFAULT_ORDER"]
 
 #: Candidate fairing orders (ties go to ``DEFAULT_ORDER``, then the lower order).
 CANDIDATES = (1, 2, 3)
@@ -138,8 +138,24 @@ def choose_order(ctx, hole_id, loop, candidates=None):
     errors, n, scale = probe_errors(ctx, loop, candidates)
     if not errors:
         return OrderTest(DEFAULT_ORDER, why="no intact scan of the hole's size around it: the scan cannot tell")
-    best = min(candidates, key=lambda o: (errors[o], o != DEFAULT_ORDER, o))
+    best = best_candidate({o: errors[o] for o in candidates})
     return OrderTest(int(best), errors=errors, probes=n, scale=scale)
+
+
+def best_candidate(errors):
+    """The candidate with the lowest error; equal errors go to
+    ``DEFAULT_ORDER``, then to the lower order (the fairing orders come
+    before ``probe.HELD``).
+
+    Parameters
+    ----------
+    errors : dict of (int or str) -> float
+
+    Returns
+    -------
+    candidate : int or str
+    """
+    return min(errors, key=lambda o: (errors[o], o != DEFAULT_ORDER, str(o)))
 
 
 def _refined(ctx, loop, rings):
