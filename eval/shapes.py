@@ -11,7 +11,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
 __all__ = ["icosphere", "torus", "grid", "ellipsoid", "bumpy_sphere", "cylinder",
-           "geodesic_distance", "remove_faces", "perforate_discs"]
+           "geodesic_distance", "remove_faces", "perforate_discs", "range_scan"]
 
 
 def icosphere(subdivisions=3, radius=1.0):
@@ -235,3 +235,87 @@ def perforate_discs(V, F, n_holes=1, radius=0.3, seed=0, centers=None, min_separ
         remove |= (d[F] < radius).any(axis=1)
     V2, F2, kept = remove_faces(V, F, remove)
     return V2, F2, remove, kept
+
+
+def range_scan(V, F, view=(0.3, -1.0, 0.4), resolution=200, margin=0.55):
+    """One view of a closed mesh as a range scanner triangulates it.
+
+    An orthographic scanner looks along ``view`` at the mesh's centroid; a
+    ``resolution`` x ``resolution`` grid of rays spanning ``2 * margin``
+    times the bounding-box diagonal is cast (open3d), each hit a sample.
+    The range grid is triangulated as the Stanford range scans of
+    ../shared/data were: each 2x2 block of samples split along its shorter
+    diagonal, a block with three samples gives one triangle, and triangles
+    with an edge longer than 4x the grid spacing are dropped (depth jumps).
+    The result is an open sheet: its outer border, holes where something in
+    front hid the surface, islands, and pieces that meet at single vertices
+    (two diagonal blocks around a missing sample), as on a real range scan.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+    view : 3 floats
+        Direction the scanner looks in.
+    resolution : int
+        Rays per side of the grid.
+    margin : float
+        Half the grid's side, in bounding-box diagonals.
+
+    Returns
+    -------
+    P : (k,3) float64
+        The samples any triangle uses, in grid order.
+    T : (t,3) int64
+        Triangles wound to face the scanner.
+    """
+    import open3d as o3d
+
+    V = np.asarray(V, np.float64)
+    F = np.asarray(F, np.int64)
+    d = np.asarray(view, np.float64)
+    d = d / np.linalg.norm(d)
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    up = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    u = np.cross(up, d)
+    u /= np.linalg.norm(u)
+    w = np.cross(d, u)
+    s = np.linspace(-margin, margin, int(resolution)) * diag
+    gu, gw = np.meshgrid(s, s, indexing="ij")
+    O = (V.mean(axis=0) - 2.0 * diag * d) + gu[..., None] * u + gw[..., None] * w
+    O = O.reshape(-1, 3)
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
+    rays = np.concatenate([O, np.broadcast_to(d, O.shape)], axis=1).astype(np.float32)
+    t = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().astype(np.float64)
+    hit = np.isfinite(t)
+    P = O[hit] + t[hit, None] * d
+    idx = np.full(len(O), -1, np.int64)
+    idx[hit] = np.arange(int(hit.sum()))
+    grid_ids = idx.reshape(len(s), len(s))
+    q = np.stack([grid_ids[:-1, :-1], grid_ids[1:, :-1], grid_ids[1:, 1:], grid_ids[:-1, 1:]], axis=-1).reshape(-1, 4)
+    have = q >= 0
+    full = have.all(axis=1)
+
+    def length(a, b):
+        return np.linalg.norm(P[a] - P[b], axis=1)
+
+    Q = q[full]
+    short_ac = length(Q[:, 0], Q[:, 2]) <= length(Q[:, 1], Q[:, 3])
+    a, b, c, e = Q.T
+    T = [np.c_[a, b, c][short_ac], np.c_[a, c, e][short_ac],
+         np.c_[a, b, e][~short_ac], np.c_[b, c, e][~short_ac]]
+    three = have.sum(axis=1) == 3
+    if three.any():
+        Q3 = q[three]
+        T.append(Q3[Q3 >= 0].reshape(-1, 3))   # the three samples, in block order
+    T = np.concatenate(T)
+    longest = np.max([length(T[:, i], T[:, (i + 1) % 3]) for i in range(3)], axis=0)
+    T = T[longest <= 4 * (s[1] - s[0])]
+    n = np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]])
+    away = n @ d > 0
+    T[away] = T[away][:, ::-1]
+    used = np.unique(T)
+    at = np.full(len(P), -1, np.int64)
+    at[used] = np.arange(used.size)
+    return P[used], at[T]

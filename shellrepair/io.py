@@ -48,6 +48,11 @@ What loading guarantees
   by appending copies of vertices (same position, same attributes) and
   re-pointing faces; nothing is moved (see
   :func:`shellrepair.clean.make_manifold`). ``mesh.fixes`` counts each.
+  The copies at points where pieces meet are joined again when the mesh is
+  written (``mesh.joins``, :func:`shellrepair.mesh.as_written`): the
+  written scan has the file's own vertices and faces, and a patch at such
+  a point shares the file's vertex instead of lying on a copy of it (which
+  MeshLab's self-intersection test counts as a crossing).
 * Each piece is wound consistently (:func:`shellrepair.clean.orient_faces`):
   some faces get corners 1 and 2 swapped, nothing else changes; closed
   pieces face outward; non-orientable pieces are reported.
@@ -78,7 +83,7 @@ from .clean import clean_faces
 from .errors import MeshError
 from .files import atomic_write, atomic_write_many, check_output_path, new_file_mode
 from .formats import READERS, SUPPORTED, WRITERS
-from .mesh import Mesh, written_faces
+from .mesh import Mesh, as_written, written_faces
 from .progress import ProgressArg
 from . import fastmesh
 from .topology import edge_topology, face_areas
@@ -249,6 +254,7 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
     face_filled = None if mesh.face_filled is None else np.asarray(mesh.face_filled)[res.kept]
     Vx = np.vstack([V, V[src]]) if src.size else V
     piece = None
+    joins = None
     flipped = False
     if orient and len(F):
         o = orient_faces(F, Vx, topo=topo)
@@ -270,14 +276,16 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
             fixes["nonmanifold_vertices_split"] += int(np.unique(src2).size)
             fixes["vertices_added"] += int(src2.size)
             notes.append(f"{np.unique(src2).size} vertices where pieces meet at a point split: "
-                         f"{src2.size} new vertices at the same positions, appended")
+                         f"{src2.size} new vertices at the same positions, appended for the topology "
+                         "(the written file joins them again)")
+            joins = np.c_[n + len(src) + np.arange(src2.size), src2]
             F, src = F2, np.concatenate([src, src2])
             Vx = np.vstack([V, V[src]])
             topo = None
     out = Mesh(V=Vx, F=F, vertex_colors=mesh.vertex_colors, vertex_filled=mesh.vertex_filled,
                face_filled=face_filled, vertex_props=dict(mesh.vertex_props), vertex_dtype=mesh.vertex_dtype,
                path=mesh.path, notes=notes, fixes={k: int(fixes.get(k, 0)) for k in FIX_COUNTS},
-               comments=list(getattr(mesh, "comments", [])))
+               comments=list(getattr(mesh, "comments", [])), joins=joins)
     if Ffile is not None:
         out.F_out, seam_src = _seam_faces(mesh, res.rep, Ffile, F, n + len(src))
         if out.F_out is not None:
@@ -401,7 +409,7 @@ def mesh_bytes(path, mesh, *, binary=True):
     if ext not in SUPPORTED:
         raise MeshError(f"unknown output extension '{path.suffix}' (expected one of {', '.join(SUPPORTED)})", path)
     writer = WRITERS[ext]
-    return writer(mesh, binary)
+    return writer(as_written(mesh), binary)
 
 
 def write_mesh(path: Union[str, os.PathLike], mesh: Mesh, *, binary: bool = True,

@@ -218,7 +218,7 @@ def _merge(mesh, V, F, patches):
     V2 = np.vstack([V] + newP) if newP else V.copy()
     F2 = np.vstack([F] + newF) if newF else F.copy()
     out = Mesh(V=V2, F=F2.astype(np.int64, copy=False), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
-               notes=list(mesh.notes), F_out=getattr(mesh, "F_out", None), fixes=dict(getattr(mesh, "fixes", {})),
+               notes=list(mesh.notes), F_out=getattr(mesh, "F_out", None), joins=getattr(mesh, "joins", None), fixes=dict(getattr(mesh, "fixes", {})),
                comments=list(getattr(mesh, "comments", [])))
     if mesh.vertex_colors is not None:
         out.vertex_colors = np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)

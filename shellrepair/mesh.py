@@ -4,7 +4,8 @@
 repair, other PLY vertex properties and what loading noted; it caches the
 whole-mesh data reading computed on its way (edge topology, pieces, face
 areas) so that hole detection and repair need not build it again.
-:func:`written_faces` gives the faces as a file gets them.
+:func:`written_faces` gives the faces as a file gets them, :func:`as_written`
+the whole mesh as a file gets it.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Mesh", "written_faces", "CACHE_SAMPLE"]
+__all__ = ["Mesh", "written_faces", "as_written", "CACHE_SAMPLE"]
 
 
 #: Rows of ``V`` and of ``F`` sampled to notice in-place edits (:meth:`Mesh.cached`).
@@ -51,6 +52,14 @@ class Mesh:
         corner's own vertex where its attributes differ (a seam). Faces
         after the first ``k`` (added by a repair) are written as in ``F``.
         Code that replaces ``F`` with other faces sets it to None.
+    joins : (k,2) int64 array or None
+        Vertex copies the reader made where pieces of the file meet at a
+        single vertex (``joins[:, 0]`` the copy, ``joins[:, 1]`` the file's
+        vertex; same position, same attributes): the topology and the
+        repair see the pieces apart, the file is written with the copies
+        joined again (:func:`as_written`), so a written scan keeps the
+        file's own vertices and faces and a patch at such a point shares
+        the file's vertex, not one lying on it.
     fixes : dict
         What :func:`manifold_mesh` did (see
         :data:`shellrepair.clean.FIX_COUNTS`); empty when it did not run.
@@ -69,6 +78,7 @@ class Mesh:
     path: str | None = None
     notes: list = field(default_factory=list)
     F_out: np.ndarray | None = None
+    joins: np.ndarray | None = None
     comments: list = field(default_factory=list)
     fixes: dict = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
@@ -140,3 +150,47 @@ def written_faces(mesh):
     if k > len(F) or W.size and (W.max() >= len(V) or not np.array_equal(V[W], V[F[:k]])):
         return F  # F was replaced since: F_out no longer describes it
     return np.vstack([W, F[k:]]) if k < len(F) else W
+
+
+def as_written(mesh):
+    """The mesh as a file gets it: :func:`written_faces`, and the vertex
+    copies of ``mesh.joins`` joined again to the file's vertices they copy
+    (the copies dropped, later vertices moved down, every face re-pointed).
+
+    A copy that no longer sits where its vertex is (the arrays were replaced
+    since) leaves the mesh as it is.
+
+    Parameters
+    ----------
+    mesh : Mesh
+
+    Returns
+    -------
+    Mesh
+        ``mesh`` itself when there is nothing to join, else a new mesh
+        (``F_out`` and ``joins`` None: it is written as it stands).
+    """
+    J = getattr(mesh, "joins", None)
+    F = written_faces(mesh)
+    V = np.asarray(mesh.V)
+    n = len(V)
+    if J is None or len(J) == 0:
+        return mesh
+    J = np.asarray(J, np.int64)
+    if J.max() >= n or not np.array_equal(V[J[:, 0]], V[J[:, 1]]):
+        return mesh
+    to = np.arange(n)
+    to[J[:, 0]] = J[:, 1]
+    keep = np.ones(n, bool)
+    keep[J[:, 0]] = False
+    at = np.cumsum(keep) - 1
+
+    def rows(a):
+        a = None if a is None else np.asarray(a)
+        return a[keep] if a is not None and a.shape[:1] == (n,) else a
+
+    return Mesh(V=V[keep], F=at[to[F]], vertex_colors=rows(mesh.vertex_colors),
+                vertex_filled=rows(mesh.vertex_filled), face_filled=mesh.face_filled,
+                vertex_props={k: rows(a) for k, a in mesh.vertex_props.items()},
+                vertex_dtype=mesh.vertex_dtype, path=mesh.path, notes=list(mesh.notes),
+                comments=list(getattr(mesh, "comments", [])), fixes=dict(getattr(mesh, "fixes", {})))

@@ -620,8 +620,11 @@ def _golden_digests(tmp_path):
 
 
 #: Recorded with the code before the split (io.py of commit f4b9ef4): the test fails if any byte changes.
+#: Changed on purpose since: polygons.obj has three vertices where pieces meet at a point; its
+#: note says they are joined again when written, and the PLY, OFF and OBJ writers write them
+#: once, as the file had them (Mesh.joins; STL, which repeats each corner, is unchanged).
 GOLDEN = {
-    'read polygons.obj': 'f5d4bd286979eb0d',
+    'read polygons.obj': '0bc2698e08c96bc2',
     'read colours.off': '6ea5f6f1c9727063',
     'read quads_ascii.ply': 'a2f8613b4a21e0de',
     'read mixed_big.ply': '4a52fb919bf13612',
@@ -648,10 +651,10 @@ GOLDEN = {
     'write seam .off': '271e4444e66ed79d',
     'write seam .stl': '6b4146b463229061',
     'write seam .stl ascii': '197fbad2ffd1f588',
-    'write polygons.obj .ply': 'f53e923f737263ce',
-    'write polygons.obj .ply ascii': '8024e2ad2e1c42ef',
-    'write polygons.obj .obj': 'b78ec598fafcdd06',
-    'write polygons.obj .off': '919b89d7f3749c97',
+    'write polygons.obj .ply': '39362a7b343cf3ab',
+    'write polygons.obj .ply ascii': 'b71cbc9eb772fa20',
+    'write polygons.obj .obj': '31262a029cb11215',
+    'write polygons.obj .off': '1efbf182dbbc2fd6',
     'write polygons.obj .stl': 'a239ddba95388db1',
     'write polygons.obj .stl ascii': '11bc819791b5a9ba',
     'write colours.off .ply': '5e35d147fa4b53d5',
