@@ -24,7 +24,7 @@ SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 # python3 -m venv needs ensurepip, which Debian ships apart
 VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
 
-.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile table1 clean appearance stress regret docs
+.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile bench-solvers table1 clean appearance stress regret docs
 
 # `make setup` forces the install and both builds; every target that runs the
 # package depends on the build stamp it needs (the fill's, or the shading's
@@ -135,6 +135,15 @@ bench-scale: $(STAMP)
 # where the time goes, per step, on the 1M and 4M cases (cProfile)
 bench-scale-profile: $(STAMP)
 	$(PY) eval/bench_scale.py --sizes 1M,4M --profile --no-peers
+
+# the fairing's sparse Cholesky against CHOLMOD (scikit-sparse, built here
+# against Debian's SuiteSparse 5, hence 0.4.15), SuperLU and libigl on the
+# fill's own systems (eval/results/solvers/)
+bench-solvers: $(STAMP)
+	@dpkg -s libsuitesparse-dev >/dev/null 2>&1 || { if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO=sudo; fi; \
+	  $$SUDO apt-get install -y -qq libsuitesparse-dev || echo "libsuitesparse-dev did not install: CHOLMOD is left out"; }
+	$(PY) -m pip install -q "scikit-sparse==0.4.15" || echo "scikit-sparse did not build: CHOLMOD is left out"
+	$(PY) eval/bench_solvers.py
 
 table1: $(STAMP)
 	$(PY) eval/table1.py
