@@ -706,6 +706,130 @@ def _check_joining(ctx, patch, scan_edges, what):
     return why, bad
 
 
+def flat_face_with_hole(ctx, A, B):
+    """Two loops that outline one flat face with a hole in it: a triangulation
+    of that face, or None.
+
+    The single-hole form is the flat cap (a planar opening the scan meets
+    edge-on, :func:`shellrepair.patch._meets_edge_on`): a CAD part's face, a
+    statue's base. The same face with a hole through it (a plate around a
+    bore, a base around a tenon) is two loops, and a tube between them,
+    faired, bulges out of the face's plane (a 1-high box's missing top
+    around a round bore: 1.1 above it). The two loops are such a face when
+    each meets the scan edge-on by the flat cap's own test, both lie on one
+    plane (the flat cap's planarity bound for the two together:
+    ``EDGE_ON_CAD_PLANARITY`` where both are exactly planar CAD outlines,
+    else ``EDGE_ON_PLANARITY``) and one lies inside the other in that
+    plane. The face is triangulated in the plane by ear clipping of a
+    polygon with a hole (mapbox_earcut), using the loops' own vertices.
+
+    Parameters
+    ----------
+    ctx : _Context
+    A, B : Loop
+
+    Returns
+    -------
+    T : (ka+kb,3) int64 or None
+        Triangles over the concatenated positions ``[A; B]``, each loop edge
+        reversed (as the scan's faces have it), or None when the loops are
+        not such a face.
+    """
+    from .holes import loop_stats
+    from .patch import EDGE_ON_CAD_PLANARITY, EDGE_ON_PLANARITY
+
+    if not (_meets_edge_on(ctx, A.vertices, A.id) and _meets_edge_on(ctx, B.vertices, B.id)):
+        return None
+    loop = np.concatenate([A.vertices, B.vertices])
+    ka = len(A.vertices)
+    st = loop_stats(ctx.V, loop)
+    cad = max(loop_stats(ctx.V, L.vertices)["planarity"] for L in (A, B)) <= EDGE_ON_CAD_PLANARITY
+    P = ctx.V[loop] - st["center"]
+    normal = np.linalg.svd(P, full_matrices=False)[2][-1]
+    rms = float(np.sqrt(np.mean((P @ normal) ** 2))) / max(st["diameter"], 1e-300)
+    if not np.isfinite(rms) or rms > (EDGE_ON_CAD_PLANARITY if cad else EDGE_ON_PLANARITY):
+        return None
+    u = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
+    u /= np.linalg.norm(u)
+    Q = np.column_stack([P @ u, P @ np.cross(normal, u)]) / st["diameter"]
+    QA, QB = Q[:ka], Q[ka:]
+    if _inside(QB, QA).all() and not _inside(QA, QB).any():
+        outer, inner = np.arange(ka), ka + np.arange(len(QB))
+    elif _inside(QA, QB).all() and not _inside(QB, QA).any():
+        outer, inner = ka + np.arange(len(QB)), np.arange(ka)
+    else:
+        return None
+    import mapbox_earcut
+
+    ring = np.concatenate([outer, inner])
+    T = mapbox_earcut.triangulate_float64(np.ascontiguousarray(Q[ring]),
+                                          np.array([len(outer), len(ring)], np.uint32))
+    T = _restore_collinear(np.asarray(T, np.int64).reshape(-1, 3), [np.arange(len(outer)),
+                                                                    len(outer) + np.arange(len(inner))])
+    if T is None:
+        return None
+    T = ring[T]
+    if len(T) != len(loop) or np.unique(np.sort(T, axis=1), axis=0).shape[0] != len(T):
+        return None
+    # each loop edge reversed: flip all if the triangle on A's first edge runs along it
+    for t in T:
+        i = np.flatnonzero(t == 0)
+        if i.size and t[(i[0] + 1) % 3] == 1:
+            return T[:, ::-1].copy()
+        if i.size and t[(i[0] + 2) % 3] == 1:
+            return T
+    return None
+
+
+def _restore_collinear(T, rings):
+    """Ear clipping drops a polygon's vertices that lie on the segment between
+    their neighbours (mapbox_earcut does): put each back, splitting the
+    triangle on that segment into a fan from its third corner (the dropped
+    vertices lie on its edge, so the fan's triangles are the triangle's
+    parts). ``T`` indexes the rings' concatenated vertices; returns the
+    triangles using every vertex, or None where a dropped vertex's segment
+    is no triangle's edge."""
+    used = np.zeros(sum(len(r) for r in rings), bool)
+    used[T.ravel()] = True
+    if used.all():
+        return T
+    T = [list(t) for t in T]
+    for r in rings:
+        if not used[r].any():
+            return None
+        start = int(np.flatnonzero(used[r])[0])
+        walk = np.roll(r, -start)
+        kept = np.flatnonzero(used[walk])
+        for i, j in zip(kept, np.append(kept[1:], len(walk))):
+            if j - i < 2:
+                continue
+            a, b, between = int(walk[i]), int(walk[j % len(walk)]), [int(v) for v in walk[i + 1:j]]
+            for n, t in enumerate(T):
+                at = [t.index(a) if a in t else -1, t.index(b) if b in t else -1]
+                if min(at) < 0:
+                    continue
+                c = t[3 - at[0] - at[1]]
+                chain = [a] + between + [b]
+                if (at[0] + 1) % 3 != at[1]:      # the triangle runs b -> a: keep its winding
+                    chain = chain[::-1]
+                T[n:n + 1] = [[chain[m], chain[m + 1], c] for m in range(len(chain) - 1)]
+                break
+            else:
+                return None
+    return np.array(T, np.int64)
+
+
+def _inside(X, poly):
+    """Which points ``X`` (p,2) lie inside the closed polygon ``poly`` (k,2)
+    (even-odd rule; a point on an edge may go either way)."""
+    a, b = poly, np.roll(poly, -1, axis=0)
+    x, y = X[:, None, 0], X[:, None, 1]
+    straddle = (a[None, :, 1] > y) != (b[None, :, 1] > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        at = a[None, :, 0] + (y - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
+    return (np.count_nonzero(straddle & (x < at), axis=1) % 2) == 1
+
+
 def _fill_pair(ctx, A, B, order, smooth, mode):
     """A missing region bounded by loops A and B: a tube, or a cap on each.
 
@@ -741,6 +865,29 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     # two holes that merely wrap a thin part: its caps are filled as those
     # holes would be alone (``order`` as given, "auto" included)
     cap_order = order if frozenset((A.id, B.id)) in getattr(ctx, "bands_wrapped", set()) else None
+    scan_edges = _edges_across(ctx, (A, B))
+    face = flat_face_with_hole(ctx, A, B)
+    if face is not None:
+        # one flat face with a hole (the flat cap's two-loop form): harmonic
+        # over the face's triangulation, hence in its plane; when it fails its
+        # checks the band is filled as any other
+        try:
+            p = build_patch(ctx, A.id, loop, order=1, smooth=0, initial=face, energy=True,
+                            max_vertices=budget.left())
+            budget.spend(p)
+            why = _check_joining(ctx, p, scan_edges, "tube")[0]
+        except PatchError as exc:
+            p, why = None, str(exc)
+        if why is None:
+            p.option = (f"flat face with a hole: with loop {B.id}, a planar opening the scan meets "
+                        "edge-on around another (order 1)")
+            p.hole_id = A.id
+            secs = time.perf_counter() - t0
+            record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind], "tube_energy": None,
+                      "caps_energy": None, "chosen": "tube", "shape": "flat face with a hole",
+                      "reason": "the two loops outline one flat face with a hole, met edge-on"}
+            return [Outcome(p, "", secs, []), Outcome(None, f"bridged with loop {A.id} by a flat face", secs, [])], \
+                record
     held_first, note = None, ""
     if order == "auto":
         order, held_first, note = band_order(ctx, (A, B))
@@ -757,7 +904,6 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
     tube_faults = []       # (tube, faulty triangles, how it was started) of the tubes that failed their checks
-    scan_edges = _edges_across(ctx, (A, B))
 
     def attempt(first, init, o, fair=True, pinned=None, built=None):
         """(the patch if it passes its checks, the faulty triangles, the patch built);

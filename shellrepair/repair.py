@@ -21,7 +21,9 @@ only the patch and a few rings of scan around it:
 
 Two loops facing each other across a missing band are first offered a tube
 (:mod:`~shellrepair.bridge`); the tube or the two caps are kept by their
-curvature-variation energy.
+curvature-variation energy. Two planar loops met edge-on on one plane, one
+inside the other, are one flat face with a hole
+(:func:`~shellrepair.fill.flat_face_with_hole`).
 
 Then every accepted patch is appended: original vertices keep their index
 and exact values, new vertices and faces come after them and are flagged
@@ -418,7 +420,8 @@ def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridge
         paired.update((other, hid))
         rows[other].update(status="filled", reason=tube.option, option=tube.option,
                            new_vertices=int(len(tube.P)), new_faces=int(len(tube.T)))
-        row.update(status="filled", reason=outs[1].reason, option="tube", new_vertices=0, new_faces=0)
+        row.update(status="filled", reason=outs[1].reason, option=record.get("shape", "tube"), new_vertices=0,
+                   new_faces=0)
 
 
 def _check_requested(opts, holes):

@@ -232,6 +232,21 @@ def plate_with_pocket(n=1, depth=0.5):
     return b.mesh()
 
 
+def plate_with_boss(segments=32, n=2, height=0.6):
+    """A 4 x 3 x 1 plate with a round boss (radius 0.6, ``height`` tall)
+    rising from its top: groups ``top`` (the plate's top, a ring around the
+    boss), ``boss_wall``, ``boss_top``, ``walls``, ``bottom``."""
+    b = _Builder()
+    outer = lambda z: _rect(0, 0, 4, 3, z, n)
+    boss = lambda z: _circle(2, 1.5, 0.6, z, segments)
+    b.zip(outer(1.0), boss(1.0), [0, 0, 1], "top")
+    b.strip(boss(1.0), boss(1.0 + height), lambda p: np.array([p[0] - 2, p[1] - 1.5, 0]), "boss_wall")
+    b.fan(boss(1.0 + height), [0, 0, 1], "boss_top")
+    _side_walls(b, outer(0.0), outer(1.0), "walls", (2, 1.5))
+    b.fan(outer(0.0), [0, 0, -1], "bottom")
+    return b.mesh()
+
+
 def slab_with_grid_top(nx=7, ny=5, size=(3.5, 2.0), height=0.4):
     """A slab whose top is a grid of thin cells (coplanar neighbours around
     any opening cut in it); top cell (i, j) is group ``cell i j``."""

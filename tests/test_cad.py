@@ -102,6 +102,18 @@ def _cases():
     add("box with a round hole through it, both mouths capped (tunnel missing)",
         cp.box_with_through_hole(True, 32), ["tunnel"], bridge="never")
     add("plate with a pocket, pocket bottom missing", cp.plate_with_pocket(2), ["pocket_bottom"])
+    # a face with a hole in it: two loops on one plane, one inside the other
+    add("box with a round hole through it, top face missing (a face with a hole)",
+        cp.box_with_through_hole(True, 32), ["top"])
+    add("box with a round hole through it, finely cut, top and bottom faces missing",
+        cp.box_with_through_hole(True, 96, n=12), ["top", "bottom"])
+    add("box with a square hole through it, top face missing (a face with a hole)",
+        cp.box_with_through_hole(False, n=3), ["top"])
+    add("plate with a boss, the ring of plate around the boss missing (a face with a hole)",
+        cp.plate_with_boss(), ["top"])
+    V, F, g = cp.plate_with_pocket(2)
+    wall = g["pocket_walls"][np.abs(V[F[g["pocket_walls"]]][:, :, 0].mean(axis=1) - 1.0) < 1e-9]
+    cases["plate with a pocket, one wall of the pocket missing"] = (V, F, wall, {})
     slab = cp.slab_with_grid_top(14, 10, size=(7.0, 5.0))
     cells = {"U": [(2, 2), (2, 3), (2, 4), (3, 2), (4, 2), (4, 3), (4, 4)],
              "spiral": [(6, 2), (7, 2), (8, 2), (8, 3), (8, 4), (7, 4), (6, 4), (6, 5), (6, 6), (7, 6),
@@ -178,8 +190,10 @@ def test_every_planar_opening_of_a_cad_part_closes_flat(name):
     report = assert_openings_close_flat(V2, F2, **kw)
     if "coplanar" not in name and "mouths" not in name:
         # walls stand across these openings (at least along part of the rim):
-        # the flat cap, at the first attempt
-        assert all(r["option"].startswith("flat cap") for r in report["holes"]), \
+        # the flat cap, at the first attempt; a face with a hole: one flat
+        # face across both its loops
+        assert all(r["option"].startswith("flat cap" if "hole)" not in name and "faces missing" not in name
+                                          else "flat face with a hole") for r in report["holes"]), \
             [r["option"] for r in report["holes"]]
 
 
