@@ -4,6 +4,7 @@
     shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3] [--smooth N]
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
                        [--bridge auto|never|always] [--base auto|flat|faired]
+                       [--leave-open ID,...] [--order-for ID=N,...] [--cap-flat ID,...] [--fill ID,...]
     shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
                       [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
@@ -77,6 +78,12 @@ def _parser():
                    help="hole ids (as `shellrepair holes` lists them) to leave open on purpose (default: none)")
     r.add_argument("--order-for", type=_id_orders, default={}, metavar="ID=N,...",
                    help="a fairing order (1, 2, 3 or auto) for single holes, over --order (default: none)")
+    r.add_argument("--cap-flat", type=_ids, default=(), metavar="ID,...",
+                   help="hole ids to cap on their own with the harmonic patch (order 1: flat where the rim is "
+                        "planar, a cut you know is flat), never bridged to another loop (default: none)")
+    r.add_argument("--fill", type=_ids, default=(), metavar="ID,...",
+                   help="loop ids to fill although they are classed border (an open base, an outer edge, "
+                        "a loop over --max-hole) (default: none)")
     r.add_argument("--json", action="store_true", help="print the JSON report instead of the table (default: the table)")
     r.add_argument("--html", metavar="PAGE.html", default=None,
                    help="also write a self-contained HTML page: Table 1, a before | after picture, the holes, "
@@ -255,7 +262,8 @@ def _options(args):
     return RepairOptions(order=args.order, smooth=args.smooth, max_hole=args.max_hole,
                          fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
                          bridge=args.bridge, closed=_closed(args), base=args.base,
-                         leave_open=getattr(args, "leave_open", ()), order_for=getattr(args, "order_for", {}))
+                         leave_open=getattr(args, "leave_open", ()), order_for=getattr(args, "order_for", {}),
+                         cap_flat=getattr(args, "cap_flat", ()), fill=getattr(args, "fill", ()))
 
 
 def _closed(args):

@@ -80,6 +80,14 @@ class RepairOptions:
     order_for : dict of int -> {1, 2, 3, "auto"}
         A fairing order for single holes (by id), over ``order``; a band
         between two loops takes the order given for either of them.
+    cap_flat : tuple of int
+        Hole ids to cap on their own (never bridged to another loop) by the
+        harmonic patch, order 1: flat where the rim is planar (a cut the
+        user knows is flat), the least-area-like membrane otherwise.
+    fill : tuple of int
+        Loop ids (``shellrepair holes`` lists borders too) to fill although
+        they are classed border (an open base, a scan's outer edge, a loop
+        over ``max_hole``): filled as holes, reported as filled by request.
     """
 
     order: object = "auto"
@@ -93,6 +101,8 @@ class RepairOptions:
     base: str = "auto"
     leave_open: tuple = ()
     order_for: dict = dataclasses.field(default_factory=dict, hash=False)
+    cap_flat: tuple = ()
+    fill: tuple = ()
 
     def __post_init__(self):
         if isinstance(self.order, bool) or self.order not in _ORDERS:
@@ -113,18 +123,24 @@ class RepairOptions:
             raise MeshError(f"closed must be None, True or False, got {self.closed!r}")
         if self.base not in _BASES:
             raise MeshError(f"base must be 'auto', 'flat' or 'faired', got {self.base!r}")
-        ids = tuple(self.leave_open) if isinstance(self.leave_open, (list, tuple, set, frozenset)) else None
-        if ids is None or not all(_whole(i) and i >= 0 for i in ids):
-            raise MeshError(f"leave_open must be hole ids (whole numbers, 0 or more), got {self.leave_open!r}")
-        object.__setattr__(self, "leave_open", tuple(sorted({int(i) for i in ids})))
+        for name in ("leave_open", "cap_flat", "fill"):
+            given = getattr(self, name)
+            ids = tuple(given) if isinstance(given, (list, tuple, set, frozenset)) else None
+            if ids is None or not all(_whole(i) and i >= 0 for i in ids):
+                raise MeshError(f"{name} must be loop ids (whole numbers, 0 or more), got {given!r}")
+            object.__setattr__(self, name, tuple(sorted({int(i) for i in ids})))
         if not isinstance(self.order_for, dict) or not all(
                 _whole(i) and i >= 0 and not isinstance(o, bool) and o in _ORDERS for i, o in self.order_for.items()):
             raise MeshError(f"order_for must map hole ids to 1, 2, 3 or 'auto', got {self.order_for!r}")
         object.__setattr__(self, "order_for", {int(i): (o if o == "auto" else int(o))
                                                for i, o in sorted(self.order_for.items())})
-        both = set(self.leave_open) & set(self.order_for)
-        if both:
-            raise MeshError(f"hole {min(both)} is both left open and given an order")
+        for a, b, what in (("leave_open", "order_for", "left open and given an order"),
+                           ("leave_open", "cap_flat", "left open and capped flat"),
+                           ("leave_open", "fill", "left open and filled"),
+                           ("cap_flat", "order_for", "capped flat and given an order")):
+            both = set(getattr(self, a)) & set(getattr(self, b))
+            if both:
+                raise MeshError(f"hole {min(both)} is both {what}")
         # NumPy integers in, plain ints kept (reports are JSON)
         for name in ("smooth", "jobs") + (("max_hole",) if self.max_hole is not None else ()) + \
                 (("order",) if self.order != "auto" else ()):

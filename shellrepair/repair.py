@@ -216,6 +216,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if ex is not None:
             ex.shutdown(wait=False)
     _progress(progress, 2, 2, "finding holes")
+    _fill_requested(opts, scan)
     splits = []
     if method == "fair":
         # two hole loops sharing vertices: a band pinched there, filled as its parts
@@ -223,6 +224,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     holes = scan.holes
     _check_requested(opts, holes)
     asked_open = set(opts.leave_open)
+    flat_caps = set(opts.cap_flat)
     all_holes, holes = holes, [h for h in holes if h.id not in asked_open]
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
     ctx.axes = {L.id: (L.vertices, L.axis) for L in scan.loops if L.axis is not None}
@@ -230,14 +232,17 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     pairs = []
     if bridge != "never" and method == "fair":
         pairs = _find_bands(ctx, scan)
-    # a loop left open by request joins no band; its partner is filled alone
-    pairs = [p for p in pairs if not {p[0].id, p[1].id} & asked_open]
-    triples = [t for t in getattr(ctx, "band_triples", []) if not {L.id for L in t[:3]} & asked_open]
+    # a loop left open or capped flat by request joins no band; its partner is filled alone
+    alone = asked_open | flat_caps
+    pairs = [p for p in pairs if not {p[0].id, p[1].id} & alone]
+    triples = [t for t in getattr(ctx, "band_triples", []) if not {L.id for L in t[:3]} & alone]
     paired = {L.id for A, B, _ in pairs for L in (A, B)}
     paired |= {L.id for t in triples for L in t[:3]}
 
+    asked_order = {**order_for, **{i: 1 for i in flat_caps}}   # a flat cap: the harmonic patch
+
     def order_of(*loops):     # the order asked for one of these loops, else the scan's
-        return next((order_for[L.id] for L in loops if L.id in order_for), order)
+        return next((asked_order[L.id] for L in loops if L.id in asked_order), order)
 
     units = [BandUnit(A, B, order_of(A, B), smooth, bridge) for A, B, _ in pairs]
     units += [pants_unit(A, B, C, fb, order_of(A, B, C), smooth, bridge) for A, B, C, fb in triples]
@@ -321,14 +326,26 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
             bridges.append(record)
     if method == "fair" and bridge != "never":
         _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges)
-    _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, order_for)
+    _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, asked_order)
+    asked_fill = set(opts.fill)
     for h in all_holes:
         if h.id in asked_open:
             rows[h.id] = {"id": h.id, "edges": h.edges, "status": "skipped",
                           "reason": "left open by request", "new_vertices": 0, "new_faces": 0,
                           "seconds": 0.0, "option": None, "requested": "left open"}
-        elif h.id in order_for and h.id in rows:
-            rows[h.id]["requested"] = f"order {order_for[h.id]}"
+            continue
+        if h.id not in rows:
+            continue
+        asked = [f"order {order_for[h.id]}"] if h.id in order_for else []
+        if h.id in flat_caps:
+            asked.append("flat cap")
+            if rows[h.id]["status"] == "filled":
+                rows[h.id]["option"] = rows[h.id]["reason"] = \
+                    f"flat cap by request: {rows[h.id]['option']} (harmonic; flat where the rim is planar)"
+        if h.id in asked_fill:
+            asked.append("fill")
+        if asked:
+            rows[h.id]["requested"] = ", ".join(asked)
     rows = [rows[h.id] for h in all_holes if h.id in rows]
     accepted = [it[0] for it in acc.items]
     repaired = _merge(mesh, V, F, accepted)
@@ -424,11 +441,26 @@ def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridge
                    new_faces=0)
 
 
+def _fill_requested(opts, scan):
+    """The loops ``opts.fill`` names become holes (changed in place, their
+    reason saying what they were classed); an id the scan has no loop for
+    is one error, before any work."""
+    ids = {L.id for L in scan.loops}
+    unknown = sorted(set(opts.fill) - ids)
+    if unknown:
+        raise MeshError(f"no loop with id {', '.join(map(str, unknown))} in this scan (its loops: "
+                        f"{', '.join(map(str, sorted(ids))) or 'none'}; `shellrepair holes` lists them)")
+    for L in scan.loops:
+        if L.id in opts.fill and L.kind != "hole":
+            L.kind, L.reason = "hole", f"filled by request (classed {L.kind}: {L.reason})"
+
+
 def _check_requested(opts, holes):
-    """Every hole id a request names (``leave_open``, ``order_for``) is one
-    of the scan's holes; else one error naming them, before any work."""
+    """Every hole id a request names (``leave_open``, ``order_for``,
+    ``cap_flat``) is one of the scan's holes; else one error naming them,
+    before any work."""
     ids = {h.id for h in holes}
-    unknown = sorted((set(opts.leave_open) | set(opts.order_for)) - ids)
+    unknown = sorted((set(opts.leave_open) | set(opts.order_for) | set(opts.cap_flat)) - ids)
     if unknown:
         raise MeshError(f"no hole with id {', '.join(map(str, unknown))} in this scan (its holes: "
                         f"{', '.join(map(str, sorted(ids))) or 'none'}; `shellrepair holes` lists them)")

@@ -1,4 +1,6 @@
-"""Per-hole requests: a hole left open on purpose, an order for one hole (RepairOptions.leave_open, .order_for)."""
+"""Per-hole requests: a hole left open on purpose, an order for one hole, a
+cut capped flat, a border filled (RepairOptions.leave_open, .order_for,
+.cap_flat, .fill)."""
 
 import numpy as np
 import pytest
@@ -64,7 +66,9 @@ def test_the_command_line_takes_ids_and_id_order_pairs(tmp_path):
 
 
 @pytest.mark.parametrize("bad", [dict(leave_open=[-1]), dict(leave_open="3"), dict(order_for={1: 4}),
-                                 dict(order_for={1: True}), dict(leave_open=[1], order_for={1: 2})])
+                                 dict(order_for={1: True}), dict(leave_open=[1], order_for={1: 2}),
+                                 dict(cap_flat=[-2]), dict(fill="1"), dict(cap_flat=[1], order_for={1: 3}),
+                                 dict(leave_open=[1], cap_flat=[1]), dict(leave_open=[2], fill=[2])])
 def test_requests_are_checked_with_the_other_options(bad):
     with pytest.raises(MeshError):
         RepairOptions(**bad)
@@ -85,3 +89,77 @@ def test_holes_lists_each_loops_id_and_centre_in_the_scans_units(tmp_path, capsy
     assert main(["holes", str(p)]) == 0
     table = capsys.readouterr().out
     assert "centre (x, y, z)" in table and f"({lp['center'][0]:.7g}, " in table
+
+
+def cup(noise=1e-3, seed=0):
+    """An open cylinder closed at the bottom: its top rim is a cut through
+    walls that run on, planar to ``noise`` (a scan's, not CAD's)."""
+    V, F = shapes.cylinder(0.5, 2.0, 48, 40)
+    bottom = np.flatnonzero(V[:, 2] == -1.0)
+    bottom = bottom[np.argsort(np.arctan2(V[bottom, 1], V[bottom, 0]))]
+    fan = np.column_stack([bottom, np.roll(bottom, -1), np.full(len(bottom), len(V))])
+    used = {(a, b) for f in F.tolist() for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
+    if (bottom[0], bottom[1]) in used:
+        fan = fan[:, ::-1]
+    V = np.vstack([V, [[0.0, 0.0, -1.0]]])
+    top = V[:, 2] == 1.0
+    V[top, 2] += np.random.default_rng(seed).uniform(-noise, noise, int(top.sum()))
+    return V, np.vstack([F, fan])
+
+
+def test_a_cut_capped_flat_by_request_stays_in_the_plane_of_its_rim():
+    V, F = cup()
+    (hole,) = detect_holes(V, F).holes
+    rim = np.abs(V[hole.vertices, 2] - 1.0).max()
+    R, rep = repair_mesh(Mesh(V=V, F=F))
+    assert np.abs(R.V[len(V):, 2] - 1.0).max() > 100 * rim          # by itself: a dome over the cut
+    R, rep = repair_mesh(Mesh(V=V, F=F), cap_flat=[hole.id])
+    (row,) = rep["holes"]
+    assert row["status"] == "filled" and row["requested"] == "flat cap"
+    assert row["option"].startswith("flat cap by request")
+    assert len(R.V) > len(V) and np.abs(R.V[len(V):, 2] - 1.0).max() <= rim
+    assert rep["boundary_edges_after"] == 0
+
+
+def test_loops_capped_flat_are_not_bridged_by_a_tube():
+    # a pipe with a band missing across its middle: by itself a tube closes the band
+    V, F = cup()
+    V, F, _ = shapes.remove_faces(V, F, (np.abs(V[F][:, :, 2]) < 0.2).all(axis=1))
+    ids = [h.id for h in detect_holes(V, F).holes if h.edges == 48 and np.abs(V[h.vertices, 2]).max() < 0.5]
+    assert len(ids) == 2
+    _, rep = repair_mesh(Mesh(V=V, F=F))
+    assert [b["chosen"] for b in rep["bridges"]] == ["tube"]
+    R, rep = repair_mesh(Mesh(V=V, F=F), cap_flat=ids)
+    rep["holes"] = [h for h in rep["holes"] if h["id"] in ids]
+    assert [h["new_faces"] > 0 for h in rep["holes"]] == [True, True]     # a cap each, no tube
+    assert all(b["chosen"] != "tube" for b in rep["bridges"])
+    for h in rep["holes"]:
+        assert h["option"].startswith("flat cap by request")
+
+
+def test_a_loop_classed_border_is_filled_by_request_and_only_then():
+    V, F = shapes.icosphere(4)
+    V, F, _ = shapes.remove_faces(V, F, (V[F][:, :, 2] > 0.0).any(axis=1))   # a bowl
+    (rim,) = detect_holes(V, F).loops
+    assert rim.kind == "border"
+    _, rep = repair_mesh(Mesh(V=V, F=F))
+    assert rep["holes_before"] == 0 and rep["boundary_edges_after"] == rim.edges
+    R, rep = repair_mesh(Mesh(V=V, F=F), fill=[rim.id])
+    (row,) = rep["holes"]
+    assert row["status"] == "filled" and row["requested"] == "fill"
+    assert rep["holes_before"] == 1 and rep["boundary_edges_after"] == 0 and rep["interpolation_rate"] == 100.0
+    with pytest.raises(MeshError, match="no loop with id 5"):
+        repair_mesh(Mesh(V=V, F=F), fill=[5])
+
+
+def test_the_command_line_takes_cap_flat_and_fill(tmp_path):
+    import json
+
+    V, F = cup()
+    (hole,) = detect_holes(V, F).holes
+    p = tmp_path / "cup.ply"
+    write_mesh(p, Mesh(V=V, F=F))
+    assert main(["repair", str(p), "-o", str(tmp_path / "o.ply"), "--cap-flat", str(hole.id),
+                 "--fill", str(hole.id), "--quiet"]) == 0
+    (row,) = json.loads((tmp_path / "o.report.json").read_text())["holes"]
+    assert row["requested"] == "flat cap, fill" and row["option"].startswith("flat cap by request")
