@@ -178,6 +178,30 @@ def _ids(text):
     return tuple(ids)
 
 
+def _max_hole(text):
+    """--max-hole: a whole number of edges, or a length with its unit (value, unit)."""
+    from .units import parse_length
+
+    try:
+        n = int(text)
+    except ValueError:
+        try:
+            return parse_length(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a number of edges (such as 200) or a length with its "
+                                             f"unit (such as 20mm), not {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1 edge, not {text!r}")
+    return n
+
+
+def _hole_limits(args):
+    """--max-hole as RepairOptions takes it: max_hole (edges) and max_hole_size (a length)."""
+    m = args.max_hole
+    return dict(max_hole=m if isinstance(m, int) else None, max_hole_size=m if isinstance(m, tuple) else None,
+                unit=args.unit)
+
+
 def _id_orders(text):
     out = {}
     for item in text.split(","):
@@ -212,7 +236,12 @@ def _repair_options(p):
 
 
 def _hole_options(p):
-    p.add_argument("--max-hole", type=int, default=None, help="loops with more edges than N are left open (default: no limit)")
+    p.add_argument("--max-hole", type=_max_hole, default=None, metavar="N|LENGTH",
+                   help="loops with more edges than N, or wider than LENGTH (20mm, 2cm, 0.02m: the rim's "
+                        "diameter), are left open as borders (default: no limit)")
+    p.add_argument("--unit", choices=("mm", "cm", "m"), default=None,
+                   help="the scan's length unit, for --max-hole LENGTH (default: inferred from its size, "
+                        "said in the report)")
     p.add_argument("--fill-borders", action="store_true", help="treat borders (outer edges) as holes too (default: off)")
     p.add_argument("--closed", choices=("auto", "yes", "no"), default="auto",
                    help="how to read each piece: auto (default) from its normals, yes: part of a closed "
@@ -259,7 +288,7 @@ def _options(args):
     (:class:`shellrepair.options.RepairOptions`)."""
     from .options import RepairOptions
 
-    return RepairOptions(order=args.order, smooth=args.smooth, max_hole=args.max_hole,
+    return RepairOptions(order=args.order, smooth=args.smooth, **_hole_limits(args),
                          fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
                          bridge=args.bridge, closed=_closed(args), base=args.base,
                          leave_open=getattr(args, "leave_open", ()), order_for=getattr(args, "order_for", {}),
@@ -278,11 +307,14 @@ def _holes(args):
 
     from .options import RepairOptions
 
-    RepairOptions(max_hole=args.max_hole, fill_borders=args.fill_borders, closed=_closed(args))  # checked first
+    from .units import in_scan_units
+
+    opts = RepairOptions(**_hole_limits(args), fill_borders=args.fill_borders, closed=_closed(args))  # checked first
     bar = terminal_bar(args.quiet)
     mesh = read_mesh(args.scan, progress=bar)
-    scan = detect_holes(mesh.V, mesh.F, max_hole=args.max_hole, fill_borders=args.fill_borders,
-                        closed=_closed(args),
+    max_size, size_label, _ = in_scan_units(opts.max_hole_size, opts.unit, mesh.V)
+    scan = detect_holes(mesh.V, mesh.F, max_hole=opts.max_hole, fill_borders=args.fill_borders,
+                        closed=_closed(args), max_size=max_size, size_label=size_label,
                         topo=mesh.cached("topology"), pieces=mesh.cached("pieces"), areas=mesh.cached("face_areas"))
     end_line()  # the loading bar's
     d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)

@@ -31,7 +31,7 @@ threshold below was set from the sphere, not from these; the numbers are
 from seeds not looked at while designing, see tests/test_border_classes.py).
 
 1. ``max_hole``: a loop with more edges than this is a *border*
-   ("larger than max_hole").
+   ("larger than max_hole"); ``max_size``: one wider than this length.
 2. *Wraps around*: when ``min_d P−/P+ ≥ WRAP_RATIO`` (0.05: a sphere
    missing less than 39 % of its area) the piece's normals cover clearly
    more than a hemisphere; it is part of a closed object and every loop of
@@ -796,7 +796,8 @@ def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
 
 
 def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, fill_borders: bool = False,
-                 closed: bool | None = None, topo=None, pieces=None, areas=None, measure: bool = True) -> HoleScan:
+                 closed: bool | None = None, topo=None, pieces=None, areas=None, measure: bool = True,
+                 max_size: float | None = None, size_label: str = "") -> HoleScan:
     """Find every boundary loop, measure it and class it hole or border.
 
     Parameters
@@ -805,6 +806,9 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
     F : (m,3) int64 array
     max_hole : int, optional
         Loops with more edges than this are borders.
+    max_size : float, optional
+        Loops wider than this (rim diameter, in the scan's units) are
+        borders; ``size_label`` says it in the reason (``"20 mm"``).
     fill_borders : bool
         Class every loop (within ``max_hole``) as a hole.
     closed : bool, optional
@@ -920,6 +924,9 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
             + ("; --closed no" if closed is False else ""))
         if max_hole is not None and L.edges > int(max_hole):
             L.kind, L.reason = "border", f"larger than max_hole ({int(max_hole)} edges)"
+        elif max_size is not None and L.diameter > max_size:
+            L.kind, L.reason = "border", (f"wider than max_hole ({L.diameter:.4g} across, over "
+                                          f"{size_label or f'{max_size:.4g}'})")
         elif fill_borders:
             L.kind, L.reason = "hole", "--fill-borders"
         elif wraps:

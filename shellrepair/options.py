@@ -16,6 +16,7 @@ shellrepair.errors.MeshError: smooth must be a whole number, 0 or more, got -1
 from __future__ import annotations
 
 import dataclasses
+import math
 import numbers
 from dataclasses import dataclass
 
@@ -80,6 +81,14 @@ class RepairOptions:
     order_for : dict of int -> {1, 2, 3, "auto"}
         A fairing order for single holes (by id), over ``order``; a band
         between two loops takes the order given for either of them.
+    max_hole_size : (float, str) or None
+        Loops wider than this (their rim's diameter), a length with its
+        unit such as ``(20.0, "mm")``, are left open as borders, like
+        ``max_hole`` in edges. The scan's own unit is ``unit``.
+    unit : {"mm", "cm", "m"} or None
+        The scan's length unit, for ``max_hole_size``; None infers it from
+        the scan's size (:func:`shellrepair.units.infer_unit`) and the
+        report says so.
     cap_flat : tuple of int
         Hole ids to cap on their own (never bridged to another loop) by the
         harmonic patch, order 1: flat where the rim is planar (a cut the
@@ -103,6 +112,8 @@ class RepairOptions:
     order_for: dict = dataclasses.field(default_factory=dict, hash=False)
     cap_flat: tuple = ()
     fill: tuple = ()
+    max_hole_size: tuple | None = None
+    unit: str | None = None
 
     def __post_init__(self):
         if isinstance(self.order, bool) or self.order not in _ORDERS:
@@ -123,6 +134,21 @@ class RepairOptions:
             raise MeshError(f"closed must be None, True or False, got {self.closed!r}")
         if self.base not in _BASES:
             raise MeshError(f"base must be 'auto', 'flat' or 'faired', got {self.base!r}")
+        if self.max_hole_size is not None:
+            from .units import UNITS_UM
+
+            size = self.max_hole_size
+            ok = isinstance(size, (tuple, list)) and len(size) == 2 and size[1] in UNITS_UM
+            try:
+                value = float(size[0]) if ok and not isinstance(size[0], bool) else float("nan")
+            except (TypeError, ValueError):
+                value = float("nan")
+            if not (ok and math.isfinite(value) and value > 0):
+                raise MeshError(f"max_hole_size must be a positive length and its unit, such as (20, 'mm'), "
+                                f"got {size!r}")
+            object.__setattr__(self, "max_hole_size", (value, str(size[1])))
+        if self.unit is not None and self.unit not in ("mm", "cm", "m"):
+            raise MeshError(f"unit must be 'mm', 'cm' or 'm', got {self.unit!r}")
         for name in ("leave_open", "cap_flat", "fill"):
             given = getattr(self, name)
             ids = tuple(given) if isinstance(given, (list, tuple, set, frozenset)) else None

@@ -32,6 +32,7 @@ import numpy as np
 
 from . import materials as mt
 from . import shading as sh
+from .units import STATUE_HEIGHT_M, UNITS_UM, infer_unit  # noqa: F401  (render.infer_unit: the render's own name for it)
 
 try:  # the package's input error, when the foundation provides it
     from .errors import MeshError as _InputError
@@ -287,63 +288,6 @@ def _dipole_spread(diffuse_img, mask, choice, material, footprint_um):
         den = fftconvolve(m, k, mode="same")
         out[..., ch] = np.where(mask, num / np.maximum(den, 1e-12), 0.0)
     return out
-
-
-#: Length of one mesh unit in micrometres, by unit name.
-UNITS_UM = {"mm": 1e3, "cm": 1e4, "m": 1e6}
-#: Heights (metres) a statue scan plausibly has: a figurine to a life-size
-#: statue.
-STATUE_HEIGHT_M = (0.05, 3.0)
-#: Order of preference when several units give a plausible height: scanners
-#: and the formats they write mostly use millimetres.
-_UNIT_PREFERENCE = ("mm", "m", "cm")
-
-
-def infer_unit(V):
-    """The length unit that makes a scan a plausibly sized statue.
-
-    Parameters
-    ----------
-    V : (n,3) float array
-
-    Returns
-    -------
-    unit : str
-        ``"mm"``, ``"cm"`` or ``"m"``.
-    reason : str
-        One line saying why (the height it implies).
-
-    Notes
-    -----
-    The height is the largest bounding-box extent (whatever the up axis).
-    Among the units that put it in :data:`STATUE_HEIGHT_M` the first of
-    mm, m, cm is taken (an extent of 50-300 fits both mm and cm: mm is the
-    scanners' usual unit); if none does, the unit whose height is closest to
-    the range (in ratio) is taken and the reason says so.
-
-    Examples
-    --------
-    >>> infer_unit(np.array([[0, 0, 0], [0.06, 0.15, 0.05]]))[0]   # the Stanford bunny
-    'm'
-    >>> infer_unit(np.array([[0, 0, 0], [240.0, 360, 490]]))[0]   # a bust in mm
-    'mm'
-    """
-    V = np.asarray(V, dtype=np.float64)
-    ext = float(np.max(V.max(axis=0) - V.min(axis=0))) if len(V) else 0.0
-    lo, hi = STATUE_HEIGHT_M
-    heights = {u: ext * UNITS_UM[u] * 1e-6 for u in UNITS_UM}
-    for u in _UNIT_PREFERENCE:
-        if lo <= heights[u] <= hi:
-            return u, ("inferred: the largest extent %.4g would be %.3g m tall in %s, a plausible "
-                       "statue (%.2g-%.2g m)" % (ext, heights[u], u, lo, hi))
-
-    def miss(u):
-        hgt = max(heights[u], 1e-300)
-        return max(np.log(lo / hgt), np.log(hgt / hi), 0.0)
-
-    u = min(_UNIT_PREFERENCE, key=miss)
-    return u, ("inferred: no unit makes the largest extent %.4g a %.2g-%.2g m statue; %s "
-               "(%.3g m) is the closest" % (ext, lo, hi, u, heights[u]))
 
 
 def _unit_um(unit, V):

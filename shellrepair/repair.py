@@ -81,6 +81,7 @@ from .holes import detect_holes
 from .io import Mesh, check_references, manifold_mesh
 from .report import table1_dict
 from .topology import edge_count_delta, edge_topology
+from .units import in_scan_units
 from . import blas
 from . import fill as _fill
 from .bridge import _find_bands, split_pinched
@@ -200,9 +201,12 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 c.take_region(early.region, early.V, early.F, early.topo, vf=early.vf)
             return c
 
+        max_size, size_label, unit_note = in_scan_units(opts.max_hole_size, opts.unit, V)
+
         def detect():
             return detect_holes(V, F, max_hole=max_hole, fill_borders=fill_borders, closed=closed, topo=topo,
-                                pieces=known("pieces"), areas=known("face_areas"), measure=False)
+                                pieces=known("pieces"), areas=known("face_areas"), measure=False,
+                                max_size=max_size, size_label=size_label)
 
         if ex is not None:
             later = ex.submit(context)
@@ -373,6 +377,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                                 "nonmanifold_edges_after": int(topo.nonmanifold_edges.shape[0]
                                                                + delta["nonmanifold_edges"]),
                                 "smooth": smooth, "jobs": jobs, "bridge": bridge, "base": base,
+                                **({"max_hole_size": size_label, "unit": unit_note} if max_size is not None else {}),
                                 "closed": {None: "auto", True: "yes", False: "no"}[closed],
                                 "bridges": bridges,
                                 "pinched_bands": [{"loops": [int(a), int(b)], "parts": [int(i) for i in ids]}

@@ -163,3 +163,31 @@ def test_the_command_line_takes_cap_flat_and_fill(tmp_path):
                  "--fill", str(hole.id), "--quiet"]) == 0
     (row,) = json.loads((tmp_path / "o.report.json").read_text())["holes"]
     assert row["requested"] == "flat cap, fill" and row["option"].startswith("flat cap by request")
+
+
+def test_max_hole_takes_a_length_in_the_scans_units(tmp_path, capsys):
+    import json
+
+    V, F, ids = three_holes()
+    V = V * 100 + 5e4                         # a 200 mm ball, far from the origin
+    scan = detect_holes(V, F)
+    widths = sorted(L.diameter for L in scan.loops)
+    limit = (widths[0] + widths[1]) / 2        # between the narrowest hole and the others
+    p = tmp_path / "ball.ply"
+    write_mesh(p, Mesh(V=V, F=F))
+    for arg, unit in ((f"{limit:.6f}mm", []), (f"{limit / 10:.7f}cm", []), (f"{limit:.6f}mm", ["--unit", "mm"])):
+        assert main(["repair", str(p), "-o", str(tmp_path / "o.ply"), "--max-hole", arg, *unit, "--quiet"]) == 0
+        d = json.loads((tmp_path / "o.report.json").read_text())
+        assert d["holes_before"] == 1 and len(d["border_loops"]) == 2, arg
+        assert all(b["reason"].startswith("wider than max_hole") for b in d["border_loops"])
+        assert d["unit"].startswith("mm (")
+    # a scan in metres: its loops are ~60 m wide, every one over the limit
+    assert main(["repair", str(p), "-o", str(tmp_path / "o.ply"), "--max-hole", f"{limit:.6f}mm",
+                 "--unit", "m", "--quiet"]) == 0
+    d = json.loads((tmp_path / "o.report.json").read_text())
+    assert d["holes_before"] == 0 and len(d["border_loops"]) == 3 and d["unit"] == "m (given)"
+    with pytest.raises(SystemExit):
+        main(["repair", str(p), "--max-hole", "20 furlongs"])
+    assert "must be a number of edges" in capsys.readouterr().err
+    with pytest.raises(MeshError):
+        RepairOptions(max_hole_size=(-1, "mm"))
