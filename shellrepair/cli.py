@@ -5,6 +5,7 @@
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
                        [--bridge auto|never|always] [--base auto|flat|faired]
                        [--leave-open ID,...] [--order-for ID=N,...] [--cap-flat ID,...] [--fill ID,...]
+                       [--plan PLAN.json]
     shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
                       [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
@@ -84,6 +85,10 @@ def _parser():
     r.add_argument("--fill", type=_ids, default=(), metavar="ID,...",
                    help="loop ids to fill although they are classed border (an open base, an outer edge, "
                         "a loop over --max-hole) (default: none)")
+    r.add_argument("--plan", metavar="PLAN.json", default=None,
+                   help="per-hole requests from a file: the lists leave_open, cap_flat, fill and the map "
+                        "order_for, or `shellrepair holes --json` with an \"action\" added to loops "
+                        "(leave open, cap flat, fill, order N); added to the options above (default: none)")
     r.add_argument("--json", action="store_true", help="print the JSON report instead of the table (default: the table)")
     r.add_argument("--html", metavar="PAGE.html", default=None,
                    help="also write a self-contained HTML page: Table 1, a before | after picture, the holes, "
@@ -288,11 +293,18 @@ def _options(args):
     (:class:`shellrepair.options.RepairOptions`)."""
     from .options import RepairOptions
 
+    plan = {"leave_open": [], "cap_flat": [], "fill": [], "order_for": {}, "expect": {}}
+    if getattr(args, "plan", None):
+        from .plan import read_plan
+
+        plan = read_plan(args.plan)
     return RepairOptions(order=args.order, smooth=args.smooth, **_hole_limits(args),
                          fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
                          bridge=args.bridge, closed=_closed(args), base=args.base,
-                         leave_open=getattr(args, "leave_open", ()), order_for=getattr(args, "order_for", {}),
-                         cap_flat=getattr(args, "cap_flat", ()), fill=getattr(args, "fill", ()))
+                         leave_open=plan["leave_open"] + list(getattr(args, "leave_open", ())),
+                         order_for={**plan["order_for"], **getattr(args, "order_for", {})},
+                         cap_flat=plan["cap_flat"] + list(getattr(args, "cap_flat", ())),
+                         fill=plan["fill"] + list(getattr(args, "fill", ())), expect=plan["expect"])
 
 
 def _closed(args):
@@ -374,6 +386,8 @@ def _repair(args):
     repaired, report = repair_mesh(mesh, opts, progress=bar)
     report["file"] = str(args.scan)
     report["output"] = str(out)
+    if args.plan:
+        report["plan"] = str(args.plan)
     report["notes"] = list(mesh.notes)
     if bar is not None:
         bar(f"writing {out.name}", 0, 2)

@@ -81,6 +81,9 @@ class RepairOptions:
     order_for : dict of int -> {1, 2, 3, "auto"}
         A fairing order for single holes (by id), over ``order``; a band
         between two loops takes the order given for either of them.
+    expect : dict of int -> (int or None, sequence of 3 floats or None)
+        The loops a plan (:mod:`shellrepair.plan`) acted on, as it saw them
+        (edges, centre): a scan whose loop of that id differs is refused.
     max_hole_size : (float, str) or None
         Loops wider than this (their rim's diameter), a length with its
         unit such as ``(20.0, "mm")``, are left open as borders, like
@@ -114,6 +117,7 @@ class RepairOptions:
     fill: tuple = ()
     max_hole_size: tuple | None = None
     unit: str | None = None
+    expect: dict = dataclasses.field(default_factory=dict, hash=False)
 
     def __post_init__(self):
         if isinstance(self.order, bool) or self.order not in _ORDERS:

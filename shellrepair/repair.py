@@ -451,6 +451,14 @@ def _fill_requested(opts, scan):
     reason saying what they were classed); an id the scan has no loop for
     is one error, before any work."""
     ids = {L.id for L in scan.loops}
+    for i, (edges, center) in sorted(opts.expect.items()):
+        L = scan.loops[i] if i in ids else None
+        far = L is not None and center is not None and not (
+            len(center) == 3 and np.allclose(L.center, center, rtol=1e-8, atol=1e-6 * max(L.diameter, 1e-300)))
+        if L is None or (edges is not None and edges != L.edges) or far:
+            seen = "has no such loop" if L is None else f"has loop {i} with {L.edges} edges around {L.center}"
+            raise MeshError(f"the plan acts on loop {i} ({edges} edges around {center}), but this scan {seen}: "
+                            "the plan was made for another scan or other detection options")
     unknown = sorted(set(opts.fill) - ids)
     if unknown:
         raise MeshError(f"no loop with id {', '.join(map(str, unknown))} in this scan (its loops: "

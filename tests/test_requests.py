@@ -191,3 +191,45 @@ def test_max_hole_takes_a_length_in_the_scans_units(tmp_path, capsys):
     assert "must be a number of edges" in capsys.readouterr().err
     with pytest.raises(MeshError):
         RepairOptions(max_hole_size=(-1, "mm"))
+
+
+def test_a_plan_edited_from_holes_json_steers_the_repair_and_is_refused_on_another_scan(tmp_path, capsys):
+    import json
+
+    V, F, (a, b, c) = three_holes()
+    p = tmp_path / "s.ply"
+    write_mesh(p, Mesh(V=V, F=F))
+    assert main(["holes", str(p), "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    by_id = {lp["id"]: lp for lp in plan["loops"]}
+    by_id[a]["action"] = "leave open"
+    by_id[b]["action"] = "order 1"
+    (tmp_path / "plan.json").write_text(json.dumps(plan))
+    assert main(["repair", str(p), "-o", str(tmp_path / "o.ply"), "--plan", str(tmp_path / "plan.json"),
+                 "--cap-flat", str(c), "--quiet"]) == 0
+    d = json.loads((tmp_path / "o.report.json").read_text())
+    rows = {h["id"]: h for h in d["holes"]}
+    assert [rows[i].get("requested") for i in (a, b, c)] == ["left open", "order 1", "flat cap"]
+    assert rows[a]["status"] == "skipped" and rows[b]["option"].startswith("faired order 1")
+    assert d["plan"] == str(tmp_path / "plan.json")
+    # the same plan on another scan (other holes): refused before any work, nothing written
+    V2, F2, _, _ = shapes.perforate_discs(*shapes.icosphere(4), n_holes=3, radius=0.25, seed=7)
+    q = tmp_path / "other.ply"
+    write_mesh(q, Mesh(V=V2, F=F2))
+    assert main(["repair", str(q), "-o", str(tmp_path / "x.ply"), "--plan", str(tmp_path / "plan.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the plan was made for another scan" in err
+    assert not (tmp_path / "x.ply").exists()
+
+
+@pytest.mark.parametrize("text", ["[1, 2]", '{"leave_open": "3"}', '{"order_for": {"1": 4}}', '{"fil": [1]}',
+                                  '{"loops": [{"id": 1, "action": "paint it"}]}', "not json"])
+def test_a_file_that_is_not_a_plan_is_one_error(tmp_path, capsys, text):
+    V, F, _ = three_holes()
+    p = tmp_path / "s.ply"
+    write_mesh(p, Mesh(V=V, F=F))
+    (tmp_path / "plan.json").write_text(text)
+    assert main(["repair", str(p), "-o", str(tmp_path / "o.ply"), "--plan", str(tmp_path / "plan.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1 and "plan" in err
+    assert not (tmp_path / "o.ply").exists()
