@@ -60,6 +60,7 @@ import time
 from pathlib import Path
 
 from .errors import MeshError
+from .report import status_counts
 
 __all__ = ["repair_folder", "list_scans", "summary_table", "default_jobs", "SUMMARY_NAME"]
 
@@ -190,7 +191,10 @@ def _repair_one(task, options, progress):
     del repaired
     report["seconds_total"] = round(time.perf_counter() - t0, 4)
     atomic_write_many([(out, payload), (report_path, json.dumps(report, indent=1) + "\n")] + items)
-    row.update(holes_before=int(report["holes_before"]), holes_after=int(report["holes_after"]),
+    failed = int(report.get("failed", 0) or 0)
+    # some holes the fill could not close (not those left open on purpose): not "ok"
+    row.update(status="partial" if failed else "ok", holes_failed=failed,
+               holes_before=int(report["holes_before"]), holes_after=int(report["holes_after"]),
                rate=report["interpolation_rate"], borders=int(report.get("borders", 0) or 0),
                vertices_after=int(report.get("vertices_after", 0)), faces_after=int(report.get("faces_after", 0)),
                report=task["shown_report"], output=task["shown_out"])
@@ -253,12 +257,19 @@ def _lost_row(name, exc):
 def _totals(rows):
     from .report import interpolation_rate
 
-    ok = [r for r in rows if r["status"] == "ok"]
-    before = sum(r["holes_before"] for r in ok)
-    after = sum(r["holes_after"] for r in ok)
-    return {"n_scans": len(rows), "n_ok": len(ok), "n_failed": len(rows) - len(ok),
+    done = [r for r in rows if repaired(r)]
+    before = sum(r["holes_before"] for r in done)
+    after = sum(r["holes_after"] for r in done)
+    n_ok = sum(r["status"] == "ok" for r in done)
+    return {"n_scans": len(rows), "n_ok": n_ok, "n_partial": len(done) - n_ok, "n_failed": len(rows) - len(done),
             "holes_before": before, "holes_after": after,
             "rate": interpolation_rate(before, after) if before else None}
+
+
+def repaired(row):
+    """Was the scan of this summary row repaired and written (status ``ok``,
+    or ``partial``: some of its holes could not be closed)?"""
+    return row["status"] in ("ok", "partial")
 
 
 def _import_distributed():
@@ -539,7 +550,7 @@ def _index_section(i, r, options):
     """One scan's section of the collection page (None for a failed scan)."""
     from .htmlreport import report_json, scan_section
 
-    if r["status"] != "ok":
+    if not repaired(r):
         return None
     rep = report_json(r["report"])
     pic = rep.get("picture")
@@ -566,7 +577,7 @@ def summary_table(summary, *, errors=True):
                      _fmt(r["holes_after"]), _fmt(r["rate"], ".1f"), _fmt(r["seconds"], ".1f"), r["status"]))
     tot = ("total", "", "", _fmt(summary.get("holes_before")), _fmt(summary.get("holes_after")),
            _fmt(summary.get("rate"), ".1f"), _fmt(summary.get("seconds"), ".1f"),
-           f"{summary.get('n_ok', 0)} ok, {summary.get('n_failed', 0)} failed")
+           status_counts(summary))
     allrows = [head] + body + [tot]
     w = [max(len(str(r[j])) for r in allrows) for j in range(len(head))]
 
@@ -576,7 +587,7 @@ def summary_table(summary, *, errors=True):
 
     out = [line(head), "  ".join("-" * x for x in w)] + [line(r) for r in body]
     out += ["  ".join("-" * x for x in w), line(tot)]
-    errs = [r for r in summary["scans"] if r["status"] != "ok"]
+    errs = [r for r in summary["scans"] if not repaired(r)]
     if errs and errors:
         out.append("")
         out += [f"error: {r['file']}: {r['error']}" for r in errs]

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import time
 from pathlib import Path
@@ -254,9 +255,29 @@ def _hole_options(p):
                         "a border)")
 
 
+#: Options whose value may start with a minus sign (``--view -46,12``), which
+#: argparse would take for an option of its own.
+_SIGNED = ("--view",)
+
+
+def _signed_values(argv):
+    """``--view -46,12`` as ``--view=-46,12``: argparse reads a value that
+    starts with ``-`` (and is not one plain number) as an option."""
+    out, i = [], 0
+    while i < len(argv):
+        a = argv[i]
+        if a in _SIGNED and i + 1 < len(argv) and re.match(r"^-[\d.]", argv[i + 1]):
+            out.append(f"{a}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(a)
+            i += 1
+    return out
+
+
 def main(argv=None):
     """Run the command line; returns the exit status."""
-    args = _parser().parse_args(argv)
+    args = _parser().parse_args(_signed_values(sys.argv[1:] if argv is None else list(argv)))
     quiet_hugepages()
     try:
         return {"holes": _holes, "repair": _repair, "batch": _batch, "render": _render}[args.cmd](args)
@@ -298,13 +319,29 @@ def _options(args):
         from .plan import read_plan
 
         plan = read_plan(args.plan)
-    return RepairOptions(order=args.order, smooth=args.smooth, **_hole_limits(args),
-                         fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
-                         bridge=args.bridge, closed=_closed(args), base=args.base,
-                         leave_open=plan["leave_open"] + list(getattr(args, "leave_open", ())),
-                         order_for={**plan["order_for"], **getattr(args, "order_for", {})},
-                         cap_flat=plan["cap_flat"] + list(getattr(args, "cap_flat", ())),
-                         fill=plan["fill"] + list(getattr(args, "fill", ())), expect=plan["expect"])
+    try:
+        return RepairOptions(order=args.order, smooth=args.smooth, **_hole_limits(args),
+                             fill_borders=args.fill_borders, method=args.method, jobs=args.jobs,
+                             bridge=args.bridge, closed=_closed(args), base=args.base,
+                             leave_open=plan["leave_open"] + list(getattr(args, "leave_open", ())),
+                             order_for={**plan["order_for"], **getattr(args, "order_for", {})},
+                             cap_flat=plan["cap_flat"] + list(getattr(args, "cap_flat", ())),
+                             fill=plan["fill"] + list(getattr(args, "fill", ())), expect=plan["expect"])
+    except MeshError as exc:   # named as the command line names it: --max-hole, not max_hole
+        raise MeshError(_as_flag(str(exc))) from None
+
+
+#: RepairOptions' names that the command line spells otherwise.
+_FLAGS = {"max_hole_size": "--max-hole", "expect": "--plan"}
+
+
+def _as_flag(message):
+    """A RepairOptions message with its option named as the command line names it."""
+    m = re.match(r"^(\w+) must ", message)
+    if m is None:
+        return message
+    name = m.group(1)
+    return _FLAGS.get(name, "--" + name.replace("_", "-")) + message[len(name):]
 
 
 def _closed(args):
@@ -418,7 +455,7 @@ def _repair(args):
 
 
 def _batch(args):
-    from .batch import repair_folder, summary_table
+    from .batch import repair_folder, repaired, summary_table
 
     bar = terminal_bar(args.quiet)
 
@@ -426,8 +463,9 @@ def _batch(args):
         if not args.json and not args.quiet:
             if bar is not None:
                 bar.clear()  # the line starts at column 0, the bars go on below it
-            what = (f"{row['holes_before']} -> {row['holes_after']} holes" if row["status"] == "ok"
-                    else f"error: {row['error']}")
+            what = (f"{row['holes_before']} -> {row['holes_after']} holes"
+                    + (f", {row['holes_failed']} could not be closed" if row["status"] == "partial" else "")
+                    if repaired(row) else f"error: {row['error']}")
             print(f"{row['file']}: {what} ({row['seconds']:.1f} s)", flush=True)
 
     summary = repair_folder(args.dir, args.outdir, _options(args), jobs=args.jobs, scheduler=args.scheduler,
@@ -439,11 +477,11 @@ def _batch(args):
     elif not args.quiet:
         print()
         print(summary_table(summary, errors=False))  # the errors go to stderr below
-        print(f"  wrote {summary['n_ok']} repaired scans with their reports, and "
+        print(f"  wrote {summary['n_ok'] + summary.get('n_partial', 0)} repaired scans with their reports, and "
               f"{Path(summary['outdir']) / 'summary.json'}"
               + (f" and {Path(summary['outdir']) / 'index.html'}" if args.html else ""))
     for r in summary["scans"]:
-        if r["status"] != "ok":  # also on stderr, one line each, as for a single scan
+        if not repaired(r):  # also on stderr, one line each, as for a single scan
             print(f"error: {Path(args.dir) / r['file']}: {r['error']}", file=sys.stderr)
     return 0 if summary["n_failed"] == 0 else 2
 

@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .report import status_counts
+
 __all__ = ["figure", "scan_page", "collection_page", "file_sha256", "OPEN_EDGE_COLOR", "FIGURE_SIZE"]
 
 #: Colour (sRGB) the edges left open (borders and holes not filled) are drawn in.
@@ -441,7 +443,7 @@ def collection_page(summary, sections):
     rows = []
     for i, r in enumerate(summary.get("scans", [])):
         link = f'<a href="#scan-{i}">{_e(r["file"])}</a>' if sections[i] else _e(r["file"])
-        status = r["status"] if r["status"] == "ok" else f"error: {r.get('error')}"
+        status = r["status"] if r["status"] in ("ok", "partial") else f"error: {r.get('error')}"
         cls = ' class="open"' if r["status"] != "ok" or (r.get("holes_after") or 0) > 0 else ""
         rows.append(f'<tr{cls}><td class="t">{link}</td><td data-v="{_e(r.get("vertices") or "")}">'
                     f'{_num(r.get("vertices"), ",")}</td><td data-v="{_e(r.get("faces") or "")}">'
@@ -451,7 +453,7 @@ def collection_page(summary, sections):
     tot = (f'<tr class="total"><td class="t">all {summary.get("n_scans", len(rows))} scans</td><td></td><td></td>'
            f'<td>{_e(summary.get("holes_before"))}</td><td>{_e(summary.get("holes_after"))}</td>'
            f'<td>{_num(summary.get("rate"), ".1f")}</td><td>{_num(summary.get("seconds"), ".1f")}</td>'
-           f'<td class="t">{summary.get("n_ok", 0)} ok, {summary.get("n_failed", 0)} failed</td></tr>')
+           f'<td class="t">{_e(status_counts(summary))}</td></tr>')
     table = ('<table class="sortable scans"><thead><tr><th class="t">scan</th><th>vertices</th><th>faces</th>'
              "<th>holes before</th><th>after</th><th>rate %</th><th>seconds</th><th class=\"t\">status</th>"
              "</tr></thead><tbody>\n" + "\n".join(rows) + "\n</tbody><tfoot>" + tot + "</tfoot></table>")

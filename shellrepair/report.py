@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["holes_dict", "holes_table", "interpolation_rate", "table1_dict", "table1_text"]
+__all__ = ["holes_dict", "holes_table", "interpolation_rate", "status_counts", "table1_dict", "table1_text"]
 
 STATUSES = ("filled", "skipped", "failed")
 
@@ -234,3 +234,10 @@ def table1_text(d, *, limit=30):
         if len(open_rows) > limit:
             lines.append(f"    ... {len(open_rows) - limit} more (see the JSON report)")
     return "\n".join(lines)
+
+
+def status_counts(summary):
+    """``"3 ok, 1 partial, 0 failed"`` (partial: repaired, some holes not closed)."""
+    part = summary.get("n_partial", 0)
+    return (f"{summary.get('n_ok', 0)} ok, " + (f"{part} partial, " if part else "")
+            + f"{summary.get('n_failed', 0)} failed")

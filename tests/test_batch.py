@@ -323,3 +323,27 @@ def test_the_collection_page_reads_each_report_once_and_equals_a_fresh_build(tmp
     batch._write_index({**summary, "scans": summary["scans"][1:]}, tmp_path / "fresh", cache)
     batch._write_index(summary, tmp_path / "fresh", cache)
     assert (tmp_path / "fresh" / batch.INDEX_NAME).read_text() == written
+
+
+def test_a_scan_with_holes_the_fill_could_not_close_is_partial_not_ok(tmp_path, capsys):
+    import sys
+    sys.path.insert(0, os.path.dirname(__file__))
+    import cad_parts as cp
+
+    # a needle of scan through a cube's missing top: that opening cannot be closed
+    V, F, g = cp.coarse_cube(8)
+    V, F = cp.remove(V, F, g["top"])
+    k = len(V)
+    V = np.vstack([V, [[0.5, 0.5, 0.5], [0.5, 0.51, 1.5], [0.51, 0.5, 1.5]]])
+    F = np.vstack([F, [[k, k + 1, k + 2]]])
+    Vb, Fb = shapes.icosphere(3)
+    _write_scans(tmp_path / "in", {"good.ply": ball_perforate(Vb, Fb, 2, 0.15, seed=2), "needle.ply": (V, F)})
+    assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--fill-borders",
+                 "--bridge", "never", "--no-html"]) == 0            # both repaired and written
+    out = capsys.readouterr().out
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    rows = {r["file"]: r for r in s["scans"]}
+    assert rows["good.ply"]["status"] == "ok" and rows["needle.ply"]["status"] == "partial"
+    assert rows["needle.ply"]["holes_failed"] >= 1 and rows["needle.ply"]["holes_after"] >= 1
+    assert s["n_ok"] == 1 and s["n_partial"] == 1 and s["n_failed"] == 0
+    assert "1 ok, 1 partial, 0 failed" in out and "could not be closed" in out
