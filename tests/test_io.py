@@ -622,7 +622,8 @@ def _golden_digests(tmp_path):
 #: Recorded with the code before the split (io.py of commit f4b9ef4): the test fails if any byte changes.
 #: Changed on purpose since: polygons.obj has three vertices where pieces meet at a point; its
 #: note says they are joined again when written, and the PLY, OFF and OBJ writers write them
-#: once, as the file had them (Mesh.joins; STL, which repeats each corner, is unchanged).
+#: once, as the file had them (Mesh.joins; STL, which repeats each corner, is unchanged);
+#: full's filled faces are an OBJ group (formats.obj.FILLED_GROUP), OBJ having no face flags.
 GOLDEN = {
     'read polygons.obj': '0bc2698e08c96bc2',
     'read colours.off': '6ea5f6f1c9727063',
@@ -635,7 +636,7 @@ GOLDEN = {
     'read full.ply': '67496105fc6dfab5',
     'write full .ply': 'ef2e443b9583379d',
     'write full .ply ascii': 'afa2ae0e1481e3ee',
-    'write full .obj': '88ffe97ce39ff5e1',
+    'write full .obj': '6bd253b321ab04b6',
     'write full .off': '11d5b62a4a00fe25',
     'write full .stl': '0ae59f661399f118',
     'write full .stl ascii': '2e14921999ab6c93',
@@ -701,7 +702,7 @@ GOLDEN = {
     'write texcoords_le.ply .stl ascii': '1b9809a889272ed7',
     'write full.ply .ply': 'ef2e443b9583379d',
     'write full.ply .ply ascii': 'afa2ae0e1481e3ee',
-    'write full.ply .obj': '88ffe97ce39ff5e1',
+    'write full.ply .obj': '6bd253b321ab04b6',
     'write full.ply .off': '11d5b62a4a00fe25',
     'write full.ply .stl': '0ae59f661399f118',
     'write full.ply .stl ascii': '2e14921999ab6c93',
@@ -750,3 +751,23 @@ def test_progress_that_is_not_a_callback_is_refused(tmp_path):
     write_mesh(tmp_path / "a.ply", _mesh())
     with pytest.raises(TypeError, match="progress must be None, True, False or a callable"):
         read_mesh(tmp_path / "a.ply", progress="yes")
+
+
+def test_an_obj_output_names_the_filled_faces_as_a_group(tmp_path):
+    from shellrepair.formats.obj import FILLED_GROUP, SCAN_GROUP
+    from shellrepair.repair import repair_mesh
+
+    V, F = shapes.icosphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=2)
+    R, rep = repair_mesh(Mesh(V=V2, F=F2))
+    write_mesh(tmp_path / "r.obj", R)
+    group, faces = None, {}
+    for line in (tmp_path / "r.obj").read_text().splitlines():
+        if line.startswith("g "):
+            group = line[2:]
+        elif line.startswith("f "):
+            faces.setdefault(group, []).append(line)
+    assert set(faces) == {SCAN_GROUP, FILLED_GROUP}
+    assert len(faces[SCAN_GROUP]) == len(F2) and len(faces[FILLED_GROUP]) == sum(h["new_faces"] for h in rep["holes"])
+    back = read_mesh(tmp_path / "r.obj")          # the groups do not change what is read
+    assert np.array_equal(back.F, R.F) and np.allclose(back.V, R.V, rtol=0, atol=0)

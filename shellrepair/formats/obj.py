@@ -196,6 +196,11 @@ def read_obj(data):
     return mesh
 
 
+#: OBJ group names of a repaired mesh's faces: what the repair added, and the scan's own.
+FILLED_GROUP = "shellrepair_filled"
+SCAN_GROUP = "scan"
+
+
 def obj_bytes(mesh, binary=True):
     V = np.asarray(mesh.V, np.float64)
     lines = ["# written by shellrepair"]
@@ -206,6 +211,17 @@ def obj_bytes(mesh, binary=True):
             vs = vs + " " + np.char.mod("%.6g", C[:, j])
     lines += vs.tolist()
     F = written_faces(mesh) + 1
-    lines += ("f " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
-              + np.char.mod("%d", F[:, 2])).tolist()
+    fl = ("f " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
+          + np.char.mod("%d", F[:, 2])).tolist()
+    filled = None if mesh.face_filled is None else np.asarray(mesh.face_filled, bool)
+    if filled is None or not filled.any() or len(filled) != len(fl):
+        return "\n".join(lines + fl) + "\n"
+    # OBJ has no per-face flags: the filled faces are the group FILLED_GROUP
+    # (the rest SCAN_GROUP), a group line where the flag changes, faces in order
+    change = np.flatnonzero(np.diff(filled.astype(np.int8))) + 1
+    at = 0
+    for end in list(change) + [len(fl)]:
+        lines.append(f"g {FILLED_GROUP if filled[at] else SCAN_GROUP}")
+        lines += fl[at:end]
+        at = end
     return "\n".join(lines) + "\n"
