@@ -515,8 +515,13 @@ def _render(args):
               "(render the output of shellrepair repair)", file=sys.stderr)
     axis = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}[args.up[-1]]
     up = tuple(-a for a in axis) if args.up.startswith("-") else axis
+    how = "given"
     if view is None and args.highlight_filled and mesh.face_filled is not None and mesh.face_filled.any():
         view = rd.view_towards(mesh.V, mesh.F, mesh.face_filled, up=up)  # face the filled region
+        how = "picked to face the filled faces"
+    if view is None:
+        how = "the default" if how == "given" else "the default: the filled faces' normals cancel out"
+        view = rd.DEFAULT_VIEW
     unit, unit_reason = (args.unit, "given") if args.unit else rd.infer_unit(mesh.V)
     kw = dict(size=(w, h), material=args.material, view=view, unit=unit, age=args.age, up=up)
     info = {}
@@ -538,6 +543,8 @@ def _render(args):
         return 0
     choice = info["model"]
     print(f"unit: {unit} ({unit_reason})")
+    az, el = f"{float(view[0]):.10g}", f"{float(view[1]):.10g}"
+    print(f"view: {az},{el} ({how}; --view {az},{el} renders the same camera again)")
     print(f"pixel footprint {info['footprint_um']:.3g} um: {choice.model} model ({choice.reason})")
     print(f"wrote {out}")
     return 0

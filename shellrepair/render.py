@@ -131,6 +131,10 @@ class Camera:
         return 2.0 * distance * np.tan(0.5 * np.radians(self.fov_y_deg)) / self.height
 
 
+#: Azimuth and elevation (degrees) of the camera when no view is given.
+DEFAULT_VIEW = (25.0, 15.0)
+
+
 def frame_camera(V, size=(1024, 768), view=None, *, fov_y_deg=30.0, up=(0.0, 1.0, 0.0),
                  margin=1.08):
     """Camera that frames the points V.
@@ -169,7 +173,7 @@ def frame_camera(V, size=(1024, 768), view=None, *, fov_y_deg=30.0, up=(0.0, 1.0
     W, H = (int(size[0]), int(size[1]))
     if W <= 0 or H <= 0:
         raise _InputError("image size must be positive, got %dx%d" % (W, H))
-    az, el = (25.0, 15.0) if view is None else (float(view[0]), float(view[1]))
+    az, el = DEFAULT_VIEW if view is None else (float(view[0]), float(view[1]))
     up = np.asarray(up, dtype=np.float64)
     up = up / np.linalg.norm(up)
     center = 0.5 * (V.min(axis=0) + V.max(axis=0))

@@ -161,3 +161,21 @@ def test_a_view_with_a_negative_azimuth_is_read_as_a_value(tmp_path):
     args = _parser().parse_args(_signed_values(["render", "m.ply", "-o", "x.png", "--view", "-46,12"]))
     assert args.view == "-46,12" or tuple(args.view) == (-46.0, 12.0)
     assert _signed_values(["render", "m.ply", "--view", "-46,12"])[-1] == "--view=-46,12"
+
+
+def test_render_prints_the_camera_it_picked_so_it_can_be_given_again(tmp_path, capsys):
+    from shellrepair import render as rd
+    from shellrepair.repair import repair_mesh
+
+    V, F = shapes.icosphere(3)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=1, radius=0.4, seed=5)
+    R, _ = repair_mesh(Mesh(V=V2, F=F2))
+    write_mesh(tmp_path / "r.ply", R)
+    assert main(["render", str(tmp_path / "r.ply"), "-o", str(tmp_path / "a.png"), "--highlight-filled",
+                 "--size", "96x72"]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("view: "))
+    az, el = (float(x) for x in line.split()[1].split(","))
+    want = rd.view_towards(R.V, R.F, R.face_filled, up=(0.0, 1.0, 0.0))   # --up y, the default
+    assert "picked to face the filled faces" in line and np.allclose((az, el), want, atol=1e-8)
+    assert main(["render", str(tmp_path / "r.ply"), "-o", str(tmp_path / "b.png"), "--size", "96x72"]) == 0
+    assert "view: 25,15 (the default" in capsys.readouterr().out
