@@ -771,13 +771,16 @@ def flat_face_with_hole(ctx, A, B):
     T = ring[T]
     if len(T) != len(loop) or np.unique(np.sort(T, axis=1), axis=0).shape[0] != len(T):
         return None
-    # each loop edge reversed: flip all if the triangle on A's first edge runs along it
-    for t in T:
-        i = np.flatnonzero(t == 0)
-        if i.size and t[(i[0] + 1) % 3] == 1:
-            return T[:, ::-1].copy()
-        if i.size and t[(i[0] + 2) % 3] == 1:
-            return T
+    # each loop edge reversed (as the scan's faces have it): all of them, or
+    # all after one flip; loops that run the same way round are no such face
+    kb = len(loop) - ka
+    rim = np.concatenate([np.column_stack([np.arange(ka), np.roll(np.arange(ka), -1)]),
+                          ka + np.column_stack([np.arange(kb), np.roll(np.arange(kb), -1)])])
+    directed = {(int(a), int(b)) for t in T for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
+    if all((int(q), int(p)) in directed for p, q in rim):
+        return T
+    if all((int(p), int(q)) in directed for p, q in rim):
+        return T[:, ::-1].copy()
     return None
 
 

@@ -448,8 +448,10 @@ def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridge
 
 def _fill_requested(opts, scan):
     """The loops ``opts.fill`` names become holes (changed in place, their
-    reason saying what they were classed); an id the scan has no loop for
-    is one error, before any work."""
+    reason saying what they were classed). One error, before any work, for
+    an id the scan has no loop for, or for a loop a plan acted on
+    (``opts.expect``) that this scan's loop of that id does not match in
+    edges or centre."""
     ids = {L.id for L in scan.loops}
     for i, (edges, center) in sorted(opts.expect.items()):
         L = scan.loops[i] if i in ids else None
