@@ -327,11 +327,45 @@ def _tint():
     return [int(round(x)) for x in t[:3]]
 
 
+def options_text(options):
+    """The repair options as the command line spells them: ``--closed auto``,
+    not ``closed=None``; per-hole requests and limits only where given.
+
+    Parameters
+    ----------
+    options : dict
+        :meth:`RepairOptions.as_dict <shellrepair.options.RepairOptions.as_dict>`.
+
+    Returns
+    -------
+    text : str
+    """
+    out = []
+    for k, v in sorted(options.items()):
+        if k == "expect" or v in ((), [], {}, None) and k != "closed":
+            continue                 # a plan's loops, requests not made, limits not set
+        if k == "closed":
+            v = {None: "auto", True: "yes", False: "no"}.get(v, v)
+        elif k == "max_hole_size":
+            v = f"{v[0]:g}{v[1]}"
+        elif k == "order_for":
+            v = ",".join(f"{i}={o}" for i, o in sorted(v.items()))
+        elif isinstance(v, (list, tuple)):
+            v = ",".join(map(str, v))
+        elif isinstance(v, bool):
+            if not v:
+                continue
+            v = ""
+        flag = "--max-hole" if k == "max_hole_size" else f"--{k.replace('_', '-')}"
+        out.append(flag + (f" {v}" if v != "" else ""))
+    return " ".join(out)
+
+
 def _provenance(report, options, sha256, version):
     items = [("shellrepair", version), ("input", report.get("file")), ("input SHA-256", sha256),
              ("output", report.get("output"))]
     if options:
-        items.append(("options", ", ".join(f"{k}={v}" for k, v in sorted(options.items()))))
+        items.append(("options", options_text(options)))
     return "<dl>" + "".join(f"<dt>{_e(k)}</dt><dd><code>{_e(v)}</code></dd>" for k, v in items) + "</dl>"
 
 
@@ -461,7 +495,7 @@ def collection_page(summary, sections):
     body = [f"<h1>Repair of {_e(summary.get('folder'))}</h1>",
             "<p>Table 1 for the whole collection (last row) and for each scan; the scans follow, each with "
             "its picture, its holes and its provenance.</p>", table,
-            "<p>Options: <code>" + _e(", ".join(f"{k}={v}" for k, v in sorted(opts.items()))) + "</code></p>"]
+            "<p>Options: <code>" + _e(options_text(opts)) + "</code></p>"]
     body += [s for s in sections if s]
     return _page(f"shellrepair: {summary.get('folder')}", "\n".join(body))
 

@@ -49,7 +49,7 @@ def test_scan_page_is_self_contained_and_lists_every_hole():
     assert page.count('src="data:image/png;base64,') == 1
     holes = page.split('<table class="sortable holes">')[1].split("</table>")[0]
     assert holes.count("<tr>") + holes.count('<tr class="open">') == 1 + report["holes_before"]
-    assert "0" * 64 in page and "order=2" in page
+    assert "0" * 64 in page and "--order 2" in page
 
 
 def test_holes_left_open_come_first_with_their_reason():
@@ -166,3 +166,13 @@ def test_repair_command_writes_the_page_with_the_mesh(tmp_path):
     text = page.read_text()
     assert "Repair of s.ply" in text and (tmp_path / "s.repaired.ply").is_file()
     assert read_mesh(tmp_path / "s.repaired.ply").face_filled.any()
+
+
+def test_the_page_gives_the_options_as_the_command_line_spells_them():
+    from shellrepair.htmlreport import options_text
+    from shellrepair.options import RepairOptions
+
+    text = options_text(RepairOptions(leave_open=[3], order_for={2: 1}, max_hole_size=(20, "mm")).as_dict())
+    assert "--closed auto" in text and "None" not in text and "closed=" not in text
+    assert "--leave-open 3" in text and "--order-for 2=1" in text and "--max-hole 20mm" in text
+    assert "--cap-flat" not in text and "--fill-borders" not in text      # not asked for
