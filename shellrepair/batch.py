@@ -60,7 +60,7 @@ import time
 from pathlib import Path
 
 from .errors import MeshError
-from .report import status_counts
+from .report import repaired, status_counts
 
 __all__ = ["repair_folder", "list_scans", "summary_table", "default_jobs", "SUMMARY_NAME"]
 
@@ -264,12 +264,6 @@ def _totals(rows):
     return {"n_scans": len(rows), "n_ok": n_ok, "n_partial": len(done) - n_ok, "n_failed": len(rows) - len(done),
             "holes_before": before, "holes_after": after,
             "rate": interpolation_rate(before, after) if before else None}
-
-
-def repaired(row):
-    """Was the scan of this summary row repaired and written (status ``ok``,
-    or ``partial``: some of its holes could not be closed)?"""
-    return row["status"] in ("ok", "partial")
 
 
 def _import_distributed():

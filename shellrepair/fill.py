@@ -737,25 +737,31 @@ def flat_face_with_hole(ctx, A, B):
     """
     from .holes import loop_stats
     from .patch import EDGE_ON_CAD_PLANARITY, EDGE_ON_PLANARITY
+    from .probe import inside_polygon
 
     if not (_meets_edge_on(ctx, A.vertices, A.id) and _meets_edge_on(ctx, B.vertices, B.id)):
         return None
     loop = np.concatenate([A.vertices, B.vertices])
     ka = len(A.vertices)
-    st = loop_stats(ctx.V, loop)
-    cad = max(loop_stats(ctx.V, L.vertices)["planarity"] for L in (A, B)) <= EDGE_ON_CAD_PLANARITY
-    P = ctx.V[loop] - st["center"]
-    normal = np.linalg.svd(P, full_matrices=False)[2][-1]
-    rms = float(np.sqrt(np.mean((P @ normal) ** 2))) / max(st["diameter"], 1e-300)
-    if not np.isfinite(rms) or rms > (EDGE_ON_CAD_PLANARITY if cad else EDGE_ON_PLANARITY):
+    st = loop_stats(ctx.V, loop)      # the two loops' plane: its RMS distance over the diameter, its normal
+    cad = max(A.planarity, B.planarity) <= EDGE_ON_CAD_PLANARITY
+    if not np.isfinite(st["planarity"]) or st["planarity"] > (EDGE_ON_CAD_PLANARITY if cad else EDGE_ON_PLANARITY):
         return None
+    P = ctx.V[loop] - st["center"]
+    # the plane's normal as the SVD gives it (st["axis"] is it, turned along
+    # the loops' vector area): its sign sets the frame, hence the triangulation
+    normal = np.linalg.svd(P, full_matrices=False)[2][-1]
     u = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
     u /= np.linalg.norm(u)
     Q = np.column_stack([P @ u, P @ np.cross(normal, u)]) / st["diameter"]
     QA, QB = Q[:ka], Q[ka:]
-    if _inside(QB, QA).all() and not _inside(QA, QB).any():
+
+    def inside(X, poly):
+        return inside_polygon(X[:, 0], X[:, 1], poly)
+
+    if inside(QB, QA).all() and not inside(QA, QB).any():
         outer, inner = np.arange(ka), ka + np.arange(len(QB))
-    elif _inside(QA, QB).all() and not _inside(QB, QA).any():
+    elif inside(QA, QB).all() and not inside(QB, QA).any():
         outer, inner = ka + np.arange(len(QB)), np.arange(ka)
     else:
         return None
@@ -820,17 +826,6 @@ def _restore_collinear(T, rings):
             else:
                 return None
     return np.array(T, np.int64)
-
-
-def _inside(X, poly):
-    """Which points ``X`` (p,2) lie inside the closed polygon ``poly`` (k,2)
-    (even-odd rule; a point on an edge may go either way)."""
-    a, b = poly, np.roll(poly, -1, axis=0)
-    x, y = X[:, None, 0], X[:, None, 1]
-    straddle = (a[None, :, 1] > y) != (b[None, :, 1] > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        at = a[None, :, 0] + (y - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
-    return (np.count_nonzero(straddle & (x < at), axis=1) % 2) == 1
 
 
 def _fill_pair(ctx, A, B, order, smooth, mode):

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .report import status_counts
+from .report import repaired, status_counts
 
 __all__ = ["figure", "scan_page", "collection_page", "file_sha256", "OPEN_EDGE_COLOR", "FIGURE_SIZE"]
 
@@ -477,7 +477,7 @@ def collection_page(summary, sections):
     rows = []
     for i, r in enumerate(summary.get("scans", [])):
         link = f'<a href="#scan-{i}">{_e(r["file"])}</a>' if sections[i] else _e(r["file"])
-        status = r["status"] if r["status"] in ("ok", "partial") else f"error: {r.get('error')}"
+        status = r["status"] if repaired(r) else f"error: {r.get('error')}"
         cls = ' class="open"' if r["status"] != "ok" or (r.get("holes_after") or 0) > 0 else ""
         rows.append(f'<tr{cls}><td class="t">{link}</td><td data-v="{_e(r.get("vertices") or "")}">'
                     f'{_num(r.get("vertices"), ",")}</td><td data-v="{_e(r.get("faces") or "")}">'

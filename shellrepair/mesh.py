@@ -171,14 +171,14 @@ def as_written(mesh):
         (``F_out`` and ``joins`` None: it is written as it stands).
     """
     J = getattr(mesh, "joins", None)
-    F = written_faces(mesh)
-    V = np.asarray(mesh.V)
-    n = len(V)
     if J is None or len(J) == 0:
         return mesh
+    V = np.asarray(mesh.V)
+    n = len(V)
     J = np.asarray(J, np.int64)
     if J.max() >= n or not np.array_equal(V[J[:, 0]], V[J[:, 1]]):
         return mesh
+    F = written_faces(mesh)
     to = np.arange(n)
     to[J[:, 0]] = J[:, 1]
     keep = np.ones(n, bool)

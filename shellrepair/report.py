@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["holes_dict", "holes_table", "interpolation_rate", "status_counts", "table1_dict", "table1_text"]
+__all__ = ["holes_dict", "holes_table", "interpolation_rate", "repaired", "status_counts", "table1_dict", "table1_text"]
 
 STATUSES = ("filled", "skipped", "failed")
 
@@ -241,3 +241,9 @@ def status_counts(summary):
     part = summary.get("n_partial", 0)
     return (f"{summary.get('n_ok', 0)} ok, " + (f"{part} partial, " if part else "")
             + f"{summary.get('n_failed', 0)} failed")
+
+
+def repaired(row):
+    """Was the scan of this batch summary row repaired and written (status
+    ``ok``, or ``partial``: some of its holes could not be closed)?"""
+    return row["status"] in ("ok", "partial")
