@@ -4,9 +4,9 @@ PY      ?= .venv/bin/python
 INSTALLED = .venv/.shellrepair-installed
 # written when .venv holds the test tools too (the test extra: pytest, pymeshlab, dask, ...)
 TESTTOOLS = .venv/.shellrepair-installed-test
-# written when the package is byte-compiled and the fill's Numba kernels compiled
-# (all that holes / repair / batch --no-html run); remade when a module changes
-# (after a git pull), so no run pays the compiler
+# written when the package is byte-compiled and the fill's kernels compiled
+# ahead of time (all that holes / repair / batch --no-html run); remade when a
+# module changes (after a git pull), so no run pays the compiler
 STAMP    = .venv/.shellrepair-built
 # written when the shading is built too: its rho_dt table (~1 min, once per
 # machine) and its Numba kernels (minutes); what render, the HTML pictures of
@@ -52,15 +52,20 @@ $(TESTTOOLS): $(INSTALLED)
 	$(PY) -m pip install -q --no-compile -e '.[test]'
 	touch $(TESTTOOLS)
 
-$(STAMP): $(INSTALLED) $(SOURCES)
+$(STAMP): $(INSTALLED) $(SOURCES) shellrepair/aot_types.json
 	@echo "building the package (first use, or a module changed since the last build)"
 	@echo "byte-compiling the package (an editable install does not; else the first run writes its .pyc)"
 	$(PY) -m compileall -q shellrepair
-	@echo "compiling the fill's kernels, the fairing's sparse Cholesky and the whole-mesh kernels"
-	@echo "(Numba, once, in two processes side by side; cached beside the package, so no run waits on the compiler)"
-	$(PY) -c "from shellrepair import kernels, fastmesh; kernels.warm_up(share=1); fastmesh.warm_up()" & first=$$!; \
-	$(PY) -c "from shellrepair import kernels, cholesky; kernels.warm_up(share=2); cholesky.warm_up()" \
-	  || { wait $$first; exit 1; }; wait $$first
+	@echo "compiling the fill's kernels ahead of time (numba.pycc, two processes side by side;"
+	@echo "a run loads them in milliseconds and never imports Numba: shellrepair/compiled.py)"
+	$(PY) -m shellrepair.aot build --part 0 & first=$$!; \
+	$(PY) -m shellrepair.aot build --part 1; second=$$?; wait $$first && [ $$second = 0 ] || { \
+	  echo "the ahead-of-time build failed: compiling the kernels with Numba's JIT instead (cached beside the package)"; \
+	  $(PY) -c "from shellrepair import kernels; kernels.warm_up(share=1)" & first=$$!; \
+	  $(PY) -c "from shellrepair import kernels, cholesky; kernels.warm_up(share=2); cholesky.warm_up()" \
+	    || { wait $$first; exit 1; }; wait $$first; }
+	@echo "compiling the whole-mesh kernels (Numba, once, cached beside the package; used from 400k faces)"
+	$(PY) -c "from shellrepair import fastmesh; fastmesh.warm_up()"
 	touch $(STAMP)
 
 # the shading, which no repair uses: only rendering does (render, the

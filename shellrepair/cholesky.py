@@ -102,18 +102,12 @@ BALANCE = 0.3
 #: Rows of the blocked triangular solves (one BLAS product per block).
 BLOCK = 64
 
-try:
-    if os.environ.get("SHELLREPAIR_NO_NUMBA"):
-        raise ImportError("disabled by SHELLREPAIR_NO_NUMBA")
-    from numba import njit
-    ENABLED = True
-except ImportError:  # fair.py uses libigl's factorisation instead
-    ENABLED = False
+from . import compiled
 
-    def njit(*args, **kwargs):
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
+#: Whether the kernels run (compiled ahead of time, or by Numba's JIT):
+#: :func:`shellrepair.compiled.available`; when False, fair.py uses libigl's factorisation instead.
+ENABLED = compiled.available()
+njit = compiled.kernel
 
 _WARM = False
 _WARM_LOCK = threading.Lock()

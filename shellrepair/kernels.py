@@ -102,18 +102,12 @@ import numpy as np
 
 __all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "liepa_tables", "chord_rows", "ring_walk", "centroids", "nearest_triangle_distances", "warm_up"]
 
-try:
-    if os.environ.get("SHELLREPAIR_NO_NUMBA"):
-        raise ImportError("disabled by SHELLREPAIR_NO_NUMBA")
-    from numba import njit
-    ENABLED = True
-except ImportError:  # the NumPy versions run instead
-    ENABLED = False
+from . import compiled
 
-    def njit(*args, **kwargs):
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
+#: Whether the kernels run (compiled ahead of time, or by Numba's JIT):
+#: :func:`shellrepair.compiled.available`; when False, the NumPy versions run instead.
+ENABLED = compiled.available()
+njit = compiled.kernel
 
 
 # --------------------------------------------------------------------------

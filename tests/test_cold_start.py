@@ -60,11 +60,13 @@ class _Compiles(ev.Listener):
 ev.register("numba:compile", _Compiles())
 
 from shellrepair import cholesky, fastmesh, kernels
+from shellrepair import compiled as built
 
 
 def signatures():
-    table = {f"kernels.{k}": v for k, v in vars(kernels).items() if isinstance(v, CPUDispatcher)}
-    table.update({f"cholesky.{k}": v for k, v in vars(cholesky).items() if isinstance(v, CPUDispatcher)})
+    # the fill's kernels: their JIT dispatchers, where a call fell back to the JIT
+    table = {f"{m.rsplit('.', 1)[1]}.{k}": v.jit for m, ks in built.REGISTRY.items() for k, v in ks.items()
+             if v.jit is not None}
     if fastmesh._K is not None:
         table.update({f"fastmesh.{k}": v for k, v in vars(fastmesh._K).items()})
     return {k: sorted(str(s) for s in d.signatures) for k, d in table.items()}
@@ -119,12 +121,14 @@ if sys.argv[3] == "shapes":
     step("torus, holes across the tube", lambda: repair_mesh((T, G)))
     V, F = shapes.grid(12, 12)
     step("open grid, border filled", lambda: repair_mesh((V, F), fill_borders=True))
-print(json.dumps({"signatures": signatures(), "compiled": compiled, "log": log}))
+print(json.dumps({"signatures": signatures(), "compiled": compiled, "log": log,
+                  "aot": built.aot_loaded(), "jit": built.jit_loaded()}))
 """
 
 
-def _run(code, *args):
-    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_DISABLE_JIT", "SHELLREPAIR_NO_NUMBA")}
+def _run(code, *args, **extra):
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_DISABLE_JIT", "SHELLREPAIR_NO_NUMBA", "SHELLREPAIR_NO_AOT")}
+    env.update(extra)
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     p = subprocess.run([sys.executable, "-c", textwrap.dedent(code), *args], cwd=ROOT, env=env,
                        capture_output=True, text=True, timeout=900)
@@ -134,10 +138,11 @@ def _run(code, *args):
 
 @pytest.fixture(scope="module")
 def warm():
-    """What ``make setup``'s warm-ups compile: kernel -> signatures."""
+    """What the JIT warm-ups compile (``make setup``'s build where the
+    ahead-of-time one fails; ``fastmesh.warm_up`` always): kernel -> signatures."""
     if os.environ.get("SHELLREPAIR_NO_NUMBA"):
         pytest.skip("SHELLREPAIR_NO_NUMBA is set: the kernels are off")
-    return _run(_SETUP)["signatures"]
+    return _run(_SETUP, SHELLREPAIR_NO_AOT="1")["signatures"]
 
 
 def _beyond_warm_up(run, warm):
@@ -166,6 +171,9 @@ def test_make_repair_compiles_nothing_after_setup(warm, tmp_path):
     assert [name for name, _ in run["log"]][:2] == [f"make repair {BUNNY}", f"large-scan paths {BUNNY}"]
     assert compiled == [], f"compiled at run time: {compiled} (steps: {run['log']})"
     assert extra == {}, f"signatures the warm-ups do not compile: {extra}"
+    # where the ahead-of-time kernels are built, no call fell back to the JIT
+    # (shellrepair/aot_types.json covers every type these repairs pass)
+    assert run["jit"] is not run["aot"], ("aot", run["aot"], "jit", run["jit"])
 
 
 @pytest.mark.parametrize("name", ["real_rangescan_dragon_000.ply", "real_bunny_pymeshfix_decimated.ply"])
@@ -178,6 +186,7 @@ def test_real_scans_compile_nothing_after_setup(warm, tmp_path, name):
     compiled, extra = _beyond_warm_up(run, warm)
     assert compiled == [], f"compiled at run time: {compiled}"
     assert extra == {}, f"signatures the warm-ups do not compile: {extra}"
+    assert run["jit"] is not run["aot"], ("aot", run["aot"], "jit", run["jit"])
 
 
 _NEEDS_MAKE = pytest.mark.skipif(
@@ -185,8 +194,8 @@ _NEEDS_MAKE = pytest.mark.skipif(
     reason="needs make and the checkout's Makefile")
 #: The build steps: the fill's (stamp .venv/.shellrepair-built), then the
 #: shading's (.venv/.shellrepair-built-shading), which no repair uses.
-_FILL_STEPS = ("compileall", "kernels.warm_up(share=1)", "kernels.warm_up(share=2)", "cholesky.warm_up()",
-               "fastmesh.warm_up()")
+_FILL_STEPS = ("compileall", "shellrepair.aot build --part 0", "shellrepair.aot build --part 1",
+               "kernels.warm_up(share=1)", "kernels.warm_up(share=2)", "cholesky.warm_up()", "fastmesh.warm_up()")
 _SHADING_STEPS = ("from shellrepair.shading import rho_dt_table", "from shellrepair.reflectance import warm_up")
 
 

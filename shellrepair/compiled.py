@@ -1,0 +1,274 @@
+"""The compiled kernels: machine code built ahead of time, Numba's JIT behind it.
+
+The kernels of :mod:`shellrepair.kernels` and :mod:`shellrepair.cholesky`
+are written once, as Numba functions, and marked with :func:`kernel` (in
+place of ``numba.njit``). ``make setup`` (``python -m shellrepair.aot
+build``) compiles them ahead of time, for the argument types listed in
+``shellrepair/aot_types.json``, into extension modules beside this file
+(``_aot_<source hash>_<part>*.so``). A run then imports those modules in
+a few milliseconds and never imports Numba: on this project's 2-core
+machine ``import numba`` alone takes 1.5-1.8 s and loading the cached JIT
+kernels a small repair uses another 1-1.3 s (a sphere with one small hole:
+4.4-5.1 s wall with the JIT, against 1.4-1.6 s with the NumPy versions).
+
+A call whose argument types are not among the compiled ones (another
+dtype, a strided view, a read-only array), or any call when the modules
+are missing or were built from other sources (the module name carries a
+hash of the kernels' files, so a ``git pull`` without ``make`` never runs
+stale code), goes to Numba's JIT instead, which compiles or loads the
+kernel from its cache as before. Both are the same source compiled by the
+same LLVM without fast-math, so they give the same bits (tests/test_aot.py
+compares them); only the time differs.
+
+Environment: ``SHELLREPAIR_NO_AOT=1`` skips the compiled modules (the JIT
+only), ``SHELLREPAIR_NO_NUMBA=1`` turns every kernel off (callers use their
+NumPy versions, as without Numba).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import inspect
+import os
+import threading
+import types
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["kernel", "available", "aot_loaded", "jit_loaded", "source_hash", "TYPES_FILE", "PARTS", "describe"]
+
+HERE = Path(__file__).resolve().parent
+#: The argument types compiled ahead of time (written by ``python -m shellrepair.aot record``).
+TYPES_FILE = HERE / "aot_types.json"
+#: The modules whose kernels are compiled ahead of time (their source is hashed).
+MODULES = ("shellrepair.kernels", "shellrepair.cholesky")
+#: Extension modules the kernels are split into (built side by side, one process each).
+PARTS = 2
+
+_NO_NUMBA = bool(os.environ.get("SHELLREPAIR_NO_NUMBA"))
+_NO_AOT = bool(os.environ.get("SHELLREPAIR_NO_AOT"))
+
+#: Every kernel, by module then name, in definition order.
+REGISTRY: dict[str, dict[str, "Kernel"]] = {}
+
+_LOCK = threading.RLock()
+_AOT = None          # {(module, name): {arg types: function}} once looked up; {} when there is none
+_JIT = False         # whether Numba's dispatchers were made
+_RECORD = None       # set of (module, name, arg types) when recording
+
+
+def source_hash() -> str:
+    """The first 12 hex digits of a SHA-256 over the kernels' source files
+    and the types file: the compiled modules' names carry it."""
+    h = hashlib.sha256()
+    for name in MODULES:
+        h.update((HERE / (name.rsplit(".", 1)[1] + ".py")).read_bytes())
+    h.update(TYPES_FILE.read_bytes() if TYPES_FILE.exists() else b"")
+    return h.hexdigest()[:12]
+
+
+def _aot_names(digest=None):
+    digest = digest or source_hash()
+    return [f"_aot_{digest}_{p}" for p in range(PARTS)]
+
+
+_BUILT = None
+
+
+def _aot_built() -> bool:
+    """Whether the compiled modules for these sources are there (looked up once)."""
+    global _BUILT
+    if _BUILT is None:
+        _BUILT = not (_NO_AOT or _NO_NUMBA) and all(
+            importlib.util.find_spec(f"shellrepair.{n}") is not None for n in _aot_names())
+    return _BUILT
+
+
+def available() -> bool:
+    """Whether kernels run at all: the compiled modules are built for these
+    sources, or Numba can be imported (and ``SHELLREPAIR_NO_NUMBA`` is unset)."""
+    if _NO_NUMBA:
+        return False
+    return _aot_built() or importlib.util.find_spec("numba") is not None
+
+
+def describe(v):
+    """The key of an argument's Numba type, as the compiled table spells it:
+    an array by (dtype, ndim, layout, writeable, aligned), a scalar by its
+    dtype, a tuple by its items, None as None. What Numba would type
+    otherwise (a list, a function) gets a key no compiled function has."""
+    t = type(v)
+    if t is np.ndarray:
+        f = v.flags
+        return (v.dtype.str, v.ndim, "C" if f.c_contiguous else "F" if f.f_contiguous else "A",
+                bool(f.writeable), bool(f.aligned))
+    if t is float:
+        return "<f8"
+    if t is bool:
+        return "|b1"
+    if t is int:
+        return "<i8" if -2 ** 63 <= v < 2 ** 63 else ("?", "int")
+    if v is None:
+        return None
+    if t is tuple:
+        return ("t",) + tuple(describe(x) for x in v)
+    if isinstance(v, np.generic):
+        return v.dtype.str
+    return ("?", t.__name__)
+
+
+def _frozen(x):
+    """JSON lists back to the tuples :func:`describe` gives."""
+    return tuple(_frozen(y) for y in x) if isinstance(x, list) else x
+
+
+def read_types(path=TYPES_FILE):
+    """The types file as ``[(module, name, arg keys), ...]`` in its order."""
+    import json
+
+    if not Path(path).exists():
+        return []
+    rows = json.loads(Path(path).read_text())
+    return [(m, n, _frozen(a)) for m, n, a in rows]
+
+
+def symbol(i: int) -> str:
+    """The compiled function of the types file's row ``i``."""
+    return f"k{i}"
+
+
+def part_of(i: int) -> int:
+    """Which compiled module holds row ``i``."""
+    return i % PARTS
+
+
+def _load_aot():
+    global _AOT
+    with _LOCK:
+        if _AOT is not None:
+            return _AOT
+        table = {}
+        if _aot_built():
+            digest = source_hash()
+            mods = [importlib.import_module(f"shellrepair.{n}") for n in _aot_names(digest)]
+            for i, (m, n, args) in enumerate(read_types()):
+                table.setdefault((m, n), {})[args] = getattr(mods[part_of(i)], symbol(i))
+        _AOT = table
+        return table
+
+
+def aot_loaded() -> bool:
+    """Whether the compiled modules are in use in this process."""
+    return bool(_load_aot())
+
+
+def jit_loaded() -> bool:
+    """Whether this process made Numba's dispatchers (a call fell back to the JIT)."""
+    return _JIT
+
+
+def _make_jit():
+    """Numba dispatchers for every registered kernel. Each wraps a copy of
+    the Python function whose globals name the other kernels' dispatchers
+    (Numba resolves a kernel's callees from its globals when it compiles
+    it); the modules' own names stay :class:`Kernel` objects."""
+    global _JIT
+    with _LOCK:
+        if _JIT:
+            return
+        from numba import njit
+
+        for module, kernels in REGISTRY.items():
+            g = dict(vars(importlib.import_module(module)))
+            for name, k in kernels.items():
+                f = k.py_func
+                copy = types.FunctionType(f.__code__, g, f.__name__, f.__defaults__, f.__closure__)
+                copy.__qualname__, copy.__module__, copy.__doc__ = f.__qualname__, f.__module__, f.__doc__
+                copy.__kwdefaults__ = f.__kwdefaults__
+                k.jit = njit(**k.options)(copy)
+                g[name] = k.jit
+        _JIT = True
+
+
+class Kernel:
+    """A kernel: calls the compiled function for the arguments' types when
+    there is one, else Numba's JIT dispatcher (made on first need)."""
+
+    def __init__(self, py_func, options):
+        self.py_func = py_func
+        self.options = options
+        self.module = py_func.__module__
+        self.name = py_func.__name__
+        self.jit = None
+        self._table = None
+        sig = inspect.signature(py_func)
+        self._params = list(sig.parameters.values())
+        self.__doc__ = py_func.__doc__
+        self.__wrapped__ = py_func
+
+    def _bind(self, args, kwargs):
+        out = list(args)
+        for p in self._params[len(args):]:
+            if p.name in kwargs:
+                out.append(kwargs[p.name])
+            elif p.default is not inspect.Parameter.empty:
+                out.append(p.default)
+            else:
+                raise TypeError(f"{self.name}() missing argument {p.name!r}")
+        return out
+
+    def __call__(self, *args, **kwargs):
+        table = self._table
+        if table is None:
+            table = self._table = _load_aot().get((self.module, self.name), {})
+        if (table or _RECORD is not None) and (kwargs or len(args) != len(self._params)):
+            args, kwargs = self._bind(args, kwargs), {}
+        if table or _RECORD is not None:
+            key = tuple(describe(a) for a in args)
+            if _RECORD is not None:
+                _RECORD.add((self.module, self.name, key))
+            f = table.get(key)
+            if f is not None:
+                return f(*args)
+        if self.jit is None:
+            _make_jit()
+        return self.jit(*args, **kwargs)
+
+    def __repr__(self):
+        return f"<kernel {self.module}.{self.name}>"
+
+
+def kernel(*args, **options):
+    """Mark a Numba kernel (``@kernel(cache=True, nogil=True)``, the options
+    ``numba.njit`` takes). Returns a :class:`Kernel`, or the function itself
+    when kernels are off (``SHELLREPAIR_NO_NUMBA``, or neither the compiled
+    modules nor Numba are there): callers then test their module's
+    ``ENABLED`` and run the NumPy versions."""
+    def wrap(f):
+        if not available():
+            return f
+        k = Kernel(f, options)
+        REGISTRY.setdefault(k.module, {})[k.name] = k
+        return k
+
+    if args and callable(args[0]):
+        return wrap(args[0])
+    return wrap
+
+
+def start_recording():
+    """Record the argument types of every kernel called from Python from
+    now on (``python -m shellrepair.aot record``)."""
+    global _RECORD
+    _RECORD = set()
+    for ks in REGISTRY.values():
+        for k in ks.values():
+            k._table = None
+
+
+def recorded():
+    """The recorded ``(module, name, arg keys)`` rows, sorted."""
+    return sorted(_RECORD or (), key=repr)
