@@ -64,7 +64,8 @@ CHOLMOD would add a C library and a source build to the install
 (scikit-sparse has no wheel, and its 0.5 release does not build against
 Debian 12's SuiteSparse). Holes of at most ``SMALL_UNKNOWNS`` unknowns
 (:mod:`shellrepair.fair`) never load this module. The load cost is what
-an ahead-of-time build of these kernels would remove.
+the ahead-of-time build of these kernels (:mod:`shellrepair.compiled`,
+``make setup``) removes: measured with Numba's JIT, it is now milliseconds.
 
 The result agrees with libigl's to round-off, not to the bit (another
 ordering sums in another order): ``tests/test_cholesky.py`` checks the
@@ -76,7 +77,6 @@ where a front is not positive definite: :class:`NotPositiveDefinite`).
 
 from __future__ import annotations
 
-import os
 import threading
 
 import numpy as np
@@ -756,8 +756,9 @@ def factor(Q, leaf=LEAF):
 
 
 def warm_up():
-    """Compile (or load from the on-disk cache) the kernels on a small
-    system; False without Numba."""
+    """Compile with Numba's JIT (or load from its on-disk cache) the kernels
+    on a small system, or run their ahead-of-time build where it is there
+    (:mod:`shellrepair.compiled`); False when the kernels are off."""
     global _WARM
     if not ENABLED:
         return False

@@ -272,3 +272,14 @@ def start_recording():
 def recorded():
     """The recorded ``(module, name, arg keys)`` rows, sorted."""
     return sorted(_RECORD or (), key=repr)
+
+
+def stop_recording():
+    """Stop recording; returns :func:`recorded`'s rows."""
+    global _RECORD
+    rows = recorded()
+    _RECORD = None
+    for ks in REGISTRY.values():
+        for k in ks.values():
+            k._table = None
+    return rows

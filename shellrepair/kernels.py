@@ -86,11 +86,16 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   triangles' edges and normals and the minimum-weight search over them by
   interval length (:func:`shellrepair.triangulate.restricted_dp`).
 
-Compilation is cached (``cache=True``, under ``__pycache__`` beside this
-file); :func:`warm_up` compiles every kernel on tiny inputs, and
-``make setup`` calls it once so no user run waits for the compiler. When
-Numba is missing (``SHELLREPAIR_NO_NUMBA=1`` forces that too), ``ENABLED`` is
-False and callers use the NumPy versions.
+Each kernel is marked :func:`shellrepair.compiled.kernel`: ``make setup``
+compiles them ahead of time (``python -m shellrepair.aot build``) for the
+argument types of ``shellrepair/aot_types.json``, so that a run loads them
+in milliseconds and never imports Numba; a call with other types goes to
+Numba's JIT (cached on disk, ``cache=True``, under ``__pycache__`` beside
+this file), with the same bits. :func:`warm_up` compiles every kernel with
+the JIT on tiny inputs (the build's way where the ahead-of-time build
+fails, and what ``python -m shellrepair.aot record`` watches to list the
+types). When neither is there (``SHELLREPAIR_NO_NUMBA=1`` forces that
+too), ``ENABLED`` is False and callers use the NumPy versions.
 """
 
 from __future__ import annotations
@@ -4357,11 +4362,11 @@ _WARM_LOCK = threading.Lock()
 def warm_up(share=None):
     """Compile (or load from the on-disk cache) every kernel on tiny inputs.
 
-    Called by ``make setup`` (the compile, once per machine) and by the
-    benchmarks before they time a tool. A repair does not call it: each
-    kernel loads from the cache when first called, so a run loads only
-    the kernels it uses (on a small scan 27 of them; loading all took
-    0.5 s there). Returns whether the kernels are in use.
+    Called by ``make setup`` where the ahead-of-time build fails (the
+    compile, once per machine), by ``python -m shellrepair.aot record``
+    and by the benchmarks before they time a tool. A repair does not call
+    it. With the ahead-of-time modules built, the calls here run those
+    (nothing compiles). Returns whether the kernels are in use.
 
     ``share`` 1 or 2 compiles only that half of the kernels (about 55 and
     35 s of compiling on a fresh checkout): the build runs the two in

@@ -16,7 +16,7 @@ errors by their message.
 import numpy as np
 import pytest
 
-from shellrepair import kernels
+from shellrepair import compiled, kernels
 from shellrepair import triangulate as tr
 from shellrepair.errors import MeshError
 from test_triangulate import all_triples, assert_disc, rim_normals, wavy_loop
@@ -165,17 +165,32 @@ def test_restricted_search_raises_the_same_error_without_a_triangulation():
         assert isinstance(_same(P, all_triples(4), np.zeros((4, 3)), forb, None), str)
 
 
-def test_restricted_search_is_compiled_once_by_warm_up():
-    """warm_up compiles the search for the types restricted_dp passes: a
-    call after it adds no signature."""
-    kernels.warm_up()
-    dispatchers = (kernels._restricted_prepare, kernels._restricted_search)
-    before = [set(d.signatures) for d in dispatchers]
+def _kernel_calls(run):
+    """The (name, argument types) of every compiled-kernel call ``run()``
+    makes, and whether each is one the install compiles ahead of time."""
+    compiled.start_recording()
+    try:
+        run()
+    finally:
+        rows = compiled.stop_recording()
+    built = {(m, n, a) for m, n, a in compiled.read_types()}
+    return {(n, (m, n, a) in built) for m, n, a in rows}
+
+
+@pytest.mark.skipif(not kernels.ENABLED, reason="compiled kernels are off")
+def test_restricted_search_runs_compiled_for_every_input_type():
+    """Whatever dtypes the caller gives, restricted_dp hands its kernels the
+    types the install compiles ahead of time: no call waits on the JIT."""
     rng = np.random.default_rng(1)
     P = wavy_loop(12, rng)
-    tr.restricted_dp(P, all_triples(12), rim_normals(P), {(0, 5)}, _axis(P))
-    tr.restricted_dp(P, all_triples(12).astype(np.int32), np.zeros((12, 3), np.float32), set(), None)
-    assert [set(d.signatures) for d in dispatchers] == before and all(before)
+
+    def run():
+        tr.restricted_dp(P, all_triples(12), rim_normals(P), {(0, 5)}, _axis(P))
+        tr.restricted_dp(P, all_triples(12).astype(np.int32), np.zeros((12, 3), np.float32), set(), None)
+
+    calls = _kernel_calls(run)
+    assert {n for n, _ in calls} >= {"_restricted_prepare", "_restricted_search"}
+    assert all(ok for _, ok in calls), sorted(calls)
 
 
 def test_candidates_outside_the_loop_are_left_to_numpy():
@@ -300,16 +315,20 @@ def test_compiled_chord_search_is_the_row_by_row_one(seed):
         _answer(tr._best_chord_rows, P, np.arange(k), everything)
 
 
-def test_liepa_tables_are_compiled_once_by_warm_up():
-    """warm_up compiles the tables for the types _dp passes (with and
-    without an axis): a call after it adds no signature."""
-    kernels.warm_up()
-    before = set(kernels._liepa_tables.signatures)
+@pytest.mark.skipif(not kernels.ENABLED, reason="compiled kernels are off")
+def test_liepa_tables_run_compiled_with_and_without_an_axis():
+    """The tables _dp passes (with and without an axis) are among the types
+    the install compiles ahead of time."""
     rng = np.random.default_rng(2)
     P = wavy_loop(12, rng)
-    for axis in (None, _axis(P)):
-        _answer(tr._dp, P, np.arange(12), rim_normals(P), {(0, 5)}, axis)
-    assert set(kernels._liepa_tables.signatures) == before and before
+
+    def run():
+        for axis in (None, _axis(P)):
+            _answer(tr._dp, P, np.arange(12), rim_normals(P), {(0, 5)}, axis)
+
+    calls = _kernel_calls(run)
+    assert "_liepa_tables" in {n for n, _ in calls}
+    assert all(ok for _, ok in calls), sorted(calls)
 
 
 # --------------------------------------------------------------------------
