@@ -24,7 +24,7 @@ SYSLIBS  = libusb-1.0-0 libgomp1 libgl1
 # python3 -m venv needs ensurepip, which Debian ships apart
 VENVLIB  = $(shell python3 -c 'import ensurepip' >/dev/null 2>&1 || python3 -c 'import sys; print("python%d.%d-venv" % sys.version_info[:2])')
 
-.PHONY: setup syslibs browser test holes repair render batch bench bench-scale bench-scale-profile bench-solvers table1 clean appearance stress regret docs
+.PHONY: setup syslibs browser test test-all holes repair render batch bench bench-scale bench-scale-profile bench-solvers table1 clean appearance stress regret docs
 
 # `make setup` forces the install and both builds; every target that runs the
 # package depends on the build stamp it needs (the fill's, or the shading's
@@ -88,8 +88,14 @@ syslibs:
 	fi
 
 # the tests on every core (pytest-xdist; tests/conftest.py locks Numba's cache
-# for the workers); one process: .venv/bin/python -m pytest -n 0
-test: $(SHADING) $(TESTTOOLS) browser
+# for the workers); one process: .venv/bin/python -m pytest -n 0.
+# `make test` leaves out the tests marked slow (fresh processes, whole
+# batches, a browser, the JIT fallback: about a tenth of them, half the
+# time); `make test-all` runs every test, as CI does (.ci/run)
+test: $(SHADING) $(TESTTOOLS)
+	$(PY) -m pytest -n auto -m "not slow"
+
+test-all: $(SHADING) $(TESTTOOLS) browser
 	$(PY) -m pytest -n auto
 
 # the HTML report's test opens the page in Debian's headless chromium;

@@ -202,6 +202,7 @@ def _assert_reads_as_aged_gilt_bronze(img):
 
 
 @pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.slow
 def test_default_aged_bunny_shows_gilding_and_patina_in_patches(seed):
     _assert_reads_as_aged_gilt_bronze(_aged_render(BUNNY, (0, 1, 0), seed=seed))
 

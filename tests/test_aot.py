@@ -78,6 +78,7 @@ def _repair(src, out, **env):
 
 
 @_built
+@pytest.mark.slow
 def test_a_repair_runs_the_compiled_kernels_and_never_imports_numba(tmp_path):
     """The bundled scan (5 holes) repaired in a fresh process: every kernel
     call finds its compiled function (none falls back to the JIT) and Numba

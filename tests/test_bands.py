@@ -182,6 +182,7 @@ def test_a_band_whose_guide_fills_its_budget_gets_the_tube_resampled_on_the_fair
     assert rep["holes"][0]["new_vertices"] <= 1.25 * rep0["holes"][0]["new_vertices"]
 
 
+@pytest.mark.slow
 def test_a_band_seen_both_ways_whose_tubes_all_cross_is_mended_before_it_is_capped():
     """A random scanner case (stress seed 33333, case 11: a torus of ratio
     0.3, 31 % unseen from 3 views): each loop's arcs land on the other (42
@@ -694,6 +695,7 @@ def test_holes_whose_caps_cross_each_other_are_joined_by_a_tube(monkeypatch):
     assert filled_rms_permille(V, F, R) < 5.0
 
 
+@pytest.mark.slow
 def test_a_fat_torus_seen_from_a_ring_keeps_its_genus():
     """Stress case s86420-04 (torus r/R = 0.7, 4 views): two coaxial loops
     on the inner side send half their arcs to each other and half to
@@ -717,6 +719,7 @@ def test_a_fat_torus_seen_from_a_ring_keeps_its_genus():
     pytest.param("inner", 5, marks=pytest.mark.xfail(strict=True, reason=(
         "the test bands rank the held tube (0.00087) just ahead of order 3 (0.00098); "
         "on the real band order 3 is truer (0.127 against 0.279 per mille)")))])
+@pytest.mark.slow
 def test_a_tubes_default_is_as_true_as_its_best_forced_order(kind, ratio):
     """The tube's order, and whether it is held on its arcs or faired, come
     from test bands of the tube's own kind cut beside its loops; where the

@@ -41,6 +41,7 @@ def _write_scans(folder, meshes):
         write_mesh(folder / name, Mesh(V=V, F=F))
 
 
+@pytest.mark.slow
 def test_jobs_do_not_change_the_output(tmp_path, many_holes):
     V, F = many_holes
     holes = len(edge_topology(F, len(V)).boundary_he)
@@ -64,6 +65,7 @@ def test_jobs_do_not_change_the_output(tmp_path, many_holes):
     assert edge_topology(out.F, len(out.V)).n_boundary_edges == 0
 
 
+@pytest.mark.slow
 def test_batch_goes_on_past_a_bad_scan(tmp_path, capsys, many_holes):
     V, F = shapes.icosphere(3)
     V2, F2 = ball_perforate(V, F, n_holes=3, radius=0.15, seed=1)
@@ -93,6 +95,7 @@ def test_batch_goes_on_past_a_bad_scan(tmp_path, capsys, many_holes):
         assert any(ln.startswith(name) for ln in cap.out.splitlines())
 
 
+@pytest.mark.slow
 def test_all_good_exits_0_and_json_summary(tmp_path, capsys):
     V, F = shapes.icosphere(3)
     _write_scans(tmp_path / "in", {"x.ply": ball_perforate(V, F, 2, 0.15, seed=2)})
@@ -135,6 +138,7 @@ def test_jobs_default_to_the_cores_there_are_in_batch_and_repair(tmp_path, capsy
     assert "jobs must be a whole number, at least 1, got 0" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_same_stem_gets_distinct_outputs(tmp_path):
     V, F = shapes.icosphere(2)
     V2, F2 = ball_perforate(V, F, 1, 0.3, seed=0)
@@ -325,6 +329,7 @@ def test_the_collection_page_reads_each_report_once_and_equals_a_fresh_build(tmp
     assert (tmp_path / "fresh" / batch.INDEX_NAME).read_text() == written
 
 
+@pytest.mark.slow
 def test_a_scan_with_holes_the_fill_could_not_close_is_partial_not_ok(tmp_path, capsys):
     import sys
     sys.path.insert(0, os.path.dirname(__file__))

@@ -49,6 +49,7 @@ def _without_times(report):
     return [{k: v for k, v in h.items() if k != "seconds"} for h in report["holes"]]
 
 
+@pytest.mark.slow
 def test_the_helper_tests_and_builds_order_3_and_changes_no_bit(smooth_holes, monkeypatch):
     seen = _record_threads(monkeypatch)
     taken = []
@@ -74,6 +75,7 @@ def test_the_helper_tests_and_builds_order_3_and_changes_no_bit(smooth_holes, mo
     assert rep2["holes_after"] == 0
 
 
+@pytest.mark.slow
 def test_work_the_helper_has_not_begun_is_done_by_the_fill(smooth_holes, monkeypatch):
     """The fill takes back what the helper has not begun (it cancels it)
     and does it itself: the same output."""
@@ -135,6 +137,7 @@ def _repair_in_a_daemon(mesh, queue):
     queue.put((R.V, R.F, rep["holes_after"]))
 
 
+@pytest.mark.slow
 def test_a_daemonic_process_fills_its_runs_itself():
     """A worker of a multiprocessing pool may not start processes: with
     more runs of holes than one, ``jobs=2`` there fills them in its own

@@ -38,6 +38,7 @@ def _run(code, *args, env=None):
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_the_two_shares_make_what_one_warm_up_makes_and_share_no_kernel():
     # each in its own interpreter, as the build runs them. Loaded from the
     # cache the build left, only the kernels called from Python have
@@ -54,6 +55,7 @@ def test_the_two_shares_make_what_one_warm_up_makes_and_share_no_kernel():
     assert missing == {}, f"warm_up() compiles these, neither share does: {missing}"
 
 
+@pytest.mark.slow
 def test_the_cache_lock_wraps_numbas_load_and_save(tmp_path):
     # a kernel cached in a fresh folder under the lock: the lock file sits
     # beside its index, and a second interpreter loads it from there

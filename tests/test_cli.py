@@ -82,6 +82,7 @@ def _commands(tmp_path):
 
 
 @pytest.mark.parametrize("cmd", ["holes", "repair", "batch", "render"])
+@pytest.mark.slow
 def test_quiet_prints_nothing_and_draws_no_bar_on_a_terminal(tmp_path, monkeypatch, capsys, cmd):
     args = _commands(tmp_path)[cmd]
     tty = _Tty()
@@ -126,6 +127,7 @@ def test_quiet_errors_are_still_one_line_with_the_same_exit_status(tmp_path, cap
     assert out == "" and err == loud and err.count("\n") == 1 and err.startswith(f"error: {bad}: ")
 
 
+@pytest.mark.slow
 def test_quiet_batch_still_names_each_failed_scan_on_stderr_and_exits_2(tmp_path, capsys):
     args = _commands(tmp_path)["batch"]
     (tmp_path / "in" / "bad.stl").write_bytes(b"not an stl")

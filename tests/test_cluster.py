@@ -77,6 +77,7 @@ def assert_same_outputs(a, b):
             assert (a / name).read_bytes() == (b / name).read_bytes(), name
 
 
+@pytest.mark.slow
 def test_jobs_1_and_2_write_the_same_bytes(scans, tmp_path, capsys):
     out = tmp_path / "out"
     runs = {}
@@ -120,6 +121,7 @@ def cluster():
         yield c
 
 
+@pytest.mark.slow
 def test_existing_scheduler_one_task_per_scan_same_page_and_pictures(tmp_path, cluster, monkeypatch):
     from shellrepair.progress import TerminalBar
 
@@ -162,6 +164,7 @@ def test_unreachable_scheduler_is_one_line_exit_2(scans, tmp_path, capsys, monke
     assert not out.exists()  # nothing written, not even the folder
 
 
+@pytest.mark.slow
 def test_a_scan_that_kills_its_worker_is_a_failed_row(tmp_path, monkeypatch):
     folder = tmp_path / "scans"
     folder.mkdir()

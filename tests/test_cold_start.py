@@ -154,6 +154,7 @@ def _beyond_warm_up(run, warm):
     return compiled, {k: v for k, v in extra.items() if v}
 
 
+@pytest.mark.slow
 def test_warm_up_compiles_each_kernel_for_some_types(warm):
     # every kernel a Python function calls has a signature after the warm-ups
     # (the helpers only other kernels call have none: their code is inside
@@ -165,6 +166,7 @@ def test_warm_up_compiles_each_kernel_for_some_types(warm):
     assert all(v for k, v in warm.items() if k.startswith("fastmesh."))
 
 
+@pytest.mark.slow
 def test_make_repair_compiles_nothing_after_setup(warm, tmp_path):
     run = _run(_REPAIR, str(tmp_path), json.dumps([str(BUNNY)]), "shapes")
     compiled, extra = _beyond_warm_up(run, warm)
@@ -177,6 +179,7 @@ def test_make_repair_compiles_nothing_after_setup(warm, tmp_path):
 
 
 @pytest.mark.parametrize("name", ["real_rangescan_dragon_000.ply", "real_bunny_pymeshfix_decimated.ply"])
+@pytest.mark.slow
 def test_real_scans_compile_nothing_after_setup(warm, tmp_path, name):
     # an open sheet with islands and pinched holes; a dirty mesh with
     # non-manifold edges: the cleaning and border paths of other scans
@@ -214,6 +217,7 @@ def _plan(module, *goal):
 @pytest.mark.parametrize("goal, run", [(("repair",), "shellrepair.cli repair"),
                                        (("holes",), "shellrepair.cli holes"),
                                        (("batch", "ARGS=--no-html"), "shellrepair.cli batch")])
+@pytest.mark.slow
 def test_a_changed_module_is_built_before_the_next_run(module, goal, run):
     # `make repair` first remakes the fill's build stamp, whose recipe
     # byte-compiles the package and runs the fill's warm-ups, and builds
@@ -235,6 +239,7 @@ def test_a_changed_module_is_built_before_the_next_run(module, goal, run):
 @pytest.mark.parametrize("goal, run", [(("render",), "shellrepair.cli render"), (("test",), "-m pytest"),
                                        (("batch",), "shellrepair.cli batch"),
                                        (("repair", "ARGS=--html x.html"), "shellrepair.cli repair")])
+@pytest.mark.slow
 def test_what_draws_builds_the_shading_after_the_fill(module, goal, run):
     # render, the pictures of batch's and repair --html's pages, and the
     # tests use the shading: the fill's build, then the shading's, then the run
@@ -268,6 +273,7 @@ print(json.dumps(sorted(m for m in sys.modules if m.startswith("shellrepair"))))
 """
 
 
+@pytest.mark.slow
 def test_a_repair_uses_nothing_of_the_shading(tmp_path):
     # what `make repair` (and holes, batch --no-html) leave unbuilt must not
     # be needed: the run imports no module of the shading and so neither

@@ -71,6 +71,7 @@ CASES = [(5, 4), (1, 4), (3, 1)]
 
 
 @pytest.mark.parametrize("index,seed", CASES)
+@pytest.mark.slow
 def test_a_repair_under_a_racing_clock_writes_the_same_bytes(tmp_path, monkeypatch, index, seed):
     V, F = _stress_case(index, seed)
     calm, report = _repair_bytes(tmp_path, f"s{seed}-{index}", V, F, False, monkeypatch)

@@ -25,6 +25,7 @@ def test_python_blocks_are_found_in_markdown():
     assert python_blocks(text) == ["a = 1\n", "b = a\n"]
 
 
+@pytest.mark.slow
 def test_worked_example_runs_as_written(tmp_path, monkeypatch):
     blocks = python_blocks(EXAMPLE.read_text())
     assert len(blocks) >= 5

@@ -160,6 +160,7 @@ def _scan_edges_by_walk(loop, T):
     return out
 
 
+@pytest.mark.slow
 def test_scan_edges_list_the_triangles_edges_slot_by_slot():
     rng = np.random.default_rng(3)
     for i in range(500):

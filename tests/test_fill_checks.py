@@ -10,6 +10,7 @@ spike's two scan faces passed them (seed 8, case 14: 2 pairs added).
 """
 
 import numpy as np
+import pytest
 
 from shellrepair import Mesh
 from eval import shapes
@@ -96,6 +97,7 @@ def test_checks_of_many_patches_at_once_are_those_of_each():
                      "patch would cross the scan", "non-finite patch positions", None]
 
 
+@pytest.mark.slow
 def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(monkeypatch):
     # a random scanner case (stress seed 61803, case 15: a genus-2 solid
     # 28 % unseen from 9 views): hole 3's patch crossed hole 2's and the

@@ -92,6 +92,7 @@ document.getElementById('f').addEventListener('load', function () {
 """
 
 
+@pytest.mark.slow
 def test_collection_page_in_a_real_browser(tmp_path):
     browser = _chromium()
     if browser is None:
@@ -115,6 +116,7 @@ def test_collection_page_in_a_real_browser(tmp_path):
     assert r["hole_rows"] == [n_holes["a.ply"], n_holes["b.ply"]]
 
 
+@pytest.mark.slow
 def test_collection_page_of_the_real_scans(tmp_path):
     browser = _chromium()
     if browser is None:
@@ -155,6 +157,7 @@ def _open_in_browser(browser, out, tmp_path):
     return r
 
 
+@pytest.mark.slow
 def test_repair_command_writes_the_page_with_the_mesh(tmp_path):
     from shellrepair.cli import main
 

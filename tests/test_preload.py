@@ -45,6 +45,7 @@ def _run(preload):
     return r.stdout.split()
 
 
+@pytest.mark.slow
 def test_a_repair_started_while_the_kernels_load_gives_the_same_mesh():
     with_preload, without = _run(True), _run(False)
     assert with_preload[:3] == without[:3]

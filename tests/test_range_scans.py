@@ -71,6 +71,7 @@ def assert_range_scan_repaired(src, tmp_path):
 
 
 @pytest.mark.parametrize("view", [(0.3, 1.0, 0.1), (0.0, 1.0, -0.4), (-0.4, 1.0, 0.3)])
+@pytest.mark.slow
 def test_a_range_scan_of_a_scene_is_filled_without_crossing(tmp_path, view):
     P, T = shapes.range_scan(*_scene(), view=view, resolution=160)
     src = tmp_path / "scan.ply"
@@ -81,6 +82,7 @@ def test_a_range_scan_of_a_scene_is_filled_without_crossing(tmp_path, view):
 
 
 @pytest.mark.parametrize("name", ["armadillo", "rocker_arm_genus1", "nefertiti_bust", "cheburashka"])
+@pytest.mark.slow
 def test_range_scans_of_real_meshes_are_filled_without_crossing(tmp_path, name):
     m = read_mesh(shared_scan(f"closed_{name}.ply"))
     for k, view in enumerate([(0.3, -1.0, 0.4), (-0.5, 0.5, 1.0)]):
@@ -91,6 +93,7 @@ def test_range_scans_of_real_meshes_are_filled_without_crossing(tmp_path, name):
         assert_range_scan_repaired(d / "scan.ply", d)
 
 
+@pytest.mark.slow
 def test_the_real_dragon_range_scan_gains_no_self_intersecting_face(tmp_path):
     src = tmp_path / "dragon.ply"
     src.write_bytes(shared_scan("real_rangescan_dragon_000.ply").read_bytes())

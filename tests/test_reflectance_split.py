@@ -72,6 +72,7 @@ def test_materials_facade_names_are_the_split_modules_objects():
 
 @pytest.mark.parametrize("first", ["shellrepair.shader", "shellrepair.materials", "shellrepair.coverage",
                                    "shellrepair.shading", "shellrepair.reflectance.layered"])
+@pytest.mark.slow
 def test_any_module_can_be_imported_first(first):
     code = ("import %s; from shellrepair.materials import *; from shellrepair.shading import *; "
             "import shellrepair.shader as s; assert MaterialShader is s.MaterialShader" % first)

@@ -95,6 +95,7 @@ def test_near_faces_of_the_region_hold_every_face_meeting_the_box(monkeypatch):
 
 
 @pytest.mark.parametrize("grow, rings", [(patch.LOCAL_GROW, patch.LOCAL_RING_EDGES), (0.0, 0)])
+@pytest.mark.slow
 def test_a_repair_from_the_region_equals_the_whole_mesh_repair(grow, rings, monkeypatch):
     """Bit for bit, with the region as built and with boxes so tight that
     queries fall outside them (the whole-mesh structures answer those)."""

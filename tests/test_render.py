@@ -132,6 +132,7 @@ def test_side_by_side_shares_the_camera(sphere):
     assert not changed[SIZE[1] // 2:].any()  # only the top (+y) is flagged
 
 
+@pytest.mark.slow
 def test_degenerate_faces_and_scales_render_finite():
     V, F = icosphere(2)
     F = np.concatenate([F, [[0, 0, 1], [2, 2, 2]]])  # zero-area faces

@@ -120,6 +120,7 @@ def test_output_is_deterministic_and_independent_of_jobs():
         assert np.array_equal(R1.V, R.V) and np.array_equal(R1.F, R.F)
 
 
+@pytest.mark.slow
 def test_batches_and_jobs_do_not_change_the_output(monkeypatch):
     """Holes go in runs of ``BATCH`` whose first attempts are computed
     together; the runs are shared among ``jobs`` processes. Neither the run
@@ -199,6 +200,7 @@ def test_real_bunny_is_closed():
     assert rep["boundary_edges_after"] == 0
 
 
+@pytest.mark.slow
 def test_real_range_scan_keeps_its_borders():
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
     R, rep = repair_mesh(m)
@@ -311,6 +313,7 @@ def test_auto_order_takes_order_3_on_a_large_hole_in_a_fine_sphere():
     assert sphere_error(Ra)[0] < 0.5 * sphere_error(R2)[0]
 
 
+@pytest.mark.slow
 def test_progress_moves_hole_by_hole_through_batched_runs(monkeypatch):
     import shellrepair.repair as repair
 
@@ -351,6 +354,7 @@ def test_loaded_whole_mesh_kernels_give_a_small_mesh_the_same_repair(monkeypatch
         json.dumps(strip(plain[1]), sort_keys=True, default=str)
 
 
+@pytest.mark.slow
 def test_first_attempts_made_for_a_chunk_at_once_change_no_hole(monkeypatch):
     """The first attempt of each hole of a chunk is built and checked with
     the others' (fill._first_attempts: one batched crossing query); holes

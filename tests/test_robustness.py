@@ -861,6 +861,7 @@ def _random_perforation(seed, n_discs, radius, n_single, flip_fraction):
 @settings(max_examples=30, deadline=None, derandomize=True)
 @given(seed=st.integers(0, 10_000), n_discs=st.integers(0, 3), radius=st.floats(0.15, 0.4),
        n_single=st.integers(0, 3), flip_fraction=st.sampled_from([0.0, 0.1, 0.3]))
+@pytest.mark.slow
 def test_random_perforations_are_closed_into_a_valid_shell(tmp_path_factory, seed, n_discs, radius,
                                                            n_single, flip_fraction):
     V, F_true, G = _random_perforation(seed, n_discs, radius, n_single, flip_fraction)
@@ -914,6 +915,7 @@ def test_real_bunny_with_folded_faces_comes_out_closed(tmp_path, capsys):
     assert src.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_real_range_scan_keeps_its_outer_borders_and_fills_its_holes(tmp_path):
     src = shared_scan("real_rangescan_dragon_000.ply")
     before = src.read_bytes()

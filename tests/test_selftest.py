@@ -1,6 +1,7 @@
 """The order test: each hole's fairing order chosen by test holes of its size (shellrepair.selftest, .probe)."""
 
 import numpy as np
+import pytest
 from scipy.spatial import cKDTree
 
 from eval import shapes
@@ -171,6 +172,7 @@ def test_order_3_on_the_order_2_refinement_equals_refining_again():
     assert np.array_equal(again.T, reused.T) and np.array_equal(again.P, reused.P)
 
 
+@pytest.mark.slow
 def test_on_a_sculpted_bust_auto_is_within_5_percent_of_the_best_single_order():
     # 9 disc holes over the Nefertiti bust's relief, summed squared error
     # against the removed scan: the test's choices against each order forced

@@ -155,6 +155,7 @@ def _params(prop):
 
 
 @pytest.mark.parametrize("key", _params("originals"))
+@pytest.mark.slow
 def test_slice_keeps_original_vertices_bit_identical(key):
     _, _, m, _ = _outcome(key)
     assert m["orig_changed"] == 0

@@ -67,6 +67,7 @@ def test_pants_manifold_check_counts_boundaries_and_genus():
     assert not pants_is_manifold(flipped, k, [3, 3])
 
 
+@pytest.mark.slow
 def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(genus2, monkeypatch):
     """No first pants: the band the arcs pair and the cap, as without triples."""
     import shellrepair.pants as pants
@@ -88,6 +89,7 @@ def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(gen
     assert [b["chosen"] for b in rep["bridges"]] == [b["chosen"] for b in rep0["bridges"]]
 
 
+@pytest.mark.slow
 def test_a_failed_pants_leaves_its_capped_loop_to_the_refill_like_any_hole():
     """Stress case s42424-02 (a genus-2 shape 39 % unseen): the pants of
     loops 3, 7, 14 crosses the scan everywhere it is tried and falls back to

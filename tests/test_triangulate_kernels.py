@@ -235,6 +235,7 @@ def _dp_inputs(rng, k, kind):
 
 
 @pytest.mark.parametrize("seed", range(6))
+@pytest.mark.slow
 def test_liepa_tables_equal_numpys(seed):
     """Every interval's apex and the loop's worst cost, to the bit: with and
     without an axis (some loops have no triangulation facing along it, or
@@ -370,6 +371,7 @@ def _outline_loops(rng):
 
 
 @pytest.mark.parametrize("seed", range(6))
+@pytest.mark.slow
 def test_triangulate_loop_is_the_same_with_and_without_the_kernels(seed, monkeypatch):
     """The whole first layer (and, where it declines, the search) with the
     compiled centring, outline, normal, cover and forbidden-edge steps, and

@@ -578,6 +578,7 @@ def _run_cli(args, **kw):
                           timeout=600, **kw)
 
 
+@pytest.mark.slow
 def test_no_zoo_file_prints_anything_on_stderr(zoo, tmp_path):
     """``shellrepair repair FILE -o OUT`` on every zoo file (and on files with NaN colours
     and NaN / infinite unreferenced vertices): exit 0 and not one line on stderr.
