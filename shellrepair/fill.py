@@ -315,6 +315,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 1, smooth, energy, budget, defer)
         if patch is not None:
             patch.option += f" ({test.describe()})"
+            patch.choice = test
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget, defer)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
@@ -342,10 +343,13 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
                 # the merge falls back on order 2 where order 3 and another hole's patch cross
                 patch.option += f" ({test.describe()}; order 3 and another hole's patch would cross: order 2 kept)"
                 p3.fallback = patch
+                p3.choice = patch.choice = test
                 return Outcome(p3, reason, time.perf_counter() - t0, reasons)
             patch.option += f" ({test.describe()}; order 3 crosses the scan: order 2 kept)"
+            patch.choice = test
             return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     patch.option += f" ({test.describe()})"
+    patch.choice = test
     return Outcome(patch, reason, time.perf_counter() - t0, reasons)
 
 

@@ -82,6 +82,9 @@ class Patch:
     props : dict of name -> (q,) array
     option : str
         Which option was accepted.
+    choice : shellrepair.selftest.OrderTest or None
+        What the order test measured when ``order="auto"`` chose this
+        patch's order (None for a forced order or an untested kind).
     disc : bool
         The triangles form one disc bounded by ``loop`` (k − 2 triangles
         before refinement); False for a tube between two loops.
@@ -99,6 +102,7 @@ class Patch:
     order: int | None = None
     disc: bool = False
     fallback: object = None   # order 3 chosen by "auto": the hole's checked order-2 patch (same rim edges)
+    choice: object = None     # the OrderTest behind an "auto" order
 
     def global_faces(self, base):
         """Faces with new vertex j at index ``base + j``."""

@@ -319,6 +319,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                     tube_ok = True
                     row.update(status="filled", reason=patch.option, new_vertices=int(len(patch.P)),
                                new_faces=int(len(patch.T)), option=patch.option)
+                    if patch.choice is not None:
+                        row["choice"] = patch.choice.as_dict()
             elif record is not None and record.get("chosen") == "tube":
                 if tube_ok:
                     row.update(status="filled", option=record.get("shape", "tube"), new_vertices=0, new_faces=0)
@@ -509,6 +511,8 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
         option = f"{patch.option} (filled again around the patches accepted before it: the first crossed one)"
         row.update(status="filled", reason=option, option=option, new_vertices=int(len(patch.P)),
                    new_faces=int(len(patch.T)))
+        if patch.choice is not None:
+            row["choice"] = patch.choice.as_dict()
 
 
 def _progress(report, i, n, label="filling holes"):

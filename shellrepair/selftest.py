@@ -98,6 +98,18 @@ class OrderTest:
         rest = sorted((e, o) for o, e in self.errors.items() if o != self.order)
         return rest[0][1] if rest else None
 
+    def as_dict(self):
+        """The report's ``choice`` field of a hole: the chosen order, the
+        runner-up, each candidate's test RMS (scan units), how many test
+        holes and at which scale, and ``untold`` where the scan could not
+        tell (or the hole was too small to test) and the default was taken."""
+        return {"by": "test holes" if self.errors else "default",
+                "order": int(self.order),
+                "runner_up": None if self.runner_up is None else int(self.runner_up),
+                "test_rms": {str(o): float(e) for o, e in sorted(self.errors.items(), key=lambda t: str(t[0]))},
+                "probes": int(self.probes), "scale": float(self.scale),
+                "untold": not self.errors, "why": self.why}
+
     def describe(self):
         """One line for the report: the choice, its evidence and the runner-up."""
         if not self.errors:

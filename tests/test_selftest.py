@@ -162,6 +162,22 @@ def test_auto_is_the_default_order_and_the_report_gives_its_evidence():
     assert rep["holes_after"] == 0 and "auto: order 3, by 3 test holes of its size" in opt and "runner-up" in opt
 
 
+def test_the_report_row_holds_the_choice_its_runner_up_and_the_test_errors():
+    V, F = sphere_with_hole(radius=0.6)
+    _, rep = repair_mesh(Mesh(V=V, F=F))
+    choice = rep["holes"][0]["choice"]
+    errs = choice["test_rms"]
+    assert set(errs) == {str(o) for o in CANDIDATES} and choice["by"] == "test holes" and not choice["untold"]
+    # the chosen order has the lowest test error, the runner-up the next
+    ranked = sorted(errs, key=errs.get)
+    assert [str(choice["order"]), str(choice["runner_up"])] == ranked[:2]
+    assert choice["probes"] >= 1 and choice["scale"] in (1.0, 0.5, 0.25)
+    assert f"faired order {choice['order']}" in rep["holes"][0]["option"]
+    # a forced order is no choice: the row has none
+    _, forced = repair_mesh(Mesh(V=V, F=F), order=2)
+    assert "choice" not in forced["holes"][0]
+
+
 def test_order_3_on_the_order_2_refinement_equals_refining_again():
     V, F = sphere_with_hole(radius=0.6)
     scan, ctx = context(V, F)
