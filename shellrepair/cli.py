@@ -362,9 +362,10 @@ def _holes(args):
     bar = terminal_bar(args.quiet)
     mesh = read_mesh(args.scan, progress=bar)
     max_size, size_label, _ = in_scan_units(opts.max_hole_size, opts.unit, mesh.V)
+    topo, pieces, areas = mesh.cached("topology", "pieces", "face_areas")
     scan = detect_holes(mesh.V, mesh.F, max_hole=opts.max_hole, fill_borders=args.fill_borders,
                         closed=_closed(args), max_size=max_size, size_label=size_label,
-                        topo=mesh.cached("topology"), pieces=mesh.cached("pieces"), areas=mesh.cached("face_areas"))
+                        topo=topo, pieces=pieces, areas=areas)
     end_line()  # the loading bar's
     d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)
     if args.json:

@@ -174,6 +174,7 @@ def read_mesh(path: Union[str, os.PathLike], *, clean: bool = True, orient: bool
     except MeshError as exc:
         raise MeshError(exc.message, path) from None
     stage()
+    keep = {}       # whole-mesh data built on the way, remembered with the areas
     if clean:
         mesh = manifold_mesh(mesh, orient=orient)
         if not len(mesh.F):
@@ -186,9 +187,9 @@ def read_mesh(path: Union[str, os.PathLike], *, clean: bool = True, orient: bool
         mesh.notes.extend(res.notes)
         # built on the way: hole detection and repair reuse them
         if res.topo is not None:
-            mesh.remember("topology", res.topo)
+            keep["topology"] = res.topo
         if res.piece is not None:
-            mesh.remember("pieces", (res.n_pieces, res.piece))
+            keep["pieces"] = (res.n_pieces, res.piece)
     stage()
     unused = mesh.n_vertices - _used_vertex_count(written_faces(mesh), mesh.n_vertices)
     if unused:
@@ -196,7 +197,7 @@ def read_mesh(path: Union[str, os.PathLike], *, clean: bool = True, orient: bool
         mesh.notes.append(f"{unused} unreferenced vertices kept (vertex order never changes"
                           + (f"; the file is written with {joined} coincident vertices joined)" if joined else ")"))
     areas = face_areas(mesh.V, mesh.F)
-    mesh.remember("face_areas", areas)
+    mesh.remember(face_areas=areas, **keep)
     zero = int(np.count_nonzero(areas == 0))
     if zero:
         mesh.notes.append(f"{zero} zero-area faces kept")
@@ -296,12 +297,10 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
         out.fixes["vertices_added"] += int(seam_src.size)
     if src.size:
         _append_copies(out, V, mesh, src)
-    if topo is not None and not flipped:
-        # kept for hole detection and repair; after flips or a junction split
-        # it no longer matches F, and is rebuilt by whoever needs it
-        out.remember("topology", topo)
-    if piece is not None:
-        out.remember("pieces", piece)
+    # kept for hole detection and repair; after flips or a junction split the
+    # topology no longer matches F, and is rebuilt by whoever needs it
+    out.remember(**({"topology": topo} if topo is not None and not flipped else {}),
+                 **({} if piece is None else {"pieces": piece}))
     return out
 
 

@@ -161,7 +161,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
 
         ex = ThreadPoolExecutor(2)
     try:
-        known = mesh.cached if hasattr(mesh, "cached") else lambda name: None   # built by read_mesh
+        known = _kept(mesh).get       # built by read_mesh
         topo = known("topology")
         early = None    # an _Early: the region and lists started before the mesh is final
         if not getattr(mesh, "fixes", None):
@@ -174,7 +174,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 topo = edge_topology(F0, len(mesh.V))
             early = _early_region(ex, mesh.V, F0, topo)
             mesh = manifold_mesh(_as_mesh(mesh), orient=False, topo=topo)
-            known = mesh.cached
+            known = _kept(mesh).get
             topo = known("topology")
         V = np.asarray(mesh.V, np.float64)
         F = np.asarray(mesh.F, np.int64)
@@ -513,6 +513,15 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
                    new_faces=int(len(patch.T)))
         if patch.choice is not None:
             row["choice"] = patch.choice.as_dict()
+
+
+def _kept(mesh):
+    """{name: value} of the whole-mesh data :func:`read_mesh` kept for the
+    mesh's current arrays (:meth:`Mesh.cached`, one check for all)."""
+    if not hasattr(mesh, "cached"):
+        return {}
+    names = ("topology", "pieces", "face_areas")
+    return {n: v for n, v in zip(names, mesh.cached(*names)) if v is not None}
 
 
 def _progress(report, i, n, label="filling holes"):

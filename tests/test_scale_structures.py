@@ -96,6 +96,17 @@ def test_what_loading_keeps_on_the_mesh_is_what_detection_would_build(tmp_path):
     assert m.cached("face_areas") is not None
     m.V *= 1000.0                                   # metres to millimetres, in place
     assert m.cached("face_areas") is None and m.cached("topology") is None
+    # any single row edited in place is noticed, of V or of F, on a mesh of
+    # many more rows than a sample would look at
+    V, F = shapes.icosphere(6)
+    write_mesh(tmp_path / "sphere.ply", Mesh(V=V, F=F))
+    for edit in ("V", "F"):
+        m = read_mesh(tmp_path / "sphere.ply")
+        assert all(v is not None for v in m.cached("pieces", "face_areas"))
+        a = getattr(m, edit)
+        row = len(a) // 2 + 1
+        a[row] = a[row][::-1] if edit == "F" else a[row] + 1e-9
+        assert m.cached("pieces", "face_areas") == (None, None), edit
 
 
 def test_vertex_face_lists_equal_a_stable_sort():
