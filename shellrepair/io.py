@@ -170,6 +170,8 @@ def read_mesh(path: Union[str, os.PathLike], *, clean: bool = True, orient: bool
             mesh.F = F
             if mesh.face_filled is not None:
                 mesh.face_filled = mesh.face_filled[kept]
+            if mesh.texture is not None and len(kept) != len(mesh.texture.face_uv):
+                mesh.texture = mesh.texture.take(kept)
             mesh.notes.extend(notes)
     except MeshError as exc:
         raise MeshError(exc.message, path) from None
@@ -184,6 +186,8 @@ def read_mesh(path: Union[str, os.PathLike], *, clean: bool = True, orient: bool
 
         res = orient_faces(mesh.F, mesh.V)
         mesh.F = res.F
+        if mesh.texture is not None and res.flipped.any():
+            mesh.texture = mesh.texture.flip(res.flipped)
         mesh.notes.extend(res.notes)
         # built on the way: hole detection and repair reuse them
         if res.topo is not None:
@@ -253,6 +257,11 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
     notes = list(mesh.notes) + res.notes
     Ffile = F0[res.kept] if res.rep is not None else None
     face_filled = None if mesh.face_filled is None else np.asarray(mesh.face_filled)[res.kept]
+    texture = getattr(mesh, "texture", None)
+    if texture is not None and len(texture.face_uv) == len(F0):
+        texture = texture.take(res.kept) if len(res.kept) != len(F0) else texture
+    else:
+        texture = None
     Vx = np.vstack([V, V[src]]) if src.size else V
     piece = None
     joins = None
@@ -265,6 +274,8 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
             if Ffile is not None:
                 Ffile = Ffile.copy()
                 Ffile[o.flipped, 1], Ffile[o.flipped, 2] = Ffile[o.flipped, 2], Ffile[o.flipped, 1]
+            if texture is not None:
+                texture = texture.flip(o.flipped)
         notes.extend(o.notes)
         if o.piece is not None:
             piece = (o.n_pieces, o.piece)
@@ -286,7 +297,7 @@ def manifold_mesh(mesh, *, orient=True, topo=None):
     out = Mesh(V=Vx, F=F, vertex_colors=mesh.vertex_colors, vertex_filled=mesh.vertex_filled,
                face_filled=face_filled, vertex_props=dict(mesh.vertex_props), vertex_dtype=mesh.vertex_dtype,
                path=mesh.path, notes=notes, fixes={k: int(fixes.get(k, 0)) for k in FIX_COUNTS},
-               comments=list(getattr(mesh, "comments", [])), joins=joins)
+               comments=list(getattr(mesh, "comments", [])), joins=joins, texture=texture)
     if Ffile is not None:
         out.F_out, seam_src = _seam_faces(mesh, res.rep, Ffile, F, n + len(src))
         if out.F_out is not None:

@@ -219,7 +219,7 @@ def _merge(mesh, V, F, patches):
     F2 = np.vstack([F] + newF) if newF else F.copy()
     out = Mesh(V=V2, F=F2.astype(np.int64, copy=False), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
                notes=list(mesh.notes), F_out=getattr(mesh, "F_out", None), joins=getattr(mesh, "joins", None), fixes=dict(getattr(mesh, "fixes", {})),
-               comments=list(getattr(mesh, "comments", [])))
+               comments=list(getattr(mesh, "comments", [])), texture=getattr(mesh, "texture", None))
     if mesh.vertex_colors is not None:
         out.vertex_colors = np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)
     out.vertex_props = {k: np.concatenate([np.asarray(mesh.vertex_props[k])] + v) for k, v in props.items()}

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Mesh", "written_faces", "as_written"]
+__all__ = ["Mesh", "FaceTexture", "written_faces", "as_written"]
 
 
 def _signature(V, F):
@@ -30,6 +30,49 @@ def _signature(V, F):
         a = np.ascontiguousarray(a)
         out.append((a.shape, a.dtype.str, zlib.crc32(memoryview(a).cast("B")) if a.size else 0))
     return tuple(out)
+
+
+@dataclass
+class FaceTexture:
+    """A file's texture coordinates and materials, per face corner and face.
+
+    Kept for the first ``k`` faces of the mesh (the file's own, in order);
+    faces after them (added by a repair) have none. Every step that drops
+    or turns the file's faces applies the same to this (:meth:`take`,
+    :meth:`flip`), so a written file gives each original corner the UV it
+    was read with, bit for bit.
+
+    Attributes
+    ----------
+    uv : (t,2) float64
+        The file's texture coordinates (OBJ ``vt``), in file order.
+    face_uv : (k,3) int64
+        Each corner's row of ``uv``; -1 where the file gave the corner none.
+    face_material : (k,) int64
+        Each face's index into ``materials``; -1 before any ``usemtl``.
+    materials : list of str
+        Material names (OBJ ``usemtl``), in order of first use.
+    libraries : list of str
+        The material library lines (OBJ ``mtllib ...``) as read.
+    """
+
+    uv: np.ndarray
+    face_uv: np.ndarray
+    face_material: np.ndarray
+    materials: list = field(default_factory=list)
+    libraries: list = field(default_factory=list)
+
+    def take(self, rows):
+        """The texture of faces ``rows`` (indices into the kept faces), in that order."""
+        rows = np.asarray(rows, np.int64)
+        return FaceTexture(self.uv, self.face_uv[rows], self.face_material[rows], list(self.materials),
+                           list(self.libraries))
+
+    def flip(self, rows):
+        """The texture with faces ``rows`` turned as a flip turns them (corners 1 and 2 swapped)."""
+        fu = self.face_uv.copy()
+        fu[rows, 1], fu[rows, 2] = self.face_uv[rows, 2], self.face_uv[rows, 1]
+        return FaceTexture(self.uv, fu, self.face_material, list(self.materials), list(self.libraries))
 
 
 @dataclass
@@ -76,6 +119,8 @@ class Mesh:
     comments : list of str
         A PLY header's ``comment`` and ``obj_info`` lines as read (each with
         its keyword), written back before shellrepair's own comment.
+    texture : FaceTexture or None
+        An OBJ's texture coordinates and materials of its faces.
     """
 
     V: np.ndarray
@@ -91,6 +136,7 @@ class Mesh:
     joins: np.ndarray | None = None
     comments: list = field(default_factory=list)
     fixes: dict = field(default_factory=dict)
+    texture: FaceTexture | None = None
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __repr__(self):
@@ -215,4 +261,5 @@ def as_written(mesh):
                 vertex_filled=rows(mesh.vertex_filled), face_filled=mesh.face_filled,
                 vertex_props={k: rows(a) for k, a in mesh.vertex_props.items()},
                 vertex_dtype=mesh.vertex_dtype, path=mesh.path, notes=list(mesh.notes),
-                comments=list(getattr(mesh, "comments", [])), fixes=dict(getattr(mesh, "fixes", {})))
+                comments=list(getattr(mesh, "comments", [])), fixes=dict(getattr(mesh, "fixes", {})),
+                texture=getattr(mesh, "texture", None))

@@ -566,4 +566,5 @@ def _as_mesh(mesh):
                 vertex_colors=getattr(mesh, "vertex_colors", None), vertex_props=dict(getattr(mesh, "vertex_props", {})),
                 vertex_dtype=getattr(mesh, "vertex_dtype", "f8"), path=getattr(mesh, "path", None),
                 vertex_filled=getattr(mesh, "vertex_filled", None), face_filled=getattr(mesh, "face_filled", None),
-                notes=list(getattr(mesh, "notes", [])), comments=list(getattr(mesh, "comments", [])))
+                notes=list(getattr(mesh, "notes", [])), comments=list(getattr(mesh, "comments", [])),
+                texture=getattr(mesh, "texture", None))

@@ -237,7 +237,11 @@ def test_obj_statements_that_hold_no_triangles_are_skipped_and_named(tmp_path):
             + "\tf 1/1/1 2/2/1 3/1/1   # a face\r\n")
     m = _read_bytes(tmp_path, "s.obj", text)
     assert m.F.tolist() == [[0, 1, 2]]
-    assert "OBJ: 2 texture coordinates (vt) and 1 normals (vn) not kept" in " ".join(m.notes)
+    assert "OBJ: 1 normals (vn) not kept" in " ".join(m.notes)
+    # the texture coordinates, the material and its library are kept with the face
+    assert m.texture.uv[m.texture.face_uv].tolist() == [[[0, 0], [1, 0], [0, 0]]]
+    assert m.texture.materials == ["x"] and m.texture.face_material.tolist() == [0]
+    assert m.texture.libraries == ["mtllib m.mtl"]
     for part in ("1 polylines (l) ignored", "1 points (p) ignored", "2 free-form curve and surface",
                  "unknown statements ignored: 'foo' (1)"):
         assert any(part in n for n in m.notes), part
@@ -623,9 +627,11 @@ def _golden_digests(tmp_path):
 #: Changed on purpose since: polygons.obj has three vertices where pieces meet at a point; its
 #: note says they are joined again when written, and the PLY, OFF and OBJ writers write them
 #: once, as the file had them (Mesh.joins; STL, which repeats each corner, is unchanged);
-#: full's filled faces are an OBJ group (formats.obj.FILLED_GROUP), OBJ having no face flags.
+#: full's filled faces are an OBJ group (formats.obj.FILLED_GROUP), OBJ having no face flags;
+#: polygons.obj keeps its texture coordinates and material library (Mesh.texture: the read
+#: note no longer lists the vt as dropped, the written OBJ has them; V and F are unchanged).
 GOLDEN = {
-    'read polygons.obj': '0bc2698e08c96bc2',
+    'read polygons.obj': 'd2881bacbe8ceb74',
     'read colours.off': '6ea5f6f1c9727063',
     'read quads_ascii.ply': 'a2f8613b4a21e0de',
     'read mixed_big.ply': '4a52fb919bf13612',
@@ -654,7 +660,7 @@ GOLDEN = {
     'write seam .stl ascii': '197fbad2ffd1f588',
     'write polygons.obj .ply': '39362a7b343cf3ab',
     'write polygons.obj .ply ascii': 'b71cbc9eb772fa20',
-    'write polygons.obj .obj': '31262a029cb11215',
+    'write polygons.obj .obj': '2453733a92bc1a3c',
     'write polygons.obj .off': '1efbf182dbbc2fd6',
     'write polygons.obj .stl': 'a239ddba95388db1',
     'write polygons.obj .stl ascii': '11bc819791b5a9ba',

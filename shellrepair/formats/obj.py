@@ -2,7 +2,10 @@
 
 Corners ``v``, ``v/vt``, ``v//vn`` and ``v/vt/vn``, relative indices, line
 continuations, comments and CRLF are read; what a triangle mesh does not
-hold is skipped, with a note for what carries geometry.
+hold is skipped, with a note for what carries geometry. Texture
+coordinates (``vt``), materials (``usemtl``) and material libraries
+(``mtllib``) are kept per face corner and face (:class:`FaceTexture`) and
+written back as read.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ import re
 import numpy as np
 
 from ..errors import MeshError
-from ..mesh import Mesh, written_faces
+from ..mesh import FaceTexture, Mesh, written_faces
 from .polygons import polygons_to_triangles
 from .text import WS, colors_to_uint8, parse_numbers, token_counts, token_starts
 
@@ -89,12 +92,21 @@ def read_obj(data):
     other = np.flatnonzero(~(is_v | is_f | is_vt | is_vn | blank))
     notes = []
     skipped = {}
+    materials_at = []       # (line, name) of each usemtl; the mtllib lines as read
+    libraries = []
     for i in other.tolist():
-        k = data[key[i]:ends[i]].split(None, 1)[0]
+        line = data[key[i]:ends[i]]
+        k = line.split(None, 1)[0]
         skipped[k] = skipped.get(k, 0) + 1
+        if k == b"usemtl":
+            materials_at.append((i, line[6:].strip().decode("utf-8", errors="replace")))
+        elif k == b"mtllib":
+            libraries.append(line.rstrip(b"\r").decode("utf-8", errors="replace"))
     if not is_v.any():
         raise MeshError("no vertices")
     buf[key[is_v | is_f]] = 32  # blank the 'v' and 'f' keywords: what is left are values
+    buf[key[is_vt]] = 32
+    buf[key[is_vt] + 1] = 32
     mv = buf.tobytes()
     v_line = np.flatnonzero(is_v)
     f_line = np.flatnonzero(is_f)
@@ -161,6 +173,10 @@ def read_obj(data):
         idx = parse_numbers(text, np.int64, int(cnt.sum()),
                             lambda j, t: f"line {line_of_corner(j)}: bad face index '{t}'")
     idx = np.array(idx, np.int64)  # own, writable
+    vt_idx = None
+    if slashed and is_vt.any():
+        has = parts >= 2
+        vt_idx = np.where(has, vals[np.minimum(pstart + 1, vals.size - 1)], 0).astype(np.int64)
     if idx.size and idx.min() <= 0:
         zero = np.flatnonzero(idx == 0)
         if zero.size:
@@ -175,12 +191,22 @@ def read_obj(data):
                             f"({int(np.repeat(seen, cnt)[j])} vertices before this line)")
         idx[neg] = rel + 1
     idx -= 1
-    mesh.F = polygons_to_triangles((cnt, idx), notes, V)
-
     n_vt, n_vn = int(is_vt.sum()), int(is_vn.sum())
-    if n_vt or n_vn:
-        what = [f"{n} {name}" for n, name in ((n_vt, "texture coordinates (vt)"), (n_vn, "normals (vn)")) if n]
-        notes.append(f"OBJ: {' and '.join(what)} not kept (shellrepair keeps positions and vertex colours)")
+    if (n_vt or materials_at) and idx.size and idx.min() >= 0 and idx.max() < len(V):
+        # textured: the triangles as corners of the file's faces, so that each
+        # keeps its corner's vt and its face's material (the same triangles:
+        # the split reads positions only)
+        C = polygons_to_triangles((cnt, np.arange(idx.size)), notes, V[idx])
+        mesh.F = idx[C]
+        mesh.texture = _texture(data, mv, starts, ends, is_vt, n_vt, vt_idx, f_line, cnt, foff, C,
+                                materials_at, libraries, notes)
+    else:
+        mesh.F = polygons_to_triangles((cnt, idx), notes, V)
+        if n_vt:
+            notes.append(f"OBJ: {n_vt} texture coordinates (vt) not kept (no face refers to them)")
+    if n_vn:
+        notes.append(f"OBJ: {n_vn} normals (vn) not kept (shellrepair keeps positions, vertex colours, "
+                     "texture coordinates and materials)")
     for k, name in ((b"l", "polylines (l)"), (b"p", "points (p)")):
         if k in skipped:
             notes.append(f"OBJ: {skipped.pop(k)} {name} ignored")
@@ -196,14 +222,78 @@ def read_obj(data):
     return mesh
 
 
+def _texture(data, mv, starts, ends, is_vt, n_vt, vt_idx, f_line, cnt, foff, C, materials_at, libraries, notes):
+    """The :class:`FaceTexture` of a read OBJ's triangles ``C`` (corner ids)."""
+    uv = np.zeros((0, 2))
+    face_uv = np.full(C.shape, -1, np.int64)
+    if n_vt:
+        vt_line = np.flatnonzero(is_vt)
+        text = _obj_lines_of(is_vt, mv, starts, ends)
+        tc = token_counts(text)
+        if tc.min() < 1:
+            i = int(np.flatnonzero(tc < 1)[0])
+            raise MeshError(f"line {vt_line[i] + 1}: texture coordinate needs a value")
+        toff = np.zeros(len(tc), np.int64)
+        np.cumsum(tc[:-1], out=toff[1:])
+        vals = parse_numbers(text, np.float64, int(tc.sum()), lambda j, t: (
+            f"line {vt_line[np.searchsorted(toff, j, side='right') - 1] + 1}: bad number '{t}'"))
+        uv = np.zeros((len(tc), 2))
+        uv[:, 0] = vals[toff]
+        two = tc >= 2
+        uv[two, 1] = vals[toff[two] + 1]
+        w = tc >= 3
+        if w.any() and (vals[toff[w] + 2] != 0).any():
+            notes.append(f"OBJ: the third texture coordinate (w) of {int(w.sum())} vt lines not kept")
+        if vt_idx is not None:
+            t = vt_idx.copy()
+            neg = t < 0
+            if neg.any():   # relative: counted back from the last vt above the face's line
+                seen = np.repeat(np.searchsorted(vt_line, f_line), cnt)
+                t[neg] = seen[neg] + t[neg] + 1
+            t -= 1          # 0 (no vt slot) becomes -1
+            bad = (t < -1) | (t >= len(uv))
+            if bad.any():
+                j = int(np.flatnonzero(bad)[0])
+                line = int(f_line[np.searchsorted(foff, j, side="right") - 1] + 1)
+                raise MeshError(f"line {line}: texture coordinate index {int(vt_idx[j])} out of range "
+                                f"({len(uv)} vt lines)")
+            face_uv = t[C]
+            partial = (face_uv < 0).any(axis=1) & (face_uv >= 0).any(axis=1)
+            face_uv[partial] = -1
+    names = []
+    face_material = np.full(len(C), -1, np.int64)
+    if materials_at:
+        lines = np.array([i for i, _ in materials_at], np.int64)
+        ids = []
+        for _, name in materials_at:
+            if name not in names:
+                names.append(name)
+            ids.append(names.index(name))
+        poly = np.searchsorted(foff, C[:, 0], side="right") - 1        # each triangle's face line
+        at = np.searchsorted(lines, f_line[poly], side="right") - 1     # the usemtl above it
+        face_material = np.where(at >= 0, np.asarray(ids, np.int64)[np.maximum(at, 0)], -1)
+    return FaceTexture(uv=uv, face_uv=face_uv, face_material=face_material, materials=names,
+                       libraries=libraries)
+
+
 #: OBJ group names of a repaired mesh's faces: what the repair added, and the scan's own.
 FILLED_GROUP = "shellrepair_filled"
 SCAN_GROUP = "scan"
 
 
+#: The material name of a repaired textured mesh's filled faces (they have no UVs).
+FILLED_MATERIAL = "shellrepair_filled"
+
+
 def obj_bytes(mesh, binary=True):
+    """The mesh as OBJ text: ``v`` (with colours), ``vt``, ``f`` (``a/ta`` where
+    a face has texture coordinates), ``mtllib`` and ``usemtl`` as read, and
+    the filled faces as the group :data:`FILLED_GROUP` (material
+    :data:`FILLED_MATERIAL` where the file has materials); floats with 17
+    significant digits, so each reads back to the same bits."""
     V = np.asarray(mesh.V, np.float64)
-    lines = ["# written by shellrepair"]
+    tex = getattr(mesh, "texture", None)
+    lines = ["# written by shellrepair"] + ([] if tex is None else list(tex.libraries))
     vs = "v " + np.char.mod("%.17g", V[:, 0]) + " " + np.char.mod("%.17g", V[:, 1]) + " " + np.char.mod("%.17g", V[:, 2])
     if mesh.vertex_colors is not None:
         C = np.asarray(mesh.vertex_colors)[:, :3].astype(np.float64) / 255.0
@@ -211,17 +301,46 @@ def obj_bytes(mesh, binary=True):
             vs = vs + " " + np.char.mod("%.6g", C[:, j])
     lines += vs.tolist()
     F = written_faces(mesh) + 1
-    fl = ("f " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
-          + np.char.mod("%d", F[:, 2])).tolist()
+    corner = [np.char.mod("%d", F[:, j]) for j in range(3)]
+    k = 0 if tex is None else min(len(tex.face_uv), len(F))
+    if k and len(tex.uv):
+        U = np.asarray(tex.uv, np.float64)
+        # the shortest text that reads back to the same bits
+        lines += ("vt " + U[:, 0].astype(str).astype(object) + " " + U[:, 1].astype(str).astype(object)).tolist()
+        T = np.asarray(tex.face_uv[:k], np.int64)
+        with_uv = np.flatnonzero((T >= 0).all(axis=1))
+        for j in range(3):
+            corner[j] = corner[j].astype(object)
+            corner[j][with_uv] = (corner[j][with_uv].astype(str) + "/"
+                                  + np.char.mod("%d", T[with_uv, j] + 1)).astype(object)
+    fl = ("f " + corner[0].astype(str) + " " + corner[1].astype(str) + " " + corner[2].astype(str)).tolist()
     filled = None if mesh.face_filled is None else np.asarray(mesh.face_filled, bool)
-    if filled is None or not filled.any() or len(filled) != len(fl):
+    if filled is not None and (not filled.any() or len(filled) != len(fl)):
+        filled = None
+    material = None
+    if tex is not None and tex.materials:
+        names = list(tex.materials) + [FILLED_MATERIAL]
+        material = np.full(len(fl), len(names) - 1, np.int64)
+        material[:k] = tex.face_material[:k]
+    if filled is None and material is None:
         return "\n".join(lines + fl) + "\n"
     # OBJ has no per-face flags: the filled faces are the group FILLED_GROUP
-    # (the rest SCAN_GROUP), a group line where the flag changes, faces in order
-    change = np.flatnonzero(np.diff(filled.astype(np.int8))) + 1
-    at = 0
+    # (the rest SCAN_GROUP), a group line where the flag changes, a usemtl
+    # line where the material does, faces in order
+    key = np.zeros((len(fl), 2), np.int64)
+    if filled is not None:
+        key[:, 0] = filled
+    if material is not None:
+        key[:, 1] = material
+    change = np.flatnonzero((np.diff(key, axis=0) != 0).any(axis=1)) + 1
+    at, group, mat = 0, None, -1
     for end in list(change) + [len(fl)]:
-        lines.append(f"g {FILLED_GROUP if filled[at] else SCAN_GROUP}")
+        if filled is not None and filled[at] != group:
+            group = filled[at]
+            lines.append(f"g {FILLED_GROUP if group else SCAN_GROUP}")
+        if material is not None and material[at] != mat and material[at] >= 0:
+            mat = material[at]
+            lines.append(f"usemtl {names[mat]}")
         lines += fl[at:end]
         at = end
     return "\n".join(lines) + "\n"
