@@ -259,9 +259,15 @@ def value_noise(P, wavelength, *, seed=0, octaves=3, normalize=True):
 class _Grid:
     """A regular grid over points: nearest-cell splatting, trilinear reading."""
 
-    def __init__(self, P, h, pad=4):
+    def __init__(self, P, h, pad=4, anchor=None):
         self.h = float(h)
         self.lo = P.min(axis=0) - pad * self.h
+        if anchor is not None:
+            # nodes on the lattice through anchor - pad h, extended by whole
+            # cells to hold every point: points added beyond the anchor's
+            # box (a fill) do not move the nodes
+            base = np.asarray(anchor, np.float64) - pad * self.h
+            self.lo = base - self.h * np.ceil(np.maximum(base - self.lo, 0.0) / self.h)
         self.shape = tuple(int(x) for x in np.ceil((P.max(axis=0) + pad * self.h - self.lo) / self.h) + 1)
         nx, ny, nz = self.shape
         g = (P - self.lo) / self.h
@@ -399,7 +405,7 @@ def _turn(x, w, fraction, band):
     return _smoothstep(lo, hi, x)
 
 
-def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None, normals=None):
+def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None, normals=None, scan=None):
     """Rust coverage and gilding per vertex from the causes of aging.
 
     Parameters
@@ -417,6 +423,15 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     normals : (n,3) float array or None, optional
         Unit vertex normals, when the caller has them (only used for
         vertices the grid leaves without a normal).
+    scan : (m,) bool array or None, optional
+        The faces of the scan itself (a repaired mesh: ``~face_filled``);
+        default all. The frame (centre, diagonal, hence every length
+        scale), the surface the fields are made of (convexity, normals,
+        shelter from rain) and the area weights of the quantiles and of the
+        noise's normalisation are the scan's alone: the scan's own vertices
+        get the map they get without the fill (to the bit while the fill
+        stays inside the scan's bounding box), and the filled vertices
+        read the same fields at their positions (tests/test_aging.py).
 
     Returns
     -------
@@ -464,19 +479,35 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     a /= np.linalg.norm(a)
     b = np.cross(up, a)
     R = np.stack([a, b, up])  # rows: new axes
-    center = 0.5 * (V.min(axis=0) + V.max(axis=0))
+    if scan is not None:
+        scan = np.asarray(scan, bool)
+        if scan.shape != (len(F),):
+            raise ValueError("aging_maps: scan must have one flag per face (%d), got shape %s"
+                             % (len(F), scan.shape))
+        if not scan.any():
+            scan = None
+    used = np.zeros(n, bool)               # the frame: the vertices the scan's faces use
+    used[(F if scan is None else F[scan]).ravel()] = True
+    own = V[used]
+    lo, hi = own.min(axis=0), own.max(axis=0)
+    center = 0.5 * (lo + hi)
     P = (V - center) @ R.T
-    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    diag = float(np.linalg.norm(hi - lo))
     if not diag > 0.0:
         return AgingMaps(zero, np.ones(n), zero, zero, zero, zero, zero, zero, zero)
     fn = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])  # 2 x area x normal
     fidx = F.ravel()
-    area = np.bincount(fidx, np.repeat(np.sqrt(np.einsum("ij,ij->i", fn, fn)) / 6.0, 3), minlength=n)
+    fa = np.sqrt(np.einsum("ij,ij->i", fn, fn)) / 6.0
+    if scan is not None:
+        fa = np.where(scan, fa, 0.0)      # the weights: the scan's own area
+    area = np.bincount(fidx, np.repeat(fa, 3), minlength=n)
     Nw = np.stack([np.bincount(fidx, np.repeat(fn[:, k], 3), minlength=n) for k in range(3)], axis=1)
 
     h = p.edge_scale * diag
-    grid = _Grid(P, h)
-    Q, wq, nq = _surface_samples(P, F, h, fn)
+    grid = _Grid(P, h, anchor=((own - center) @ R.T).min(axis=0))
+    # the fields (convexity, normals, shelter) are the scan's own surface's
+    shown = slice(None) if scan is None else scan
+    Q, wq, nq = _surface_samples(P, F[shown], h, fn[shown])
     # channels: area, area-weighted position (3), area-weighted normal (3)
     G = grid.splat(Q, np.concatenate([wq[:, None], wq[:, None] * Q, nq], axis=1))
     del Q, wq, nq

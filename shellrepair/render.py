@@ -450,7 +450,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             gild_v = ones
         if cov_src is None:
             maps = ag.aging_maps(V, F, age=ag.DEFAULT_AGE if age is None else float(age), up=up,
-                                 seed=seed)
+                                 seed=seed, scan=None if filled is None else ~filled)
             cov_v, gild_v, cov_src = maps.coverage, maps.gild, "aging"
             if crust is None:
                 crust_v = maps.crust
@@ -680,7 +680,11 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     gld = {"before": None, "after": None}
     crs = {"before": None, "after": None}
     if mat.corrodes and vertex_colors_before is None and vertex_colors_after is None:
-        maps = ag.aging_maps(Va, Fa, age=ag.DEFAULT_AGE if age is None else float(age), up=up, seed=seed)
+        scan = None
+        if filled is not None and np.shape(filled) == (len(Fa),):
+            scan = ~np.asarray(filled, bool)
+        maps = ag.aging_maps(Va, Fa, age=ag.DEFAULT_AGE if age is None else float(age), up=up, seed=seed,
+                             scan=scan)
         _, near = cKDTree(Va).query(Vb)
         cov = {"before": maps.coverage[near], "after": maps.coverage}
         gld = {"before": maps.gild[near], "after": maps.gild}

@@ -212,3 +212,38 @@ def test_default_aged_bust_shows_gilding_and_patina_in_patches():
 
     path = shared_scan("closed_nefertiti_bust.ply")  # z-up, in mm
     _assert_reads_as_aged_gilt_bronze(_aged_render(path, (0, 0, 1)))
+
+
+def test_the_scans_own_vertices_keep_their_map_whatever_fills_its_holes():
+    """A before | after pair must differ only where the surface changed: the
+    bundled bunny filled flat (order 1) and domed (order 3, which bulges
+    past the scan's bounding box under its base) gives the scan's own
+    vertices the coverage and gilding they have without any fill (the
+    issue's bar: within 0.05 on 98 % of them; here to round-off on all)."""
+    from shellrepair import read_mesh
+    from shellrepair.repair import repair_mesh
+
+    scan = read_mesh(BUNNY)
+    n = len(scan.V)
+    used = np.zeros(n, bool)
+    used[scan.F.ravel()] = True
+    alone = ag.aging_maps(scan.V, scan.F)
+    for order in (1, 3):
+        R, _ = repair_mesh(read_mesh(BUNNY), order=order)
+        assert R.face_filled.any()
+        maps = ag.aging_maps(R.V, R.F, scan=~R.face_filled)
+        for a, b in ((maps.coverage, alone.coverage), (maps.gild, alone.gild)):
+            d = np.abs(a[:n] - b)[used]
+            assert np.mean(d <= 0.05) >= 0.98 and d.max() < 1e-9, (order, np.mean(d <= 0.05), d.max())
+        # the filled vertices get a map too, read from the same fields
+        assert np.isfinite(maps.coverage[n:]).all() and ((maps.coverage[n:] >= 0) & (maps.coverage[n:] <= 1)).all()
+    # without the scan's faces named, the fill moves the map (what the flag is for)
+    R, _ = repair_mesh(read_mesh(BUNNY), order=3)
+    moved = np.abs(ag.aging_maps(R.V, R.F).coverage[:n] - alone.coverage)[used]
+    assert moved.max() > 0.05
+
+
+def test_a_scan_flag_of_the_wrong_length_is_refused():
+    V, F = shapes.icosphere(1)
+    with pytest.raises(ValueError, match="one flag per face"):
+        ag.aging_maps(V, F, scan=np.ones(len(F) + 1, bool))
