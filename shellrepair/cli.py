@@ -392,7 +392,7 @@ def _same_file(a, b):
 
 
 def _repair(args):
-    from .io import SUPPORTED, atomic_write_many, check_output_path, mesh_bytes, read_mesh
+    from .io import SUPPORTED, atomic_write_many, check_output_path, format_losses, mesh_bytes, read_mesh
     from .preload import preload_fill
     from .report import table1_text
 
@@ -426,7 +426,7 @@ def _repair(args):
     report["output"] = str(out)
     if args.plan:
         report["plan"] = str(args.plan)
-    report["notes"] = list(mesh.notes)
+    report["notes"] = list(mesh.notes) + format_losses(out, repaired)
     if bar is not None:
         bar(f"writing {out.name}", 0, 2)
     payload = mesh_bytes(out, repaired)
@@ -449,7 +449,7 @@ def _repair(args):
         print(json.dumps(report, indent=1))
     elif not args.quiet:
         print(table1_text(report))
-        for n in mesh.notes:
+        for n in report["notes"]:
             print(f"  note: {n}")
         print(f"  wrote {out} and {report_path}" + (f" and {page}" if page is not None else ""))
     return 0

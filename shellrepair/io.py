@@ -452,6 +452,31 @@ def write_mesh(path: Union[str, os.PathLike], mesh: Mesh, *, binary: bool = True
     stage()
 
 
+def format_losses(path, mesh):
+    """What the format of ``path`` cannot hold of ``mesh``, one line each
+    (the CLI adds them to the report's notes and prints them).
+
+    Parameters
+    ----------
+    path : str or Path
+    mesh : Mesh
+
+    Returns
+    -------
+    notes : list of str
+    """
+    ext = Path(path).suffix.lower()
+    notes = []
+    tex = getattr(mesh, "texture", None)
+    if tex is not None and ext != ".obj" and (len(tex.uv) or tex.materials):
+        notes.append(f"{ext[1:].upper()} output: the texture coordinates and materials are not written "
+                     "(write .obj to keep them)")
+    if ext in (".off", ".stl") and mesh.face_filled is not None and np.any(mesh.face_filled):
+        notes.append(f"{ext[1:].upper()} output: no flag marks the filled faces "
+                     "(the report lists each hole's new faces; .ply and .obj mark them)")
+    return notes
+
+
 def check_references(V, F):
     """Raise :class:`MeshError` where a face refers to a vertex outside
     ``V`` or to a vertex with a NaN or infinite coordinate (the checks
