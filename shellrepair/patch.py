@@ -805,34 +805,50 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     (:class:`shellrepair.options.RepairOptions`): ``"flat"`` every such
     opening, ``"faired"`` none, ``"auto"`` where the walls turn into it
     (:func:`_turns_into_opening`); a CAD face's outline always."""
+    return edge_on_verdict(ctx, loop, hole_id)[0]
+
+
+def edge_on_verdict(ctx, loop, hole_id=None):
+    """:func:`_meets_edge_on` and, when False, why (for the report of a
+    ``--base flat`` that does not apply): ``(bool, str)``."""
     from .holes import loop_stats
 
+    def planar_limit(p):
+        return False, f"its rim is not planar (RMS {p:.3g} of its size off its plane, over {EDGE_ON_PLANARITY})"
+
     if ctx.planarity.get(hole_id, 0.0) > EDGE_ON_PLANARITY:  # measured already: not planar
-        return False
+        return planar_limit(ctx.planarity[hole_id])
     known = ctx.axes.get(hole_id)
     if known is not None and hole_id in ctx.planarity and np.array_equal(known[0], loop):
         st = {"planarity": ctx.planarity[hole_id], "axis": known[1]}   # measured already, on this loop
     else:
         st = loop_stats(ctx.V, loop)
     if st["planarity"] > EDGE_ON_PLANARITY:
-        return False
+        return planar_limit(st["planarity"])
     if st["planarity"] <= EDGE_ON_CAD_PLANARITY:
         for rings in range(1, EDGE_ON_RINGS + 1):   # past rings of zero-area faces only
             T = ctx.F[ctx.ring_faces(loop, rings)]
             n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
             ln = np.linalg.norm(n, axis=1)
             if np.any(ln > 0):
-                return bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
-        return False
+                hit = bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
+                return hit, "" if hit else "no face beside it stands across its plane"
+        return False, "no face of area beside it"
     n = _face_cross(ctx, ctx.ring_faces(loop, EDGE_ON_RINGS))
     a = 0.5 * np.linalg.norm(n, axis=1)
     if a.sum() <= 0:
-        return False
+        return False, "no face of area beside it"
     cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
-    if float(np.sum(a * cosines) / a.sum()) > EDGE_ON_COS:
-        return False
+    c = float(np.sum(a * cosines) / a.sum())
+    if c > EDGE_ON_COS:
+        return False, (f"the scan beside it does not stand across its plane (mean |cos| of its faces' "
+                       f"normals to the plane's {c:.2f}, over {EDGE_ON_COS})")
     # the user's word on what the opening is (RepairOptions.base), else the rule
-    return ctx.base == "flat" or (ctx.base == "auto" and _turns_into_opening(ctx, loop))
+    if ctx.base == "flat":
+        return True, ""
+    if ctx.base == "auto" and _turns_into_opening(ctx, loop):
+        return True, ""
+    return False, "faired by request" if ctx.base == "faired" else "the scan does not turn into its plane"
 
 
 def _face_cross(ctx, faces):

@@ -79,3 +79,21 @@ def test_base_takes_three_words():
     assert _parser().parse_args(["repair", "x.ply", "--base", "flat"]).base == "flat"
     assert _parser().parse_args(["batch", "d", "-o", "o", "--base", "faired"]).base == "faired"
     assert _parser().parse_args(["repair", "x.ply"]).base == "auto"
+
+
+def test_base_flat_that_cannot_apply_says_why_in_the_row():
+    """--base flat caps openings the scan meets edge-on; on a round hole in
+    a sphere (the sphere runs on into the opening's plane) it does not
+    apply, and the row says so instead of keeping silent."""
+    from eval import shapes
+    from shellrepair import Mesh
+    from shellrepair.repair import repair_mesh
+
+    V, F = shapes.icosphere(4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, centers=[int(np.argmax(V[:, 2]))], radius=0.4)
+    _, flat = repair_mesh(Mesh(V=V2, F=F2), base="flat")
+    row = flat["holes"][0]
+    assert row["status"] == "filled" and not row["option"].startswith("flat cap")
+    assert "--base flat does not apply: the scan beside it does not stand across its plane" in row["option"]
+    _, auto = repair_mesh(Mesh(V=V2, F=F2))
+    assert "--base flat" not in auto["holes"][0]["option"]
