@@ -5,7 +5,7 @@
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
                        [--bridge auto|never|always] [--base auto|flat|faired]
                        [--leave-open ID,...] [--order-for ID=N,...] [--cap-flat ID,...] [--fill ID,...]
-                       [--plan PLAN.json]
+                       [--plan PLAN.json] [--html PAGE.html] [--gltf OUT.glb] [--up AXIS]
     shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
                       [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
@@ -94,6 +94,11 @@ def _parser():
     r.add_argument("--html", metavar="PAGE.html", default=None,
                    help="also write a self-contained HTML page: Table 1, a before | after picture, the holes, "
                         "provenance (default: none)")
+    r.add_argument("--gltf", metavar="OUT.glb", default=None,
+                   help="also write the repaired mesh with its aged look as binary glTF 2.0: the scan and "
+                        "the filled part as two meshes, metallic-roughness materials (default: none)")
+    r.add_argument("--up", default="y", choices=("x", "y", "z", "-x", "-y", "-z"),
+                   help="world up axis of the scan, for the aged look of --gltf and --html (default y)")
     _hole_options(r)
     _quiet(r)
 
@@ -414,6 +419,13 @@ def _repair(args):
         check_output_path(page, what="page")
         if any(_same_file(page, p) for p in (args.scan, out, report_path)):
             raise MeshError("the page would overwrite the scan, the output or the report", page)
+    glb = Path(args.gltf) if args.gltf else None
+    if glb is not None:
+        if glb.suffix.lower() != ".glb":
+            raise MeshError("the glTF output must end in .glb (binary glTF)", glb)
+        check_output_path(glb, what="glTF")
+        if any(_same_file(glb, p) for p in (args.scan, out, report_path) + ((page,) if page else ())):
+            raise MeshError("the glTF file would overwrite the scan, the output, the report or the page", glb)
     opts = _options(args)  # every check that needs no reading happens before the work
     t0 = time.perf_counter()
     bar = terminal_bar(args.quiet)
@@ -440,7 +452,11 @@ def _repair(args):
         options = opts.as_dict()
         items.append((page, scan_page(report, figure(mesh, repaired, report), options=options,
                                       sha256=file_sha256(args.scan))))
-    # mesh, report (and page) appear together or not at all
+    if glb is not None:
+        from .gltf import gltf_bytes
+
+        items.append((glb, gltf_bytes(repaired, up=_up(args.up))))
+    # mesh, report (and page, glTF) appear together or not at all
     atomic_write_many(items)
     if bar is not None:
         bar(f"writing {out.name}", 2, 2)
@@ -451,8 +467,15 @@ def _repair(args):
         print(table1_text(report))
         for n in report["notes"]:
             print(f"  note: {n}")
-        print(f"  wrote {out} and {report_path}" + (f" and {page}" if page is not None else ""))
+        print(f"  wrote {out} and {report_path}" + (f" and {page}" if page is not None else "")
+              + (f" and {glb}" if glb is not None else ""))
     return 0
+
+
+def _up(name):
+    """The unit vector of an axis name (``y``, ``-z``, ...)."""
+    axis = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}[name[-1]]
+    return tuple(-a for a in axis) if name.startswith("-") else axis
 
 
 def _batch(args):
@@ -514,8 +537,7 @@ def _render(args):
     if args.highlight_filled and (mesh.face_filled is None or not mesh.face_filled.any()):
         print(f"warning: {args.mesh}: no face is flagged filled, so --highlight-filled shows nothing "
               "(render the output of shellrepair repair)", file=sys.stderr)
-    axis = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}[args.up[-1]]
-    up = tuple(-a for a in axis) if args.up.startswith("-") else axis
+    up = _up(args.up)
     how = "given"
     if view is None and args.highlight_filled and mesh.face_filled is not None and mesh.face_filled.any():
         view = rd.view_towards(mesh.V, mesh.F, mesh.face_filled, up=up)  # face the filled region
