@@ -450,7 +450,7 @@ def _repair(args):
         from .htmlreport import figure, file_sha256, scan_page
 
         options = opts.as_dict()
-        items.append((page, scan_page(report, figure(mesh, repaired, report), options=options,
+        items.append((page, scan_page(report, figure(mesh, repaired, report, up=_up(args.up)), options=options,
                                       sha256=file_sha256(args.scan))))
     if glb is not None:
         from .gltf import gltf_bytes
