@@ -9,7 +9,7 @@
     shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
                       [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
-                       [--before MESH] [--unit mm|cm|m] [--age A] [--up AXIS]
+                       [--before MESH] [--unit mm|cm|m] [--age A] [--up AXIS] [--gltf OUT.glb]
 
 Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
 exit status 2; no traceback, no output file. ``batch`` goes on past a bad
@@ -151,6 +151,9 @@ def _parser():
                    help="aging in [0, 1]: 0 all gilt, 1 all corroded (default 0.5)")
     v.add_argument("--up", default="y", choices=("x", "y", "z", "-x", "-y", "-z"),
                    help="world up axis: camera up and where rain comes from (default y)")
+    v.add_argument("--gltf", metavar="OUT.glb", default=None,
+                   help="also write the mesh with this look (material, age, up) as binary glTF 2.0 "
+                        "(default: none)")
     _quiet(v)
     return p
 
@@ -531,6 +534,13 @@ def _render(args):
     check_output_path(out, what="output")
     if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
         raise MeshError("output would overwrite an input mesh", out)
+    glb = Path(args.gltf) if args.gltf else None
+    if glb is not None:
+        if glb.suffix.lower() != ".glb":
+            raise MeshError("the glTF output must end in .glb (binary glTF)", glb)
+        check_output_path(glb, what="glTF")
+        if any(_same_file(glb, p) for p in (args.mesh, out) + ((args.before,) if args.before else ())):
+            raise MeshError("the glTF file would overwrite an input mesh or the picture", glb)
     bar = terminal_bar(args.quiet)
     mesh = read_mesh(args.mesh, progress=bar)
     end_line()
@@ -562,6 +572,11 @@ def _render(args):
         img = rd.render_mesh(mesh.V, mesh.F, filled=mesh.face_filled, highlight_filled=args.highlight_filled,
                              vertex_colors=mesh.vertex_colors, legend=legend, info=info, **kw)
     rd.save_image(out, img)
+    if glb is not None:
+        from .gltf import gltf_bytes
+        from .io import atomic_write
+
+        atomic_write(glb, gltf_bytes(mesh, age=args.age, up=up, material=args.material))
     if args.quiet:
         return 0
     choice = info["model"]
@@ -569,7 +584,7 @@ def _render(args):
     az, el = f"{float(view[0]):.10g}", f"{float(view[1]):.10g}"
     print(f"view: {az},{el} ({how}; --view {az},{el} renders the same camera again)")
     print(f"pixel footprint {info['footprint_um']:.3g} um: {choice.model} model ({choice.reason})")
-    print(f"wrote {out}")
+    print(f"wrote {out}" + (f" and {glb}" if glb is not None else ""))
     return 0
 
 

@@ -79,3 +79,17 @@ def test_repair_writes_the_glb_beside_the_mesh_and_refuses_a_text_gltf(tmp_path)
                           str(tmp_path / "x.ply"), "--gltf", str(tmp_path / "x.gltf")], capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and ".glb" in bad.stderr
     assert not (tmp_path / "x.ply").exists()
+
+
+def test_render_writes_the_look_it_draws_as_glb(tmp_path, repaired):
+    from shellrepair import write_mesh
+
+    write_mesh(tmp_path / "r.ply", repaired)
+    run = subprocess.run([sys.executable, "-m", "shellrepair.cli", "render", str(tmp_path / "r.ply"), "-o",
+                          str(tmp_path / "r.png"), "--size", "64x48", "--age", "0", "--gltf", str(tmp_path / "r.glb")],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    scene = trimesh.load(tmp_path / "r.glb", process=False)
+    # age 0: all gilt, every vertex metallic
+    for part in scene.geometry.values():
+        assert np.asarray(part.vertex_attributes["_METALLIC"]).min() == 1.0
