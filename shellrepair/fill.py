@@ -19,6 +19,7 @@ model (``method="seed"``).
 from __future__ import annotations
 
 import contextlib
+import copy
 import sys
 import threading
 import time
@@ -303,21 +304,38 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     ``budget``: a :class:`_Budget` (default: the hole's own)."""
     if order != "auto":
         return _fill_one_order(ctx, hole_id, loop, order, smooth, energy, budget, defer)
-    from .selftest import choose_order
+    from .selftest import DEFAULT_ORDER, OrderTest, choose_order
 
     t0 = time.perf_counter()
     beside = getattr(ctx, "beside", None)
+    budget = budget or _Budget(len(loop))
+    fresh = copy.copy(budget)      # what an order-1 fill would start from
+    # the order-2 fill first: a faired patch with no vertex of its own is
+    # the same at every order (there is nothing to fair), so the candidates
+    # agree and no test is needed
+    deferred = None if defer is None else []     # the order-2 fill's, kept only if it is the one used
+    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget, deferred)
+    if patch is not None and len(patch.P) == 0 and patch.option == OPTION_NAMES["faired"].format(order=2):
+        if defer is not None:
+            defer.extend(deferred)
+        if beside is not None:
+            beside.drop_test(hole_id)
+        test = OrderTest(DEFAULT_ORDER, why="no new vertex: every order gives this patch, not tested")
+        patch.option += f" ({test.describe()})"
+        patch.choice = test
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     test = beside.take_test(hole_id, loop) if beside is not None else None
     if test is None:
         test = choose_order(ctx, hole_id, loop)
-    budget = budget or _Budget(len(loop))
     if test.order == 1:
-        patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 1, smooth, energy, budget, defer)
+        patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 1, smooth, energy, fresh, defer)
         if patch is not None:
             patch.option += f" ({test.describe()})"
             patch.choice = test
+        budget.spent = fresh.spent
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
-    patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget, defer)
+    if defer is not None:
+        defer.extend(deferred)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if test.order == 3:
@@ -1376,6 +1394,12 @@ class _Beside:
                 return f(*args)
         finally:
             first_solve_memo(False)
+
+    def drop_test(self, hole_id):
+        """The hole needs no order test: cancel it if the helper has not begun it."""
+        got = self.tests.pop(hole_id, None)
+        if got is not None and not isinstance(got[1], _Stolen):
+            got[1].cancel()
 
     def take_test(self, hole_id, loop):
         """The hole's order test, or None where it has not begun (cancelled:

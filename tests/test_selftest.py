@@ -217,3 +217,26 @@ def test_a_rims_roughness_is_its_noise_over_a_smooth_rims_curvature_term():
     n = V2[rim] / np.linalg.norm(V2[rim], axis=1)[:, None]
     V2[rim] += 0.01 * np.random.default_rng(1).choice([-1.0, 1.0], len(rim))[:, None] * n
     assert 0.6 * 0.01 < rim_roughness(V2, F, rim) < 1.4 * 0.01 + smooth   # the noise, within its neighbours
+
+
+def test_a_hole_whose_patch_has_no_vertex_of_its_own_is_not_tested(monkeypatch):
+    """A patch with no new vertex is the same at every order (nothing to
+    fair): the candidates agree, so no test hole is cut for it, and the
+    fill is the forced order's, to the bit (a scanner occlusion of a star
+    shape: three of its nine holes have 8 or more rim edges and no new
+    vertex)."""
+    from eval import stress
+
+    case = stress.stress_case(1, 7, quick=True, family="scanner")
+    tested = []
+    real = selftest.choose_order
+    monkeypatch.setattr(selftest, "choose_order", lambda ctx, hole_id, *a, **k: tested.append(hole_id)
+                        or real(ctx, hole_id, *a, **k))
+    R, rep = repair_mesh(Mesh(V=case.V, F=case.F))
+    bare = [h for h in rep["holes"] if h["edges"] >= MIN_EDGES and h["new_vertices"] == 0]
+    assert len(bare) >= 2
+    for h in bare:
+        assert h["id"] not in tested and h["choice"]["untold"] and "no new vertex" in h["choice"]["why"]
+    assert tested, "the other holes are still tested"
+    R2, _ = repair_mesh(Mesh(V=case.V, F=case.F), order_for={h["id"]: 2 for h in bare})
+    assert np.array_equal(R.F, R2.F) and np.array_equal(R.V.view(np.uint64), R2.V.view(np.uint64))
