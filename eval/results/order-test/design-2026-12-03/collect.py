@@ -2,7 +2,6 @@
 test errors best_candidate saw per hole (default criterion)."""
 import sys, json, time
 sys.path.insert(0, '/work/main')
-import numpy as np
 from eval import stress
 from shellrepair import Mesh, selftest
 from shellrepair.repair import repair_mesh
