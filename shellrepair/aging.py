@@ -504,7 +504,7 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     Nw = np.stack([np.bincount(fidx, np.repeat(fn[:, k], 3), minlength=n) for k in range(3)], axis=1)
 
     h = p.edge_scale * diag
-    grid = _Grid(P, h, anchor=((own - center) @ R.T).min(axis=0))
+    grid = _Grid(P, h, anchor=P[used].min(axis=0))
     # the fields (convexity, normals, shelter) are the scan's own surface's
     shown = slice(None) if scan is None else scan
     Q, wq, nq = _surface_samples(P, F[shown], h, fn[shown])

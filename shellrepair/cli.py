@@ -422,13 +422,7 @@ def _repair(args):
         check_output_path(page, what="page")
         if any(_same_file(page, p) for p in (args.scan, out, report_path)):
             raise MeshError("the page would overwrite the scan, the output or the report", page)
-    glb = Path(args.gltf) if args.gltf else None
-    if glb is not None:
-        if glb.suffix.lower() != ".glb":
-            raise MeshError("the glTF output must end in .glb (binary glTF)", glb)
-        check_output_path(glb, what="glTF")
-        if any(_same_file(glb, p) for p in (args.scan, out, report_path) + ((page,) if page else ())):
-            raise MeshError("the glTF file would overwrite the scan, the output, the report or the page", glb)
+    glb = _glb_path(args.gltf, (args.scan, out, report_path, page), "the scan, the output, the report or the page")
     opts = _options(args)  # every check that needs no reading happens before the work
     t0 = time.perf_counter()
     bar = terminal_bar(args.quiet)
@@ -473,6 +467,23 @@ def _repair(args):
         print(f"  wrote {out} and {report_path}" + (f" and {page}" if page is not None else "")
               + (f" and {glb}" if glb is not None else ""))
     return 0
+
+
+def _glb_path(arg, others, what):
+    """The ``--gltf`` output as a Path (None when not asked), checked before
+    any work: a ``.glb`` name, a writable place, none of ``others``
+    (paths, None for those not given)."""
+    from .io import check_output_path
+
+    if not arg:
+        return None
+    glb = Path(arg)
+    if glb.suffix.lower() != ".glb":
+        raise MeshError("the glTF output must end in .glb (binary glTF)", glb)
+    check_output_path(glb, what="glTF")
+    if any(p is not None and _same_file(glb, p) for p in others):
+        raise MeshError(f"the glTF file would overwrite {what}", glb)
+    return glb
 
 
 def _up(name):
@@ -534,13 +545,7 @@ def _render(args):
     check_output_path(out, what="output")
     if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
         raise MeshError("output would overwrite an input mesh", out)
-    glb = Path(args.gltf) if args.gltf else None
-    if glb is not None:
-        if glb.suffix.lower() != ".glb":
-            raise MeshError("the glTF output must end in .glb (binary glTF)", glb)
-        check_output_path(glb, what="glTF")
-        if any(_same_file(glb, p) for p in (args.mesh, out) + ((args.before,) if args.before else ())):
-            raise MeshError("the glTF file would overwrite an input mesh or the picture", glb)
+    glb = _glb_path(args.gltf, (args.mesh, out, args.before), "an input mesh or the picture")
     bar = terminal_bar(args.quiet)
     mesh = read_mesh(args.mesh, progress=bar)
     end_line()

@@ -444,6 +444,19 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
 
     Returns (patch or None, reason, seconds, reasons tried).
     """
+    out = _fill_by_options(ctx, hole_id, loop, order, smooth, energy, budget, defer)
+    if out.patch is not None and order != 1 and getattr(ctx, "base", "auto") == "flat":
+        # --base flat asked for a cap the opening cannot take: the row says why
+        from .patch import edge_on_verdict
+
+        capped, why = edge_on_verdict(ctx, loop, hole_id)
+        if not capped:
+            out.patch.option += f" (--base flat does not apply: {why})"
+    return out
+
+
+def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
+    """The options of :func:`_fill_one_order` tried in turn (its steps 0-4)."""
     t0 = time.perf_counter()
     budget = budget or _Budget(len(loop))
     reasons = []
@@ -455,12 +468,6 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
         else (order != 1 and _meets_edge_on(ctx, loop, hole_id))
     if order != 1 and edge_on:
         options = [("flat cap", 1)] + options
-    # --base flat asked for a cap the opening cannot take: the row says why
-    base_note = ""
-    if getattr(ctx, "base", "auto") == "flat" and order != 1 and not edge_on:
-        from .patch import edge_on_verdict
-
-        base_note = f" (--base flat does not apply: {edge_on_verdict(ctx, loop, hole_id)[1]})"
     # the first attempt, when the chunk built and checked it already (_first_attempts)
     done = pre.first if pre is not None and pre.first is not None \
         and pre.first.key == (options[0], smooth, energy) else None
@@ -504,12 +511,10 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
                 faulty.append((patch, bad0, OPTION_NAMES[name0].format(order=order0)))
                 if why0 is None:
                     patch.option = OPTION_NAMES[name0].format(order=order0)
-                    patch.option += base_note
                     return Outcome(patch, "", time.perf_counter() - t0, reasons)
                 if name0 == "flat cap" and bad0.size:
                     rolled = _roll_rim(ctx, hole_id, loop, flat.T0, patch, bad0, smooth, budget)
                     if rolled is not None:
-                        rolled.option += base_note
                         return Outcome(rolled, "", time.perf_counter() - t0, reasons)
                     reasons.append(f"flat cap: {why0}")
             except PatchError:
@@ -576,7 +581,6 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
                     patch.option += f", {len(avoid)} chords re-routed"
                 if pinned is not None:
                     patch.option += f", {len(pinned)} vertices held on the flat triangulation"
-                patch.option += base_note
                 return Outcome(patch, "", time.perf_counter() - t0, reasons)
             more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
             if name == "faired" and more and faired_rounds < FAIRED_RETRIES:
@@ -592,10 +596,8 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     if flat_ok is not None:
         mended = _mend_last(ctx, faulty, reasons) if faulty and defer is None else None
         if mended is not None:
-            mended.option += base_note
             return Outcome(mended, "", time.perf_counter() - t0, reasons)
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
-        flat_ok.option += base_note
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
     if first_flat is not None and not blocked and ("harmonic", 1) in options and "harmonic" not in tried:
         # no triangulation passed its checks, so the harmonic patch (the last
@@ -607,7 +609,6 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
         if harmonic is not None:
             patch, why, bad = harmonic
             if why is None:
-                patch.option += base_note
                 return Outcome(patch, "", time.perf_counter() - t0, reasons)
             faulty.append((patch, bad, patch.option))
     if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
@@ -615,7 +616,6 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
         return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
     mended = _mend_last(ctx, faulty, reasons)
     if mended is not None:
-        mended.option += base_note
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
 

@@ -62,6 +62,24 @@ def _obj_lines_of(mask, buf, starts, ends):
     return b"\n".join(buf[s:e] for s, e in zip(starts[first].tolist(), ends[stop - 1].tolist()))
 
 
+def _numbers_of(mask, mv, starts, ends, least, short):
+    """The float values of the lines in ``mask`` (their keyword blanked in
+    ``mv``): (values, count per line, offset of each line's first value);
+    a line with fewer than ``least`` values, or a bad number, is a
+    :class:`MeshError` naming its line (``short``: what a short line lacks)."""
+    line_no = np.flatnonzero(mask)
+    text = _obj_lines_of(mask, mv, starts, ends)
+    cnt = token_counts(text)
+    if cnt.min() < least:
+        i = int(np.flatnonzero(cnt < least)[0])
+        raise MeshError(f"line {line_no[i] + 1}: {short}")
+    off = np.zeros(len(cnt), np.int64)
+    np.cumsum(cnt[:-1], out=off[1:])
+    vals = parse_numbers(text, np.float64, int(cnt.sum()), lambda j, t: (
+        f"line {line_no[np.searchsorted(off, j, side='right') - 1] + 1}: bad number '{t}'"))
+    return vals, cnt, off
+
+
 def read_obj(data):
     """Wavefront OBJ: ``v`` (with optional ``w`` or ``r g b`` colour) and ``f``
     lines; ``v/vt/vn``, ``v//vn``, ``v/vt`` corners and negative (relative)
@@ -112,15 +130,7 @@ def read_obj(data):
     f_line = np.flatnonzero(is_f)
 
     # vertices: x y z, x y z w, or x y z r g b (MeshLab's vertex colours)
-    text = _obj_lines_of(is_v, mv, starts, ends)
-    cnt = token_counts(text)
-    if cnt.min() < 3:
-        i = int(np.flatnonzero(cnt < 3)[0])
-        raise MeshError(f"line {v_line[i] + 1}: vertex needs 3 coordinates")
-    voff = np.zeros(len(cnt), np.int64)
-    np.cumsum(cnt[:-1], out=voff[1:])
-    vals = parse_numbers(text, np.float64, int(cnt.sum()), lambda j, t: (
-        f"line {v_line[np.searchsorted(voff, j, side='right') - 1] + 1}: bad number '{t}'"))
+    vals, cnt, voff = _numbers_of(is_v, mv, starts, ends, 3, "vertex needs 3 coordinates")
     if (cnt == 3).all():
         V = vals.reshape(-1, 3)
     else:
@@ -198,7 +208,7 @@ def read_obj(data):
         # the split reads positions only)
         C = polygons_to_triangles((cnt, np.arange(idx.size)), notes, V[idx])
         mesh.F = idx[C]
-        mesh.texture = _texture(data, mv, starts, ends, is_vt, n_vt, vt_idx, f_line, cnt, foff, C,
+        mesh.texture = _texture(mv, starts, ends, is_vt, n_vt, vt_idx, f_line, cnt, foff, C,
                                 materials_at, libraries, notes)
     else:
         mesh.F = polygons_to_triangles((cnt, idx), notes, V)
@@ -222,21 +232,13 @@ def read_obj(data):
     return mesh
 
 
-def _texture(data, mv, starts, ends, is_vt, n_vt, vt_idx, f_line, cnt, foff, C, materials_at, libraries, notes):
+def _texture(mv, starts, ends, is_vt, n_vt, vt_idx, f_line, cnt, foff, C, materials_at, libraries, notes):
     """The :class:`FaceTexture` of a read OBJ's triangles ``C`` (corner ids)."""
     uv = np.zeros((0, 2))
     face_uv = np.full(C.shape, -1, np.int64)
     if n_vt:
         vt_line = np.flatnonzero(is_vt)
-        text = _obj_lines_of(is_vt, mv, starts, ends)
-        tc = token_counts(text)
-        if tc.min() < 1:
-            i = int(np.flatnonzero(tc < 1)[0])
-            raise MeshError(f"line {vt_line[i] + 1}: texture coordinate needs a value")
-        toff = np.zeros(len(tc), np.int64)
-        np.cumsum(tc[:-1], out=toff[1:])
-        vals = parse_numbers(text, np.float64, int(tc.sum()), lambda j, t: (
-            f"line {vt_line[np.searchsorted(toff, j, side='right') - 1] + 1}: bad number '{t}'"))
+        vals, tc, toff = _numbers_of(is_vt, mv, starts, ends, 1, "texture coordinate needs a value")
         uv = np.zeros((len(tc), 2))
         uv[:, 0] = vals[toff]
         two = tc >= 2
