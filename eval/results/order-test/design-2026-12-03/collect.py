@@ -1,7 +1,8 @@
 """Design-seed data for the order criterion: forced RMS per case and the
 test errors best_candidate saw per hole (default criterion)."""
 import sys, json, time
-sys.path.insert(0, '/work/main')
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parents[4]))  # the repository
 from eval import stress
 from shellrepair import Mesh, selftest
 from shellrepair.repair import repair_mesh
