@@ -61,8 +61,8 @@ $(STAMP): $(INSTALLED) $(SOURCES) shellrepair/aot_types.json
 	$(PY) -m shellrepair.aot build --part 0 & first=$$!; \
 	$(PY) -m shellrepair.aot build --part 1; second=$$?; wait $$first && [ $$second = 0 ] || { \
 	  echo "the ahead-of-time build failed: compiling the kernels with Numba's JIT instead (cached beside the package)"; \
-	  $(PY) -c "from shellrepair import kernels; kernels.warm_up(share=1)" & first=$$!; \
-	  $(PY) -c "from shellrepair import kernels, cholesky; kernels.warm_up(share=2); cholesky.warm_up()" \
+	  $(PY) -c "from shellrepair import warmup; warmup.warm_up(share=1)" & first=$$!; \
+	  $(PY) -c "from shellrepair import warmup, cholesky; warmup.warm_up(share=2); cholesky.warm_up()" \
 	    || { wait $$first; exit 1; }; wait $$first; }
 	@echo "compiling the whole-mesh kernels (Numba, once, cached beside the package; used from 400k faces)"
 	$(PY) -c "from shellrepair import fastmesh; fastmesh.warm_up()"
@@ -75,7 +75,7 @@ $(SHADING): $(STAMP) $(SOURCES)
 	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"
 	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
 	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"
-	$(PY) -c "from shellrepair.reflectance import warm_up; warm_up()"
+	$(PY) -c "from shellrepair.shader import warm_up; warm_up()"
 	touch $(SHADING)
 
 # open3d's wheel needs libusb (and libgomp); install them from Debian if missing.

@@ -65,6 +65,7 @@ import numpy as np
 sys.path.insert(0, os.path.abspath(os.path.join(os.path.dirname(__file__), "..")))
 
 from shellrepair import materials as mt  # noqa: E402
+from shellrepair import shader as sd  # noqa: E402
 from shellrepair import render as rd  # noqa: E402
 from shellrepair import shading as sh  # noqa: E402
 from shellrepair.reflectance import albedo  # noqa: E402
@@ -332,7 +333,7 @@ def function_cases(N):
     nh, ni, no, oh = plain_geometry(wi, wo, n)
     pt = PlainTable(sh.rho_dt_table())
     mat = mt.get_material("aged-bronze")
-    shader = mt.MaterialShader(mat)
+    shader = sd.MaterialShader(mat)
     cases = [
         ("beckmann_D", sh.beckmann_D, mf._beckmann_D_np, plain_beckmann, (c, m)),
         ("v_cavity_G", sh.v_cavity_G, mf._v_cavity_G_np, plain_G, (nh, ni, no, oh)),
@@ -599,10 +600,10 @@ def bench_shading(N, repeat):
     interp = RegularGridInterpolator((table.u, table.log_m, table.kappa), table.values,
                                      bounds_error=False, fill_value=None)
     wi, wo, n, c, g, d = random_points(N)
-    shader = mt.MaterialShader(mat)
+    shader = sd.MaterialShader(mat)
     shader(wi[:1000], wo[:1000], n[:1000], c[:1000], g[:1000], d[:1000])  # warm up
     t_fast, f_fast = best_of(lambda: shader(wi, wo, n, c, g, d), repeat)
-    t_ref, f_ref = best_of(lambda: mt.shade_reference(wi, wo, n, c, mat, g, d), repeat)
+    t_ref, f_ref = best_of(lambda: sd.shade_reference(wi, wo, n, c, mat, g, d), repeat)
     with np.errstate(all="ignore"):
         t_naive, f_naive = best_of(lambda: naive_shade(wi, wo, n, c, mat, interp, g, d), repeat)
 
@@ -733,8 +734,8 @@ def bench_antialiasing(size):
 def bench_doc_numbers():
     """Numbers docs/shading.md quotes, printed from the code."""
     mat = mt.get_material("aged-bronze")
-    switch = mt.model_switch_footprint_um(mat)
-    choice = mt.choose_model(1000.0, mat)
+    switch = sd.model_switch_footprint_um(mat)
+    choice = sd.choose_model(1000.0, mat)
     th = np.array([0.0, 60.0, 80.0, 85.0, 87.0, 89.0])
     c = np.cos(np.radians(th))
     smooth = {}

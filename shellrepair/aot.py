@@ -53,10 +53,10 @@ def record(path=compiled.TYPES_FILE):
     """Write the argument types the warm-ups and a small repair pass to each kernel."""
     os.environ["SHELLREPAIR_NO_AOT"] = "1"
     compiled._BUILT = False
-    from . import cholesky, kernels
+    from . import cholesky, warmup
 
     compiled.start_recording()
-    kernels.warm_up()
+    warmup.warm_up()
     cholesky.warm_up()
     _small_repair()
     rows = [[m, n, list(_listed(a))] for m, n, a in compiled.recorded()

@@ -72,7 +72,7 @@ from scipy.spatial import cKDTree
 from . import kernels
 
 __all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
-           "resample_tube", "split_pinched", "wrapped_pairs", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
+           "resample_tube", "pants_triples", "wrapped_pairs", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
 #: Arcs are followed at most this many loop diameters (or one full turn):
 #: the search horizon for a partner loop, not a decision threshold.
@@ -548,6 +548,63 @@ def band_pairs(sights, eligible):
     return pairs
 
 
+def pants_triples(sights, eligible, touching=()):
+    """Waists and legs: triples of loops that bound one missing region.
+
+    Parameters
+    ----------
+    sights : dict of int -> (counts, n_arcs)
+        From :func:`shellrepair.bridge.loop_sights`.
+    eligible : (len(loops),) bool
+        Loops that may be joined (classed ``hole``).
+    touching : set of (int, int)
+        Loops that share a vertex (never joined).
+
+    Returns
+    -------
+    triples : list of (a, b, c)
+        Waist ``a`` and legs ``b < c``; each loop in at most one triple,
+        the triple whose legs send the larger share of their arcs to the
+        waist first.
+    """
+    eligible = np.asarray(eligible, bool)
+
+    def majority_on(x):
+        counts, m = sights[x]
+        c = counts.astype(np.float64)
+        c[x] = -1
+        c[~eligible] = -1
+        y = int(np.argmax(c))
+        return (y, c[y] / m) if m and 2 * c[y] > m else (None, 0.0)
+
+    legs = {}
+    for x in sights:
+        if not eligible[x]:
+            continue
+        y, f = majority_on(x)
+        if y is not None and (x, y) not in touching:
+            legs.setdefault(y, []).append((f, x))
+    cand = []
+    for a, ls in legs.items():
+        if a not in sights or not eligible[a] or len(ls) < 2:
+            continue
+        counts, m = sights[a]
+        ls = sorted(ls, reverse=True)
+        # the two legs that take the most of the waist's arcs
+        best = sorted(ls, key=lambda t: (-int(counts[t[1]]), -t[0], t[1]))[:2]
+        (fb, b), (fc, c) = best
+        if (b, c) in touching or not (counts[b] and counts[c]) or 2 * int(counts[b] + counts[c]) <= m:
+            continue
+        cand.append((min(fb, fc), a, min(b, c), max(b, c)))
+    used, out = set(), []
+    for _, a, b, c in sorted(cand, key=lambda t: (-t[0], t[1:])):
+        if {a, b, c} & used:
+            continue
+        used.update((a, b, c))
+        out.append((a, b, c))
+    return out
+
+
 def _arclength(P):
     seg = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
     t = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
@@ -884,7 +941,7 @@ def resample_tube(PA, PB, params, order, P, spacing):
     T = np.vstack([_zip(ps[r], ps[r + 1], ids[r], ids[r + 1]) for r in range(M + 1)])
     return np.vstack(rings), T
 
-def _find_bands(ctx, scan):
+def find_bands(ctx, scan):
     """Pairs of ``hole`` loops whose continuation arcs land on each other.
 
     Only loops classed ``hole`` are paired (a border is never bridged);
@@ -892,7 +949,7 @@ def _find_bands(ctx, scan):
     their arcs (``MAX_REACH`` diameters) have their arcs followed. Loops
     that share a vertex are never paired. Sets ``ctx.bands_mutual``, and
     ``ctx.band_triples``: ``(waist, leg, leg, pairs)`` per region bounded
-    by three loops (:func:`shellrepair.pants.pants_triples`; ``pairs`` the
+    by three loops (:func:`pants_triples`; ``pairs`` the
     bands among them, its fallback), whose loops are not in the pairs
     returned. Hole loops left unpaired by their arcs may still be paired as
     wrapping one tube (:func:`wrapped_pairs`).
@@ -931,8 +988,6 @@ def _find_bands(ctx, scan):
     # three loops bounding one region (shellrepair.pants): the pairs among
     # them are kept as the pants' fallback (a pair reaching out of the
     # triple leaves the triple to the pairs, as before)
-    from .pants import pants_triples
-
     ctx.band_triples = []
     for tri in pants_triples(sights, hole, touching):
         inside = [t for t in pairs if t[0] in tri or t[1] in tri]
@@ -1132,121 +1187,3 @@ def _with_partner(ctx, loops, cand, hole, touching=None):
         keep += np.unique(ab[~np.isin(ab, tk)] // m).tolist()
     return sorted(keep)
 
-
-def _pinched_parts(A, B):
-    """The loops bounding the parts of one band pinched where loops ``A``
-    and ``B`` (vertex arrays in boundary half-edge order) share vertices,
-    or None when they do not share at least two in opposite cyclic orders.
-
-    Between consecutive shared vertices ``p`` and ``q`` (in A's order) the
-    missing region is bounded by A from ``p`` to ``q`` and by B from ``q``
-    back to ``p``: both run with the scan on their left, so the part lies
-    on their right like a hole's.
-    """
-    A, B = np.asarray(A, np.int64), np.asarray(B, np.int64)
-    shared = np.intersect1d(A, B)
-    if shared.size < 2:
-        return None
-    ia = np.sort(np.flatnonzero(np.isin(A, shared)))
-    pa = A[ia]                                   # shared vertices in A's order
-    posb = {int(v): i for i, v in enumerate(B.tolist())}
-    jb = np.array([posb[int(v)] for v in pa])
-    m = len(pa)
-    # B must meet them in the reverse cyclic order
-    steps = (jb - np.roll(jb, -1)) % len(B)
-    if steps.sum() != len(B):
-        return None
-    parts = []
-    for k in range(m):
-        i0, i1 = ia[k], ia[(k + 1) % m]
-        seg_a = A[np.arange(i0, i0 + ((i1 - i0) % len(A) or len(A))) % len(A)]       # p .. before q
-        j1, j0 = jb[(k + 1) % m], jb[k]
-        seg_b = B[np.arange(j1, j1 + ((j0 - j1) % len(B) or len(B))) % len(B)]       # q .. before p
-        part = np.concatenate([seg_a, seg_b])
-        if len(part) < 3 or np.unique(part).size != len(part):
-            return None
-        parts.append(part)
-    if sum(len(p) for p in parts) != len(A) + len(B):
-        return None
-    return parts
-
-
-def split_pinched(V, F, topo, scan, pieces=None):
-    """Two ``hole`` loops that share vertices bound one band pinched there:
-    the band is as many discs as the loops share vertices, each bounded by
-    a stretch of each loop between two shared vertices. Those discs replace
-    the two loops as holes (their ``kind`` becomes ``'split'``); they keep
-    the loops' measurements of the piece and get ids after the scan's.
-
-    Not when a part would bound scan all round: two holes that touch at
-    two vertices with a lens of scan between them give a part that is the
-    lens's whole boundary (filling it would close the lens into a bubble),
-    so a part whose scan side (the pieces left of its edges) has no other
-    boundary edge leaves the two loops as they are.
-
-    Parameters
-    ----------
-    V : (n,3) float64
-    F : (m,3) int64
-    topo : EdgeTopology
-    scan : HoleScan
-    pieces : (int, (m,) int64), optional
-        :func:`shellrepair.topology.face_pieces` of ``topo``.
-
-    Returns
-    -------
-    scan : HoleScan
-        A new one when a pair was split, else ``scan`` itself.
-    splits : list of (int, int, list of int)
-        The two loop ids and the ids of the parts that replace them.
-    """
-    from dataclasses import replace
-
-    from .holes import loop_stats
-
-    from .topology import face_pieces
-
-    holes = [L for L in scan.loops if L.kind == "hole"]
-    owner = {}
-    for L in holes:
-        for v in L.vertices.tolist():
-            owner.setdefault(v, []).append(L.id)
-    touching = sorted({tuple(sorted(o)) for o in owner.values() if len(o) == 2})
-    loops = list(scan.loops)
-    used, splits = set(), []
-    if not touching:
-        return scan, []
-    n_piece, fpiece = face_pieces(topo, len(F)) if pieces is None else pieces
-    bhe = topo.boundary_he
-    bface = bhe // 3
-    bd_count = np.bincount(fpiece[bface], minlength=n_piece)     # boundary edges per piece
-    he_face = dict(zip(map(tuple, topo.ends(bhe).tolist()), bface.tolist()))   # not the whole mesh's he
-
-    def bounds_scan_all_round(part):
-        ps = {int(fpiece[he_face[(int(u), int(v))]]) for u, v in zip(part.tolist(), np.roll(part, -1).tolist())}
-        return int(bd_count[sorted(ps)].sum()) == len(part)
-
-    for a, b in touching:
-        if a in used or b in used:
-            continue
-        parts = _pinched_parts(loops[a].vertices, loops[b].vertices)
-        if parts is None or any(bounds_scan_all_round(p) for p in parts):
-            continue
-        used.update((a, b))
-        ids = []
-        for part in parts:
-            st = loop_stats(V, part)
-            i = len(loops)
-            loops.append(replace(loops[a], id=i, vertices=part, edges=int(len(part)), perimeter=st["perimeter"],
-                                 mean_edge=st["mean_edge"], area=st["area"], diameter=st["diameter"],
-                                 planarity=st["planarity"],
-                                 reason=f"part of loops {a} and {b} between two of the {len(parts)} vertices "
-                                        f"they share (a band pinched there)"))
-            ids.append(i)
-        for j in (a, b):
-            loops[j] = replace(loops[j], kind="split", reason=f"split into loops {ids[0]}-{ids[-1]} "
-                                                              f"at the vertices it shares with loop {a + b - j}")
-        splits.append((a, b, ids))
-    if not splits:
-        return scan, []
-    return replace(scan, loops=loops), splits

@@ -6,7 +6,7 @@ different argument types at the same moment both take the next free file
 number, and the index one of them writes can name the machine code the
 other wrote (numba/numba#10128 is this family of race). A later load then
 runs code compiled for other types. A single process, as a repair is, never
-races; the build's parallel warm-ups (:func:`shellrepair.kernels.warm_up`
+races; the build's parallel warm-ups (:func:`shellrepair.warmup.warm_up`
 with ``share``) and the tests' parallel workers (tests/conftest.py) can.
 
 :func:`install` wraps the cache file's load and save in an exclusive

@@ -32,6 +32,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from . import halves
+
 #: True when Numba can be imported (and SHELLREPAIR_NO_NUMBA is not set).
 AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get("SHELLREPAIR_NO_NUMBA")
 
@@ -227,38 +229,11 @@ def _single_kernel(slot, count, n_single):
     return single
 
 
-def _both(fn, a, b):
-    """``fn(*a)`` on a second thread and ``fn(*b)`` on this one; both results
-    (a kernel's exception is raised here)."""
-    box = {}
-
-    def run():
-        try:
-            box["r"] = fn(*a)
-        except BaseException as exc:   # raised again below, in the caller's thread
-            box["e"] = exc
-
-    t = threading.Thread(target=run, name="shellrepair-half")
-    t.start()
-    try:
-        rb = fn(*b)
-    finally:
-        t.join()
-    if "e" in box:
-        raise box["e"]
-    return box["r"], rb
-
-
-def _in_turn(fn, a, b):
-    """:func:`_both` on one thread: ``fn(*a)`` then ``fn(*b)``."""
-    return fn(*a), fn(*b)
-
-
 def _edge_topology_steps(F, n, shift, two=False):
     """The half-edge topology's arrays (see :func:`edge_topology_arrays`) in
     four steps, each in two halves: on two threads with ``two`` (the same
     arrays either way)."""
-    run = _both if two else _in_turn
+    run = halves.both if two else halves.in_turn
     K = _kernels()
     m = len(F)
     m3 = 3 * m
@@ -485,7 +460,7 @@ def _in_halves(kernel, V, R, out):
         kernel(V, R, out)
         return
     h = len(R) // 2
-    _both(kernel, (V, R[h:], out[h:]), (V, R[:h], out[:h]))
+    halves.both(kernel, (V, R[h:], out[h:]), (V, R[:h], out[:h]))
 
 
 def face_areas(V, F):

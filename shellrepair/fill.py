@@ -2,7 +2,7 @@
 
 :func:`_fill_one` builds a patch with :func:`~shellrepair.patch.build_patch`,
 checks it against the scan, itself and the edges the mesh has
-(:func:`_check_patch`) and, when it crosses, re-routes chords near the
+(:func:`checks.check_patch`) and, when it crosses, re-routes chords near the
 crossing, pins vertices near it to the flat triangulation, then tries the
 harmonic patch and the checked flat triangulation, within a counted work
 budget (:data:`HOLE_VERTICES` + :data:`HOLE_VERTICES_PER_EDGE` per rim
@@ -28,111 +28,19 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import kernels
+from . import checks
 from .counted import CountedSetting
 from .fair import umbrella_smooth
-from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
 
-from .merge import _Accepted, _edges_of, _scan_edges
-from .patch import HoleUnit, PatchError, _corners, _meets_edge_on, _prefill, _rim_data, build_patch
-
-
-class Outcome(NamedTuple):
-    """What filling one loop gave."""
-    patch: object          # the accepted-so-far Patch, or None when the loop stays open
-    reason: str            # why it stays open ("" when filled, or what a band's partner did)
-    seconds: float
-    reasons: list          # the reasons of the attempts that failed on the way
+from .checks import Outcome
+from .merge import _Accepted
+from .context import rim_data
+from .pants import PantsUnit, fill_pants, with_fallback
+from .patch import HoleUnit, PatchError, _corners, _meets_edge_on, _prefill, build_patch
 
 
 #: Smoothing passes of the paper's seed method when ``smooth`` is not given.
 SEED_SMOOTH_PASSES = 10
-
-
-#: Two triangles on one edge whose far corners, seen along the edge, are
-#: less than this apart (degrees) are folded onto each other, one sheet
-#: doubled: the exact crossing tests count a fold only when the two are
-#: exactly coplanar, and a float32 flat part is not (its round-off tilts
-#: faces by ~1e-4°). The stress suite's measure counts the same folds.
-#: Real scans do have creases sharper than a few degrees (5° failed 11
-#: holes of a Nefertiti case whose scan faces fold that sharply).
-FOLD_DEGREES = 0.1
-
-
-def _folds(ctx, patch, C, ids):
-    """Patch triangles folded onto a neighbour across an edge (``FOLD_DEGREES``):
-    another patch triangle, or the scan face across a rim edge (sorted)."""
-    Fr = ctx.F[ctx.faces_of(patch.loop)]
-    if kernels.ENABLED:
-        return kernels.folds(C, ids, ctx.V[Fr], Fr, np.cos(np.radians(FOLD_DEGREES)))
-    return _folds_numpy(C, ids, ctx.V[Fr], Fr)
-
-
-def _folds_numpy(C, ids, Cs, Fr):
-    """:func:`_folds` in NumPy (the compiled test's oracle), from the patch's
-    corners and corner ids and the scan faces at its rim (corners, ids)."""
-    T = np.concatenate([C, Cs])                          # patch triangles, then scan faces at the rim
-    I = np.concatenate([ids, Fr])
-    tri = np.concatenate([np.arange(len(C)), -1 - np.arange(len(Fr))])
-    j = np.arange(3)
-    a, b = I[:, j].ravel(), I[:, (j + 1) % 3].ravel()
-    t = np.repeat(tri, 3)
-    P, Q, R = T[:, j].reshape(-1, 3), T[:, (j + 1) % 3].reshape(-1, 3), T[:, (j + 2) % 3].reshape(-1, 3)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    order = np.lexsort((hi, lo))
-    lo, hi = lo[order], hi[order]
-    same = (lo[1:] == lo[:-1]) & (hi[1:] == hi[:-1])
-    x, y = order[:-1][same], order[1:][same]             # the two half-edges of one edge
-    keep = (t[x] >= 0) | (t[y] >= 0)                     # not two scan faces
-    x, y = x[keep], y[keep]
-    if x.size == 0:
-        return np.zeros(0, np.int64)
-    e = Q[x] - P[x]
-    e /= np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
-    u, w = R[x] - P[x], R[y] - P[x]
-    u -= np.sum(u * e, axis=1)[:, None] * e
-    w -= np.sum(w * e, axis=1)[:, None] * e
-    den = np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1)
-    fold = np.sum(u * w, axis=1) > np.cos(np.radians(FOLD_DEGREES)) * den
-    fold &= den > 0
-    hit = np.concatenate([t[x][fold], t[y][fold]])
-    return np.unique(hit[hit >= 0])
-
-
-def _check_patch(ctx, patch):
-    """Why the patch cannot be used (or None), and the patch triangles at fault."""
-    C, ids = _corners(ctx, patch)
-    if not np.isfinite(C).all():
-        return "non-finite patch positions", np.zeros(0, np.int64)
-    return _check_rest(ctx, patch, C, ids, patch_vs_index(C, ids, ctx.index, return_faces=True))
-
-
-def _check_patches(ctx, patches):
-    """:func:`_check_patch` of each patch, their crossing queries against
-    the scan in one batch (:func:`~shellrepair.intersect.patch_vs_index_many`);
-    the same answers."""
-    corners = [_corners(ctx, p) for p in patches]
-    finite = [bool(np.isfinite(C).all()) for C, _ in corners]
-    bads = iter(patch_vs_index_many([c for c, ok in zip(corners, finite) if ok], ctx.index))
-    return [_check_rest(ctx, p, C, ids, next(bads)) if ok else ("non-finite patch positions", np.zeros(0, np.int64))
-            for p, (C, ids), ok in zip(patches, corners, finite)]
-
-
-def _check_rest(ctx, patch, C, ids, bad):
-    """:func:`_check_patch` from the patch triangles that cross the scan."""
-    if bad.size:
-        return f"patch would cross the scan ({bad.size} triangles)", bad
-    bad = _folds(ctx, patch, C, ids)
-    if bad.size:
-        return f"patch would fold onto itself or the scan ({bad.size} triangles)", bad
-    # the patch against itself: a disc that projects one-to-one cannot
-    # cross itself; otherwise test its triangles pair by pair
-    if len(C) > 1 and not (patch.disc and embeds_by_projection(
-            np.vstack([ctx.V[patch.loop], patch.P]), patch.T, len(patch.loop))):
-        pairs = crossing_pairs(C - ctx.index.origin, ids)
-        if len(pairs):
-            return f"patch would cross itself ({len(pairs)} triangle pairs)", np.unique(pairs.ravel())
-    return None, np.zeros(0, np.int64)
 
 
 def _chords_near(ctx, patch, bad):
@@ -151,107 +59,12 @@ def _chords_near(ctx, patch, bad):
     return out
 
 
-#: A loop at most this planar (RMS distance to its plane over its diameter;
-#: float32 round-off of a flat CAD face is ~1e-7) whose flat triangulation
-#: covers its outline one-to-one is a plane region: every flat
-#: triangulation covers the same region, so scan faces crossing it away
-#: from the loop cross them all, and re-routing chords is futile.
-BLOCKED_PLANARITY = 1e-6
-
-
-def _blocked_in_plane(ctx, hole_id, flat, bad):
-    """How many scan faces cross a planar opening's region away from its
-    loop (so that every flat triangulation crosses them), or 0 when that
-    cannot be shown (the loop is not planar, its outline not simple, or
-    every crossing face touches the loop, where another chord may help)."""
-    from .holes import loop_stats
-
-    loop = flat.loop
-    if not flat.disc or len(flat.P) or bad.size == 0:
-        return 0
-    planarity = ctx.planarity.get(hole_id)
-    if planarity is None:
-        planarity = loop_stats(ctx.V, loop)["planarity"]
-    if planarity > BLOCKED_PLANARITY or not embeds_by_projection(ctx.V[loop], flat.T, len(loop)):
-        return 0
-    C, ids = _corners(ctx, flat)
-    pairs = patch_vs_index(C[bad], ids[bad], ctx.index, return_pairs=True)
-    faces = np.unique(pairs[:, 1])
-    touching = np.isin(ctx.F[faces], loop).any(axis=1)
-    return int(faces.size) if faces.size and not touching.any() else 0
-
-
 #: Rounds of re-triangulation when the flat triangulation crosses the scan.
 FLAT_RETRIES = 12
 #: Rounds of re-triangulation when the faired patch crosses the scan.
 FAIRED_RETRIES = 3
 #: Rounds of growing the region held on the flat triangulation around a crossing.
 PIN_ROUNDS = 3
-#: Work budget of one hole (or one band, both loops' edges counted), in new
-#: patch vertices built and checked over all attempts:
-#: ``HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges``. A hole's first
-#: attempt and its last option (the harmonic patch or tube, tried at most
-#: once) are always built; a later one (a retry, a tube, a rival tube)
-#: starts only if a patch of its expected size still fits, and refinement
-#: stops it (``build_patch(max_vertices=...)``) if it grows past what is
-#: left, before fairing. One new vertex costs ~0.1 ms to refine, fair and
-#: check (2 cores, order 2), so the budget is ~2.5 s + 3 ms per edge of
-#: work. The rounds themselves are counted too (:data:`FLAT_RETRIES`,
-#: :data:`FAIRED_RETRIES`, :data:`PIN_ROUNDS`), and the last layer has
-#: bounds of its own (:mod:`~shellrepair.mend`). Nothing here reads a
-#: clock: the same scan and options give the same attempts, so the same
-#: bytes, on a slow or busy machine and with any ``--jobs``
-#: (tests/test_determinism.py repairs under a clock that races ahead).
-HOLE_VERTICES = 25_000
-HOLE_VERTICES_PER_EDGE = 30
-
-
-class _Budget:
-    """What one hole (or band) may still spend, in work units: new patch
-    vertices built and checked (:data:`HOLE_VERTICES`). Counted, never
-    timed, so that no decision depends on the machine's speed or load.
-
-    Parameters
-    ----------
-    edges : int
-        Rim edges.
-    share : float
-        Fraction of the budget (a cap of a band gets its share).
-    """
-
-    def __init__(self, edges, share=1.0):
-        self.edges = int(edges)
-        self.vertices = share * (HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges)
-        self.spent = 0
-
-    def left(self):
-        """New vertices still affordable (>= 0)."""
-        return max(0, int(self.vertices - self.spent))
-
-    def spend(self, patch):
-        """Count a patch built and checked."""
-        if patch is not None:
-            self.spent += len(patch.P)
-
-    def affords(self, vertices):
-        """Whether an attempt of about this many new vertices still fits."""
-        return self.spent + vertices <= self.vertices
-
-    def part(self, share):
-        """A budget for part of the work (a cap of a band): ``share`` of what
-        is left here; count what it spent back with :meth:`absorb`."""
-        b = _Budget(self.edges)
-        b.vertices = share * self.left()
-        return b
-
-    def absorb(self, part):
-        self.spent += part.spent
-
-    def describe(self):
-        return (f"work budget: {self.spent} of {int(self.vertices)} patch vertices "
-                f"for {self.edges} edges")
-
-
 #: How each option is named in the report.
 OPTION_NAMES = {"faired": "faired order {order}", "harmonic": "harmonic (order 1)",
                 "flat cap": "flat cap: a planar opening the scan meets edge-on (order 1)"}
@@ -274,7 +87,7 @@ def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth, budget):
         except PatchError:
             return None
         budget.spend(p)
-        why, b2 = _check_patch(ctx, p)
+        why, b2 = checks.check_patch(ctx, p)
         if why is None:
             p.option = (f"flat cap: a planar opening the scan meets edge-on, bent (order 2) along "
                         f"{len(free)} vertices where rim faces slant across it")
@@ -301,14 +114,14 @@ def _pin_region(patch, bad, pinned):
 def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
     """Fill one hole; ``order="auto"`` picks order 1, 2 or 3 by test holes
     of its size cut into the scan beside it (:mod:`~shellrepair.selftest`).
-    ``budget``: a :class:`_Budget` (default: the hole's own)."""
+    ``budget``: a :class:`checks.WorkBudget` (default: the hole's own)."""
     if order != "auto":
         return _fill_one_order(ctx, hole_id, loop, order, smooth, energy, budget, defer)
     from .selftest import DEFAULT_ORDER, OrderTest, choose_order
 
     t0 = time.perf_counter()
     beside = getattr(ctx, "beside", None)
-    budget = budget or _Budget(len(loop))
+    budget = budget or checks.WorkBudget(len(loop))
     fresh = copy.copy(budget)      # what an order-1 fill would start from
     # the order-2 fill first: a faired patch with no vertex of its own is
     # the same at every order (there is nothing to fair), so the candidates
@@ -356,7 +169,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         except PatchError:
             p3 = None
         if p3 is not None:
-            if _check_patch(ctx, p3)[0] is None:
+            if checks.check_patch(ctx, p3)[0] is None:
                 p3.option = patch.option.replace("order 2", "order 3") + f" ({test.describe()})"
                 # the merge falls back on order 2 where order 3 and another hole's patch cross
                 patch.option += f" ({test.describe()}; order 3 and another hole's patch would cross: order 2 kept)"
@@ -432,11 +245,11 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
     4. If no triangulation passed (re-routing ran out of chords, rounds or
        budget), the harmonic patch on the first triangulation
        (:func:`_harmonic_last`); then the last layer mends the attempts
-       with the fewest faults (:func:`_mend_last`).
+       with the fewest faults (:func:`checks.mend_last`).
 
     The first faired attempt and the harmonic patch (tried at most once:
     in step 2, or else in step 4) are always made; each later one only
-    within ``budget`` (a :class:`_Budget`, default the hole's own): a
+    within ``budget`` (a :class:`checks.WorkBudget`, default the hole's own): a
     faired retry only if a patch of the first one's size still fits the
     work budget; the rounds are counted (no clock is read). Past the
     budget the hole keeps the checked flat triangulation, or its harmonic
@@ -458,7 +271,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
 def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
     """The options of :func:`_fill_one_order` tried in turn (its steps 0-4)."""
     t0 = time.perf_counter()
-    budget = budget or _Budget(len(loop))
+    budget = budget or checks.WorkBudget(len(loop))
     reasons = []
     avoid = set()
     flat_ok = None
@@ -507,7 +320,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                                         energy=energy)
                 size = len(patch.P)
                 budget.spend(patch)
-                why0, bad0 = done.check if done is not None else _check_patch(ctx, patch)
+                why0, bad0 = done.check if done is not None else checks.check_patch(ctx, patch)
                 faulty.append((patch, bad0, OPTION_NAMES[name0].format(order=order0)))
                 if why0 is None:
                     patch.option = OPTION_NAMES[name0].format(order=order0)
@@ -519,12 +332,12 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                     reasons.append(f"flat cap: {why0}")
             except PatchError:
                 pass
-        why, bad = _check_patch(ctx, flat)
+        why, bad = checks.check_patch(ctx, flat)
         if why is not None and not scan_aware:
             scan_aware = True  # again, with only triangles that cross no scan face
             continue
         if why is not None:
-            blocked = _blocked_in_plane(ctx, hole_id, flat, bad)
+            blocked = checks.blocked_in_plane(ctx, hole_id, flat, bad)
             if blocked:
                 reasons.append(f"flat: {why}; {blocked} scan faces cross the opening's own plane inside it, "
                                f"so no flat triangulation avoids them")
@@ -556,7 +369,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                 continue
             size = len(patch.P) if size is None else size
             budget.spend(patch)
-            why, bad = _check_patch(ctx, patch)
+            why, bad = checks.check_patch(ctx, patch)
             faulty.append((patch, bad, OPTION_NAMES[name].format(order=o)))
             pinned = None
             for _grow in range(PIN_ROUNDS if why is not None and bad.size else 0):
@@ -570,7 +383,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                 except PatchError:
                     break
                 budget.spend(pp)
-                w2, b2 = _check_patch(ctx, pp)
+                w2, b2 = checks.check_patch(ctx, pp)
                 if w2 is None:
                     patch, why = pp, None
                     break
@@ -594,7 +407,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
     else:
         reasons.append(f"the triangulation still crosses the scan after re-routing {len(avoid)} chords")
     if flat_ok is not None:
-        mended = _mend_last(ctx, faulty, reasons) if faulty and defer is None else None
+        mended = checks.mend_last(ctx, faulty, reasons) if faulty and defer is None else None
         if mended is not None:
             return Outcome(mended, "", time.perf_counter() - t0, reasons)
         flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
@@ -614,7 +427,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
     if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
         defer.extend(faulty)
         return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
-    mended = _mend_last(ctx, faulty, reasons)
+    mended = checks.mend_last(ctx, faulty, reasons)
     if mended is not None:
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
@@ -632,49 +445,13 @@ def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):
         reasons.append(f"harmonic on the first triangulation: {exc}")
         return None
     budget.spend(patch)
-    why, bad = _check_patch(ctx, patch)
+    why, bad = checks.check_patch(ctx, patch)
     patch.option = f"{name} on the first triangulation"
     if why is not None:
         reasons.append(f"{patch.option}: {why}")
     return patch, why, bad
 
 
-#: Failed attempts the last layer (:func:`~shellrepair.mend.mend_patch`)
-#: tries to mend, those with the fewest faulty triangles first.
-MEND_ATTEMPTS = 2
-
-
-def _mend_last(ctx, faulty, reasons, check=None, what="patch"):
-    """The last layer: the failed attempts with the fewest faults, mended
-    where they fail (:mod:`~shellrepair.mend`); the mended patch, or None
-    (each failure's cause appended to ``reasons``). ``faulty``: (patch,
-    faulty triangles, option) per failed attempt; ``check`` as
-    :func:`_check_patch` (default: it)."""
-    from .mend import mend_patch
-
-    check = _check_patch if check is None else check
-
-    tried = 0
-    for patch, bad, option in sorted((f for f in faulty if f[1].size), key=lambda f: f[1].size):
-        if tried == MEND_ATTEMPTS:
-            break
-        tried += 1
-        res = mend_patch(ctx, patch, bad, check)
-        if res.patch is not None:
-            res.patch.option = (f"{option}, mended: {res.regions} region(s) around {bad.size} faulty triangles "
-                                f"re-triangulated")
-            return res.patch
-        reasons.append(f"last layer, mending the {option} {what} ({bad.size} faulty triangles): {res.reason}")
-    return None
-
-
-#: Which energy decides tube against caps: 0 thin plate ∫(2H)², 1 curvature
-#: variation ∫|∇(2Hn)|². The thin-plate energy of a thin torus's inner band is
-#: higher than that of two flat caps, so it picks caps where the band is
-#: missing; the curvature variation measures how well each option continues
-#: the surrounding surface's curvature and picks the tube (tested on tori of
-#: tube radius 0.2–0.5 and cut angles 70–150°).
-ENERGY = 1
 #: Share of a band's budget the two caps get when they are filled before
 #: the tube (the rest is the tube's).
 CAPS_SHARE = 0.7
@@ -721,26 +498,6 @@ def _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget):
     return (P, T) if np.isfinite(P).all() else None
 
 
-def _edges_across(ctx, loops):
-    """Edges the scan has between the ``loops``' vertices, other than the
-    loops' own edges (sorted pairs): a patch joining the loops (a tube, a
-    pants) that made one again would be non-manifold."""
-    verts = np.concatenate([L.vertices for L in loops])
-    edges = {tuple(e) for e in _edges_of(ctx.F[ctx.faces_of(verts)]).tolist()}
-    return edges - {tuple(sorted(e)) for L in loops
-                    for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
-
-
-def _check_joining(ctx, patch, scan_edges, what):
-    """:func:`_check_patch` of a patch joining loops, which also must not
-    repeat one of their ``scan_edges`` (:func:`_edges_across`; ``what``
-    names the patch in the reason)."""
-    why, bad = _check_patch(ctx, patch)
-    if why is None and any(e in scan_edges for e in _scan_edges(patch)):
-        why = f"the {what} would repeat an edge of the scan"
-    return why, bad
-
-
 def flat_face_with_hole(ctx, A, B):
     """Two loops that outline one flat face with a hole in it: a triangulation
     of that face, or None.
@@ -760,7 +517,7 @@ def flat_face_with_hole(ctx, A, B):
 
     Parameters
     ----------
-    ctx : _Context
+    ctx : ScanContext
     A, B : Loop
 
     Returns
@@ -871,7 +628,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     that fails), is refined and faired like a cap with both loops' rings
     fixed, and is checked against the scan and itself; the faired tube and
     the tube held on the arcs are both tried and the valid one with the
-    lower energy (``ENERGY``) is kept. A guide too large for the band's
+    lower energy (``checks.ENERGY``) is kept. A guide too large for the band's
     budget (``GUIDE_SHARE``) is replaced by its faired coarse version
     resampled at the rim's spacing (:func:`_coarse_tube`). Only for loops
     that see each other both ways are crossings retried (vertices held
@@ -893,12 +650,12 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     loop = np.concatenate([A.vertices, B.vertices])
     # one budget for the band (both loops' edges): the tube's attempts after
     # its first are made only while it lasts, the caps get their shares
-    budget = _Budget(len(loop))
+    budget = checks.WorkBudget(len(loop))
     # a pair found only as wrapping one tube (bridge.wrapped_pairs) may be
     # two holes that merely wrap a thin part: its caps are filled as those
     # holes would be alone (``order`` as given, "auto" included)
     cap_order = order if frozenset((A.id, B.id)) in getattr(ctx, "bands_wrapped", set()) else None
-    scan_edges = _edges_across(ctx, (A, B))
+    scan_edges = checks.edges_across(ctx, (A, B))
     face = flat_face_with_hole(ctx, A, B)
     if face is not None:
         # one flat face with a hole (the flat cap's two-loop form): harmonic
@@ -908,7 +665,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             p = build_patch(ctx, A.id, loop, order=1, smooth=0, initial=face, energy=True,
                             max_vertices=budget.left())
             budget.spend(p)
-            why = _check_joining(ctx, p, scan_edges, "tube")[0]
+            why = checks.check_joining(ctx, p, scan_edges, "tube")[0]
         except PatchError as exc:
             p, why = None, str(exc)
         if why is None:
@@ -929,7 +686,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
     first = "along the continuation arcs"
     try:
-        sigma = _rim_data(ctx, loop)[0]      # the rim's edge length, as refinement reads it
+        sigma = rim_data(ctx, loop)[0]      # the rim's edge length, as refinement reads it
         spacing, reach = float(np.mean(sigma)), MAX_REACH * max(A.diameter, B.diameter)
         Pg, Tg = guide_tube(PA, PB, *arcs, spacing=spacing, reach=reach)
     except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
@@ -951,7 +708,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                 why_tube = str(exc)
                 return None, np.zeros(0, np.int64), None
             budget.spend(p)
-        why, bad = _check_joining(ctx, p, scan_edges, "tube")
+        why, bad = checks.check_joining(ctx, p, scan_edges, "tube")
         if why is None:
             how = f"faired order {o}" if fair else "refined, not faired"
             if pinned is not None:
@@ -963,7 +720,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         return None, bad, p
 
     def check_tube(ctx_, p):
-        return _check_joining(ctx_, p, scan_edges, "tube")   # (a repeated edge: no triangles to blame, not mended)
+        return checks.check_joining(ctx_, p, scan_edges, "tube")   # (a repeated edge: no triangles to blame, not mended)
 
     def caps_crossing(caps):
         """Why the two caps cannot both be used, or ''."""
@@ -1026,7 +783,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                 budget.spend(hp)
             except PatchError as exc:
                 why_tube = str(exc)
-        energy_of = (lambda p: p.energy[ENERGY] if p.energy is not None else np.inf)
+        energy_of = (lambda p: p.energy[checks.ENERGY] if p.energy is not None else np.inf)
         if held_first is not None:     # the test bands' choice first, then the other
             energy_of = (lambda p: 0 if (p is hp) == held_first else 1)
         for p in sorted([x for x in (built, hp) if x is not None], key=energy_of):
@@ -1057,7 +814,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         valid = [p for p in (faired, held) if p is not None]
         if valid:
             tube = min(valid, key=(lambda p: 0 if (p is held) == held_first else 1) if held_first is not None
-                       else (lambda p: p.energy[ENERGY] if p.energy is not None else np.inf))
+                       else (lambda p: p.energy[checks.ENERGY] if p.energy is not None else np.inf))
         elif mutual and bad.size and built is not None:
             # hold the vertices near the crossing on the arcs (as for a cap)
             pinned = None
@@ -1085,7 +842,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         # tube, so its last layer (the failed tubes mended where they
         # cross) comes before the caps, not only after them
         notes = []
-        tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({how})") for p, b, how in tube_faults], notes,
+        tube = checks.mend_last(ctx, [(p, b, f"tube to loop {B.id} ({how})") for p, b, how in tube_faults], notes,
                           check=check_tube, what="tube")
         if notes:
             why_tube += "; " + "; ".join(notes)
@@ -1098,7 +855,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
                 t1 = time.perf_counter()
                 try:
                     c = build_patch(ctx, L.id, L.vertices, order=order, smooth=smooth, energy=True)
-                    why, _ = _check_patch(ctx, c)
+                    why, _ = checks.check_patch(ctx, c)
                 except PatchError as exc:
                     c, why = None, str(exc)
                 if why is not None:
@@ -1110,7 +867,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             caps = fill_caps(1.0)
     if caps is None:
         secs = time.perf_counter() - t0
-        e_tube = tube.energy[ENERGY] if tube.energy is not None else None
+        e_tube = tube.energy[checks.ENERGY] if tube.energy is not None else None
         record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
                   "tube_energy": None if e_tube is None else round(float(e_tube), 6), "caps_energy": None,
                   "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
@@ -1126,19 +883,19 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
             c = caps[n]
             if c.patch is None and cap_faults.get(L.id):
                 notes = []
-                mended = _mend_last(ctx, cap_faults[L.id], notes)
+                mended = checks.mend_last(ctx, cap_faults[L.id], notes)
                 caps[n] = Outcome(mended, "" if mended is not None else "; ".join([c.reason] + notes),
                                   c.seconds, c.reasons + notes)
         if caps_crossing(caps) and tube_faults:
             notes = []
-            tube = _mend_last(ctx, [(p, b, f"tube to loop {B.id} ({first})") for p, b, first in tube_faults],
+            tube = checks.mend_last(ctx, [(p, b, f"tube to loop {B.id} ({first})") for p, b, first in tube_faults],
                               notes, check=check_tube, what="tube")
             if notes:
                 why_tube += "; " + "; ".join(notes)
     why_caps = caps_crossing(caps)
-    e_tube = tube.energy[ENERGY] if tube is not None and tube.energy is not None else np.inf
+    e_tube = tube.energy[checks.ENERGY] if tube is not None and tube.energy is not None else np.inf
     caps_ok = not why_caps
-    e_caps = sum(c[0].energy[ENERGY] if c[0] is not None and c[0].energy is not None else np.inf
+    e_caps = sum(c[0].energy[checks.ENERGY] if c[0] is not None and c[0].energy is not None else np.inf
                  for c in caps) if caps_ok else np.inf
     record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
               "tube_energy": None if not np.isfinite(e_tube) else round(float(e_tube), 6),
@@ -1176,9 +933,11 @@ _WORKER_CTX = None
 def _run_unit(ctx, unit):
     if isinstance(unit, HoleUnit):
         return [_fill_one(ctx, *unit)], None
-    from .pants import PantsUnit, fill_pants     # three loops bounding one region
-    if isinstance(unit, PantsUnit):
-        return fill_pants(ctx, unit)
+    if isinstance(unit, PantsUnit):      # three loops bounding one region
+        res = fill_pants(ctx, unit)
+        if res.parts is None:
+            return with_fallback(unit, res.failed, [(u, _run_unit(ctx, u)) for u in unit.fallback])
+        return res
     return _fill_pair(ctx, *unit)
 
 
@@ -1188,14 +947,14 @@ class _First(NamedTuple):
     flat: object           # the flat triangulation (Patch)
     patch: object          # the first option's patch, or None when building it failed
     error: str             # why it failed
-    check: tuple           # _check_patch(patch)
+    check: tuple           # checks.check_patch(patch)
 
 
 def _first_attempts(ctx, chunk):
     """The first attempt of every single hole of the chunk, as
     :func:`_fill_one_order` makes it (flat triangulation, then the first
     option's patch), their checks against the scan batched
-    (:func:`_check_patches`); stored in ``ctx.pre`` where
+    (:func:`checks.check_patches`); stored in ``ctx.pre`` where
     :func:`_fill_one_order` takes them instead of making them again."""
     made = []
     for unit in chunk:
@@ -1223,9 +982,9 @@ def _first_attempts(ctx, chunk):
         except PatchError as exc:
             patch, error = None, str(exc)
         made.append((pre, _First((first, unit.smooth, False), flat, patch, error, None)))
-    checks = iter(_check_patches(ctx, [f.patch for _, f in made if f.patch is not None]))
+    verdicts = iter(checks.check_patches(ctx, [f.patch for _, f in made if f.patch is not None]))
     for pre, f in made:
-        pre.first = f._replace(check=next(checks)) if f.patch is not None else f
+        pre.first = f._replace(check=next(verdicts)) if f.patch is not None else f
 
 
 def _helper_context(ctx):
@@ -1540,7 +1299,7 @@ def _seed_patches(ctx, holes, passes, results):
     for p in built:
         p.P = X[base:base + len(p.P)]
         base += len(p.P)
-        why, _ = _check_patch(ctx, p)
+        why, _ = checks.check_patch(ctx, p)
         if why is None:
             p.option = f"seed, {passes} smoothing passes"
             out[p.hole_id] = p

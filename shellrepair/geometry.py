@@ -121,3 +121,17 @@ def concat_ranges(start, count):
     if total == 0:
         return np.zeros(0, np.int64)
     return np.repeat(start - np.concatenate([[0], np.cumsum(count)[:-1]]), count) + np.arange(total)
+
+
+def vertex_faces_scipy(F, n_vertices):
+    """Vertex-to-face lists by SciPy's sparse conversion (the lists of
+    :func:`shellrepair.topology.vertex_faces` where the compiled kernels are
+    off): ``order`` (positions in ``F.ravel()`` grouped by vertex, in order
+    within a vertex) and ``start`` ((n+1,) int64)."""
+    import scipy.sparse as sp
+
+    flat = np.asarray(F, np.int64).ravel()
+    n = int(n_vertices)
+    # a counting sort by vertex: SciPy's COO -> CSR conversion, stable within a row
+    A = sp.csr_matrix((np.ones(flat.size, np.int8), (flat, np.arange(flat.size))), shape=(n, flat.size))
+    return A.indices.astype(np.int64), A.indptr.astype(np.int64)

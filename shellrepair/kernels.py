@@ -12,14 +12,14 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   sorts (:func:`shellrepair.topology.vertex_faces`; also the whole-mesh
   version :mod:`shellrepair.fastmesh` gives);
 * :func:`faces_in_boxes`: the faces whose bounding boxes meet some boxes
-  (the region of :class:`shellrepair.patch._Region`), one pass over the
+  (the region of :class:`shellrepair.context._Region`), one pass over the
   vertices and one over the faces;
 * :func:`ring_faces`: the faces within some rings of a vertex set
-  (:meth:`shellrepair.patch._Context.ring_faces`);
+  (:meth:`shellrepair.context.ScanContext.ring_faces`);
 * :func:`submesh`: a hole's submesh in local numbering
-  (:func:`shellrepair.patch._submesh`); :func:`patch_corners`,
+  (:func:`shellrepair.context.submesh`); :func:`patch_corners`,
   :func:`rim_sigma`: a patch's triangle corners and its rim scale
-  (:func:`shellrepair.patch._corners`, :func:`shellrepair.patch._rim_sigma`);
+  (:func:`shellrepair.patch._corners`, :func:`shellrepair.context._rim_sigma`);
 * :func:`inside_outline`, :func:`loop_cover`: the inside test and the cover
   test of :func:`shellrepair.triangulate._delaunay_in_projection`;
 * :func:`grid_sort`, :func:`faces_in_box`: the vertex grid of
@@ -43,7 +43,7 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
   (:func:`shellrepair.refine._relax`), the angles still NumPy's, and
   :func:`relax_round_parts`: one round's angle parts and fold tests;
 * :func:`rim_edges`: a loop's rim scale and scan normals from the faces
-  around it (:func:`shellrepair.patch._rim_data`);
+  around it (:func:`shellrepair.context.rim_data`);
 * :func:`fair_small`: a small patch's whole fairing
   (:func:`shellrepair.fair.fair_patch`), the solves dense: equal to
   round-off, not to the bit (the one kernel with a tolerance, stated there);
@@ -53,7 +53,7 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`folds`: the patch triangles folded onto a neighbour
   (:func:`shellrepair.fill._folds`);
 * :func:`rim_walk`: :func:`rim_edges` with the faces around the loop found
-  and measured in the same pass (:func:`shellrepair.patch._rim_data`);
+  and measured in the same pass (:func:`shellrepair.context.rim_data`);
 * :func:`face_cross`: faces' cross products, gathered and computed in one
   pass (:func:`shellrepair.patch._meets_edge_on`);
 * :func:`ring_sums`: the sums over the two rings around a loop's vertices
@@ -71,7 +71,7 @@ loops of rounds (edge flips) pay it hundreds of times a hole.
 * :func:`ring_walk`: the rings around a loop in one walk, each ring's end
   recorded (:func:`ring_faces`); :func:`centroids`,
   :func:`nearest_triangle_distances`: the order test's centroid query and
-  distances (:func:`shellrepair.selftest.point_mesh_distance`; the latter
+  distances (:func:`shellrepair.distance.point_mesh_distance`; the latter
   each point's closest candidate triangle, on scalars);
 * :func:`centred_area`, :func:`outline_cross`, :func:`cover_free`: a
   loop's centred positions and vector area, and the projected Delaunay
@@ -91,7 +91,7 @@ compiles them ahead of time (``python -m shellrepair.aot build``) for the
 argument types of ``shellrepair/aot_types.json``, so that a run loads them
 in milliseconds and never imports Numba; a call with other types goes to
 Numba's JIT (cached on disk, ``cache=True``, under ``__pycache__`` beside
-this file), with the same bits. :func:`warm_up` compiles every kernel with
+this file), with the same bits. :func:`shellrepair.warmup.warm_up` compiles every kernel with
 the JIT on tiny inputs (the build's way where the ahead-of-time build
 fails, and what ``python -m shellrepair.aot record`` watches to list the
 types). When neither is there (``SHELLREPAIR_NO_NUMBA=1`` forces that
@@ -101,13 +101,14 @@ too), ``ENABLED`` is False and callers use the NumPy versions.
 from __future__ import annotations
 
 import os
-import threading
 
 import numpy as np
 
-__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "liepa_tables", "chord_rows", "ring_walk", "centroids", "nearest_triangle_distances", "warm_up"]
+__all__ = ["ENABLED", "vertex_faces", "faces_in_boxes", "ring_faces", "submesh", "inside_outline", "loop_cover", "patch_corners", "rim_sigma", "faces_in_box", "grid_sort", "box_pairs", "separated", "cross_status", "patch_pairs", "projection_embeds", "intrinsic_flips", "rim_edges", "relax", "fair_small", "relax_round_parts", "energy_blocks", "boxes_meeting", "max_sq_distance", "outline_simple", "folds", "rim_walk", "face_cross", "ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "angle_parts", "unfolded", "split_test", "centred_area", "outline_cross", "cover_free", "tet_faces", "loop_edges_present", "restricted_prepare", "restricted_search", "liepa_tables", "chord_rows", "ring_walk", "centroids", "nearest_triangle_distances"]
 
 from . import compiled
+from .geometry import vertex_faces_scipy
+from .halves import both, in_turn
 
 #: Whether the kernels run (compiled ahead of time, or by Numba's JIT):
 #: :func:`shellrepair.compiled.available`; when False, the NumPy versions run instead.
@@ -182,9 +183,7 @@ def _vertex_faces(flat, n, shift, two=False):
     two, buckets for the third): on two threads with ``two``, the same
     arrays either way (the second half's corners after the first's in each
     bucket, as one pass files them)."""
-    from .fastmesh import _both, _in_turn
-
-    run = _both if two else _in_turn
+    run = both if two else in_turn
     m3 = flat.size
     h = m3 // 2
     nb = (n >> shift) + 1
@@ -229,11 +228,9 @@ def vertex_faces(F, n_vertices):
     n = int(n_vertices)
     flat = np.ascontiguousarray(np.asarray(F, np.int64).reshape(-1))
     if not ENABLED or flat.size >= 2 ** _VF_BITS:   # corner ids must fit the packing
-        from .topology import _vertex_faces_scipy
-
         if flat.size and (flat.min() < 0 or flat.max() >= n):
             raise ValueError(f"face indices must lie in [0, {n}), got {flat.min()}..{flat.max()}")
-        return _vertex_faces_scipy(F, n)
+        return vertex_faces_scipy(F, n)
     shift = max(1, min(_VF_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
     return _vertex_faces(flat, n, shift, two=flat.size >= VF_HALVES_MIN and (os.cpu_count() or 1) >= 2)
 
@@ -376,7 +373,7 @@ def _ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
 
 def ring_faces(verts, rings, vf_order, vf_start, F, vmark, fmark):
     """Faces within ``rings`` rings of ``verts``, sorted (as
-    :meth:`shellrepair.patch._Context.ring_faces`).
+    :meth:`shellrepair.context.ScanContext.ring_faces`).
 
     Parameters
     ----------
@@ -444,7 +441,7 @@ def _submesh(faces, F, loop, T, vpos):
 
 def submesh(faces, F, loop, T, vpos):
     """The local numbering of a hole's submesh (as
-    :func:`shellrepair.patch._submesh`): the scan faces ``faces`` and the
+    :func:`shellrepair.context.submesh`): the scan faces ``faces`` and the
     patch ``T`` over the loop's positions and new vertices.
 
     Parameters
@@ -666,7 +663,7 @@ def _rim_sigma(V, loop, sig_sum, sig_cnt):
 def rim_sigma(V, loop, sig_sum, sig_cnt):
     """Per loop vertex, the mean length of the scan edges at it, or the
     length of its loop edge where it has none (as
-    :func:`shellrepair.patch._rim_sigma`).
+    :func:`shellrepair.context._rim_sigma`).
 
     Parameters
     ----------
@@ -1578,7 +1575,7 @@ def _rim_edges(k, ia_all, ib_all, ln, nrm):
 
 
 def rim_edges(loop, E, ln, nrm):
-    """The edge walk of :func:`shellrepair.patch._rim_data`.
+    """The edge walk of :func:`shellrepair.context.rim_data`.
 
     Parameters
     ----------
@@ -2733,7 +2730,7 @@ def _rim_walk(loop, vf_order, vf_start, F, V):
 def rim_walk(loop, vf_order, vf_start, F, V):
     """:func:`rim_edges` from the loop alone: the faces at its vertices
     (``vf_order``, ``vf_start``: complete lists there), their sides, side
-    lengths and unit normals as :func:`shellrepair.patch._rim_faces` makes
+    lengths and unit normals as :func:`shellrepair.context._rim_faces` makes
     them, then the edge walk; the same four arrays."""
     return _rim_walk(np.ascontiguousarray(loop, np.int64), vf_order, vf_start,
                      np.ascontiguousarray(F, np.int64), np.ascontiguousarray(V, np.float64))
@@ -4263,7 +4260,7 @@ def centroids(V, F):
 
 @njit(cache=True, nogil=True)
 def _segment_distance(p0, p1, p2, s0, s1, s2, e0, e1, e2):
-    # the closest point of segment S-E to P and its distance: selftest._closest_on_triangles' edge step
+    # the closest point of segment S-E to P and its distance: distance._closest_on_triangles' edge step
     D0, D1, D2 = e0 - s0, e1 - s1, e2 - s2
     t = ((p0 - s0) * D0 + (p1 - s1) * D1 + (p2 - s2) * D2) / max(D0 * D0 + D1 * D1 + D2 * D2, 1e-300)
     if t < 0.0:
@@ -4277,7 +4274,7 @@ def _segment_distance(p0, p1, p2, s0, s1, s2, e0, e1, e2):
 
 @njit(cache=True, nogil=True)
 def _point_triangle(p0, p1, p2, a0, a1, a2, b0, b1, b2, c0, c1, c2):
-    # selftest._closest_on_triangles on scalars (no array views): the same operations in the same order
+    # distance._closest_on_triangles on scalars (no array views): the same operations in the same order
     ab0, ab1, ab2 = b0 - a0, b1 - a1, b2 - a2
     ac0, ac1, ac2 = c0 - a0, c1 - a1, c2 - a2
     ap0, ap1, ap2 = p0 - a0, p1 - a1, p2 - a2
@@ -4335,7 +4332,7 @@ def nearest_triangle_distances(Q, V, F, idx):
     """For each point ``Q[i]``, its distance to the nearest of the triangles
     ``V[F[idx[i]]]``, read from ``V`` and ``F`` (no (m,3,3) corner array)
     with the point-triangle step on scalars: the operations of
-    :func:`shellrepair.selftest._closest_on_triangles` and the norm after it,
+    :func:`shellrepair.distance._closest_on_triangles` and the norm after it,
     in their order, so the same numbers to the bit.
 
     Parameters
@@ -4352,124 +4349,3 @@ def nearest_triangle_distances(Q, V, F, idx):
     """
     return _nearest_triangle_distances(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(V, np.float64),
                                        np.ascontiguousarray(F, np.int64), np.ascontiguousarray(idx, np.int64))
-
-
-# --------------------------------------------------------------------------
-_WARM = False
-_WARM_LOCK = threading.Lock()
-
-
-def warm_up(share=None):
-    """Compile (or load from the on-disk cache) every kernel on tiny inputs.
-
-    Called by ``make setup`` where the ahead-of-time build fails (the
-    compile, once per machine), by ``python -m shellrepair.aot record``
-    and by the benchmarks before they time a tool. A repair does not call
-    it. With the ahead-of-time modules built, the calls here run those
-    (nothing compiles). Returns whether the kernels are in use.
-
-    ``share`` 1 or 2 compiles only that half of the kernels (about 55 and
-    35 s of compiling on a fresh checkout): the build runs the two in
-    parallel processes, then ``warm_up()`` finds all in the cache. No kernel
-    is compiled for different types in the two halves, directly or inside
-    another kernel (two processes that cache one kernel for different types
-    at the same moment can leave its cache index naming the other's machine
-    code), and a share takes :mod:`shellrepair.cachelock`'s lock too.
-    """
-    global _WARM
-    if not ENABLED:
-        return False
-    if share is not None:
-        from . import cachelock
-
-        cachelock.install()
-        (_warm_first, _warm_second)[int(share) - 1]()
-        return True
-    if _WARM:
-        return True
-    with _WARM_LOCK:   # a second caller (the background load, a fill) waits for the first
-        if _WARM:
-            return True
-        _warm_first()
-        _warm_second()
-        _WARM = True
-    return True
-
-
-def _warm_first():
-    """The first half of :func:`warm_up`: the region, index and fairing kernels."""
-    T = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
-    order, start = vertex_faces(T, 4)
-    faces_in_boxes(np.zeros((4, 3)), T, np.zeros((1, 3)), np.ones((1, 3)))
-    ring_faces(np.array([0], np.int64), 2, order, start, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
-    submesh(np.array([0, 1], np.int64), T, np.array([0, 1, 2], np.int64), np.array([[0, 2, 1], [0, 3, 2]], np.int64), np.full(4, -1, np.int64))
-    loop_cover(inside_outline(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), T[:1]), np.ones(1), 3)
-    patch_corners(np.zeros((4, 3)), np.array([0, 1, 2], np.int64), np.zeros((1, 3)), T)
-    rim_sigma(np.zeros((4, 3)), np.array([0, 1, 2], np.int64), np.ones(3), np.array([1.0, 0.0, 2.0]))
-    L = np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
-    intrinsic_flips(T.copy(), L, 4, 3, 1e-12)
-    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
-    rim_edges(np.array([0, 1, 3, 2], np.int64), E, np.ones(len(E)), np.zeros((2, 3)))
-    box_pairs(np.zeros((2, 3)), np.ones((2, 3)))
-    P = np.array([[0.0, 0, 0], [1, 2, 3], [0, 1, 0], [1, 1, 1]])
-    lo2, h, vorder, vkey, ny = grid_sort(P, grow=0.5)
-    _faces_in_box(vkey, vorder, P, order, start, np.zeros(0, np.int64), lo2, h, ny, np.zeros(3), np.ones(3),
-                  np.zeros(2, np.bool_))
-    box_pairs(np.zeros((2, 3)), np.ones((2, 3)), np.zeros((1, 3)), np.ones((1, 3)))
-    Tr = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
-    separated(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 1.0, np.array([[3, 4, 5]]),
-              np.zeros(1, np.int64), 1e-15, 1e-280)
-    X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
-    from .refine import FLIP_EPS, _angle, _unfolded   # (refine imports this module)
-
-    relax(X * [1.0, 1.0, 0.0] + [[0, 0, 0], [0, 0, 0], [0, 0, 0], [-0.6, -0.6, 0]], T, np.ones(4, np.bool_),
-          np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
-    for order in (1, 2, 3):
-        fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
-    # beside the fairing: these call kernels it calls too (_box_pairs, _laplacian_rows) with other types
-    patch_pairs(Tr + 0.25, np.array([[-1, 1, -2]]), np.array([0, 1], np.int64), X, T, np.zeros(3), 1e-15, 1e-15, 1e-280)
-    ptr4, col4, val4 = _laplacian_rows(T, np.zeros((0, 3)), 4, True)
-    energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))
-
-
-def _warm_second():
-    """The second half of :func:`warm_up`: the crossing, band, order-test and triangulation kernels."""
-    T = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
-    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
-    Tr = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
-    X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
-    cross_status(Tr, np.array([[0, 1, 2]]), np.zeros(1, np.int64), Tr + 0.25, np.array([[3, 4, 5]]),
-                 np.zeros(1, np.int64), 1e-15, 1e-15, 1e-280)
-    projection_embeds(X[:, :2], T, 4, 1.0, 1e-9)
-    relax_round_parts(X, np.array([[0, 1, 1, 2, 0, 3, 0, 1]], np.int64))
-    max_sq_distance(X)
-    boxes_meeting(X[:2], X[2:], np.zeros(3), np.ones(3))
-    outline_simple(X[:3, :2], 1e-12)
-    folds(X[T], T, X[T[:1]], T[:1] + 4, 0.5)
-    face_cross(np.array([1], np.int64), T, X)
-    ring_sums(E, np.array([0], np.int64), np.array([0, 1, 1, 2], np.int64), X, X)
-    _, Lb, _ = block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4)
-    block_ids(T, np.array([2], np.int64), np.array([0, 1, 3], np.int64), np.array([3], np.int64), 4, scratch=False)
-    corner_normal_sums(Lb, T, X, 4)
-    loops4 = np.array([0, 0, 1, 1], np.int64)
-    arc_landings(X[:2], X[1:3], X[2:], np.ones(2), np.ones(2), np.ones(2), 4, 0.15, np.array([0, 1], np.int64), 2,
-                 X, loops4, np.array([0, 1, 0, 1], np.int64), np.ones(2), np.array([0, 1], np.int64),
-                 np.array([2, 2], np.int64), np.array([0, 1], np.int64), 2, rank_of=lambda P: np.arange(len(P)))
-    angle_parts(X[:2], X[2:])
-    unfolded(X[:1], X[1:2], X[2:3], X[3:])
-    split_test(X, T, np.ones(4), 1.5)
-    vo, vs = vertex_faces(T, 4)
-    ring_walk(np.array([0], np.int64), 2, vo, vs, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
-    centroids(X, T)
-    nearest_triangle_distances(X[:2], X, T, np.zeros((2, 2), np.int64))
-    rim_walk(np.array([0, 1, 3, 2], np.int64), *vertex_faces(T, 4), T, X)
-    from .triangulate import restricted_dp   # (triangulate imports this module)
-
-    restricted_dp(X, np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]], np.int64), np.eye(4, 3), {(0, 2)})
-    for ax in (None, np.ones(3)):
-        liepa_tables(X, np.eye(4, 3), np.ones(4, np.bool_), np.zeros((4, 4), np.bool_), ax, 1e-12)
-    chord_rows(X, 1, np.zeros(0, np.int64))
-    C, _ = centred_area(X)
-    S, raw = outline_cross(C[:, :2], T, X)
-    cover_free(S, raw[:, 2], 4, np.array([3], np.int64))
-    loop_edges_present(tet_faces(np.array([[3, 1, 0, 2]], np.int32), 4), 4)

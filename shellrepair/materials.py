@@ -1,10 +1,11 @@
 """Material presets: metals, corrosion layers and how coverage drives them.
 
-The rust-coverage map lives in :mod:`shellrepair.coverage` and the shader
-(:func:`shade_reference`, :class:`MaterialShader`, :func:`choose_model`) in
-:mod:`shellrepair.shader`; their names are re-exported here, so
-``shellrepair.materials.MaterialShader`` is the same object as
-``shellrepair.shader.MaterialShader``.
+The rust-coverage map lives in :mod:`shellrepair.coverage` (its names
+re-exported here) and the shader that reads these presets
+(:func:`~shellrepair.shader.shade_reference`,
+:class:`~shellrepair.shader.MaterialShader`,
+:func:`~shellrepair.shader.choose_model`) in :mod:`shellrepair.shader`,
+which imports this module and is never imported by it.
 
 A gilt-bronze statue after centuries (source paper, 4.4; Dorsey & Hanrahan
 1996) is bronze partly covered by corrosion layers -- cuprite (Cu2O) next to
@@ -73,17 +74,7 @@ __all__ = [
     "rust_coverage",
     "surface_params",
     "substrate_reflectance",
-    "shade_reference",
-    "MaterialShader",
-    "ModelChoice",
-    "choose_model",
-    "model_switch_footprint_um",
 ]
-
-#: Names defined in :mod:`shellrepair.shader`, which imports this module:
-#: re-exported on first access (PEP 562) so that either module may be imported first.
-_SHADER_NAMES = ("shade_reference", "MaterialShader", "ModelChoice", "choose_model",
-                 "model_switch_footprint_um")
 
 #: Wavelengths (nm) of the R, G, B channels: rows of Johnson & Christy's
 #: table, so no interpolation of the published constants is needed.
@@ -328,11 +319,3 @@ from .coverage import (  # noqa: E402
     vertex_normals,
 )
 
-
-def __getattr__(name):
-    """The shader's names, from :mod:`shellrepair.shader` (imported on first use)."""
-    if name in _SHADER_NAMES:
-        from . import shader
-
-        return getattr(shader, name)
-    raise AttributeError("module %r has no attribute %r" % (__name__, name))

@@ -1,6 +1,6 @@
 """Mend a hole's patch where it crosses the scan or itself (the fill's last layer).
 
-A patch that fails its checks (:func:`shellrepair.fill._check_patch`)
+A patch that fails its checks (:func:`shellrepair.checks.check_patch`)
 usually fails in a few small places: at a spike or a flap of the scan's rim
 that folds back into the opening, where two parts of a long loop run close
 together, at a sharp jag of the rim. Everywhere else it is a good surface.
@@ -382,7 +382,7 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
 
     Parameters
     ----------
-    ctx : shellrepair.patch._Context
+    ctx : shellrepair.context.ScanContext
     patch : shellrepair.patch.Patch
         A patch that failed its checks (a disc bounded by ``patch.loop``).
     bad : (b,) int64
@@ -405,9 +405,9 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
     X = np.vstack([ctx.V[loop], patch.P])
     gid = np.concatenate([loop, -1 - np.arange(q)])        # scan ids; new vertices negative
     T = np.asarray(patch.T, np.int64)
-    from .patch import _rim_data
+    from .context import rim_data
 
-    _, edge_normals, forbidden = _rim_data(ctx, loop)       # loop positions = patch numbering
+    _, edge_normals, forbidden = rim_data(ctx, loop)       # loop positions = patch numbering
     rim_normals = np.asarray(edge_normals, np.float64)
     fault = np.zeros(len(T), bool)
     fault[np.asarray(bad, np.int64)] = True

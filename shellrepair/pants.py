@@ -28,7 +28,7 @@ C's vertex ``c``, C walked all round, the strip back. The tube of
 arcs, the strip's vertices borrowing theirs) sews the strip's two sides
 together: the strip's vertices become free vertices of one patch over the
 three loops, which is then refined and faired with the three loops' rings
-fixed and checked like a cap or a tube (:func:`shellrepair.fill._check_patch`,
+fixed and checked like a cap or a tube (:func:`shellrepair.checks.check_patch`,
 and here also: a manifold surface with exactly the three loops as its
 boundary and Euler characteristic -1). The faired pants, the pants held on
 its guide and the plain zip are tried in that order; if none passes, the
@@ -42,64 +42,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["pants_triples", "pants_initial", "pants_is_manifold", "PantsUnit", "PantsResult", "fill_pants", "expand", "pants_unit"]
-
-
-def pants_triples(sights, eligible, touching=()):
-    """Waists and legs: triples of loops that bound one missing region.
-
-    Parameters
-    ----------
-    sights : dict of int -> (counts, n_arcs)
-        From :func:`shellrepair.bridge.loop_sights`.
-    eligible : (len(loops),) bool
-        Loops that may be joined (classed ``hole``).
-    touching : set of (int, int)
-        Loops that share a vertex (never joined).
-
-    Returns
-    -------
-    triples : list of (a, b, c)
-        Waist ``a`` and legs ``b < c``; each loop in at most one triple,
-        the triple whose legs send the larger share of their arcs to the
-        waist first.
-    """
-    eligible = np.asarray(eligible, bool)
-
-    def majority_on(x):
-        counts, m = sights[x]
-        c = counts.astype(np.float64)
-        c[x] = -1
-        c[~eligible] = -1
-        y = int(np.argmax(c))
-        return (y, c[y] / m) if m and 2 * c[y] > m else (None, 0.0)
-
-    legs = {}
-    for x in sights:
-        if not eligible[x]:
-            continue
-        y, f = majority_on(x)
-        if y is not None and (x, y) not in touching:
-            legs.setdefault(y, []).append((f, x))
-    cand = []
-    for a, ls in legs.items():
-        if a not in sights or not eligible[a] or len(ls) < 2:
-            continue
-        counts, m = sights[a]
-        ls = sorted(ls, reverse=True)
-        # the two legs that take the most of the waist's arcs
-        best = sorted(ls, key=lambda t: (-int(counts[t[1]]), -t[0], t[1]))[:2]
-        (fb, b), (fc, c) = best
-        if (b, c) in touching or not (counts[b] and counts[c]) or 2 * int(counts[b] + counts[c]) <= m:
-            continue
-        cand.append((min(fb, fc), a, min(b, c), max(b, c)))
-    used, out = set(), []
-    for _, a, b, c in sorted(cand, key=lambda t: (-t[0], t[1:])):
-        if {a, b, c} & used:
-            continue
-        used.update((a, b, c))
-        out.append((a, b, c))
-    return out
+__all__ = ["pants_initial", "pants_is_manifold", "PantsUnit", "PantsResult", "fill_pants", "with_fallback", "expand", "pants_unit"]
 
 
 def pants_initial(PA, PB, PC, arcs, spacing, reach):
@@ -215,8 +158,21 @@ class PantsUnit(NamedTuple):
 class PantsResult(NamedTuple):
     """What filling a :class:`PantsUnit` gave: ``(unit, (outcomes,
     record))`` per unit to merge, the pants itself (outcomes per loop A, B,
-    C) or its fallback units."""
-    parts: list
+    C) or its fallback units; ``parts`` None when the pants failed, why in
+    ``failed`` (the fill then fills the fallback units:
+    :func:`with_fallback`)."""
+    parts: list | None
+    failed: str = ""
+
+
+def with_fallback(unit, why, parts):
+    """The :class:`PantsResult` of a pants that failed (``why``): the
+    fallback units' ``parts`` as the fill filled them, each band's record
+    saying what the pants tried."""
+    for u, (outs, record) in parts:
+        if record is not None:
+            record["pants"] = "pants of loops %d, %d, %d failed: %s" % (unit.A.id, unit.B.id, unit.C.id, why)
+    return PantsResult(parts)
 
 
 def pants_unit(A, B, C, pairs, order, smooth, mode):
@@ -246,12 +202,13 @@ def expand(units, results):
 
 def fill_pants(ctx, unit):
     """Fill a :class:`PantsUnit`: the pants if one passes its checks, else
-    its fallback units as they were filled before.
+    a result saying why not (its fallback units are then filled as they
+    were before: :func:`with_fallback`).
 
     The pants (:func:`pants_initial`) is faired (order as the unit's,
     ``"auto"`` as 2) and, if it fails its checks, held on its guide; then
-    the failed attempts are mended (:func:`shellrepair.fill._mend_last`).
-    Every option must pass :func:`shellrepair.fill._check_patch`, repeat no
+    the failed attempts are mended (:func:`shellrepair.checks.mend_last`).
+    Every option must pass :func:`shellrepair.checks.check_patch`, repeat no
     edge of the scan and be a genus-0 surface bounded by exactly the three
     loops (:func:`pants_is_manifold`).
 
@@ -261,9 +218,10 @@ def fill_pants(ctx, unit):
     """
     import time
 
-    from . import fill as _fill
+    from . import checks as _checks
     from .bridge import MAX_REACH, continuation_arcs
-    from .patch import PatchError, _rim_data, build_patch
+    from .context import rim_data
+    from .patch import PatchError, build_patch
 
     t0 = time.perf_counter()
     A, B, C = unit.A, unit.B, unit.C
@@ -271,12 +229,12 @@ def fill_pants(ctx, unit):
     sizes = [len(A.vertices), len(B.vertices), len(C.vertices)]
     k = len(loop)
     order = 2 if unit.order == "auto" else unit.order
-    budget = _fill._Budget(k)
-    scan_edges = _fill._edges_across(ctx, (A, B, C))
+    budget = _checks.WorkBudget(k)
+    scan_edges = _checks.edges_across(ctx, (A, B, C))
     why = []
 
     def check(ctx_, p):
-        w, bad = _fill._check_joining(ctx_, p, scan_edges, "pants")
+        w, bad = _checks.check_joining(ctx_, p, scan_edges, "pants")
         if w is None and not pants_is_manifold(p.T, k, sizes):
             w = "the pants is not one surface bounded by the three loops"
         return w, bad
@@ -284,7 +242,7 @@ def fill_pants(ctx, unit):
     faults, pants = [], None
     try:
         arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B, C)]
-        spacing = float(np.mean(_rim_data(ctx, loop)[0]))
+        spacing = float(np.mean(rim_data(ctx, loop)[0]))
         reach = MAX_REACH * max(A.diameter, B.diameter, C.diameter)
         P0, T0 = pants_initial(ctx.V[A.vertices], ctx.V[B.vertices], ctx.V[C.vertices], arcs, spacing, reach)
         init = (P0, T0) if np.isfinite(P0).all() and pants_is_manifold(T0, k, sizes) else None
@@ -316,22 +274,18 @@ def fill_pants(ctx, unit):
             faults.append((p, bad, p.option))
         if pants is None and faults:
             notes = []
-            pants = _fill._mend_last(ctx, faults, notes, check=check, what="pants")
+            pants = _checks.mend_last(ctx, faults, notes, check=check, what="pants")
             why += notes
     secs = time.perf_counter() - t0
     if pants is not None:
         pants.hole_id = A.id
-        e = pants.energy[_fill.ENERGY] if pants.energy is not None else None
+        e = pants.energy[_checks.ENERGY] if pants.energy is not None else None
         record = {"loops": [int(A.id), int(B.id), int(C.id)], "kinds": [A.kind, B.kind, C.kind],
                   "tube_energy": None if e is None else round(float(e), 6), "caps_energy": None,
                   "chosen": "tube", "shape": "pants", "reason": f"pants: the arcs of loops {B.id} and {C.id} land on loop {A.id}, "
                                               f"and loop {A.id}'s on the two"}
-        outs = [_fill.Outcome(pants, "", secs, []),
-                _fill.Outcome(None, f"joined with loop {A.id} by a pants", secs, []),
-                _fill.Outcome(None, f"joined with loop {A.id} by a pants", secs, [])]
+        outs = [_checks.Outcome(pants, "", secs, []),
+                _checks.Outcome(None, f"joined with loop {A.id} by a pants", secs, []),
+                _checks.Outcome(None, f"joined with loop {A.id} by a pants", secs, [])]
         return PantsResult([(unit, (outs, record))])
-    parts = [(u, _fill._run_unit(ctx, u)) for u in unit.fallback]
-    for u, (outs, record) in parts:
-        if record is not None:
-            record["pants"] = "pants of loops %d, %d, %d failed: %s" % (A.id, B.id, C.id, "; ".join(why))
-    return PantsResult(parts)
+    return PantsResult(None, "; ".join(why))

@@ -4,11 +4,9 @@
 triangulated (:mod:`~shellrepair.triangulate`), refined to the rim's density
 (:mod:`~shellrepair.refine`) and faired with the scan's rings around it held
 fixed (:mod:`~shellrepair.fair`), or a flat cap where the scan meets a planar
-opening edge-on (:func:`_meets_edge_on`). :class:`_Context` holds the
-whole-mesh structures the per-hole work reads (edges, vertex-to-face lists,
-the faces near a box), built once, or on a large scan with few holes only
-those of a region around them (:class:`_Region`); :func:`_prefill` does a run of holes'
-first attempts at once.
+opening edge-on (:func:`_meets_edge_on`). It reads the scan through
+:class:`~shellrepair.context.ScanContext`; :func:`_prefill` does a run of
+holes' first attempts at once.
 
 The retries, the checks and the choice among attempts are in
 :mod:`~shellrepair.fill`; the merge into the scan in :mod:`~shellrepair.merge`;
@@ -17,19 +15,18 @@ the orchestration in :mod:`~shellrepair.repair`.
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
 from . import kernels
+from .context import local_frame, rim_data, submesh
 from .errors import MeshError
-from .geometry import concat_ranges, cross, uniq
+from .geometry import cross
 from .fair import (fair_patch, harmonic_interpolate, patch_energies, taubin_smooth, uniform_laplacian)
-from .intersect import NearFaces, patch_vs_index
+from .intersect import patch_vs_index
 from .refine import refine_patch, refine_patches
-from .topology import vertex_faces
 from .triangulate import triangulate_loop
 
 
@@ -111,459 +108,6 @@ class Patch:
         return G.astype(np.int64)
 
 
-class _Context:
-    """Whole-mesh structures built once; per-hole work only reads them."""
-
-    def __init__(self, mesh):
-        self.V = mesh.V
-        self.F = mesh.F
-        self.n = len(mesh.V)
-        self.colors = mesh.vertex_colors
-        self.props = {k: v for k, v in mesh.vertex_props.items()
-                      if np.asarray(v).ndim == 1 and np.issubdtype(np.asarray(v).dtype, np.number)}
-        self._vf = None   # vertex-to-face lists, built on first use (vf_order, vf_start)
-        self._vmark = np.zeros(self.n, bool)      # scratch marks for ring_faces, left all False
-        self._fmark = np.zeros(len(self.F), bool)
-        self._vpos = None                         # scratch vertex positions (vpos()), made on first use
-        self.planarity = {}  # loop id -> planarity measured by detect_holes
-        self.axes = {}       # loop id -> (loop vertices, best-fit plane axis) measured by detect_holes
-        self.base = "auto"   # RepairOptions.base: how a scan's planar opening met edge-on is filled
-        self.topo = None     # the mesh's EdgeTopology, when the caller has it
-        self._index = None
-        self._full_index = None
-        self._region = None  # _Region near the boundary loops; False: none (whole-mesh structures)
-        # the region and the index are built once, by whichever thread asks
-        # first (the others wait); the whole-mesh lists may be on their way
-        # from another thread (a future, see whole_index)
-        self._build_lock = threading.RLock()
-        self._vf_future = None
-        self._region_future = None   # the region on its way from another thread (take_region)
-        self._early_vf = None        # and the whole-mesh lists, where there is no region
-        # loop bytes -> {triangle key: 0/1}: the scan test's answers (_scan_allowed),
-        # shared with a helper thread's copy of this context
-        self.allowed_answers = {}
-        self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
-        self.beside = None  # fill._Beside: a helper thread's work beside a batch's fills
-
-    @property
-    def vf_order(self):
-        return self.vf[0]
-
-    @property
-    def vf_start(self):
-        return self.vf[1]
-
-    @property
-    def vf(self):
-        """Vertex-to-face lists ``(order, start)`` of the whole mesh, built once on first use."""
-        if self._vf is None:
-            fut = self._vf_future
-            self._vf = (fut.result() if fut is not None
-                        else (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n))
-        return self._vf
-
-    @property
-    def index(self):
-        """The near-face index of the crossing checks: :class:`_LocalIndex`
-        over the region (:meth:`region`) when there is one, else the
-        whole-mesh :class:`~shellrepair.intersect.NearFaces`."""
-        return self.build_index()
-
-    def _once(self, name, build):
-        """The attribute ``name``, set to ``build()`` by the first thread
-        to find it None (the others wait for it, under ``_build_lock``)."""
-        got = getattr(self, name)
-        if got is None:
-            with self._build_lock:
-                got = getattr(self, name)
-                if got is None:
-                    got = build()
-                    setattr(self, name, got)
-        return got
-
-    def build_index(self):
-        """:attr:`index`, built once, by the first thread to ask (the others wait)."""
-        def build():
-            reg = self.region()
-            return _LocalIndex(self, reg) if reg is not None else self.whole_index()
-
-        return self._once("_index", build)
-
-    def index_in_background(self, ex):
-        """Start building :attr:`index` on the executor ``ex`` (two workers
-        or more) and return its future once :attr:`vf` is arranged: the
-        whole-mesh vertex-face lists, where the index needs them, are built
-        on a worker of their own beside the index's grid. Meanwhile the
-        caller may use :attr:`vf` and :meth:`region` (waiting for the lists
-        only); :attr:`index` waits for the index."""
-        arranged = threading.Event()
-
-        def build():
-            try:
-                if self.region() is None and self._vf is None and self._vf_future is None and kernels.ENABLED:
-                    early = self._early_vf     # (started with the region: take_region)
-                    self._vf_future = early if early is not None else ex.submit(kernels.vertex_faces, self.F, self.n)
-            finally:
-                arranged.set()
-            return self.build_index()
-
-        done = ex.submit(build)
-        arranged.wait()
-        return done
-
-    def whole_index(self):
-        """The whole-mesh :class:`~shellrepair.intersect.NearFaces`, built once
-        (its vertex-face lists are :attr:`vf`, asked for last)."""
-        return self._once("_full_index", lambda: NearFaces(self.V, self.F, origin=self.V.mean(axis=0),
-                                                            vf=lambda: self.vf, topo=self.topo))
-
-    def region(self):
-        """The :class:`_Region` around the boundary loops, or None (a mesh
-        too small, too many loops, or no edge topology: whole-mesh lists)."""
-        def build():
-            fut = self._region_future
-            return (fut.result() if fut is not None else _build_region(self)) or False
-
-        return self._once("_region", build) or None
-
-    def take_region(self, future, V, F, topo, vf=None):
-        """Use the region a ``future`` is building (:func:`region_of` of
-        ``V``, ``F``, ``topo``, started before this context was made) when
-        those are this context's arrays and topology, the very objects: the
-        region :meth:`region` would build. ``vf``: a future of the
-        whole-mesh vertex-face lists of ``F`` (:attr:`vf`), started with
-        the region for when it is None (:func:`early_lists`). Returns
-        whether they were taken."""
-        ok = future is not None and V is self.V and F is self.F and topo is self.topo and self._region is None
-        if ok:
-            self._region_future = future
-            self._early_vf = vf
-        return ok
-
-    def _local_lists(self, verts):
-        """The region's vertex-face lists when they are complete at every
-        vertex of ``verts`` and the whole-mesh ones are not built; else None."""
-        if self._vf is not None:
-            return None
-        reg = self.region()
-        return reg if reg is not None and reg.covered[verts].all() else None
-
-    def vpos(self):
-        """Scratch of one int64 per vertex, all -1 (made on first use); a
-        user sets the entries it needs and sets them back to -1."""
-        if self._vpos is None:
-            self._vpos = np.full(self.n, -1, np.int64)
-        return self._vpos
-
-    def pre_for(self, hole_id, loop):
-        """The batch's first-attempt work for this hole and loop, or None."""
-        pre = self.pre.get(hole_id)
-        return pre if pre is not None and np.array_equal(pre.loop, loop) else None
-
-    def faces_of(self, verts):
-        """Faces with a corner in ``verts`` (sorted): the compiled walk's
-        first ring (:func:`shellrepair.kernels.ring_faces`) when the kernels
-        are there, over the same vertex-face lists as :meth:`_faces_of_numpy`."""
-        if not kernels.ENABLED:
-            return self._faces_of_numpy(verts)
-        verts = np.asarray(verts, np.int64)
-        reg = self._local_lists(verts)
-        order, start = (reg.vf_order, reg.vf_start) if reg is not None else self.vf
-        F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
-        return kernels.ring_faces(verts, 1, order, start, F, self._vmark, self._fmark)
-
-    def _faces_of_numpy(self, verts):
-        """:meth:`faces_of` in NumPy (its test oracle; the NumPy ring walk's
-        step, which holds the scratch marks :meth:`faces_of` would use)."""
-        verts = np.asarray(verts, np.int64)
-        reg = self._local_lists(verts)
-        order, start = (reg.vf_order, reg.vf_start) if reg is not None else self.vf
-        s = start[verts]
-        return uniq(order[concat_ranges(s, start[verts + 1] - s)] // 3)
-
-    def ring_faces(self, verts, rings):
-        """Faces within ``rings`` rings of ``verts`` (sorted)."""
-        if kernels.ENABLED:
-            F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
-            verts = np.asarray(verts, np.int64)
-            reg = self._local_lists(verts)
-            if reg is not None:
-                got = kernels.ring_faces(verts, rings, reg.vf_order, reg.vf_start, F, self._vmark, self._fmark)
-                if reg.covered[F[got]].all():   # every list the walk read was complete
-                    return got
-            return kernels.ring_faces(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
-        return self._ring_faces_numpy(verts, rings)
-
-    def _ring_faces_numpy(self, verts, rings):
-        """:meth:`ring_faces` in NumPy (the compiled walk's test oracle)."""
-        vm, fm = self._vmark, self._fmark
-        front = uniq(verts)
-        vm[front] = True
-        marked_v, found = [front], []
-        try:
-            for _ in range(max(1, int(rings))):
-                f = self._faces_of_numpy(front)
-                f = f[~fm[f]]
-                fm[f] = True
-                found.append(f)
-                vs = uniq(self.F[f])
-                front = vs[~vm[vs]]
-                vm[front] = True
-                marked_v.append(front)
-                if front.size == 0:
-                    break
-        finally:
-            for a in marked_v:
-                vm[a] = False
-            for a in found:
-                fm[a] = False
-        return np.sort(np.concatenate(found)) if found else np.zeros(0, np.int64)
-
-
-#: The fill reads a local region (:class:`_Region`: the faces near the mesh's
-#: boundary loops) instead of whole-mesh vertex-face lists and near-face
-#: grid on a mesh of at least this many faces ...
-LOCAL_MIN_FACES = 400_000
-#: ... with at most this many boundary loops ...
-LOCAL_MAX_LOOPS = kernels.MAX_BOXES
-#: ... and boundary edges in all ...
-LOCAL_MAX_EDGES = 20_000
-#: ... when the region holds at most this share of the faces.
-LOCAL_MAX_SHARE = 0.5
-#: A loop's region: its bounding box grown by this many times its diagonal
-#: (where a faired patch bulges beyond it, its check reads the whole-mesh
-#: index) ...
-LOCAL_GROW = 0.25
-#: ... and by this many of its longest edges (the rings around a small loop).
-LOCAL_RING_EDGES = 12
-
-
-class _Region:
-    """The faces whose bounding boxes meet some box around the boundary
-    loops, and their vertex-to-face lists.
-
-    Every face at a vertex inside a box has that vertex in its bounding box,
-    so the lists are complete at those vertices (``covered``); a query that
-    reads any other vertex's list goes to the whole-mesh lists instead. The
-    lists have the whole-mesh layout (``start`` over all vertices, entries
-    ``3f + corner`` in ascending order), so a complete list is the
-    whole-mesh list itself.
-    """
-
-    def __init__(self, F, n, lo, hi, found):
-        self.lo, self.hi = lo, hi
-        self.faces, self.fmin, self.fmax, self.covered = found
-        o, self.vf_start = kernels.vertex_faces(F[self.faces], n)
-        self.vf_order = 3 * self.faces[o // 3] + o % 3
-
-
-def _build_region(ctx):
-    """:class:`_Region` around the boundary loops of ``ctx.topo``, or None."""
-    return region_of(ctx.V, ctx.F, ctx.topo)
-
-
-def early_lists(ex, V, F, topo):
-    """Start, on the executor ``ex`` (two workers or more), the region
-    around the boundary loops of ``topo`` (:func:`region_of`) and, where
-    there is none, the whole-mesh vertex-face lists of ``F``: the lists the
-    per-hole work reads (:meth:`_Context.take_region` takes both futures).
-
-    Returns
-    -------
-    region, vf : concurrent.futures.Future
-        ``vf``'s result is None where the region is not (the lists are
-        then not built).
-    drop : callable
-        Call it when neither is wanted any more: what has not begun is
-        cancelled, the lists are not started.
-    """
-    region = ex.submit(region_of, V, F, topo)
-    dropped = threading.Event()
-
-    def lists():
-        if region.result() is not None or dropped.is_set() or not kernels.ENABLED:
-            return None
-        return kernels.vertex_faces(F, len(V))
-
-    vf = ex.submit(lists)
-
-    def drop():
-        dropped.set()
-        region.cancel()
-        vf.cancel()
-
-    return region, vf, drop
-
-
-def region_of(V, F, topo):
-    """:class:`_Region` around the boundary loops of ``topo`` (the edge
-    topology of ``F``), or None (a mesh too small, too many loops, no
-    topology or no kernels: the whole-mesh lists serve instead).
-
-    A :class:`_Context` over the same ``V``, ``F`` and ``topo`` builds this
-    region; :meth:`_Context.take_region` accepts one built beforehand.
-    """
-    if not kernels.ENABLED or topo is None or len(F) < LOCAL_MIN_FACES:
-        return None
-    bh = topo.boundary_he
-    if bh.size == 0 or bh.size > LOCAL_MAX_EDGES:
-        return None
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    E = topo.ends(bh)
-    vs, inv = np.unique(E, return_inverse=True)
-    inv = inv.reshape(-1, 2)
-    nc, lab = connected_components(coo_matrix((np.ones(len(E)), (inv[:, 0], inv[:, 1])), shape=(len(vs), len(vs))),
-                                   directed=False)
-    P = V[vs]
-    if nc > LOCAL_MAX_LOOPS or not np.isfinite(P).all():
-        return None
-    lo = np.full((nc, 3), np.inf)
-    hi = np.full((nc, 3), -np.inf)
-    np.minimum.at(lo, lab, P)
-    np.maximum.at(hi, lab, P)
-    longest = np.zeros(nc)
-    np.maximum.at(longest, lab[inv[:, 0]], np.linalg.norm(P[inv[:, 0]] - P[inv[:, 1]], axis=1))
-    g = LOCAL_GROW * np.linalg.norm(hi - lo, axis=1) + LOCAL_RING_EDGES * longest
-    lo -= g[:, None]
-    hi += g[:, None]
-    found = kernels.faces_in_boxes(V, F, lo, hi)
-    return _Region(F, len(V), lo, hi, found) if found[0].size <= LOCAL_MAX_SHARE * len(F) else None
-
-
-class _LocalIndex:
-    """What the crossing checks read of a near-face index
-    (:func:`shellrepair.intersect.patch_vs_index`: ``faces_near``, ``V``,
-    ``F``, ``origin``), from a :class:`_Region`: the faces whose bounding
-    boxes meet a query box inside one of the region's boxes (a superset of
-    the faces that meet it, as the whole-mesh index gives; the exact tests
-    decide). Any other query, and anything else, goes to the whole-mesh
-    index, built then."""
-
-    def __init__(self, ctx, region):
-        self._ctx = ctx
-        self._reg = region
-        self.V, self.F = ctx.V, ctx.F
-        self.origin = ctx.V.mean(axis=0)
-
-    def faces_near(self, lo, hi):
-        """Faces that may meet the box ``[lo, hi]`` (absolute coordinates), sorted."""
-        lo = np.asarray(lo, np.float64)
-        hi = np.asarray(hi, np.float64)
-        r = self._reg
-        if np.isfinite(lo).all() and np.isfinite(hi).all() and np.all((r.lo <= lo) & (hi <= r.hi), axis=1).any():
-            return r.faces[kernels.boxes_meeting(r.fmin, r.fmax, lo, hi)]
-        return self._ctx.whole_index().faces_near(lo, hi)
-
-    def __getattr__(self, name):
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return getattr(self._ctx.whole_index(), name)
-
-
-def _rim_data(ctx, loop):
-    """Scale σ per loop vertex, scan normals across loop edges, forbidden chords."""
-    if not kernels.ENABLED:
-        return _rim_data_numpy(ctx, loop)
-    reg = ctx._local_lists(loop)          # the lists ctx.faces_of reads
-    order, start = (reg.vf_order, reg.vf_start) if reg is not None else ctx.vf
-    sig_sum, sig_cnt, edge_normals, forb = kernels.rim_walk(loop, order, start, ctx.F, ctx.V)
-    forbidden = set(zip(forb[:, 0].tolist(), forb[:, 1].tolist()))
-    return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
-
-
-def _rim_faces(ctx, loop):
-    """The sides (3m,2), side lengths and unit normals of the faces at the loop."""
-    T = ctx.F[ctx.faces_of(loop)]
-    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
-    ln = np.linalg.norm(ctx.V[E[:, 0]] - ctx.V[E[:, 1]], axis=1)
-    nrm = np.cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-    nl = np.linalg.norm(nrm, axis=1, keepdims=True)
-    nrm = np.divide(nrm, nl, out=np.zeros_like(nrm), where=nl > 0)
-    return E, ln, nrm
-
-
-def _rim_sigma(ctx, loop, sig_sum, sig_cnt):
-    if kernels.ENABLED:
-        return kernels.rim_sigma(ctx.V, loop, sig_sum, sig_cnt)
-    return _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt)
-
-
-def _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt):
-    """:func:`_rim_sigma` in NumPy (the compiled one's test oracle)."""
-    sigma = sig_sum / np.maximum(sig_cnt, 1)
-    loop_len = np.linalg.norm(ctx.V[np.concatenate([loop[1:], loop[:1]])] - ctx.V[loop], axis=1)   # np.roll by -1
-    return np.where(sig_cnt > 0, sigma, loop_len)
-
-
-def _rim_data_numpy(ctx, loop):
-    """:func:`_rim_data` in Python (the compiled walk's test oracle)."""
-    k = len(loop)
-    pos = {int(v): i for i, v in enumerate(loop)}
-    E, ln, nrm = _rim_faces(ctx, loop)
-    sig_sum = np.zeros(k)
-    sig_cnt = np.zeros(k)
-    edge_normals = np.zeros((k, 3))
-    forbidden = set()
-    m = len(nrm)
-    for r, ((a, b), L) in enumerate(zip(E.tolist(), ln.tolist())):
-        ia, ib = pos.get(a), pos.get(b)
-        if ia is not None:
-            sig_sum[ia] += L
-            sig_cnt[ia] += 1
-        if ib is not None:
-            sig_sum[ib] += L
-            sig_cnt[ib] += 1
-        if ia is not None and ib is not None:
-            if ib == (ia + 1) % k:
-                edge_normals[ia] = nrm[r % m]
-            elif ia != (ib + 1) % k:
-                forbidden.add((min(ia, ib), max(ia, ib)))
-    return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
-
-
-def _submesh(ctx, loop, Pl, T, rings):
-    """Local submesh: scan faces within ``rings`` of the loop, plus the patch.
-
-    Returns X (fixed scan vertices first, then new), Fs, g (global ids of
-    the fixed vertices)."""
-    k = len(loop)
-    rf = ctx.ring_faces(loop, rings)
-    if kernels.ENABLED:
-        g, Fs, loc_loop, ok = kernels.submesh(rf, ctx.F, loop, T, ctx.vpos())
-        if ok:
-            return g, Fs, len(g), loc_loop
-    return _submesh_numpy(ctx, loop, T, rf)
-
-
-def _submesh_numpy(ctx, loop, T, rf):
-    """:func:`_submesh` in NumPy from its ring faces ``rf`` (the compiled
-    numbering's test oracle)."""
-    k = len(loop)
-    Fg = ctx.F[rf]
-    g = uniq(Fg)
-    Fr = np.searchsorted(g, Fg)
-    loc_loop = np.searchsorted(g, loop)       # every loop vertex is on a ring face
-    if len(g) == 0 or not np.array_equal(g[np.minimum(loc_loop, len(g) - 1)], loop):
-        remap = {int(v): i for i, v in enumerate(g.tolist())}
-        loc_loop = np.array([remap[int(v)] for v in loop], np.int64)
-    nf = len(g)
-    Tp = np.where(T < k, loc_loop[np.minimum(T, k - 1)], nf + T - k)
-    return g, np.vstack([Fr, Tp]).astype(np.int64), nf, loc_loop
-
-
-def _local_frame(ctx, loop, sigma):
-    """Origin, scale and scaled loop positions of a hole's local frame:
-    centred on the loop, in units of its mean rim edge."""
-    P = ctx.V[loop]
-    origin = P.mean(axis=0)
-    scale = float(np.mean(sigma))
-    if not np.isfinite(scale) or scale <= 0:
-        scale = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))) or 1.0
-    return origin, scale, (P - origin) / scale
-
-
 @dataclass
 class _Pre:
     """A hole's first attempt up to refinement, done in a batch."""
@@ -573,7 +117,7 @@ class _Pre:
     T0: np.ndarray | None = None
     refined: tuple | None = None
     edge_on: bool | None = None     # _meets_edge_on, when the unit's order asked for it
-    frame: tuple | None = None      # _local_frame(ctx, loop, rim sigma)
+    frame: tuple | None = None      # local_frame(ctx, loop, rim sigma)
     first: object = None            # the first attempt, built and checked (fill._first_attempts)
 
 
@@ -592,13 +136,13 @@ def _prefill(ctx, units):
         if not isinstance(unit, HoleUnit):
             continue
         hole_id, loop, order = unit.hole_id, np.asarray(unit.loop, np.int64), unit.order
-        rim = _rim_data(ctx, loop)
+        rim = rim_data(ctx, loop)
         pre = _Pre(loop=loop, rim=rim)
         ctx.pre[hole_id] = pre
         if order != 1:
             pre.edge_on = _meets_edge_on(ctx, loop, hole_id)
         sigma, edge_normals, forbidden = rim
-        pre.frame = _local_frame(ctx, loop, sigma)
+        pre.frame = local_frame(ctx, loop, sigma)
         _, scale, Pl = pre.frame
         try:
             pre.T0 = triangulate_loop(Pl, edge_normals, forbidden)
@@ -617,7 +161,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
 
     Parameters
     ----------
-    ctx : _Context
+    ctx : ScanContext
     hole_id : int
     loop : (k,) int64
     order : {1, 2, 3}
@@ -656,11 +200,11 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     loop = np.asarray(loop, np.int64)
     k = len(loop)
     pre = ctx.pre_for(hole_id, loop)
-    sigma, edge_normals, forbidden = pre.rim if pre is not None else _rim_data(ctx, loop)
+    sigma, edge_normals, forbidden = pre.rim if pre is not None else rim_data(ctx, loop)
     if pre is not None and pre.frame is not None:     # the batch's frame of this loop and rim
         origin, scale, Pl = pre.frame[0], pre.frame[1], pre.frame[2].copy()
     else:
-        origin, scale, Pl = _local_frame(ctx, loop, sigma)
+        origin, scale, Pl = local_frame(ctx, loop, sigma)
     forbidden = forbidden | set(avoid)
     fresh = pre is not None and not avoid and not scan_aware  # the batch's first attempt applies
     if initial is not None:
@@ -684,14 +228,14 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
             Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
     q = len(Pl) - k
     if max_vertices is not None and q > max_vertices:
-        # a work bound (shellrepair.fill._Budget): stop before fairing
+        # a work bound (shellrepair.checks.WorkBudget): stop before fairing
         raise PatchError(f"refined patch has {q} new vertices, over the work budget left ({int(max_vertices)})")
     colors = None
     props = {}
     new_local = Pl[k:]
     patch_energy = None
     if q > 0 and (fair or smooth or ctx.colors is not None or ctx.props):
-        g, Fs, nf, loc_loop = _submesh(ctx, loop, Pl, T, rings=max(order, 1))
+        g, Fs, nf, loc_loop = submesh(ctx, loop, Pl, T, rings=max(order, 1))
         X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
         K = None
         if fair:

@@ -3,7 +3,7 @@
 :func:`probe_errors` cuts test holes of the hole's own size (a disc of the
 hole's area, :func:`hole_radius`) into intact scan next to the hole,
 fills each with every candidate fairing order exactly as a hole is
-filled (triangulate, refine, fair: :func:`shellrepair.selftest._refined`
+filled (triangulate, refine, fair: :func:`_refined`
 and :func:`shellrepair.fair.fair_patch_orders`), and measures each fill
 against the scan that was cut away: the RMS distance of the removed
 vertices to the filled surface. The errors of all probes are pooled; the
@@ -58,6 +58,14 @@ CENTRES_PER_SHELL = 24
 #: Seed of the offsets that give a test hole's rim the real rim's roughness
 #: (:func:`rim_roughness`): the same offsets for the same scan.
 ROUGHNESS_SEED = 0
+#: Cotangent rounds of the test's fairing (the fill itself uses
+#: ``fair.COTAN_ROUNDS``); fewer make the test cheaper.
+TEST_ROUNDS = 2
+#: A test hole that refined at the rim's density would have more than this
+#: many new vertices is refined at ``TEST_COARSEN`` times the rim's edge
+#: length instead (about ``TEST_COARSEN²`` times fewer unknowns).
+TEST_MAX_UNKNOWNS = 1000
+TEST_COARSEN = 2.0
 
 
 def hole_radius(V, loop):
@@ -377,7 +385,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
 
     Parameters
     ----------
-    ctx : shellrepair.patch._Context
+    ctx : shellrepair.context.ScanContext
     loop : (k,) int64
     candidates : sequence of int
         Fairing orders.
@@ -422,8 +430,9 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):
     from .errors import MeshError
     from .fair import fair_patch_orders
     from .io import Mesh
-    from .patch import PatchError, _Context
-    from .selftest import TEST_ROUNDS, _refined, point_mesh_distance
+    from .context import ScanContext
+    from .patch import PatchError
+    from .distance import point_mesh_distance
 
     max_probes = PROBES if max_probes is None else int(max_probes)
     V = ctx.V
@@ -470,7 +479,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):
             Vl = _roughen(Vl, Fl, ploop, rough, ROUGHNESS_SEED + len(taken))
             origin = Vl.mean(axis=0)
             try:
-                lctx = _Context(Mesh(V=Vl - origin, F=Fl))
+                lctx = ScanContext(Mesh(V=Vl - origin, F=Fl))
                 P0, T, _ = _refined(lctx, ploop, max(candidates))
             except (MeshError, PatchError, ValueError, IndexError):
                 continue
@@ -514,7 +523,7 @@ def tube_errors(ctx, A, B, candidates):
 
     Parameters
     ----------
-    ctx : shellrepair.patch._Context
+    ctx : shellrepair.context.ScanContext
     A, B : shellrepair.holes.Loop
     candidates : sequence of int or HELD
         Fairing orders, and :data:`HELD` for the tube held on its arcs.
@@ -528,8 +537,9 @@ def tube_errors(ctx, A, B, candidates):
     from .errors import MeshError
     from .holes import boundary_loops
     from .io import Mesh
-    from .patch import PatchError, _Context, build_patch
-    from .selftest import point_mesh_distance
+    from .context import ScanContext
+    from .patch import PatchError, build_patch
+    from .distance import point_mesh_distance
 
     V, F = ctx.V, ctx.F
     pool = _Pooled(candidates)
@@ -562,7 +572,7 @@ def tube_errors(ctx, A, B, candidates):
             continue
         origin = V[g].mean(axis=0)
         try:
-            lctx = _Context(Mesh(V=V[g] - origin, F=Fl))
+            lctx = ScanContext(Mesh(V=V[g] - origin, F=Fl))
             LA, LB = rims
             Pg, Tg, _ = _first_tube(lctx, LA, LB)
             if not (len(Pg) and np.isfinite(Pg).all()):
@@ -614,10 +624,42 @@ def _first_tube(ctx, LA, LB):
     way, with the loops' diameters as detect_holes measured them.)"""
     from .bridge import MAX_REACH, continuation_arcs, guide_tube
     from .holes import _diameter
-    from .patch import _rim_data
+    from .context import rim_data
 
     PA, PB = ctx.V[LA], ctx.V[LB]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(x, 3)], x) for x in (LA, LB)]
-    spacing = float(np.mean(_rim_data(ctx, np.concatenate([LA, LB]))[0]))
+    spacing = float(np.mean(rim_data(ctx, np.concatenate([LA, LB]))[0]))
     Pg, Tg = guide_tube(PA, PB, *arcs, spacing=spacing, reach=MAX_REACH * max(_diameter(PA), _diameter(PB)))
     return Pg, Tg, spacing
+
+
+def _refined(ctx, loop, rings):
+    """The test hole triangulated and refined as :func:`~shellrepair.patch.build_patch`
+    does, in the hole's local frame, with ``rings`` rings of scan around it;
+    at ``TEST_COARSEN`` times the rim's edge length when the rim's density
+    would give more than ``TEST_MAX_UNKNOWNS`` new vertices.
+
+    Returns ((X, Fs, nf, g, scale, origin), T, c): the submesh positions
+    (fixed scan vertices first), its faces (the patch's last), the number
+    of fixed vertices, their ids in ``ctx``, the frame, the patch
+    triangles, and the refinement's edge length in rim edges (1 or
+    ``TEST_COARSEN``).
+    """
+    from .context import local_frame, rim_data, submesh
+    from .refine import refine_patch
+    from .triangulate import triangulate_loop
+
+    k = len(loop)
+    sigma, edge_normals, forbidden = rim_data(ctx, loop)
+    origin, scale, Pl = local_frame(ctx, loop, sigma)
+    T = triangulate_loop(Pl, edge_normals, forbidden)
+    # new vertices at the rim's density: ~ the area over an equilateral
+    # triangle's, halved (a mesh has about half as many vertices as faces)
+    e = Pl[T]
+    area = 0.5 * np.linalg.norm(np.cross(e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]), axis=1).sum()
+    s2 = float(np.mean(sigma / scale)) ** 2
+    c = TEST_COARSEN if area / (np.sqrt(3.0) / 4.0 * s2) / 2.0 > TEST_MAX_UNKNOWNS else 1.0
+    Pl, T = refine_patch(Pl, T, c * sigma / scale, k, forbidden)
+    g, Fs, nf, _ = submesh(ctx, loop, Pl, T, rings=rings)
+    X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
+    return (X, Fs, nf, g, scale, origin), T, c

@@ -3,7 +3,7 @@
 2 x 2 primary rays per pixel (averaged in linear light) through an
 auto-framed pinhole camera are cast with open3d's ``RaycastingScene`` (an
 Embree BVH); each hit is shaded by
-:class:`shellrepair.materials.MaterialShader` under two directional lights
+:class:`shellrepair.sd.MaterialShader` under two directional lights
 with ray-traced shadows, plus a warm room with a soft box seen in mirror
 reflections, then tone mapped to sRGB.  Rust coverage and gilding come from
 the scan's colours when informative, else from the aging map
@@ -11,7 +11,7 @@ the scan's colours when informative, else from the aging map
 (synthesised by the repair) can be tinted so a viewer sees what was added;
 side-by-side renders share one camera and carry labels and a legend.
 
-The model is chosen per render (:func:`shellrepair.materials.choose_model`)
+The model is chosen per render (:func:`shellrepair.sd.choose_model`)
 from the pixel footprint on the statue, which needs the mesh's length unit
 (given, or inferred from its size by :func:`infer_unit`): at ordinary statue
 scales the corrosion layers' diffusion length (~5 um) is far below a pixel
@@ -31,6 +31,7 @@ import time
 import numpy as np
 
 from . import materials as mt
+from . import shader as sd
 from . import shading as sh
 from .units import STATUE_HEIGHT_M, UNITS_UM, infer_unit  # noqa: F401  (render.infer_unit: the render's own name for it)
 
@@ -464,7 +465,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     radius = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) * 0.5 or 1.0
     dist_c = float(np.linalg.norm(cam.eye - cam.target))
     footprint_um = cam.footprint(dist_c) * um_per_unit  # of an output pixel
-    choice = mt.choose_model(footprint_um, mat, coverage=float(cov_v.max()) if len(cov_v) else 0.0)
+    choice = sd.choose_model(footprint_um, mat, coverage=float(cov_v.max()) if len(cov_v) else 0.0)
 
     if np.any(mask):
         pid = hit["primitive_ids"].numpy().reshape(H, W)[mask].astype(np.int64)
@@ -492,7 +493,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         c = np.einsum("pk,pk->p", bw, cov_v[tri])
         g = np.einsum("pk,pk->p", bw, gild_v[tri])
         dk = np.einsum("pk,pk->p", bw, crust_v[tri])
-        shader = mt.MaterialShader(mat)
+        shader = sd.MaterialShader(mat)
         origin = p + (_SHADOW_EPS * radius) * ng
         spec_sum = np.zeros((len(p), 3))
         diff_sum = np.zeros((len(p), 3))

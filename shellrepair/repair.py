@@ -77,18 +77,19 @@ from .convert import MeshLike, as_mesh
 from .errors import MeshError
 from .options import RepairOptions
 from .progress import ProgressArg, as_callback
-from .holes import detect_holes
+from .holes import detect_holes, split_pinched
 from .io import Mesh, check_references, manifold_mesh
 from .report import table1_dict
 from .topology import edge_count_delta, edge_topology
 from .units import in_scan_units
 from . import blas
 from . import fill as _fill
-from .bridge import _find_bands, split_pinched
+from .bridge import find_bands
 from .pants import PantsUnit, expand, pants_unit
 from .fill import SEED_SMOOTH_PASSES, Outcome, _run_chunk, _seed_patches, _worker
 from .merge import _Accepted, _merge
-from .patch import BATCH, BandUnit, HoleUnit, Patch, _Context, build_patch
+from .context import ScanContext
+from .patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
 
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
 
@@ -194,7 +195,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         _progress(progress, 1, 2, "finding holes")
 
         def context():
-            c = _Context(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
+            c = ScanContext(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
             c.topo = topo
             c.base = base
             if early is not None:
@@ -235,7 +236,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     results = {}
     pairs = []
     if bridge != "never" and method == "fair":
-        pairs = _find_bands(ctx, scan)
+        pairs = find_bands(ctx, scan)
     # a loop left open or capped flat by request joins no band; its partner is filled alone
     alone = asked_open | flat_caps
     pairs = [p for p in pairs if not {p[0].id, p[1].id} & alone]
@@ -496,7 +497,7 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
     if not again:
         return
     grown = _merge(mesh, V, F, [it[0] for it in acc.items])
-    ctx2 = _Context(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
+    ctx2 = ScanContext(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
     for h in again:
         row = rows[h.id]
         patch, reason, secs, _ = _fill._fill_one(ctx2, h.id, np.asarray(h.vertices, np.int64),
@@ -533,8 +534,8 @@ def _progress(report, i, n, label="filling holes"):
 class _Early(NamedTuple):
     """The region around the boundary loops of a mesh and, where there is
     none, its whole-mesh vertex-face lists, on their way from an executor
-    (:func:`shellrepair.patch.early_lists`) for the context that will hold
-    these very arrays (:meth:`shellrepair.patch._Context.take_region`)."""
+    (:func:`shellrepair.context.early_lists`) for the context that will hold
+    these very arrays (:meth:`shellrepair.context.ScanContext.take_region`)."""
 
     V: np.ndarray
     F: np.ndarray
@@ -553,9 +554,9 @@ def _early_region(ex, V, F, topo):
     executor, or when ``V`` is not float64 (the context's would be a copy)."""
     if ex is None or topo is None or not isinstance(V, np.ndarray) or V.dtype != np.float64:
         return None
-    from . import patch
+    from . import context
 
-    return _Early(V, F, topo, *patch.early_lists(ex, V, F, topo))
+    return _Early(V, F, topo, *context.early_lists(ex, V, F, topo))
 
 
 def _as_mesh(mesh):

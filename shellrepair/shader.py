@@ -30,7 +30,8 @@ from .reflectance import _dispatch
 from .reflectance import albedo as _albedo
 from .materials import get_material, layer_thicknesses, substrate_reflectance, surface_params
 
-__all__ = ["shade_reference", "MaterialShader", "ModelChoice", "choose_model", "model_switch_footprint_um"]
+__all__ = ["shade_reference", "MaterialShader", "ModelChoice", "choose_model", "model_switch_footprint_um", "warm_up"]
+
 
 def _km_of_coverage(c, mat, crust=0.0):
     c = np.asarray(c, dtype=np.float64)
@@ -507,3 +508,53 @@ def model_switch_footprint_um(material, *, coverage=1.0, tol=0.01):
         if hi / lo < 1.0 + 1e-6:
             break
     return float(hi)
+
+
+def warm_up():
+    """Compile the shading kernels now (or load them from Numba's cache).
+
+    Calls every public function of :mod:`shellrepair.reflectance`, and
+    :class:`MaterialShader` and :func:`shade_reference` for each preset, with
+    small inputs in the layouts the library uses (arrays of points, one
+    light direction for all points, one roughness or index for all), so
+    that each kernel specialisation is compiled once and cached on disk.
+    ``make setup`` runs it, so no later run waits for the JIT.
+
+    Returns
+    -------
+    n : int
+        Number of compiled specialisations (0 when the kernels are off:
+        ``SHELLREPAIR_NO_JIT=1`` or Numba missing).
+    """
+    from .reflectance import (beckmann_D, diffuse_transmittance, dipole_profile, dipole_rd, dipole_tail_fraction,
+                              fresnel_conductor, fresnel_dielectric, internal_reflectance, km_r_inf,
+                              km_reflectance, layered_diffuse, local_brdf, mean_transmittance,
+                              torrance_sparrow, torrance_sparrow_conductor, v_cavity_G)
+
+    K = _dispatch.kernels()
+    if K is None:
+        return 0
+
+    rng = np.random.default_rng(0)
+    P = 8
+    d = rng.normal(size=(3, P, 3)) * [0.3, 0.3, 1.0]
+    wi, wo, n = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    c, m, eta, R = rng.uniform(0.1, 0.9, P), rng.uniform(0.05, 1.0, P), rng.uniform(1.1, 2.0, P), rng.uniform(0, 1, P)
+    R3 = rng.uniform(0, 1, (P, 3))
+    nk = (np.array([0.2, 1.0, 1.2]), np.array([3.7, 2.6, 2.4]))
+    for e in (eta, 1.75):  # per point, and one index for all points
+        beckmann_D(c, m), fresnel_dielectric(c, e), diffuse_transmittance(c, m, e)
+        mean_transmittance(m, e), internal_reflectance(m, e), layered_diffuse(c, c, m, e, R3)
+        torrance_sparrow(wi, wo, n, m, e), local_brdf(wi, wo, n, m, e, R3), dipole_rd(R, e)
+        dipole_tail_fraction(c, m, R, e), dipole_profile(c, m, R, e)
+    v_cavity_G(c, c, c, c), fresnel_conductor(c, m, eta), fresnel_conductor(c[:, None], *nk)
+    torrance_sparrow_conductor(wi, wo, n, m, *nk), km_r_inf(c, m)
+    km_reflectance(c, m, eta, R), km_reflectance(c[:, None], m[:, None], eta[:, None], R3)
+    km_reflectance(c[:, None], m[:, None], eta[:, None], nk[0])
+    dipole_tail_fraction(1.0, c, m, 1.75), dipole_profile(c, 0.1, 0.2, 1.75)
+    for name in ("aged-bronze", "gilt", "bronze"):
+        f = MaterialShader(name)
+        f(wi, wo, n, c, c, c), f(wi[0], wo, n, c, c, c, parts=True)  # per point; one light (the renderer)
+        f(wi, wo, n, c), f(wi[0], wo, n, c)  # default gilding and crust
+        shade_reference(wi, wo, n, c, name, c, c), choose_model(100.0, name)
+    return sum(len(getattr(K, k).signatures) for k in K.KERNELS)

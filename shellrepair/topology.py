@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from . import fastmesh
-from .geometry import cross, uniq
+from .geometry import cross, uniq, vertex_faces_scipy
 
 #: Faces per chunk in per-face geometry over the whole mesh.
 CHUNK = 1 << 16
@@ -382,15 +382,7 @@ def vertex_faces(F, n_vertices):
     """
     if fastmesh.enabled(len(F)):
         return fastmesh.vertex_faces(F, n_vertices)
-    return _vertex_faces_scipy(F, n_vertices)
-
-
-def _vertex_faces_scipy(F, n_vertices):
-    flat = np.asarray(F, np.int64).ravel()
-    n = int(n_vertices)
-    # a counting sort by vertex: SciPy's COO -> CSR conversion, stable within a row
-    A = sp.csr_matrix((np.ones(flat.size, np.int8), (flat, np.arange(flat.size))), shape=(n, flat.size))
-    return A.indices.astype(np.int64), A.indptr.astype(np.int64)
+    return vertex_faces_scipy(F, n_vertices)
 
 
 def face_pieces(topo, n_faces):

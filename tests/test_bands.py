@@ -357,13 +357,13 @@ def test_a_real_single_view_range_scan_pairs_no_border():
     """The range scan's outer edge and its floating debris are borders; a
     pair, if any, joins two holes."""
     from shellrepair import read_mesh
-    from shellrepair.bridge import _find_bands
-    from shellrepair.patch import _Context
+    from shellrepair.bridge import find_bands
+    from shellrepair.context import ScanContext
 
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
     scan = detect_holes(m.V, m.F)
     assert len(scan.borders) >= 2
-    for A, B, _ in _find_bands(_Context(m), scan):
+    for A, B, _ in find_bands(ScanContext(m), scan):
         assert A.kind == "hole" and B.kind == "hole"
 
 
@@ -539,7 +539,7 @@ def test_a_band_pinched_at_shared_vertices_is_split_into_its_parts():
     """Loops A and B share vertices 0 and 3 (B meets them in the reverse
     order): the band between them is two discs, each a stretch of A and a
     stretch of B, together every edge of both once."""
-    from shellrepair.bridge import _pinched_parts
+    from shellrepair.holes import _pinched_parts
 
     A = np.array([0, 1, 2, 3, 4, 5])
     B = np.array([10, 3, 11, 0])
@@ -561,7 +561,7 @@ def _many_loops():
     """Scans with many loops: tiny and medium disc holes on a bumpy sphere
     (loops of 3 to ~60 vertices, some within reach of each other), a torus
     band, and a slit pinched into touching loops."""
-    from shellrepair.patch import _Context
+    from shellrepair.context import ScanContext
 
     out = []
     V, F = shapes.bumpy_sphere(3, amplitude=0.03, frequency=4)
@@ -575,7 +575,7 @@ def _many_loops():
     out.append(shapes.remove_faces(V, F, cut)[:2])
     res = []
     for V2, F2 in out:
-        ctx = _Context(Mesh(V=V2, F=F2))
+        ctx = ScanContext(Mesh(V=V2, F=F2))
         res.append((ctx, detect_holes(V2, F2)))
     return res
 
@@ -667,9 +667,9 @@ def test_loops_left_out_of_the_band_search_land_on_no_loop_they_could_pair_with(
         for a, (counts, _) in sights.items():
             for b in np.flatnonzero(counts):
                 assert b == a or not hole[b] or np.intersect1d(loops[a].vertices, loops[b].vertices).size
-        with_filter = [(A.id, B.id, s) for A, B, s in bridge._find_bands(ctx, scan)]
+        with_filter = [(A.id, B.id, s) for A, B, s in bridge.find_bands(ctx, scan)]
         monkeypatch.setattr(bridge, "_with_partner", lambda ctx, loops, cand, hole, touching=None: cand)
-        without = [(A.id, B.id, s) for A, B, s in bridge._find_bands(ctx, scan)]
+        without = [(A.id, B.id, s) for A, B, s in bridge.find_bands(ctx, scan)]
         monkeypatch.undo()
         assert with_filter == without
     assert dropped >= 1
@@ -684,7 +684,7 @@ def test_holes_whose_caps_cross_each_other_are_joined_by_a_tube(monkeypatch):
     pair is filled as a band after all, and the tube keeps the genus."""
     import shellrepair.repair as rp
 
-    monkeypatch.setattr(rp, "_find_bands", lambda ctx, scan: [])
+    monkeypatch.setattr(rp, "find_bands", lambda ctx, scan: [])
     V, F, V2, F2, _ = torus_inner_band(3)
     M = Mesh(V=V2, F=F2)
     R, rep = repair_mesh(M)

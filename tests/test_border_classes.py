@@ -521,14 +521,14 @@ def test_real_range_scan_rim_border_and_holes():
 def test_border_loops_are_never_band_candidates():
     """Two floating triangles of the real range scan face each other and
     pass every band test; as borders they must not be bridged."""
-    from shellrepair.bridge import _find_bands
-    from shellrepair.patch import _Context
+    from shellrepair.bridge import find_bands
+    from shellrepair.context import ScanContext
 
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
     scan = detect_holes(m.V, m.F)
-    ctx = _Context(m)
+    ctx = ScanContext(m)
     ctx.topo = edge_topology(m.F, len(m.V))
-    assert all(A.kind == "hole" and B.kind == "hole" for A, B, _ in _find_bands(ctx, scan))
+    assert all(A.kind == "hole" and B.kind == "hole" for A, B, _ in find_bands(ctx, scan))
 
 
 def test_real_bunny_five_loops_are_holes():

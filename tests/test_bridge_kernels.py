@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 from eval import shapes
 from shellrepair import bridge, detect_holes, kernels
 from shellrepair.io import Mesh
-from shellrepair.patch import _Context
+from shellrepair.context import ScanContext
 
 pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
 
@@ -48,7 +48,7 @@ def _scans():
 def _walks(V, F):
     """The arguments loop_sights gives the kernel on a scan, whether the
     kernel asked for the tree's order, its landings and the NumPy walk's."""
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     scan = detect_holes(V, F)
     seen = []
     real = kernels.arc_landings
@@ -89,7 +89,7 @@ def test_landings_equal_the_numpy_walk_on_scans_with_many_close_and_pinched_hole
 
 def test_loop_sights_with_and_without_the_kernels_agree(monkeypatch):
     for V, F in _scans()[::2]:
-        ctx = _Context(Mesh(V=V, F=F))
+        ctx = ScanContext(Mesh(V=V, F=F))
         loops = detect_holes(V, F).loops
         fn = lambda lp: F[ctx.ring_faces(lp, 3)]   # noqa: E731
         got = bridge.loop_sights(V, loops, fn)

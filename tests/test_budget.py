@@ -1,4 +1,4 @@
-"""A hole's work is bounded (shellrepair.fill._Budget, issue #13 item 5).
+"""A hole's work is bounded (shellrepair.checks.WorkBudget, issue #13 item 5).
 
 The budget counts new patch vertices built over all attempts
 (``HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges``): the first attempt is
@@ -13,11 +13,13 @@ seconds.
 import numpy as np
 import pytest
 
+import shellrepair.checks as checks
 import shellrepair.fill as fill
 from shellrepair import Mesh
 from eval import shapes
 from shellrepair.holes import boundary_loops
-from shellrepair.patch import PatchError, _Context, build_patch
+from shellrepair.context import ScanContext
+from shellrepair.patch import PatchError, build_patch
 
 
 def _sheet_with_a_hole(n=25):
@@ -26,7 +28,7 @@ def _sheet_with_a_hole(n=25):
     gone = np.linalg.norm(c[:, :2] - 0.5, axis=1) < 0.3
     V2, F2, _ = shapes.remove_faces(V, F, gone)
     loops, _ = boundary_loops(F2, len(V2))
-    return _Context(Mesh(V=V2, F=F2)), min(loops, key=len)
+    return ScanContext(Mesh(V=V2, F=F2)), min(loops, key=len)
 
 
 def test_refinement_past_the_vertices_left_stops_before_fairing():
@@ -45,7 +47,7 @@ class _Spy:
 
     def __init__(self, monkeypatch):
         self.refined = 0
-        real_build, real_check = fill.build_patch, fill._check_patch
+        real_build, real_check = fill.build_patch, checks.check_patch
 
         def build(*a, **k):
             p = real_build(*a, **k)
@@ -59,13 +61,13 @@ class _Spy:
             return real_check(ctx, patch)
 
         monkeypatch.setattr(fill, "build_patch", build)
-        monkeypatch.setattr(fill, "_check_patch", check)
+        monkeypatch.setattr(checks, "check_patch", check)
 
 
 def test_a_spent_budget_stops_the_retries_and_keeps_the_checked_flat_triangulation(monkeypatch):
     ctx, loop = _sheet_with_a_hole()
     spy = _Spy(monkeypatch)
-    budget = fill._Budget(len(loop))
+    budget = checks.WorkBudget(len(loop))
     budget.vertices = 0          # nothing left after the first attempt
     patch, reason, _, reasons = fill._fill_one_order(ctx, 0, loop, 2, 0, budget=budget)
     assert spy.refined == 2                      # the first attempt and the harmonic patch only
@@ -81,7 +83,7 @@ def test_a_budget_of_two_and_a_half_patches_allows_one_faired_retry(monkeypatch)
     ctx, loop = _sheet_with_a_hole()
     size = len(build_patch(ctx, 0, loop, order=2).P)
     spy = _Spy(monkeypatch)
-    budget = fill._Budget(len(loop))
+    budget = checks.WorkBudget(len(loop))
     budget.vertices = 2.5 * size
     patch, *_ = fill._fill_one_order(ctx, 0, loop, 2, 0, budget=budget)
     assert spy.refined == 3
@@ -98,14 +100,14 @@ def test_with_the_default_budget_the_same_hole_retries_more(monkeypatch):
 
 
 def test_a_part_gets_its_share_of_what_is_left_and_is_counted_back():
-    b = fill._Budget(1000)
+    b = checks.WorkBudget(1000)
     b.spent = 10_000
     part = b.part(0.5)
     assert part.vertices == pytest.approx(0.5 * (b.vertices - 10_000))
     part.spent = 123
     b.absorb(part)
     assert b.spent == 10_123
-    assert fill._Budget(1000).vertices == fill.HOLE_VERTICES + 1000 * fill.HOLE_VERTICES_PER_EDGE
+    assert checks.WorkBudget(1000).vertices == checks.HOLE_VERTICES + 1000 * checks.HOLE_VERTICES_PER_EDGE
 
 
 def test_a_band_whose_tube_is_over_the_budget_falls_back_without_adding_a_crossing(monkeypatch):
@@ -129,9 +131,9 @@ def test_a_band_whose_tube_is_over_the_budget_falls_back_without_adding_a_crossi
     (b,) = rep["bridges"]
     assert b["chosen"] == "tube" and rep["holes_after"] == 0
     tube_vertices = len(R.V) - len(M.V)
-    assert fill.HOLE_VERTICES + fill.HOLE_VERTICES_PER_EDGE * 320 > 15 * tube_vertices
-    monkeypatch.setattr(fill, "HOLE_VERTICES", tube_vertices // 2)
-    monkeypatch.setattr(fill, "HOLE_VERTICES_PER_EDGE", 0)
+    assert checks.HOLE_VERTICES + checks.HOLE_VERTICES_PER_EDGE * 320 > 15 * tube_vertices
+    monkeypatch.setattr(checks, "HOLE_VERTICES", tube_vertices // 2)
+    monkeypatch.setattr(checks, "HOLE_VERTICES_PER_EDGE", 0)
     R2, rep2 = repair_mesh(M)
     (b2,) = rep2["bridges"]
     assert b2["chosen"] == "caps" and "work budget" in b2["reason"]
@@ -151,7 +153,7 @@ def test_failed_faired_attempts_are_mended_before_the_flat_triangulation_is_kept
     import shellrepair.mend as mend
 
     ctx, loop = _sheet_with_a_hole()
-    real_check, real_mend = fill._check_patch, mend.mend_patch
+    real_check, real_mend = checks.check_patch, mend.mend_patch
     mending = []
 
     def mend_patch(*a, **k):
@@ -167,7 +169,7 @@ def test_failed_faired_attempts_are_mended_before_the_flat_triangulation_is_kept
         return real_check(ctx, patch)
 
     monkeypatch.setattr(mend, "mend_patch", mend_patch)
-    monkeypatch.setattr(fill, "_check_patch", check)
+    monkeypatch.setattr(checks, "check_patch", check)
     patch, *_ = fill._fill_one_order(ctx, 0, loop, 2, 0)
     assert patch is not None and "mended" in patch.option and len(patch.P) > 0
     assert real_check(ctx, patch)[0] is None

@@ -1,4 +1,4 @@
-"""The build's two warm-up processes (``kernels.warm_up(share=1|2)``, run
+"""The build's two warm-up processes (``warmup.warm_up(share=1|2)``, run
 side by side by the Makefile) cover what one ``warm_up()`` does, never
 cache one kernel for different types, and lock Numba's cache
 (:mod:`shellrepair.cachelock`)."""
@@ -21,9 +21,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 _SIGNATURES = """
 import json, sys
-from shellrepair import compiled, kernels
+from shellrepair import compiled, warmup
 share = None if sys.argv[1] == "all" else int(sys.argv[1])
-assert kernels.warm_up(share) if share else kernels.warm_up()
+assert warmup.warm_up(share) if share else warmup.warm_up()
 print(json.dumps({k: sorted(str(s) for s in v.jit.signatures) for k, v in compiled.REGISTRY["shellrepair.kernels"].items()
                   if v.jit is not None and v.jit.signatures}))
 """

@@ -1,6 +1,6 @@
 """After ``make setup``, no repair waits on the Numba compiler (issue 14).
 
-``make setup`` runs :func:`shellrepair.kernels.warm_up` and
+``make setup`` runs :func:`shellrepair.warmup.warm_up` and
 :func:`shellrepair.fastmesh.warm_up`, which compile each kernel for the
 argument types they pass and save the machine code (``cache=True``). A
 later process loads a kernel from that cache only for those types: a call
@@ -59,7 +59,7 @@ class _Compiles(ev.Listener):
 
 ev.register("numba:compile", _Compiles())
 
-from shellrepair import cholesky, fastmesh, kernels
+from shellrepair import cholesky, fastmesh, kernels, warmup
 from shellrepair import compiled as built
 
 
@@ -73,13 +73,13 @@ def signatures():
 """
 
 _SETUP = _COMMON + """
-assert kernels.warm_up() and cholesky.warm_up() and fastmesh.warm_up()
+assert warmup.warm_up() and cholesky.warm_up() and fastmesh.warm_up()
 print(json.dumps({"signatures": signatures(), "compiled": compiled}))
 """
 
 _REPAIR = _COMMON + """
 import contextlib, io
-from shellrepair import cli, patch
+from shellrepair import cli, context
 from shellrepair.repair import repair_mesh
 from eval import shapes
 
@@ -108,7 +108,7 @@ for scan in scans:
 # the paths of a scan of millions of faces: whole-mesh kernels (fastmesh)
 # and the local region of each hole (patch), here on small meshes
 fastmesh.MIN_FACES = 0
-patch.LOCAL_MIN_FACES = 0
+context.LOCAL_MIN_FACES = 0
 for scan in scans:
     step("large-scan paths " + scan, cli_repair(scan))
 if sys.argv[3] == "shapes":
@@ -198,8 +198,8 @@ _NEEDS_MAKE = pytest.mark.skipif(
 #: The build steps: the fill's (stamp .venv/.shellrepair-built), then the
 #: shading's (.venv/.shellrepair-built-shading), which no repair uses.
 _FILL_STEPS = ("compileall", "shellrepair.aot build --part 0", "shellrepair.aot build --part 1",
-               "kernels.warm_up(share=1)", "kernels.warm_up(share=2)", "cholesky.warm_up()", "fastmesh.warm_up()")
-_SHADING_STEPS = ("from shellrepair.shading import rho_dt_table", "from shellrepair.reflectance import warm_up")
+               "warmup.warm_up(share=1)", "warmup.warm_up(share=2)", "cholesky.warm_up()", "fastmesh.warm_up()")
+_SHADING_STEPS = ("from shellrepair.shading import rho_dt_table", "from shellrepair.shader import warm_up")
 
 
 def _plan(module, *goal):

@@ -11,7 +11,7 @@ per array for :func:`shellrepair.bridge._lerp_arcs`; NumPy's ``mean`` and
 triangles for :func:`shellrepair.merge._scan_edges`; NumPy's ``min`` /
 ``max`` reductions for :func:`shellrepair.geometry.bounds` and
 :func:`shellrepair.geometry.triangle_boxes`; the NumPy gathering
-``_faces_of_numpy`` for the compiled ``_Context.faces_of``.
+``_faces_of_numpy`` for the compiled ``ScanContext.faces_of``.
 """
 
 import types
@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import bridge, fair, kernels, patch
+from shellrepair import bridge, context, fair, kernels
 from shellrepair.io import Mesh
-from shellrepair.patch import _Context
+from shellrepair.context import ScanContext
 from shellrepair.topology import edge_topology
 from shellrepair.geometry import bounds, triangle_boxes
 from shellrepair.holes import loop_stats
@@ -194,10 +194,10 @@ def test_faces_of_by_the_ring_walk_equal_the_numpy_lists(monkeypatch):
     """The faces at a set of vertices (repeated ones too), from the local
     region's lists and then from the whole mesh's: the NumPy gathering's
     faces, and the scratch marks are left clear."""
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     V, F = shapes.bumpy_sphere(5, amplitude=0.03, frequency=5)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.12, seed=1)
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = ScanContext(Mesh(V=V2, F=F2))
     ctx.topo = edge_topology(F2, len(V2))
     loops = np.unique(ctx.topo.ends(ctx.topo.boundary_he))
     rng = np.random.default_rng(0)

@@ -1,4 +1,4 @@
-"""The checks every patch passes before it is kept (shellrepair.fill._check_patch).
+"""The checks every patch passes before it is kept (shellrepair.checks.check_patch).
 
 Besides crossing the scan or itself, a patch must not fold back onto its
 neighbour across an edge: two triangles on one edge whose far corners,
@@ -14,9 +14,10 @@ import pytest
 
 from shellrepair import Mesh
 from eval import shapes
-from shellrepair.fill import FOLD_DEGREES, _check_patch
+from shellrepair.checks import FOLD_DEGREES, check_patch
 from shellrepair.holes import boundary_loops
-from shellrepair.patch import Patch, _Context
+from shellrepair.context import ScanContext
+from shellrepair.patch import Patch
 
 
 def _sheet_with_a_square_hole():
@@ -37,8 +38,8 @@ def _fan(V, loop, centre):
 
 def test_a_flat_fan_over_a_flat_hole_passes():
     V, F, loop = _sheet_with_a_square_hole()
-    ctx = _Context(Mesh(V=V, F=F))
-    why, bad = _check_patch(ctx, _fan(V, loop, V[loop].mean(axis=0)))
+    ctx = ScanContext(Mesh(V=V, F=F))
+    why, bad = check_patch(ctx, _fan(V, loop, V[loop].mean(axis=0)))
     assert why is None and bad.size == 0
 
 
@@ -47,14 +48,14 @@ def test_a_fan_whose_centre_lies_over_the_scan_folds_onto_it():
     plane (0.01 % of an edge: not coplanar, so not an exact crossing):
     the fan's triangle on that edge lies back over the scan face."""
     V, F, loop = _sheet_with_a_square_hole()
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     P = V[loop]
     e = 1 / 6
     edge_mid = 0.5 * (P[0] + P[1])
     out = edge_mid - V[loop].mean(axis=0)
     out[2] = 0.0
     centre = edge_mid + 0.5 * e * out / np.linalg.norm(out) + [0, 0, 1e-4 * e]
-    why, bad = _check_patch(ctx, _fan(V, loop, centre))
+    why, bad = check_patch(ctx, _fan(V, loop, centre))
     assert why is not None and "fold" in why and 0 in bad.tolist()
 
 
@@ -63,33 +64,33 @@ def test_a_fold_is_measured_in_degrees_along_the_edge():
     FOLD_DEGREES of the face it is a fold, opened further it is not."""
     V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0]], float)        # the scan: one face
     F = np.array([[0, 1, 2]])
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     loop = np.array([1, 0, 2])  # unused by the check beyond its first edge's faces
     for deg, folded in ((FOLD_DEGREES / 2, True), (2 * FOLD_DEGREES, False), (90.0, False)):
         a = np.radians(deg)
         tip = [0.5, np.cos(a), np.sin(a)]     # the far corner turned by ``deg`` from the face's
         T = np.array([[0, 1, 3]])             # the loop's edge 1 -> 0 reversed, as a patch has it
         p = Patch(hole_id=0, loop=loop, P=np.array([tip], float), T=T)
-        why, _ = _check_patch(ctx, p)
+        why, _ = check_patch(ctx, p)
         assert (why is not None and "fold" in why) == folded, (deg, why)
 
 
 def test_checks_of_many_patches_at_once_are_those_of_each():
-    """fill._check_patches (one batched crossing query) answers as
-    _check_patch does patch by patch: fans over a hole next to a ramp of
+    """checks.check_patches (one batched crossing query) answers as
+    check_patch does patch by patch: fans over a hole next to a ramp of
     the scan, one that passes, one folded onto the scan, two through the
     ramp, one with a NaN corner."""
-    from shellrepair.fill import _check_patches
+    from shellrepair.checks import check_patches
 
     V, F, loop = _sheet_with_a_square_hole()
     V = V.copy()
     V[:, 2] = np.where(V[:, 0] > 0.75, 0.8 * (V[:, 0] - 0.75), 0.0)    # the scan rises past x = 0.75
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     centres = [[0.5, 0.5, -0.3], [0.9, 0.5, 0.0], [0.95, 0.5, 0.05], [1.0, 0.5, 0.1], [np.nan, 0.5, 0.0],
                [0.95, 0.5, -0.1]]
     patches = [_fan(V, loop, np.array(c, float)) for c in centres]
-    one = [_check_patch(ctx, p) for p in patches]
-    many = _check_patches(ctx, patches)
+    one = [check_patch(ctx, p) for p in patches]
+    many = check_patches(ctx, patches)
     assert [w for w, _ in one] == [w for w, _ in many]
     assert all(np.array_equal(a, b) for (_, a), (_, b) in zip(one, many))
     kinds = [w.split(" (")[0] if w else None for w, _ in one]
@@ -107,9 +108,9 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
     # turned off here to keep the refill tested on this case.)
     import numpy as np
 
-    import shellrepair.pants
+    import shellrepair.bridge
 
-    monkeypatch.setattr(shellrepair.pants, "pants_triples", lambda *a, **k: [])
+    monkeypatch.setattr(shellrepair.bridge, "pants_triples", lambda *a, **k: [])
     import shellrepair.repair   # (crossed caps are first tried as a tube: off too, to test the refill)
 
     monkeypatch.setattr(shellrepair.repair, "_tube_crossed_caps", lambda *a, **k: None)
@@ -143,7 +144,7 @@ def test_scan_answers_about_a_holes_triangles_are_kept_and_equal_fresh_ones(monk
     V2, F2, _ = shapes.remove_faces(V, F, np.linalg.norm(c - c[0], axis=1) < 0.5)
     loops, _ = boundary_loops(F2, len(V2))
     loop = np.asarray(loops[0], np.int64)
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = ScanContext(Mesh(V=V2, F=F2))
     k = len(loop)
     rng = np.random.default_rng(0)
     T = np.array([rng.choice(k, 3, replace=False) for _ in range(300)])

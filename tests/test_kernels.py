@@ -11,7 +11,7 @@ import pytest
 from shellrepair import intrinsic, kernels, topology
 from eval import shapes
 from shellrepair.io import Mesh
-from shellrepair.patch import _Context, _rim_data, _rim_data_numpy
+from shellrepair.context import ScanContext, rim_data, rim_data_numpy
 
 pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
 
@@ -96,26 +96,28 @@ def test_rim_data_equals_the_python_walk():
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.3, seed=4)
     from shellrepair.holes import detect_holes
 
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = ScanContext(Mesh(V=V2, F=F2))
     loops = [h.vertices for h in detect_holes(V2, F2).holes]
     assert len(loops) == 3
     # a loop through a vertex twice (a pinch): the last position counts in both
     loops.append(np.concatenate([loops[0][:5], loops[0][2:3], loops[0][5:]]))
     for loop in loops:
-        s1, n1, f1 = _rim_data_numpy(ctx, np.asarray(loop, np.int64))
-        s2, n2, f2 = _rim_data(ctx, np.asarray(loop, np.int64))
+        s1, n1, f1 = rim_data_numpy(ctx, np.asarray(loop, np.int64))
+        s2, n2, f2 = rim_data(ctx, np.asarray(loop, np.int64))
         assert np.array_equal(s1, s2) and np.array_equal(n1, n2) and f1 == f2
 
 
 def test_warm_up_compiles_every_kernel():
-    assert kernels.warm_up() is True
+    from shellrepair import warmup
+
+    assert warmup.warm_up() is True
 
 
 @pytest.mark.parametrize("rings", [1, 2, 3, 6])
 def test_ring_faces_equal_the_numpy_walk_and_leave_the_marks_clear(rings):
     V, F = shapes.torus(1.0, 0.35, 40, 16)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.3, seed=1)
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = ScanContext(Mesh(V=V2, F=F2))
     rng = np.random.default_rng(rings)
     for verts in (rng.integers(0, len(V2), 5), np.array([3, 3, 7]), np.zeros(0, np.int64)):
         a = ctx._ring_faces_numpy(verts, rings)
@@ -469,7 +471,7 @@ def test_fold_test_equals_the_numpy_one(seed):
     neighbour (exact folds), some pushed nearly flat against one (within
     and beyond FOLD_DEGREES), plus a zero-area triangle: the compiled fold
     test flags exactly the triangles the NumPy one does."""
-    from shellrepair.fill import FOLD_DEGREES, _folds_numpy
+    from shellrepair.checks import FOLD_DEGREES, _folds_numpy
 
     rng = np.random.default_rng(seed)
     n = 7
@@ -567,7 +569,7 @@ def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
 
     V, F = shapes.bumpy_sphere(3)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.3, seed=2)
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = ScanContext(Mesh(V=V2, F=F2))
     loops = [np.asarray(h.vertices, np.int64) for h in detect_holes(V2, F2).holes]
     near = [F2[ctx.ring_faces(lp, 3)] for lp in loops]
     got = bridge._continuation_arcs_many(V2, near, loops)
@@ -657,7 +659,7 @@ def test_refinement_split_test_equals_the_numpy_one(seed):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_point_triangle_distances_equal_the_numpy_version_to_the_bit(seed, monkeypatch):
-    from shellrepair.selftest import point_mesh_distance
+    from shellrepair.distance import point_mesh_distance
 
     rng = np.random.default_rng(seed)
     V, F = shapes.bumpy_sphere(2, amplitude=0.05)

@@ -22,10 +22,12 @@ import numpy as np
 
 from eval import shapes
 from shellrepair import Mesh
-from shellrepair.fill import _check_patch, _fill_one
+from shellrepair.checks import check_patch
+from shellrepair.fill import _fill_one
 from shellrepair.holes import boundary_loops
 from shellrepair.mend import mend_patch
-from shellrepair.patch import _Context, build_patch
+from shellrepair.context import ScanContext
+from shellrepair.patch import build_patch
 
 
 def _sheet_with_a_hole(n=25, half=0.2):
@@ -56,9 +58,9 @@ def _is_disc_on(T, loop):
 
 def test_a_patch_pushed_through_the_scan_near_its_rim_is_mended():
     V, F, loop = _sheet_with_a_hole()
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     patch = build_patch(ctx, 0, loop, order=1, smooth=0, fair=False)    # the flat refined patch
-    assert _check_patch(ctx, patch)[0] is None
+    assert check_patch(ctx, patch)[0] is None
     # push the new vertices next to the side x = 0.3 out over the scan,
     # every other one above and below it: their triangles cut through it
     h = float(np.linalg.norm(V[loop[1]] - V[loop[0]]))
@@ -66,12 +68,12 @@ def test_a_patch_pushed_through_the_scan_near_its_rim_is_mended():
     assert near.size >= 3
     patch.P[near, 0] -= 2.0 * h
     patch.P[near, 2] += np.where(np.arange(near.size) % 2, 0.3, -0.3) * h
-    why, bad = _check_patch(ctx, patch)
+    why, bad = check_patch(ctx, patch)
     assert why is not None and "cross the scan" in why
-    res = mend_patch(ctx, patch, bad, _check_patch)
+    res = mend_patch(ctx, patch, bad, check_patch)
     assert res.patch is not None, res.reason
     assert res.reason == ""
-    assert _check_patch(ctx, res.patch)[0] is None
+    assert check_patch(ctx, res.patch)[0] is None
     assert np.array_equal(res.patch.loop, loop)
     assert _is_disc_on(res.patch.T, loop)
     # away from the fault the patch is the one it was: its new vertices are old ones
@@ -91,13 +93,13 @@ def test_a_region_no_flat_triangulation_clears_is_closed_by_a_fan_over_the_obsta
     fin = 0.5 + h * np.array([[-0.7, -0.3, -0.2], [0.6, 0.35, -0.2], [0.05, 0.11, 0.2]]) - [0, 0, 0.5]
     V2 = np.vstack([V, fin])
     F2 = np.vstack([F, [[len(V), len(V) + 1, len(V) + 2]]])
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = ScanContext(Mesh(V=V2, F=F2))
     patch = build_patch(ctx, 0, loop, order=1, smooth=0, fair=False)     # flat: cuts the fin
-    why, bad = _check_patch(ctx, patch)
+    why, bad = check_patch(ctx, patch)
     assert why is not None and "cross the scan" in why
-    res = mend_patch(ctx, patch, bad, _check_patch)
+    res = mend_patch(ctx, patch, bad, check_patch)
     assert res.patch is not None, res.reason
-    assert _check_patch(ctx, res.patch)[0] is None
+    assert check_patch(ctx, res.patch)[0] is None
     assert _is_disc_on(res.patch.T, loop)
     lifted = np.abs(res.patch.P[:, 2]) > 0.2 * h          # the fan's apex, off the plane
     assert np.count_nonzero(lifted) == 1
@@ -121,7 +123,7 @@ def test_a_pillar_through_a_curved_opening_fails_naming_the_last_layer():
     V = V.copy()
     V[:, 2] = 0.5 * (V[:, 0] - 0.5) ** 2          # bent: the opening is not a plane region
     Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
-    ctx = _Context(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
+    ctx = ScanContext(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
     out = _fill_one(ctx, 0, loop, 2, 0)
     assert out.patch is None
     assert "last layer, mending" in out.reason
@@ -134,7 +136,7 @@ def test_a_pillar_through_a_plane_opening_fails_at_once_without_the_last_layer()
     what is a flat face)."""
     V, F, loop = _sheet_with_a_hole()
     Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
-    ctx = _Context(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
+    ctx = ScanContext(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
     out = _fill_one(ctx, 0, loop, 2, 0)
     assert out.patch is None
     assert "cross the opening's own plane inside it" in out.reason
@@ -148,11 +150,11 @@ def test_a_pillar_is_given_up_within_the_rounds_and_the_region_bound():
 
     V, F, loop = _sheet_with_a_hole()
     Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
-    ctx = _Context(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
+    ctx = ScanContext(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
     patch = build_patch(ctx, 0, loop, order=2, smooth=0)
-    why, bad = _check_patch(ctx, patch)
+    why, bad = check_patch(ctx, patch)
     assert why is not None and "cross the scan" in why
-    res = mend_patch(ctx, patch, bad, _check_patch)
+    res = mend_patch(ctx, patch, bad, check_patch)
     assert res.patch is None
     assert res.rounds <= MEND_ROUNDS
     assert "crosses neither the scan" in res.reason or f"past {MEND_MAX_LOOP}" in res.reason
@@ -160,7 +162,7 @@ def test_a_pillar_is_given_up_within_the_rounds_and_the_region_bound():
 
 def test_the_last_layer_leaves_a_hole_the_earlier_layers_fill_alone():
     V, F, loop = _sheet_with_a_hole()
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     out = _fill_one(ctx, 0, loop, 2, 0)
     assert out.patch is not None
     assert "mended" not in out.patch.option
@@ -198,10 +200,10 @@ def test_a_hole_round_a_twisted_tongue_the_earlier_layers_leave_open_is_mended(m
     from shellrepair import fill
 
     V, F, loop = _sheet_with_a_twisted_tongue(1.5 * np.pi, 0.1)
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     out = _fill_one(ctx, 0, loop, 2, 0)
     assert any("still crosses the scan after re-routing" in r for r in out.reasons)
     assert out.patch is not None, out.reason
     assert "mended" in out.patch.option
-    assert _check_patch(ctx, out.patch)[0] is None
+    assert check_patch(ctx, out.patch)[0] is None
     assert _is_disc_on(out.patch.T, loop)

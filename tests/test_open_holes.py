@@ -24,7 +24,7 @@ outlast it) stands in for the large loop.
 import numpy as np
 import pytest
 
-import shellrepair.fill as fill
+import shellrepair.checks as checks
 from shellrepair import Mesh
 from shellrepair.repair import repair_mesh
 from shellrepair.topology import edge_topology
@@ -79,8 +79,8 @@ def _lens_with_a_pebble(n=101):
 @pytest.fixture
 def spent_budget(monkeypatch):
     """No faired attempt after the first fits (the work budget is spent by then)."""
-    monkeypatch.setattr(fill, "HOLE_VERTICES", 0)
-    monkeypatch.setattr(fill, "HOLE_VERTICES_PER_EDGE", 0)
+    monkeypatch.setattr(checks, "HOLE_VERTICES", 0)
+    monkeypatch.setattr(checks, "HOLE_VERTICES_PER_EDGE", 0)
 
 
 def test_a_hole_with_no_passing_triangulation_gets_its_harmonic_patch(spent_budget):
@@ -108,15 +108,16 @@ def test_the_first_attempts_cross_the_pebble():
     """The faired patch and the flat triangulation of this opening do cross
     (what leaves only the harmonic patch)."""
     from shellrepair.holes import detect_holes
-    from shellrepair.patch import _Context, build_patch
+    from shellrepair.context import ScanContext
+    from shellrepair.patch import build_patch
 
     V, F = _lens_with_a_pebble()
     (hole,) = detect_holes(V, F).holes
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     flat = build_patch(ctx, hole.id, hole.vertices, order=1, refine=False, fair=False)
     faired = build_patch(ctx, hole.id, hole.vertices, order=2, initial=flat.T0)
-    assert "cross the scan" in fill._check_patch(ctx, flat)[0]
-    assert "cross the scan" in fill._check_patch(ctx, faired)[0]
+    assert "cross the scan" in checks.check_patch(ctx, flat)[0]
+    assert "cross the scan" in checks.check_patch(ctx, faired)[0]
 
 
 @pytest.mark.parametrize("lift, crosses", [(0.0, True), (1.5, False)])

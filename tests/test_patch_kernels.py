@@ -11,7 +11,7 @@ import pytest
 from eval import shapes
 from shellrepair import kernels
 from shellrepair.io import Mesh
-from shellrepair.patch import _Context, _submesh, _submesh_numpy
+from shellrepair.context import ScanContext, _submesh_numpy, submesh
 
 pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
 
@@ -32,7 +32,7 @@ def _perforated_torus(seed):
 def test_ring_faces_grow_their_buffers_past_any_first_guess(seed):
     """Many seed vertices and many rings: the walk's buffers are made room
     for per ring, and the faces and cleared marks are the NumPy walk's."""
-    ctx = _Context(_perforated_torus(seed))
+    ctx = ScanContext(_perforated_torus(seed))
     rng = np.random.default_rng(seed)
     for verts, rings in ((rng.integers(0, ctx.n, 1), 40), (rng.integers(0, ctx.n, 200), 3),
                          (np.arange(ctx.n), 2), (np.array([5, 5, 5, 5]), 7)):
@@ -47,7 +47,7 @@ def test_submesh_numbering_equals_the_numpy_one(seed):
     from shellrepair.holes import boundary_loops
 
     mesh = _perforated_torus(seed)
-    ctx = _Context(mesh)
+    ctx = ScanContext(mesh)
     rng = np.random.default_rng(seed)
     loops = boundary_loops(mesh.F, len(mesh.V))
     loops = loops[0] if isinstance(loops, tuple) else loops
@@ -62,7 +62,7 @@ def test_submesh_numbering_equals_the_numpy_one(seed):
             T = np.vstack([T, rng.integers(0, k + q, (q + 2, 3))])
         for rings in (1, 2, 3):
             rf = ctx.ring_faces(loop, rings)
-            got = _submesh(ctx, loop, None, T, rings)
+            got = submesh(ctx, loop, None, T, rings)
             want = _submesh_numpy(ctx, loop, T, rf)
             assert got[2] == want[2]
             for a, b in ((got[0], want[0]), (got[1], want[1]), (got[3], want[3])):
@@ -195,10 +195,11 @@ def test_patch_corners_and_rim_sigma_equal_numpy(seed):
     """Corners and ids of patches with and without new vertices, and the
     rim scale with some rim vertices lacking scan edges (their loop edge
     instead), non-finite positions included: to the bit."""
-    from shellrepair.patch import Patch, _corners, _corners_numpy, _rim_sigma, _rim_sigma_numpy
+    from shellrepair.context import _rim_sigma, _rim_sigma_numpy
+    from shellrepair.patch import Patch, _corners, _corners_numpy
 
     mesh = _perforated_torus(seed)
-    ctx = _Context(mesh)
+    ctx = ScanContext(mesh)
     rng = np.random.default_rng(seed)
     V = ctx.V.copy()
     V[rng.integers(0, len(V), 3)] = [np.nan, np.inf, -0.0]
@@ -223,7 +224,7 @@ def test_boundary_loops_of_a_few_faces_of_a_large_mesh_are_the_same_numbered_com
     from shellrepair import holes
 
     mesh = _perforated_torus(seed)
-    ctx = _Context(mesh)
+    ctx = ScanContext(mesh)
     rng = np.random.default_rng(seed)
     for rings in (1, 2, 4):
         seedv = rng.integers(0, ctx.n, int(rng.integers(1, 4)))
@@ -254,7 +255,7 @@ def test_edge_topology_of_a_few_faces_of_a_large_mesh_equals_the_full_numbering(
     else:
         monkeypatch.setattr(fastmesh, "enabled", lambda n_faces: False)
     mesh = _perforated_torus(seed)
-    ctx = _Context(mesh)
+    ctx = ScanContext(mesh)
     rng = np.random.default_rng(seed)
     Fs = ctx.F[ctx.ring_faces(rng.integers(0, ctx.n, 2), 3)].copy()
     Fs = np.vstack([Fs, Fs[:2], Fs[2:3, ::-1]])            # an edge with 3+ faces, a flipped face
@@ -279,7 +280,7 @@ def test_turns_into_opening_leaves_the_vertex_scratch_clear():
     from shellrepair.patch import _turns_into_opening
 
     mesh = _perforated_torus(1)
-    ctx = _Context(mesh)
+    ctx = ScanContext(mesh)
     for loop in boundary_loops(mesh.F, len(mesh.V))[0]:
         _turns_into_opening(ctx, np.asarray(loop, np.int64))
         assert (ctx.vpos() == -1).all()

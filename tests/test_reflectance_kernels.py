@@ -20,7 +20,6 @@ Stated tolerances (each asserted below):
 import numpy as np
 import pytest
 
-from shellrepair import materials as mt
 from shellrepair import shader as sd
 from shellrepair.reflectance import _dispatch
 from shellrepair.reflectance import albedo as al
@@ -153,7 +152,7 @@ def test_material_shader_matches_numpy_oracle(name):
     p = hard_inputs(seed=11)
     rng = np.random.default_rng(2)
     g, d = rng.uniform(-0.2, 1.2, len(p["c"])), rng.uniform(-0.2, 1.2, len(p["c"]))
-    shader = mt.MaterialShader(name)
+    shader = sd.MaterialShader(name)
     args = (p["wi"], p["wo"], p["n"], p["c"], g, d)
     f = shader(*args)
     f_np = sd._material_shader_np(shader, *args)
@@ -194,7 +193,7 @@ def test_no_jit_gives_the_numpy_versions_bit_for_bit(monkeypatch):
         fast, oracle, args = CASES[name]
         with np.errstate(all="ignore"):
             np.testing.assert_array_equal(fast(*args), oracle(*args))
-    shader = mt.MaterialShader("aged-bronze")
+    shader = sd.MaterialShader("aged-bronze")
     p = hard_inputs(N=500)
     args = (p["wi"], p["wo"], p["n"], p["c"], 1.0, 0.0)
     np.testing.assert_array_equal(shader(*args), sd._material_shader_np(shader, *args))
@@ -205,7 +204,7 @@ def test_threads_give_the_same_bits_as_one(monkeypatch):
     args = (p["wi"], p["wo"], p["n"], p["m"], p["eta"])
     monkeypatch.setenv("SHELLREPAIR_THREADS", "1")
     one = mf.torrance_sparrow(*args)
-    shader = mt.MaterialShader("aged-bronze")
+    shader = sd.MaterialShader("aged-bronze")
     s_one = shader(p["wi"], p["wo"], p["n"], p["c"])
     monkeypatch.setenv("SHELLREPAIR_THREADS", "3")
     monkeypatch.setattr(K, "MIN_POINTS_PER_THREAD", 1000)
@@ -220,7 +219,7 @@ def test_flush_to_zero_does_not_leak_out_of_the_kernels():
 
 
 def test_warm_up_compiles_every_kernel():
-    from shellrepair.reflectance import warm_up
+    from shellrepair.shader import warm_up
 
     n = warm_up()
     assert n >= len(K.KERNELS)

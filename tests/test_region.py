@@ -1,4 +1,4 @@
-"""The fill's local region (patch._Region): on a large scan with few holes,
+"""The fill's local region (context._Region): on a large scan with few holes,
 vertex-face lists and near faces come from the faces around the loops,
 not from whole-mesh structures, and the repair is the same to the bit."""
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import kernels, patch
+from shellrepair import context, kernels
 from shellrepair.io import Mesh
-from shellrepair.patch import _Context
+from shellrepair.context import ScanContext
 from shellrepair.topology import edge_topology
 
 pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="the region needs the compiled kernels")
@@ -21,7 +21,7 @@ def _holed(sub=6, n_holes=3, radius=0.12, seed=1):
 
 
 def _ctx(V, F):
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     ctx.topo = edge_topology(F, len(V))
     return ctx
 
@@ -52,7 +52,7 @@ def test_faces_in_boxes_equal_the_brute_force_test(seed):
 
 
 def test_the_region_lists_are_the_whole_mesh_lists_where_complete(monkeypatch):
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     V, F = _holed()
     ctx = _ctx(V, F)
     reg = ctx.region()
@@ -73,11 +73,11 @@ def test_the_region_lists_are_the_whole_mesh_lists_where_complete(monkeypatch):
 
 
 def test_near_faces_of_the_region_hold_every_face_meeting_the_box(monkeypatch):
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     V, F = _holed()
     ctx = _ctx(V, F)
     local, whole = ctx.index, ctx.whole_index()
-    assert isinstance(local, patch._LocalIndex)
+    assert isinstance(local, context._LocalIndex)
     assert np.array_equal(local.origin, whole.origin)
     T = V[F]
     tmin, tmax = T.min(axis=1), T.max(axis=1)
@@ -94,7 +94,7 @@ def test_near_faces_of_the_region_hold_every_face_meeting_the_box(monkeypatch):
     assert np.array_equal(local.faces_near(lo, hi), whole.faces_near(lo, hi))
 
 
-@pytest.mark.parametrize("grow, rings", [(patch.LOCAL_GROW, patch.LOCAL_RING_EDGES), (0.0, 0)])
+@pytest.mark.parametrize("grow, rings", [(context.LOCAL_GROW, context.LOCAL_RING_EDGES), (0.0, 0)])
 @pytest.mark.slow
 def test_a_repair_from_the_region_equals_the_whole_mesh_repair(grow, rings, monkeypatch):
     """Bit for bit, with the region as built and with boxes so tight that
@@ -103,13 +103,13 @@ def test_a_repair_from_the_region_equals_the_whole_mesh_repair(grow, rings, monk
 
     V, F = _holed(n_holes=4, radius=0.1, seed=3)
     out = {}
-    real = patch.region_of
+    real = context.region_of
     for local in (False, True):
-        monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0 if local else 10 ** 12)
-        monkeypatch.setattr(patch, "LOCAL_GROW", grow)
-        monkeypatch.setattr(patch, "LOCAL_RING_EDGES", rings)
+        monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0 if local else 10 ** 12)
+        monkeypatch.setattr(context, "LOCAL_GROW", grow)
+        monkeypatch.setattr(context, "LOCAL_RING_EDGES", rings)
         built = []
-        monkeypatch.setattr(patch, "region_of", lambda V, F, topo: built.append(real(V, F, topo)) or built[-1])
+        monkeypatch.setattr(context, "region_of", lambda V, F, topo: built.append(real(V, F, topo)) or built[-1])
         out[local] = repair_mesh(Mesh(V=V, F=F))
         assert (built[0] is not None) == local
     (a, ra), (b, rb) = out[False], out[True]
@@ -121,9 +121,9 @@ def test_a_repair_from_the_region_equals_the_whole_mesh_repair(grow, rings, monk
 def test_no_region_for_many_loops_or_a_small_mesh(monkeypatch):
     V, F = _holed(sub=4, n_holes=12, radius=0.12, seed=2)
     assert _ctx(V, F).region() is None             # small mesh (LOCAL_MIN_FACES)
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     assert _ctx(V, F).region() is None             # more loops than boxes
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     assert ctx.region() is None                    # no edge topology given
 
 
@@ -131,7 +131,7 @@ def test_a_repair_from_the_region_with_two_processes_equals_one(monkeypatch):
     from shellrepair.repair import repair_mesh
 
     V, F = _holed(n_holes=4, radius=0.1, seed=3)
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     (a, _), (b, _) = repair_mesh(Mesh(V=V, F=F)), repair_mesh(Mesh(V=V, F=F), jobs=2)
     assert np.array_equal(a.F, b.F) and np.array_equal(a.V, b.V) and len(a.F) > len(F)
 
@@ -165,12 +165,12 @@ def test_the_index_built_in_the_background_is_the_index_built_in_line(monkeypatc
 def test_a_region_is_built_once_when_two_threads_ask(monkeypatch):
     from concurrent.futures import ThreadPoolExecutor
 
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     V, F = _holed()
     ctx = _ctx(V, F)
     built = []
-    real = patch.region_of
-    monkeypatch.setattr(patch, "region_of", lambda V, F, topo: built.append(1) or real(V, F, topo))
+    real = context.region_of
+    monkeypatch.setattr(context, "region_of", lambda V, F, topo: built.append(1) or real(V, F, topo))
     with ThreadPoolExecutor(2) as ex:
         regs = list(ex.map(lambda _: ctx.region(), range(4)))
     assert len(built) == 1 and all(r is regs[0] for r in regs) and regs[0] is not None
@@ -181,11 +181,11 @@ def test_a_region_started_early_is_taken_only_for_the_contexts_own_arrays(monkey
     topology the context holds; region() then returns it."""
     from concurrent.futures import Future
 
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     V, F = _holed()
     ctx = _ctx(V, F)
     fut = Future()
-    fut.set_result(patch.region_of(V, F, ctx.topo))
+    fut.set_result(context.region_of(V, F, ctx.topo))
     assert not ctx.take_region(fut, V.copy(), F, ctx.topo)                  # equal, not the same array
     assert not ctx.take_region(fut, V, F.copy(), ctx.topo)
     assert not ctx.take_region(fut, V, F, edge_topology(F, len(V)))          # another topology object
@@ -205,9 +205,9 @@ def test_two_jobs_build_the_region_once_and_repair_as_one_job_does(fixed, monkey
 
     from shellrepair import repair
 
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     V, F = _holed(n_holes=4, radius=0.1, seed=3)
-    real = patch.region_of
+    real = context.region_of
     real_manifold = repair.manifold_mesh
     out = {}
     for jobs in (1, 2):
@@ -224,7 +224,7 @@ def test_two_jobs_build_the_region_once_and_repair_as_one_job_does(fixed, monkey
             overlapped.append(started.wait(timeout=60 if jobs > 1 else 0))
             return real_manifold(*a, **k)
 
-        monkeypatch.setattr(patch, "region_of", region_of)
+        monkeypatch.setattr(context, "region_of", region_of)
         monkeypatch.setattr(repair, "manifold_mesh", manifold)
         mesh = real_manifold(Mesh(V=V, F=F), orient=False) if fixed else Mesh(V=V, F=F)
         if fixed:
@@ -243,7 +243,7 @@ def test_without_a_region_two_jobs_start_the_whole_mesh_lists_early_and_build_th
     built once, and the repair is the one a single job gives."""
     from shellrepair.repair import repair_mesh
 
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 10 ** 12)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 10 ** 12)
     V, F = _holed(n_holes=4, radius=0.1, seed=3)
     real = kernels.vertex_faces
     out = {}
@@ -265,15 +265,15 @@ def test_a_mesh_made_manifold_on_its_way_drops_the_early_region_and_repairs_as_o
     jobs repair as one does."""
     from shellrepair.repair import repair_mesh
 
-    monkeypatch.setattr(patch, "LOCAL_MIN_FACES", 0)
+    monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     V, F = _holed(n_holes=3, radius=0.1, seed=5)
     V = np.vstack([V, V[0] + [0.1, 0.0, 0.0], V[0] + [0.0, 0.1, 0.0]])
     F = np.vstack([F, [[0, len(V) - 2, len(V) - 1]]])
-    real = patch.region_of
+    real = context.region_of
     out = {}
     for jobs in (1, 2):
         seen = []
-        monkeypatch.setattr(patch, "region_of", lambda V_, F_, t: seen.append(len(V_)) or real(V_, F_, t))
+        monkeypatch.setattr(context, "region_of", lambda V_, F_, t: seen.append(len(V_)) or real(V_, F_, t))
         out[jobs] = repair_mesh(Mesh(V=V, F=F), jobs=jobs, order=2)
         assert seen[-1] == len(V) + 1                 # the context's region: of the mesh with the split vertex
         assert seen[:-1] == ([len(V)] if jobs > 1 else [])   # the early one, on the pair as given

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from shellrepair import materials as mt
+from shellrepair import shader as sd
 from shellrepair import render as rd
 
 
@@ -197,9 +197,9 @@ def test_unit_is_inferred_from_the_size_and_drives_the_model_choice(sphere):
     assert got["m"]["footprint_um"] == pytest.approx(1000.0 * got["mm"]["footprint_um"])
     assert got["mm"]["model"].model == "dipole"
     # the switch lies where the documented footprint says
-    switch = mt.model_switch_footprint_um("aged-bronze")
-    assert mt.choose_model(1.05 * switch, "aged-bronze").model == "local"
-    assert mt.choose_model(0.95 * switch, "aged-bronze").model == "dipole"
+    switch = sd.model_switch_footprint_um("aged-bronze")
+    assert sd.choose_model(1.05 * switch, "aged-bronze").model == "local"
+    assert sd.choose_model(0.95 * switch, "aged-bronze").model == "dipole"
     with pytest.raises(ValueError, match="unit"):
         rd.render_mesh(V, F, size=SIZE, unit="inch")
 

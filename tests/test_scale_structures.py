@@ -7,7 +7,7 @@ import pytest
 from eval import shapes
 from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, _independent_flips, _relax, _unfolded, refine_patch,
                                 refine_patches)
-from shellrepair.patch import _Context, _local_frame, _rim_data
+from shellrepair.context import ScanContext, local_frame, rim_data
 from shellrepair.io import Mesh, read_mesh, write_mesh
 from shellrepair.report import holes_dict
 from shellrepair.holes import detect_holes
@@ -120,7 +120,7 @@ def test_vertex_face_lists_equal_a_stable_sort():
 
 def test_ring_faces_are_the_faces_within_k_edges():
     V, F = shapes.icosphere(3)
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     seed = np.array([0, 5])
     for rings in (1, 2, 4):
         # reference: grow a vertex set ring by ring
@@ -140,11 +140,11 @@ def _first_triangulations(centers, radius):
     a repair makes them."""
     V, F = shapes.bumpy_sphere(4, amplitude=0.05, frequency=5)
     V2, F2, _, _ = shapes.perforate_discs(V, F, centers=centers, radius=radius)
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = ScanContext(Mesh(V=V2, F=F2))
     items = []
     for L in detect_holes(V2, F2).holes:
-        sigma, normals, forbidden = _rim_data(ctx, L.vertices)
-        _, scale, Pl = _local_frame(ctx, L.vertices, sigma)
+        sigma, normals, forbidden = rim_data(ctx, L.vertices)
+        _, scale, Pl = local_frame(ctx, L.vertices, sigma)
         items.append((Pl, triangulate_loop(Pl, normals, forbidden), sigma / scale, len(L.vertices), forbidden))
     return items
 
@@ -475,12 +475,12 @@ def test_the_topology_on_two_threads_equals_it_on_one(shift):
 
 def test_a_large_mesh_takes_the_two_thread_topology(monkeypatch):
     pytest.importorskip("numba")
-    from shellrepair import fastmesh
+    from shellrepair import fastmesh, halves
 
     V, F = shapes.icosphere(3)
     calls = []
-    real = fastmesh._both
-    monkeypatch.setattr(fastmesh, "_both", lambda *a: calls.append(1) or real(*a))
+    real = halves.both
+    monkeypatch.setattr(halves, "both", lambda *a: calls.append(1) or real(*a))
     monkeypatch.setattr(fastmesh.os, "cpu_count", lambda: 2)
     small = fastmesh.edge_topology_arrays(F, len(V))
     monkeypatch.setattr(fastmesh, "HALVES_MIN_ROWS", 10)

@@ -5,19 +5,21 @@ import pytest
 from scipy.spatial import cKDTree
 
 from eval import shapes
-from shellrepair import Mesh, detect_holes, read_mesh, selftest
+from shellrepair import Mesh, detect_holes, probe, read_mesh, selftest
 from shellrepair.fill import _fill_one_order
-from shellrepair.patch import _Context, build_patch
+from shellrepair.context import ScanContext
+from shellrepair.patch import build_patch
 from shellrepair.probe import PROBES, hole_radius, probe_errors
 from shellrepair.repair import repair_mesh
-from shellrepair.selftest import CANDIDATES, DEFAULT_ORDER, MIN_EDGES, OrderTest, choose_order, point_mesh_distance
+from shellrepair.distance import point_mesh_distance
+from shellrepair.selftest import CANDIDATES, DEFAULT_ORDER, MIN_EDGES, OrderTest, choose_order
 
 from conftest import shared_scan
 
 
 def context(V, F):
     scan = detect_holes(V, F)
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     ctx.planarity = {L.id: L.planarity for L in scan.loops}
     return scan, ctx
 
@@ -147,7 +149,7 @@ def test_the_coarse_test_picks_order_3_on_the_sphere_as_the_full_one_does(monkey
     scan, ctx = context(V, F)
     h = scan.holes[0]
     full = choose_order(ctx, h.id, h.vertices)
-    monkeypatch.setattr(selftest, "TEST_MAX_UNKNOWNS", 0)     # every test hole refined coarse
+    monkeypatch.setattr(probe, "TEST_MAX_UNKNOWNS", 0)     # every test hole refined coarse
     coarse = choose_order(ctx, h.id, h.vertices)
     assert full.order == coarse.order == 3 and coarse.errors != full.errors
 

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import Mesh, detect_holes, kernels, selftest
-from shellrepair.patch import _Context
+from shellrepair import Mesh, detect_holes, distance, kernels, selftest
+from shellrepair.context import ScanContext
 
 pytest.importorskip("numba")
 pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="the compiled kernels are off (SHELLREPAIR_NO_NUMBA)")
@@ -25,7 +25,7 @@ def perforated(n_holes=6, seed=0, subdivisions=4, radius=0.12):
     V, F = shapes.bumpy_sphere(subdivisions, amplitude=0.03, frequency=4)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=n_holes, radius=radius, seed=seed)
     scan = detect_holes(V2, F2)
-    ctx = _Context(Mesh(V=V2, F=F2))
+    ctx = ScanContext(Mesh(V=V2, F=F2))
     return ctx, scan.holes
 
 
@@ -43,7 +43,7 @@ def test_one_walk_holds_the_faces_within_each_ring_count():
 
 def test_a_walk_that_runs_out_of_mesh_repeats_its_last_ring_end():
     V, F = shapes.icosphere(1)                                     # 80 faces: a few rings cover it
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     faces, off = kernels.ring_walk(np.array([0], np.int64), 30, ctx.vf_order, ctx.vf_start, F, ctx._vmark,
                                    ctx._fmark)
     assert off[-1] == len(F) and np.array_equal(np.sort(faces), np.arange(len(F)))
@@ -79,8 +79,8 @@ def _numpy_nearest(Q, V, F, idx):
     kk = idx.shape[1]
     P = np.repeat(Q, kk, axis=0)
     T = V[F][idx.ravel()]
-    E = P - selftest._closest_on_triangles(P, T[:, 0], T[:, 1], T[:, 2])
-    return np.sqrt(selftest._dot3(E, E)).reshape(len(Q), kk).min(axis=1)
+    E = P - distance._closest_on_triangles(P, T[:, 0], T[:, 1], T[:, 2])
+    return np.sqrt(distance._dot3(E, E)).reshape(len(Q), kk).min(axis=1)
 
 
 def _old_steps(monkeypatch):

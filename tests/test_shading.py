@@ -11,6 +11,7 @@ from hypothesis import given, settings, strategies as st
 from scipy.integrate import quad
 
 from shellrepair import materials as mt
+from shellrepair import shader as sd
 from shellrepair import shading as sh
 
 FINITE = dict(divide="raise", invalid="raise", over="raise")
@@ -383,15 +384,15 @@ def test_aged_metal_albedo_below_one_and_reciprocal():
     for cov in (0.0, 0.5, 1.0):
         for theta_o in (0.2, 1.3):
             wo = sph(theta_o, 0.4)
-            A = directional_albedo(lambda d, o: mt.shade_reference(d, o, n, cov, "aged-bronze"),
+            A = directional_albedo(lambda d, o: sd.shade_reference(d, o, n, cov, "aged-bronze"),
                                    wo, dirs, w)
             assert np.all(A <= 1.0 + 2e-3) and np.all(A > 0.0)
     rng = np.random.default_rng(5)
     wi = unit(rng.normal(size=(2000, 3)) * [1, 1, 0.3] + [0, 0, 0.8])
     wo = unit(rng.normal(size=(2000, 3)) * [1, 1, 0.3] + [0, 0, 0.8])
     c = rng.uniform(0, 1, 2000)
-    np.testing.assert_allclose(mt.shade_reference(wi, wo, n, c, "aged-bronze"),
-                               mt.shade_reference(wo, wi, n, c, "aged-bronze"), rtol=1e-12)
+    np.testing.assert_allclose(sd.shade_reference(wi, wo, n, c, "aged-bronze"),
+                               sd.shade_reference(wo, wi, n, c, "aged-bronze"), rtol=1e-12)
 
 
 def test_fast_shader_agrees_with_reference():
@@ -404,17 +405,17 @@ def test_fast_shader_agrees_with_reference():
     g = rng.uniform(0.0, 1.0, N)  # gilding
     d = rng.uniform(0.0, 1.0, N)  # dark crust
     for name in ("aged-bronze", "gilt", "bronze"):
-        fast = mt.MaterialShader(name)(wi, wo, n, c, g, d)
-        ref = mt.shade_reference(wi, wo, n, c, name, g, d)
+        fast = sd.MaterialShader(name)(wi, wo, n, c, g, d)
+        ref = sd.shade_reference(wi, wo, n, c, name, g, d)
         assert fast.shape == (N, 3) and np.all(np.isfinite(fast))
         np.testing.assert_allclose(fast, ref, rtol=2e-3, atol=1e-6)
-        spec, diff = mt.MaterialShader(name)(wi, wo, n, c, g, d, parts=True)
+        spec, diff = sd.MaterialShader(name)(wi, wo, n, c, g, d, parts=True)
         np.testing.assert_allclose(spec + diff, fast, rtol=1e-12, atol=0)
 
 
 def test_gilding_and_crust_change_only_their_part():
     """gild mixes gold and bronze in the metal part; crust darkens only the patina's diffuse part."""
-    shader = mt.MaterialShader("aged-bronze")
+    shader = sd.MaterialShader("aged-bronze")
     n = np.array([0.0, 0.0, 1.0])
     wi, wo = unit([0.3, 0.0, 1.0]), unit([-0.5, 0.2, 1.0])
     gold = shader(wi, wo, n, 0.0, 1.0)
@@ -453,7 +454,7 @@ def test_coverage_drives_roughness_and_thickness():
 
 def test_thin_patina_is_cuprite_brown_and_thick_is_green():
     """Diffuse colour of the corroded part: red-brown where thin, green where thick."""
-    shader = mt.MaterialShader("aged-bronze")
+    shader = sd.MaterialShader("aged-bronze")
     n = np.array([0.0, 0.0, 1.0])
     wi = unit([0.3, 0.0, 1.0])
     wo = unit([-0.5, 0.2, 1.0])  # far from the mirror direction: the diffuse term shows
@@ -477,12 +478,12 @@ def test_coverage_from_colors():
 
 
 def test_choose_model():
-    big = mt.choose_model(500.0, "aged-bronze")
+    big = sd.choose_model(500.0, "aged-bronze")
     assert big.model == "local" and big.error_estimate < 1e-6
-    small = mt.choose_model(2.0, "aged-bronze")
+    small = sd.choose_model(2.0, "aged-bronze")
     assert small.model == "dipole" and small.error_estimate > 0.01
-    assert mt.choose_model(2.0, "gilt").model == "specular"
-    errs = [mt.choose_model(f, "aged-bronze").error_estimate for f in (1, 10, 30, 100, 300)]
+    assert sd.choose_model(2.0, "gilt").model == "specular"
+    errs = [sd.choose_model(f, "aged-bronze").error_estimate for f in (1, 10, 30, 100, 300)]
     assert all(a > b for a, b in zip(errs, errs[1:]))
     assert 1.0 < big.diffusion_length_um < 100.0
 
@@ -659,7 +660,7 @@ def test_grazing_mirror_pairs_are_bounded():
                                                np.array(mt.GOLD_LEAF.k))
             assert np.all(fc < 1e6)
     # the fast shader holds the same guard
-    shader = mt.MaterialShader("aged-bronze")
+    shader = sd.MaterialShader("aged-bronze")
     th = np.pi / 2 - 1e-9
     f = shader(sph(th, 0.0), sph(th, np.pi), n, np.array([0.0, 0.5, 1.0]))
     assert np.all(np.isfinite(f)) and np.all(f < 1e6)

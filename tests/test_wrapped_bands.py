@@ -17,7 +17,7 @@ import pytest
 from eval import shapes
 from shellrepair import Mesh, detect_holes
 from shellrepair.bridge import loop_sights, wrapped_pairs
-from shellrepair.patch import _Context
+from shellrepair.context import ScanContext
 from shellrepair.repair import repair_mesh
 from shellrepair.topology import euler_characteristic
 
@@ -39,7 +39,7 @@ def thin_torus_without_oblique_band(tilt_deg=60.0, half_width=0.15):
 
 def sights_and_wraps(V, F):
     scan = detect_holes(V, F)
-    ctx = _Context(Mesh(V=V, F=F))
+    ctx = ScanContext(Mesh(V=V, F=F))
     faces_near = lambda lp: F[ctx.ring_faces(lp, 3)]
     ids = [L.id for L in scan.loops if L.kind == "hole"]
     return scan, loop_sights(V, scan.loops, faces_near), wrapped_pairs(V, scan.loops, ids, faces_near)

@@ -59,7 +59,7 @@ Why it is fast
 
 Compiled code is cached (``cache=True``: in ``__pycache__`` beside this
 file, or Numba's per-user cache directory when that is not writable);
-:func:`shellrepair.reflectance.warm_up` compiles every specialisation the
+:func:`shellrepair.shader.warm_up` compiles every specialisation the
 library uses, and ``make setup`` calls it.  This module is imported on the
 first call of a shading function, so importing the package does not
 import Numba.
@@ -83,7 +83,7 @@ from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
 # the NumPy versions' constants, repeated as plain floats for the kernels
-from .microfacet import COS_EPS, M_MIN, MU_FLOOR, _TINY
+from ._constants import COS_EPS, M_MIN, MU_FLOOR, _TINY
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy")
 jit = numba.njit(**_OPTS)

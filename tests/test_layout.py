@@ -1,0 +1,109 @@
+"""The package imports one way: no module imports, directly or through
+others, a module that imports it back.
+
+Counted from the source, imports inside functions included (a lazy import
+hides a circle from Python at load time, not from a reader): the fill's
+stages read the scan's index (:mod:`shellrepair.context`) and the checks
+(:mod:`shellrepair.checks`) below them, the compiled kernels import none
+of the modules that call them (their warm-up is :mod:`shellrepair.warmup`),
+and the shader reads the materials and the reflectance package, never the
+other way round.
+"""
+
+import ast
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1] / "shellrepair"
+
+
+def _module_name(path):
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _is_module(name):
+    rel = Path(*name.split("."))
+    return (PACKAGE.parent / rel).with_suffix(".py").exists() or (PACKAGE.parent / rel / "__init__.py").exists()
+
+
+def import_graph():
+    """``{module: set of package modules it imports}``, from every import
+    statement in its source (``from . import x`` counts as importing x)."""
+    graph = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        name = _module_name(path)
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        out = graph.setdefault(name, set())
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                    target = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    target = node.module or ""
+                if not target.startswith("shellrepair"):
+                    continue
+                subs = [f"{target}.{a.name}" for a in node.names if _is_module(f"{target}.{a.name}")]
+                out.update(subs or [target])
+            elif isinstance(node, ast.Import):
+                out.update(a.name for a in node.names if a.name.startswith("shellrepair."))
+        out.discard(name)
+        out.discard("shellrepair")       # the package's own façade re-exports; it is imported by no module
+    return graph
+
+
+def cycles(graph):
+    """The strongly connected groups of more than one module (Tarjan)."""
+    index, low, stack, on, found, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = set()
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                group.add(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_the_graph_sees_imports_inside_functions():
+    # the reader must count lazy imports, or the test below could not fail
+    g = import_graph()
+    assert "shellrepair.mend" in g["shellrepair.checks"]          # inside mend_last
+    assert "shellrepair.holes" in g["shellrepair.checks"]         # inside blocked_in_plane
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_no_module_imports_itself_through_others():
+    assert cycles(import_graph()) == []
+
+
+def test_the_scan_index_checks_and_kernels_sit_below_the_stages_that_use_them():
+    g = import_graph()
+    stages = {"shellrepair." + m for m in ("holes", "patch", "bridge", "pants", "mend", "merge", "probe",
+                                            "selftest", "fill", "repair")}
+    assert not g["shellrepair.context"] & stages
+    # the checks build on a patch's corners, mend, and merge's edge lists; no
+    # stage that fills a hole, pairs loops or chooses an order is below them
+    assert g["shellrepair.checks"] & stages <= {"shellrepair.holes", "shellrepair.patch", "shellrepair.mend",
+                                                 "shellrepair.merge"}
+    assert g["shellrepair.kernels"] <= {"shellrepair.compiled", "shellrepair.geometry", "shellrepair.halves"}
+    assert g["shellrepair.materials"] & {"shellrepair.shader", "shellrepair.render"} == set()
