@@ -65,6 +65,7 @@ counts or with unrelated start vertices zip without a twist.
 from __future__ import annotations
 
 from itertools import chain
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -941,23 +942,43 @@ def resample_tube(PA, PB, params, order, P, spacing):
     T = np.vstack([_zip(ps[r], ps[r + 1], ids[r], ids[r + 1]) for r in range(M + 1)])
     return np.vstack(rings), T
 
+class Band(NamedTuple):
+    """Two ``hole`` loops bounding one missing band (:func:`find_bands`)."""
+    A: object              # shellrepair.holes.Loop
+    B: object
+    score: float
+    mutual: bool = False   # each loop sends most of its arcs to the other
+    wrapped: bool = False  # paired as wrapping one tube (:func:`wrapped_pairs`)
+
+
+class Bands(NamedTuple):
+    """What :func:`find_bands` found: the pairs, and the three-loop regions."""
+    pairs: list
+    triples: list
+
+
 def find_bands(ctx, scan):
     """Pairs of ``hole`` loops whose continuation arcs land on each other.
 
     Only loops classed ``hole`` are paired (a border is never bridged);
     borders still stop arcs. Only loops with another loop within reach of
     their arcs (``MAX_REACH`` diameters) have their arcs followed. Loops
-    that share a vertex are never paired. Sets ``ctx.bands_mutual``, and
-    ``ctx.band_triples``: ``(waist, leg, leg, pairs)`` per region bounded
-    by three loops (:func:`pants_triples`; ``pairs`` the
-    bands among them, its fallback), whose loops are not in the pairs
-    returned. Hole loops left unpaired by their arcs may still be paired as
-    wrapping one tube (:func:`wrapped_pairs`).
+    that share a vertex are never paired. Hole loops left unpaired by their
+    arcs may still be paired as wrapping one tube (:func:`wrapped_pairs`).
+    Reads the scan only (nothing is written on ``ctx``).
+
+    Returns
+    -------
+    Bands
+        ``pairs``: a :class:`Band` per pair; ``triples``: ``(waist, leg,
+        leg, bands)`` per region bounded by three loops
+        (:func:`pants_triples`; ``bands`` those among them, the pants'
+        fallback), whose loops are in no pair.
     """
     loops = scan.loops
     hole = np.array([L.kind == "hole" for L in loops], bool)
     if hole.sum() < 2:
-        return []
+        return Bands([], [])
     ids = np.flatnonzero(hole)
     centres = np.array([ctx.V[loops[i].vertices].mean(axis=0) for i in ids])
     radius = np.array([0.5 * loops[i].diameter for i in ids])
@@ -972,7 +993,7 @@ def find_bands(ctx, scan):
     touching = _touching(loops, ids)
     cand = _with_partner(ctx, loops, cand, hole, touching)
     if not cand:
-        return []
+        return Bands([], [])
     arcs = {}
     sights = loop_sights(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], candidates=cand, arcs_out=arcs)
     # loops that touch (share a vertex, e.g. the pinched pieces of a slit)
@@ -983,26 +1004,33 @@ def find_bands(ctx, scan):
                            np.intersect1d(loops[a].vertices, loops[b].vertices).size):
                 counts[b] = 0
     pairs = band_pairs(sights, hole)
-    # pairs whose loops each send most of their arcs to the other: read by _fill_pair
-    ctx.bands_mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, mutual in pairs if mutual}
+    # pairs whose loops each send most of their arcs to the other (the fill
+    # weighs their tube and caps differently: Band.mutual)
+    mutual = {frozenset((loops[i].id, loops[j].id)) for i, j, _, m in pairs if m}
     # three loops bounding one region (shellrepair.pants): the pairs among
     # them are kept as the pants' fallback (a pair reaching out of the
     # triple leaves the triple to the pairs, as before)
-    ctx.band_triples = []
+    triples = []
     for tri in pants_triples(sights, hole, touching):
         inside = [t for t in pairs if t[0] in tri or t[1] in tri]
         if all(t[0] in tri and t[1] in tri for t in inside):
             pairs = [t for t in pairs if t not in inside]
-            ctx.band_triples.append((*(loops[x] for x in tri), [(loops[i], loops[j]) for i, j, _, _ in inside]))
-    used = {x for i, j, _, _ in pairs for x in (i, j)} | {L.id for t in ctx.band_triples for L in t[:3]}
+            triples.append((tri, inside))
+    used = {x for i, j, _, _ in pairs for x in (i, j)} | {x for tri, _ in triples for x in tri}
     rest = [a for a in sorted(sights) if a not in used and hole[a]]
     wrapped = []
     if len(rest) >= 2:
         wrapped = wrapped_pairs(ctx.V, loops, rest, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], touching, arcs)
         pairs = pairs + wrapped
-    # read by _fill_pair: such a pair's caps are filled as the holes alone would be
-    ctx.bands_wrapped = {frozenset((loops[i].id, loops[j].id)) for i, j, _, _ in wrapped}
-    return [(loops[i], loops[j], sc) for i, j, sc, _ in pairs]
+    # such a pair's caps are filled as the holes alone would be (Band.wrapped)
+    wrapped = {frozenset((loops[i].id, loops[j].id)) for i, j, _, _ in wrapped}
+
+    def band(i, j, sc):
+        key = frozenset((loops[i].id, loops[j].id))
+        return Band(loops[i], loops[j], sc, key in mutual, key in wrapped)
+
+    return Bands([band(i, j, sc) for i, j, sc, _ in pairs],
+                 [(*(loops[x] for x in tri), [band(i, j, sc) for i, j, sc, _ in inside]) for tri, inside in triples])
 
 
 def wrapped_pairs(V, loops, ids, faces_near, touching=(), arcs=None):

@@ -26,9 +26,24 @@ from .topology import vertex_faces
 
 
 class ScanContext:
-    """Whole-mesh structures built once; per-hole work only reads them."""
+    """Whole-mesh structures built once; per-hole work only reads them.
 
-    def __init__(self, mesh):
+    Parameters
+    ----------
+    mesh : Mesh
+    topo : EdgeTopology, optional
+        The mesh's, when the caller has it.
+    base : str
+        ``RepairOptions.base``: how a scan's planar opening met edge-on is
+        filled ("auto", "flat", "faired").
+
+    Other modules change it only through its methods: :meth:`know_loops`
+    (what hole detection measured), :meth:`take_region`, and a run of
+    holes' scratch (:meth:`start_run`, :meth:`keep_first`,
+    :meth:`end_run`).
+    """
+
+    def __init__(self, mesh, topo=None, base="auto"):
         self.V = mesh.V
         self.F = mesh.F
         self.n = len(mesh.V)
@@ -41,8 +56,8 @@ class ScanContext:
         self._vpos = None                         # scratch vertex positions (vpos()), made on first use
         self.planarity = {}  # loop id -> planarity measured by detect_holes
         self.axes = {}       # loop id -> (loop vertices, best-fit plane axis) measured by detect_holes
-        self.base = "auto"   # RepairOptions.base: how a scan's planar opening met edge-on is filled
-        self.topo = None     # the mesh's EdgeTopology, when the caller has it
+        self.base = base     # RepairOptions.base: how a scan's planar opening met edge-on is filled
+        self.topo = topo     # the mesh's EdgeTopology, when the caller has it
         self._index = None
         self._full_index = None
         self._region = None  # _Region near the boundary loops; False: none (whole-mesh structures)
@@ -58,6 +73,43 @@ class ScanContext:
         self.allowed_answers = {}
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
         self.beside = None  # fill._Beside: a helper thread's work beside a batch's fills
+
+    def know_loops(self, loops):
+        """Keep what hole detection measured of each loop (planarity, its
+        plane's axis), so the fill does not measure it again."""
+        self.planarity = {L.id: L.planarity for L in loops}
+        self.axes = {L.id: (L.vertices, L.axis) for L in loops if L.axis is not None}
+
+    def start_run(self, beside):
+        """A run of holes starts: ``beside`` the helper thread's work beside
+        it (``fill._Beside``, or None)."""
+        self.beside = beside
+
+    def keep_first(self, hole_id, pre):
+        """A hole's first-attempt work, done in a batch (``patch._Pre``)."""
+        self.pre[hole_id] = pre
+
+    def end_run(self):
+        """The run is over: its first-attempt work and helper are dropped."""
+        self.pre = {}
+        if self.beside is not None:
+            self.beside.cancel()
+        self.beside = None
+
+    def for_helper(self):
+        """A copy for a helper thread: the same whole-mesh structures (the
+        region around the loops built here first, so the two threads share
+        it) and the same batch's first-attempt work, its own scratch marks
+        and positions, no helper of its own."""
+        import copy
+
+        self.region()
+        h = copy.copy(self)
+        h._vmark = np.zeros(self.n, bool)
+        h._fmark = np.zeros(len(self.F), bool)
+        h._vpos = None
+        h.beside = None
+        return h
 
     @property
     def vf_order(self):

@@ -620,7 +620,7 @@ def _restore_collinear(T, rings):
     return np.array(T, np.int64)
 
 
-def _fill_pair(ctx, A, B, order, smooth, mode):
+def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
     """A missing region bounded by loops A and B: a tube, or a cap on each.
 
     The tube starts from :func:`~shellrepair.bridge.guide_tube` (rings
@@ -654,7 +654,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
     # a pair found only as wrapping one tube (bridge.wrapped_pairs) may be
     # two holes that merely wrap a thin part: its caps are filled as those
     # holes would be alone (``order`` as given, "auto" included)
-    cap_order = order if frozenset((A.id, B.id)) in getattr(ctx, "bands_wrapped", set()) else None
+    cap_order = order if wrapped else None
     scan_edges = checks.edges_across(ctx, (A, B))
     face = flat_face_with_hole(ctx, A, B)
     if face is not None:
@@ -691,7 +691,6 @@ def _fill_pair(ctx, A, B, order, smooth, mode):
         Pg, Tg = guide_tube(PA, PB, *arcs, spacing=spacing, reach=reach)
     except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
         Pg, Tg = np.zeros((0, 3)), None
-    mutual = frozenset((A.id, B.id)) in getattr(ctx, "bands_mutual", set())
     tube, why_tube = None, ""
     tube_faults = []       # (tube, faulty triangles, how it was started) of the tubes that failed their checks
 
@@ -987,22 +986,6 @@ def _first_attempts(ctx, chunk):
         pre.first = f._replace(check=next(verdicts)) if f.patch is not None else f
 
 
-def _helper_context(ctx):
-    """A copy of ``ctx`` for a helper thread: the same whole-mesh
-    structures (the region around the loops built here first, so the two
-    threads share it) and the same batch's first-attempt work (``pre``),
-    its own scratch marks and positions."""
-    import copy
-
-    ctx.region()
-    h = copy.copy(ctx)
-    h._vmark = np.zeros(ctx.n, bool)
-    h._fmark = np.zeros(len(ctx.F), bool)
-    h._vpos = None
-    h.beside = None
-    return h
-
-
 #: The interpreter's thread switch interval (seconds) while a helper thread
 #: works beside the fill. Both threads spend most of their time in compiled
 #: kernels and solves that release the GIL, but take it back between them;
@@ -1127,7 +1110,7 @@ class _Beside:
         self.pool = pool
         self.ctx = ctx
         self.memo = memo
-        self.helper = _helper_context(ctx)
+        self.helper = ctx.for_helper()
         self.tests = {}        # hole id -> (loop, future of its OrderTest)
         self.o3 = {}           # hole id -> (refined T, future of its order-3 Patch, None or _Failed)
         self.place = {}        # hole id -> its place in the helper's queue: a hole's test, then its
@@ -1252,7 +1235,7 @@ def _run_chunk(ctx, chunk, on_unit=None, pool=None):
 
     try:
         memo = first_solve_memo(True)     # an order-3 fill of order="auto" repeats its order-2 fill's first solve
-        ctx.beside = _Beside(ctx, chunk, pool, memo) if pool is not None else None
+        ctx.start_run(_Beside(ctx, chunk, pool, memo) if pool is not None else None)
         _prefill(ctx, chunk)
         _first_attempts(ctx, chunk)
         out = []
@@ -1262,10 +1245,7 @@ def _run_chunk(ctx, chunk, on_unit=None, pool=None):
                 on_unit()
         return out
     finally:
-        ctx.pre = {}
-        if getattr(ctx, "beside", None) is not None:
-            ctx.beside.cancel()
-        ctx.beside = None
+        ctx.end_run()
         first_solve_memo(False)
 
 

@@ -177,11 +177,12 @@ def with_fallback(unit, why, parts):
 
 def pants_unit(A, B, C, pairs, order, smooth, mode):
     """The :class:`PantsUnit` of waist A and legs B, C; ``pairs`` the bands
-    among them the arcs pair (its fallback, with caps on the other loops)."""
+    among them the arcs pair (:class:`shellrepair.bridge.Band`; its
+    fallback, with caps on the other loops)."""
     from .patch import BandUnit, HoleUnit
 
-    fb = [BandUnit(X, Y, order, smooth, mode) for X, Y in pairs]
-    done = {L.id for X, Y in pairs for L in (X, Y)}
+    fb = [BandUnit(b.A, b.B, order, smooth, mode, b.mutual, b.wrapped) for b in pairs]
+    done = {L.id for b in pairs for L in (b.A, b.B)}
     fb += [HoleUnit(L.id, L.vertices, order, smooth) for L in (A, B, C) if L.id not in done]
     return PantsUnit(A, B, C, order, smooth, mode, tuple(sorted(fb, key=lambda u: u.first_id)))
 

@@ -50,6 +50,8 @@ class BandUnit(NamedTuple):
     order: object
     smooth: int
     mode: str              # the ``bridge`` option: "auto" or "always"
+    mutual: bool = False   # each loop sends most of its arcs to the other (shellrepair.bridge.Band)
+    wrapped: bool = False  # paired as wrapping one tube: its caps filled as the holes alone would be
 
     @property
     def first_id(self):
@@ -138,7 +140,7 @@ def _prefill(ctx, units):
         hole_id, loop, order = unit.hole_id, np.asarray(unit.loop, np.int64), unit.order
         rim = rim_data(ctx, loop)
         pre = _Pre(loop=loop, rim=rim)
-        ctx.pre[hole_id] = pre
+        ctx.keep_first(hole_id, pre)
         if order != 1:
             pre.edge_on = _meets_edge_on(ctx, loop, hole_id)
         sigma, edge_normals, forbidden = rim

@@ -84,7 +84,7 @@ from .topology import edge_count_delta, edge_topology
 from .units import in_scan_units
 from . import blas
 from . import fill as _fill
-from .bridge import find_bands
+from .bridge import Bands, find_bands
 from .pants import PantsUnit, expand, pants_unit
 from .fill import SEED_SMOOTH_PASSES, Outcome, _run_chunk, _seed_patches, _worker
 from .merge import _Accepted, _merge
@@ -195,9 +195,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         _progress(progress, 1, 2, "finding holes")
 
         def context():
-            c = ScanContext(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props))
-            c.topo = topo
-            c.base = base
+            c = ScanContext(Mesh(V=V, F=F, vertex_colors=mesh.vertex_colors, vertex_props=mesh.vertex_props),
+                            topo=topo, base=base)
             if early is not None:
                 c.take_region(early.region, early.V, early.F, early.topo, vf=early.vf)
             return c
@@ -231,17 +230,17 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     asked_open = set(opts.leave_open)
     flat_caps = set(opts.cap_flat)
     all_holes, holes = holes, [h for h in holes if h.id not in asked_open]
-    ctx.planarity = {L.id: L.planarity for L in scan.loops}
-    ctx.axes = {L.id: (L.vertices, L.axis) for L in scan.loops if L.axis is not None}
+    ctx.know_loops(scan.loops)
     results = {}
-    pairs = []
-    if bridge != "never" and method == "fair":
-        pairs = find_bands(ctx, scan)
+    bands = find_bands(ctx, scan) if bridge != "never" and method == "fair" else Bands([], [])
+    # each pair's flags, for a pair the fill tries again (_tube_crossed_caps)
+    flags = {frozenset((b.A.id, b.B.id)): (b.mutual, b.wrapped)
+             for b in bands.pairs + [x for t in bands.triples for x in t[3]]}
     # a loop left open or capped flat by request joins no band; its partner is filled alone
     alone = asked_open | flat_caps
-    pairs = [p for p in pairs if not {p[0].id, p[1].id} & alone]
-    triples = [t for t in getattr(ctx, "band_triples", []) if not {L.id for L in t[:3]} & alone]
-    paired = {L.id for A, B, _ in pairs for L in (A, B)}
+    pairs = [b for b in bands.pairs if not {b.A.id, b.B.id} & alone]
+    triples = [t for t in bands.triples if not {L.id for L in t[:3]} & alone]
+    paired = {L.id for b in pairs for L in (b.A, b.B)}
     paired |= {L.id for t in triples for L in t[:3]}
 
     asked_order = {**order_for, **{i: 1 for i in flat_caps}}   # a flat cap: the harmonic patch
@@ -249,7 +248,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     def order_of(*loops):     # the order asked for one of these loops, else the scan's
         return next((asked_order[L.id] for L in loops if L.id in asked_order), order)
 
-    units = [BandUnit(A, B, order_of(A, B), smooth, bridge) for A, B, _ in pairs]
+    units = [BandUnit(b.A, b.B, order_of(b.A, b.B), smooth, bridge, b.mutual, b.wrapped) for b in pairs]
     units += [pants_unit(A, B, C, fb, order_of(A, B, C), smooth, bridge) for A, B, C, fb in triples]
     units += [HoleUnit(h.id, h.vertices, order_of(h), smooth) for h in holes if h.id not in paired]
     units.sort(key=lambda u: u.first_id)
@@ -332,7 +331,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if record is not None:
             bridges.append(record)
     if method == "fair" and bridge != "never":
-        _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges)
+        _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges, flags)
     _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, asked_order)
     asked_fill = set(opts.fill)
     for h in all_holes:
@@ -410,7 +409,7 @@ def _note_swap(rows, swapped):
 _CROSSED = re.compile(r"patch would cross the patch of hole (\d+)$")
 
 
-def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges):
+def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges, flags=None):
     """Two single holes whose caps cross each other cannot both be capped:
     the region missing between them is a band their continuation arcs did
     not pair (on a fat torus's inner side half of each loop's arcs land on
@@ -433,7 +432,8 @@ def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridge
         j = next((k for k, it in enumerate(acc.items) if it[0].hole_id == other), None)
         if j is None or A.kind != "hole" or np.intersect1d(A.vertices, B.vertices).size:
             continue
-        outs, record = _fill._fill_pair(ctx, A, B, order, smooth, mode)
+        outs, record = _fill._fill_pair(ctx, A, B, order, smooth, mode,
+                                        *(flags or {}).get(frozenset((A.id, B.id)), (False, False)))
         row["seconds"] = round(row["seconds"] + outs[0].seconds, 4)
         tube = outs[0].patch if record.get("chosen") == "tube" else None
         why, corners = acc.conflict(ctx, tube, skip=j) if tube is not None else ("", None)

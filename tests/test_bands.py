@@ -363,7 +363,7 @@ def test_a_real_single_view_range_scan_pairs_no_border():
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
     scan = detect_holes(m.V, m.F)
     assert len(scan.borders) >= 2
-    for A, B, _ in find_bands(ScanContext(m), scan):
+    for A, B, *_ in find_bands(ScanContext(m), scan).pairs:
         assert A.kind == "hole" and B.kind == "hole"
 
 
@@ -667,9 +667,9 @@ def test_loops_left_out_of_the_band_search_land_on_no_loop_they_could_pair_with(
         for a, (counts, _) in sights.items():
             for b in np.flatnonzero(counts):
                 assert b == a or not hole[b] or np.intersect1d(loops[a].vertices, loops[b].vertices).size
-        with_filter = [(A.id, B.id, s) for A, B, s in bridge.find_bands(ctx, scan)]
+        with_filter = [(b.A.id, b.B.id, b.score) for b in bridge.find_bands(ctx, scan).pairs]
         monkeypatch.setattr(bridge, "_with_partner", lambda ctx, loops, cand, hole, touching=None: cand)
-        without = [(A.id, B.id, s) for A, B, s in bridge.find_bands(ctx, scan)]
+        without = [(b.A.id, b.B.id, b.score) for b in bridge.find_bands(ctx, scan).pairs]
         monkeypatch.undo()
         assert with_filter == without
     assert dropped >= 1
@@ -684,7 +684,7 @@ def test_holes_whose_caps_cross_each_other_are_joined_by_a_tube(monkeypatch):
     pair is filled as a band after all, and the tube keeps the genus."""
     import shellrepair.repair as rp
 
-    monkeypatch.setattr(rp, "find_bands", lambda ctx, scan: [])
+    monkeypatch.setattr(rp, "find_bands", lambda ctx, scan: rp.Bands([], []))
     V, F, V2, F2, _ = torus_inner_band(3)
     M = Mesh(V=V2, F=F2)
     R, rep = repair_mesh(M)

@@ -119,12 +119,15 @@ def test_the_helper_takes_the_largest_holes_first(monkeypatch):
             self.keys.append((key, args[2]))       # (key, hole id)
             return Future()
 
-    monkeypatch.setattr(fill, "_helper_context", lambda ctx: ctx)
+    class Context:                    # a scan context whose helper copy is itself
+        def for_helper(self):
+            return self
+
     rims = {0: 12, 1: 300, 2: 40, 3: 300, 4: 9, 5: 41}          # hole id -> rim edges, not in size order
     chunk = [fill.HoleUnit(h, np.arange(k), "auto", None) for h, k in rims.items()]
     chunk.insert(2, fill.HoleUnit(9, np.arange(500), 2, None))   # a fixed order: no test, no place
     pool = Queue()
-    beside = fill._Beside(object(), chunk, pool)
+    beside = fill._Beside(Context(), chunk, pool)
     assert sorted(beside.place, key=beside.place.get) == [1, 3, 5, 2, 0, 4]
     assert sorted(pool.keys) == [((0, 0), 1), ((1, 0), 3), ((2, 0), 5), ((3, 0), 2), ((4, 0), 0), ((5, 0), 4)]
     assert list(beside.tests) == [0, 1, 2, 3, 4, 5]             # the fill steals tests in hole order

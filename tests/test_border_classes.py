@@ -526,9 +526,8 @@ def test_border_loops_are_never_band_candidates():
 
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
     scan = detect_holes(m.V, m.F)
-    ctx = ScanContext(m)
-    ctx.topo = edge_topology(m.F, len(m.V))
-    assert all(A.kind == "hole" and B.kind == "hole" for A, B, _ in find_bands(ctx, scan))
+    ctx = ScanContext(m, topo=edge_topology(m.F, len(m.V)))
+    assert all(b.A.kind == "hole" and b.B.kind == "hole" for b in find_bands(ctx, scan).pairs)
 
 
 def test_real_bunny_five_loops_are_holes():

@@ -197,8 +197,7 @@ def test_faces_of_by_the_ring_walk_equal_the_numpy_lists(monkeypatch):
     monkeypatch.setattr(context, "LOCAL_MIN_FACES", 0)
     V, F = shapes.bumpy_sphere(5, amplitude=0.03, frequency=5)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.12, seed=1)
-    ctx = ScanContext(Mesh(V=V2, F=F2))
-    ctx.topo = edge_topology(F2, len(V2))
+    ctx = ScanContext(Mesh(V=V2, F=F2), topo=edge_topology(F2, len(V2)))
     loops = np.unique(ctx.topo.ends(ctx.topo.boundary_he))
     rng = np.random.default_rng(0)
     sets = [loops, loops[:1], loops[:0], np.concatenate([loops[:9], loops[3:7]]), rng.permutation(loops)[:20]]

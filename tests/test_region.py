@@ -21,8 +21,7 @@ def _holed(sub=6, n_holes=3, radius=0.12, seed=1):
 
 
 def _ctx(V, F):
-    ctx = ScanContext(Mesh(V=V, F=F))
-    ctx.topo = edge_topology(F, len(V))
+    ctx = ScanContext(Mesh(V=V, F=F), topo=edge_topology(F, len(V)))
     return ctx
 
 

@@ -362,11 +362,12 @@ def test_first_attempts_made_for_a_chunk_at_once_change_no_hole(monkeypatch):
     patches with new vertices of every third hole are made to "cross the
     scan" (the same fake answer in the batched and the single query), so
     the retry path runs too: the repair equals the one without the batch."""
+    import shellrepair.checks as checks
     import shellrepair.fill as fill
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.02, frequency=5)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=10, radius=0.25, seed=4)
-    real_one, real_many = fill.patch_vs_index, fill.patch_vs_index_many
+    real_one, real_many = checks.patch_vs_index, checks.patch_vs_index_many
 
     def fake(Pt, Pid, bad):
         Pid = np.asarray(Pid)
@@ -375,9 +376,9 @@ def test_first_attempts_made_for_a_chunk_at_once_change_no_hole(monkeypatch):
             return np.union1d(bad, np.arange(min(2, len(Pt))))
         return bad
 
-    monkeypatch.setattr(fill, "patch_vs_index",
+    monkeypatch.setattr(checks, "patch_vs_index",
                         lambda Pt, Pid, index, return_faces=False: fake(Pt, Pid, real_one(Pt, Pid, index, True)))
-    monkeypatch.setattr(fill, "patch_vs_index_many",
+    monkeypatch.setattr(checks, "patch_vs_index_many",
                         lambda items, index: [fake(Pt, Pid, b) for (Pt, Pid), b in zip(items, real_many(items, index))])
     batched = repair_mesh(Mesh(V=V2, F=F2))
     monkeypatch.setattr(fill, "_first_attempts", lambda ctx, chunk: None)

@@ -20,7 +20,7 @@ from conftest import shared_scan
 def context(V, F):
     scan = detect_holes(V, F)
     ctx = ScanContext(Mesh(V=V, F=F))
-    ctx.planarity = {L.id: L.planarity for L in scan.loops}
+    ctx.know_loops(scan.loops)
     return scan, ctx
 
 
