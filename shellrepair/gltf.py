@@ -86,6 +86,24 @@ def pbr_approximation(coverage, gild, crust, material="aged-bronze"):
     return base, 1.0 - c, np.sqrt(np.clip(m, 0.0, 1.0))
 
 
+def origin_of(V):
+    """The point a glTF file stores positions about: the centre of the
+    points' bounding box (zero for no points), float64.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+
+    Returns
+    -------
+    centre : (3,) float64
+    """
+    V = np.asarray(V, np.float64)
+    if len(V) == 0 or not np.isfinite(V).all():
+        return np.zeros(3)
+    return 0.5 * (V.min(axis=0) + V.max(axis=0))
+
+
 def gltf_bytes(mesh, *, age=None, up=(0.0, 1.0, 0.0), seed=0, material="aged-bronze"):
     """The mesh as a binary glTF 2.0 file (``.glb``) with its aged look.
 
@@ -121,6 +139,13 @@ def gltf_bytes(mesh, *, age=None, up=(0.0, 1.0, 0.0), seed=0, material="aged-bro
     base, metallic, rough = pbr_approximation(maps.coverage, maps.gild, maps.crust, material)
     area = np.zeros(len(V))
     fa = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    # positions are float32 in glTF: stored about the centre of the scan's box,
+    # the centre (float64, exact in the JSON) on each node, so a scan in
+    # millimetres far from its origin keeps float32's precision of its own size
+    # (~6e-8 of it), not of the offset (0.06 mm at 1e6 mm)
+    centre = origin_of(V[np.unique(F)] if len(F) else V)
+    move = np.eye(4)
+    move[:3, 3] = centre
     scene = trimesh.Scene()
     for name, sel in (("scan", ~filled), ("filled", filled)):
         if not sel.any():
@@ -138,9 +163,9 @@ def gltf_bytes(mesh, *, age=None, up=(0.0, 1.0, 0.0), seed=0, material="aged-bro
         rgba[:, :3] = np.round(np.clip(base[used], 0.0, 1.0) * 255.0)
         rgba[:, 3] = 255
         visual.vertex_attributes["color"] = rgba
-        part = trimesh.Trimesh(vertices=V[used], faces=Fl, visual=visual, process=False, validate=False)
+        part = trimesh.Trimesh(vertices=V[used] - centre, faces=Fl, visual=visual, process=False, validate=False)
         part.vertex_attributes["_METALLIC"] = metallic[used].astype(np.float32)
         part.vertex_attributes["_ROUGHNESS"] = rough[used].astype(np.float32)
         part.vertex_attributes["_COVERAGE"] = maps.coverage[used].astype(np.float32)
-        scene.add_geometry(part, geom_name=name, node_name=name)
+        scene.add_geometry(part, geom_name=name, node_name=name, transform=move)
     return scene.export(file_type="glb")

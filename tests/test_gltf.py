@@ -24,24 +24,98 @@ def repaired():
     return R
 
 
+_COMPONENT = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+
+
+def read_glb(data):
+    """A binary glTF read by the specification, not by the writer's library:
+    the container checked (magic, version, length, 4-byte chunks), every
+    accessor inside its buffer view and aligned to its component, POSITION
+    with the min and max the specification requires. Returns
+    ``{node name: (world positions (n,3) float64, triangles (m,3),
+    {attribute: array}, material)}``."""
+    import json
+    import struct
+
+    magic, version, length = struct.unpack_from("<4sII", data, 0)
+    assert magic == b"glTF" and version == 2 and length == len(data)
+    n_json, kind = struct.unpack_from("<I4s", data, 12)
+    assert kind == b"JSON" and n_json % 4 == 0
+    doc = json.loads(data[20:20 + n_json])
+    n_bin, kind = struct.unpack_from("<I4s", data, 20 + n_json)
+    assert kind == b"BIN\0" and n_bin % 4 == 0 and 28 + n_json + n_bin == len(data)
+    blob = data[28 + n_json:28 + n_json + n_bin]
+    assert doc["buffers"][0]["byteLength"] <= n_bin
+
+    def accessor(i):
+        a = doc["accessors"][i]
+        view = doc["bufferViews"][a["bufferView"]]
+        dt = np.dtype(_COMPONENT[a["componentType"]])
+        width = _WIDTH[a["type"]]
+        off = view.get("byteOffset", 0) + a.get("byteOffset", 0)
+        assert off % dt.itemsize == 0
+        assert a.get("byteOffset", 0) + a["count"] * width * dt.itemsize <= view["byteLength"]
+        assert view.get("byteOffset", 0) + view["byteLength"] <= n_bin
+        x = np.frombuffer(blob, dt, a["count"] * width, off).reshape(a["count"], width)
+        return a, x
+
+    out = {}
+    for node in doc["nodes"]:
+        if "mesh" not in node:
+            continue
+        M = np.array(node.get("matrix", np.eye(4).ravel()), np.float64).reshape(4, 4).T   # column-major
+        (prim,) = doc["meshes"][node["mesh"]]["primitives"]
+        assert prim.get("mode", 4) == 4                                   # triangles
+        a, P = accessor(prim["attributes"]["POSITION"])
+        assert np.array_equal(np.float32(a["min"]), P.min(axis=0)) and np.array_equal(np.float32(a["max"]), P.max(axis=0))
+        _, idx = accessor(prim["indices"])
+        assert idx.max() < len(P)
+        world = P.astype(np.float64) @ M[:3, :3].T + M[:3, 3]
+        attrs = {k: accessor(v)[1] for k, v in prim["attributes"].items() if k != "POSITION"}
+        out[node["name"]] = (world, idx.reshape(-1, 3).astype(np.int64), attrs, doc["materials"][prim["material"]])
+    return out
+
+
 def test_the_glb_holds_the_scan_and_the_filled_part_as_two_meshes(repaired):
+    parts = read_glb(gltf_bytes(repaired))
+    assert set(parts) == {"scan", "filled"}
+    filled = repaired.face_filled
+    size = float(np.ptp(repaired.V, axis=0).max())
+    for name, sel in (("scan", ~filled), ("filled", filled)):
+        P, T, attrs, mat = parts[name]
+        assert len(T) == int(sel.sum())
+        # the same triangles, each corner within float32's rounding of the scan's size
+        got = np.sort(P[T].reshape(-1, 9), axis=0)
+        want = np.sort(repaired.V[repaired.F[sel]].reshape(-1, 9), axis=0)
+        assert np.abs(got - want).max() <= 1e-7 * size
+        pbr = mat["pbrMetallicRoughness"]
+        assert 0.0 <= pbr["metallicFactor"] <= 1.0 and 0.0 <= pbr["roughnessFactor"] <= 1.0
+        for key in ("_METALLIC", "_ROUGHNESS", "_COVERAGE"):
+            a = attrs[key].reshape(-1)
+            assert a.shape == (len(P),) and np.isfinite(a).all() and (a >= 0).all() and (a <= 1).all()
+        colors = attrs["COLOR_0"]
+        assert colors.shape == (len(P), 4) and colors[:, :3].std(axis=0).max() > 0
+    # what another reader makes of it: trimesh, the writer's own library
     scene = trimesh.load(io.BytesIO(gltf_bytes(repaired)), file_type="glb", process=False)
     assert set(scene.geometry) == {"scan", "filled"}
-    filled = repaired.face_filled
-    scan, fill = scene.geometry["scan"], scene.geometry["filled"]
-    assert len(scan.faces) == int((~filled).sum()) and len(fill.faces) == int(filled.sum())
-    # the same surface, as float32 (glTF's position type)
-    got = np.sort(scan.vertices[scan.faces].reshape(-1, 9), axis=0)
-    want = np.sort(repaired.V[repaired.F[~filled]].reshape(-1, 9).astype(np.float32), axis=0)
-    assert np.array_equal(got.astype(np.float32), want)
-    for part in (scan, fill):
-        mat = part.visual.material
-        assert 0.0 <= mat.metallicFactor <= 1.0 and 0.0 <= mat.roughnessFactor <= 1.0
-        for key in ("_METALLIC", "_ROUGHNESS", "_COVERAGE"):
-            a = np.asarray(part.vertex_attributes[key]).reshape(-1)   # read back as (n, 1)
-            assert a.shape == (len(part.vertices),) and np.isfinite(a).all() and (a >= 0).all() and (a <= 1).all()
-        colors = np.asarray(part.visual.vertex_attributes["color"])
-        assert colors.shape == (len(part.vertices), 4) and colors[:, :3].std(axis=0).max() > 0
+
+
+def test_a_scan_far_from_its_origin_keeps_its_precision(repaired):
+    # millimetres 1e6 from the origin: float32 positions there are 0.06 mm
+    # apart; stored about the scan's centre, they keep ~6e-8 of its size
+    from shellrepair import Mesh
+
+    offset = np.array([1.0e6, -2.5e6, 3.0e5])
+    far = Mesh(V=repaired.V * 1000.0 + offset, F=repaired.F, face_filled=repaired.face_filled)
+    size = float(np.ptp(far.V, axis=0).max())
+    parts = read_glb(gltf_bytes(far))
+    for name, sel in (("scan", ~far.face_filled), ("filled", far.face_filled)):
+        P, T, _, _ = parts[name]
+        got = np.sort(P[T].reshape(-1, 9), axis=0)
+        want = np.sort(far.V[far.F[sel]].reshape(-1, 9), axis=0)
+        assert np.abs(got - want).max() <= 1e-7 * size      # (at the offset itself float32 gives 0.06 mm)
+    assert 1e-7 * size < 0.06
 
 
 def test_gilt_metal_is_metallic_and_gold_coloured_and_corrosion_is_not_metallic():
