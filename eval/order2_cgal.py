@@ -20,7 +20,9 @@ hole. Each case here has one hole, so the case's RMS is the hole's:
   the faces are unseen), so the rim has tens to thousands of edges;
 * rotated at random and rounded to float32 as a PLY ``float`` file is.
 
-Both tools run in this process (our kernels loaded first); RMS and max
+``--tools`` also takes ``ours-o2-faired``: order 2 with ``base="faired"``,
+so that no planar opening is capped flat by the edge-on rule (which
+``--order 2`` does not turn off). The tools run in this process (our kernels loaded first); RMS and max
 against the truth in per mille of its diagonal (:func:`eval.metrics.evaluate`),
 seconds of the fill call. Rows go to ``eval/results/order2-cgal/NAME.json``
 and a table to ``NAME.md``; the last line prints how many cases have
@@ -118,7 +120,10 @@ def _run(tool, truth, V, F):
     from eval import peers
 
     try:
-        Vo, Fo, info = peers.run_tool(tool, V, F)
+        if tool == "ours-o2-faired":    # order 2 with the edge-on flat-cap rule off (--base faired)
+            Vo, Fo, info = peers._ours(V, F, order=2, base="faired")
+        else:
+            Vo, Fo, info = peers.run_tool(tool, V, F)
     except Exception as exc:  # noqa: BLE001 (a tool that fails: the row says so)
         return {"status": f"failed: {type(exc).__name__}: {exc}"[:200]}
     m = metrics.evaluate(V, F, Vo, Fo, truth, self_intersections=False)
