@@ -22,9 +22,9 @@ hole. Each case here has one hole, so the case's RMS is the hole's:
 
 ``--tools`` also takes ``ours-o2-faired``: order 2 with ``base="faired"``,
 so that no planar opening is capped flat by the edge-on rule (which
-``--order 2`` does not turn off). The tools run in this process (our kernels loaded first); RMS and max
-against the truth in per mille of its diagonal (:func:`eval.metrics.evaluate`),
-seconds of the fill call. Rows go to ``eval/results/order2-cgal/NAME.json``
+``--order 2`` does not turn off). The tools run in this process (our
+kernels loaded first); RMS and max against the truth in per mille of its
+diagonal (:func:`eval.metrics.evaluate`), seconds of the fill call. Rows go to ``eval/results/order2-cgal/NAME.json``
 and a table to ``NAME.md``; the last line prints how many cases have
 ours <= CGAL. It asserts nothing.
 """
@@ -44,6 +44,7 @@ import numpy as np
 
 from eval import cases, metrics, shapes
 from eval.stress import random_rotation
+from shellrepair.holes import boundary_loops
 
 RESULTS = ROOT / "eval" / "results" / "order2-cgal"
 RIM_EDGES = (50, 2000)
@@ -51,33 +52,27 @@ KINDS = ("sphere", "ellipsoid", "torus")
 
 
 def _truth(kind, rng):
+    """(V, F, description, the torus's tube radius or None)."""
     s = int(rng.integers(5, 8))
     if kind == "sphere":
         V, F = shapes.icosphere(s)
-        return V, F, f"sphere ({s} subdivisions)"
+        return V, F, f"sphere ({s} subdivisions)", None
     if kind == "ellipsoid":
         b, c = sorted(rng.uniform(0.45, 0.95, 2))[::-1]
         V, F = shapes.ellipsoid(s, axes=(1.0, b, c))
-        return V, F, f"ellipsoid 1 x {b:.2f} x {c:.2f} ({s} subdivisions)"
+        return V, F, f"ellipsoid 1 x {b:.2f} x {c:.2f} ({s} subdivisions)", None
     r = rng.uniform(0.25, 0.45)
     nu = 160 << (s - 5)
     V, F = shapes.torus(1.0, r, nu, round(nu * r) + 8)
-    return V, F, f"torus, tube radius {r:.2f} ({nu} around)"
-
-
-def _rim_edges(F, remove):
-    from shellrepair.holes import boundary_loops
-
-    _, F2 = F, F[~remove]
-    loops, _ = boundary_loops(F2, int(F.max()) + 1)
-    return [len(L) for L in loops]
+    return V, F, f"torus, tube radius {r:.2f} ({nu} around)", r
 
 
 def case(index, seed):
-    """The ``index``-th case of ``seed``: (name, description, V_true, F_true, V, F)."""
+    """The ``index``-th case of ``seed``: (name, description, rim edges of
+    each loop, V_true, F_true, V, F)."""
     rng = np.random.default_rng([int(seed), 36, int(index)])
     kind = KINDS[int(rng.integers(len(KINDS)))]
-    V, F, what = _truth(kind, rng)
+    V, F, what, tube = _truth(kind, rng)
     V = cases._f32(V @ random_rotation(rng).T)
     F = np.asarray(F, np.int64)
     e = float(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).mean())
@@ -86,8 +81,7 @@ def case(index, seed):
         k = float(np.exp(rng.uniform(*np.log(RIM_EDGES))))
         radius = k * e / (2 * np.pi)
         if kind == "torus":
-            r = float(what.split()[3])
-            radius = min(radius, 0.9 * r)
+            radius = min(radius, 0.9 * round(tube, 2))   # the radius as described (the recorded seeds' cases)
         elif kind == "sphere":
             radius = min(radius, 0.8 * np.pi)
         else:
@@ -111,7 +105,7 @@ def case(index, seed):
         desc = f"{what}; occlusion seen from a ring at {el:.0f} deg, up to {inc:.0f} deg incidence"
     remove = cases.keep_largest(F, remove)
     V2, F2, _ = shapes.remove_faces(V, F, remove)
-    rims = _rim_edges(F, remove)
+    rims = [len(L) for L in boundary_loops(F2, len(V2))[0]]
     desc += f" ({', '.join(map(str, rims))} rim edges)"
     return f"o2c{seed}-{index:02d}-{kind}-{hole}", desc, rims, V, F, V2, F2
 
