@@ -468,9 +468,15 @@ def format_losses(path, mesh):
     ext = Path(path).suffix.lower()
     notes = []
     tex = getattr(mesh, "texture", None)
-    if tex is not None and ext != ".obj" and (len(tex.uv) or tex.materials):
+    if tex is not None and ext in (".off", ".stl") and (len(tex.uv) or tex.materials):
         notes.append(f"{ext[1:].upper()} output: the texture coordinates and materials are not written "
-                     "(write .obj to keep them)")
+                     "(write .obj or .ply to keep them)")
+    elif tex is not None and ext == ".ply" and tex.materials:
+        notes.append("PLY output: the materials (usemtl, mtllib) are not written; the texture coordinates "
+                     "are (write .obj to keep both)")
+    elif tex is not None and ext == ".obj" and tex.face_texnumber is not None:
+        notes.append("OBJ output: the faces' texnumber is not written (no usemtl or mtllib is made from "
+                     "the TextureFile comments); the texture coordinates are (write .ply to keep both)")
     if ext in (".off", ".stl") and mesh.face_filled is not None and np.any(mesh.face_filled):
         notes.append(f"{ext[1:].upper()} output: no flag marks the filled faces "
                      "(the report lists each hole's new faces; .ply and .obj mark them)")
