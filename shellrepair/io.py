@@ -22,10 +22,14 @@ What loading guarantees
 * Vertex colours (PLY ``red green blue [alpha]``, OBJ ``v x y z r g b``,
   OFF ``COFF``) are kept as ``uint8``; float colours (0..1) are converted
   and NaN channels set to 0, each with a note.
-* What a triangle mesh does not hold is skipped with a note: OBJ ``vt``,
-  ``vn``, ``l``, ``p`` and free-form statements, PLY elements other than
-  vertex and face and face properties other than the index list, OFF face
-  colours. The readers follow the specifications as exporters use them
+* Texture coordinates and materials of the faces are kept
+  (:class:`shellrepair.mesh.FaceTexture`): OBJ ``vt``, ``usemtl`` and
+  ``mtllib``; PLY ``texcoord`` lists and ``texnumber``. PLY per-vertex
+  ``u v`` (or ``s t``) are kept as vertex properties.
+* What a triangle mesh does not hold is skipped with a note: OBJ ``vn``,
+  ``l``, ``p`` and free-form statements, PLY elements other than vertex
+  and face and face properties other than the index list, ``texcoord``,
+  ``texnumber`` and ``filled``, OFF face colours. The readers follow the specifications as exporters use them
   (OBJ line continuations, relative indices and ``v/vt/vn`` corners; PLY
   ascii and both binary byte orders, any list count and index types; the
   OFF variants; binary STL whose header starts with ``solid``).
