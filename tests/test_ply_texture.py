@@ -210,3 +210,15 @@ def test_trimesh_reads_the_written_texture_coordinates(tmp_path):
     assert len(t.faces) == len(R.F)
     got = np.asarray(t.visual.uv)[t.faces[:len(F)]].reshape(-1, 6)
     assert np.array_equal(got.astype(np.float32), UV)
+
+
+def test_a_textured_ply_written_as_obj_keeps_the_uvs_and_says_texnumber_is_not_written(tmp_path, capsys):
+    data, V, F, UV, _ = textured_sphere("binary_little_endian", np.random.default_rng(5))
+    (tmp_path / "scan.ply").write_bytes(data)
+    assert main(["repair", str(tmp_path / "scan.ply"), "-o", str(tmp_path / "out.obj")]) == 0
+    assert "OBJ output: the faces' texnumber is not written" in capsys.readouterr().out
+    m = read_mesh(tmp_path / "out.obj")
+    # the float32 values widened to double, exactly
+    got = m.texture.uv[m.texture.face_uv[:len(F)]].reshape(-1, 6)
+    assert np.array_equal(got, UV.astype(np.float64))
+    assert (m.texture.face_uv[len(F):] == -1).all() and len(m.F) > len(F)

@@ -178,9 +178,10 @@ def read_ply(data):
         # the split reads positions only)
         if counts is None:
             C = np.arange(flat.size, dtype=np.int64).reshape(-1, 3)
+            mesh.F = flat.reshape(-1, 3)
         else:
             C = polygons_to_triangles((counts, np.arange(flat.size)), notes, V[flat])
-        mesh.F = flat[C]
+            mesh.F = flat[C]
         mesh.texture = _face_texture(uv, counts, len(face["__F__"]) if counts is None else len(counts), C,
                                      face.get(_PLY_TEXNUMBER))
     elif counts is not None:
@@ -220,20 +221,22 @@ def _face_texture(uv, counts, n_faces, C, texnumber):
         i = int(bad[0])
         raise MeshError(f"face {i}: texcoord list has {int(k[i])} values, expected {2 * int(corners[i])} "
                         f"(u v for each of its {int(corners[i])} corners) or none")
-    has = np.repeat(k > 0, corners)             # per file corner
-    row = np.cumsum(has) - 1                    # its row of uv
-    row[~has] = -1
-    face_uv = row[C]
-    face_uv[(face_uv < 0).any(axis=1)] = -1
-    if counts is None:
-        face = np.arange(len(C), dtype=np.int64)
+    if (k > 0).all():       # every corner has its UV: corner i is row i of uv
+        face_uv = C
     else:
-        first = np.zeros(len(corners), np.int64)
-        np.cumsum(corners[:-1], out=first[1:])
-        face = np.searchsorted(first, C[:, 0], side="right") - 1    # each triangle's file face
-    tn = None if texnumber is None else np.asarray(texnumber)[face]
-    if tn is not None:
-        tn = tn.astype(tn.dtype.newbyteorder("="))
+        has = np.repeat(k > 0, corners)             # per file corner
+        row = np.cumsum(has, dtype=np.int64) - 1    # its row of uv
+        row[~has] = -1
+        face_uv = row[C]
+        face_uv[(face_uv < 0).any(axis=1)] = -1
+    tn = None
+    if texnumber is not None:
+        tn = np.asarray(texnumber)
+        if counts is not None:
+            first = np.zeros(len(corners), np.int64)
+            np.cumsum(corners[:-1], out=first[1:])
+            tn = tn[np.searchsorted(first, C[:, 0], side="right") - 1]     # each triangle's file face
+        tn = tn.astype(tn.dtype.newbyteorder("="))   # a copy, in native byte order
     return FaceTexture(uv=np.asarray(vals).reshape(-1, 2), face_uv=face_uv,
                        face_material=np.full(len(C), -1, np.int64), face_texnumber=tn)
 
@@ -580,9 +583,13 @@ def _written_texture(mesh, m):
         uv = uv.astype(np.float64)
     k = min(len(tex.face_uv), m)
     T = np.asarray(tex.face_uv[:k], np.int64)
-    has = np.flatnonzero((T >= 0).all(axis=1))
     UV = np.zeros((m, 6), uv.dtype)
-    UV[has] = uv[T[has]].reshape(-1, 6)
+    if T.size and T.min() >= 0:     # every face has UVs
+        has = slice(0, k)
+        UV[:k] = np.take(uv, T.reshape(-1), axis=0).reshape(-1, 6)
+    else:
+        has = np.flatnonzero((T >= 0).all(axis=1))
+        UV[has] = uv[T[has]].reshape(-1, 6)
     tn = None
     if tex.face_texnumber is not None:
         src = np.asarray(tex.face_texnumber)
