@@ -222,3 +222,23 @@ def test_a_textured_ply_written_as_obj_keeps_the_uvs_and_says_texnumber_is_not_w
     got = m.texture.uv[m.texture.face_uv[:len(F)]].reshape(-1, 6)
     assert np.array_equal(got, UV.astype(np.float64))
     assert (m.texture.face_uv[len(F):] == -1).all() and len(m.F) > len(F)
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_big_endian"])
+def test_triangles_quads_and_a_face_without_uvs_in_one_file(tmp_path, fmt):
+    """Faces of different lengths (read record by record) and an empty
+    texcoord list: the face without UVs reads as having none and is written
+    with zeros and a texnumber naming no texture; the others keep theirs."""
+    V = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]]
+    faces = [([0, 1, 2, 3], np.float32([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8]), 1),
+             ([1, 4, 5], np.float32([]), 0),
+             ([1, 5, 2], np.float32([0.9, 0.125, 0.25, 0.375, 0.625, 0.875]), 0)]
+    (tmp_path / "m.ply").write_bytes(ply_file(fmt, V, faces, comments=TEXTURES))
+    m = read_mesh(tmp_path / "m.ply")
+    assert len(m.F) == 4 and (m.texture.face_uv[2] == -1).all() and (m.texture.face_uv[[0, 1, 3]] >= 0).all()
+    write_mesh(tmp_path / "out.ply", m)
+    _, _, out = parse_ply((tmp_path / "out.ply").read_bytes())
+    assert [int(r["texnumber"]) for r in out] == [1, 1, -1, 0]
+    assert (out[2]["texcoord"] == 0).all()
+    assert out[3]["vertex_indices"].tolist() == faces[2][0]
+    assert np.array_equal(out[3]["texcoord"].view(np.uint32), faces[2][1].view(np.uint32))
