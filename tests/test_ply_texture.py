@@ -242,3 +242,43 @@ def test_triangles_quads_and_a_face_without_uvs_in_one_file(tmp_path, fmt):
     assert (out[2]["texcoord"] == 0).all()
     assert out[3]["vertex_indices"].tolist() == faces[2][0]
     assert np.array_equal(out[3]["texcoord"].view(np.uint32), faces[2][1].view(np.uint32))
+
+
+def test_the_list_length_type_does_not_change_what_is_read(tmp_path):
+    """Mixed polygons with a scalar before, between and after the lists,
+    some faces without UVs: with uchar or ushort list lengths (two ways of
+    walking the records) the same faces, UVs and texnumbers."""
+    rng = np.random.default_rng(6)
+    V = rng.random((50, 3)).astype(np.float32)
+    faces = []
+    for i in range(300):
+        c = (3, 4, 3, 5)[i % 4]
+        uv = rng.random(2 * c).astype(np.float32) if i % 5 else np.zeros(0, np.float32)
+        faces.append((rng.choice(50, c, replace=False).tolist(), uv, i % 7))
+    meshes = []
+    for code, name in (("B", "uchar"), ("H", "ushort")):
+        head = (f"ply\nformat binary_big_endian 1.0\nelement vertex 50\nproperty float x\nproperty float y\n"
+                f"property float z\nelement face {len(faces)}\nproperty short q\n"
+                f"property list {name} int vertex_indices\nproperty list {name} float texcoord\n"
+                "property int texnumber\nproperty uchar flags\nend_header\n")
+        body = b"".join(struct.pack(f">h{code}{len(f)}i{code}{len(uv)}fiB", i, len(f), *f, len(uv), *uv.tolist(), tn, 9)
+                        for i, (f, uv, tn) in enumerate(faces))
+        (tmp_path / f"{name}.ply").write_bytes(head.encode() + V.astype(">f4").tobytes() + body)
+        meshes.append(read_mesh(tmp_path / f"{name}.ply", clean=False, orient=False))
+    a, b = meshes
+    assert np.array_equal(a.F, b.F) and len(a.F) == sum(len(f) - 2 for f, _, _ in faces)
+    assert np.array_equal(a.texture.uv.view(np.uint32), b.texture.uv.view(np.uint32))
+    assert np.array_equal(a.texture.face_uv, b.texture.face_uv)
+    assert np.array_equal(a.texture.face_texnumber, b.texture.face_texnumber)
+    # and what is read is the file's: each triangle corner has the UV its polygon gave that vertex
+    start = 0
+    for f, uv, tn in faces:
+        for t in range(start, start + len(f) - 2):
+            assert a.texture.face_texnumber[t] == tn and set(a.F[t].tolist()) <= set(f)
+            if not len(uv):
+                assert (a.texture.face_uv[t] == -1).all()
+                continue
+            for v, row in zip(a.F[t].tolist(), a.texture.face_uv[t].tolist()):
+                j = f.index(v)
+                assert np.array_equal(a.texture.uv[row].view(np.uint32), uv[2 * j:2 * j + 2].view(np.uint32))
+        start += len(f) - 2

@@ -378,6 +378,8 @@ def _ply_binary_walk(data, pos, el, endian):
     one = [j for j, p in enumerate(props) if p[1] == "list"]
     if len(one) == 1 and props[one[0]][2] in ("u1", "i1") and count:
         return _ply_binary_walk_one(data, pos, el, endian, one[0])
+    if len(one) > 1 and all(props[j][2] == "u1" for j in one) and count:
+        return _ply_binary_walk_bytes(data, pos, el, endian)
     for i in range(count):
         for j, (size, unpack, isz) in enumerate(plan):
             if pos + size > n:
@@ -459,6 +461,62 @@ def _ply_binary_walk_one(data, pos, el, endian, j0):
         item = np.repeat(at + sizes[j0] - first * dt.itemsize, k) + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
         lists[p[0]] = (k, _gather(b, item, dt).astype(np.int64))
     return _ply_list_table(props, scalars, lists, count), end
+
+
+def _ply_binary_walk_bytes(data, pos, el, endian):
+    """:func:`_ply_binary_walk` for records with several lists whose lengths
+    are one unsigned byte each (vertex indices and texture coordinates of
+    mixed polygons): the walk reads just those bytes, the rest is gathered
+    at once."""
+    props, count, name = el["props"], el["count"], el["name"]
+    lists = [j for j, p in enumerate(props) if p[1] == "list"]
+    isz = {j: np.dtype(props[j][3]).itemsize for j in lists}
+    fixed = [np.dtype(p[2]).itemsize for p in props]   # a scalar's bytes, a list's length byte
+    plan, gap = [], 0    # per list: bytes before its length byte since the previous list's items
+    for j, p in enumerate(props):
+        if p[1] == "list":
+            plan.append((gap, isz[j]))
+            gap = 0
+        else:
+            gap += fixed[j]
+    tail = gap
+    ks = [[] for _ in lists]
+    appends = [k.append for k in ks]
+    at = pos
+    try:
+        for _ in range(count):
+            for (g, sz), add in zip(plan, appends):
+                at += g
+                k = data[at]
+                add(k)
+                at += 1 + k * sz
+            at += tail
+    except IndexError:
+        raise MeshError(f"truncated: {name} {len(ks[-1])} of {count} is cut off") from None
+    if at > len(data):
+        raise MeshError(f"truncated: {name} {count - 1} of {count} is cut off")
+    K = {j: np.array(k, np.int64) for j, k in zip(lists, ks)}
+    items = sum(K[j] * isz[j] for j in lists)       # each record's list bytes
+    rec = np.zeros(count, np.int64)                 # where each record starts
+    np.cumsum(sum(fixed) + items[:-1], out=rec[1:])
+    rec += pos
+    b = np.frombuffer(data, np.uint8)
+    scalars, out = {}, {}
+    before = np.zeros(count, np.int64)   # bytes of the record before the current property
+    for j, p in enumerate(props):
+        at_j = rec + before
+        if p[1] == "scalar":
+            scalars[p[0]] = _gather(b, at_j, np.dtype(endian + p[2]))
+        elif _kept_list(p):
+            dt = np.dtype(endian + p[3])
+            k = K[j]
+            first = np.zeros(count, np.int64)
+            np.cumsum(k[:-1], out=first[1:])
+            item = np.repeat(at_j + 1 - first * dt.itemsize, k) + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
+            vals = _gather(b, item, dt)
+            out[p[0]] = (k, vals.astype(np.int64) if dt.kind != "f" else vals.astype(np.dtype(p[3])))
+        before = before + fixed[j] + (K[j] * isz[j] if p[1] == "list" else 0)
+    return _ply_list_table(props, scalars, out, count), at
 
 
 def _ply_ascii_cast(col, code, name, prop, notes):
