@@ -87,6 +87,7 @@ from .clean import clean_faces
 from .errors import MeshError
 from .files import atomic_write, atomic_write_many, check_output_path, new_file_mode
 from .formats import READERS, SUPPORTED, WRITERS
+from .formats.obj import obj_bytes
 from .mesh import Mesh, as_written, written_faces
 from .progress import ProgressArg
 from . import fastmesh
@@ -422,8 +423,21 @@ def mesh_bytes(path, mesh, *, binary=True):
     ext = path.suffix.lower()
     if ext not in SUPPORTED:
         raise MeshError(f"unknown output extension '{path.suffix}' (expected one of {', '.join(SUPPORTED)})", path)
+    if _filled_library(path, mesh):
+        from .formats.mtl import companion_name
+
+        return obj_bytes(as_written(mesh), binary, libraries=[f"mtllib {companion_name(path)}"])
     writer = WRITERS[ext]
     return writer(as_written(mesh), binary)
+
+
+def _filled_library(path, mesh):
+    """Whether an OBJ written to ``path`` comes with the filled faces' material
+    library: a textured mesh (it has materials) with filled faces."""
+    tex = getattr(mesh, "texture", None)
+    filled = getattr(mesh, "face_filled", None)
+    return (Path(path).suffix.lower() == ".obj" and tex is not None and bool(tex.materials)
+            and filled is not None and bool(np.asarray(filled).any()))
 
 
 def write_mesh(path: Union[str, os.PathLike], mesh: Mesh, *, binary: bool = True,
@@ -445,14 +459,25 @@ def write_mesh(path: Union[str, os.PathLike], mesh: Mesh, *, binary: bool = True
     Notes
     -----
     The file is written to a temporary file in the same folder and renamed
-    into place, so a failure leaves no partial output.
+    into place, so a failure leaves no partial output. A textured OBJ with
+    filled faces comes with ``<stem>.filled.mtl`` beside it (named by an
+    ``mtllib`` line after the scan's own), defining the filled faces'
+    material in the scan's colour at their rims (:mod:`shellrepair.formats.mtl`);
+    both files are written or neither.
     """
     path = Path(path)
     stage = _stages(progress, f"writing {path.name}", 2)
     payload = mesh_bytes(path, mesh, binary=binary)
+    items = [(path, payload)]
+    if _filled_library(path, mesh):
+        # the filled faces' material, in the scan's colour at their rims
+        from .formats.mtl import companion_name, filled_library, rim_colour
+
+        folder = Path(mesh.path).parent if mesh.path else path.parent
+        items.append((path.parent / companion_name(path), filled_library(rim_colour(mesh, folder))))
     stage()
     check_output_path(path)
-    atomic_write(path, payload)
+    atomic_write_many(items)
     stage()
 
 

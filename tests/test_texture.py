@@ -126,3 +126,68 @@ def test_writing_a_textured_repair_to_ply_says_the_materials_are_not_written(tmp
     assert any("not written" in n for n in json.loads((tmp_path / "r.json").read_text())["notes"])
     # the texture coordinates are: each face's texcoord list
     assert read_mesh(tmp_path / "out.ply").texture is not None
+
+
+def _two_tone_texture(path):
+    """A 4x2 texture: left half red, right half blue (OBJ's u left to right)."""
+    from PIL import Image
+
+    img = np.zeros((2, 4, 3), np.uint8)
+    img[:, :2] = (200, 0, 0)
+    img[:, 2:] = (0, 0, 200)
+    Image.fromarray(img).save(path)
+
+
+def test_the_filled_faces_material_takes_the_scans_colour_at_the_rim(tmp_path):
+    # every corner's UV well inside the texture's red half (u 0.15-0.35): the filled material is red
+    text, V, F, UV, material = textured_sphere_with_hole(np.random.default_rng(4))
+    lines = [ln if not ln.startswith("vt ") else f"vt {0.15 + 0.2 * float(ln.split()[1])!r} {ln.split()[2]}"
+             for ln in text.splitlines()]
+    (tmp_path / "scan.obj").write_text("\n".join(lines) + "\n")
+    _two_tone_texture(tmp_path / "stone.png")
+    (tmp_path / "statue.mtl").write_text("newmtl gold\nKd 1 1 0\nmap_Kd -s 1 1 1 stone.png\n"
+                                         "newmtl bronze\nKd 0 1 0\nmap_Kd stone.png\n")
+    R, report = repair_mesh(read_mesh(tmp_path / "scan.obj"))
+    assert report["holes_after"] == 0
+    out = tmp_path / "out" / "repaired scan.obj"
+    out.parent.mkdir()
+    write_mesh(out, R)
+    head = out.read_text().splitlines()[:4]
+    assert "mtllib statue.mtl" in head and "mtllib repaired_scan.filled.mtl" in head
+    lib = (out.parent / "repaired_scan.filled.mtl").read_text()
+    kd = [ln.split()[1:] for ln in lib.splitlines() if ln.startswith("Kd ")]
+    assert f"newmtl {FILLED_MATERIAL}" in lib and len(kd) == 1
+    assert np.allclose([float(x) for x in kd[0]], [200 / 255, 0, 0], atol=1e-6)
+
+
+def test_without_an_image_the_filled_material_takes_the_rim_materials_kd(tmp_path):
+    # the hole is at the top: its rim is all "gold" faces, whose Kd is yellow
+    text, *_ = textured_sphere_with_hole(np.random.default_rng(5))
+    (tmp_path / "scan.obj").write_text(text)
+    (tmp_path / "statue.mtl").write_text("# no images\nnewmtl gold\nKd 1 0.8 0.0\nnewmtl bronze\nKd 0.4 0.2 0.1\n")
+    R, _ = repair_mesh(read_mesh(tmp_path / "scan.obj"))
+    write_mesh(tmp_path / "out.obj", R)
+    lib = (tmp_path / "out.filled.mtl").read_text()
+    kd = [float(x) for ln in lib.splitlines() if ln.startswith("Kd ") for x in ln.split()[1:]]
+    assert kd == [1.0, 0.8, 0.0]
+
+
+def test_a_missing_library_gives_a_neutral_filled_material_and_says_so(tmp_path):
+    text, *_ = textured_sphere_with_hole(np.random.default_rng(6))
+    (tmp_path / "scan.obj").write_text(text)          # statue.mtl is not there
+    R, _ = repair_mesh(read_mesh(tmp_path / "scan.obj"))
+    write_mesh(tmp_path / "out.obj", R)
+    lib = (tmp_path / "out.filled.mtl").read_text()
+    assert "Kd 0.500000 0.500000 0.500000" in lib and "no colour found" in lib
+
+
+def test_an_obj_without_filled_faces_or_materials_gets_no_companion_library(tmp_path):
+    text, *_ = textured_sphere_with_hole(np.random.default_rng(7))
+    (tmp_path / "scan.obj").write_text(text)
+    write_mesh(tmp_path / "same.obj", read_mesh(tmp_path / "scan.obj"))       # nothing filled
+    V, F = shapes.icosphere(2)
+    top = int(np.argmax(V[:, 2]))
+    V, F, _, _ = shapes.perforate_discs(V, F, centers=[top], radius=0.45)
+    R, _ = repair_mesh(Mesh(V=V, F=F))
+    write_mesh(tmp_path / "plain.obj", R)                                     # no materials
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plain.obj", "same.obj", "scan.obj"]

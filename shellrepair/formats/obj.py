@@ -287,15 +287,17 @@ SCAN_GROUP = "scan"
 FILLED_MATERIAL = "shellrepair_filled"
 
 
-def obj_bytes(mesh, binary=True):
+def obj_bytes(mesh, binary=True, libraries=()):
     """The mesh as OBJ text: ``v`` (with colours), ``vt``, ``f`` (``a/ta`` where
     a face has texture coordinates), ``mtllib`` and ``usemtl`` as read, and
     the filled faces as the group :data:`FILLED_GROUP` (material
     :data:`FILLED_MATERIAL` where the file has materials); floats with 17
-    significant digits, so each reads back to the same bits."""
+    significant digits, so each reads back to the same bits. ``libraries``:
+    more ``mtllib`` lines, after the file's own (the filled faces' library,
+    :mod:`shellrepair.formats.mtl`)."""
     V = np.asarray(mesh.V, np.float64)
     tex = getattr(mesh, "texture", None)
-    lines = ["# written by shellrepair"] + ([] if tex is None else list(tex.libraries))
+    lines = ["# written by shellrepair"] + ([] if tex is None else list(tex.libraries)) + list(libraries)
     vs = "v " + np.char.mod("%.17g", V[:, 0]) + " " + np.char.mod("%.17g", V[:, 1]) + " " + np.char.mod("%.17g", V[:, 2])
     if mesh.vertex_colors is not None:
         C = np.asarray(mesh.vertex_colors)[:, :3].astype(np.float64) / 255.0
