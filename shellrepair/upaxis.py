@@ -6,8 +6,10 @@ The rule, in order (the first that applies decides):
 
 1. **The base.** A boundary loop (hole or border) whose rim is planar
    (RMS distance to its plane at most :data:`BASE_PLANARITY` of its
-   diameter), wide (diameter at least :data:`BASE_MIN_SIZE` of the scan's
-   bounding-box diagonal), with the scan on one side of its plane (at most
+   diameter), wide (its area at least :data:`BASE_FOOTPRINT` of the scan's
+   outline seen along the plane's normal, the convex hull of its vertices
+   projected there: a hole in a statue's side is small beside it, the base
+   spans the footprint), with the scan on one side of its plane (at most
    :data:`BASE_BELOW` of the vertices more than :data:`BASE_TOLERANCE` of
    the diagonal below it) and standing away from it (the farthest vertex at
    least :data:`BASE_MIN_HEIGHT` of the diagonal above it) is a base: up is
@@ -35,13 +37,13 @@ import numpy as np
 
 from .errors import MeshError
 
-__all__ = ["infer_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_MIN_SIZE", "BASE_BELOW",
+__all__ = ["infer_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_FOOTPRINT", "BASE_BELOW",
            "BASE_TOLERANCE", "BASE_MIN_HEIGHT", "ELONGATION", "SNAP_DEGREES"]
 
 #: A base's rim: RMS distance to its best-fit plane over its diameter, at most.
 BASE_PLANARITY = 0.03
-#: A base's rim diameter over the scan's bounding-box diagonal, at least.
-BASE_MIN_SIZE = 0.2
+#: A base's area over the scan's outline seen along the base's normal, at least.
+BASE_FOOTPRINT = 0.25
 #: Share of the scan's vertices that may lie below a base's plane.
 BASE_BELOW = 0.02
 #: How far below the plane (over the diagonal) a vertex counts as below.
@@ -118,7 +120,9 @@ def _snap(axis):
 
 
 def _base(V, F, used, diag):
-    """The base loop's (axis, loop id, size share), or None (rule 1)."""
+    """The base loop's (axis, loop id, footprint share), or None (rule 1)."""
+    from scipy.spatial import ConvexHull, QhullError
+
     from .holes import boundary_loops, loop_stats
 
     loops, _ = boundary_loops(F, len(V))
@@ -126,7 +130,7 @@ def _base(V, F, used, diag):
     best = None
     for i, lp in enumerate(loops):
         st = loop_stats(V, lp)
-        if st["planarity"] > BASE_PLANARITY or st["diameter"] < BASE_MIN_SIZE * diag:
+        if st["planarity"] > BASE_PLANARITY or len(lp) < 3:
             continue
         n = np.asarray(st["axis"], np.float64)
         d = (P - st["center"]) @ n
@@ -135,8 +139,18 @@ def _base(V, F, used, diag):
         below = np.count_nonzero(d < -BASE_TOLERANCE * diag) / len(P)
         if below > BASE_BELOW or d.max() < BASE_MIN_HEIGHT * diag:
             continue
+        e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        try:
+            outline = ConvexHull(np.stack([P @ e1, P @ e2], axis=1)).volume    # (a 2-D hull's volume: its area)
+        except QhullError:
+            continue
+        share = st["area"] / outline if outline > 0 else 0.0
+        if share < BASE_FOOTPRINT:
+            continue
         if best is None or st["area"] > best[0]:
-            best = (st["area"], n, i, st["diameter"] / diag)
+            best = (st["area"], n, i, share)
     return None if best is None else best[1:]
 
 
@@ -190,8 +204,8 @@ def infer_up(V, F):
         n, i, share = base
         axis, name = _snap(n)
         return {"axis": axis, "name": name, "rule": "base", "loop": int(i),
-                "how": f"the normal of loop {i}, a planar opening {100 * share:.0f} % of the scan's size with "
-                       "the scan on one side (its base)"}
+                "how": f"the normal of loop {i}, a planar opening of {100 * share:.0f} % of the scan's outline "
+                       "seen along it, with the scan on one side (its base)"}
     k, elong = _longest(V, F)
     if elong >= ELONGATION:
         name = "xyz"[k]
