@@ -472,14 +472,14 @@ def _repair(args):
         report["up"] = up      # the one axis of every picture of this scan
     html = None
     if page is not None:
-        from .closeups import closeups
+        from .closeups import closeups, pictures_record
         from .htmlreport import figure, file_sha256, scan_page
 
         if bar is not None:
             bar("pictures", 0, 1)
         fig = figure(mesh, repaired, report, up=up["axis"])
         pics = closeups(mesh, repaired, report, up=up["axis"])
-        report["pictures"] = _pictures_record(fig, pics)
+        report["pictures"] = pictures_record(fig, pics)
         html = scan_page(report, fig, options=opts.as_dict(), sha256=file_sha256(args.scan), closeups=pics)
     report["seconds_total"] = round(time.perf_counter() - t0, 4)
     items = [(out, payload), (report_path, json.dumps(report, indent=1) + "\n")]
@@ -504,7 +504,7 @@ def _repair(args):
             pr = report["pictures"]
             print(f"  up: {up['name']} ({up['how']})")
             print(f"  pictures: overview {pr['overview']}; {len(pr['regions'])} close-ups of "
-                  f"{len(pr['regions']) + pr['more']} filled regions"
+                  f"{len(pr['regions']) + len(pr['more'])} filled regions"
                   + (f"; holes {', '.join(str(f['id']) for f in pr['failed'])} could not be filled (ringed)"
                      if pr["failed"] else ""))
         print(f"  wrote {out} and {report_path}" + (f" and {page}" if page is not None else "")
@@ -548,15 +548,6 @@ def _scan_up(arg, mesh):
     return infer_up(mesh.V, mesh.F) if arg == "auto" else given_up(arg)
 
 
-def _pictures_record(fig, pics):
-    """What the report keeps of a page's pictures: each one's camera, as
-    ``shellrepair render`` takes it."""
-    keep = ("region", "holes", "faces", "area", "center", "camera", "score", "runner_up")
-    return {"overview": fig["camera"],
-            "regions": [{k: r[k] for k in keep if k in r} for r in pics["regions"]],
-            "more": len(pics["more"]),
-            "failed": [{k: f[k] for k in ("id", "center", "camera", "score", "runner_up") if k in f}
-                       for f in pics["failed"]]}
 
 
 def _batch(args):

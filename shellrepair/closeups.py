@@ -37,7 +37,7 @@ import numpy as np
 from .upaxis import up_text
 
 __all__ = ["fill_regions", "failed_holes", "best_direction", "closeup_camera", "camera_args", "parse_camera",
-           "closeups", "CLOSEUP_SIZE", "CLOSEUP_SUPERSAMPLE", "CLOSEUP_LIMIT", "CLOSEUP_MARGIN", "FAILED_COLOR"]
+           "closeups", "pictures_record", "CLOSEUP_SIZE", "CLOSEUP_SUPERSAMPLE", "CLOSEUP_LIMIT", "CLOSEUP_MARGIN", "FAILED_COLOR"]
 
 #: Size (width, height) of each panel of a close-up, in pixels.
 CLOSEUP_SIZE = (240, 180)
@@ -433,3 +433,39 @@ def closeups(before, repaired, report=None, *, up=(0.0, 1.0, 0.0), size=CLOSEUP_
                        alt=f"hole {h['id']}, which could not be filled, before (left) and after (right)")
         out["failed"].append(row)
     return out
+
+
+def pictures_record(fig, pics, files=None):
+    """What a report keeps of a page's pictures: the overview's camera and
+    every close-up's row without its PNG (its camera as ``shellrepair
+    render`` takes it, and its file where written beside the page).
+
+    Parameters
+    ----------
+    fig : dict
+        :func:`shellrepair.htmlreport.figure`'s.
+    pics : dict
+        :func:`closeups`'.
+    files : dict, optional
+        ``("region", number)`` or ``("failed", id)`` -> file name of the
+        picture written beside the page.
+
+    Returns
+    -------
+    record : dict
+        ``overview`` (camera), ``up``, ``regions``, ``more``, ``failed``;
+        :func:`shellrepair.htmlreport.closeups_html` shows it as it shows
+        ``pics`` (linking the files).
+    """
+    files = files or {}
+
+    def strip(row, key):
+        r = {k: v for k, v in row.items() if k != "png"}
+        if key in files:
+            r["file"] = files[key]
+        return r
+
+    return {"overview": fig.get("camera"), "up": pics.get("up"),
+            "regions": [strip(r, ("region", r["region"])) for r in pics.get("regions", [])],
+            "more": list(pics.get("more", [])),
+            "failed": [strip(f, ("failed", f["id"])) for f in pics.get("failed", [])]}

@@ -212,3 +212,18 @@ def test_the_camera_printed_is_the_camera_used():
     again = frame_camera(V, (40, 30), view, up=up, center=target, radius=radius)
     for k in ("eye", "target", "up"):
         assert np.array_equal(getattr(again, k), getattr(cam["camera"], k))
+
+
+def test_a_collection_page_links_each_closeup_written_beside_it(tmp_path):
+    from shellrepair.batch import repair_folder
+
+    src, out = tmp_path / "scans", tmp_path / "out"
+    src.mkdir()
+    V, F = _ellipsoid_with_five_holes(subdiv=2)
+    write_mesh(src / "five.ply", Mesh(V=V, F=F))
+    repair_folder(src, out, jobs=1, html=True)
+    page = (out / "index.html").read_text()
+    links = re.findall(r'<img src="(five\.fill-\d+\.png)"', page)
+    assert len(links) == 5 and all((out / f).stat().st_size > 0 for f in links)
+    report = json.loads((out / "five.report.json").read_text())
+    assert report["up"]["name"] == "x" and len(report["pictures"]["regions"]) == 5
