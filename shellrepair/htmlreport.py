@@ -454,8 +454,8 @@ def closeups_html(pics, *, level=3, scan=None, output=None):
         ph = int(item.get("height", 0))
         pw = (w - 8) // 2            # one panel (render_side_by_side's gap: 8)
         again = cmd.format(w=pw, h=ph) + item["camera"]
-        return (f'<figure><img src="{_e(_src(item))}" alt="{_e(item.get("alt"))}" width="{w}" height="{ph}" '
-                f'loading="lazy"><figcaption>{title}<br><code>{_e(again)}</code></figcaption></figure>')
+        return (f'<figure><img src="{_e(_src(item))}" alt="{_e(item.get("alt"))}" width="{w}" height="{ph}">'
+                f'<figcaption>{title}<br><code>{_e(again)}</code></figcaption></figure>')
 
     if n:
         parts.append(f"<{h}>Close-ups of the fills</{h}>")
