@@ -325,10 +325,18 @@ def _failed_edges(holes):
     return np.concatenate(E) if E else np.zeros((0, 2), np.int64)
 
 
-def _pair(before, repaired, cam, up, unit, maps, material, failed_E):
-    """Before | after with one camera, open edges drawn (failed rims in FAILED_COLOR)."""
+def _open_edges(F, n):
+    from .topology import edge_topology
+
+    topo = edge_topology(np.asarray(F, np.int64), n)
+    return topo.edges[topo.edge_count == 1]
+
+
+def _pair(before, repaired, cam, up, unit, maps, material, failed_E, known):
+    """Before | after with one camera, open edges drawn (failed rims in
+    FAILED_COLOR); ``known``: per mesh, its open edges and ray-casting scene."""
     from . import render as rd
-    from .htmlreport import draw_edges, draw_open_edges
+    from .htmlreport import draw_edges
 
     img = rd.render_side_by_side(before.V, before.F, repaired.V, repaired.F, camera=cam, maps=maps,
                                  material=material, filled=repaired.face_filled,
@@ -339,10 +347,10 @@ def _pair(before, repaired, cam, up, unit, maps, material, failed_E):
     img = np.array(img, copy=True)
     W = cam.width
     right = img[:, img.shape[1] - W:]
-    for panel, m in ((img[:, :W], before), (right, repaired)):
-        draw_open_edges(panel, cam, m.V, m.F)
+    for panel, m, (E, scene) in ((img[:, :W], before, known[0]), (right, repaired, known[1])):
+        draw_edges(panel, cam, m.V, m.F, E, scene=scene)
         if len(failed_E):
-            draw_edges(panel, cam, m.V, m.F, failed_E, color=FAILED_COLOR, width=2)
+            draw_edges(panel, cam, m.V, m.F, failed_E, color=FAILED_COLOR, width=2, scene=scene)
     return img
 
 
@@ -401,7 +409,8 @@ def closeups(before, repaired, report=None, *, up=(0.0, 1.0, 0.0), size=CLOSEUP_
             maps = ag.aging_maps(repaired.V, repaired.F, age=ag.DEFAULT_AGE, up=up, seed=0,
                                  scan=None if filled is None else ~np.asarray(filled, bool))
     failed_E = _failed_edges(failed)
-    scene_after = _scene(repaired.V, repaired.F) if regions else None
+    scene_before, scene_after = _scene(before.V, before.F), _scene(repaired.V, repaired.F)
+    known = ((_open_edges(before.F, n0), scene_before), (_open_edges(repaired.F, len(repaired.V)), scene_after))
     for k, reg in enumerate(regions):
         rim = reg["rim"][reg["rim"] < n0]
         holes = sorted({int(i) for i in owner[rim] if i >= 0})
@@ -412,14 +421,13 @@ def closeups(before, repaired, report=None, *, up=(0.0, 1.0, 0.0), size=CLOSEUP_
             continue
         cam = closeup_camera(repaired.V, repaired.F, reg["faces"], reg["centroid"], reg["radius"], up,
                              scene=scene_after, size=size)
-        img = _pair(before, repaired, cam["camera"], up, unit, maps, material, failed_E)
+        img = _pair(before, repaired, cam["camera"], up, unit, maps, material, failed_E, known)
         what = (f"hole {holes[0]}" if len(holes) == 1 else f"holes {', '.join(map(str, holes))}" if holes
                 else "a filled region")
         row.update(camera=cam["args"], score=cam["score"], runner_up=cam["runner_up"], png=_png(img),
                    width=int(img.shape[1]), height=int(img.shape[0]),
                    alt=f"close-up of the fill of {what}, before (left) and after (right)")
         out["regions"].append(row)
-    scene_before = _scene(before.V, before.F) if failed else None
     for h in failed:
         row = {"id": h["id"], "edges": h["edges"], "reason": h["reason"],
                "center": None if h["center"] is None else [float(f"{x:.6g}") for x in h["center"]]}
@@ -427,7 +435,7 @@ def closeups(before, repaired, report=None, *, up=(0.0, 1.0, 0.0), size=CLOSEUP_
             ring = _ring(np.asarray(before.F, np.int64), h["vertices"])
             cam = closeup_camera(before.V, before.F, ring, h["center"], h["radius"], up, scene=scene_before,
                                  size=size)
-            img = _pair(before, repaired, cam["camera"], up, unit, maps, material, failed_E)
+            img = _pair(before, repaired, cam["camera"], up, unit, maps, material, failed_E, known)
             row.update(camera=cam["args"], score=cam["score"], runner_up=cam["runner_up"], png=_png(img),
                        width=int(img.shape[1]), height=int(img.shape[0]),
                        alt=f"hole {h['id']}, which could not be filled, before (left) and after (right)")

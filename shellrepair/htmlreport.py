@@ -90,7 +90,7 @@ def draw_open_edges(image, cam, V, F, color=OPEN_EDGE_COLOR, width=2):
     return int(len(E))
 
 
-def draw_edges(image, cam, V, F, E, color=OPEN_EDGE_COLOR, width=2):
+def draw_edges(image, cam, V, F, E, color=OPEN_EDGE_COLOR, width=2, scene=None):
     """Draw the visible edges ``E`` of a mesh onto its render, in place.
 
     An edge is sampled about every pixel; a sample is drawn when the first
@@ -110,6 +110,8 @@ def draw_edges(image, cam, V, F, E, color=OPEN_EDGE_COLOR, width=2):
     color : (3,) ints
     width : int
         Line width in pixels.
+    scene : open3d RaycastingScene of V, F, optional
+        Reused across calls (several pictures of one mesh).
 
     Returns
     -------
@@ -136,9 +138,10 @@ def draw_edges(image, cam, V, F, E, color=OPEN_EDGE_COLOR, width=2):
     P, col, row = P[ok], col[ok], row[ok]
     if len(P) == 0:
         return int(len(E))
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
-                        o3d.core.Tensor(np.asarray(F, np.uint32)))
+    if scene is None:
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
+                            o3d.core.Tensor(np.asarray(F, np.uint32)))
     d = P - cam.eye
     dist = np.linalg.norm(d, axis=1)
     rays = np.concatenate([np.broadcast_to(cam.eye, P.shape), d / dist[:, None]], axis=1).astype(np.float32)
