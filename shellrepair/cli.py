@@ -162,7 +162,8 @@ def _parser():
                    help="aging in [0, 1]: 0 all gilt, 1 all corroded (default 0.5)")
     v.add_argument("--up", default="auto", type=_up_arg, metavar="auto|AXIS|X,Y,Z",
                    help="world up axis: camera up and where rain comes from; x, y, z, -x, -y, -z or a vector; "
-                        "auto (default): inferred from the --before scan, else from the mesh (see repair --up)")
+                        "auto (default): the one the repair recorded (X.report.json beside X.repaired.ply), "
+                        "else inferred from the --before scan, else from the mesh (see repair --up)")
     v.add_argument("--gltf", metavar="OUT.glb", default=None,
                    help="also write the mesh with this look (material, age, up) as binary glTF 2.0 "
                         "(default: none)")
@@ -467,9 +468,7 @@ def _repair(args):
     payload = mesh_bytes(out, repaired)
     if bar is not None:
         bar(f"writing {out.name}", 1, 2)
-    up = _scan_up(args.up, mesh)
-    if page is not None or glb is not None:
-        report["up"] = up      # the one axis of every picture of this scan
+    report["up"] = up = _scan_up(args.up, mesh)     # the one axis of every picture of this scan
     html = None
     if page is not None:
         from .closeups import closeups, pictures_record
@@ -510,6 +509,25 @@ def _repair(args):
         print(f"  wrote {out} and {report_path}" + (f" and {page}" if page is not None else "")
               + (f" and {glb}" if glb is not None else ""))
     return 0
+
+
+def _recorded_up(mesh_path):
+    """The up axis a repair recorded for the scan a repaired mesh came from:
+    ``X.report.json`` beside ``X.repaired.ply`` (the repair's default names),
+    or None."""
+    p = Path(mesh_path)
+    stem = p.stem[:-len(".repaired")] if p.stem.endswith(".repaired") else None
+    if stem is None:
+        return None
+    try:
+        with open(p.with_name(stem + ".report.json"), encoding="utf-8") as fh:
+            rec = json.load(fh).get("up")
+        axis = [float(x) for x in rec["axis"]]
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        return None
+    if len(axis) != 3 or not any(axis):
+        return None
+    return dict(rec, how=f"{rec.get('how', rec.get('rule', 'recorded'))}; read from {stem}.report.json")
 
 
 def _triple(text, flag):
@@ -619,7 +637,9 @@ def _render(args):
     if args.highlight_filled and (mesh.face_filled is None or not mesh.face_filled.any()):
         print(f"warning: {args.mesh}: no face is flagged filled, so --highlight-filled shows nothing "
               "(render the output of shellrepair repair)", file=sys.stderr)
-    up_rec = _scan_up(args.up, before if before is not None else mesh)
+    up_rec = _recorded_up(args.mesh) if args.up == "auto" else None
+    if up_rec is None:
+        up_rec = _scan_up(args.up, before if before is not None else mesh)
     up = tuple(up_rec["axis"])
     how = "given"
     if view is None and args.highlight_filled and mesh.face_filled is not None and mesh.face_filled.any():

@@ -354,7 +354,7 @@ def _pair(before, repaired, cam, up, unit, maps, material, failed_E, known):
     return img
 
 
-def closeups(before, repaired, report=None, *, up=(0.0, 1.0, 0.0), size=CLOSEUP_SIZE, limit=CLOSEUP_LIMIT,
+def closeups(before, repaired, report=None, *, up=None, size=CLOSEUP_SIZE, limit=CLOSEUP_LIMIT,
              material="aged-bronze", unit=None):
     """The close-ups of one repair.
 
@@ -365,8 +365,9 @@ def closeups(before, repaired, report=None, *, up=(0.0, 1.0, 0.0), size=CLOSEUP_
     report : dict, optional
         The repair's report: its rows name the holes of each region and
         the holes that failed.
-    up : (3,) floats
-        The scan's up axis (:func:`shellrepair.upaxis.infer_up`).
+    up : (3,) floats or None
+        The scan's up axis; default the report's (``report["up"]``), else
+        inferred from ``before`` (:func:`shellrepair.upaxis.infer_up`).
     size : (int, int)
         Size of each panel.
     limit : int
@@ -387,8 +388,9 @@ def closeups(before, repaired, report=None, *, up=(0.0, 1.0, 0.0), size=CLOSEUP_
     """
     from . import aging as ag
     from .holes import boundary_loops
+    from .upaxis import scan_up
 
-    up = tuple(float(x) for x in up)
+    up = tuple(float(x) for x in (scan_up(before, report) if up is None else up))
     n0 = len(before.V)
     regions = fill_regions(repaired.V, repaired.F, repaired.face_filled,
                            n_original=n0 if np.array_equal(np.asarray(repaired.V)[:n0], before.V) else None)

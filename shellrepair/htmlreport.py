@@ -186,7 +186,7 @@ def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-br
         (see :func:`shellrepair.render.render_mesh`).
     up : (3,) floats or None
         The scan's up axis; default the report's (``report["up"]``), else
-        y.
+        inferred from ``before`` (:func:`shellrepair.upaxis.infer_up`).
 
     Returns
     -------
@@ -201,10 +201,9 @@ def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-br
 
     from . import render as rd
     from .closeups import FAILED_COLOR, failed_holes
-    from .upaxis import up_text
+    from .upaxis import scan_up, up_text
 
-    if up is None:
-        up = tuple((report or {}).get("up", {}).get("axis", (0.0, 1.0, 0.0)))
+    up = scan_up(before, report) if up is None else up
     filled = repaired.face_filled
     view, info = None, {}
     if filled is not None and np.any(filled):

@@ -37,7 +37,7 @@ import numpy as np
 
 from .errors import MeshError
 
-__all__ = ["infer_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_FOOTPRINT", "BASE_BELOW",
+__all__ = ["infer_up", "scan_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_FOOTPRINT", "BASE_BELOW",
            "BASE_TOLERANCE", "BASE_MIN_HEIGHT", "ELONGATION", "SNAP_DEGREES"]
 
 #: A base's rim: RMS distance to its best-fit plane over its diameter, at most.
@@ -165,6 +165,26 @@ def _longest(V, F):
     k, j = int(order[0]), int(order[1])
     elong = float(spread[k] / spread[j]) if spread[j] > 0 else float("inf")
     return k, elong
+
+
+def scan_up(before, report=None):
+    """The up axis of a scan's pictures: the report's (``report["up"]``,
+    recorded when the repair's pictures were made), else inferred from the
+    scan as read.
+
+    Parameters
+    ----------
+    before : shellrepair.io.Mesh
+    report : dict, optional
+
+    Returns
+    -------
+    axis : tuple of 3 float
+    """
+    rec = (report or {}).get("up")
+    if rec and rec.get("axis") is not None:
+        return tuple(float(x) for x in rec["axis"])
+    return tuple(infer_up(before.V, before.F)["axis"])
 
 
 def infer_up(V, F):

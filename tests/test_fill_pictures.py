@@ -93,6 +93,14 @@ def test_the_up_axis_of_a_scan_lying_along_x_is_x_and_is_in_the_report(five):
     assert five["report"]["pictures"]["overview"].startswith("--up x ")
 
 
+def test_render_reuses_the_up_axis_the_repair_recorded(five, capsys):
+    # no --up, no --before: the repaired mesh's report beside it gives the axis
+    capsys.readouterr()
+    assert main(["render", str(five["out"]), "--size", "20x15", "-o", str(five["dir"] / "up.png")]) == 0
+    line = re.search(r"^up: (.*)$", capsys.readouterr().out, re.M).group(1)
+    assert line.startswith("x (") and "five.report.json" in line
+
+
 def test_up_given_on_the_command_line_wins(tmp_path):
     V, F = _ellipsoid_with_five_holes(subdiv=2)
     scan = tmp_path / "s.ply"
