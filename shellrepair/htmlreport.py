@@ -3,8 +3,10 @@ and one per collection.
 
 A page holds, for each scan, the paper's Table 1 (holes before, after and
 the interpolation rate), a before | after picture aimed at the filled
-region with the synthesized faces tinted and the boundary left open drawn
-in its own colour, a per-hole table (holes left open first, every column
+region with the synthesized faces tinted, the boundary left open drawn
+in its own colour and the holes that could not be filled ringed, a
+close-up of each filled region and of each failed hole
+(:mod:`shellrepair.closeups`, shown by :func:`closeups_html`), a per-hole table (holes left open first, every column
 sortable by a click), the borders left open, the notes of loading, and a
 provenance block: software version, options, input file and its SHA-256.
 
@@ -31,7 +33,8 @@ import numpy as np
 
 from .report import repaired, status_counts
 
-__all__ = ["figure", "scan_page", "collection_page", "file_sha256", "OPEN_EDGE_COLOR", "FIGURE_SIZE"]
+__all__ = ["figure", "scan_page", "collection_page", "closeups_html", "draw_edges", "draw_open_edges", "file_sha256",
+           "OPEN_EDGE_COLOR", "FIGURE_SIZE"]
 
 #: Colour (sRGB) the edges left open (borders and holes not filled) are drawn in.
 OPEN_EDGE_COLOR = (40, 110, 235)
