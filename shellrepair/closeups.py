@@ -343,7 +343,7 @@ def _pair(before, repaired, cam, up, unit, maps, material, failed_E, known):
                                  highlight_filled=repaired.face_filled is not None, up=up, unit=unit,
                                  vertex_colors_before=before.vertex_colors,
                                  vertex_colors_after=repaired.vertex_colors, legend=None,
-                                 supersample=CLOSEUP_SUPERSAMPLE)
+                                 supersample=CLOSEUP_SUPERSAMPLE, scenes=(known[0][1], known[1][1]))
     img = np.array(img, copy=True)
     W = cam.width
     right = img[:, img.shape[1] - W:]

@@ -348,7 +348,7 @@ def _scaled_camera(cam, s):
 def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                 highlight_filled=False, view=None, vertex_colors=None, coverage=None,
                 gild=None, crust=None, camera=None, unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0),
-                seed=0, supersample=2, legend=None, info=None):
+                seed=0, supersample=2, legend=None, info=None, scene=None):
     """Render a triangle mesh with the aged-metal shading.
 
     Parameters
@@ -394,6 +394,9 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     info : dict or None
         If given, filled with the camera, the :class:`ModelChoice`, the unit,
         the coverage source, the aging maps and timings.
+    scene : open3d.t.geometry.RaycastingScene or None
+        The ray-casting scene of exactly ``V, F`` when several pictures of
+        one mesh are made (its BVH is built once); default: built here.
 
     Returns
     -------
@@ -431,9 +434,10 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     cam_s = _scaled_camera(cam, ss)
     W, H = cam_s.width, cam_s.height
 
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
-                        o3d.core.Tensor(F.astype(np.uint32)))
+    if scene is None:
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
+                            o3d.core.Tensor(F.astype(np.uint32)))
     rays_all = cam_s.rays()
     hit = scene.cast_rays(o3d.core.Tensor(rays_all))
     t_hit = hit["t_hit"].numpy().reshape(H, W)
@@ -639,7 +643,7 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
                         vertex_colors_before=None, vertex_colors_after=None, gap=8,
                         unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0), seed=0,
                         supersample=2, labels=("before", "after"), legend="filled by the repair",
-                        info=None, camera=None, maps=None):
+                        info=None, camera=None, maps=None, scenes=(None, None)):
     """Before and after renders with one shared camera, side by side.
 
     Parameters
@@ -670,6 +674,9 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     maps : shellrepair.aging.AgingMaps or None
         The aging maps of the repaired mesh, when already computed (several
         pictures of one repair); default: computed here.
+    scenes : (scene, scene)
+        The ray-casting scenes of the scan and of the repaired mesh, when
+        already built (see :func:`render_mesh`); default: built here.
     Other parameters are as in :func:`render_mesh`.
 
     Returns
@@ -716,12 +723,12 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     panels = {}
     common = dict(material=material, camera=cam, unit=um, age=age, up=up, seed=seed,
                   supersample=supersample)
-    for key, (V, F, vc, fl, hl, lg) in {
-            "before": (Vb, Fb, vertex_colors_before, None, False, None),
-            "after": (Va, Fa, vertex_colors_after, filled, highlight_filled, legend)}.items():
+    for key, (V, F, vc, fl, hl, lg, sc) in {
+            "before": (Vb, Fb, vertex_colors_before, None, False, None, scenes[0]),
+            "after": (Va, Fa, vertex_colors_after, filled, highlight_filled, legend, scenes[1])}.items():
         sub = {}
         img = render_mesh(V, F, vertex_colors=vc, filled=fl, highlight_filled=hl, coverage=cov[key],
-                          gild=gld[key], crust=crs[key], legend=lg, info=sub, **common)
+                          gild=gld[key], crust=crs[key], legend=lg, info=sub, scene=sc, **common)
         if labels:
             img = draw_label(img, labels[0] if key == "before" else labels[1])
         panels[key] = img
