@@ -60,6 +60,7 @@ import time
 from pathlib import Path
 
 from .errors import MeshError
+from .files import check_output_folder
 from .report import repaired, status_counts
 
 __all__ = ["repair_folder", "list_scans", "summary_table", "default_jobs", "SUMMARY_NAME"]
@@ -134,11 +135,9 @@ def _output_names(scans):
 
 
 def _prepare_outdir(outdir):
+    """The output folder, created if missing, after checking files can be written in it."""
     outdir = Path(outdir)
-    if outdir.exists() and not outdir.is_dir():
-        raise MeshError("output folder exists and is not a directory", outdir)
-    if not outdir.parent.is_dir():
-        raise MeshError("the output folder's parent does not exist", outdir)
+    check_output_folder(outdir)
     try:
         outdir.mkdir(exist_ok=True)
     except OSError as exc:

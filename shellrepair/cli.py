@@ -27,6 +27,7 @@ only place that draws them (the library reports to a callback, see
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import re
 import sys
@@ -379,6 +380,16 @@ def _as_flag(message):
     return _FLAGS.get(name, "--" + name.replace("_", "-")) + message[len(name):]
 
 
+@contextlib.contextmanager
+def _for_flag(flag):
+    """A :class:`MeshError` raised inside names the command-line flag it
+    concerns: ``<file>: <flag>: <what is wrong>``."""
+    try:
+        yield
+    except MeshError as exc:
+        raise MeshError(f"{flag}: {exc.message}", exc.path) from None
+
+
 def _closed(args):
     """--closed as detect_holes takes it."""
     return {"auto": None, "yes": True, "no": False}[args.closed]
@@ -434,22 +445,29 @@ def _repair(args):
     out = Path(args.output) if args.output else _default_output(args.scan)
     report_path = Path(args.report) if args.report else out.with_name(
         (out.stem[:-9] if out.stem.endswith(".repaired") else out.stem) + ".report.json")
-    # every check that needs no reading happens before the work
-    if out.suffix.lower() not in SUPPORTED:
-        raise MeshError(f"unknown output extension '{out.suffix}' (expected one of {', '.join(SUPPORTED)})", out)
-    check_output_path(out, what="output")
-    check_output_path(report_path, what="report")
-    for p, what in ((out, "output"), (report_path, "report")):
-        if _same_file(p, args.scan):
-            raise MeshError(f"{what} would overwrite the input scan", p)
-    if _same_file(out, report_path):
-        raise MeshError("the report and the output mesh are the same file", out)
+    # every check that needs no reading happens before the work; each error names its flag
+    with _for_flag("-o"):
+        if out.suffix.lower() not in SUPPORTED:
+            raise MeshError(f"unknown output extension '{out.suffix}' (expected one of {', '.join(SUPPORTED)})",
+                            out)
+        check_output_path(out, what="output")
+        if _same_file(out, args.scan):
+            raise MeshError("output would overwrite the input scan", out)
+    with _for_flag("--report"):
+        check_output_path(report_path, what="report")
+        if _same_file(report_path, args.scan):
+            raise MeshError("report would overwrite the input scan", report_path)
+        if _same_file(out, report_path):
+            raise MeshError("the report and the output mesh are the same file", out)
     page = Path(args.html) if args.html else None
     if page is not None:
-        check_output_path(page, what="page")
-        if any(_same_file(page, p) for p in (args.scan, out, report_path)):
-            raise MeshError("the page would overwrite the scan, the output or the report", page)
-    glb = _glb_path(args.gltf, (args.scan, out, report_path, page), "the scan, the output, the report or the page")
+        with _for_flag("--html"):
+            check_output_path(page, what="page")
+            if any(_same_file(page, p) for p in (args.scan, out, report_path)):
+                raise MeshError("the page would overwrite the scan, the output or the report", page)
+    with _for_flag("--gltf"):
+        glb = _glb_path(args.gltf, (args.scan, out, report_path, page),
+                        "the scan, the output, the report or the page")
     opts = _options(args)  # every check that needs no reading happens before the work
     t0 = time.perf_counter()
     bar = terminal_bar(args.quiet)
@@ -480,6 +498,8 @@ def _repair(args):
         pics = closeups(mesh, repaired, report, up=up["axis"])
         report["pictures"] = pictures_record(fig, pics)
         html = scan_page(report, fig, options=opts.as_dict(), sha256=file_sha256(args.scan), closeups=pics)
+        if bar is not None:
+            bar("pictures", 1, 1)
     report["seconds_total"] = round(time.perf_counter() - t0, 4)
     items = [(out, payload), (report_path, json.dumps(report, indent=1) + "\n")]
     if html is not None:
@@ -582,6 +602,10 @@ def _batch(args):
                     if repaired(row) else f"error: {row['error']}")
             print(f"{row['file']}: {what} ({row['seconds']:.1f} s)", flush=True)
 
+    from .files import check_output_folder
+
+    with _for_flag("-o"):   # before any work (repair_folder creates it)
+        check_output_folder(args.outdir)
     summary = repair_folder(args.dir, args.outdir, _options(args), jobs=args.jobs, scheduler=args.scheduler,
                             on_scan=line, html=args.html, progress=bar or False)
     if summary["runner"].get("note") and not args.quiet:
@@ -618,15 +642,18 @@ def _render(args):
         except (ValueError, AssertionError):
             raise MeshError(f"--view must be AZ,EL in degrees, got '{args.view}'") from None
     out = Path(args.output)
-    rd.image_format(out)  # an unknown image extension is refused before the work
     from .io import check_output_path
-    check_output_path(out, what="output")
-    if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
-        raise MeshError("output would overwrite an input mesh", out)
+
+    with _for_flag("-o"):
+        rd.image_format(out)  # an unknown image extension is refused before the work
+        check_output_path(out, what="output")
+        if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
+            raise MeshError("output would overwrite an input mesh", out)
     target = _triple(args.look_at, "--look-at") if args.look_at else None
     if args.radius is not None and not (args.radius > 0 and args.radius < float("inf")):
         raise MeshError(f"--radius must be a positive length, got {args.radius:g}")
-    glb = _glb_path(args.gltf, (args.mesh, out, args.before), "an input mesh or the picture")
+    with _for_flag("--gltf"):
+        glb = _glb_path(args.gltf, (args.mesh, out, args.before), "an input mesh or the picture")
     bar = terminal_bar(args.quiet)
     mesh = read_mesh(args.mesh, progress=bar)
     end_line()

@@ -14,7 +14,16 @@ from pathlib import Path
 
 from .errors import MeshError
 
-__all__ = ["check_output_path", "new_file_mode", "atomic_write", "atomic_write_many"]
+__all__ = ["check_output_path", "check_output_folder", "new_file_mode", "atomic_write", "atomic_write_many"]
+
+
+def _probe(folder):
+    """Raise OSError unless a file can be created in ``folder``: one is
+    created and removed again. (``os.access`` answers yes to root
+    everywhere, even in /proc, where nothing can be created.)"""
+    fd, tmp = tempfile.mkstemp(prefix=".shellrepair-probe.", suffix=".tmp", dir=str(folder))
+    os.close(fd)
+    os.unlink(tmp)
 
 
 def check_output_path(path, *, what="output"):
@@ -28,14 +37,45 @@ def check_output_path(path, *, what="output"):
     """
     path = Path(path)
     if not path.parent.is_dir():
-        raise MeshError(f"{what} folder does not exist", path)
+        raise MeshError(f"{what} folder " + ("is not a directory" if path.parent.exists() else "does not exist"),
+                        path)
     if path.is_dir():
         raise MeshError(f"{what} path is a directory", path)
     if path.exists() and not path.is_file():
         raise MeshError(f"{what} path exists and is not a regular file", path)
     if not os.access(path.parent, os.W_OK):
         raise MeshError(f"{what} folder is not writable", path)
+    try:
+        _probe(path.parent)
+    except OSError as exc:
+        raise MeshError(f"{what} folder is not writable ({exc.strerror or exc})", path) from None
 
+
+def check_output_folder(path, *, what="output folder"):
+    """Raise :class:`MeshError` unless files can be written in the folder
+    ``path``: an existing folder, or one that can be created (its parent
+    exists); nothing is created.
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        Names the folder in the message.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise MeshError(f"{what} exists and is not a directory", path)
+    exists = path.exists()
+    where = path if exists else path.parent
+    if not exists and not where.is_dir():
+        raise MeshError(f"the {what}'s parent " + ("is not a directory" if where.exists() else "does not exist"),
+                        path)
+    try:
+        _probe(where)
+    except OSError as exc:
+        why = exc.strerror or exc
+        raise MeshError(f"{what} is not writable ({why})" if exists else
+                        f"{what} cannot be created in {where} ({why})", path) from None
 
 def new_file_mode():
     """Permissions of a newly created file under the current umask (0o666 & ~umask)."""

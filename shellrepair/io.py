@@ -22,10 +22,14 @@ What loading guarantees
 * Vertex colours (PLY ``red green blue [alpha]``, OBJ ``v x y z r g b``,
   OFF ``COFF``) are kept as ``uint8``; float colours (0..1) are converted
   and NaN channels set to 0, each with a note.
-* What a triangle mesh does not hold is skipped with a note: OBJ ``vt``,
-  ``vn``, ``l``, ``p`` and free-form statements, PLY elements other than
-  vertex and face and face properties other than the index list, OFF face
-  colours. The readers follow the specifications as exporters use them
+* Texture coordinates and materials of the faces are kept
+  (:class:`shellrepair.mesh.FaceTexture`): OBJ ``vt``, ``usemtl`` and
+  ``mtllib``; PLY ``texcoord`` lists and ``texnumber``. PLY per-vertex
+  ``u v`` (or ``s t``) are kept as vertex properties.
+* What a triangle mesh does not hold is skipped with a note: OBJ ``vn``,
+  ``l``, ``p`` and free-form statements, PLY elements other than vertex
+  and face and face properties other than the index list, ``texcoord``,
+  ``texnumber`` and ``filled``, OFF face colours. The readers follow the specifications as exporters use them
   (OBJ line continuations, relative indices and ``v/vt/vn`` corners; PLY
   ascii and both binary byte orders, any list count and index types; the
   OFF variants; binary STL whose header starts with ``solid``).
@@ -468,9 +472,15 @@ def format_losses(path, mesh):
     ext = Path(path).suffix.lower()
     notes = []
     tex = getattr(mesh, "texture", None)
-    if tex is not None and ext != ".obj" and (len(tex.uv) or tex.materials):
+    if tex is not None and ext in (".off", ".stl") and (len(tex.uv) or tex.materials):
         notes.append(f"{ext[1:].upper()} output: the texture coordinates and materials are not written "
-                     "(write .obj to keep them)")
+                     "(write .obj or .ply to keep them)")
+    elif tex is not None and ext == ".ply" and tex.materials:
+        notes.append("PLY output: the materials (usemtl, mtllib) are not written; the texture coordinates "
+                     "are (write .obj to keep both)")
+    elif tex is not None and ext == ".obj" and tex.face_texnumber is not None:
+        notes.append("OBJ output: the faces' texnumber is not written (no usemtl or mtllib is made from "
+                     "the TextureFile comments); the texture coordinates are (write .ply to keep both)")
     if ext in (".off", ".stl") and mesh.face_filled is not None and np.any(mesh.face_filled):
         notes.append(f"{ext[1:].upper()} output: no flag marks the filled faces "
                      "(the report lists each hole's new faces; .ply and .obj mark them)")

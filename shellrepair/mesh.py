@@ -44,8 +44,10 @@ class FaceTexture:
 
     Attributes
     ----------
-    uv : (t,2) float64
-        The file's texture coordinates (OBJ ``vt``), in file order.
+    uv : (t,2) float array
+        The file's texture coordinates, in file order: OBJ ``vt`` (float64),
+        or a PLY face's ``texcoord`` list, two values a corner (the file's
+        float type, so the written values have the bits read).
     face_uv : (k,3) int64
         Each corner's row of ``uv``; -1 where the file gave the corner none.
     face_material : (k,) int64
@@ -54,6 +56,9 @@ class FaceTexture:
         Material names (OBJ ``usemtl``), in order of first use.
     libraries : list of str
         The material library lines (OBJ ``mtllib ...``) as read.
+    face_texnumber : (k,) int array or None
+        A PLY's ``texnumber`` of each face (the file's integer type): which
+        ``comment TextureFile`` line of the header its UVs refer to.
     """
 
     uv: np.ndarray
@@ -61,18 +66,21 @@ class FaceTexture:
     face_material: np.ndarray
     materials: list = field(default_factory=list)
     libraries: list = field(default_factory=list)
+    face_texnumber: np.ndarray | None = None
 
     def take(self, rows):
         """The texture of faces ``rows`` (indices into the kept faces), in that order."""
         rows = np.asarray(rows, np.int64)
+        tn = None if self.face_texnumber is None else self.face_texnumber[rows]
         return FaceTexture(self.uv, self.face_uv[rows], self.face_material[rows], list(self.materials),
-                           list(self.libraries))
+                           list(self.libraries), tn)
 
     def flip(self, rows):
         """The texture with faces ``rows`` turned as a flip turns them (corners 1 and 2 swapped)."""
         fu = self.face_uv.copy()
         fu[rows, 1], fu[rows, 2] = self.face_uv[rows, 2], self.face_uv[rows, 1]
-        return FaceTexture(self.uv, fu, self.face_material, list(self.materials), list(self.libraries))
+        return FaceTexture(self.uv, fu, self.face_material, list(self.materials), list(self.libraries),
+                           self.face_texnumber)
 
 
 @dataclass
@@ -120,7 +128,8 @@ class Mesh:
         A PLY header's ``comment`` and ``obj_info`` lines as read (each with
         its keyword), written back before shellrepair's own comment.
     texture : FaceTexture or None
-        An OBJ's texture coordinates and materials of its faces.
+        The texture coordinates and materials of the file's faces (an OBJ's
+        ``vt`` and ``usemtl``, a PLY's ``texcoord`` and ``texnumber``).
     """
 
     V: np.ndarray

@@ -112,7 +112,7 @@ def test_a_mesh_without_a_texture_writes_no_vt_or_material():
     assert "vt " not in text and "usemtl" not in text and "mtllib" not in text
 
 
-def test_writing_a_textured_repair_to_ply_says_the_texture_is_not_written(tmp_path):
+def test_writing_a_textured_repair_to_ply_says_the_materials_are_not_written(tmp_path):
     import json
     import subprocess
     import sys
@@ -122,5 +122,7 @@ def test_writing_a_textured_repair_to_ply_says_the_texture_is_not_written(tmp_pa
     run = subprocess.run([sys.executable, "-m", "shellrepair.cli", "repair", str(tmp_path / "scan.obj"),
                           "-o", str(tmp_path / "out.ply"), "--report", str(tmp_path / "r.json")],
                          capture_output=True, text=True, check=True)
-    assert "texture coordinates and materials are not written (write .obj to keep them)" in run.stdout
+    assert "PLY output: the materials (usemtl, mtllib) are not written" in run.stdout
     assert any("not written" in n for n in json.loads((tmp_path / "r.json").read_text())["notes"])
+    # the texture coordinates are: each face's texcoord list
+    assert read_mesh(tmp_path / "out.ply").texture is not None

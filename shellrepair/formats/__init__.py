@@ -7,8 +7,10 @@ writer ``<fmt>_bytes(mesh, binary) -> bytes or str``. :data:`READERS` and
 :data:`WRITERS` map an extension to them.
 
 * :mod:`.ply`: ascii and both binary byte orders; colours, ``filled`` flags,
-  other vertex properties and comments kept.
-* :mod:`.obj`: Wavefront OBJ with vertex colours.
+  other vertex properties, the faces' texture coordinates (``texcoord``,
+  ``texnumber``) and comments kept.
+* :mod:`.obj`: Wavefront OBJ with vertex colours, texture coordinates and
+  materials.
 * :mod:`.off`: OFF and its variants (``COFF``, ``NOFF``, ``STOFF`` ...).
 * :mod:`.stl`: binary and ascii STL, corners welded on exact coordinates.
 * :mod:`.polygons`: polygons split into triangles inside their outline.

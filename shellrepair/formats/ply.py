@@ -2,8 +2,11 @@
 
 :func:`read_ply` keeps the vertex coordinates at the width the file stored
 them (float is widened to float64 exactly and written back as float), vertex
-colours, the ``filled`` flags, other scalar vertex properties and the
-header's comments; :func:`ply_bytes` writes them back. Binary bodies are read
+colours, the ``filled`` flags, other scalar vertex properties, the faces'
+texture coordinates (MeshLab's ``texcoord`` list, two values a corner, in
+the float type read, and ``texnumber``; see :class:`FaceTexture`) and the
+header's comments (``TextureFile`` among them); :func:`ply_bytes` writes
+them back. Binary bodies are read
 as NumPy structured arrays when every face record has the same length, else
 by one walk over the records' lengths and a vectorised gather.
 
@@ -24,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MeshError
-from ..mesh import Mesh, written_faces
+from ..mesh import FaceTexture, Mesh, written_faces
 from .polygons import polygons_to_triangles
 from .text import colors_to_uint8, parse_numbers, token_counts
 
@@ -97,6 +100,20 @@ _PLY_COLOR_NAMES = (("red", "green", "blue", "alpha"),
 #: Names of the face element's vertex index list.
 _PLY_INDEX_NAMES = ("vertex_indices", "vertex_index")
 
+#: The face element's list of texture coordinates (MeshLab's name: two
+#: values, u and v, for each corner, in the corners' order).
+_PLY_TEXCOORD = "texcoord"
+
+#: The face element's index of the texture (``comment TextureFile``) its
+#: texture coordinates refer to.
+_PLY_TEXNUMBER = "texnumber"
+
+
+def _kept_list(p):
+    """Whether the body readers keep list property ``p``: integer lists, and
+    the float list of texture coordinates (other float lists are skipped)."""
+    return p[3][0] != "f" or p[0] == _PLY_TEXCOORD
+
 
 def _ply_comments(data):
     """The header's ``comment`` and ``obj_info`` lines, keyword included."""
@@ -149,13 +166,34 @@ def read_ply(data):
     if "__F__" not in face and "__polys__" not in face:
         raise MeshError("PLY face element has no vertex index list")
     if "__polys__" in face:
-        mesh.F = polygons_to_triangles(face["__polys__"], notes, V)
+        counts, flat = face["__polys__"]
     else:
-        mesh.F = np.asarray(face["__F__"], dtype=np.int64).reshape(-1, 3)
-        if "filled" in face:
-            mesh.face_filled = face["filled"].astype(bool)
-    dropped = [p[0] for p in next(e for e in elements if e["name"] == "face")["props"]
-               if p[0] not in _PLY_INDEX_NAMES and not (p[0] == "filled" and "__polys__" not in face)]
+        counts, flat = None, np.asarray(face["__F__"], dtype=np.int64).reshape(-1)
+    uv = face.get("__texcoord__")
+    if uv is not None and not uv[1].size:
+        uv = None   # every list empty: no texture coordinates to keep
+    if uv is not None and (counts is None or (flat.size and flat.min() >= 0 and flat.max() < len(V))):
+        # textured: the triangles as corners of the file's faces, so that each
+        # keeps its corner's UV and its face's texnumber (the same triangles:
+        # the split reads positions only)
+        if counts is None:
+            C = np.arange(flat.size, dtype=np.int64).reshape(-1, 3)
+            mesh.F = flat.reshape(-1, 3)
+        else:
+            C = polygons_to_triangles((counts, np.arange(flat.size)), notes, V[flat])
+            mesh.F = flat[C]
+        mesh.texture = _face_texture(uv, counts, len(face["__F__"]) if counts is None else len(counts), C,
+                                     face.get(_PLY_TEXNUMBER))
+    elif counts is not None:
+        mesh.F = polygons_to_triangles((counts, flat), notes, V)
+    else:
+        mesh.F = flat.reshape(-1, 3)
+    if counts is None and "filled" in face:
+        mesh.face_filled = face["filled"].astype(bool)
+    kept = set(_PLY_INDEX_NAMES) | ({"filled"} if counts is None else set())
+    if mesh.texture is not None:
+        kept |= {_PLY_TEXCOORD} | ({_PLY_TEXNUMBER} if mesh.texture.face_texnumber is not None else set())
+    dropped = [p[0] for p in next(e for e in elements if e["name"] == "face")["props"] if p[0] not in kept]
     if dropped:
         notes.append(f"PLY: face properties not kept: {', '.join(dropped)}")
     others = [f"{e['name']} ({e['count']})" for e in elements if e["name"] not in ("vertex", "face")]
@@ -164,6 +202,43 @@ def read_ply(data):
     mesh.notes.extend(notes)
     mesh.comments = _ply_comments(data)
     return mesh
+
+
+def _face_texture(uv, counts, n_faces, C, texnumber):
+    """The :class:`FaceTexture` of a PLY's triangles ``C`` (ids of the
+    file's face corners, in file order) from the face element's
+    ``texcoord`` lists ``uv`` = (values per face, values) and its
+    ``texnumber`` column (or None).
+
+    A face's list holds two values (u, v) for each of its corners, or none
+    (the face has no texture coordinates); any other length is a
+    :class:`MeshError` naming the face.
+    """
+    k, vals = uv
+    corners = np.full(n_faces, 3, np.int64) if counts is None else np.asarray(counts, np.int64)
+    bad = np.flatnonzero((k != 2 * corners) & (k != 0))
+    if bad.size:
+        i = int(bad[0])
+        raise MeshError(f"face {i}: texcoord list has {int(k[i])} values, expected {2 * int(corners[i])} "
+                        f"(u v for each of its {int(corners[i])} corners) or none")
+    if (k > 0).all():       # every corner has its UV: corner i is row i of uv
+        face_uv = C
+    else:
+        has = np.repeat(k > 0, corners)             # per file corner
+        row = np.cumsum(has, dtype=np.int64) - 1    # its row of uv
+        row[~has] = -1
+        face_uv = row[C]
+        face_uv[(face_uv < 0).any(axis=1)] = -1
+    tn = None
+    if texnumber is not None:
+        tn = np.asarray(texnumber)
+        if counts is not None:
+            first = np.zeros(len(corners), np.int64)
+            np.cumsum(corners[:-1], out=first[1:])
+            tn = tn[np.searchsorted(first, C[:, 0], side="right") - 1]     # each triangle's file face
+        tn = tn.astype(tn.dtype.newbyteorder("="))   # a copy, in native byte order
+    return FaceTexture(uv=np.asarray(vals).reshape(-1, 2), face_uv=face_uv,
+                       face_material=np.full(len(C), -1, np.int64), face_texnumber=tn)
 
 
 def _ply_binary_body(data, pos, elements, endian):
@@ -195,6 +270,9 @@ def _ply_list_table(props, scalars, lists, count):
     """The table of an element with list properties: scalars by name, the
     vertex index list as ``__F__`` (all triangles) or ``__polys__`` (counts, flat)."""
     tab = dict(scalars)
+    if _PLY_TEXCOORD in lists:
+        k, flat = lists[_PLY_TEXCOORD]
+        tab["__texcoord__"] = (np.full(count, k, np.int64) if np.ndim(k) == 0 else np.asarray(k, np.int64), flat)
     idx_name = next((p[0] for p in props if p[1] == "list" and p[0] in _PLY_INDEX_NAMES), None)
     if idx_name is None:
         return tab
@@ -251,11 +329,19 @@ def _ply_binary_lists(data, pos, el, endian):
     arr = np.frombuffer(data, dtype=dt, count=avail, offset=pos)
     same = all((arr[f"__n{j}__"] == k).all() for j, k in enumerate(first))
     if same and avail < count:
-        raise MeshError(f"truncated: {name} data needs {need} bytes, {max(0, len(data) - pos)} left")
+        # fewer records fit than announced: shorter records follow (the
+        # walk finds them; a quad then triangles), or the file is cut off
+        try:
+            return _ply_binary_walk(data, pos, el, endian)
+        except MeshError as exc:
+            if not exc.message.startswith("truncated"):
+                raise
+            raise MeshError(f"truncated: {name} data needs {need} bytes, {max(0, len(data) - pos)} left") from None
     if same:
         scalars = {p[0]: arr[p[0]] for p in props if p[1] == "scalar"}
-        lists = {p[0]: (first[j], _flat_int64(arr[p[0]]))
-                 for j, p in enumerate(p for p in props if p[1] == "list") if p[3][0] != "f"}
+        lists = {p[0]: (first[j], _flat_int64(arr[p[0]]) if p[3][0] != "f" else
+                        arr[p[0]].reshape(-1).astype(np.dtype(p[3])))
+                 for j, p in enumerate(p for p in props if p[1] == "list") if _kept_list(p)}
         return _ply_list_table(props, scalars, lists, count), pos + need
     return _ply_binary_walk(data, pos, el, endian)
 
@@ -292,6 +378,8 @@ def _ply_binary_walk(data, pos, el, endian):
     one = [j for j, p in enumerate(props) if p[1] == "list"]
     if len(one) == 1 and props[one[0]][2] in ("u1", "i1") and count:
         return _ply_binary_walk_one(data, pos, el, endian, one[0])
+    if len(one) > 1 and all(props[j][2] == "u1" for j in one) and count:
+        return _ply_binary_walk_bytes(data, pos, el, endian)
     for i in range(count):
         for j, (size, unpack, isz) in enumerate(plan):
             if pos + size > n:
@@ -317,13 +405,13 @@ def _ply_binary_walk(data, pos, el, endian):
             dt = np.dtype(endian + p[2])
             scalars[p[0]] = _gather(b, at, dt)
             continue
-        if p[3][0] == "f":
-            continue  # float lists (texture coordinates) are not kept
+        if not _kept_list(p):
+            continue  # float lists other than the texture coordinates are not kept
         dt = np.dtype(endian + p[3])
         k = np.asarray(lens[j], np.int64)
         start = np.repeat(at - np.concatenate([[0], np.cumsum(k)[:-1]]) * dt.itemsize, k)
         item = start + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
-        flat = _gather(b, item, dt).astype(np.int64)
+        flat = _gather(b, item, dt).astype(np.int64 if dt.kind != "f" else np.dtype(p[3]))
         lists[p[0]] = (k, flat)
     return _ply_list_table(props, scalars, lists, count), pos
 
@@ -373,6 +461,62 @@ def _ply_binary_walk_one(data, pos, el, endian, j0):
         item = np.repeat(at + sizes[j0] - first * dt.itemsize, k) + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
         lists[p[0]] = (k, _gather(b, item, dt).astype(np.int64))
     return _ply_list_table(props, scalars, lists, count), end
+
+
+def _ply_binary_walk_bytes(data, pos, el, endian):
+    """:func:`_ply_binary_walk` for records with several lists whose lengths
+    are one unsigned byte each (vertex indices and texture coordinates of
+    mixed polygons): the walk reads just those bytes, the rest is gathered
+    at once."""
+    props, count, name = el["props"], el["count"], el["name"]
+    lists = [j for j, p in enumerate(props) if p[1] == "list"]
+    isz = {j: np.dtype(props[j][3]).itemsize for j in lists}
+    fixed = [np.dtype(p[2]).itemsize for p in props]   # a scalar's bytes, a list's length byte
+    plan, gap = [], 0    # per list: bytes before its length byte since the previous list's items
+    for j, p in enumerate(props):
+        if p[1] == "list":
+            plan.append((gap, isz[j]))
+            gap = 0
+        else:
+            gap += fixed[j]
+    tail = gap
+    ks = [[] for _ in lists]
+    appends = [k.append for k in ks]
+    at = pos
+    try:
+        for _ in range(count):
+            for (g, sz), add in zip(plan, appends):
+                at += g
+                k = data[at]
+                add(k)
+                at += 1 + k * sz
+            at += tail
+    except IndexError:
+        raise MeshError(f"truncated: {name} {len(ks[-1])} of {count} is cut off") from None
+    if at > len(data):
+        raise MeshError(f"truncated: {name} {count - 1} of {count} is cut off")
+    K = {j: np.array(k, np.int64) for j, k in zip(lists, ks)}
+    items = sum(K[j] * isz[j] for j in lists)       # each record's list bytes
+    rec = np.zeros(count, np.int64)                 # where each record starts
+    np.cumsum(sum(fixed) + items[:-1], out=rec[1:])
+    rec += pos
+    b = np.frombuffer(data, np.uint8)
+    scalars, out = {}, {}
+    before = np.zeros(count, np.int64)   # bytes of the record before the current property
+    for j, p in enumerate(props):
+        at_j = rec + before
+        if p[1] == "scalar":
+            scalars[p[0]] = _gather(b, at_j, np.dtype(endian + p[2]))
+        elif _kept_list(p):
+            dt = np.dtype(endian + p[3])
+            k = K[j]
+            first = np.zeros(count, np.int64)
+            np.cumsum(k[:-1], out=first[1:])
+            item = np.repeat(at_j + 1 - first * dt.itemsize, k) + np.arange(int(k.sum()), dtype=np.int64) * dt.itemsize
+            vals = _gather(b, item, dt)
+            out[p[0]] = (k, vals.astype(np.int64) if dt.kind != "f" else vals.astype(np.dtype(p[3])))
+        before = before + fixed[j] + (K[j] * isz[j] if p[1] == "list" else 0)
+    return _ply_list_table(props, scalars, out, count), at
 
 
 def _ply_ascii_cast(col, code, name, prop, notes):
@@ -463,13 +607,17 @@ def _ply_ascii_element(text, per_line, props, count, name, notes):
         if over.size:
             i = int(over[0])
             raise MeshError(f"{name} {i}: list announces {int(k[i])} values, has {int(end[i] - cur[i] - 1)}")
-        if p[3][0] != "f":  # float lists (texture coordinates) are not kept
+        if _kept_list(p):  # float lists other than the texture coordinates are not kept
             first = np.zeros(count, np.int64)
             np.cumsum(k[:-1], out=first[1:])
             L = vals[np.repeat(cur + 1 - first, k) + np.arange(int(k.sum()))]
-            if not (L == np.round(L)).all():  # NaN fails too
+            if p[3][0] == "f":
+                L = _ply_ascii_cast(L, p[3], name, p[0], notes)
+            elif not (L == np.round(L)).all():  # NaN fails too
                 raise MeshError(f"{name}: list '{p[0]}' holds values that are not integers")
-            lists[p[0]] = (int(k[0]) if (k == k[0]).all() else k, L.astype(np.int64))
+            else:
+                L = L.astype(np.int64)
+            lists[p[0]] = (int(k[0]) if (k == k[0]).all() else k, L)
         cur += 1 + k
     extra = np.flatnonzero(cur < end)
     if extra.size:
@@ -478,7 +626,54 @@ def _ply_ascii_element(text, per_line, props, count, name, notes):
     return _ply_list_table(props, scalars, lists, count)
 
 
+def _written_texture(mesh, m):
+    """The texture columns of the ``m`` written faces, or None: (UV (m,6)
+    in the texture's float type, texnumber (m,) or None). Faces without
+    texture coordinates (a repair's, or the file's without any) get six
+    zeros and, where the file has ``texnumber``, a number naming no
+    texture: -1, or for an unsigned type the count of ``comment
+    TextureFile`` lines."""
+    tex = getattr(mesh, "texture", None)
+    if tex is None or not len(tex.uv):
+        return None
+    uv = np.asarray(tex.uv)
+    if uv.dtype not in (np.float32, np.float64):
+        uv = uv.astype(np.float64)
+    k = min(len(tex.face_uv), m)
+    T = np.asarray(tex.face_uv[:k], np.int64)
+    UV = np.zeros((m, 6), uv.dtype)
+    if T.size and T.min() >= 0:     # every face has UVs
+        has = slice(0, k)
+        UV[:k] = np.take(uv, T.reshape(-1), axis=0).reshape(-1, 6)
+    else:
+        has = np.flatnonzero((T >= 0).all(axis=1))
+        UV[has] = uv[T[has]].reshape(-1, 6)
+    tn = None
+    if tex.face_texnumber is not None:
+        src = np.asarray(tex.face_texnumber)
+        dt = src.dtype.newbyteorder("=")
+        if dt.kind == "u":
+            files = sum(1 for c in getattr(mesh, "comments", []) if c.split()[:2] == ["comment", "TextureFile"])
+            none = min(files, np.iinfo(dt).max)
+        else:
+            none = -1
+        tn = np.full(m, none, dt)
+        tn[has] = src[:k][has]
+    return UV, tn
+
+
 def ply_bytes(mesh, binary=True):
+    """The mesh as PLY bytes (binary little endian, or ascii).
+
+    Vertices: coordinates at the width read, other vertex properties,
+    colours and ``filled`` flags. Faces: the vertex indices, the
+    texture coordinates (``texcoord``, six values, in the float type
+    read) and ``texnumber`` of a textured mesh (see
+    :func:`_written_texture` for the faces without), and the ``filled``
+    flags. Ascii floats are the shortest text that reads back to the same
+    bits for texture coordinates, 17 (double) or 9 (float) significant
+    digits for coordinates.
+    """
     V = np.asarray(mesh.V, dtype=np.float64)
     F = written_faces(mesh)
     n, m = len(V), len(F)
@@ -500,6 +695,11 @@ def ply_bytes(mesh, binary=True):
         vfields.append(("filled", "u1"))
         vcols["filled"] = np.asarray(mesh.vertex_filled, dtype=np.uint8)
     ffields = [("n", "u1"), ("i", endian + "i4", (3,))]
+    tex = _written_texture(mesh, m)
+    if tex is not None:
+        ffields += [("nt", "u1"), ("t", endian + tex[0].dtype.str[1:], (6,))]
+        if tex[1] is not None:
+            ffields.append(("tn", endian + tex[1].dtype.str[1:]))
     if mesh.face_filled is not None:
         ffields.append(("filled", "u1"))
     head = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
@@ -507,6 +707,10 @@ def ply_bytes(mesh, binary=True):
             "comment written by shellrepair", f"element vertex {n}"]
     head += [f"property {_PLY_NAMES[dt[-2:]]} {name}" for name, dt in vfields]
     head += [f"element face {m}", "property list uchar int vertex_indices"]
+    if tex is not None:
+        head.append(f"property list uchar {_PLY_NAMES[tex[0].dtype.str[1:]]} {_PLY_TEXCOORD}")
+        if tex[1] is not None:
+            head.append(f"property {_PLY_NAMES[tex[1].dtype.str[1:]]} {_PLY_TEXNUMBER}")
     if mesh.face_filled is not None:
         head.append("property uchar filled")
     head.append("end_header")
@@ -522,6 +726,11 @@ def ply_bytes(mesh, binary=True):
         fa = np.frombuffer(buf, dtype=fdt, count=m, offset=len(header) + n * vdt.itemsize)
         fa["n"] = 3
         fa["i"] = F
+        if tex is not None:
+            fa["nt"] = 6
+            fa["t"] = tex[0]
+            if tex[1] is not None:
+                fa["tn"] = tex[1]
         if mesh.face_filled is not None:
             fa["filled"] = np.asarray(mesh.face_filled, dtype=np.uint8)
         del va, fa   # no view may outlive the function (the buffer stays resizable)
@@ -542,6 +751,13 @@ def ply_bytes(mesh, binary=True):
     if m:
         fl = ("3 " + np.char.mod("%d", F[:, 0]) + " " + np.char.mod("%d", F[:, 1]) + " "
               + np.char.mod("%d", F[:, 2]))
+        if tex is not None:
+            # the shortest text that reads back to the same bits (of the float type read)
+            fl = fl + " 6"
+            for j in range(6):
+                fl = fl + " " + tex[0][:, j].astype(str)
+            if tex[1] is not None:
+                fl = fl + " " + np.char.mod("%d", tex[1].astype(np.int64))
         if mesh.face_filled is not None:
             fl = fl + " " + np.char.mod("%d", np.asarray(mesh.face_filled, np.int64))
         out.append("\n".join(fl.tolist()) + "\n")
