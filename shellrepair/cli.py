@@ -103,7 +103,8 @@ def _parser():
     r.add_argument("--up", default="auto", type=_up_arg, metavar="auto|AXIS|X,Y,Z",
                    help="world up axis of the scan, for the pictures of --html and the aged look of --gltf: "
                         "x, y, z, -x, -y, -z or a vector; auto (default): inferred from the scan (a planar "
-                        "base's normal, else its clearly longest axis, else y), said in the report")
+                        "base's normal, else an axis 1.5 times longer than the others, else y), said in the "
+                        "report")
     _hole_options(r)
     _quiet(r)
 

@@ -4,17 +4,19 @@ from).
 
 The rule, in order (the first that applies decides):
 
-1. **The base.** A boundary loop (hole or border) whose rim is planar
-   (RMS distance to its plane at most :data:`BASE_PLANARITY` of its
-   diameter), wide (its area at least :data:`BASE_FOOTPRINT` of the scan's
-   outline seen along the plane's normal, the convex hull of its vertices
-   projected there: a hole in a statue's side is small beside it, the base
-   spans the footprint), with the scan on one side of its plane (at most
-   :data:`BASE_BELOW` of the vertices more than :data:`BASE_TOLERANCE` of
-   the diagonal below it) and standing away from it (the farthest vertex at
-   least :data:`BASE_MIN_HEIGHT` of the diagonal above it) is a base: up is
-   the plane's normal, towards the scan. With several, the loop of the
-   largest area (then the lowest id) decides.
+1. **The base.** A boundary loop (hole or border) is a base when its rim
+   is planar (RMS distance to its plane at most :data:`BASE_PLANARITY` of
+   its diameter) and wide (diameter at least :data:`BASE_MIN_SIZE` of the
+   scan's bounding-box diagonal), the scan's walls stand across its plane
+   (the faces along the rim, area-weighted, meet the plane at
+   :data:`BASE_WALL_DEGREES` or more: a neck or a plinth cut, not a hole in
+   a statue's side, whose rim lies along the plane), and the scan lies on
+   one side of the plane (at most :data:`BASE_BELOW` of the vertices more
+   than :data:`BASE_TOLERANCE` of the diagonal below it) and stands away from
+   it (the farthest vertex at least :data:`BASE_MIN_HEIGHT` of the diagonal
+   above it). Up is the plane's normal, towards the scan. With several, the
+   loop of the largest area (then the lowest id) decides. (An open vessel
+   looks the same: it stands on its mouth, and needs ``--up``.)
 2. **The longest axis.** Where the scan is clearly longer along one
    coordinate axis (the area-weighted spread of its faces along it at least
    :data:`ELONGATION` times that along the next), up is that axis, positive
@@ -37,13 +39,16 @@ import numpy as np
 
 from .errors import MeshError
 
-__all__ = ["infer_up", "scan_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_FOOTPRINT", "BASE_BELOW",
+__all__ = ["infer_up", "scan_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_MIN_SIZE", "BASE_WALL_DEGREES", "BASE_BELOW",
            "BASE_TOLERANCE", "BASE_MIN_HEIGHT", "ELONGATION", "SNAP_DEGREES"]
 
 #: A base's rim: RMS distance to its best-fit plane over its diameter, at most.
 BASE_PLANARITY = 0.03
-#: A base's area over the scan's outline seen along the base's normal, at least.
-BASE_FOOTPRINT = 0.25
+#: A base's rim diameter over the scan's bounding-box diagonal, at least.
+BASE_MIN_SIZE = 0.1
+#: The scan's walls along a base's rim meet its plane at this angle (degrees) or more,
+#: area-weighted mean of the rim faces' |cos| to the plane's normal at most cos(90 - this).
+BASE_WALL_DEGREES = 45.0
 #: Share of the scan's vertices that may lie below a base's plane.
 BASE_BELOW = 0.02
 #: How far below the plane (over the diagonal) a vertex counts as below.
@@ -51,7 +56,7 @@ BASE_TOLERANCE = 0.02
 #: The scan's farthest vertex above a base's plane, over the diagonal, at least.
 BASE_MIN_HEIGHT = 0.2
 #: Spread along the longest coordinate axis over that along the next, at least.
-ELONGATION = 1.3
+ELONGATION = 1.5
 #: An inferred axis this close (degrees) to a coordinate axis becomes it.
 SNAP_DEGREES = 10.0
 
@@ -120,37 +125,43 @@ def _snap(axis):
 
 
 def _base(V, F, used, diag):
-    """The base loop's (axis, loop id, footprint share), or None (rule 1)."""
-    from scipy.spatial import ConvexHull, QhullError
-
+    """The base loop's (axis, loop id, wall angle in degrees), or None (rule 1)."""
     from .holes import boundary_loops, loop_stats
+    from .topology import edge_topology
 
-    loops, _ = boundary_loops(F, len(V))
+    topo = edge_topology(F, len(V))
+    loops, _ = boundary_loops(F, len(V), topo)
+    if not loops:
+        return None
+    bhe = topo.boundary_he
+    face_of = dict(zip(map(tuple, topo.ends(bhe).tolist()), (bhe // 3).tolist()))
     P = V[used]
     best = None
     for i, lp in enumerate(loops):
+        if len(lp) < 3:
+            continue
         st = loop_stats(V, lp)
-        if st["planarity"] > BASE_PLANARITY or len(lp) < 3:
+        if st["planarity"] > BASE_PLANARITY or st["diameter"] < BASE_MIN_SIZE * diag:
             continue
         n = np.asarray(st["axis"], np.float64)
+        faces = [face_of.get((int(a), int(b)), face_of.get((int(b), int(a))))
+                 for a, b in zip(lp.tolist(), np.roll(lp, -1).tolist())]
+        T = V[F[np.array([f for f in faces if f is not None], np.int64)]]
+        cr = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+        a = np.linalg.norm(cr, axis=1)
+        if a.sum() <= 0:
+            continue
+        cos = float(np.abs(cr @ n).sum() / a.sum())          # area-weighted mean |cos| to the normal
+        if cos > np.sin(np.radians(BASE_WALL_DEGREES)):
+            continue                                          # the rim lies along the plane: a hole in a side
         d = (P - st["center"]) @ n
         if np.count_nonzero(d > BASE_TOLERANCE * diag) < np.count_nonzero(d < -BASE_TOLERANCE * diag):
             n, d = -n, -d        # the scan's side
         below = np.count_nonzero(d < -BASE_TOLERANCE * diag) / len(P)
         if below > BASE_BELOW or d.max() < BASE_MIN_HEIGHT * diag:
             continue
-        e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(n, e1)
-        try:
-            outline = ConvexHull(np.stack([P @ e1, P @ e2], axis=1)).volume    # (a 2-D hull's volume: its area)
-        except QhullError:
-            continue
-        share = st["area"] / outline if outline > 0 else 0.0
-        if share < BASE_FOOTPRINT:
-            continue
         if best is None or st["area"] > best[0]:
-            best = (st["area"], n, i, share)
+            best = (st["area"], n, i, float(np.degrees(np.arccos(min(cos, 1.0)))))
     return None if best is None else best[1:]
 
 
@@ -221,11 +232,11 @@ def infer_up(V, F):
         return {"axis": [0.0, 1.0, 0.0], "name": "y", "rule": "default", "how": "the file's y axis: a flat point"}
     base = _base(V, F, used, diag)
     if base is not None:
-        n, i, share = base
+        n, i, wall = base
         axis, name = _snap(n)
         return {"axis": axis, "name": name, "rule": "base", "loop": int(i),
-                "how": f"the normal of loop {i}, a planar opening of {100 * share:.0f} % of the scan's outline "
-                       "seen along it, with the scan on one side (its base)"}
+                "how": f"the normal of loop {i}, a planar opening the scan's walls meet at {wall:.0f} degrees, "
+                       "with the scan on one side (its base)"}
     k, elong = _longest(V, F)
     if elong >= ELONGATION:
         name = "xyz"[k]
