@@ -128,6 +128,24 @@ def test_a_planar_open_base_gives_the_up_axis_towards_the_scan():
         assert up["rule"] == "base" and up["axis"] == want
 
 
+def test_a_neck_cut_narrower_than_the_head_is_the_base():
+    # a head on a neck, about x, the neck cut open: stored head down (along
+    # -x), so the longest axis alone would say +x; the cut's walls stand
+    # across its plane and the scan is on one side: up is -x, towards the head
+    from test_bands import revolution
+
+    def profile(t):
+        x = 3.0 * t
+        head = np.sqrt(np.clip(1.0 - (x - 2.0) ** 2, 0.0, None))
+        return x, np.where(x <= 1.2, 0.3, head)
+
+    V, F = revolution(profile, nu=32, nt=60)
+    V = V * np.array([-1.0, 1.0, 1.0])
+    keep = V[F].mean(axis=1)[:, 0] < -0.5
+    up = infer_up(V, F[keep])
+    assert up["rule"] == "base" and up["axis"] == [-1.0, 0.0, 0.0]
+
+
 def test_no_base_and_no_longest_axis_keeps_the_files_y():
     V, F = icosphere(2)
     assert infer_up(V, F)["axis"] == [0.0, 1.0, 0.0]
