@@ -178,13 +178,27 @@ def _repair_one(task, options, progress):
     report["notes"] = list(repaired.notes)
     items = []
     if picture is not None:
+        from .closeups import closeups, pictures_record
         from .htmlreport import figure, file_sha256
+        from .upaxis import infer_up
 
-        fig = figure(mesh, repaired, report)
+        report["up"] = up = infer_up(mesh.V, mesh.F)   # the one axis of every picture of this scan
+        fig = figure(mesh, repaired, report, up=up["axis"])
         report["input_sha256"] = file_sha256(scan)
         report["picture"] = {"file": Path(picture).name, "alt": fig["alt"], "width": fig["width"],
                              "height": fig["height"]}
         items.append((picture, fig["png"]))
+        pics = closeups(mesh, repaired, report, up=up["axis"])
+        stem = Path(picture).name[:-len(".view.png")] if Path(picture).name.endswith(".view.png") \
+            else Path(picture).stem
+        files = {}
+        for kind, key, rows in (("fill", "region", pics["regions"]), ("failed", "id", pics["failed"])):
+            for r in rows:
+                if "png" in r:
+                    name = f"{stem}.{kind}-{r[key]}.png"
+                    files[("region" if kind == "fill" else "failed", r[key])] = name
+                    items.append((Path(picture).with_name(name), r["png"]))
+        report["pictures"] = pictures_record(fig, pics, files)
     del mesh  # a large scan: free what is no longer needed before writing
     payload = mesh_bytes(out, repaired)
     del repaired
@@ -326,8 +340,11 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
         Also write ``outdir/index.html`` (:func:`shellrepair.htmlreport.collection_page`):
         Table 1 of the collection and of each scan, each scan's holes,
         notes and provenance, and its before | after picture
-        (``outdir/<name>.view.png``, linked from the page). Rewritten after
-        every scan, like the summary.
+        (``outdir/<name>.view.png``, linked from the page), a close-up of
+        each filled region (``<name>.fill-<k>.png``, the 24 largest) and of
+        each hole that could not be filled (``<name>.failed-<id>.png``),
+        all with the scan's inferred up axis (:mod:`shellrepair.upaxis`,
+        recorded in its report). Rewritten after every scan, like the summary.
     connect_timeout : float, optional
         Seconds to wait for ``scheduler`` to answer and to have a worker
         (default :data:`CONNECT_TIMEOUT`).
@@ -549,9 +566,12 @@ def _index_section(i, r, options):
     pic = rep.get("picture")
     fig = None
     if pic:
-        fig = {"png": b"", "alt": pic["alt"], "width": pic["width"], "height": pic["height"]}
+        shots = rep.get("pictures") or {}
+        fig = {"png": b"", "alt": pic["alt"], "width": pic["width"], "height": pic["height"],
+               "camera": shots.get("overview"), "failed": [f["id"] for f in shots.get("failed", [])]}
     return scan_section(rep, fig, image_src=pic["file"] if pic else None, options=options,
-                        sha256=rep.get("input_sha256"), anchor=f"scan-{i}", level=2)
+                        sha256=rep.get("input_sha256"), anchor=f"scan-{i}", level=2,
+                        closeups=rep.get("pictures"))
 
 
 def _fmt(v, spec=""):

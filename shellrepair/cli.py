@@ -5,11 +5,12 @@
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
                        [--bridge auto|never|always] [--base auto|flat|faired]
                        [--leave-open ID,...] [--order-for ID=N,...] [--cap-flat ID,...] [--fill ID,...]
-                       [--plan PLAN.json] [--html PAGE.html] [--gltf OUT.glb] [--up AXIS]
+                       [--plan PLAN.json] [--html PAGE.html] [--gltf OUT.glb] [--up auto|AXIS|X,Y,Z]
     shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
                       [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
-                       [--before MESH] [--unit mm|cm|m] [--age A] [--up AXIS] [--gltf OUT.glb]
+                       [--look-at X,Y,Z] [--radius R] [--before MESH] [--unit mm|cm|m] [--age A]
+                       [--up auto|AXIS|X,Y,Z] [--gltf OUT.glb]
 
 Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
 exit status 2; no traceback, no output file. ``batch`` goes on past a bad
@@ -93,13 +94,17 @@ def _parser():
                         "(leave open, cap flat, fill, order N); added to the options above (default: none)")
     r.add_argument("--json", action="store_true", help="print the JSON report instead of the table (default: the table)")
     r.add_argument("--html", metavar="PAGE.html", default=None,
-                   help="also write a self-contained HTML page: Table 1, a before | after picture, the holes, "
-                        "provenance (default: none)")
+                   help="also write a self-contained HTML page: Table 1, a before | after picture, a close-up "
+                        "of each filled region (the 24 largest) and of each hole that could not be filled, the "
+                        "holes, provenance (default: none)")
     r.add_argument("--gltf", metavar="OUT.glb", default=None,
                    help="also write the repaired mesh with its aged look as binary glTF 2.0: the scan and "
                         "the filled part as two meshes, metallic-roughness materials (default: none)")
-    r.add_argument("--up", default="y", choices=("x", "y", "z", "-x", "-y", "-z"),
-                   help="world up axis of the scan, for the aged look of --gltf and --html (default y)")
+    r.add_argument("--up", default="auto", type=_up_arg, metavar="auto|AXIS|X,Y,Z",
+                   help="world up axis of the scan, for the pictures of --html and the aged look of --gltf: "
+                        "x, y, z, -x, -y, -z or a vector; auto (default): inferred from the scan (a planar "
+                        "base's normal, else an axis 1.5 times longer than the others, else y), said in the "
+                        "report")
     _hole_options(r)
     _quiet(r)
 
@@ -142,7 +147,14 @@ def _parser():
     v.add_argument("--highlight-filled", action="store_true",
                    help="tint the faces the repair synthesized and face the camera to them (default: off)")
     v.add_argument("--view", default=None,
-                   help="AZ,EL in degrees (default: 25,15, or facing the filled faces with --highlight-filled)")
+                   help="AZ,EL in degrees about the up axis: azimuth 0 looks along -z (along -x when up is z), "
+                        "elevation 90 looks down (default: 25,15, or facing the filled faces with "
+                        "--highlight-filled)")
+    v.add_argument("--look-at", default=None, metavar="X,Y,Z",
+                   help="the point the camera looks at, in the mesh's units (default: the centre of the "
+                        "meshes' bounding box)")
+    v.add_argument("--radius", type=float, default=None, metavar="R",
+                   help="frame the sphere of radius R about that point (default: the farthest vertex)")
     v.add_argument("--before", default=None,
                    help="also render this mesh (the scan as read) on the left, with one camera (default: none)")
     v.add_argument("--unit", choices=("mm", "cm", "m"), default=None,
@@ -150,8 +162,10 @@ def _parser():
                         "sets the pixel footprint and so the reflectance model")
     v.add_argument("--age", type=_age, default=None, metavar="A",
                    help="aging in [0, 1]: 0 all gilt, 1 all corroded (default 0.5)")
-    v.add_argument("--up", default="y", choices=("x", "y", "z", "-x", "-y", "-z"),
-                   help="world up axis: camera up and where rain comes from (default y)")
+    v.add_argument("--up", default="auto", type=_up_arg, metavar="auto|AXIS|X,Y,Z",
+                   help="world up axis: camera up and where rain comes from; x, y, z, -x, -y, -z or a vector; "
+                        "auto (default): the one the repair recorded (X.report.json beside X.repaired.ply), "
+                        "else inferred from the --before scan, else from the mesh (see repair --up)")
     v.add_argument("--gltf", metavar="OUT.glb", default=None,
                    help="also write the mesh with this look (material, age, up) as binary glTF 2.0 "
                         "(default: none)")
@@ -163,6 +177,20 @@ def _quiet(p):
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar and nothing on stdout but what --json asks for; errors and warnings "
                         "still on stderr, exit status unchanged (default: off)")
+
+
+def _up_arg(text):
+    """--up: auto, an axis name or a vector (checked here, used as given)."""
+    from .upaxis import parse_up
+
+    if text == "auto":
+        return text
+    try:
+        parse_up(text)
+    except MeshError:
+        raise argparse.ArgumentTypeError(f"must be auto, an axis (x, y, z, -x, -y, -z) or a vector X,Y,Z, "
+                                         f"not {text!r}") from None
+    return text
 
 
 def _age(text):
@@ -266,7 +294,7 @@ def _hole_options(p):
 
 #: Options whose value may start with a minus sign (``--view -46,12``), which
 #: argparse would take for an option of its own.
-_SIGNED = ("--view",)
+_SIGNED = ("--view", "--look-at", "--up")
 
 
 def _signed_values(argv):
@@ -275,7 +303,7 @@ def _signed_values(argv):
     out, i = [], 0
     while i < len(argv):
         a = argv[i]
-        if a in _SIGNED and i + 1 < len(argv) and re.match(r"^-[\d.]", argv[i + 1]):
+        if a in _SIGNED and i + 1 < len(argv) and re.match(r"^-([\d.]|[xyz]$)", argv[i + 1]):
             out.append(f"{a}={argv[i + 1]}")
             i += 2
         else:
@@ -459,18 +487,28 @@ def _repair(args):
     payload = mesh_bytes(out, repaired)
     if bar is not None:
         bar(f"writing {out.name}", 1, 2)
-    report["seconds_total"] = round(time.perf_counter() - t0, 4)
-    items = [(out, payload), (report_path, json.dumps(report, indent=1) + "\n")]
+    report["up"] = up = _scan_up(args.up, mesh)     # the one axis of every picture of this scan
+    html = None
     if page is not None:
+        from .closeups import closeups, pictures_record
         from .htmlreport import figure, file_sha256, scan_page
 
-        options = opts.as_dict()
-        items.append((page, scan_page(report, figure(mesh, repaired, report, up=_up(args.up)), options=options,
-                                      sha256=file_sha256(args.scan))))
+        if bar is not None:
+            bar("pictures", 0, 1)
+        fig = figure(mesh, repaired, report, up=up["axis"])
+        pics = closeups(mesh, repaired, report, up=up["axis"])
+        report["pictures"] = pictures_record(fig, pics)
+        html = scan_page(report, fig, options=opts.as_dict(), sha256=file_sha256(args.scan), closeups=pics)
+        if bar is not None:
+            bar("pictures", 1, 1)
+    report["seconds_total"] = round(time.perf_counter() - t0, 4)
+    items = [(out, payload), (report_path, json.dumps(report, indent=1) + "\n")]
+    if html is not None:
+        items.append((page, html))
     if glb is not None:
         from .gltf import gltf_bytes
 
-        items.append((glb, gltf_bytes(repaired, up=_up(args.up))))
+        items.append((glb, gltf_bytes(repaired, up=up["axis"])))
     # mesh, report (and page, glTF) appear together or not at all
     atomic_write_many(items)
     if bar is not None:
@@ -482,9 +520,46 @@ def _repair(args):
         print(table1_text(report))
         for n in report["notes"]:
             print(f"  note: {n}")
+        if "pictures" in report:
+            pr = report["pictures"]
+            print(f"  up: {up['name']} ({up['how']})")
+            print(f"  pictures: overview {pr['overview']}; {len(pr['regions'])} close-ups of "
+                  f"{len(pr['regions']) + len(pr['more'])} filled regions"
+                  + (f"; holes {', '.join(str(f['id']) for f in pr['failed'])} could not be filled (ringed)"
+                     if pr["failed"] else ""))
         print(f"  wrote {out} and {report_path}" + (f" and {page}" if page is not None else "")
               + (f" and {glb}" if glb is not None else ""))
     return 0
+
+
+def _recorded_up(mesh_path):
+    """The up axis a repair recorded for the scan a repaired mesh came from:
+    ``X.report.json`` beside ``X.repaired.ply`` (the repair's default names),
+    or None."""
+    p = Path(mesh_path)
+    stem = p.stem[:-len(".repaired")] if p.stem.endswith(".repaired") else None
+    if stem is None:
+        return None
+    try:
+        with open(p.with_name(stem + ".report.json"), encoding="utf-8") as fh:
+            rec = json.load(fh).get("up")
+        axis = [float(x) for x in rec["axis"]]
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        return None
+    if len(axis) != 3 or not any(axis):
+        return None
+    return dict(rec, how=f"{rec.get('how', rec.get('rule', 'recorded'))}; read from {stem}.report.json")
+
+
+def _triple(text, flag):
+    """Three numbers X,Y,Z of a flag, or a one-line error naming it."""
+    try:
+        t = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        t = ()
+    if len(t) != 3 or not all(x == x and abs(x) != float("inf") for x in t):
+        raise MeshError(f"{flag} must be three numbers X,Y,Z, got '{text}'")
+    return t
 
 
 def _glb_path(arg, others, what):
@@ -504,10 +579,14 @@ def _glb_path(arg, others, what):
     return glb
 
 
-def _up(name):
-    """The unit vector of an axis name (``y``, ``-z``, ...)."""
-    axis = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}[name[-1]]
-    return tuple(-a for a in axis) if name.startswith("-") else axis
+def _scan_up(arg, mesh):
+    """The up axis record of ``--up`` for a scan: given, or inferred from it
+    (:mod:`shellrepair.upaxis`)."""
+    from .upaxis import given_up, infer_up
+
+    return infer_up(mesh.V, mesh.F) if arg == "auto" else given_up(arg)
+
+
 
 
 def _batch(args):
@@ -547,6 +626,8 @@ def _batch(args):
 
 
 def _render(args):
+    import numpy as np
+
     from .io import read_mesh
     from . import render as rd
 
@@ -569,15 +650,25 @@ def _render(args):
         check_output_path(out, what="output")
         if _same_file(out, args.mesh) or (args.before and _same_file(out, args.before)):
             raise MeshError("output would overwrite an input mesh", out)
+    target = _triple(args.look_at, "--look-at") if args.look_at else None
+    if args.radius is not None and not (args.radius > 0 and args.radius < float("inf")):
+        raise MeshError(f"--radius must be a positive length, got {args.radius:g}")
     with _for_flag("--gltf"):
         glb = _glb_path(args.gltf, (args.mesh, out, args.before), "an input mesh or the picture")
     bar = terminal_bar(args.quiet)
     mesh = read_mesh(args.mesh, progress=bar)
     end_line()
+    before = None
+    if args.before:
+        before = read_mesh(args.before, progress=bar)
+        end_line()
     if args.highlight_filled and (mesh.face_filled is None or not mesh.face_filled.any()):
         print(f"warning: {args.mesh}: no face is flagged filled, so --highlight-filled shows nothing "
               "(render the output of shellrepair repair)", file=sys.stderr)
-    up = _up(args.up)
+    up_rec = _recorded_up(args.mesh) if args.up == "auto" else None
+    if up_rec is None:
+        up_rec = _scan_up(args.up, before if before is not None else mesh)
+    up = tuple(up_rec["axis"])
     how = "given"
     if view is None and args.highlight_filled and mesh.face_filled is not None and mesh.face_filled.any():
         view = rd.view_towards(mesh.V, mesh.F, mesh.face_filled, up=up)  # face the filled region
@@ -587,10 +678,11 @@ def _render(args):
         view = rd.DEFAULT_VIEW
     unit, unit_reason = (args.unit, "given") if args.unit else rd.infer_unit(mesh.V)
     kw = dict(size=(w, h), material=args.material, view=view, unit=unit, age=args.age, up=up)
+    if target is not None or args.radius is not None:   # a close-up: the camera framed on the sphere given
+        V = mesh.V if before is None else np.concatenate([before.V, mesh.V])
+        kw["camera"] = rd.frame_camera(V, (w, h), view, up=up, center=target, radius=args.radius)
     info = {}
-    if args.before:  # one camera for both panels
-        before = read_mesh(args.before, progress=bar)
-        end_line()
+    if before is not None:  # one camera for both panels
         img = rd.render_side_by_side(before.V, before.F, mesh.V, mesh.F, filled=mesh.face_filled,
                                      highlight_filled=args.highlight_filled,
                                      vertex_colors_before=before.vertex_colors,
@@ -611,8 +703,15 @@ def _render(args):
         return 0
     choice = info["model"]
     print(f"unit: {unit} ({unit_reason})")
+    print(f"up: {up_rec['name']} ({up_rec['how']})")
     az, el = f"{float(view[0]):.10g}", f"{float(view[1]):.10g}"
     print(f"view: {az},{el} ({how}; --view {az},{el} renders the same camera again)")
+    again = f"--up {up_rec['name']} --view {az},{el}"
+    if target is not None:
+        again += " --look-at " + ",".join(f"{x:.10g}" for x in target)
+    if args.radius is not None:
+        again += f" --radius {args.radius:.10g}"
+    print(f"camera: {again}")
     print(f"pixel footprint {info['footprint_um']:.3g} um: {choice.model} model ({choice.reason})")
     print(f"wrote {out}" + (f" and {glb}" if glb is not None else ""))
     return 0

@@ -3,8 +3,10 @@ and one per collection.
 
 A page holds, for each scan, the paper's Table 1 (holes before, after and
 the interpolation rate), a before | after picture aimed at the filled
-region with the synthesized faces tinted and the boundary left open drawn
-in its own colour, a per-hole table (holes left open first, every column
+region with the synthesized faces tinted, the boundary left open drawn
+in its own colour and the holes that could not be filled ringed, a
+close-up of each filled region and of each failed hole
+(:mod:`shellrepair.closeups`, shown by :func:`closeups_html`), a per-hole table (holes left open first, every column
 sortable by a click), the borders left open, the notes of loading, and a
 provenance block: software version, options, input file and its SHA-256.
 
@@ -31,7 +33,8 @@ import numpy as np
 
 from .report import repaired, status_counts
 
-__all__ = ["figure", "scan_page", "collection_page", "file_sha256", "OPEN_EDGE_COLOR", "FIGURE_SIZE"]
+__all__ = ["figure", "scan_page", "collection_page", "closeups_html", "draw_edges", "draw_open_edges", "file_sha256",
+           "OPEN_EDGE_COLOR", "FIGURE_SIZE"]
 
 #: Colour (sRGB) the edges left open (borders and holes not filled) are drawn in.
 OPEN_EDGE_COLOR = (40, 110, 235)
@@ -74,7 +77,24 @@ def _project(cam, P):
 
 
 def draw_open_edges(image, cam, V, F, color=OPEN_EDGE_COLOR, width=2):
-    """Draw the visible open edges of a mesh onto its render, in place.
+    """Draw the visible open edges of a mesh onto its render, in place
+    (:func:`draw_edges` of the edges one face uses).
+
+    Returns
+    -------
+    n_edges : int
+        Open edges found (drawn where visible).
+    """
+    from .topology import edge_topology
+
+    topo = edge_topology(np.asarray(F, np.int64), len(V))
+    E = topo.edges[topo.edge_count == 1]   # the boundary left open
+    draw_edges(image, cam, V, F, E, color=color, width=width)
+    return int(len(E))
+
+
+def draw_edges(image, cam, V, F, E, color=OPEN_EDGE_COLOR, width=2, scene=None):
+    """Draw the visible edges ``E`` of a mesh onto its render, in place.
 
     An edge is sampled about every pixel; a sample is drawn when the first
     surface hit on the ray from the eye to it is the sample itself (within
@@ -88,22 +108,23 @@ def draw_open_edges(image, cam, V, F, color=OPEN_EDGE_COLOR, width=2):
     cam : shellrepair.render.Camera
     V : (n,3) float64 array
     F : (m,3) int64 array
+    E : (k,2) int array
+        The edges (vertex pairs) to draw.
     color : (3,) ints
     width : int
         Line width in pixels.
+    scene : open3d RaycastingScene of V, F, optional
+        Reused across calls (several pictures of one mesh).
 
     Returns
     -------
     n_edges : int
-        Open edges found (drawn where visible).
+        ``len(E)``.
     """
     import open3d as o3d
 
-    from .topology import edge_topology
-
     V = np.asarray(V, np.float64)
-    topo = edge_topology(np.asarray(F, np.int64), len(V))
-    E = topo.edges[topo.edge_count == 1]   # the boundary left open
+    E = np.asarray(E, np.int64).reshape(-1, 2)
     if len(E) == 0:
         return 0
     a, b = V[E[:, 0]], V[E[:, 1]]
@@ -120,9 +141,10 @@ def draw_open_edges(image, cam, V, F, color=OPEN_EDGE_COLOR, width=2):
     P, col, row = P[ok], col[ok], row[ok]
     if len(P) == 0:
         return int(len(E))
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
-                        o3d.core.Tensor(np.asarray(F, np.uint32)))
+    if scene is None:
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
+                            o3d.core.Tensor(np.asarray(F, np.uint32)))
     d = P - cam.eye
     dist = np.linalg.norm(d, axis=1)
     rays = np.concatenate([np.broadcast_to(cam.eye, P.shape), d / dist[:, None]], axis=1).astype(np.float32)
@@ -142,13 +164,16 @@ def draw_open_edges(image, cam, V, F, color=OPEN_EDGE_COLOR, width=2):
 
 
 def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-bronze", unit=None,
-           up=(0.0, 1.0, 0.0)):
+           up=None):
     """Before | after picture of one repair, aimed at the filled region.
 
     Both panels use one camera (the filled faces' side, or the default view
     when nothing was filled); filled faces are tinted in the right panel;
     the edges left open are drawn in :data:`OPEN_EDGE_COLOR` in both (on
-    the left they show every hole and border of the scan).
+    the left they show every hole and border of the scan); the rims of the
+    holes the repair could not fill are drawn in
+    :data:`shellrepair.closeups.FAILED_COLOR` and ringed, with their id,
+    in both (the ring also where the surface hides the rim).
 
     Parameters
     ----------
@@ -162,24 +187,32 @@ def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-br
     unit : {"mm", "cm", "m"} or None
         The mesh's length unit; None infers it from the size
         (see :func:`shellrepair.render.render_mesh`).
-    up : (3,) floats
-        The scan's up axis.
+    up : (3,) floats or None
+        The scan's up axis; default the report's (``report["up"]``), else
+        inferred from ``before`` (:func:`shellrepair.upaxis.infer_up`).
 
     Returns
     -------
     fig : dict
         ``png`` (bytes), ``alt`` (str), ``width``, ``height``, ``view``
-        ((azimuth, elevation) or None), ``open_edges_before`` and
-        ``open_edges_after`` (counts).
+        ((azimuth, elevation) or None), ``camera`` (the ``shellrepair
+        render --before`` arguments that give the camera back),
+        ``open_edges_before`` and ``open_edges_after`` (counts), ``failed``
+        (ids of the failed holes marked).
     """
     from PIL import Image
 
     from . import render as rd
+    from .closeups import FAILED_COLOR, failed_holes
+    from .upaxis import scan_up, up_text
 
+    up = scan_up(before, report) if up is None else up
     filled = repaired.face_filled
     view, info = None, {}
     if filled is not None and np.any(filled):
-        view = rd.view_towards(repaired.V, repaired.F, filled)
+        view = rd.view_towards(repaired.V, repaired.F, filled, up=up)
+        if view is not None:
+            view = (round(view[0], 1), round(view[1], 1))   # as printed
     img = rd.render_side_by_side(before.V, before.F, repaired.V, repaired.F, size=size, material=material,
                                  filled=filled, highlight_filled=filled is not None, view=view,
                                  vertex_colors_before=before.vertex_colors,
@@ -190,14 +223,50 @@ def figure(before, repaired, report=None, *, size=FIGURE_SIZE, material="aged-br
     n_before = draw_open_edges(img[:, :W], cam, before.V, before.F)
     right = img[:, img.shape[1] - W:]
     n_after = draw_open_edges(right, cam, repaired.V, repaired.F)
+    failed = [dict(h, points=np.asarray(before.V, np.float64)[h["vertices"]])
+              for h in failed_holes(before, report) if h["vertices"] is not None]
+    if failed:
+        E = np.concatenate([np.stack([h["vertices"], np.roll(h["vertices"], -1)], axis=1) for h in failed])
+        for panel, m in ((img[:, :W], before), (right, repaired)):
+            draw_edges(panel, cam, m.V, m.F, E, color=FAILED_COLOR, width=3)
+        img[:, :W] = _ring_failed(img[:, :W], cam, failed, FAILED_COLOR)
+        right[:] = _ring_failed(right, cam, failed, FAILED_COLOR)
     buf = _io.BytesIO()
     Image.fromarray(img, "RGB").save(buf, format="PNG", optimize=True)
     what = "the scan before (left) and after (right) the repair"
     if report is not None:
         what += (f"; {report.get('holes_before', '?')} holes before, {report.get('holes_after', '?')} after; "
                  f"{int(np.count_nonzero(filled)) if filled is not None else 0} synthesized faces tinted")
+    if failed:
+        what += f"; holes {', '.join(str(h['id']) for h in failed)} could not be filled (ringed)"
+    shown = rd.DEFAULT_VIEW if view is None else view
     return {"png": buf.getvalue(), "alt": what, "width": int(img.shape[1]), "height": int(img.shape[0]),
-            "view": view, "open_edges_before": n_before, "open_edges_after": n_after}
+            "view": view, "camera": f"--up {up_text(up)} --view {shown[0]:.10g},{shown[1]:.10g}",
+            "open_edges_before": n_before, "open_edges_after": n_after, "failed": [h["id"] for h in failed]}
+
+
+def _ring_failed(image, cam, holes, color):
+    """A ring and the id of each hole (``id``, ``points`` its rim), around
+    the rim's projection (drawn
+    also where the surface hides the rim: a failed hole is never out of
+    the picture unmarked while in its frame)."""
+    from PIL import Image, ImageDraw
+
+    from .render import _font
+
+    im = Image.fromarray(np.ascontiguousarray(image), "RGB")
+    dr = ImageDraw.Draw(im)
+    font = _font(int(np.clip(round(image.shape[0] / 24), 10, 20)))
+    for h in holes:
+        col, row, z = _project(cam, h["points"])
+        ok = (z > 0) & np.isfinite(col) & np.isfinite(row)
+        if not np.any(ok):
+            continue
+        c0, r0 = float(col[ok].mean()), float(row[ok].mean())
+        rad = float(np.max(np.hypot(col[ok] - c0, row[ok] - r0))) + 6.0
+        dr.ellipse([c0 - rad, r0 - rad, c0 + rad, r0 + rad], outline=tuple(color), width=2)
+        dr.text((c0 + rad * 0.75, r0 - rad * 0.75 - 12), str(h["id"]), fill=tuple(color), font=font)
+    return np.asarray(im).copy()
 
 
 # --------------------------------------------------------------------------
@@ -315,7 +384,120 @@ def _figure_html(fig, src):
               f'<span class="sw" style="background:rgb{OPEN_EDGE_COLOR}"></span>edges left open')
     return (f'<figure><img src="{_e(src)}" alt="{_e(fig.get("alt", "before and after the repair"))}" '
             f'width="{int(fig.get("width", 0))}" height="{int(fig.get("height", 0))}">'
-            f"<figcaption><b>before</b> (left) | <b>after</b> (right), one camera. {legend}</figcaption></figure>")
+            f"<figcaption><b>before</b> (left) | <b>after</b> (right), one camera. {legend}{_failed_legend(fig)}"
+            f"{_camera_line(fig)}</figcaption></figure>")
+
+
+def _failed_legend(fig):
+    from .closeups import FAILED_COLOR
+
+    ids = fig.get("failed") or []
+    if not ids:
+        return ""
+    return (f'<span class="sw" style="background:rgb{tuple(FAILED_COLOR)}"></span>'
+            f'<span class="warn">holes that could not be filled (ringed: {_e(", ".join(map(str, ids)))})</span>')
+
+
+def _camera_line(fig):
+    return f"<br>Camera: <code>{_e(fig['camera'])}</code>" if fig.get("camera") else ""
+
+
+_CLOSEUP_CSS = (".closeups{display:grid;grid-template-columns:repeat(auto-fill,minmax(300px,1fr));gap:.4em 1em}"
+                ".closeups figure{margin:0}.closeups figcaption code{font-size:.8em;overflow-wrap:anywhere}"
+                ".failed{color:rgb%s;font-weight:600}")
+
+
+def _src(item):
+    """A picture's ``src``: the file written beside the page, else its PNG inline."""
+    if item.get("file"):
+        return item["file"]
+    return "data:image/png;base64," + base64.b64encode(item["png"]).decode("ascii")
+
+
+def _xyz(c):
+    return "-" if c is None else "(" + ", ".join(f"{float(x):.6g}" for x in c) + ")"
+
+
+def _holes_of(r):
+    h = r.get("holes") or []
+    return ("hole " if len(h) == 1 else "holes ") + ", ".join(map(str, h)) if h else "(no hole found)"
+
+
+def closeups_html(pics, *, level=3, scan=None, output=None):
+    """The page's part for :func:`shellrepair.closeups.closeups`: a close-up
+    per filled region (the largest), the other regions listed with their
+    centre, and a view of each hole that could not be filled.
+
+    Parameters
+    ----------
+    pics : dict
+        :func:`shellrepair.closeups.closeups`' result (pictures inline as
+        ``png``, or linked as ``file``).
+    level : int
+        Heading level.
+    scan, output : str, optional
+        The scan and the repaired mesh, for the ``shellrepair render``
+        command under each picture.
+
+    Returns
+    -------
+    html : str
+    """
+    from .closeups import FAILED_COLOR
+
+    h = f"h{level}"
+    regions, more, failed = pics.get("regions", []), pics.get("more", []), pics.get("failed", [])
+    n = len(regions) + len(more)
+    if not n and not failed:
+        return ""
+    cmd = (f"shellrepair render {output or 'OUT.ply'} --before {scan or 'SCAN'} --highlight-filled "
+           f"--size {{w}}x{{h}} -o pic.png ")
+    parts = [f"<style>{_CLOSEUP_CSS % (tuple(FAILED_COLOR),)}</style>"]
+
+    def fig_html(item, title):
+        w = int(item.get("width", 0))
+        ph = int(item.get("height", 0))
+        pw = (w - 8) // 2            # one panel (render_side_by_side's gap: 8)
+        again = cmd.format(w=pw, h=ph) + item["camera"]
+        return (f'<figure><img src="{_e(_src(item))}" alt="{_e(item.get("alt"))}" width="{w}" height="{ph}">'
+                f'<figcaption>{title}<br><code>{_e(again)}</code></figcaption></figure>')
+
+    if n:
+        parts.append(f"<{h}>Close-ups of the fills</{h}>")
+        parts.append(f"<p>{n} filled region{'s' if n != 1 else ''} (a tube or band joining two holes is one); "
+                     + (f"the {len(regions)} largest by area " if more else "each ")
+                     + "seen from the side that sees it best, before (left) | after (right) with one camera; "
+                     "under each, the command that renders it again. Up: <code>"
+                     + _e(_up_label(pics.get("up"))) + "</code>.</p>")
+        parts.append('<div class="closeups">' + "".join(
+            fig_html(r, f"<b>{r['region']}</b>: {_e(_holes_of(r))}, {r['faces']} faces, area {r['area']:.4g}, "
+                        f"centre {_e(_xyz(r['center']))}") for r in regions) + "</div>")
+    if more:
+        parts.append(f"<{h}>Other filled regions</{h}>")
+        parts.append('<table class="sortable regions"><thead><tr><th>region</th><th class="t">holes</th>'
+                     "<th>faces</th><th>area</th><th>x</th><th>y</th><th>z</th></tr></thead><tbody>"
+                     + "".join(f'<tr><td>{r["region"]}</td><td class="t">{_e(", ".join(map(str, r["holes"])))}'
+                               f'</td><td>{r["faces"]}</td><td data-v="{r["area"]}">{r["area"]:.4g}</td>'
+                               + "".join(f"<td>{float(x):.6g}</td>" for x in r["center"]) + "</tr>"
+                               for r in more) + "</tbody></table>")
+    if failed:
+        parts.append(f'<{h} class="failed">Holes that could not be filled</{h}>')
+        parts.append(f'<p>Their rims are drawn in <span class="sw" style="background:rgb{tuple(FAILED_COLOR)}">'
+                     "</span> here and ringed in the picture above.</p>")
+        figs = []
+        for f in failed:
+            title = (f'<span class="failed">hole {f["id"]}</span>: {f.get("edges")} edges, centre '
+                     f'{_e(_xyz(f.get("center")))}; {_e(f.get("reason"))}')
+            figs.append(fig_html(f, title) if f.get("camera") else
+                        f"<figure><figcaption>{title} (not located on the scan as read)</figcaption></figure>")
+        parts.append('<div class="closeups">' + "".join(figs) + "</div>")
+    return "\n".join(parts)
+
+
+def _up_label(up):
+    from .upaxis import up_text
+
+    return "y" if up is None else up_text(up)
 
 
 def _tint():
@@ -369,7 +551,8 @@ def _provenance(report, options, sha256, version):
     return "<dl>" + "".join(f"<dt>{_e(k)}</dt><dd><code>{_e(v)}</code></dd>" for k, v in items) + "</dl>"
 
 
-def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None, anchor=None, level=2):
+def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None, anchor=None, level=2,
+                 closeups=None):
     """The HTML of one scan's repair (a ``<section>``).
 
     Parameters
@@ -389,6 +572,9 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
         The section's id.
     level : int
         Heading level of the scan's title.
+    closeups : dict, optional
+        From :func:`shellrepair.closeups.closeups`: shown after the picture
+        (:func:`closeups_html`).
 
     Returns
     -------
@@ -410,6 +596,8 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
     if fig is not None:
         src = image_src or "data:image/png;base64," + base64.b64encode(fig["png"]).decode("ascii")
         parts.append(_figure_html(fig, src))
+    if closeups:
+        parts.append(closeups_html(closeups, level=level + 1, scan=report.get("file"), output=report.get("output")))
     parts.append(f"<{h2}>Holes</{h2}>")
     parts.append(_hole_rows(report) if report.get("holes") else "<p>No hole found.</p>")
     parts.append(f"<{h2}>Borders left open</{h2}>")
@@ -438,7 +626,7 @@ def _page(title, body):
             f"<script>{_JS}</script>\n</body></html>\n")
 
 
-def scan_page(report, fig=None, *, options=None, sha256=None):
+def scan_page(report, fig=None, *, options=None, sha256=None, closeups=None):
     """A self-contained page for one repaired scan (picture embedded).
 
     Parameters
@@ -448,6 +636,8 @@ def scan_page(report, fig=None, *, options=None, sha256=None):
         From :func:`figure`.
     options : dict, optional
     sha256 : str, optional
+    closeups : dict, optional
+        From :func:`shellrepair.closeups.closeups`.
 
     Returns
     -------
@@ -455,7 +645,7 @@ def scan_page(report, fig=None, *, options=None, sha256=None):
     """
     name = Path(str(report.get("file", "scan"))).name
     body = ("<h1>Repair of " + _e(name) + "</h1>\n"
-            + scan_section(report, fig, options=options, sha256=sha256, level=2))
+            + scan_section(report, fig, options=options, sha256=sha256, level=2, closeups=closeups))
     return _page(f"shellrepair: {name}", body)
 
 

@@ -137,7 +137,7 @@ DEFAULT_VIEW = (25.0, 15.0)
 
 
 def frame_camera(V, size=(1024, 768), view=None, *, fov_y_deg=30.0, up=(0.0, 1.0, 0.0),
-                 margin=1.08):
+                 margin=1.08, center=None, radius=None):
     """Camera that frames the points V.
 
     Parameters
@@ -155,6 +155,12 @@ def frame_camera(V, size=(1024, 768), view=None, *, fov_y_deg=30.0, up=(0.0, 1.0
         World up axis (scans are usually y-up).
     margin : float
         Bounding sphere is scaled by this before fitting.
+    center : (3,) sequence or None
+        The point looked at (a close-up's target); default the centre of
+        V's bounding box.
+    radius : float or None
+        Radius of the sphere about ``center`` to frame; default the
+        farthest point of V from ``center``.
 
     Returns
     -------
@@ -177,9 +183,14 @@ def frame_camera(V, size=(1024, 768), view=None, *, fov_y_deg=30.0, up=(0.0, 1.0
     az, el = DEFAULT_VIEW if view is None else (float(view[0]), float(view[1]))
     up = np.asarray(up, dtype=np.float64)
     up = up / np.linalg.norm(up)
-    center = 0.5 * (V.min(axis=0) + V.max(axis=0))
-    radius = float(np.sqrt(np.max(np.sum((V - center) ** 2, axis=1))))
-    radius = radius if radius > 0.0 else 1.0
+    center = 0.5 * (V.min(axis=0) + V.max(axis=0)) if center is None else np.asarray(center, np.float64)
+    if center.shape != (3,) or not np.all(np.isfinite(center)):
+        raise _InputError("the camera's target must be 3 finite numbers, got %s" % (center,))
+    if radius is None:
+        radius = float(np.sqrt(np.max(np.sum((V - center) ** 2, axis=1))))
+    elif not (np.isfinite(radius) and radius > 0.0):
+        raise _InputError("the radius to frame must be a positive number, got %r" % (radius,))
+    radius = float(radius) if radius > 0.0 else 1.0
     # an orthonormal frame around up: a = "front" axis, b = "side" axis
     ref = np.array([0.0, 0.0, 1.0]) if abs(up[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
     a = ref - up * (ref @ up)
@@ -337,7 +348,7 @@ def _scaled_camera(cam, s):
 def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                 highlight_filled=False, view=None, vertex_colors=None, coverage=None,
                 gild=None, crust=None, camera=None, unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0),
-                seed=0, supersample=2, legend=None, info=None):
+                seed=0, supersample=2, legend=None, info=None, scene=None):
     """Render a triangle mesh with the aged-metal shading.
 
     Parameters
@@ -383,6 +394,9 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     info : dict or None
         If given, filled with the camera, the :class:`ModelChoice`, the unit,
         the coverage source, the aging maps and timings.
+    scene : open3d.t.geometry.RaycastingScene or None
+        The ray-casting scene of exactly ``V, F`` when several pictures of
+        one mesh are made (its BVH is built once); default: built here.
 
     Returns
     -------
@@ -420,9 +434,10 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     cam_s = _scaled_camera(cam, ss)
     W, H = cam_s.width, cam_s.height
 
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
-                        o3d.core.Tensor(F.astype(np.uint32)))
+    if scene is None:
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)),
+                            o3d.core.Tensor(F.astype(np.uint32)))
     rays_all = cam_s.rays()
     hit = scene.cast_rays(o3d.core.Tensor(rays_all))
     t_hit = hit["t_hit"].numpy().reshape(H, W)
@@ -628,7 +643,7 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
                         vertex_colors_before=None, vertex_colors_after=None, gap=8,
                         unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0), seed=0,
                         supersample=2, labels=("before", "after"), legend="filled by the repair",
-                        info=None):
+                        info=None, camera=None, maps=None, scenes=(None, None)):
     """Before and after renders with one shared camera, side by side.
 
     Parameters
@@ -653,6 +668,15 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     info : dict or None
         Filled with ``{"before": {...}, "after": {...}}`` as in
         :func:`render_mesh`.
+    camera : Camera or None
+        Use this camera for both panels (``size`` and ``view`` are then
+        ignored); default: framed on both meshes.
+    maps : shellrepair.aging.AgingMaps or None
+        The aging maps of the repaired mesh, when already computed (several
+        pictures of one repair); default: computed here.
+    scenes : (scene, scene)
+        The ray-casting scenes of the scan and of the repaired mesh, when
+        already built (see :func:`render_mesh`); default: built here.
     Other parameters are as in :func:`render_mesh`.
 
     Returns
@@ -674,7 +698,7 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
 
     Vb, Fb = _validate(V_before, F_before)
     Va, Fa = _validate(V_after, F_after)
-    cam = frame_camera(np.concatenate([Vb, Va]), size, view, up=up)
+    cam = camera if camera is not None else frame_camera(np.concatenate([Vb, Va]), size, view, up=up)
     um, _, _ = _unit_um(unit_um if unit_um is not None else unit, Va)
     mat = mt.get_material(material)
     cov = {"before": None, "after": None}
@@ -684,9 +708,13 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
         scan = None
         if filled is not None and np.shape(filled) == (len(Fa),):
             scan = ~np.asarray(filled, bool)
-        maps = ag.aging_maps(Va, Fa, age=ag.DEFAULT_AGE if age is None else float(age), up=up, seed=seed,
-                             scan=scan)
-        _, near = cKDTree(Va).query(Vb)
+        if maps is None:
+            maps = ag.aging_maps(Va, Fa, age=ag.DEFAULT_AGE if age is None else float(age), up=up, seed=seed,
+                                 scan=scan)
+        if len(Va) >= len(Vb) and np.array_equal(Va[:len(Vb)], Vb):
+            near = np.arange(len(Vb))       # a repair keeps the scan's vertices first: the same points
+        else:
+            _, near = cKDTree(Va).query(Vb)
         cov = {"before": maps.coverage[near], "after": maps.coverage}
         gld = {"before": maps.gild[near], "after": maps.gild}
         crs = {"before": maps.crust[near], "after": maps.crust}
@@ -695,12 +723,12 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     panels = {}
     common = dict(material=material, camera=cam, unit=um, age=age, up=up, seed=seed,
                   supersample=supersample)
-    for key, (V, F, vc, fl, hl, lg) in {
-            "before": (Vb, Fb, vertex_colors_before, None, False, None),
-            "after": (Va, Fa, vertex_colors_after, filled, highlight_filled, legend)}.items():
+    for key, (V, F, vc, fl, hl, lg, sc) in {
+            "before": (Vb, Fb, vertex_colors_before, None, False, None, scenes[0]),
+            "after": (Va, Fa, vertex_colors_after, filled, highlight_filled, legend, scenes[1])}.items():
         sub = {}
         img = render_mesh(V, F, vertex_colors=vc, filled=fl, highlight_filled=hl, coverage=cov[key],
-                          gild=gld[key], crust=crs[key], legend=lg, info=sub, **common)
+                          gild=gld[key], crust=crs[key], legend=lg, info=sub, scene=sc, **common)
         if labels:
             img = draw_label(img, labels[0] if key == "before" else labels[1])
         panels[key] = img
