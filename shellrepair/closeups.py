@@ -336,7 +336,7 @@ def _pair(before, repaired, cam, up, unit, maps, material, failed_E, known):
     """Before | after with one camera, open edges drawn (failed rims in
     FAILED_COLOR); ``known``: per mesh, its open edges and ray-casting scene."""
     from . import render as rd
-    from .htmlreport import draw_edges
+    from .overlay import draw_edges
 
     img = rd.render_side_by_side(before.V, before.F, repaired.V, repaired.F, camera=cam, maps=maps,
                                  material=material, filled=repaired.face_filled,
