@@ -8,10 +8,15 @@ in its own colour, a per-hole table (holes left open first, every column
 sortable by a click), the borders left open, the notes of loading, and a
 provenance block: software version, options, input file and its SHA-256.
 
-The page needs no server and no network: its style and its one small
-sorting script are inline; a scan page embeds its picture as a ``data:``
-URI, a collection page (``OUTDIR/index.html`` of ``shellrepair batch``)
-links the pictures written beside it.
+Below the picture, a 3D view of the repaired mesh (:mod:`shellrepair.webview`):
+turned, moved and zoomed with the mouse or by touch, the filled faces
+tinted (a checkbox), the edges left open drawn, a button per filled
+region that frames it.
+
+The page needs no server and no network: its style and its scripts are
+inline; a scan page embeds its picture as a ``data:`` URI and its view's
+mesh as JSON, a collection page (``OUTDIR/index.html`` of ``shellrepair
+batch``) links the pictures and the views' scripts written beside it.
 
     fig = figure(mesh, repaired, report)         # PNG bytes and alt text
     html = scan_page(report, fig, options=opts)  # str
@@ -369,7 +374,8 @@ def _provenance(report, options, sha256, version):
     return "<dl>" + "".join(f"<dt>{_e(k)}</dt><dd><code>{_e(v)}</code></dd>" for k, v in items) + "</dl>"
 
 
-def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None, anchor=None, level=2):
+def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None, anchor=None, level=2,
+                 view=None, view_src=None):
     """The HTML of one scan's repair (a ``<section>``).
 
     Parameters
@@ -389,6 +395,12 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
         The section's id.
     level : int
         Heading level of the scan's title.
+    view : dict, optional
+        A 3D view's payload (:func:`shellrepair.webview.view_payload`),
+        embedded; shown below the picture.
+    view_src : str, optional
+        Instead of ``view``: the relative path of the view's script file
+        (:func:`shellrepair.webview.payload_script`), loaded when shown.
 
     Returns
     -------
@@ -410,6 +422,10 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
     if fig is not None:
         src = image_src or "data:image/png;base64," + base64.b64encode(fig["png"]).decode("ascii")
         parts.append(_figure_html(fig, src))
+    if view is not None or view_src is not None:
+        from .webview import viewer_html
+
+        parts.append(viewer_html(view, f"view-{anchor}" if anchor else "view", src=view_src))
     parts.append(f"<{h2}>Holes</{h2}>")
     parts.append(_hole_rows(report) if report.get("holes") else "<p>No hole found.</p>")
     parts.append(f"<{h2}>Borders left open</{h2}>")
@@ -430,6 +446,10 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
 
 
 def _page(title, body):
+    if 'class="srv"' in body:     # a 3D view: its style and script, once
+        from .webview import viewer_assets
+
+        body += "\n" + viewer_assets()
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
@@ -438,8 +458,8 @@ def _page(title, body):
             f"<script>{_JS}</script>\n</body></html>\n")
 
 
-def scan_page(report, fig=None, *, options=None, sha256=None):
-    """A self-contained page for one repaired scan (picture embedded).
+def scan_page(report, fig=None, *, options=None, sha256=None, view=None):
+    """A self-contained page for one repaired scan (picture and 3D view embedded).
 
     Parameters
     ----------
@@ -448,6 +468,8 @@ def scan_page(report, fig=None, *, options=None, sha256=None):
         From :func:`figure`.
     options : dict, optional
     sha256 : str, optional
+    view : dict, optional
+        From :func:`shellrepair.webview.view_payload`: the page gets a 3D view.
 
     Returns
     -------
@@ -455,7 +477,7 @@ def scan_page(report, fig=None, *, options=None, sha256=None):
     """
     name = Path(str(report.get("file", "scan"))).name
     body = ("<h1>Repair of " + _e(name) + "</h1>\n"
-            + scan_section(report, fig, options=options, sha256=sha256, level=2))
+            + scan_section(report, fig, options=options, sha256=sha256, level=2, view=view))
     return _page(f"shellrepair: {name}", body)
 
 
