@@ -445,10 +445,11 @@ def _repair(args):
     items = [(out, payload), (report_path, json.dumps(report, indent=1) + "\n")]
     if page is not None:
         from .htmlreport import figure, file_sha256, scan_page
+        from .webview import view_payload
 
         options = opts.as_dict()
         items.append((page, scan_page(report, figure(mesh, repaired, report, up=_up(args.up)), options=options,
-                                      sha256=file_sha256(args.scan))))
+                                      sha256=file_sha256(args.scan), view=view_payload(repaired, up=_up(args.up)))))
     if glb is not None:
         from .gltf import gltf_bytes
 
