@@ -147,6 +147,16 @@
   }
 
   // ------------------------------------------------------------- the view
+  function context(canvas, antialias) {
+    // preserveDrawingBuffer: the page's pixels can be read back (tests, screenshots)
+    var o = {antialias: antialias, preserveDrawingBuffer: true};
+    return canvas.getContext('webgl2', o) || canvas.getContext('webgl', o);
+  }
+  function software(gl) {
+    var info = gl.getExtension('WEBGL_debug_renderer_info');
+    var name = info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER);
+    return /swiftshader|llvmpipe|softpipe|software/i.test(String(name));
+  }
   function View(el, d) {
     this.el = el; this.d = d; this.tint = true;
     el.textContent = '';
@@ -154,9 +164,18 @@
     var canvas = document.createElement('canvas');
     var info = document.createElement('div'); info.className = 'srv-info';
     el.appendChild(canvas); el.appendChild(bar); el.appendChild(info);
+    var gl = context(canvas, true);
+    if (gl && software(gl)) {
+      // a software renderer (no GPU) draws a large mesh's first frame in half the time without
+      // antialiasing: a new canvas without it
+      var ext = gl.getExtension('WEBGL_lose_context');
+      if (ext) ext.loseContext();
+      var plain = document.createElement('canvas');
+      el.replaceChild(plain, canvas);
+      canvas = plain;
+      gl = context(canvas, false);
+    }
     this.canvas = canvas;
-    var opts = {antialias: true, preserveDrawingBuffer: true};
-    var gl = canvas.getContext('webgl2', opts) || canvas.getContext('webgl', opts);
     if (!gl) throw {noWebGL: true};
     this.gl = gl;
     this.uint = d.index_bytes === 4;

@@ -6,9 +6,9 @@ inlined into the page, so the page needs no network and opens from disk):
 
 - above :data:`DISPLAY_FACES` faces the copy is decimated (quadric edge
   collapse, fast-simplification); each face of the copy keeps the filled
-  flag and the filled region of the original face nearest to its centroid,
-  and each vertex the material of the original surface nearest to it
-  (barycentric on that face). The repaired mesh itself is never changed;
+  flag and the filled region of the original face it stands for, and each
+  vertex the mean material of the original vertices collapsed into it.
+  The repaired mesh itself is never changed;
 - the material is glTF's metallic-roughness approximation of the aged
   look, from the same aging maps and the same formulas as the ``.glb``
   export (:func:`shellrepair.gltf.pbr_approximation`);
@@ -90,10 +90,21 @@ def filled_regions(F, filled):
     return region
 
 
+def _face_keys(T, n):
+    s = np.sort(np.asarray(T, np.int64), axis=1)
+    return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+
+
 def display_copy(V, F, *, max_faces=DISPLAY_FACES):
     """The mesh as a page draws it: itself up to ``max_faces`` faces, else a
-    decimated copy, with where each of its faces and vertices lies on the
-    original.
+    decimated copy, with where its faces and vertices come from.
+
+    Decimation is fast-simplification's quadric edge collapse. Each vertex
+    of the copy stands for the original vertices collapsed into it (read
+    from the collapses the library reports; a face of the copy is an
+    original face whose corners moved, so each face knows its original).
+    Should a version of the library number its output otherwise, the
+    nearest original vertex and face centroid are used instead.
 
     Parameters
     ----------
@@ -106,50 +117,65 @@ def display_copy(V, F, *, max_faces=DISPLAY_FACES):
     -------
     Vd : (p,3) float64 array
     Fd : (q,3) int64 array
-        ``q <= max_faces`` (the mesh itself when ``m <= max_faces``).
+        ``q <= max_faces`` (the mesh itself, unused vertices dropped, when
+        ``m <= max_faces``).
     face_source : (q,) int64 array
-        The original face nearest to each face's centroid.
-    vertex_face : (p,) int64 array
-        The original face nearest to each vertex.
-    vertex_bary : (p,3) float64 array
-        The nearest point's barycentric coordinates on that face.
+        The original face each face of the copy stands for.
+    vertex_map : (n,) int64 array
+        The vertex of the copy each original vertex went to (-1 for a
+        vertex of no face).
     """
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
     if max_faces < 1:
         raise ValueError(f"the face budget must be positive, got {max_faces}")
+    n = len(V)
     if len(F) <= max_faces:
-        used = np.zeros(len(V), bool)
+        used = np.zeros(n, bool)
         used[F.ravel()] = True
         keep = np.flatnonzero(used)
-        remap = np.full(len(V), -1, np.int64)
+        remap = np.full(n, -1, np.int64)
         remap[keep] = np.arange(len(keep))
-        Fd = remap[F]
-        # each vertex on one of its own faces, at that corner
-        vf = np.empty(len(V), np.int64)
-        corner = np.empty(len(V), np.int64)
-        vf[F.ravel()[::-1]] = np.repeat(np.arange(len(F)), 3)[::-1]
-        corner[F.ravel()[::-1]] = np.tile(np.arange(3), len(F))[::-1]
-        bary = np.zeros((len(keep), 3))
-        bary[np.arange(len(keep)), corner[keep]] = 1.0
-        return V[keep], Fd, np.arange(len(F), dtype=np.int64), vf[keep], bary
+        return V[keep], remap[F], np.arange(len(F), dtype=np.int64), remap
     import fast_simplification
-    import open3d as o3d
 
-    Vd, Fd = fast_simplification.simplify(V.astype(np.float32), F.astype(np.int32),
-                                          target_reduction=1.0 - max_faces / len(F))
+    Vd, Fd, collapses = fast_simplification.simplify(V.astype(np.float32), F.astype(np.int32),
+                                                     target_reduction=1.0 - max_faces / len(F),
+                                                     return_collapses=True)
     Vd = np.asarray(Vd, np.float64)
     Fd = np.asarray(Fd, np.int64)
-    # where the copy lies on the original: its nearest surface point
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
-    near_c = scene.compute_closest_points(o3d.core.Tensor(Vd[Fd].mean(axis=1).astype(np.float32)))
-    near_v = scene.compute_closest_points(o3d.core.Tensor(Vd.astype(np.float32)))
-    face_source = near_c["primitive_ids"].numpy().astype(np.int64)
-    vertex_face = near_v["primitive_ids"].numpy().astype(np.int64)
-    uv = near_v["primitive_uvs"].numpy().astype(np.float64)
-    bary = np.column_stack([1.0 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]])
-    return Vd, Fd, face_source, vertex_face, np.clip(bary, 0.0, 1.0)
+    collapses = np.asarray(collapses, np.int64).reshape(-1, 2)
+    # each collapse (kept, removed) sends a vertex to another; follow the chains
+    parent = np.arange(n, dtype=np.int64)
+    parent[collapses[:, 1]] = collapses[:, 0]
+    while True:
+        nxt = parent[parent]
+        if np.array_equal(nxt, parent):
+            break
+        parent = nxt
+    used = np.zeros(n, bool)
+    used[F.ravel()] = True
+    roots = np.unique(parent[used])
+    rank = np.full(n, -1, np.int64)
+    rank[roots] = np.arange(len(roots))
+    vertex_map = np.where(used, rank[parent], -1)
+    # the original faces whose corners stay apart are the copy's faces, one for one
+    M = vertex_map[F]
+    alive = np.flatnonzero((M[:, 0] != M[:, 1]) & (M[:, 1] != M[:, 2]) & (M[:, 0] != M[:, 2]))
+    ok = len(roots) == len(Vd) and len(alive) == len(Fd)
+    if ok:
+        kd, ka = _face_keys(Fd, len(Vd)), _face_keys(M[alive], len(Vd))
+        od, oa = np.argsort(kd, kind="stable"), np.argsort(ka, kind="stable")
+        ok = np.array_equal(kd[od], ka[oa])
+    if ok:
+        face_source = np.empty(len(Fd), np.int64)
+        face_source[od] = alive[oa]
+        return Vd, Fd, face_source, vertex_map
+    from scipy.spatial import cKDTree   # another numbering: the nearest instead
+
+    vertex_map = np.where(used, cKDTree(Vd).query(V)[1], -1).astype(np.int64)
+    face_source = cKDTree(V[F].mean(axis=1)).query(Vd[Fd].mean(axis=1))[1].astype(np.int64)
+    return Vd, Fd, face_source, vertex_map
 
 
 def _b64(a):
@@ -221,11 +247,14 @@ def view_payload(mesh, *, up=(0.0, 1.0, 0.0), age=None, seed=0, material="aged-b
                          scan=~filled if filled.any() else None)
     base, metallic, rough = pbr_approximation(maps.coverage, maps.gild, maps.crust, material)
     region = filled_regions(F, filled)
-    Vd, Fd, src, vface, vbary = display_copy(V, F, max_faces=max_faces)
-    corners = F[vface]                                    # (p,3): the face each display vertex lies on
-    w = vbary[:, :, None]
-    base_d = (w * base[corners]).sum(axis=1)
-    mr_d = np.column_stack([(vbary * metallic[corners]).sum(axis=1), (vbary * rough[corners]).sum(axis=1)])
+    Vd, Fd, src, vmap = display_copy(V, F, max_faces=max_faces)
+    # each vertex of the copy: the mean of the original vertices it stands for
+    on = vmap >= 0
+    cnt = np.maximum(np.bincount(vmap[on], minlength=len(Vd)), 1)
+    look = np.column_stack([base, metallic, rough])[on]
+    look_d = np.column_stack([np.bincount(vmap[on], weights=look[:, j], minlength=len(Vd))
+                              for j in range(5)]) / cnt[:, None]
+    base_d, mr_d = look_d[:, :3], look_d[:, 3:]
     reg_d = region[src]
     order = np.lexsort((np.arange(len(Fd)), reg_d))      # scan (-1) first, then region by region
     Fd, reg_d = Fd[order], reg_d[order]
