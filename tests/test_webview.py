@@ -14,12 +14,12 @@ scrolled to, a message without WebGL, and no console error.
 
 import json
 import re
-import shutil
 import subprocess
 
 import numpy as np
 import pytest
 
+from chromium import FLAGS, Chromium, find_chromium
 from eval.shapes import icosphere
 from shellrepair.aging import aging_maps
 from shellrepair.gltf import pbr_approximation
@@ -171,21 +171,16 @@ def test_the_page_carries_the_view_and_its_script_and_fetches_nothing(repaired):
 # --------------------------------------------------------------------------
 # in a real browser
 # --------------------------------------------------------------------------
-def _chromium():
-    for name in ("chromium", "chromium-browser", "google-chrome"):
-        p = shutil.which(name)
-        if p:
-            return p
-    pytest.skip("no chromium on this machine (make test-all installs Debian's chromium where apt can)")
+def _browser():
+    browser = find_chromium()
+    if browser is None:
+        pytest.skip("no chromium on this machine (make test-all installs Debian's chromium where apt can)")
+    return browser
 
 
-# WebGL in headless Chromium without a GPU: ANGLE on SwiftShader
-_FLAGS = ["--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-          "--allow-file-access-from-files", "--enable-logging=stderr", "--v=0"]
-
-_HARNESS = """<!DOCTYPE html><html><body>
-<iframe id="f" src="PAGE" style="width:1000px;height:800px"></iframe><pre id="out">pending</pre>
-<script>
+# what a person sees, read in the page: each view scrolled to in turn (it starts when shown),
+# then the first view's pixels before and after its buttons are clicked
+_PROBE = """new Promise(function (done) {
 var BG = [233, 231, 225];
 function image(cv) {
   var c = document.createElement('canvas'); c.width = cv.width; c.height = cv.height;
@@ -206,81 +201,72 @@ function changed(a, b) {
     if (Math.abs(a[i] - b[i]) + Math.abs(a[i + 1] - b[i + 1]) + Math.abs(a[i + 2] - b[i + 2]) > 24) n++;
   return n;
 }
-function states(d) {
-  return Array.prototype.map.call(d.querySelectorAll('.srv'), function (e) { return e.dataset.state || ''; });
-}
-document.getElementById('f').addEventListener('load', function () {
-  var d = this.contentDocument, r = {at_load: states(d)}, t0 = Date.now(), els = d.querySelectorAll('.srv'), k = 0;
-  function settled(e) { return /^(drawn|no-webgl|error)$/.test(e.dataset.state || ''); }
-  (function next() {                                       // each view scrolled to in turn
-    if (k === els.length) return done();
-    els[k].scrollIntoView();
-    (function poll() {
-      if (settled(els[k]) || Date.now() - t0 > 60000) { k++; next(); } else setTimeout(poll, 50);
-    })();
-  })();
-  function done() {
-    r.states = states(d);
-    r.drawn_ms = Array.prototype.map.call(els, function (e) { return +(e.dataset.drawnMs || -1); });
-    r.messages = Array.prototype.map.call(els, function (e) { var m = e.querySelector('.srv-msg'); return m ? m.textContent : ''; });
-    var el = els[0], cv = el && el.querySelector('canvas');
-    if (cv) {
-      var a = image(cv); r.first = stats(a);
-      var tint = el.querySelector('.srv-tint');
-      if (tint) {
-        tint.click(); var b = image(cv); r.untinted = stats(b); r.changed_by_tint = changed(a, b);
-        tint.click(); r.changed_by_tint_back = changed(a, image(cv));
-      }
-      var reg = el.querySelector('.srv-region');
-      if (reg) {
-        reg.click(); r.changed_by_region = changed(a, image(cv));
-        el.querySelector('.srv-reset').click(); r.changed_by_reset = changed(a, image(cv));
-      }
-      r.n_region_buttons = el.querySelectorAll('.srv-region').length;
+var els = document.querySelectorAll('.srv'), k = 0, t0 = Date.now();
+function states() { return Array.prototype.map.call(els, function (e) { return e.dataset.state || ''; }); }
+var r = {at_load: states()};
+function settled(e) { return /^(drawn|no-webgl|error)$/.test(e.dataset.state || ''); }
+(function next() {
+  if (k === els.length) return finish();
+  els[k].scrollIntoView();
+  (function poll() { if (settled(els[k]) || Date.now() - t0 > 60000) { k++; next(); } else setTimeout(poll, 20); })();
+})();
+function finish() {
+  r.states = states();
+  r.drawn_ms = Array.prototype.map.call(els, function (e) { return +(e.dataset.drawnMs || -1); });
+  r.messages = Array.prototype.map.call(els, function (e) { var m = e.querySelector('.srv-msg'); return m ? m.textContent : ''; });
+  var el = els[0], cv = el && el.querySelector('canvas');
+  if (cv) {
+    el.scrollIntoView();
+    var a = image(cv); r.first = stats(a);
+    var tint = el.querySelector('.srv-tint');
+    if (tint) {
+      tint.click(); var b = image(cv); r.untinted = stats(b); r.changed_by_tint = changed(a, b);
+      tint.click(); r.changed_by_tint_back = changed(a, image(cv));
     }
-    document.getElementById('out').textContent = 'RESULT' + JSON.stringify(r) + 'END';
+    var reg = el.querySelector('.srv-region');
+    if (reg) {
+      reg.click(); r.changed_by_region = changed(a, image(cv));
+      el.querySelector('.srv-reset').click(); r.changed_by_reset = changed(a, image(cv));
+    }
+    r.n_region_buttons = el.querySelectorAll('.srv-region').length;
   }
-});
-</script></body></html>
-"""
+  done(r);
+}
+})"""
 
 
-def _open_views(browser, page, extra=()):
-    """Open ``page`` in headless Chromium through a harness beside it; return
-    what its views showed, and the console lines."""
-    harness = page.with_name("_views.html")
-    harness.write_text(_HARNESS.replace("PAGE", page.name))
-    res = subprocess.run([browser, *_FLAGS, *extra, "--virtual-time-budget=60000", "--dump-dom", harness.as_uri()],
-                         capture_output=True, text=True, timeout=300)
-    m = re.search(r"RESULT(.*?)END", res.stdout)
-    assert m, res.stdout[-2000:] + res.stderr[-2000:]
-    console = [ln for ln in res.stderr.splitlines() if "CONSOLE" in ln]
-    return json.loads(m.group(1)), console
+def _open_views(page, flags=(), size=(1000, 800)):
+    """Open ``page`` in headless Chromium and probe its views; return what
+    they showed and the console's messages."""
+    with Chromium(_browser(), flags, size=size) as c:
+        c.open(page.as_uri())
+        return c.evaluate(_PROBE), c.console()
 
 
 def _no_console_error(console):
-    assert not [ln for ln in console if re.search(r"error|uncaught|warn", ln, re.I)], console
+    assert not [m for m in console if m[0] in ("error", "warning", "assert", "exception")], console
 
 
 @pytest.mark.slow
 def test_the_repair_page_shows_a_view_that_turns_tints_and_frames(tmp_path):
     from shellrepair.cli import main
 
-    browser = _chromium()
     V, F = _sphere_with_holes(_HOLES, 0.3)
     scan = tmp_path / "s.ply"
     write_mesh(scan, Mesh(V=V, F=F))
     page = tmp_path / "s.html"
     assert main(["repair", str(scan), "--html", str(page), "--quiet"]) == 0
-    r, console = _open_views(browser, page)
+    r, console = _open_views(page)
     assert r["at_load"] != ["waiting"]                        # a page of one scan starts its view at once
     assert r["states"] == ["drawn"]
     # the statue drawn over the background: a good part of the canvas, not all of it
     s = r["first"]
     assert 0.1 < 1 - s["background"] / s["pixels"] < 0.95
-    # the filled faces tinted, and the toggle takes the tint off those pixels only
+    # the filled faces tinted (190 of 4,966 faces); the toggle takes the tint off them, and
+    # changes no more than a small part of the statue
+    statue = s["pixels"] - s["background"]
     assert s["tinted"] > 0.002 * s["pixels"] and r["untinted"]["tinted"] < 0.2 * s["tinted"]
-    assert s["tinted"] * 0.5 < r["changed_by_tint"] < 1.5 * s["tinted"]
+    assert 0.8 * s["tinted"] <= r["changed_by_tint"] < 0.25 * statue
     assert r["changed_by_tint_back"] == 0
     # a button per filled region: framing one moves the camera; reset brings the first view back
     assert r["n_region_buttons"] == 3
@@ -292,7 +278,6 @@ def test_the_repair_page_shows_a_view_that_turns_tints_and_frames(tmp_path):
 def test_a_collection_page_starts_each_view_when_it_is_scrolled_to(tmp_path):
     from shellrepair.batch import repair_folder
 
-    browser = _chromium()
     scans = tmp_path / "scans"
     scans.mkdir()
     for name, holes in (("a.ply", _HOLES[:2]), ("b.ply", _HOLES)):
@@ -303,8 +288,8 @@ def test_a_collection_page_starts_each_view_when_it_is_scrolled_to(tmp_path):
     page = (out / "index.html").read_text()
     assert page.count('class="srv"') == 2 and page.count("function View(") == 1
     assert (out / "a.view.js").is_file() and (out / "b.view.js").is_file()
-    assert "srv-data" not in page                             # the meshes stay in their files until shown
-    r, console = _open_views(browser, out / "index.html")
+    assert 'type="application/json"' not in page             # the meshes stay in their files until shown
+    r, console = _open_views(out / "index.html")
     assert r["at_load"][-1] == "waiting"                      # far down the page: not started
     assert r["states"] == ["drawn", "drawn"]
     assert 0.1 < 1 - r["first"]["background"] / r["first"]["pixels"] and r["changed_by_tint"] > 0
@@ -313,11 +298,10 @@ def test_a_collection_page_starts_each_view_when_it_is_scrolled_to(tmp_path):
 
 @pytest.mark.slow
 def test_without_webgl_the_view_says_so(tmp_path, repaired):
-    browser = _chromium()
     _, out, report = repaired
     page = tmp_path / "p.html"
     page.write_text(scan_page(report, None, view=view_payload(out)))
-    r, console = _open_views(browser, page, extra=["--disable-webgl", "--disable-3d-apis"])
+    r, console = _open_views(page, flags=["--disable-webgl", "--disable-3d-apis"])
     assert r["states"] == ["no-webgl"] and "no WebGL" in r["messages"][0]
     _no_console_error(console)
 
@@ -334,14 +318,15 @@ def _large_scan():
 
 @pytest.mark.slow
 def test_a_page_of_a_million_faces_is_under_20_mb_and_opens_in_seconds(tmp_path):
-    browser = _chromium()
+    browser = _browser()
     mesh = _large_scan()
     assert len(mesh.F) > 1_000_000
     page = tmp_path / "big.html"
     page.write_text(scan_page({"file": "big.ply"}, None, view=view_payload(mesh)))
     assert page.stat().st_size < 20e6
     # opened as a person would (no harness, no virtual time): the page's clock when the first frame is done
-    res = subprocess.run([browser, *_FLAGS, "--dump-dom", page.as_uri()], capture_output=True, text=True, timeout=300)
+    res = subprocess.run([browser, *FLAGS, "--enable-logging=stderr", "--v=0", "--dump-dom", page.as_uri()],
+                         capture_output=True, text=True, timeout=300)
     m = re.search(r'data-state="drawn" data-drawn-ms="(\d+)"', res.stdout)
     assert m, res.stdout[-1000:] + res.stderr[-2000:]
     # measured 2.0-2.5 s on a 2-core machine shared with other jobs (docs/viewer.md); generous here
