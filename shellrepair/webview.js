@@ -1,7 +1,7 @@
 /* shellrepair's 3D view of a repaired mesh (WebGL; no library, no network).
  *
- * Each element of class "srv" holds one view: its payload inline (a
- * <script type="application/json" class="srv-data">) or in a script file
+ * Each element of class "srv" holds one view: its payload inline (in a
+ * JSON script element of class "srv-data") or in a script file
  * named by data-src, written beside the page, that sets
  * window.shellrepairViews[src]. A view starts when the page opens
  * (data-eager), when it scrolls into sight or on its "show now" button; at most MAX_LIVE views hold a WebGL context
@@ -231,7 +231,8 @@
   View.prototype.reset = function () {
     this.target = [0, 0, 0];
     this.setDir(this.d.view);
-    this.dist = 1.08 * this.mesh.radius / Math.sin(FOV_Y / 2);
+    var half = Math.min(FOV_Y / 2, Math.atan(Math.tan(FOV_Y / 2) * this.aspect()));
+    this.dist = 1.02 * this.mesh.radius / Math.sin(half);
   };
   View.prototype.frame = function (k) {
     var r = this.d.regions[k], c = this.mesh.centre;
@@ -239,6 +240,9 @@
     if (r.normal) this.setDir(r.normal);
     this.el_ = Math.max(-1.3, Math.min(1.3, this.el_));
     this.dist = Math.max(2.2 * r.radius, 0.02 * this.mesh.radius) / Math.sin(FOV_Y / 2);
+  };
+  View.prototype.aspect = function () {
+    return (this.canvas.clientWidth || 4) / (this.canvas.clientHeight || 3);
   };
   View.prototype.eye = function () {
     var ce = Math.cos(this.el_);

@@ -274,6 +274,76 @@ def test_the_repair_page_shows_a_view_that_turns_tints_and_frames(tmp_path):
     _no_console_error(console)
 
 
+_PIXELS = """window.__snap = function () {
+  var cv = document.querySelector('.srv canvas'), c = document.createElement('canvas');
+  c.width = cv.width; c.height = cv.height; var x = c.getContext('2d'); x.drawImage(cv, 0, 0);
+  return x.getImageData(0, 0, c.width, c.height).data;
+};
+window.__look = function (a) {            // statue pixels, their mean column, and how many differ from a
+  var p = __snap(), n = 0, sx = 0, d = 0, w = document.querySelector('.srv canvas').width;
+  for (var i = 0; i < p.length; i += 4) {
+    if (Math.abs(p[i] - 233) + Math.abs(p[i + 1] - 231) + Math.abs(p[i + 2] - 225) > 6) { n++; sx += (i / 4) % w; }
+    if (a && Math.abs(p[i] - a[i]) + Math.abs(p[i + 1] - a[i + 1]) + Math.abs(p[i + 2] - a[i + 2]) > 24) d++;
+  }
+  return {statue: n, x: n ? sx / n : -1, changed: d};
+};
+window.__frame = function () { return new Promise(function (ok) { requestAnimationFrame(function () { setTimeout(ok, 0); }); }); };
+1"""
+
+
+@pytest.mark.slow
+def test_the_view_turns_moves_and_zooms_under_the_mouse_and_fingers(tmp_path, repaired):
+    _, out, report = repaired
+    page = tmp_path / "p.html"
+    page.write_text(scan_page(report, None, view=view_payload(out)))
+    with Chromium(_browser()) as c:
+        c.open(page.as_uri())
+        c.evaluate("new Promise(function (ok) { var e = document.querySelector('.srv'); e.scrollIntoView();"
+                   " (function w() { if (e.dataset.state === 'drawn') ok(1); else setTimeout(w, 20); })(); })")
+        c.evaluate(_PIXELS)
+        x, y = c.evaluate("(function () { var r = document.querySelector('.srv canvas').getBoundingClientRect();"
+                          " return [r.left + r.width / 2, r.top + r.height / 2]; })()")
+
+        def after(events):
+            c.evaluate("window.__a = __snap(); 1")
+            for kind, params in events:
+                c.call(kind, session=True, **params)
+            return c.evaluate("__frame().then(function () { return __look(__a); })")
+
+        def mouse(kind, px, py, button="left", **more):
+            return ("Input.dispatchMouseEvent", dict(type=kind, x=px, y=py, button=button, clickCount=1, **more))
+
+        first = c.evaluate("__look()")
+        # a drag with the left button turns the statue about its up axis
+        turned = after([mouse("mousePressed", x, y), mouse("mouseMoved", x + 60, y, buttons=1),
+                        mouse("mouseMoved", x + 120, y, buttons=1), mouse("mouseReleased", x + 120, y)])
+        assert turned["changed"] > 0.2 * first["statue"]
+        c.evaluate("document.querySelector('.srv-reset').click(); 1")
+        assert c.evaluate("__frame().then(function () { return __look(); })") == first
+        # a drag with the right button moves it sideways, by about the drag
+        moved = after([mouse("mousePressed", x, y, "right"), mouse("mouseMoved", x + 100, y, "right", buttons=2),
+                       mouse("mouseReleased", x + 100, y, "right")])
+        assert 60 < moved["x"] - first["x"] < 140
+        c.evaluate("document.querySelector('.srv-reset').click(); 1")
+        # the wheel zooms in
+        zoomed = after([("Input.dispatchMouseEvent", dict(type="mouseWheel", x=x, y=y, deltaX=0, deltaY=-300))])
+        assert zoomed["statue"] > 1.3 * first["statue"]
+        c.evaluate("document.querySelector('.srv-reset').click(); 1")
+        # two fingers apart zoom in too, one finger turns
+        pinched = after([("Input.dispatchTouchEvent", dict(type="touchStart", touchPoints=[
+                             {"x": x - 20, "y": y, "id": 1}, {"x": x + 20, "y": y, "id": 2}])),
+                         ("Input.dispatchTouchEvent", dict(type="touchMove", touchPoints=[
+                             {"x": x - 80, "y": y, "id": 1}, {"x": x + 80, "y": y, "id": 2}])),
+                         ("Input.dispatchTouchEvent", dict(type="touchEnd", touchPoints=[]))])
+        assert pinched["statue"] > 1.3 * first["statue"]
+        c.evaluate("document.querySelector('.srv-reset').click(); 1")
+        swiped = after([("Input.dispatchTouchEvent", dict(type="touchStart", touchPoints=[{"x": x, "y": y, "id": 1}])),
+                        ("Input.dispatchTouchEvent", dict(type="touchMove", touchPoints=[{"x": x + 120, "y": y, "id": 1}])),
+                        ("Input.dispatchTouchEvent", dict(type="touchEnd", touchPoints=[]))])
+        assert swiped["changed"] > 0.2 * first["statue"]
+        _no_console_error(c.console())
+
+
 @pytest.mark.slow
 def test_a_collection_page_starts_each_view_when_it_is_scrolled_to(tmp_path):
     from shellrepair.batch import repair_folder
