@@ -179,8 +179,15 @@ def display_copy(V, F, *, max_faces=DISPLAY_FACES):
 
 
 def _b64(a):
-    return base64.b64encode(np.ascontiguousarray(a).astype(a.dtype.newbyteorder("<"), copy=False).tobytes()).decode(
-        "ascii")
+    """An array's bytes, little-endian, in base64."""
+    a = np.ascontiguousarray(a)
+    return base64.b64encode(a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes()).decode("ascii")
+
+
+def _srgb255(rgb):
+    """A colour given in [0, 1] or in 0-255, as 0-255 numbers."""
+    t = np.asarray(rgb, np.float64)[:3]
+    return np.round(t * 255.0 if t.max() <= 1.0 else t)
 
 
 def _srgb8(linear):
@@ -231,7 +238,8 @@ def view_payload(mesh, *, up=(0.0, 1.0, 0.0), age=None, seed=0, material="aged-b
     """
     from . import aging as ag
     from .gltf import pbr_approximation
-    from .htmlreport import OPEN_EDGE_COLOR, _tint
+    from .htmlreport import OPEN_EDGE_COLOR
+    from .render import FILLED_TINT
     from .topology import edge_topology
 
     V = np.asarray(mesh.V, np.float64)
@@ -244,7 +252,7 @@ def view_payload(mesh, *, up=(0.0, 1.0, 0.0), age=None, seed=0, material="aged-b
         raise ValueError(f"the up axis must be a non-zero vector, got {tuple(up)}")
     # the look: the aging maps of the whole repaired mesh (the scan's frame), as the .glb has it
     maps = ag.aging_maps(V, F, age=ag.DEFAULT_AGE if age is None else float(age), up=upv, seed=seed,
-                         scan=~filled if filled.any() else None)
+                         scan=~filled if filled.any() and not filled.all() else None)
     base, metallic, rough = pbr_approximation(maps.coverage, maps.gild, maps.crust, material)
     region = filled_regions(F, filled)
     Vd, Fd, src, vmap = display_copy(V, F, max_faces=max_faces)
@@ -304,7 +312,7 @@ def view_payload(mesh, *, up=(0.0, 1.0, 0.0), age=None, seed=0, material="aged-b
         "mr": _b64(np.round(np.clip(mr_d, 0.0, 1.0) * 255.0).astype(np.uint8)),
         "edges": _b64(quant(P)), "open_edges": int(len(E)),
         "up": [float(x) for x in upv], "view": [float(x) for x in view],
-        "tint": _tint(), "edge_color": list(OPEN_EDGE_COLOR),
+        "tint": [int(x) for x in _srgb255(FILLED_TINT)], "edge_color": [int(x) for x in OPEN_EDGE_COLOR],
     }
 
 

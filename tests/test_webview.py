@@ -402,3 +402,12 @@ def test_a_page_of_a_million_faces_is_under_20_mb_and_opens_in_seconds(tmp_path)
     # measured 2.0-2.5 s on a 2-core machine shared with other jobs (docs/viewer.md); generous here
     assert int(m.group(1)) < 10_000
     _no_console_error([ln for ln in res.stderr.splitlines() if "CONSOLE" in ln])
+
+
+def test_a_mesh_all_filled_or_without_fill_still_has_a_view():
+    V, F = icosphere(2)
+    for filled in (np.ones(len(F), bool), None):
+        p = view_payload(Mesh(V=V, F=F, face_filled=filled))
+        d = decode_payload(p)
+        assert len(d["F"]) == len(F) and d["filled"].sum() == (0 if filled is None else len(F))
+        assert len(p["regions"]) == (0 if filled is None else 1) and p["open_edges"] == 0
