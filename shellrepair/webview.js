@@ -197,7 +197,11 @@
     this.reset();
     this.bindInput();
     var self = this;
-    canvas.addEventListener('webglcontextlost', function (e) { e.preventDefault(); self.lost = true; pause(self); });
+    canvas.addEventListener('webglcontextlost', function (e) {
+      e.preventDefault();
+      if (!self.gl) return;                       // released here (pause): not the browser's doing
+      self.lost = true; pause(self, 'the browser took its WebGL context back');
+    });
   }
   View.prototype.buildBar = function (bar) {
     var self = this, d = this.d;
@@ -366,19 +370,20 @@
     m.textContent = text;
     return m;
   }
-  function pause(view) {
+  function pause(view, why) {
     var i = live.indexOf(view); if (i >= 0) live.splice(i, 1);
-    var ext = view.gl && view.gl.getExtension('WEBGL_lose_context');
-    if (ext && !view.lost) ext.loseContext();
+    var gl = view.gl, ext = gl && !view.lost && gl.getExtension('WEBGL_lose_context');
     view.gl = null;
+    if (ext) ext.loseContext();
     var el = view.el; el.textContent = ''; el.view = null;
-    var m = message(el, '3D view paused (too many open at once): ', 'paused');
+    var m = message(el, '3D view paused (' + why + '): ', 'paused');
     var b = document.createElement('button'); b.type = 'button'; b.textContent = 'show again';
     b.addEventListener('click', function () { start(el); }); m.appendChild(b);
   }
   function payloadOf(el, done) {
+    if (el.payload) { done(el.payload); return; }          // read before: the view was paused
     var inline = el.querySelector('script.srv-data');
-    if (inline) { done(JSON.parse(inline.textContent)); return; }
+    if (inline) { done(el.payload = JSON.parse(inline.textContent)); return; }
     var src = el.dataset.src, reg = window.shellrepairViews = window.shellrepairViews || {};
     if (reg[src]) { done(reg[src]); return; }
     var s = document.createElement('script');
@@ -395,7 +400,7 @@
         if (d.version !== 1) throw new Error('unknown view data version ' + d.version);
         while (live.length >= MAX_LIVE) {
           var old = live.filter(function (v) { return !v.visible; })[0] || live[0];
-          pause(old);
+          pause(old, 'too many views open at once');
         }
         var v = new View(el, d);
         v.visible = true;

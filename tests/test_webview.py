@@ -411,3 +411,26 @@ def test_a_mesh_all_filled_or_without_fill_still_has_a_view():
         d = decode_payload(p)
         assert len(d["F"]) == len(F) and d["filled"].sum() == (0 if filled is None else len(F))
         assert len(p["regions"]) == (0 if filled is None else 1) and p["open_edges"] == 0
+
+
+@pytest.mark.slow
+def test_past_six_views_the_oldest_out_of_sight_pauses_and_shows_again(tmp_path, repaired):
+    _, out, report = repaired
+    p = view_payload(out)
+    page = scan_page(report, None, view=p)
+    more = "".join(viewer_html(p, f"more-{i}", eager=False) + '<div style="height:900px"></div>' for i in range(6))
+    i = page.rindex("<script>")                              # the viewer's script stays last
+    (tmp_path / "seven.html").write_text(page[:i] + more + page[i:])
+    r, console = _open_views(tmp_path / "seven.html")
+    assert r["states"] == ["paused"] + ["drawn"] * 6
+    assert "too many views" in r["messages"][0]
+    with Chromium(_browser()) as c:                          # and back, from the payload read before
+        c.open((tmp_path / "seven.html").as_uri())
+        c.evaluate(_PROBE)
+        states = c.evaluate("""new Promise(function (ok) {
+          var els = document.querySelectorAll('.srv'); els[0].scrollIntoView();
+          els[0].querySelector('.srv-msg button').click();
+          (function w() { if (els[0].dataset.state === 'drawn') ok(Array.prototype.map.call(els, function (e) {
+            return e.dataset.state; })); else setTimeout(w, 20); })(); })""")
+    assert states.count("drawn") == 6 and states[0] == "drawn" and states.count("paused") == 1
+    _no_console_error(console)
