@@ -399,7 +399,8 @@ def test_a_page_of_a_million_faces_is_under_20_mb_and_opens_in_seconds(tmp_path)
                          capture_output=True, text=True, timeout=300)
     m = re.search(r'data-state="drawn" data-drawn-ms="(\d+)"', res.stdout)
     assert m, res.stdout[-1000:] + res.stderr[-2000:]
-    # measured 2.0-2.5 s on a 2-core machine shared with other jobs (docs/viewer.md); generous here
+    # measured 1.8-2.7 s on a 2-core machine shared with other jobs (docs/viewer.md); generous here
+    print(f"1.3M-face page: {page.stat().st_size / 1e6:.1f} MB, first frame complete at {m.group(1)} ms")
     assert int(m.group(1)) < 10_000
     _no_console_error([ln for ln in res.stderr.splitlines() if "CONSOLE" in ln])
 
