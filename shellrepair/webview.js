@@ -164,16 +164,16 @@
     var canvas = document.createElement('canvas');
     var info = document.createElement('div'); info.className = 'srv-info';
     el.appendChild(canvas); el.appendChild(bar); el.appendChild(info);
-    var gl = context(canvas, true);
-    if (gl && software(gl)) {
-      // a software renderer (no GPU) draws a large mesh's first frame in half the time without
-      // antialiasing: a new canvas without it
+    var gl = context(canvas, false);
+    if (gl && !software(gl)) {
+      // a GPU antialiases at little cost: a new canvas with it. A software renderer (no GPU)
+      // keeps the first, which draws a large mesh's first frame in half the time
       var ext = gl.getExtension('WEBGL_lose_context');
       if (ext) ext.loseContext();
-      var plain = document.createElement('canvas');
-      el.replaceChild(plain, canvas);
-      canvas = plain;
-      gl = context(canvas, false);
+      var smooth = document.createElement('canvas');
+      el.replaceChild(smooth, canvas);
+      canvas = smooth;
+      gl = context(canvas, true);
     }
     this.canvas = canvas;
     if (!gl) throw {noWebGL: true};
