@@ -108,8 +108,9 @@ test: $(SHADING) $(TESTTOOLS)
 test-all: $(SHADING) $(TESTTOOLS) browser
 	$(PY) -m pytest -n auto
 
-# the HTML report's test opens the page in Debian's headless chromium;
-# installed here when apt can, else that test skips and says why
+# the HTML report's tests open its pages (and their 3D views: WebGL on
+# SwiftShader) in Debian's headless chromium; installed here when apt can,
+# else those tests skip and say why
 browser:
 	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || { \
 	  echo "installing chromium for the HTML report's browser test"; \

@@ -161,7 +161,8 @@ def _message(exc):
 
 def _repair_one(task, options, progress):
     """Read, repair and write one scan; returns its summary row fields.
-    With ``task["picture"]`` (a path), also its before | after picture there."""
+    With ``task["picture"]`` (a path), also its before | after picture there,
+    and its 3D view's script beside it (``.js`` for ``.png``)."""
     from .io import atomic_write_many, mesh_bytes, read_mesh
     from .preload import preload_fill
 
@@ -199,6 +200,15 @@ def _repair_one(task, options, progress):
                     files[("region" if kind == "fill" else "failed", r[key])] = name
                     items.append((Path(picture).with_name(name), r["png"]))
         report["pictures"] = pictures_record(fig, pics, files)
+        from .webview import payload_script, view_payload
+
+        view = view_payload(repaired, up=up["axis"])
+        if view is not None:   # the 3D view's mesh, loaded by the page when shown
+            script = Path(picture).with_suffix(".js")
+            report["view"] = {"file": script.name, "faces_shown": view["faces_shown"],
+                              "faces_total": view["faces_total"]}
+            items.append((script, payload_script(view, script.name)))
+            del view
     del mesh  # a large scan: free what is no longer needed before writing
     payload = mesh_bytes(out, repaired)
     del repaired
@@ -339,12 +349,13 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
     html : bool
         Also write ``outdir/index.html`` (:func:`shellrepair.htmlreport.collection_page`):
         Table 1 of the collection and of each scan, each scan's holes,
-        notes and provenance, and its before | after picture
+        notes and provenance, its before | after picture
         (``outdir/<name>.view.png``, linked from the page), a close-up of
         each filled region (``<name>.fill-<k>.png``, the 24 largest) and of
         each hole that could not be filled (``<name>.failed-<id>.png``),
         all with the scan's inferred up axis (:mod:`shellrepair.upaxis`,
-        recorded in its report). Rewritten after every scan, like the summary.
+        recorded in its report), and its 3D view (``outdir/<name>.view.js``,
+        loaded when scrolled to). Rewritten after every scan, like the summary.
     connect_timeout : float, optional
         Seconds to wait for ``scheduler`` to answer and to have a worker
         (default :data:`CONNECT_TIMEOUT`).
@@ -569,9 +580,10 @@ def _index_section(i, r, options):
         shots = rep.get("pictures") or {}
         fig = {"png": b"", "alt": pic["alt"], "width": pic["width"], "height": pic["height"],
                "camera": shots.get("overview"), "failed": [f["id"] for f in shots.get("failed", [])]}
+    view = rep.get("view")
     return scan_section(rep, fig, image_src=pic["file"] if pic else None, options=options,
                         sha256=rep.get("input_sha256"), anchor=f"scan-{i}", level=2,
-                        closeups=rep.get("pictures"))
+                        closeups=rep.get("pictures"), view_src=view["file"] if view else None)
 
 
 def _fmt(v, spec=""):

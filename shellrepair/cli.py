@@ -492,13 +492,15 @@ def _repair(args):
     if page is not None:
         from .closeups import closeups, pictures_record
         from .htmlreport import figure, file_sha256, scan_page
+        from .webview import view_payload
 
         if bar is not None:
             bar("pictures", 0, 1)
         fig = figure(mesh, repaired, report, up=up["axis"])
         pics = closeups(mesh, repaired, report, up=up["axis"])
         report["pictures"] = pictures_record(fig, pics)
-        html = scan_page(report, fig, options=opts.as_dict(), sha256=file_sha256(args.scan), closeups=pics)
+        html = scan_page(report, fig, options=opts.as_dict(), sha256=file_sha256(args.scan), closeups=pics,
+                         view=view_payload(repaired, up=up["axis"]))
         if bar is not None:
             bar("pictures", 1, 1)
     report["seconds_total"] = round(time.perf_counter() - t0, 4)

@@ -10,10 +10,15 @@ close-up of each filled region and of each failed hole
 sortable by a click), the borders left open, the notes of loading, and a
 provenance block: software version, options, input file and its SHA-256.
 
-The page needs no server and no network: its style and its one small
-sorting script are inline; a scan page embeds its picture as a ``data:``
-URI, a collection page (``OUTDIR/index.html`` of ``shellrepair batch``)
-links the pictures written beside it.
+Below the picture, a 3D view of the repaired mesh (:mod:`shellrepair.webview`):
+turned, moved and zoomed with the mouse or by touch, the filled faces
+tinted (a checkbox), the edges left open drawn, a button per filled
+region that frames it.
+
+The page needs no server and no network: its style and its scripts are
+inline; a scan page embeds its picture as a ``data:`` URI and its view's
+mesh as JSON, a collection page (``OUTDIR/index.html`` of ``shellrepair
+batch``) links the pictures and the views' scripts written beside it.
 
     fig = figure(mesh, repaired, report)         # PNG bytes and alt text
     html = scan_page(report, fig, options=opts)  # str
@@ -447,7 +452,7 @@ def _provenance(report, options, sha256, version):
 
 
 def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None, anchor=None, level=2,
-                 closeups=None):
+                 closeups=None, view=None, view_src=None):
     """The HTML of one scan's repair (a ``<section>``).
 
     Parameters
@@ -470,6 +475,12 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
     closeups : dict, optional
         From :func:`shellrepair.closeups.closeups`: shown after the picture
         (:func:`closeups_html`).
+    view : dict, optional
+        A 3D view's payload (:func:`shellrepair.webview.view_payload`),
+        embedded; shown below the picture.
+    view_src : str, optional
+        Instead of ``view``: the relative path of the view's script file
+        (:func:`shellrepair.webview.payload_script`), loaded when shown.
 
     Returns
     -------
@@ -493,6 +504,10 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
         parts.append(_figure_html(fig, src))
     if closeups:
         parts.append(closeups_html(closeups, level=level + 1, scan=report.get("file"), output=report.get("output")))
+    if view is not None or view_src is not None:
+        from .webview import viewer_html
+
+        parts.append(viewer_html(view, f"view-{anchor}" if anchor else "view", src=view_src))
     parts.append(f"<{h2}>Holes</{h2}>")
     parts.append(_hole_rows(report) if report.get("holes") else "<p>No hole found.</p>")
     parts.append(f"<{h2}>Borders left open</{h2}>")
@@ -513,6 +528,10 @@ def scan_section(report, fig=None, *, image_src=None, options=None, sha256=None,
 
 
 def _page(title, body):
+    if 'class="srv"' in body:     # a 3D view: its style and script, once
+        from .webview import viewer_assets
+
+        body += "\n" + viewer_assets()
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
@@ -521,8 +540,8 @@ def _page(title, body):
             f"<script>{_JS}</script>\n</body></html>\n")
 
 
-def scan_page(report, fig=None, *, options=None, sha256=None, closeups=None):
-    """A self-contained page for one repaired scan (picture embedded).
+def scan_page(report, fig=None, *, options=None, sha256=None, closeups=None, view=None):
+    """A self-contained page for one repaired scan (pictures and 3D view embedded).
 
     Parameters
     ----------
@@ -533,6 +552,8 @@ def scan_page(report, fig=None, *, options=None, sha256=None, closeups=None):
     sha256 : str, optional
     closeups : dict, optional
         From :func:`shellrepair.closeups.closeups`.
+    view : dict, optional
+        From :func:`shellrepair.webview.view_payload`: the page gets a 3D view.
 
     Returns
     -------
@@ -540,7 +561,8 @@ def scan_page(report, fig=None, *, options=None, sha256=None, closeups=None):
     """
     name = Path(str(report.get("file", "scan"))).name
     body = ("<h1>Repair of " + _e(name) + "</h1>\n"
-            + scan_section(report, fig, options=options, sha256=sha256, level=2, closeups=closeups))
+            + scan_section(report, fig, options=options, sha256=sha256, level=2, closeups=closeups,
+                           view=view))
     return _page(f"shellrepair: {name}", body)
 
 
