@@ -8,7 +8,8 @@ it gives, and after each call OpenBLAS's workers spin for a while, taking
 the core the next step wanted (or another job's). Measured on
 ``hard-30pct`` (``repair_mesh`` at the default order, best of 5, two cores
 with another job running): 216 and 264 ms a repair with the default
-threads, 132 and 190 ms with one thread in both libraries.
+threads, 132 and 190 ms with one thread in both libraries (and 2-3x on
+the loaded machine below).
 
 :func:`one_thread` sets the thread count of every bundled OpenBLAS to one
 (``scipy_openblas_set_num_threads``, NumPy's 64-bit-integer build's
@@ -28,19 +29,25 @@ repair runs; a NumPy or SciPy linked to another BLAS is left as it is.
 
 Why not threadpoolctl (``threadpool_limits(1, "blas")``), which does the
 same through the same setter: measured 2026-12-06 on this 2-core machine
-under load (``hard-30pct``, best of 5 interleaved: default threads 994 ms,
-ours 504 ms, ``threadpool_limits`` 532 ms, a ``ThreadpoolController`` made
-once 454 ms; the three one-thread variants gave the same output, to the
-bit, ``eval/fingerprint.py``'s hash), the repair's time is the same within
-noise, but its set-up is paid by every cold run: importing it and finding
-the libraries (it inspects every shared library the process has loaded)
-took 40-55 ms in a process that had imported :mod:`shellrepair.repair`,
-against 0.8-0.9 ms here; ``threadpool_limits`` itself makes a controller
-at each call, 4-6 ms a block (31 blocks in one repair of ``hard-30pct``),
-against 0.007 ms; and, called in two threads whose blocks overlap (the
-fill and its helper), it left the process at one thread, as ours did
-before it counted its blocks. A cold repair's fixed cost is what
-issue 38 asks to bring under 0.1 s, so the 50 lines stay.
+under heavy load (load average 9-11; ``hard-30pct``, ``repair_mesh``, best
+of 5 interleaved, two runs): the per-thread setter used before 504 / 865
+ms, this module 759 ms (second run), ``threadpool_limits`` 532 / 667 ms, a
+``ThreadpoolController`` made once 454 / 619 ms, default threads 994 /
+2688 ms. The one-thread variants are the same within that noise and give
+the same output to the bit (``eval/fingerprint.py``'s hash
+``bc6167fb2423d578``); two BLAS threads give another one
+(``f5d286a2a2c8555f``: the fronts' products are rounded differently), so
+this setting is also what makes the output independent of the machine's
+cores. What differs is the set-up every cold run pays: importing
+threadpoolctl and finding the libraries (it inspects every shared library
+the process has loaded) took 40-55 ms in a process that had imported
+:mod:`shellrepair.repair`, against 0.8-0.9 ms here; ``threadpool_limits``
+makes a controller at each call, 4-6 ms a block (31 blocks in one repair
+of ``hard-30pct``), against 0.007 ms; and called in two threads whose
+blocks overlap (the fill and its helper) it left the process at one
+thread, as the per-thread setter did (both restore per block). A cold
+repair's fixed cost is what issue 38 asks to bring under 0.1 s, so these
+lines stay.
 """
 
 from __future__ import annotations
