@@ -8,9 +8,10 @@ TESTTOOLS = .venv/.shellrepair-installed-test
 # ahead of time (all that holes / repair / batch --no-html run); remade when a
 # module changes (after a git pull), so no run pays the compiler
 STAMP    = .venv/.shellrepair-built
-# written when the shading is built too: its rho_dt table (~1 min, once per
-# machine) and its Numba kernels (minutes); what render, the HTML pictures of
-# batch and repair --html, the tests and the benchmarks add to the fill's build
+# written when the shading is built too: its Numba kernels (minutes; its
+# rho_dt table ships with the package, shellrepair/reflectance/rho_dt_table.npz);
+# what render, the HTML pictures of batch and repair --html, the tests and the
+# benchmarks add to the fill's build
 SHADING  = .venv/.shellrepair-built-shading
 SOURCES  = $(wildcard shellrepair/*.py shellrepair/*/*.py)
 SCAN    ?= data/bunny_zipper.ply
@@ -82,8 +83,6 @@ $(STAMP): $(INSTALLED) $(SOURCES) shellrepair/aot_types.json
 # pictures of batch's and repair --html's pages, the tests, the benchmarks)
 $(SHADING): $(STAMP) $(SOURCES)
 	@echo "building the shading (first use, or a module changed since the last build)"
-	@echo "building the shading's rho_dt table (once per machine, cached under ~/.cache/shellrepair)"
-	$(PY) -c "from shellrepair.shading import rho_dt_table; rho_dt_table()"
 	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"
 	$(PY) -c "from shellrepair.shader import warm_up; warm_up()"
 	touch $(SHADING)

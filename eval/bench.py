@@ -11,7 +11,15 @@ writes, under ``eval/results/``:
 * ``speed_vs_error.png``: fill time against RMS error, per case and per tool.
 
 Each tool runs in its own child process (:mod:`eval.worker`) with a per-case
-timeout; a tool that is not installed, fails, crashes or times out is a row
+timeout, warm: the child loaded the tool (and ran it once on a tiny sphere)
+before the first case, and the time is its fill call alone. Ours is also run
+as a user runs it, cold (the ``ours-cold`` rows, unless ``--no-cold``): a
+fresh ``python -m shellrepair.cli repair CASE.ply -o OUT.ply --report R.json``
+process per case, timed both by the report's ``seconds`` (detection, fill
+and merge, imports excluded) and by the process's wall time from exec to
+exit (``process_seconds``: interpreter start, imports, kernels loaded,
+reading and writing the PLY included, so that loading moved to a thread
+does not count as gained); its output is measured like every tool's. a tool that is not installed, fails, crashes or times out is a row
 saying so, never a missing row. Tools run one at a time, so their timings do
 not compete for the two cores. Ratios (``x ours``) are against ``ours-auto`` (the default)
 in the same run.
@@ -47,6 +55,8 @@ RESULTS = ROOT / "eval" / "results"
 DEFAULT_TIMEOUT = 90.0
 SHADING_SCRIPT = ROOT / "eval" / "bench_shading.py"
 SHADING_TIMEOUT = 300.0
+#: The pseudo-tool of the cold runs: our command line, one fresh process per case.
+COLD = "ours-cold"
 
 
 # --------------------------------------------------------------------------
@@ -99,8 +109,11 @@ ROW_METRICS = ("holes_before", "holes_after", "rate", "rms_permille", "mean_perm
                "nonmanifold_edges", "boundary_edges")
 
 
-def run_case(case, tools, runners, tmp, *, n_samples, seed, log=print):
-    """Run every tool on one case; returns the rows."""
+def run_case(case, tools, runners, tmp, *, n_samples, seed, log=print, cold_timeout=None):
+    """Run every tool on one case; returns the rows.
+
+    ``COLD`` among ``tools`` is our command line in a fresh process
+    (:func:`run_cold`, ``cold_timeout`` seconds at most), not a worker."""
     from shellrepair.topology import face_areas
 
     case_npz = tmp / f"{case.name}.npz"
@@ -111,14 +124,18 @@ def run_case(case, tools, runners, tmp, *, n_samples, seed, log=print):
     rows = []
     for tool in tools:
         row = {"case": case.name, "family": case.family, "tool": tool}
-        ok, why = peers.tool_available(tool)
-        if not ok:
-            row.update(status="missing", error=why, holes_before=facts["loops"])
-            rows.append(row)
-            log(f"  {tool:17s} missing: {why}")
-            continue
-        out_npz = tmp / f"{case.name}.{tool}.out.npz"
-        res = runners[tool].run(case_npz, out_npz)
+        if tool == COLD:
+            res = run_cold(case, tmp, cold_timeout or DEFAULT_TIMEOUT)
+            out_npz = None
+        else:
+            ok, why = peers.tool_available(tool)
+            if not ok:
+                row.update(status="missing", error=why, holes_before=facts["loops"])
+                rows.append(row)
+                log(f"  {tool:17s} missing: {why}")
+                continue
+            out_npz = tmp / f"{case.name}.{tool}.out.npz"
+            res = runners[tool].run(case_npz, out_npz)
         row["status"] = res["status"]
         row["wall_seconds"] = res.get("wall_seconds")
         if res["status"] != "ok":
@@ -132,8 +149,9 @@ def run_case(case, tools, runners, tmp, *, n_samples, seed, log=print):
         row["convert_seconds"] = info.get("convert_seconds")
         row["peak_mb"] = res.get("peak_mb")
         row["memory_method"] = res.get("memory_method")
+        row["process_seconds"] = res.get("process_seconds")
         row["info"] = {k: v for k, v in info.items() if k not in ("seconds", "convert_seconds")}
-        data = np.load(out_npz)
+        data = res["output"] if out_npz is None else np.load(out_npz)
         try:
             m = metrics.evaluate(case.V, case.F, data["V"], data["F"], truth, removed_area=removed_area,
                                  n_samples=n_samples, seed=seed, facts=facts)
@@ -144,7 +162,8 @@ def run_case(case, tools, runners, tmp, *, n_samples, seed, log=print):
             log(f"  {tool:17s} failed: {row['error']}")
             continue
         finally:
-            os.unlink(out_npz)
+            if out_npz is not None:
+                os.unlink(out_npz)
         row.update({k: m.get(k) for k in ROW_METRICS})
         if tool.startswith("ours") and row["info"].get("face_filled") is not None \
                 and row["info"]["face_filled"] != m["faces_added"]:
@@ -154,9 +173,58 @@ def run_case(case, tools, runners, tmp, *, n_samples, seed, log=print):
         log(f"  {tool:17s} holes {m['holes_before']:>4}->{m['holes_after']:<4} "
             f"rms {_f(m['rms_permille'], 3):>8}‰ max {_f(m['max_permille'], 2):>7}‰ "
             f"ndev {_f(m['normal_dev_deg'], 1):>6}° wt {'y' if m['watertight'] else 'n'} "
-            f"si {m.get('self_intersections_added')} {row['seconds']:.3f}s {_f(row['peak_mb'], 0)}MB")
+            f"si {m.get('self_intersections_added')} {row['seconds']:.3f}s {_f(row['peak_mb'], 0)}MB"
+            + (f" (process {row['process_seconds']:.3f}s)" if row.get("process_seconds") is not None else ""))
     os.unlink(case_npz)
     return rows
+
+
+def run_cold(case, tmp, timeout):
+    """Our command line as a user runs it: one fresh process on the case's PLY.
+
+    Parameters
+    ----------
+    case : eval.cases.Case
+        The perforated mesh is written as binary PLY (float64 coordinates,
+        read back bit for bit).
+    tmp : Path
+        Folder for the PLY, the output and the report (removed after).
+    timeout : float
+        Seconds before the process is killed (status ``timeout``).
+
+    Returns
+    -------
+    res : dict
+        ``status``; when ok, ``info`` (``seconds``: the report's, holes
+        before and after), ``process_seconds`` (wall time from before exec
+        to after exit), ``wall_seconds`` (the same) and ``output`` (the
+        repaired ``{"V", "F"}`` as read back); else ``error``.
+    """
+    from eval.cold_start import user_env
+    from shellrepair.io import read_mesh, write_mesh
+    from shellrepair.mesh import Mesh
+
+    ply, out, rep = (tmp / f"{case.name}.cold{suffix}" for suffix in (".ply", ".out.ply", ".report.json"))
+    write_mesh(ply, Mesh(V=case.V, F=case.F))
+    cmd = [sys.executable, "-m", "shellrepair.cli", "repair", str(ply), "-o", str(out), "--report", str(rep)]
+    try:
+        t0 = time.perf_counter()
+        try:
+            p = subprocess.run(cmd, cwd=ROOT, env=user_env(), capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return {"status": "timeout", "error": f"no exit in {timeout:g} s"}
+        wall = time.perf_counter() - t0
+        if p.returncode != 0:
+            return {"status": "failed", "error": f"exit {p.returncode}: {p.stderr.strip()[-300:]}"}
+        report = json.loads(rep.read_text())
+        got = read_mesh(out, clean=False, orient=False)
+        return {"status": "ok", "wall_seconds": wall, "process_seconds": wall,
+                "info": {"seconds": float(report["seconds"]), "holes_before": report.get("holes_before"),
+                         "holes_after": report.get("holes_after")},
+                "output": {"V": np.asarray(got.V, np.float64), "F": np.asarray(got.F, np.int64)}}
+    finally:
+        for f in (ply, out, rep):
+            f.unlink(missing_ok=True)
 
 
 def _f(x, nd):
@@ -219,10 +287,12 @@ def summarize(rows, tools, case_names):
             "watertight_cases": sum(1 for r in ok if r.get("watertight")),
             "self_intersections_added": sum(int(r.get("self_intersections_added") or 0) for r in ok),
             "total_seconds": float(sum(r["seconds"] for r in ok)),
+            "total_process_seconds": float(sum(r["process_seconds"] for r in ok))
+            if ok and all(r.get("process_seconds") is not None for r in ok) else None,
             "geomean_seconds_x_ours": float(np.exp(np.mean(np.log(sx)))) if sx else None,
             "median_rms_x_ours": float(np.median(rx)) if rx else None,
-            "median_peak_mb": float(np.median([r["peak_mb"] for r in ok if r.get("peak_mb") is not None]))
-            if ok else None,
+            "median_peak_mb": float(np.median(peaks)) if (peaks := [r["peak_mb"] for r in ok
+                                                                    if r.get("peak_mb") is not None]) else None,
         })
     return out
 
@@ -266,19 +336,23 @@ def markdown(result):
              "of the bounding-box diagonal. `× ours` is this tool's value over `ours-auto`'s (the default call) on the same case "
              "in this run. Seconds are the fill call only; ours runs with its compiled (Numba) kernels "
              "loaded before the call, as a peer's import loads its native library (the loading a user's "
-             "first run pays is measured by eval/bench_scale.py: first and second `make repair`).", "",
+             "first run pays is measured by eval/bench_scale.py: first and second `make repair`). "
+             f"`{COLD}` is ours as a user runs it: one fresh `python -m shellrepair.cli repair CASE.ply -o OUT.ply "
+             "--report R.json` process per case (the command line's defaults, as `ours-cli`); its `s` is the "
+             "report's `seconds` (imports excluded) and its `process s` the process's wall time from exec to "
+             "exit.", "",
              "## Summary per tool", "",
              "| tool | cases ok | holes before → after | rate % | all filled | median RMS ‰ | worst RMS ‰ "
              "| median max ‰ | median normal dev ° | flipped | watertight | self-int. added | total s "
-             "| time × ours (geomean) | RMS × ours (median) | median peak MB | not ok |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| total process s | time × ours (geomean) | RMS × ours (median) | median peak MB | not ok |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in result["summary"]:
         lines.append(
             f"| {s['tool']} | {s['ok']}/{s['cases']} | {s['holes_before']} → {s['holes_after']} | {_fmt(s['rate'], 1)} "
             f"| {s['all_filled_cases']} | {_sig(s['median_rms_permille'])} | {_sig(s['worst_rms_permille'])} "
             f"| {_sig(s['median_max_permille'])} | {_fmt(s['median_normal_dev_deg'], 1)} | {s['flipped_cases']} "
             f"| {s['watertight_cases']} | {s['self_intersections_added']} | {_fmt(s['total_seconds'], 1)} "
-            f"| {_sig(s['geomean_seconds_x_ours'])} | {_sig(s['median_rms_x_ours'])} | {_fmt(s['median_peak_mb'], 0)} "
+            f"| {_fmt(s.get('total_process_seconds'), 1)} | {_sig(s['geomean_seconds_x_ours'])} | {_sig(s['median_rms_x_ours'])} | {_fmt(s['median_peak_mb'], 0)} "
             f"| {', '.join(f'{k} {v}' for k, v in s['not_ok'].items()) or '–'} |")
     for tool, title in ((peers.REFERENCE, "Ours (the default: --order auto)"), ("ours-o2", "Ours (--order 2)")):
         if not any(r["tool"] == tool for r in rows):
@@ -305,9 +379,10 @@ def markdown(result):
                          f"| {bp['tool'] if bp else '–'} | {_sig(b)} | {_fmt(bp.get('holes_after') if bp else None)} "
                          f"| {_sig(ratio)} | {verdict} |")
         lines += ["", "Tally: " + ", ".join(f"{k} {v}" for k, v in sorted(tally.items())) + "."]
+    lines += speed_table(result)
     lines += ["", "## Every case and tool", ""]
     head = ("| tool | status | holes | rate % | RMS ‰ | max ‰ | mean ‰ | bias ‰ | normal dev ° | flipped % "
-            "| watertight | manifold | self-int. | edge ratio | area ratio | orig. exact % | s | MB "
+            "| watertight | manifold | self-int. | edge ratio | area ratio | orig. exact % | s | process s | MB "
             "| s × ours | RMS × ours |")
     sep = "|" + "|".join(["---"] * (head.count("|") - 1)) + "|"
     for c in result["cases"]:
@@ -319,7 +394,7 @@ def markdown(result):
                 continue
             if r.get("status") != "ok":
                 lines.append(f"| {r['tool']} | **{r['status']}** | {r.get('holes_before')} → – | – "
-                             + "| – " * 15 + f"| {str(r.get('error', ''))[:60]} |")
+                             + "| – " * 16 + f"| {str(r.get('error', ''))[:60]} |")
                 continue
             lines.append(
                 f"| {r['tool']} | ok | {r['holes_before']} → {r['holes_after']} | {_fmt(r['rate'], 1)} "
@@ -327,7 +402,8 @@ def markdown(result):
                 f"| {_sig(r['bias_permille'])} | {_fmt(r['normal_dev_deg'], 1)} | {_fmt(r['flipped_pct'], 1)} "
                 f"| {_fmt(r['watertight'])} | {_fmt(r['edge_manifold'])} | {_fmt(r['self_intersections_added'])} "
                 f"| {_fmt(r['edge_ratio'])} | {_fmt(r['area_ratio'])} | {_fmt(r['orig_exact_pct'], 1)} "
-                f"| {_sig(r['seconds'])} | {_fmt(r.get('peak_mb'), 0)} | {_sig(r.get('seconds_x_ours'))} "
+                f"| {_sig(r['seconds'])} | {_sig(r.get('process_seconds'))} | {_fmt(r.get('peak_mb'), 0)} "
+                f"| {_sig(r.get('seconds_x_ours'))} "
                 f"| {_sig(r.get('rms_x_ours'))} |")
         lines.append("")
     notes = [r for r in rows if r.get("note")]
@@ -338,6 +414,58 @@ def markdown(result):
         lines += ["## Shading benchmark (eval/bench_shading.py)", "", "```",
                   json.dumps(sh, indent=1)[:4000], "```", ""]
     return "\n".join(lines)
+
+
+#: The peers issue 38 measures our cold run against (geometric means under the speed table).
+SPEED_PEERS = ("meshlib-nicely", "cgal")
+
+
+def speed_table(result):
+    """bench.md lines: per case, ours warm and cold beside the best peer, with the RMS of each.
+
+    The best peer is :func:`best_peer`'s (lowest RMS among the peers that
+    filled every hole). Under the table, the geometric mean over the cases
+    of our cold times over each of :data:`SPEED_PEERS`' fill times."""
+    rows = result["rows"]
+    if not any(r["tool"] == COLD for r in rows):
+        return []
+
+    def get(case, tool):
+        r = next((r for r in rows if r["case"] == case and r["tool"] == tool), None)
+        return r if r and r.get("status") == "ok" else None
+
+    lines = ["", "## Speed and error per case: ours warm and cold, the best peer", "",
+             f"Warm: the fill call in a process that loaded the tool before (`{peers.REFERENCE}`, and `ours-cli`, "
+             f"the command line's defaults). Cold (`{COLD}`): a fresh command-line process per case, the "
+             "report's `seconds` and the process's wall time from exec to exit. A peer's time is its "
+             "hole-filling calls alone. Best peer: lowest RMS among peers that filled every hole.", "",
+             f"| case | faces | holes | {peers.REFERENCE} warm s | ours-cli warm s | cold: report s "
+             "| cold: process s | cold RMS ‰ | best peer | its s | its RMS ‰ | cold report s × peer "
+             "| cold process s × peer |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in result["cases"]:
+        name = c["name"]
+        auto, cli, cold = get(name, peers.REFERENCE), get(name, "ours-cli"), get(name, COLD)
+        peer = best_peer(rows, name)
+        rr = rp = None
+        if cold and peer and peer["seconds"] > 0:
+            rr, rp = cold["seconds"] / peer["seconds"], cold["process_seconds"] / peer["seconds"]
+        lines.append(f"| {name} | {c['faces']} | {c['holes']} | {_sig(auto and auto['seconds'])} "
+                     f"| {_sig(cli and cli['seconds'])} | {_sig(cold and cold['seconds'])} "
+                     f"| {_sig(cold and cold['process_seconds'])} | {_sig(cold and cold.get('rms_permille'))} "
+                     f"| {peer['tool'] if peer else '–'} | {_sig(peer and peer['seconds'])} "
+                     f"| {_sig(peer and peer.get('rms_permille'))} | {_sig(rr)} | {_sig(rp)} |")
+    lines.append("")
+    for tool in SPEED_PEERS:
+        pairs = [(get(c["name"], COLD), get(c["name"], tool)) for c in result["cases"]]
+        pairs = [(o, q) for o, q in pairs if o and q and q["seconds"] > 0]
+        if not pairs:
+            continue
+        g = [float(np.exp(np.mean(np.log([o[k] / q["seconds"] for o, q in pairs]))))
+             for k in ("seconds", "process_seconds")]
+        lines.append(f"Cold over {tool}'s fill time, geometric mean over {len(pairs)} cases: report "
+                     f"`seconds` {_sig(g[0])}×, process wall time {_sig(g[1])}×.  ")
+    return lines
 
 
 # --------------------------------------------------------------------------
@@ -387,6 +515,8 @@ def parse_args(argv):
     ap.add_argument("--samples", type=int, default=metrics.N_SAMPLES, help="samples per filled surface")
     ap.add_argument("--out", default=str(RESULTS), help="output folder (default eval/results)")
     ap.add_argument("--no-shading", action="store_true", help="skip eval/bench_shading.py")
+    ap.add_argument("--no-cold", action="store_true",
+                    help=f"leave out {COLD}: ours in a fresh command-line process per case")
     ap.add_argument("--list", action="store_true", help="list cases and tools and exit")
     ap.add_argument("--report-only", action="store_true",
                     help="rewrite bench.md and the plot from the bench.json in --out, running nothing")
@@ -396,12 +526,14 @@ def parse_args(argv):
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     names = casemod.case_names() if not args.cases else [s.strip() for s in args.cases.split(",") if s.strip()]
-    tools = list(peers.TOOLS) if not args.tools else [s.strip() for s in args.tools.split(",") if s.strip()]
+    tools = [*peers.TOOLS, COLD] if not args.tools else [s.strip() for s in args.tools.split(",") if s.strip()]
+    if args.no_cold:
+        tools = [t for t in tools if t != COLD]
     if args.list:
         print("cases:", ", ".join(casemod.case_names()))
-        print("tools:", ", ".join(peers.TOOLS))
+        print("tools:", ", ".join([*peers.TOOLS, COLD]))
         return 0
-    bad = [n for n in names if n not in casemod.SUITE] + [t for t in tools if t not in peers.TOOLS]
+    bad = [n for n in names if n not in casemod.SUITE] + [t for t in tools if t not in peers.TOOLS and t != COLD]
     if bad:
         print(f"error: unknown case or tool: {', '.join(bad)} (see --list)", file=sys.stderr)
         return 2
@@ -418,7 +550,7 @@ def main(argv=None):
     t_start = time.perf_counter()
     print(f"shellrepair benchmark: {len(names)} cases x {len(tools)} tools, seed {args.seed}"
           + (" (quick)" if args.quick else ""), flush=True)
-    runners = {t: ToolRunner(t, tmp, args.timeout) for t in tools}
+    runners = {t: ToolRunner(t, tmp, args.timeout) for t in tools if t != COLD}
     try:
         for name in names:
             t0 = time.perf_counter()
@@ -429,7 +561,7 @@ def main(argv=None):
             print(f"{name}: {cs['faces']} faces, {cs['holes']} holes ({case.description})"
                   + (f" [{'; '.join(case.notes)}]" if case.notes else ""), flush=True)
             rows = run_case(case, tools, runners, tmp, n_samples=args.samples, seed=args.seed,
-                            log=lambda s: print(s, flush=True))
+                            log=lambda s: print(s, flush=True), cold_timeout=args.timeout)
             result["rows"].extend(rows)
             cs["seconds"] = round(time.perf_counter() - t0, 2)
             result["total_seconds"] = time.perf_counter() - t_start

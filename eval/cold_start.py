@@ -1,8 +1,8 @@
 """A user's first ``make repair`` after ``make setup``, against the second (issue 14).
 
 ``make setup`` compiles the Numba kernels (``cache=True``: machine code in
-``__pycache__`` beside each module) and builds the shading's rho_dt table,
-so that no user run waits on the compiler. This measures whether that
+``__pycache__`` beside each module; the shading's rho_dt table ships with
+the package), so that no user run waits on the compiler. This measures whether that
 holds: on a fresh copy of the checkout it runs ``make setup``, then times
 ``make repair`` (the bundled scan, the Makefile's defaults) twice, each in
 its own process (wall time of the whole command: make, interpreter start,
@@ -21,9 +21,8 @@ What is fresh and what is reused
   puts the running environment's ``site-packages`` on the new
   environment's path (their ``.pyc`` were written when they were
   installed, as for a user's ``pip install``).
-* The rho_dt table is per machine (``~/.cache/shellrepair``, keyed by its
-  parameters, not by the checkout's path): ``make setup`` reuses it when
-  this machine built it before, else builds it (35-150 s).
+* The rho_dt table is in the copy (``shellrepair/reflectance/rho_dt_table.npz``,
+  package data): nothing builds it.
 * The environment of the commands: a user's (``NUMBA_CACHE_DIR``,
   ``NUMBA_DISABLE_JIT``, ``SHELLREPAIR_NO_NUMBA``, ``PYTHONDONTWRITEBYTECODE``,
   ``PYTHONPATH`` and the calling make's ``MAKEFLAGS`` removed).
@@ -257,7 +256,6 @@ def measure(repo=ROOT, tmp=None, pairs=3, setup_timeout=1800.0, run_timeout=600.
     try:
         res["commit"], res["uncommitted"] = fresh_copy(repo, dest)
         res["reused_site_packages"] = make_venv(dest)
-        res["rho_dt_table_cached_before"] = _table_cached()
         log(f"cold start: fresh copy of {res['commit'][:10]} in {dest}; make setup ...")
         env = user_env()
         s = run(["make", "--no-print-directory", "setup", f"PY={PY}"], dest, env, setup_timeout, stream=True)
@@ -309,15 +307,6 @@ def measure(repo=ROOT, tmp=None, pairs=3, setup_timeout=1800.0, run_timeout=600.
         shutil.rmtree(work, ignore_errors=True)
 
 
-def _table_cached():
-    """Whether this machine's rho_dt table was already in its cache."""
-    try:
-        from shellrepair.reflectance.albedo import _cache_path
-        return os.path.exists(_cache_path())
-    except Exception:  # noqa: BLE001 - only informative
-        return None
-
-
 def verdict(res):
     """The target, judged on the median pair ratio, with what the first runs wrote."""
     if not res.get("pairs"):
@@ -359,8 +348,7 @@ def markdown(res):
     if res.get("status") != "ok":
         return L + [f"Not measured: {res.get('status')}.", ""]
     st = res["setup"]
-    L += [f"`make setup` {st['seconds']:.0f} s (rho_dt table "
-          f"{'already cached on this machine' if res.get('rho_dt_table_cached_before') else 'built'}).", "",
+    L += [f"`make setup` {st['seconds']:.0f} s.", "",
           "| pair | first s | second s | first / second | first cpu s | second cpu s | cpu ratio | "
           "files the first run wrote |", "|---:|---:|---:|---:|---:|---:|---:|---|"]
     for p in res["pairs"]:

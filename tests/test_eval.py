@@ -14,7 +14,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from eval import cases, metrics  # noqa: E402
-from eval.bench import add_ratios, best_peer  # noqa: E402
+from eval.bench import COLD, add_ratios, best_peer, run_cold, speed_table  # noqa: E402
 from eval import peers  # noqa: E402
 from eval import shapes  # noqa: E402
 from shellrepair.holes import boundary_loops  # noqa: E402
@@ -297,6 +297,40 @@ def test_ratios_and_best_peer():
     assert rows[1]["seconds_x_ours"] == 0.5 and rows[1]["rms_x_ours"] == 2.0
     assert rows[3]["seconds_x_ours"] is None
     assert best_peer(rows, "c")["tool"] == "cgal"  # pymeshlab left holes open
+
+
+def test_the_speed_table_puts_ours_warm_and_cold_beside_the_best_peer():
+    rows = [{"case": "c", "tool": peers.REFERENCE, "status": "ok", "seconds": 0.5, "rms_permille": 0.5},
+            {"case": "c", "tool": "ours-cli", "status": "ok", "seconds": 0.4, "rms_permille": 0.5},
+            {"case": "c", "tool": COLD, "status": "ok", "seconds": 0.6, "process_seconds": 2.0,
+             "rms_permille": 0.5},
+            {"case": "c", "tool": "cgal", "status": "ok", "seconds": 0.2, "rms_permille": 1.0, "holes_after": 0},
+            {"case": "c", "tool": "meshlib-fillHole", "status": "ok", "seconds": 0.01, "rms_permille": 9.0,
+             "holes_after": 0},
+            {"case": "c", "tool": "pymeshlab", "status": "ok", "seconds": 0.01, "rms_permille": 0.2,
+             "holes_after": 3}]
+    lines = speed_table({"rows": rows, "cases": [{"name": "c", "faces": 100, "holes": 3}]})
+    row = [c.strip() for c in next(x for x in lines if x.startswith("| c |")).strip("|").split("|")]
+    assert row[3:7] == ["0.500", "0.400", "0.600", "2.00"]      # warm, warm cli, cold report, cold process
+    assert row[8:10] == ["cgal", "0.200"]          # the lowest RMS of those that filled every hole
+    assert row[11:13] == ["3.00", "10.0"]          # cold over the peer: report, process
+    assert any(x.startswith("Cold over cgal's fill time") and "3.00×" in x and "10.0×" in x for x in lines)
+    assert speed_table({"rows": rows[:2], "cases": [{"name": "c", "faces": 100, "holes": 3}]}) == []
+
+
+@pytest.mark.slow
+def test_the_cold_run_is_the_command_line_in_a_fresh_process(tmp_path):
+    from types import SimpleNamespace
+
+    V, F = shapes.icosphere(2)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=1, radius=0.4, seed=0)
+    res = run_cold(SimpleNamespace(name="c", V=V2, F=F2), tmp_path, timeout=300)
+    assert res["status"] == "ok", res.get("error")
+    assert res["info"]["holes_before"] == 1 and res["info"]["holes_after"] == 0
+    assert metrics.mesh_checks(res["output"]["V"], res["output"]["F"])["loops"] == 0
+    assert np.array_equal(res["output"]["V"][:len(V2)], V2)      # the PLY round trip kept every bit
+    assert res["process_seconds"] > res["info"]["seconds"]      # the process holds the report's run
+    assert list(tmp_path.iterdir()) == []                        # its files removed
 
 
 def test_a_tool_that_does_not_answer_is_recorded_as_timeout(tmp_path):

@@ -4,9 +4,9 @@ Light that crosses the rough interface into the corrosion layers is what
 the specular lobe does not reflect: the diffuse transmittance
 ``rho_dt(o) = 1 - int f_r(o, i) (n.i) dw_i`` (source paper eq 3).  The
 integral is computed by a Gauss rule over half vectors
-(:func:`specular_albedo`), tabulated once per machine on a grid in
+(:func:`specular_albedo`), tabulated on a grid in
 ``(sqrt(cos theta), log m, sign(eta - 1) sqrt(|eta^2 - 1|))``
-(:func:`rho_dt_table`, cached under ``~/.cache/shellrepair``) and read by
+(:func:`rho_dt_table`, shipped with the package) and read by
 trilinear interpolation (:func:`diffuse_transmittance`).  The table is a
 lower envelope of its rule, so the layered model never reflects more than
 it receives.  Its hemispherical mean gives the interface's internal
@@ -485,18 +485,28 @@ def _build_table():
     # again until none is left (a node clipped at 0 cannot take its share,
     # so one pass is not enough); lowering only lowers the interpolant, so
     # points that were fine stay fine
+    # (the weights are >= 0, so a point's interpolant, rounding included,
+    # never rises as nodes are lowered: each pass checks only the points
+    # that overshot in the pass before)
     safety = np.broadcast_to(np.where(kappa < 0.0, _ENVELOPE_SAFETY_TIR, 1.0), vals.shape).ravel()
     for _ in range(200):
         over = (w * flat[idx]).sum(axis=-1) - ref
         pos = over > 0.0
         if not np.any(pos):
             break
-        touch = w[pos] > 0.0
+        idx, w, ref, over = idx[pos], w[pos], ref[pos], over[pos]
+        touch = w > 0.0
         delta = np.zeros(flat.size)
-        np.maximum.at(delta, idx[pos][touch], np.broadcast_to(over[pos][:, None], touch.shape)[touch])
+        np.maximum.at(delta, idx[touch], np.broadcast_to(over[:, None], touch.shape)[touch])
         flat = np.clip(flat - safety * delta, 0.0, 1.0)
     vals = flat.reshape(vals.shape)
     return RhoDtTable(u, log_m, kappa, vals)
+
+
+def _table_key():
+    """The parameters the table is a function of, as text (the cache's and the shipped file's key)."""
+    return repr((_TABLE_VERSION, _ENVELOPE_SAFETY_TIR, _TABLE_N_U, _TABLE_N_M, _TABLE_N_KAPPA, _TABLE_QUAD,
+                 RHO_DT_M_RANGE, RHO_DT_ETA_RANGE))
 
 
 def _cache_path():
@@ -506,9 +516,70 @@ def _cache_path():
             os.environ.get("XDG_CACHE_HOME", os.path.join(os.path.expanduser("~"), ".cache")),
             "shellrepair",
         )
-    key = repr((_TABLE_VERSION, _ENVELOPE_SAFETY_TIR, _TABLE_N_U, _TABLE_N_M, _TABLE_N_KAPPA, _TABLE_QUAD,
-                RHO_DT_M_RANGE, RHO_DT_ETA_RANGE)).encode()
-    return os.path.join(base, "rho_dt_%s.npz" % hashlib.sha1(key).hexdigest()[:12])
+    return os.path.join(base, "rho_dt_%s.npz" % hashlib.sha1(_table_key().encode()).hexdigest()[:12])
+
+
+#: The table shipped with the package (package data; made by
+#: ``python -m shellrepair.reflectance.table``, checked by tests/test_rho_dt_file.py).
+SHIPPED_TABLE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "rho_dt_table.npz")
+#: The shipped values are stored as multiples of 2**-SHIPPED_BITS, rounded
+#: down (so the table stays a lower envelope of its rule), as second
+#: differences along the u axis (small integers that deflate to ~0.8 MB
+#: instead of 4.6 MB for the float64 values).
+SHIPPED_BITS = 20
+
+
+def encode_table(table):
+    """The shipped file's arrays for a table.
+
+    Parameters
+    ----------
+    table : RhoDtTable
+
+    Returns
+    -------
+    arrays : dict
+        ``key`` (:func:`_table_key`), ``bits`` and ``d2``: the values
+        times ``2**bits`` rounded down, differenced twice along u
+        ``(Nu, Nm, Nk) int32``.
+    """
+    q = np.floor(np.asarray(table.values, np.float64) * 2.0 ** SHIPPED_BITS).astype(np.int64)
+    d2 = np.diff(np.diff(q, axis=0, prepend=0), axis=0, prepend=0)
+    return {"key": np.array(_table_key()), "bits": np.array(SHIPPED_BITS), "d2": d2.astype(np.int32)}
+
+
+def decode_table(arrays):
+    """The table from the shipped file's arrays (:func:`encode_table`), or
+    None where they were made for other parameters or are not a table.
+
+    Parameters
+    ----------
+    arrays : mapping
+        ``key``, ``bits`` and ``d2`` as :func:`encode_table` gives them.
+
+    Returns
+    -------
+    table : RhoDtTable or None
+        Values exact multiples of ``2**-bits`` in [0, 1].
+    """
+    u, log_m, kappa = _grid()
+    d2 = np.asarray(arrays["d2"])
+    if str(arrays["key"]) != _table_key() or d2.shape != (u.size, log_m.size, kappa.size):
+        return None
+    q = np.cumsum(np.cumsum(d2.astype(np.int64), axis=0), axis=0)
+    values = q / 2.0 ** int(arrays["bits"])
+    if values.min() < 0.0 or values.max() > 1.0:
+        return None
+    return RhoDtTable(u, log_m, kappa, values)
+
+
+def _shipped():
+    """The shipped table, or None (no file, a damaged one, or one for other parameters)."""
+    try:
+        with np.load(SHIPPED_TABLE) as z:
+            return decode_table(z)
+    except (OSError, KeyError, ValueError, EOFError):
+        return None
 
 
 _TABLE = None
@@ -516,7 +587,7 @@ _TABLE_LOCK = threading.Lock()
 
 
 def rho_dt_table():
-    """The rho_dt table, built on first use and cached.
+    """The rho_dt table: the one shipped with the package, read once.
 
     Returns
     -------
@@ -524,18 +595,28 @@ def rho_dt_table():
 
     Notes
     -----
-    Built by the quadrature rule of :func:`_rule_albedo` at every node and
-    at ~10^7 check points for the lower envelope (35-150 s on two busy
-    cores, once per machine and table version) and stored as ``.npz`` under ``$SHELLREPAIR_CACHE_DIR``
-    or ``~/.cache/shellrepair``; an unwritable cache directory only costs
-    the rebuild.  A corrupt cache file is ignored and rebuilt.
+    The table is a function of fixed parameters, built by the quadrature
+    rule of :func:`_rule_albedo` at every node and at ~10^7 check points
+    for the lower envelope (:func:`_build_table`: 40 s of CPU, 90 s on two
+    busy cores), so it ships with the package (:data:`SHIPPED_TABLE`,
+    ~0.8 MB; read in milliseconds; its values are the built ones rounded
+    down to multiples of ``2**-SHIPPED_BITS``, about 1e-6).  Where that
+    file is missing, damaged or was made for other parameters (a changed
+    ``_TABLE_*`` constant before ``python -m shellrepair.reflectance.table``
+    made it again), the table is built on first use and cached as ``.npz``
+    under ``$SHELLREPAIR_CACHE_DIR`` or ``~/.cache/shellrepair``; an
+    unwritable cache directory only costs the rebuild, and a corrupt cache
+    file is ignored and rebuilt.
     """
     global _TABLE
     with _TABLE_LOCK:
         if _TABLE is not None:
             return _TABLE
+        table = _shipped()
+        if table is not None:
+            _TABLE = table
+            return table
         path = _cache_path()
-        table = None
         try:
             with np.load(path) as z:
                 cand = RhoDtTable(z["u"], z["log_m"], z["kappa"], z["values"])
