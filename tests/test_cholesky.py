@@ -13,9 +13,9 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from shellrepair import cholesky, fair
+from shellrepair import cholesky, compiled, fair
 
-pytestmark = pytest.mark.skipif(not cholesky.ENABLED, reason="Numba not installed (libigl's factorisation runs instead)")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="Numba not installed (libigl's factorisation runs instead)")
 
 
 def grid_laplacian(m, power=1, shift=1e-3):

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from shellrepair import kernels
+from shellrepair import compiled
 
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="needs the compiled kernels")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="needs the compiled kernels")
 
 ROOT = Path(__file__).resolve().parents[1]
 
