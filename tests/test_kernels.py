@@ -1,6 +1,6 @@
 """The compiled kernels give the NumPy versions' results to the bit.
 
-Each kernel in :mod:`shellrepair.kernels` replaces a NumPy or Python
+Each kernel of the kernel modules (``shellrepair/*_kernels.py``) replaces a NumPy or Python
 function that stays in the package as its oracle; these tests run both on
 seeded random, slivered and degenerate inputs and compare with
 ``np.array_equal`` (no tolerance)."""

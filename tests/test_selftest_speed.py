@@ -2,7 +2,7 @@
 
 ``order="auto"`` fills test holes beside each hole (:mod:`shellrepair.selftest`,
 :mod:`shellrepair.probe`) and measures each candidate's fill: the centroid
-query, the distances of the removed scan to each fill have a compiled path (:mod:`shellrepair.kernels`) beside the NumPy one
+query, the distances of the removed scan to each fill have a compiled path (:mod:`shellrepair.distance_kernels`) beside the NumPy one
 it replaces; the NumPy one is the oracle. The tests below compare the two on
 inputs that reach the awkward cases (degenerate triangles, far offsets,
 walks that run out of mesh), and the last one compares the whole test's
