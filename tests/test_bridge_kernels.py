@@ -93,9 +93,9 @@ def test_loop_sights_with_and_without_the_kernels_agree(monkeypatch):
         loops = detect_holes(V, F).loops
         fn = lambda lp: F[ctx.ring_faces(lp, 3)]   # noqa: E731
         got = bridge.loop_sights(V, loops, fn)
-        monkeypatch.setattr(kernels, "ENABLED", False)
+        monkeypatch.setattr(compiled, "ENABLED", False)
         want = bridge.loop_sights(V, loops, fn)
-        monkeypatch.setattr(kernels, "ENABLED", True)
+        monkeypatch.setattr(compiled, "ENABLED", True)
         assert sorted(got) == sorted(want) and len(got) >= 2
         for a in want:
             assert np.array_equal(got[a][0], want[a][0]) and got[a][1] == want[a][1]

@@ -41,7 +41,7 @@ def _bumpy_grid(k, seed, jitter=0.15):
 def test_later_rounds_by_cg_equal_the_direct_solves(order, seed, monkeypatch):
     X, F, nf = _bumpy_grid(44 + 3 * seed, seed)
     assert len(X) - nf >= fair.PCG_MIN_UNKNOWNS
-    monkeypatch.setattr(kernels, "ENABLED", False)        # no dense small-patch path either way
+    monkeypatch.setattr(compiled, "ENABLED", False)        # no dense small-patch path either way
     monkeypatch.setattr(fair, "PCG_MAX_ITER", 60)          # started far off the surface: ~15 iterations
     calls = []
     real = fair._pcg
@@ -59,7 +59,7 @@ def test_later_rounds_by_cg_equal_the_direct_solves(order, seed, monkeypatch):
 @pytest.mark.parametrize("max_iter", [0, 3])
 def test_cg_that_does_not_converge_gives_way_to_a_factorisation(max_iter, monkeypatch):
     X, F, nf = _bumpy_grid(44, 2)
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     monkeypatch.setattr(fair, "PCG_MAX_ITER", max_iter)   # too few for this start (~15 needed)
     got, _ = fair.fair_patch(X, F, nf, order=2)
     monkeypatch.setattr(fair, "PCG_MIN_UNKNOWNS", len(X))
@@ -132,7 +132,7 @@ def test_fairing_with_the_compiled_blocks_equals_the_scipy_path(order, monkeypat
     X, F, nf = _bumpy_grid(40, 6)
     assert len(X) - nf > fair.SMALL_UNKNOWNS                    # the sparse path
     got, _ = fair.fair_patch(X, F, nf, order=order)
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     ref, _ = fair.fair_patch(X, F, nf, order=order)
     assert np.abs(got - ref).max() <= TOLERANCE
     assert np.abs(got - X[nf:]).max() > 0.05
@@ -173,7 +173,7 @@ def test_order_3_fills_triangles_as_round_as_order_2(radius, seed):
 def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, monkeypatch):
     if numba and not compiled.ENABLED:
         pytest.skip("Numba is not installed")
-    monkeypatch.setattr(kernels, "ENABLED", numba and compiled.ENABLED)
+    monkeypatch.setattr(compiled, "ENABLED", numba and compiled.ENABLED)
     X, F, nf = _bumpy_grid(k, 7)
     shared = []
     real = fair._Factor
@@ -213,7 +213,7 @@ def _count_factorisations(monkeypatch):
 
 @pytest.mark.parametrize("numba", [True, False])
 def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monkeypatch):
-    monkeypatch.setattr(kernels, "ENABLED", numba and compiled.ENABLED)
+    monkeypatch.setattr(compiled, "ENABLED", numba and compiled.ENABLED)
     X, F, nf = _bumpy_grid(40, 8)
     assert len(X) - nf >= fair.FIRST_SOLVE_MEMO_UNKNOWNS
     made = _count_factorisations(monkeypatch)

@@ -79,7 +79,7 @@ def test_intrinsic_flips_equal_on_a_mesh_with_a_nonmanifold_edge():
 def test_vertex_faces_equal_the_sparse_counting_sort(sub, two, monkeypatch):
     # two: each step in two halves on two threads (forced on a small mesh;
     # sub 6 has more than two buckets of vertices)
-    monkeypatch.setattr(kernels, "VF_HALVES_MIN", 0 if two else 10 ** 12)
+    monkeypatch.setattr(topology_kernels, "VF_HALVES_MIN", 0 if two else 10 ** 12)
     V, F = shapes.icosphere(sub)
     rng = np.random.default_rng(sub)
     F = F[rng.permutation(len(F))]
@@ -163,7 +163,7 @@ def test_crossing_tests_give_the_same_answers_with_the_box_candidates(seed, monk
     index = NearFaces(V, F, origin=V.mean(axis=0))
     out = {}
     for on in (True, False):
-        monkeypatch.setattr(kernels, "ENABLED", on)
+        monkeypatch.setattr(compiled, "ENABLED", on)
         pairs = patch_vs_index(Pt, ids, index, return_pairs=True)
         self_pairs = crossing_pairs(Pt - index.origin, ids)
         out[on] = (patch_vs_index(Pt, ids, index), patch_vs_index(Pt, ids, index, return_faces=True),
@@ -185,9 +185,9 @@ def test_faces_near_equals_the_numpy_walk(monkeypatch):
     boxes = [(c - w, c + w) for c, w in zip(rng.normal(size=(20, 3)) * 0.7, rng.random((20, 1)) * 0.3)]
     boxes += [(np.full(3, 5.0), np.full(3, 6.0)), (np.full(3, -2.0), np.full(3, 2.0))]
     for lo, hi in boxes:
-        monkeypatch.setattr(kernels, "ENABLED", False)
+        monkeypatch.setattr(compiled, "ENABLED", False)
         a = index.faces_near(lo, hi)
-        monkeypatch.setattr(kernels, "ENABLED", True)
+        monkeypatch.setattr(compiled, "ENABLED", True)
         b = index.faces_near(lo, hi)
         assert a.dtype == b.dtype and np.array_equal(a, b)
         assert not index._fmark.any()
@@ -200,7 +200,7 @@ def test_the_vertex_grid_has_the_same_keys_and_cells(monkeypatch):
     V = V * [3.0, 1.0, 1.0] + 1e6                  # far from the origin, not square
     idx = {}
     for on in (False, True):
-        monkeypatch.setattr(kernels, "ENABLED", on)
+        monkeypatch.setattr(compiled, "ENABLED", on)
         idx[on] = NearFaces(V, F, origin=V.mean(axis=0))
     a, b = idx[False], idx[True]
     assert np.array_equal(a.lo2, b.lo2) and a.h == b.h and a.ny == b.ny
@@ -239,9 +239,9 @@ def test_the_dense_fairing_equals_the_sparse_solve_to_round_off(order, seed, mon
     X, F, nf = _submesh_with_free_middle(10 + 2 * seed, seed)
     assert 0 < len(X) - nf <= fair.SMALL_UNKNOWNS
     pinned = np.array([0, 3]) if seed == 2 else None
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     ref, Kref = fair.fair_patch(X, F, nf, order=order, pinned=pinned)
-    monkeypatch.setattr(kernels, "ENABLED", True)
+    monkeypatch.setattr(compiled, "ENABLED", True)
     got, K = fair.fair_patch(X, F, nf, order=order, pinned=pinned)
     assert np.abs(got - ref).max() <= FAIR_TOLERANCE
     assert abs(K - Kref).max() <= FAIR_TOLERANCE * abs(Kref).max()
@@ -315,7 +315,7 @@ def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypa
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=8, radius=0.12, seed=3)
     out = {}
     for on in (False, True):
-        monkeypatch.setattr(kernels, "ENABLED", on)
+        monkeypatch.setattr(compiled, "ENABLED", on)
         out[on] = repair_mesh(Mesh(V=V2, F=F2))
     (a, ra), (b, rb) = out[False], out[True]
     assert ra["holes_after"] == rb["holes_after"] == 0
@@ -574,7 +574,7 @@ def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
     loops = [np.asarray(h.vertices, np.int64) for h in detect_holes(V2, F2).holes]
     near = [F2[ctx.ring_faces(lp, 3)] for lp in loops]
     got = bridge._continuation_arcs_many(V2, near, loops)
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     want = bridge._continuation_arcs_many(V2, near, loops)
     for a, b in zip(want, got):
         for x, y in zip(a, b):
@@ -672,7 +672,7 @@ def test_point_triangle_distances_equal_the_numpy_version_to_the_bit(seed, monke
                         V[F[:9]].mean(axis=1), V[:5]])                     # on degenerate faces, on vertices
     for shift in (0.0, 1e6):
         got = point_mesh_distance(Q + shift, V + shift, F)
-        monkeypatch.setattr(kernels, "ENABLED", False)
+        monkeypatch.setattr(compiled, "ENABLED", False)
         ref = point_mesh_distance(Q + shift, V + shift, F)
         monkeypatch.undo()
         assert np.array_equal(got, ref)
@@ -807,7 +807,7 @@ def test_projection_certificate_equals_the_numpy_one(seed, monkeypatch):
     for Q, Tq in cases:
         got = {}
         for on in (True, False):
-            monkeypatch.setattr(kernels, "ENABLED", on)
+            monkeypatch.setattr(compiled, "ENABLED", on)
             got[on] = embeds_by_projection(Q, Tq, k)
         assert got[True] == got[False]
         answers.append(got[True])

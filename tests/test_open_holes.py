@@ -134,7 +134,7 @@ def test_patches_crossing_each_other_are_found_with_or_without_the_kernels(monke
 
     if compiled and not compiled.ENABLED:
         pytest.skip("Numba is not installed")
-    monkeypatch.setattr(kernels, "ENABLED", compiled)
+    monkeypatch.setattr(compiled, "ENABLED", compiled)
     # a long thin first patch: a fan over a 10 x 1 rectangle, its centre a new vertex
     V = np.array([[0, 0, 0], [10, 0, 0], [10, 1, 0], [0, 1, 0],
                   [5, 0.5, -1 + lift], [5.2, 0.5, 1 + lift], [4.8, 0.5, 1 + lift]], float)

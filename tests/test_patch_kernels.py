@@ -141,9 +141,9 @@ def test_delaunay_in_projection_compiled_equals_numpy(seed, monkeypatch):
             k = len(P)
             for forbidden in (set(), {(0, k // 2)}, {(0, 1)}):
                 got = tr._delaunay_in_projection(P, axis, forbidden)
-                monkeypatch.setattr(kernels, "ENABLED", False)
+                monkeypatch.setattr(compiled, "ENABLED", False)
                 want = tr._delaunay_in_projection(P, axis, forbidden)
-                monkeypatch.setattr(kernels, "ENABLED", True)
+                monkeypatch.setattr(compiled, "ENABLED", True)
                 assert (got is None) == (want is None)
                 if want is not None:
                     answers += 1

@@ -145,7 +145,7 @@ def test_the_index_built_in_the_background_is_the_index_built_in_line(monkeypatc
     line = _ctx(V, F)
     calls = []
     real = topology_kernels.vertex_faces
-    monkeypatch.setattr(kernels, "vertex_faces", lambda *a: calls.append(1) or real(*a))
+    monkeypatch.setattr(topology_kernels, "vertex_faces", lambda *a: calls.append(1) or real(*a))
     bg = _ctx(V, F)
     with ThreadPoolExecutor(2) as ex:
         done = bg.index_in_background(ex)
@@ -248,7 +248,7 @@ def test_without_a_region_two_jobs_start_the_whole_mesh_lists_early_and_build_th
     out = {}
     for jobs in (1, 2):
         whole = []
-        monkeypatch.setattr(kernels, "vertex_faces", lambda F_, n: (whole.append(len(F_)) if len(F_) == len(F)
+        monkeypatch.setattr(topology_kernels, "vertex_faces", lambda F_, n: (whole.append(len(F_)) if len(F_) == len(F)
                                                                     else None) or real(F_, n))
         out[jobs] = repair_mesh(Mesh(V=V, F=F), jobs=jobs, order="auto")
         assert whole == [len(F)]

@@ -88,8 +88,8 @@ def _old_steps(monkeypatch):
     they replace (the other kernels stay: fair_small, for one, is equal to
     round-off only, so the test with every kernel off is not the same to
     the bit)."""
-    monkeypatch.setattr(kernels, "centroids", lambda V, F: V[F].mean(axis=1))
-    monkeypatch.setattr(kernels, "nearest_triangle_distances", _numpy_nearest)
+    monkeypatch.setattr(distance_kernels, "centroids", lambda V, F: V[F].mean(axis=1))
+    monkeypatch.setattr(distance_kernels, "nearest_triangle_distances", _numpy_nearest)
 
 
 @pytest.mark.parametrize("seed", [0, 1])

@@ -268,9 +268,9 @@ def test_full_dp_is_the_same_with_and_without_the_kernels(monkeypatch):
         for forb in (set(), {(int(idx[0]), int(idx[len(idx) // 2]))}):
             for axis in (None, _axis(P[idx]), -_axis(P[idx])):
                 got = _answer(tr._dp, P, idx, en, forb, axis)
-                monkeypatch.setattr(kernels, "ENABLED", False)
+                monkeypatch.setattr(compiled, "ENABLED", False)
                 want = _answer(tr._dp, P, idx, en, forb, axis)
-                monkeypatch.setattr(kernels, "ENABLED", True)
+                monkeypatch.setattr(compiled, "ENABLED", True)
                 if isinstance(want, str) or isinstance(got, str):
                     assert got == want
                     errors += 1
@@ -388,10 +388,10 @@ def test_triangulate_loop_is_the_same_with_and_without_the_kernels(seed, monkeyp
                 for axis in ("auto", np.array([0.0, 0.0, 1.0])):
                     got = _answer(tr.triangulate_loop, Pin, None, forb, axis)
                     direct = tr._delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
-                    monkeypatch.setattr(kernels, "ENABLED", False)
+                    monkeypatch.setattr(compiled, "ENABLED", False)
                     want = _answer(tr.triangulate_loop, Pin, None, forb, axis)
                     direct_np = tr._delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
-                    monkeypatch.setattr(kernels, "ENABLED", True)
+                    monkeypatch.setattr(compiled, "ENABLED", True)
                     if isinstance(want, str) or isinstance(got, str):
                         assert got == want
                     else:
@@ -431,10 +431,10 @@ def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monk
         for P in (wavy_loop(k, rng), folded):
             got = tr.delaunay_faces(P)
             W = tr._with_loop_edges(got, k) if got is not None else None
-            monkeypatch.setattr(kernels, "ENABLED", False)
+            monkeypatch.setattr(compiled, "ENABLED", False)
             want = tr.delaunay_faces(P)
             Wn = tr._with_loop_edges(want, k) if want is not None else None
-            monkeypatch.setattr(kernels, "ENABLED", True)
+            monkeypatch.setattr(compiled, "ENABLED", True)
             assert (got is None) == (want is None)
             if want is None:
                 continue
@@ -445,7 +445,7 @@ def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monk
     D = np.array([[0, 1, 2], [1, 2, 3], [0, 2, 3], [2, 3, 4]], np.int64)   # corner 4 outside a 4-loop
     assert not triangulate_kernels.loop_edges_present(D, 4)[1]
     got = tr._with_loop_edges(D, 4)
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     assert np.array_equal(got, tr._with_loop_edges(D, 4))
 
 
