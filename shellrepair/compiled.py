@@ -55,7 +55,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ENABLED", "kernel", "available", "numba_found", "aot_loaded", "jit_loaded", "source_hash", "TYPES_FILE", "PARTS", "describe"]
+__all__ = ["ENABLED", "kernel", "available", "numba_found", "aot_loaded", "jit_loaded", "source_hash", "TYPES_FILE",
+           "PARTS", "MODULES", "describe"]
 
 HERE = Path(__file__).resolve().parent
 #: The argument types compiled ahead of time (written by ``python -m shellrepair.aot record``).
