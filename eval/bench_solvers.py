@@ -154,7 +154,7 @@ def cold(repeat=3):
     Numba kernels loaded, before the clock starts)."""
     setup = ("import sys, time; sys.path.insert(0, %r); import numpy as np, scipy.sparse as sp; "
              "from eval import shapes; from shellrepair.fair import uniform_laplacian; "
-             "from shellrepair import kernels; kernels.max_sq_distance(np.zeros((3, 3))); "
+             "from shellrepair import common_kernels; common_kernels.max_sq_distance(np.zeros((3, 3))); "
              "V, F = shapes.icosphere(3); K = uniform_laplacian(F, len(V)); "
              "u = np.arange(300); Q = sp.csc_matrix((K @ K)[u][:, u] + sp.identity(300) * 1e-3); "
              "R = np.ones((300, 3)); t = time.perf_counter(); ") % str(ROOT)

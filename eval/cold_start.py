@@ -77,7 +77,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: The issue's bound: the first run at most this much slower than the second.
 BOUND = 0.20
 #: Environment variables removed from the commands' environment (see the docstring).
-_CLEAR = ("NUMBA_CACHE_DIR", "NUMBA_DISABLE_JIT", "NUMBA_DEBUG_CACHE", "SHELLREPAIR_NO_NUMBA", "SHELLREPAIR_NO_JIT",
+_CLEAR = ("NUMBA_CACHE_DIR", "NUMBA_DISABLE_JIT", "NUMBA_DEBUG_CACHE", "SHELLREPAIR_NO_NUMBA",
           "PYTHONDONTWRITEBYTECODE", "PYTHONPATH", "PYTHONPROFILEIMPORTTIME", "PYTHONPYCACHEPREFIX", "MAKEFLAGS",
           "MFLAGS", "MAKELEVEL", "MAKEOVERRIDES", "VIRTUAL_ENV")
 #: The interpreter of the copy's environment, passed to make explicitly so a

@@ -20,6 +20,7 @@ only the load time it saves.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import shutil
@@ -110,7 +111,8 @@ def build(part=None, out_dir=None):
     import numba.pycc.compiler as pycc_compiler
     from numba.pycc import CC
 
-    from . import cholesky, kernels  # noqa: F401  (registers the kernels)
+    for module in compiled.MODULES:   # registers their kernels
+        importlib.import_module(module)
 
     class _ReleaseGil(pycc_compiler.Flags):
         def __init__(self, *a, **k):

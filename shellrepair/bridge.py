@@ -70,7 +70,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import kernels
+from . import bridge_kernels, compiled
 
 __all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "tube_triangles", "guide_tube",
            "resample_tube", "pants_triples", "wrapped_pairs", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
@@ -182,8 +182,8 @@ def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
     sizes = np.array([len(lp) for lp in loops], np.int64)
     Fcat = np.concatenate(F_nears)
     loopcat = np.concatenate(loops)
-    if kernels.ENABLED:
-        ukey, L, li = kernels.block_ids(Fcat, [len(f) for f in F_nears], loopcat, sizes, n)
+    if compiled.ENABLED:
+        ukey, L, li = bridge_kernels.block_ids(Fcat, [len(f) for f in F_nears], loopcat, sizes, n)
     else:
         lid_f = np.repeat(np.arange(len(loops), dtype=np.int64), [len(f) for f in F_nears])
         lid_p = np.repeat(np.arange(len(loops), dtype=np.int64), sizes)
@@ -202,8 +202,8 @@ def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
     level[ring2] = 2
     X = V[ukey % n]
     # area-weighted vertex normals, summed block by block
-    if kernels.ENABLED:
-        acc = kernels.corner_normal_sums(L, Fcat, V, nv)
+    if compiled.ENABLED:
+        acc = bridge_kernels.corner_normal_sums(L, Fcat, V, nv)
     else:
         Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
         acc = np.zeros((nv, 3))
@@ -211,7 +211,7 @@ def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
             np.add.at(acc, L[:, c], Nf)
     ln = np.linalg.norm(acc, axis=1, keepdims=True)
     Nv = np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
-    sums = kernels.ring_sums if kernels.ENABLED else _ring_sums
+    sums = bridge_kernels.ring_sums if compiled.ENABLED else _ring_sums
     s1, c1, N, s2, c2, N2 = sums(E, li, level, X, Nv)
     ok = (c1 > 0) & (c2 > 0)
     q1 = s1 / np.maximum(c1, 1)[:, None]
@@ -273,7 +273,7 @@ def _ring_sums(E, li, level, X, Nv):
     neighbours of those (the rows of ``R1 = A[li]`` and ``R2 = R1 A``
     restricted to those levels, ``A`` the all-ones adjacency of the edges
     ``E``): as sparse products, each row summed in column order from zero
-    (:func:`shellrepair.kernels.ring_sums` is the same sums compiled).
+    (:func:`shellrepair.bridge_kernels.ring_sums` is the same sums compiled).
 
     Returns
     -------
@@ -429,8 +429,8 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
             trees.append(cKDTree(P))
         return trees[0]
 
-    if kernels.ENABLED:
-        landed, status = kernels.arc_landings(U, T, N, kap, s0, length, n_samples, slack, ent, len(ent_a), V[allv],
+    if compiled.ENABLED:
+        landed, status = bridge_kernels.arc_landings(U, T, N, kap, s0, length, n_samples, slack, ent, len(ent_a), V[allv],
                                               owner, place, edge, arow, krow, irow, SELF_SKIP,
                                               rank_of=lambda P: _leaf_rank(tree_of(P)))
     if status != 0:
@@ -454,7 +454,7 @@ def _leaf_rank(tree):
 def _landings_numpy(U, T, N, kap, s0, length, n_samples, slack, ent, first, tree, owner, place, edge, arow, krow,
                     irow):
     """The loop each arc lands on first (-1: none), the NumPy version of
-    :func:`shellrepair.kernels.arc_landings` (its oracle; arguments as
+    :func:`shellrepair.bridge_kernels.arc_landings` (its oracle; arguments as
     there, ``first`` the followed loops' first rows and ``tree`` a
     ``cKDTree`` of the rim vertices).
 

@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kernels
+from . import checks_kernels, compiled
 from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
 from .merge import _edges_of, _scan_edges
 from .patch import _corners
@@ -51,8 +51,8 @@ def _folds(ctx, patch, C, ids):
     """Patch triangles folded onto a neighbour across an edge (``FOLD_DEGREES``):
     another patch triangle, or the scan face across a rim edge (sorted)."""
     Fr = ctx.F[ctx.faces_of(patch.loop)]
-    if kernels.ENABLED:
-        return kernels.folds(C, ids, ctx.V[Fr], Fr, np.cos(np.radians(FOLD_DEGREES)))
+    if compiled.ENABLED:
+        return checks_kernels.folds(C, ids, ctx.V[Fr], Fr, np.cos(np.radians(FOLD_DEGREES)))
     return _folds_numpy(C, ids, ctx.V[Fr], Fr)
 
 

@@ -83,7 +83,7 @@ import numpy as np
 
 from . import blas
 
-__all__ = ["ENABLED", "Factor", "NotPositiveDefinite", "factor", "nd_order", "LEAF", "warm_up"]
+__all__ = ["Factor", "NotPositiveDefinite", "factor", "nd_order", "LEAF", "warm_up"]
 
 #: Parts of the dissection with at most this many vertices are not split
 #: (one dense front: below it a split saves less than the fronts' overhead).
@@ -104,9 +104,9 @@ BLOCK = 64
 
 from . import compiled
 
-#: Whether the kernels run (compiled ahead of time, or by Numba's JIT):
-#: :func:`shellrepair.compiled.available`; when False, fair.py uses libigl's factorisation instead.
-ENABLED = compiled.available()
+# The kernels run where :data:`shellrepair.compiled.ENABLED` is set (compiled
+# ahead of time, or by Numba's JIT); where not, fair.py uses libigl's
+# factorisation instead.
 njit = compiled.kernel
 
 _WARM = False
@@ -760,7 +760,7 @@ def warm_up():
     on a small system, or run their ahead-of-time build where it is there
     (:mod:`shellrepair.compiled`); False when the kernels are off."""
     global _WARM
-    if not ENABLED:
+    if not compiled.ENABLED:
         return False
     if _WARM:
         return True

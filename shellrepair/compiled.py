@@ -1,8 +1,20 @@
 """The compiled kernels: machine code built ahead of time, Numba's JIT behind it.
 
-The kernels of :mod:`shellrepair.kernels` and :mod:`shellrepair.cholesky`
-are written once, as Numba functions, and marked with :func:`kernel` (in
-place of ``numba.njit``). ``make setup`` (``python -m shellrepair.aot
+Each kernel module sits beside the code it speeds up
+(:mod:`shellrepair.refine_kernels` beside :mod:`shellrepair.refine`, and
+so on for context, topology, triangulate, patch, intersect, intrinsic,
+fair, checks, bridge and distance; :mod:`shellrepair.common_kernels` holds
+the helpers several share; :mod:`shellrepair.cholesky` is the fairing's
+sparse factorisation). Each kernel does what a NumPy (or plain Python)
+function of the package does, with the same floating-point operations in
+the same order, so its result is the same to the bit; that function stays
+as the path taken with the kernels off and as the test oracle. The kernels
+exist because the per-hole work is many small steps: in NumPy each costs a
+few microseconds of dispatch whatever its size, and loops of rounds (edge
+flips) pay it hundreds of times a hole.
+
+The kernels are written once, as Numba functions, and marked with
+:func:`kernel` (in place of ``numba.njit``). ``make setup`` (``python -m shellrepair.aot
 build``) compiles them ahead of time, for the argument types listed in
 ``shellrepair/aot_types.json``, into extension modules beside this file
 (``_aot_<source hash>_<part>*.so``). A run then imports those modules in
@@ -20,13 +32,18 @@ kernel from its cache as before. Both are the same source compiled by the
 same LLVM without fast-math, so they give the same bits (tests/test_aot.py
 compares them); only the time differs.
 
-Environment: ``SHELLREPAIR_NO_AOT=1`` skips the compiled modules (the JIT
-only), ``SHELLREPAIR_NO_NUMBA=1`` turns every kernel off (callers use their
-NumPy versions, as without Numba).
+The one switch: ``SHELLREPAIR_NO_NUMBA=1`` turns every kernel off, here
+and in :mod:`shellrepair.fastmesh` and :mod:`shellrepair.reflectance`
+(callers use their NumPy versions, as without Numba). :data:`ENABLED` is
+the flag every caller reads (``if compiled.ENABLED:``, at call time, so a
+test may set it False to run the NumPy versions). ``SHELLREPAIR_NO_AOT=1``
+is the build's and the tests' own: it skips the compiled modules (the JIT
+only), to record the types or to compare the two.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.util
@@ -38,13 +55,16 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["kernel", "available", "aot_loaded", "jit_loaded", "source_hash", "TYPES_FILE", "PARTS", "describe"]
+__all__ = ["ENABLED", "kernel", "available", "numba_found", "aot_loaded", "jit_loaded", "source_hash", "TYPES_FILE",
+           "PARTS", "MODULES", "describe"]
 
 HERE = Path(__file__).resolve().parent
 #: The argument types compiled ahead of time (written by ``python -m shellrepair.aot record``).
 TYPES_FILE = HERE / "aot_types.json"
 #: The modules whose kernels are compiled ahead of time (their source is hashed).
-MODULES = ("shellrepair.kernels", "shellrepair.cholesky")
+MODULES = tuple(f"shellrepair.{m}_kernels" for m in ("common", "topology", "context", "triangulate", "patch", "intersect",
+                                                    "intrinsic", "refine", "fair", "checks", "bridge", "distance")) \
+    + ("shellrepair.cholesky",)
 #: Extension modules the kernels are split into (built side by side, one process each).
 PARTS = 2
 
@@ -87,12 +107,23 @@ def _aot_built() -> bool:
     return _BUILT
 
 
+@functools.cache
+def numba_found() -> bool:
+    """Whether Numba can be imported (looked up once, not imported)."""
+    return importlib.util.find_spec("numba") is not None
+
+
 def available() -> bool:
     """Whether kernels run at all: the compiled modules are built for these
     sources, or Numba can be imported (and ``SHELLREPAIR_NO_NUMBA`` is unset)."""
     if _NO_NUMBA:
         return False
-    return _aot_built() or importlib.util.find_spec("numba") is not None
+    return _aot_built() or numba_found()
+
+
+#: The one flag: whether the kernels run (:func:`available`, once at import).
+#: Every caller reads it at call time; when False, the NumPy versions run.
+ENABLED = available()
 
 
 def describe(v):
@@ -170,26 +201,38 @@ def jit_loaded() -> bool:
     return _JIT
 
 
+_GLOBALS = {}        # module -> the globals of its kernels' copies
+
+
 def _make_jit():
-    """Numba dispatchers for every registered kernel. Each wraps a copy of
-    the Python function whose globals name the other kernels' dispatchers
-    (Numba resolves a kernel's callees from its globals when it compiles
-    it); the modules' own names stay :class:`Kernel` objects."""
+    """Numba dispatchers for every registered kernel that has none yet
+    (a kernel module imported later gets its own on its first call). Each
+    wraps a copy of the Python function whose globals name the other
+    kernels' dispatchers, its own module's and those it imports from
+    another kernel module (Numba resolves a kernel's callees from its
+    globals when it compiles it); the modules' own names stay
+    :class:`Kernel` objects."""
     global _JIT
     with _LOCK:
-        if _JIT:
-            return
         from numba import njit
 
-        for module, kernels in REGISTRY.items():
-            g = dict(vars(importlib.import_module(module)))
-            for name, k in kernels.items():
+        for module, kernels in list(REGISTRY.items()):
+            todo = [k for k in list(kernels.values()) if k.jit is None]
+            if not todo:
+                continue
+            g = _GLOBALS.get(module)
+            if g is None:
+                g = _GLOBALS[module] = dict(vars(importlib.import_module(module)))
+            for k in todo:
                 f = k.py_func
                 copy = types.FunctionType(f.__code__, g, f.__name__, f.__defaults__, f.__closure__)
                 copy.__qualname__, copy.__module__, copy.__doc__ = f.__qualname__, f.__module__, f.__doc__
                 copy.__kwdefaults__ = f.__kwdefaults__
                 k.jit = njit(**k.options)(copy)
-                g[name] = k.jit
+        for g in _GLOBALS.values():   # every kernel named in a module's globals, by its dispatcher
+            for name, v in list(g.items()):
+                if isinstance(v, Kernel) and v.jit is not None:
+                    g[name] = v.jit
         _JIT = True
 
 
@@ -245,10 +288,10 @@ def kernel(*args, **options):
     """Mark a Numba kernel (``@kernel(cache=True, nogil=True)``, the options
     ``numba.njit`` takes). Returns a :class:`Kernel`, or the function itself
     when kernels are off (``SHELLREPAIR_NO_NUMBA``, or neither the compiled
-    modules nor Numba are there): callers then test their module's
-    ``ENABLED`` and run the NumPy versions."""
+    modules nor Numba are there): callers then find :data:`ENABLED` False
+    and run the NumPy versions."""
     def wrap(f):
-        if not available():
+        if not ENABLED:
             return f
         k = Kernel(f, options)
         REGISTRY.setdefault(k.module, {})[k.name] = k

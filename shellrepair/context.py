@@ -19,7 +19,7 @@ import threading
 
 import numpy as np
 
-from . import kernels
+from . import compiled, context_kernels, topology_kernels
 from .geometry import concat_ranges, uniq
 from .intersect import NearFaces
 from .topology import vertex_faces
@@ -125,7 +125,7 @@ class ScanContext:
         if self._vf is None:
             fut = self._vf_future
             self._vf = (fut.result() if fut is not None
-                        else (kernels.vertex_faces if kernels.ENABLED else vertex_faces)(self.F, self.n))
+                        else (topology_kernels.vertex_faces if compiled.ENABLED else vertex_faces)(self.F, self.n))
         return self._vf
 
     @property
@@ -166,9 +166,9 @@ class ScanContext:
 
         def build():
             try:
-                if self.region() is None and self._vf is None and self._vf_future is None and kernels.ENABLED:
+                if self.region() is None and self._vf is None and self._vf_future is None and compiled.ENABLED:
                     early = self._early_vf     # (started with the region: take_region)
-                    self._vf_future = early if early is not None else ex.submit(kernels.vertex_faces, self.F, self.n)
+                    self._vf_future = early if early is not None else ex.submit(topology_kernels.vertex_faces, self.F, self.n)
             finally:
                 arranged.set()
             return self.build_index()
@@ -228,15 +228,15 @@ class ScanContext:
 
     def faces_of(self, verts):
         """Faces with a corner in ``verts`` (sorted): the compiled walk's
-        first ring (:func:`shellrepair.kernels.ring_faces`) when the kernels
+        first ring (:func:`shellrepair.context_kernels.ring_faces`) when the kernels
         are there, over the same vertex-face lists as :meth:`_faces_of_numpy`."""
-        if not kernels.ENABLED:
+        if not compiled.ENABLED:
             return self._faces_of_numpy(verts)
         verts = np.asarray(verts, np.int64)
         reg = self._local_lists(verts)
         order, start = (reg.vf_order, reg.vf_start) if reg is not None else self.vf
         F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
-        return kernels.ring_faces(verts, 1, order, start, F, self._vmark, self._fmark)
+        return context_kernels.ring_faces(verts, 1, order, start, F, self._vmark, self._fmark)
 
     def _faces_of_numpy(self, verts):
         """:meth:`faces_of` in NumPy (its test oracle; the NumPy ring walk's
@@ -249,15 +249,15 @@ class ScanContext:
 
     def ring_faces(self, verts, rings):
         """Faces within ``rings`` rings of ``verts`` (sorted)."""
-        if kernels.ENABLED:
+        if compiled.ENABLED:
             F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
             verts = np.asarray(verts, np.int64)
             reg = self._local_lists(verts)
             if reg is not None:
-                got = kernels.ring_faces(verts, rings, reg.vf_order, reg.vf_start, F, self._vmark, self._fmark)
+                got = context_kernels.ring_faces(verts, rings, reg.vf_order, reg.vf_start, F, self._vmark, self._fmark)
                 if reg.covered[F[got]].all():   # every list the walk read was complete
                     return got
-            return kernels.ring_faces(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
+            return context_kernels.ring_faces(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
         return self._ring_faces_numpy(verts, rings)
 
     def _ring_faces_numpy(self, verts, rings):
@@ -291,7 +291,7 @@ class ScanContext:
 #: grid on a mesh of at least this many faces ...
 LOCAL_MIN_FACES = 400_000
 #: ... with at most this many boundary loops ...
-LOCAL_MAX_LOOPS = kernels.MAX_BOXES
+LOCAL_MAX_LOOPS = context_kernels.MAX_BOXES
 #: ... and boundary edges in all ...
 LOCAL_MAX_EDGES = 20_000
 #: ... when the region holds at most this share of the faces.
@@ -319,7 +319,7 @@ class _Region:
     def __init__(self, F, n, lo, hi, found):
         self.lo, self.hi = lo, hi
         self.faces, self.fmin, self.fmax, self.covered = found
-        o, self.vf_start = kernels.vertex_faces(F[self.faces], n)
+        o, self.vf_start = topology_kernels.vertex_faces(F[self.faces], n)
         self.vf_order = 3 * self.faces[o // 3] + o % 3
 
 
@@ -347,9 +347,9 @@ def early_lists(ex, V, F, topo):
     dropped = threading.Event()
 
     def lists():
-        if region.result() is not None or dropped.is_set() or not kernels.ENABLED:
+        if region.result() is not None or dropped.is_set() or not compiled.ENABLED:
             return None
-        return kernels.vertex_faces(F, len(V))
+        return topology_kernels.vertex_faces(F, len(V))
 
     vf = ex.submit(lists)
 
@@ -369,7 +369,7 @@ def region_of(V, F, topo):
     A :class:`ScanContext` over the same ``V``, ``F`` and ``topo`` builds this
     region; :meth:`ScanContext.take_region` accepts one built beforehand.
     """
-    if not kernels.ENABLED or topo is None or len(F) < LOCAL_MIN_FACES:
+    if not compiled.ENABLED or topo is None or len(F) < LOCAL_MIN_FACES:
         return None
     bh = topo.boundary_he
     if bh.size == 0 or bh.size > LOCAL_MAX_EDGES:
@@ -394,7 +394,7 @@ def region_of(V, F, topo):
     g = LOCAL_GROW * np.linalg.norm(hi - lo, axis=1) + LOCAL_RING_EDGES * longest
     lo -= g[:, None]
     hi += g[:, None]
-    found = kernels.faces_in_boxes(V, F, lo, hi)
+    found = context_kernels.faces_in_boxes(V, F, lo, hi)
     return _Region(F, len(V), lo, hi, found) if found[0].size <= LOCAL_MAX_SHARE * len(F) else None
 
 
@@ -419,7 +419,7 @@ class _LocalIndex:
         hi = np.asarray(hi, np.float64)
         r = self._reg
         if np.isfinite(lo).all() and np.isfinite(hi).all() and np.all((r.lo <= lo) & (hi <= r.hi), axis=1).any():
-            return r.faces[kernels.boxes_meeting(r.fmin, r.fmax, lo, hi)]
+            return r.faces[context_kernels.boxes_meeting(r.fmin, r.fmax, lo, hi)]
         return self._ctx.whole_index().faces_near(lo, hi)
 
     def __getattr__(self, name):
@@ -430,11 +430,11 @@ class _LocalIndex:
 
 def rim_data(ctx, loop):
     """Scale σ per loop vertex, scan normals across loop edges, forbidden chords."""
-    if not kernels.ENABLED:
+    if not compiled.ENABLED:
         return rim_data_numpy(ctx, loop)
     reg = ctx._local_lists(loop)          # the lists ctx.faces_of reads
     order, start = (reg.vf_order, reg.vf_start) if reg is not None else ctx.vf
-    sig_sum, sig_cnt, edge_normals, forb = kernels.rim_walk(loop, order, start, ctx.F, ctx.V)
+    sig_sum, sig_cnt, edge_normals, forb = context_kernels.rim_walk(loop, order, start, ctx.F, ctx.V)
     forbidden = set(zip(forb[:, 0].tolist(), forb[:, 1].tolist()))
     return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
 
@@ -451,8 +451,8 @@ def _rim_faces(ctx, loop):
 
 
 def _rim_sigma(ctx, loop, sig_sum, sig_cnt):
-    if kernels.ENABLED:
-        return kernels.rim_sigma(ctx.V, loop, sig_sum, sig_cnt)
+    if compiled.ENABLED:
+        return context_kernels.rim_sigma(ctx.V, loop, sig_sum, sig_cnt)
     return _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt)
 
 
@@ -496,8 +496,8 @@ def submesh(ctx, loop, Pl, T, rings):
     the fixed vertices)."""
     k = len(loop)
     rf = ctx.ring_faces(loop, rings)
-    if kernels.ENABLED:
-        g, Fs, loc_loop, ok = kernels.submesh(rf, ctx.F, loop, T, ctx.vpos())
+    if compiled.ENABLED:
+        g, Fs, loc_loop, ok = context_kernels.submesh(rf, ctx.F, loop, T, ctx.vpos())
         if ok:
             return g, Fs, len(g), loc_loop
     return _submesh_numpy(ctx, loop, T, rf)

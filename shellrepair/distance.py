@@ -3,7 +3,7 @@ the scan it stands in for.
 
 :func:`point_mesh_distance` measures the order test's refills against the
 scan cut away (:mod:`~shellrepair.probe`) and eval's patches against the
-truth; compiled (:func:`shellrepair.kernels.nearest_triangle_distances`)
+truth; compiled (:func:`shellrepair.distance_kernels.nearest_triangle_distances`)
 with this NumPy version as its oracle, the same operations in the same
 order.
 """
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import kernels
+from . import compiled, distance_kernels
 
 __all__ = ["point_mesh_distance"]
 
@@ -44,9 +44,9 @@ def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
     if len(Q) == 0 or len(F) == 0:
         return np.full(len(Q), np.inf)
     kk = min(int(nearest), len(F))
-    if kernels.ENABLED:    # the same operations, compiled
-        _, idx = cKDTree(kernels.centroids(V, F)).query(Q, k=kk)
-        return kernels.nearest_triangle_distances(Q, V, F, np.asarray(idx).reshape(len(Q), kk))
+    if compiled.ENABLED:    # the same operations, compiled
+        _, idx = cKDTree(distance_kernels.centroids(V, F)).query(Q, k=kk)
+        return distance_kernels.nearest_triangle_distances(Q, V, F, np.asarray(idx).reshape(len(Q), kk))
     T = V[F]
     _, idx = cKDTree(T.mean(axis=1)).query(Q, k=kk)
     idx = np.asarray(idx).reshape(len(Q), kk)
@@ -59,7 +59,7 @@ def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
 
 def _dot3(a, b):
     """Row-wise dot products of (n,3) arrays, summed left to right (as the
-    compiled :func:`shellrepair.kernels.nearest_triangle_distances` does; einsum's
+    compiled :func:`shellrepair.distance_kernels.nearest_triangle_distances` does; einsum's
     order depends on the CPU's vector width)."""
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 

@@ -19,7 +19,7 @@ factorisation of the unknowns' block Q_uu (:mod:`shellrepair.cholesky`;
 libigl's ``min_quad_with_fixed`` without Numba),
 the three coordinates solved as three right-hand sides. The two blocks are
 assembled row by row by a compiled kernel
-(:func:`shellrepair.kernels.energy_blocks`), not by sparse products and
+(:func:`shellrepair.fair_kernels.energy_blocks`), not by sparse products and
 slices. The first round uses uniform (umbrella) weights, since cotangents
 of the initial, flat patch are meaningless, at order min(k, 2)
 (``UNIFORM_MAX_ORDER``); later rounds re-evaluate cotangent weights and
@@ -70,7 +70,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import cholesky, kernels
+from . import cholesky, compiled, fair_kernels, intrinsic_kernels
 from .intrinsic import intrinsic_laplacian
 
 __all__ = ["fair_patch", "fair_patch_orders", "Operator", "as_matrix", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
@@ -83,7 +83,7 @@ UNIFORM_MAX_ORDER = 2
 DEGENERATE_AREA = 1e-10
 #: Patches with at most this many unknowns (and unknowns × submesh vertices
 #: at most ``SMALL_WORK``) are faired by the compiled dense solve
-#: (:func:`shellrepair.kernels.fair_small`; equal to round-off).
+#: (:func:`shellrepair.fair_kernels.fair_small`; equal to round-off).
 SMALL_UNKNOWNS = 200
 SMALL_WORK = 200_000
 #: Later cotangent rounds: conjugate gradients stop at this relative residual
@@ -142,16 +142,16 @@ def _energy(K, Minv, order):
 def _blocks(K, Minv, order, fixed, unknown):
     """The unknowns' block Q_uu (CSC) and the fixed coupling Q_uf (CSR) of
     :func:`_energy`'s Q: compiled in one pass per row
-    (:func:`shellrepair.kernels.energy_blocks`) when Numba is there, else
+    (:func:`shellrepair.fair_kernels.energy_blocks`) when Numba is there, else
     SciPy's products and slices. ``K``: sparse, or the CSR arrays of
     :func:`_operators`."""
-    if kernels.ENABLED:
+    if compiled.ENABLED:
         if sp.issparse(K):
             K = sp.csc_matrix(K)
             K = (K.indptr, K.indices, K.data)
         ptr, col, val = K
         D = np.ones(ptr.size - 1) if Minv is None else Minv
-        (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
+        (up, uc, uv), (fp, fc, fv) = fair_kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
         return (sp.csc_matrix((uv, uc, up), shape=(unknown.size, unknown.size)),
                 sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size)))
     Qu = _energy(K, Minv, order)[unknown]
@@ -161,10 +161,10 @@ def _blocks(K, Minv, order, fixed, unknown):
 def _operators(X, F, uniform=False):
     """K (and M, None for ``uniform``) of a fairing round: as compiled CSR
     arrays when Numba is there (no SciPy assembly), else sparse."""
-    if not kernels.ENABLED:
+    if not compiled.ENABLED:
         return (uniform_laplacian(F, len(X)), None) if uniform else _cotan_operators(X, F)
     if uniform:
-        return kernels._laplacian_rows(np.ascontiguousarray(F, np.int64), np.zeros((0, 3)), len(X), True), None
+        return intrinsic_kernels._laplacian_rows(np.ascontiguousarray(F, np.int64), np.zeros((0, 3)), len(X), True), None
     from .intrinsic import _laplacian_arrays
 
     return _laplacian_arrays(X, F)
@@ -244,7 +244,7 @@ class _Factor:
     def __init__(self, Quu, Quf):
         self.Quu, self.Quf = Quu, Quf
         self.data = self.lu = self.chol = None
-        if cholesky.ENABLED:
+        if compiled.ENABLED:
             try:
                 self.chol = cholesky.factor(Quu)
                 return
@@ -408,14 +408,14 @@ def fair_patch_orders(X, F, n_fixed, orders, rounds=COTAN_ROUNDS, pinned=None, o
     unknown = np.flatnonzero(~pin)
     if unknown.size == 0:
         return [(X[n_fixed:], uniform_laplacian(F, n) if operator else None) for _ in orders]
-    small = kernels.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK
+    small = compiled.ENABLED and unknown.size <= SMALL_UNKNOWNS and n * unknown.size <= SMALL_WORK
     first = {}     # uniform order -> (positions after the first solve, its K, the first cotangent round's K and M)
     out = []
     for order in orders:
         if small:
             from .intrinsic import FLIP_TOL, MAX_ROUNDS
 
-            Xs, ok, ptr, col, val = kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL,
+            Xs, ok, ptr, col, val = fair_kernels.fair_small(X, F, pin, order, rounds, DEGENERATE_AREA, FLIP_TOL,
                                                        MAX_ROUNDS, UNIFORM_MAX_ORDER)
             if ok:
                 out.append((Xs[n_fixed:], op((ptr, col, val), n)))

@@ -4,7 +4,7 @@ Each kernel here is one linear pass (or a few) over the faces, in place of
 NumPy code that sorts or builds a sparse matrix: the half-edge topology by
 counting sorts on each edge's lower vertex, pieces by union-find, face
 areas and signed volumes in one loop each (the vertex-face lists are
-:func:`shellrepair.kernels.vertex_faces`'s, loaded on their own). They give
+:func:`shellrepair.topology_kernels.vertex_faces`'s, loaded on their own). They give
 exactly what their NumPy versions in :mod:`shellrepair.topology` and
 :mod:`shellrepair.clean` give (those stay as the reference, and as the
 path taken when Numba is missing; ``tests/test_scale_structures.py``
@@ -20,22 +20,20 @@ compiler. Kernels release the GIL (``nogil``): from ``HALVES_MIN_ROWS``
 rows, with two cores or more, the edge topology, face areas and edge
 lengths run in two halves on two threads, with the same results.
 
-The environment variable ``SHELLREPAIR_NO_NUMBA=1`` turns them off.
+They run where :data:`shellrepair.compiled.ENABLED` is set (the one switch:
+``SHELLREPAIR_NO_NUMBA=1`` turns them off) and Numba can be imported
+(these kernels have no ahead-of-time build).
 """
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import threading
 from types import SimpleNamespace
 
 import numpy as np
 
-from . import halves
-
-#: True when Numba can be imported (and SHELLREPAIR_NO_NUMBA is not set).
-AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get("SHELLREPAIR_NO_NUMBA")
+from . import compiled, halves
 
 #: Faces from which the whole-mesh steps use the kernels. Below it they
 #: save less than the half second that loading them costs once per process
@@ -44,7 +42,7 @@ AVAILABLE = importlib.util.find_spec("numba") is not None and not os.environ.get
 #: :func:`preload` overlaps the loading with the reading of the file).
 MIN_FACES = 400_000
 
-__all__ = ["AVAILABLE", "MIN_FACES", "enabled", "preload", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
+__all__ = ["MIN_FACES", "enabled", "preload", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
            "face_areas", "normal_moments", "edge_sq_lengths", "triple_hash", "vertex_faces", "piece_signed_volumes", "warm_up"]
 
 #: Runs of slots shorter than this are sorted by insertion (a vertex's
@@ -63,11 +61,17 @@ _K = None
 _LOCK = threading.Lock()
 
 
+def _usable():
+    """Whether the kernels can run: :data:`shellrepair.compiled.ENABLED`
+    (read at call time) and Numba there."""
+    return compiled.ENABLED and compiled.numba_found()
+
+
 def enabled(n_faces):
     """True when a whole-mesh step on ``n_faces`` faces should use the kernels:
     from ``MIN_FACES`` faces, or on any mesh once they are loaded (their
     loading is then paid already; they give the same arrays)."""
-    return AVAILABLE and (n_faces >= MIN_FACES or _K is not None)
+    return _usable() and (n_faces >= MIN_FACES or _K is not None)
 
 
 def _kernels():
@@ -612,11 +616,11 @@ def piece_signed_volumes(V, F, flip, piece, n_pieces):
 # --------------------------------------------------------------------------
 def vertex_faces(F, n):
     """:func:`shellrepair.topology.vertex_faces`: ``(order, start)``, by
-    :func:`shellrepair.kernels.vertex_faces` (the one compiled version;
+    :func:`shellrepair.topology_kernels.vertex_faces` (the one compiled version;
     loaded on its own, not with this module's kernels)."""
-    from . import kernels
+    from . import topology_kernels
 
-    return kernels.vertex_faces(F, n)
+    return topology_kernels.vertex_faces(F, n)
 
 
 def preload(n_faces):
@@ -630,8 +634,8 @@ def preload(n_faces):
 
 def warm_up():
     """Compile (or load from the cache) every kernel on a two-triangle mesh;
-    False when Numba is missing."""
-    if not AVAILABLE:
+    False when the kernels are off or Numba is missing."""
+    if not _usable():
         return False
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
     F = np.array([[0, 1, 2], [2, 1, 3]], np.int64)

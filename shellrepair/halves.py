@@ -1,5 +1,5 @@
 """Run a kernel's two halves side by side: the whole-mesh kernels
-(:mod:`~shellrepair.fastmesh`, :func:`shellrepair.kernels.vertex_faces`)
+(:mod:`~shellrepair.fastmesh`, :func:`shellrepair.topology_kernels.vertex_faces`)
 split each step of a large mesh in two and run the halves on two threads,
 the same arrays as one pass.
 

@@ -82,7 +82,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .geometry import cross, plane_frame, uniq
-from . import fastmesh
+from . import compiled, fastmesh
 from .topology import components_of_pieces, edge_topology, face_areas, face_pieces
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats", "piece_views", "edge_on_share",
@@ -417,11 +417,11 @@ def loop_stats(V, loop):
 
 def _diameter(Q, chunk=2048):
     """Largest distance between two rows of ``Q``: by the compiled loop
-    (:func:`shellrepair.kernels.max_sq_distance`, the same value bit for
+    (:func:`shellrepair.common_kernels.max_sq_distance`, the same value bit for
     bit) when the kernels are loaded already (a repair loads them; hole
     detection alone does not), else in chunks of rows."""
-    k = sys.modules.get("shellrepair.kernels")
-    if k is not None and k.ENABLED and len(Q) > 1 and np.isfinite(Q).all():
+    k = sys.modules.get("shellrepair.common_kernels")
+    if k is not None and compiled.ENABLED and len(Q) > 1 and np.isfinite(Q).all():
         return float(np.sqrt(k.max_sq_distance(Q)))
     return _diameter_numpy(Q, chunk)
 

@@ -29,7 +29,7 @@ component, their interiors overlap unless one of the six edge lines
 separates them (orient2d).
 
 With the compiled kernels on, the same tests run pair by pair in one
-call (:func:`shellrepair.kernels.cross_status`) for the pairs whose
+call (:func:`shellrepair.intersect_kernels.cross_status`) for the pairs whose
 signs the float filters certify (nearly all of a scan's); pairs in one
 plane, with a zero-area triangle, or with a sign only exact arithmetic
 settles go to the NumPy tests above, so every answer is theirs.
@@ -58,7 +58,7 @@ import numpy as np
 
 from .geometry import bounding_spheres, bounds, concat_ranges, cross, plane_frame, triangle_boxes, uniq
 from .predicates import EPS, O3D_BOUND, TINY, orient2d, orient3d
-from . import kernels
+from . import compiled, intersect_kernels, topology_kernels
 from . import fastmesh
 from .topology import vertex_faces
 from scipy.spatial import cKDTree
@@ -425,7 +425,7 @@ def pair_intersections(A, Aid, B, Bid):
     """
     Aid = np.asarray(Aid)
     Bid = np.asarray(Bid)
-    if kernels.ENABLED and len(A) and np.isfinite(A).all() and np.isfinite(B).all():
+    if compiled.ENABLED and len(A) and np.isfinite(A).all() and np.isfinite(B).all():
         r = np.arange(len(A))
         return _pairs_cross(A, Aid, r, B, Bid, r)
     return triangles_cross(A, B, Aid[:, :, None] == Bid[:, None, :])
@@ -434,12 +434,12 @@ def pair_intersections(A, Aid, B, Bid):
 def _pairs_cross(A, Aid, ai, B, Bid, bj):
     """:func:`pair_intersections` of the pairs (A[ai], B[bj]) (finite
     corners, kernels on): the compiled filters decide most pairs
-    (:func:`shellrepair.kernels.cross_status`), the exact NumPy tests the
+    (:func:`shellrepair.intersect_kernels.cross_status`), the exact NumPy tests the
     rest (pairs in one plane, zero-area triangles, signs the filters
     cannot certify); the same answers as :func:`triangles_cross`."""
-    st = kernels.cross_status(A, Aid, ai, B, Bid, bj, SIDE_BOUND, O3D_BOUND, TINY)
-    hit = st == kernels.CROSS
-    u = np.flatnonzero(st == kernels.UNDECIDED)
+    st = intersect_kernels.cross_status(A, Aid, ai, B, Bid, bj, SIDE_BOUND, O3D_BOUND, TINY)
+    hit = st == intersect_kernels.CROSS
+    u = np.flatnonzero(st == intersect_kernels.UNDECIDED)
     for s in range(0, len(u), 200_000):
         a, b = ai[u[s:s + 200_000]], bj[u[s:s + 200_000]]
         hit[u[s:s + 200_000]] = pair_intersections_numpy(A[a], Aid[a], B[b], Bid[b])
@@ -482,7 +482,7 @@ class TriangleIndex:
     def faces_near(self, lo, hi):
         """Faces whose bounding boxes meet the box ``[lo, hi]`` (absolute
         coordinates), sorted: with this, :func:`patch_vs_index` takes the
-        compiled pairs and tests (:func:`shellrepair.kernels.patch_pairs`),
+        compiled pairs and tests (:func:`shellrepair.intersect_kernels.patch_pairs`),
         which find the same crossings as the sphere pairs (the tests are
         exact either way). The box is grown by a relative 1e-9 so that the
         caller's shift by ``origin`` and back cannot drop a face by rounding
@@ -586,9 +586,9 @@ class NearFaces:
             self.big = np.flatnonzero(big)
             self.grow = float(np.sqrt(longest[~big].max(initial=0.0)))
             del longest
-        if kernels.ENABLED and len(V) and np.isfinite(V[:, :2]).all():   # the same grid by two counting sorts
-            self.lo2, self.h, self.vorder, self.vkey, self.ny = kernels.grid_sort(V, grow=self.grow)
-            self.vf_order, self.vf_start = (kernels.vertex_faces(F, len(V)) if vf is None
+        if compiled.ENABLED and len(V) and np.isfinite(V[:, :2]).all():   # the same grid by two counting sorts
+            self.lo2, self.h, self.vorder, self.vkey, self.ny = intersect_kernels.grid_sort(V, grow=self.grow)
+            self.vf_order, self.vf_start = (topology_kernels.vertex_faces(F, len(V)) if vf is None
                                             else vf() if callable(vf) else vf)
             return
         # column by column: a reduction over axis 0 of the (n,2) view runs two values at a time
@@ -620,10 +620,10 @@ class NearFaces:
         """Faces that may meet the box ``[lo, hi]`` (absolute coordinates)."""
         lo = np.asarray(lo, np.float64) - self.grow
         hi = np.asarray(hi, np.float64) + self.grow
-        if kernels.ENABLED and self.vf_order.dtype == np.int64 and np.isfinite(lo).all() and np.isfinite(hi).all():
+        if compiled.ENABLED and self.vf_order.dtype == np.int64 and np.isfinite(lo).all() and np.isfinite(hi).all():
             if getattr(self, "_fmark", None) is None:
                 self._fmark = np.zeros(len(self.F), bool)   # scratch, left all False
-            return kernels.faces_in_box(self, lo, hi, self._fmark)
+            return intersect_kernels.faces_in_box(self, lo, hi, self._fmark)
         c0 = np.maximum(np.floor((lo[:2] - self.lo2) / self.h), 0).astype(np.int64)
         c1 = np.floor((hi[:2] - self.lo2) / self.h).astype(np.int64)
         c1[1] = min(c1[1], self.ny - 1)
@@ -739,16 +739,16 @@ def patch_vs_index(Pt, Pid, index, return_faces=False, return_pairs=False):
     if len(Pt) == 0 or len(index.F) == 0:
         return none
     Q = Pt - index.origin
-    if kernels.ENABLED and hasattr(index, "faces_near") and np.isfinite(Q).all():
-        # the near faces' boxes against the patch's (kernels.patch_pairs): a
+    if compiled.ENABLED and hasattr(index, "faces_near") and np.isfinite(Q).all():
+        # the near faces' boxes against the patch's (intersect_kernels.patch_pairs): a
         # superset of the crossing pairs, as the sphere pairs below are, and
         # their tests where the compiled filters decide
         lo, hi = bounds(Q.reshape(-1, 3))
         f = index.faces_near(lo + index.origin, hi + index.origin)
         Pid = np.asarray(Pid, np.int64)
-        ai, bj, st = kernels.patch_pairs(Q, Pid, f, index.V, index.F, index.origin, SIDE_BOUND, O3D_BOUND, TINY)
-        hit = st == kernels.CROSS
-        u = np.flatnonzero(st == kernels.UNDECIDED)
+        ai, bj, st = intersect_kernels.patch_pairs(Q, Pid, f, index.V, index.F, index.origin, SIDE_BOUND, O3D_BOUND, TINY)
+        hit = st == intersect_kernels.CROSS
+        u = np.flatnonzero(st == intersect_kernels.UNDECIDED)
         if u.size:   # in one plane, or signs the filters cannot certify: the exact tests
             a, b = ai[u], f[bj[u]]
             hit[u] = pair_intersections_numpy(Q[a], Pid[a], index.V[index.F[b]] - index.origin, index.F[b])
@@ -820,10 +820,10 @@ def crossing_pairs(C, ids):
     none = np.zeros((0, 2), np.int64)
     if len(C) < 2:
         return none
-    if kernels.ENABLED and len(C) <= KERNEL_PAIRS_MAX and np.isfinite(C).all():
-        # overlapping boxes (kernels.box_pairs): a superset of the crossing
+    if compiled.ENABLED and len(C) <= KERNEL_PAIRS_MAX and np.isfinite(C).all():
+        # overlapping boxes (intersect_kernels.box_pairs): a superset of the crossing
         # pairs, as the sphere pairs below are; the exact tests decide
-        i, j = kernels.box_pairs(*triangle_boxes(C))
+        i, j = intersect_kernels.box_pairs(*triangle_boxes(C))
         hit = _pairs_cross(C, ids, i, C, ids, j)
         return np.column_stack([i[hit], j[hit]])
     else:
@@ -878,14 +878,14 @@ def self_intersections(V, F):
 def _outline_is_simple(Q):
     """Is the closed 2-D polygon ``Q`` (k,2) simple (no two non-adjacent
     edges meet, not even touching)? Pair by pair in a compiled loop
-    (:func:`shellrepair.kernels.outline_simple`) when the kernels are on,
+    (:func:`shellrepair.intersect_kernels.outline_simple`) when the kernels are on,
     else all pairs at once (:func:`_outline_is_simple_numpy`); the same
     tests in the same arithmetic, so the same answer."""
     Q = np.asarray(Q, np.float64)
-    if not kernels.ENABLED or len(Q) < 3 or not np.isfinite(Q).all():
+    if not compiled.ENABLED or len(Q) < 3 or not np.isfinite(Q).all():
         return _outline_is_simple_numpy(Q)
     span = float(np.ptp(Q, axis=0).max()) or 1.0
-    return kernels.outline_simple(Q, 1e-12 * span * span)
+    return intersect_kernels.outline_simple(Q, 1e-12 * span * span)
 
 
 def _outline_is_simple_numpy(Q):
@@ -964,8 +964,8 @@ def embeds_by_projection(P, T, n_loop, axis=None):
     outline = 0.5 * float(np.sum(q[:, 0] * qn[:, 1] - qn[:, 0] * q[:, 1]))
     if outline == 0.0:
         return False
-    if kernels.ENABLED and np.isfinite(Q).all():
-        return kernels.projection_embeds(Q, T, k, np.sign(outline), PROJECTION_AREA_TOL)
+    if compiled.ENABLED and np.isfinite(Q).all():
+        return intersect_kernels.projection_embeds(Q, T, k, np.sign(outline), PROJECTION_AREA_TOL)
     e1, e2 = Q[T[:, 1]] - Q[T[:, 0]], Q[T[:, 2]] - Q[T[:, 0]]
     areas = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) * np.sign(outline)
     # the patch must turn the other way round from its loop: loop edges appear

@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from . import kernels
+from . import compiled, intrinsic_kernels
 from .refine import _independent_flips
 from .topology import edge_topology, manifold_pairs
 
@@ -101,15 +101,15 @@ def intrinsic_delaunay(X, F, max_rounds=MAX_ROUNDS):
 def _flip_to_delaunay(X, F, max_rounds=MAX_ROUNDS):
     """:func:`intrinsic_delaunay`, plus the cotangents and areas of the result
     (from its last round) when settled, else None. Compiled
-    (:func:`shellrepair.kernels.intrinsic_flips`, the same bits) when Numba
+    (:func:`shellrepair.intrinsic_kernels.intrinsic_flips`, the same bits) when Numba
     is there, else :func:`_flip_to_delaunay_numpy`."""
-    if not kernels.ENABLED:
+    if not compiled.ENABLED:
         return _flip_to_delaunay_numpy(X, F, max_rounds)
     X = np.asarray(X, np.float64)
     T = np.array(F, np.int64)
     P = X[T]
     L = np.linalg.norm(P[:, [1, 2, 0]] - P, axis=2)
-    settled, cot, A = kernels.intrinsic_flips(T, L, len(X), max_rounds, FLIP_TOL)
+    settled, cot, A = intrinsic_kernels.intrinsic_flips(T, L, len(X), max_rounds, FLIP_TOL)
     return T, L, settled, ((cot, A) if settled else None)
 
 
@@ -184,7 +184,7 @@ def intrinsic_laplacian(X, F):
 
 def _laplacian_arrays(X, F):
     """:func:`intrinsic_laplacian` for the fairing rounds: K as compiled CSR
-    arrays (:func:`shellrepair.kernels._laplacian_rows`: columns unsorted,
+    arrays (:func:`shellrepair.intrinsic_kernels._laplacian_rows`: columns unsorted,
     a spare zero on the diagonal; K is symmetric, so they are its CSC too),
     without SciPy's conversion and sort. Needs the kernels.
 
@@ -196,6 +196,6 @@ def _laplacian_arrays(X, F):
     n = len(X)
     T, L, _, known = _flip_to_delaunay(X, F)
     cot, A = _cotangents(L) if known is None else known
-    ptr, col, val = kernels._laplacian_rows(T, 0.5 * cot, n, False)
+    ptr, col, val = intrinsic_kernels._laplacian_rows(T, 0.5 * cot, n, False)
     M = np.bincount(T.ravel(), np.repeat(A / 3.0, 3), n)
     return (ptr, col, val), M

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import kernels
+from . import compiled, intersect_kernels
 from .geometry import bounding_spheres, bounds, triangle_boxes
 from .intersect import _pairs_cross, ball_pairs, pair_intersections
 from .io import Mesh
@@ -109,21 +109,21 @@ class _Accepted:
             near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))
             if near.size:
                 lo1, hi1 = triangle_boxes(C)
-                finite = kernels.ENABLED and bool(np.isfinite(C).all())
-                if not kernels.ENABLED:
+                finite = compiled.ENABLED and bool(np.isfinite(C).all())
+                if not compiled.ENABLED:
                     c1, r1 = bounding_spheres(C)
             for j in near:
                 if j == skip:
                     continue
                 other, D, oid = self.items[j]
                 # triangles that cross have overlapping boxes: only those get the exact tests
-                if kernels.ENABLED:
+                if compiled.ENABLED:
                     lo2, hi2 = self._item_boxes(j)
-                    # the boxes directly (a grid, kernels.box_pairs): the spheres'
+                    # the boxes directly (a grid, intersect_kernels.box_pairs): the spheres'
                     # reach is the largest triangle's, so a patch with a few long
                     # triangles made every nearby patch's query return thousands
                     sel = np.flatnonzero(np.all((lo2 <= hi) & (lo <= hi2), axis=1))   # within this patch's box
-                    ai, bi = kernels.box_pairs(lo1, hi1, lo2[sel], hi2[sel])
+                    ai, bi = intersect_kernels.box_pairs(lo1, hi1, lo2[sel], hi2[sel])
                     bi = sel[bi]
                 else:
                     c2, r2, tree, lo2, hi2 = self._spheres(j)

@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kernels
+from . import compiled, patch_kernels
 from .context import local_frame, rim_data, submesh
 from .errors import MeshError
 from .geometry import cross
@@ -308,8 +308,8 @@ def _scan_allowed(ctx, loop):
 def _corners(ctx, patch):
     """A patch's triangle corners (t,3,3) and ids (t,3): the scan vertex,
     or ``-(1 + j)`` for new vertex j."""
-    if kernels.ENABLED:
-        return kernels.patch_corners(ctx.V, patch.loop, patch.P, patch.T)
+    if compiled.ENABLED:
+        return patch_kernels.patch_corners(ctx.V, patch.loop, patch.P, patch.T)
     return _corners_numpy(ctx, patch)
 
 
@@ -399,8 +399,8 @@ def edge_on_verdict(ctx, loop, hole_id=None):
 
 def _face_cross(ctx, faces):
     """``cross(e1, e2)`` of the scan faces ``faces`` (twice their area-weighted normals)."""
-    if kernels.ENABLED:
-        return kernels.face_cross(faces, ctx.F, ctx.V)
+    if compiled.ENABLED:
+        return patch_kernels.face_cross(faces, ctx.F, ctx.V)
     T = ctx.F[faces]
     return cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
 

@@ -21,10 +21,10 @@ __all__ = ["preload_fill"]
 def _load():
     import numpy as np
 
-    from . import kernels, repair  # noqa: F401  (the fill's modules, imported here)
+    from . import common_kernels, compiled, repair  # noqa: F401  (the fill's modules, imported here)
 
-    if kernels.ENABLED:
-        kernels.max_sq_distance(np.zeros((1, 3)))   # the compiled modules' loading (or Numba's set-up), with the first kernel the repair calls
+    if compiled.ENABLED:
+        common_kernels.max_sq_distance(np.zeros((1, 3)))   # the compiled modules' loading (or Numba's set-up), with the first kernel the repair calls
 
 
 def preload_fill():

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from . import kernels
+from . import compiled, refine_kernels
 from .geometry import cross
 
 __all__ = ["refine_patch", "refine_patches", "relax_edges", "DENSITY_ALPHA"]
@@ -138,7 +138,7 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
     test = np.ones(len(T), bool)          # triangles whose split verdict may have changed
     for _ in range(64):
         rows = np.flatnonzero(test)
-        C, sc, split_r = (kernels.split_test if kernels.ENABLED else _split_test)(P, T[rows], s, alpha)
+        C, sc, split_r = (refine_kernels.split_test if compiled.ENABLED else _split_test)(P, T[rows], s, alpha)
         if not split_r.any():
             break
         split = np.zeros(len(T), bool)
@@ -168,7 +168,7 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
 def _split_test(P, Tr, s, alpha):
     """The triangles ``Tr`` to split: centroid ``C``, mean scale ``sc`` and
     whether ``alpha`` times the centroid's distance to every corner exceeds
-    both ``sc`` and that corner's scale (:func:`shellrepair.kernels.split_test`
+    both ``sc`` and that corner's scale (:func:`shellrepair.refine_kernels.split_test`
     is the same compiled)."""
     C = P[Tr].mean(axis=1)
     sc = s[Tr].mean(axis=1)
@@ -203,10 +203,10 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
 
 
 def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
-    """:func:`_relax_numpy`, its bookkeeping compiled (:func:`shellrepair.kernels.relax`,
+    """:func:`_relax_numpy`, its bookkeeping compiled (:func:`shellrepair.refine_kernels.relax`,
     the same result) when Numba is there."""
-    if kernels.ENABLED:
-        out = kernels.relax(P, T, is_loop, forb, max_rounds, dirty, None, None, FLIP_EPS)   # (_angle_compiled's numbers)
+    if compiled.ENABLED:
+        out = refine_kernels.relax(P, T, is_loop, forb, max_rounds, dirty, None, None, FLIP_EPS)   # (_angle_compiled's numbers)
         if out is not None:   # None: a tie the vectorised writes order; redone below
             return out
     return _relax_numpy(P, T, is_loop, forb, max_rounds, dirty)
@@ -387,8 +387,8 @@ def _in_sorted(x, sorted_keys):
 
 def _angle_compiled(u, v):
     """:func:`_angle` with its products and sums compiled
-    (:func:`shellrepair.kernels.angle_parts`), NumPy's arctan2."""
-    cr, dt = kernels.angle_parts(u, v)
+    (:func:`shellrepair.refine_kernels.angle_parts`), NumPy's arctan2."""
+    cr, dt = refine_kernels.angle_parts(u, v)
     return np.arctan2(cr, dt)
 
 

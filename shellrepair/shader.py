@@ -524,7 +524,7 @@ def warm_up():
     -------
     n : int
         Number of compiled specialisations (0 when the kernels are off:
-        ``SHELLREPAIR_NO_JIT=1`` or Numba missing).
+        ``SHELLREPAIR_NO_NUMBA=1`` or Numba missing).
     """
     from .reflectance import (beckmann_D, diffuse_transmittance, dipole_profile, dipole_rd, dipole_tail_fraction,
                               fresnel_conductor, fresnel_dielectric, internal_reflectance, km_r_inf,

@@ -18,7 +18,7 @@ answer:
    faces) is asked about each answer's triangles; rejected ones leave the
    search space and the search runs again (``LAZY_ROUNDS``);
 3. Liepa's full O(k³) dynamic program, for loops up to ``DP_MAX`` edges
-   (compiled, :func:`shellrepair.kernels.liepa_tables`; its NumPy oracle
+   (compiled, :func:`shellrepair.triangulate_kernels.liepa_tables`; its NumPy oracle
    is vectorised over all splits of one interval length at a time);
 4. longer loops are cut by a short chord between vertices far apart along
    the loop (the nearest pair at least a quarter of the loop apart), and
@@ -42,7 +42,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from . import kernels
+from . import compiled, triangulate_kernels
 from .geometry import cross, dot, plane_frame
 
 from .errors import MeshError
@@ -147,8 +147,8 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
     edge_normals = np.asarray(edge_normals, np.float64)
     C = None
     if isinstance(axis, str):
-        if kernels.ENABLED and P.flags.c_contiguous:   # (NumPy sums an F-ordered P's columns pairwise)
-            C, va = kernels.centred_area(P)
+        if compiled.ENABLED and P.flags.c_contiguous:   # (NumPy sums an F-ordered P's columns pairwise)
+            C, va = triangulate_kernels.centred_area(P)
         else:
             C = P - P.mean(axis=0)
             va = -0.5 * cross(C, np.concatenate([C[1:], C[:1]])).sum(axis=0)   # np.roll by -1
@@ -185,8 +185,8 @@ def _delaunay_in_projection(P, axis, forbidden, C=None):
     a = axis / _length(axis)
     u, v = plane_frame(a)
     if C is None:
-        plain = kernels.ENABLED and P.dtype == np.float64 and P.flags.c_contiguous
-        C = kernels.centred_area(P)[0] if plain else P - P.mean(axis=0)
+        plain = compiled.ENABLED and P.dtype == np.float64 and P.flags.c_contiguous
+        C = triangulate_kernels.centred_area(P)[0] if plain else P - P.mean(axis=0)
     Q = np.column_stack([C @ u, C @ v])
     try:
         tri = Delaunay(Q)
@@ -195,11 +195,11 @@ def _delaunay_in_projection(P, axis, forbidden, C=None):
     S = tri.simplices.astype(np.int64)
     if len(S) < k - 2 or tri.coplanar.size:
         return None
-    if kernels.ENABLED and P.dtype == np.float64:
-        S, raw = kernels.outline_cross(Q, S, P)
+    if compiled.ENABLED and P.dtype == np.float64:
+        S, raw = triangulate_kernels.outline_cross(Q, S, P)
         if len(S) != k - 2:
             return None
-        S, status = kernels.cover_free(S, raw @ a, k, _forbidden_keys(forbidden, k))
+        S, status = triangulate_kernels.cover_free(S, raw @ a, k, _forbidden_keys(forbidden, k))
         return S if status == 0 else None
     return _loop_cover_numpy(P, Q, S, a, k, forbidden)
 
@@ -234,7 +234,7 @@ def _loop_cover_numpy(P, Q, S, a, k, forbidden):
 def _loop_cover_oriented(S, n, k):
     """``S`` turned to face along ``n``'s signs, and whether it covers the
     loop: no triangle flat (``|n|`` at most 1e-12 of the largest), every
-    loop edge present (NumPy; :func:`shellrepair.kernels.loop_cover`'s
+    loop edge present (NumPy; :func:`shellrepair.triangulate_kernels.loop_cover`'s
     oracle)."""
     S = np.where((n < 0)[:, None], S[:, [0, 2, 1]], S)
     n = np.abs(n)
@@ -330,7 +330,7 @@ def _with_loop_edges(D, k):
     tetrahedralization need not contain the loop's edges), the triangles on
     it with every other apex; only those may then cross other candidates."""
     n = np.int64(k)
-    seen, ok = kernels.loop_edges_present(D, k) if kernels.ENABLED else (None, False)
+    seen, ok = triangulate_kernels.loop_edges_present(D, k) if compiled.ENABLED else (None, False)
     if ok:
         miss = np.flatnonzero(~seen)
     else:
@@ -368,7 +368,7 @@ def _best_chord(P, idx, forbidden):
     from scipy.spatial import cKDTree
 
     k = len(idx)
-    if kernels.ENABLED and k <= CHORD_KERNEL_MAX and len(np.unique(idx)) == k:
+    if compiled.ENABLED and k <= CHORD_KERNEL_MAX and len(np.unique(idx)) == k:
         return _best_chord_compiled(P, idx, forbidden)
     if k < CHORD_ROWS_MAX:
         return _best_chord_rows(P, idx, forbidden)
@@ -462,14 +462,14 @@ CHORD_KERNEL_MAX = 6000
 
 
 def _best_chord_compiled(P, idx, forbidden):
-    """:func:`_best_chord_rows` by :func:`shellrepair.kernels.chord_rows`;
+    """:func:`_best_chord_rows` by :func:`shellrepair.triangulate_kernels.chord_rows`;
     where the chosen row has several equally near partners, its pick is
     made as the row-by-row search makes it (NumPy's argsort order)."""
     k = len(idx)
     Q = P[idx]
     q = max(3, k // 4)
     fk = _position_keys(idx, forbidden)
-    i, j, ties = kernels.chord_rows(Q, q, fk)
+    i, j, ties = triangulate_kernels.chord_rows(Q, q, fk)
     if i < 0:
         raise MeshError(_NO_CHORD)
     return i, (_pick_in_row(Q, idx, i, q, forbidden) if ties > 1 else j)
@@ -525,8 +525,8 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
                 ia, ib = sorted((pos[a], pos[b]))
                 if ib - ia > 1 and not (ia == 0 and ib == k - 1):
                     forb[ia, ib] = True
-    if kernels.ENABLED:
-        O, worst = kernels.liepa_tables(Q, rim, has_rim, forb, axis, ANGLE_TIE)
+    if compiled.ENABLED:
+        O, worst = triangulate_kernels.liepa_tables(Q, rim, has_rim, forb, axis, ANGLE_TIE)
     else:
         O, worst = _dp_tables(Q, rim, has_rim, forb, axis)
     if not np.isfinite(worst):
@@ -548,7 +548,7 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
 
 def _dp_tables(Q, rim, has_rim, forb, axis):
     """The tables of :func:`_dp`, vectorised over all splits of one interval
-    length at a time (the compiled :func:`shellrepair.kernels.liepa_tables`'
+    length at a time (the compiled :func:`shellrepair.triangulate_kernels.liepa_tables`'
     test oracle).
 
     Returns ``(O, worst)``: the apex closing each interval ``(i, j)`` and
@@ -684,8 +684,8 @@ def _delaunay_faces(P):
         tri = None
     if tri is None:
         return None
-    if kernels.ENABLED:
-        return kernels.tet_faces(tri.simplices, len(P))
+    if compiled.ENABLED:
+        return triangulate_kernels.tet_faces(tri.simplices, len(P))
     S = np.sort(tri.simplices.astype(np.int64), axis=1)
     D = np.concatenate([S[:, [0, 1, 2]], S[:, [0, 1, 3]], S[:, [0, 2, 3]], S[:, [1, 2, 3]]])
     n = np.int64(len(P))
@@ -719,7 +719,7 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
     MeshError
         If no triangulation of the loop uses only candidate triangles.
     """
-    if kernels.ENABLED:
+    if compiled.ENABLED:
         T = _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis)
         if T is not None:
             return T
@@ -727,8 +727,8 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
 
 
 def _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis):
-    """:func:`restricted_dp` by :func:`shellrepair.kernels.restricted_prepare`
-    and :func:`shellrepair.kernels.restricted_search` (the axis test stays
+    """:func:`restricted_dp` by :func:`shellrepair.triangulate_kernels.restricted_prepare`
+    and :func:`shellrepair.triangulate_kernels.restricted_search` (the axis test stays
     NumPy's product); None where the inputs are not plain (float
     positions, one rim normal per loop edge, corners inside the loop), for
     the NumPy version to handle."""
@@ -739,11 +739,11 @@ def _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis):
         return None
     cand = np.asarray(cand, np.int64).reshape(-1, 3)
     fk = np.unique(np.array([x * k + y for x, y in forbidden], np.int64)) if forbidden else np.zeros(0, np.int64)
-    a, b, c, el, er, et, ne, base, top, raw, n, nz, area, status = kernels.restricted_prepare(P, cand, fk)
+    a, b, c, el, er, et, ne, base, top, raw, n, nz, area, status = triangulate_kernels.restricted_prepare(P, cand, fk)
     if status:
         return None
     bad0 = np.zeros(len(a), bool) if axis is None else raw @ axis <= 0
-    T, status, i, j = kernels.restricted_search(k, a, b, c, el, er, et, ne, base, en, n, nz, area, bad0, top,
+    T, status, i, j = triangulate_kernels.restricted_search(k, a, b, c, el, er, et, ne, base, en, n, nz, area, bad0, top,
                                                 ANGLE_TIE)
     if status == 1:
         raise MeshError(_NO_RESTRICTED)

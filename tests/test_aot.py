@@ -5,6 +5,7 @@ current sources, and imports no Numba; any call they do not cover goes to
 Numba's JIT, which must give the same bits.
 """
 
+import importlib
 import json
 import os
 import subprocess
@@ -47,7 +48,8 @@ def test_argument_keys_name_the_types_numba_gives_them():
 def test_the_types_file_lists_only_known_kernels_with_usable_types():
     rows = compiled.read_types()
     assert rows, "shellrepair/aot_types.json is empty"
-    from shellrepair import cholesky, kernels  # noqa: F401  (register the kernels)
+    for module in compiled.MODULES:   # register their kernels
+        importlib.import_module(module)
 
     for module, name, args in rows:
         k = compiled.REGISTRY[module][name]
@@ -100,20 +102,33 @@ def test_compiled_and_jit_kernels_write_the_same_bytes(tmp_path):
     assert (tmp_path / "aot.ply").read_bytes() == (tmp_path / "jit.ply").read_bytes()
 
 
+def test_every_module_that_defines_kernels_is_compiled_and_hashed():
+    """Each module that marks kernels with ``compiled.kernel`` is among
+    :data:`shellrepair.compiled.MODULES`: the build compiles its kernels
+    and the source hash covers its file."""
+    marking = {f"shellrepair.{p.stem}" for p in (ROOT / "shellrepair").glob("*.py")
+               if "njit = compiled.kernel" in p.read_text(encoding="utf-8")}
+    assert marking == set(compiled.MODULES)
+    for module in compiled.MODULES:
+        assert (compiled.HERE / (module.rsplit(".", 1)[1] + ".py")).exists(), module
+
+
 def test_a_changed_kernel_source_names_other_modules(tmp_path, monkeypatch):
     """The compiled modules' names carry a hash of the kernels' sources and
     of the types file, so a checkout whose kernels changed (a pull without
     ``make``) finds no module to load and runs the JIT."""
-    for name in ("kernels.py", "cholesky.py", "aot_types.json"):
+    files = [m.rsplit(".", 1)[1] + ".py" for m in compiled.MODULES]
+    for name in files + ["aot_types.json"]:
         (tmp_path / name).write_bytes((compiled.HERE / name).read_bytes())
     monkeypatch.setattr(compiled, "HERE", tmp_path)
     monkeypatch.setattr(compiled, "TYPES_FILE", tmp_path / "aot_types.json")
     before = compiled.source_hash()
-    with open(tmp_path / "kernels.py", "a") as f:
-        f.write("\n# an edit\n")
-    assert compiled.source_hash() != before
+    for name in files:   # an edit of any kernel module
+        with open(tmp_path / name, "a") as f:
+            f.write("\n# an edit\n")
+        assert compiled.source_hash() != before, name
+        (tmp_path / name).write_bytes((ROOT / "shellrepair" / name).read_bytes())
+        assert compiled.source_hash() == before
     rows = json.loads((tmp_path / "aot_types.json").read_text())
-    (tmp_path / "kernels.py").write_bytes((ROOT / "shellrepair" / "kernels.py").read_bytes())
-    assert compiled.source_hash() == before
     (tmp_path / "aot_types.json").write_text(json.dumps(rows[:-1]))
     assert compiled.source_hash() != before

@@ -1,7 +1,7 @@
 """The band search's compiled walk along the continuation arcs gives the
 NumPy walk's landings to the bit.
 
-:func:`shellrepair.kernels.arc_landings` follows each arc sample by
+:func:`shellrepair.bridge_kernels.arc_landings` follows each arc sample by
 sample in its own k-d tree of the rim vertices;
 :func:`shellrepair.bridge._landings_numpy` (its oracle) asks SciPy's
 ``cKDTree`` run by run. Both are run here on the arcs
@@ -17,11 +17,11 @@ import pytest
 from scipy.spatial import cKDTree
 
 from eval import shapes
-from shellrepair import bridge, detect_holes, kernels
+from shellrepair import bridge, bridge_kernels, compiled, detect_holes
 from shellrepair.io import Mesh
 from shellrepair.context import ScanContext
 
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 
 
 def _scans():
@@ -51,7 +51,7 @@ def _walks(V, F):
     ctx = ScanContext(Mesh(V=V, F=F))
     scan = detect_holes(V, F)
     seen = []
-    real = kernels.arc_landings
+    real = bridge_kernels.arc_landings
 
     def spy(*args, rank_of=None):
         asked = []
@@ -59,11 +59,11 @@ def _walks(V, F):
         seen.append((args, bool(asked), got))
         return got
 
-    kernels.arc_landings = spy
+    bridge_kernels.arc_landings = spy
     try:
         bridge.loop_sights(V, scan.loops, lambda lp: F[ctx.ring_faces(lp, 3)])
     finally:
-        kernels.arc_landings = real
+        bridge_kernels.arc_landings = real
     assert len(seen) == 1
     (U, T, N, kap, s0, length, n_samples, slack, ent, nent, P, owner, place, edge, arow, krow, irow, skip), asked, got = seen[0]
     first = np.concatenate([[0], np.cumsum(np.bincount(ent, minlength=nent))])
@@ -93,9 +93,9 @@ def test_loop_sights_with_and_without_the_kernels_agree(monkeypatch):
         loops = detect_holes(V, F).loops
         fn = lambda lp: F[ctx.ring_faces(lp, 3)]   # noqa: E731
         got = bridge.loop_sights(V, loops, fn)
-        monkeypatch.setattr(kernels, "ENABLED", False)
+        monkeypatch.setattr(compiled, "ENABLED", False)
         want = bridge.loop_sights(V, loops, fn)
-        monkeypatch.setattr(kernels, "ENABLED", True)
+        monkeypatch.setattr(compiled, "ENABLED", True)
         assert sorted(got) == sorted(want) and len(got) >= 2
         for a in want:
             assert np.array_equal(got[a][0], want[a][0]) and got[a][1] == want[a][1]
@@ -122,14 +122,14 @@ def test_a_tie_at_one_place_is_settled_as_the_scipy_tree_settles_it():
     # on whichever copy cKDTree returns
     for order in ([1, 2], [2, 1]):
         args = _one_arc([[1.0, 0, 0], [1.0, 0, 0]], np.array(order))
-        got, status = kernels.arc_landings(*args, rank_of=lambda P: bridge._leaf_rank(cKDTree(P)))
+        got, status = bridge_kernels.arc_landings(*args, rank_of=lambda P: bridge._leaf_rank(cKDTree(P)))
         P, owner = args[10], args[11]
         _, j = cKDTree(P).query([0.75, 0, 0])
         assert status == 0 and got[0] == owner[j]
         want = bridge._landings_numpy(*args[:9], np.array([0, 1]), cKDTree(P), owner, args[12], *args[13:17])
         assert np.array_equal(got, want)
         # without the tree's order the kernel does not guess
-        assert kernels.arc_landings(*args)[1] == 1
+        assert bridge_kernels.arc_landings(*args)[1] == 1
 
 
 def test_a_tie_between_places_that_decide_differently_is_left_to_numpy():
@@ -137,17 +137,17 @@ def test_a_tie_between_places_that_decide_differently_is_left_to_numpy():
     # distance from every sample: the kernel declines, loop_sights' NumPy
     # walk decides
     args = _one_arc([[1.0, 0.1, 0], [1.0, -0.1, 0]], np.array([1, 2]))
-    assert kernels.arc_landings(*args, rank_of=lambda P: bridge._leaf_rank(cKDTree(P)))[1] == 1
+    assert bridge_kernels.arc_landings(*args, rank_of=lambda P: bridge._leaf_rank(cKDTree(P)))[1] == 1
     # the same places in one loop decide alike: the kernel keeps either
     args = _one_arc([[1.0, 0.1, 0], [1.0, -0.1, 0]], np.array([1, 1]))
-    got, status = kernels.arc_landings(*args)
+    got, status = bridge_kernels.arc_landings(*args)
     assert status == 0 and got[0] == 1
 
 
 def test_an_operand_that_is_not_finite_is_left_to_numpy():
     args = list(_one_arc([[1.0, 0, 0]], np.array([1])))
     args[3] = np.array([np.nan])
-    assert kernels.arc_landings(*args)[1] == 2
+    assert bridge_kernels.arc_landings(*args)[1] == 2
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -157,11 +157,11 @@ def test_kd_tree_splits_every_node_between_its_children(seed):
     # the query's box bounds rest on this
     rng = np.random.default_rng(seed)
     P = np.round(rng.random((500, 3)) * 6) / 6                     # many equal coordinates
-    order, lo, hi, axis, split, left = kernels._kd_build(P)
+    order, lo, hi, axis, split, left = bridge_kernels._kd_build(P)
     assert np.array_equal(np.sort(order), np.arange(len(P)))
     for b in np.flatnonzero(axis >= 0):
         a = axis[b]
         L, R = left[b], left[b] + 1
         assert lo[L] == lo[b] and hi[L] == lo[R] and hi[R] == hi[b]
         assert P[order[lo[L]:hi[L]], a].max() <= split[b] <= P[order[lo[R]:hi[R]], a].min()
-    assert (hi - lo)[axis < 0].max() <= kernels._KD_LEAF
+    assert (hi - lo)[axis < 0].max() <= bridge_kernels._KD_LEAF

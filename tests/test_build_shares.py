@@ -12,10 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from shellrepair import cachelock, kernels
+from shellrepair import cachelock, compiled
 
 pytest.importorskip("numba")
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="the compiled kernels are off (SHELLREPAIR_NO_NUMBA)")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="the compiled kernels are off (SHELLREPAIR_NO_NUMBA)")
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -24,8 +24,8 @@ import json, sys
 from shellrepair import compiled, warmup
 share = None if sys.argv[1] == "all" else int(sys.argv[1])
 assert warmup.warm_up(share) if share else warmup.warm_up()
-print(json.dumps({k: sorted(str(s) for s in v.jit.signatures) for k, v in compiled.REGISTRY["shellrepair.kernels"].items()
-                  if v.jit is not None and v.jit.signatures}))
+print(json.dumps({k: sorted(str(s) for s in v.jit.signatures) for m, ks in compiled.REGISTRY.items()
+                  if m.endswith("_kernels") for k, v in ks.items() if v.jit is not None and v.jit.signatures}))
 """
 
 
@@ -42,8 +42,8 @@ def _run(code, *args, env=None):
 def test_the_two_shares_make_what_one_warm_up_makes_and_share_no_kernel():
     # each in its own interpreter, as the build runs them. Loaded from the
     # cache the build left, only the kernels called from Python have
-    # signatures; where a share compiles (kernels.py changed since the
-    # build) the kernels called inside others have theirs too, so the
+    # signatures; where a share compiles (a kernel module changed since
+    # the build) the kernels called inside others have theirs too, so the
     # check then covers those as well
     # (the JIT's warm-ups: the build's way where the ahead-of-time build fails)
     env = dict(os.environ, SHELLREPAIR_NO_AOT="1")

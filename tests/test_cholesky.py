@@ -13,9 +13,9 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from shellrepair import cholesky, fair
+from shellrepair import cholesky, compiled, fair
 
-pytestmark = pytest.mark.skipif(not cholesky.ENABLED, reason="Numba not installed (libigl's factorisation runs instead)")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="Numba not installed (libigl's factorisation runs instead)")
 
 
 def grid_laplacian(m, power=1, shift=1e-3):
@@ -145,8 +145,8 @@ def test_fairing_with_and_without_the_new_factorisation_agrees(monkeypatch):
     assert len(Xs) - nf > fair.SMALL_UNKNOWNS
     for k in (2, 3):
         ours, _ = fair.fair_patch(Xs, Fs, nf, order=k)
-        monkeypatch.setattr(cholesky, "ENABLED", False)
+        monkeypatch.setattr(compiled, "ENABLED", False)   # libigl's factorisation (and SciPy's energy products)
         igl_, _ = fair.fair_patch(Xs, Fs, nf, order=k)
-        monkeypatch.setattr(cholesky, "ENABLED", True)
+        monkeypatch.setattr(compiled, "ENABLED", True)
         assert np.abs(ours - igl_).max() < 1e-9 * 2.0
         assert np.abs(ours - X[order][nf:]).max() < 0.05     # and both are the surface, near enough

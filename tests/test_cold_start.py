@@ -59,7 +59,7 @@ class _Compiles(ev.Listener):
 
 ev.register("numba:compile", _Compiles())
 
-from shellrepair import cholesky, fastmesh, kernels, warmup
+from shellrepair import cholesky, fastmesh, warmup
 from shellrepair import compiled as built
 
 
@@ -159,7 +159,8 @@ def test_warm_up_compiles_each_kernel_for_some_types(warm):
     # every kernel a Python function calls has a signature after the warm-ups
     # (the helpers only other kernels call have none: their code is inside
     # their callers' cached machine code)
-    called = {"kernels._vf_count", "kernels._vf_scatter", "kernels._vf_buckets", "kernels._fair_small", "kernels._relax_apply", "kernels._box_pairs",
+    called = {"topology_kernels._vf_count", "topology_kernels._vf_scatter", "topology_kernels._vf_buckets",
+              "fair_kernels._fair_small", "refine_kernels._relax_apply", "intersect_kernels._box_pairs",
               "fastmesh.edge_count", "fastmesh.edge_scatter", "fastmesh.edge_bucket", "fastmesh.edge_list",
               "fastmesh.single", "fastmesh.pieces", "fastmesh.volumes", "fastmesh.moments"}
     assert called <= {k for k, v in warm.items() if v}
@@ -214,7 +215,7 @@ def _plan(module, *goal):
 
 
 @_NEEDS_MAKE
-@pytest.mark.parametrize("module", ["shellrepair/kernels.py", "shellrepair/fastmesh.py",
+@pytest.mark.parametrize("module", ["shellrepair/refine_kernels.py", "shellrepair/fastmesh.py",
                                     "shellrepair/reflectance/_kernels.py", "shellrepair/repair.py"])
 @pytest.mark.parametrize("goal, run", [(("repair",), "shellrepair.cli repair"),
                                        (("holes",), "shellrepair.cli holes"),
@@ -237,7 +238,7 @@ def test_a_changed_module_is_built_before_the_next_run(module, goal, run):
 
 
 @_NEEDS_MAKE
-@pytest.mark.parametrize("module", ["shellrepair/kernels.py", "shellrepair/reflectance/_kernels.py"])
+@pytest.mark.parametrize("module", ["shellrepair/context_kernels.py", "shellrepair/reflectance/_kernels.py"])
 @pytest.mark.parametrize("goal, run", [(("render",), "shellrepair.cli render"), (("test",), "-m pytest"),
                                        (("batch",), "shellrepair.cli batch"),
                                        (("repair", "ARGS=--html x.html"), "shellrepair.cli repair")])

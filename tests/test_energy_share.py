@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import bridge, context, fair, kernels
+from shellrepair import bridge, compiled, context, fair
 from shellrepair.io import Mesh
 from shellrepair.context import ScanContext
 from shellrepair.topology import edge_topology
@@ -189,7 +189,7 @@ def test_bounds_and_triangle_boxes_equal_numpys_reductions(t):
     assert np.array_equal(np.isnan(triangle_boxes(C)[0]), np.isnan(C.min(axis=1)))
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="the compiled ring walk needs the kernels")
+@pytest.mark.skipif(not compiled.ENABLED, reason="the compiled ring walk needs the kernels")
 def test_faces_of_by_the_ring_walk_equal_the_numpy_lists(monkeypatch):
     """The faces at a set of vertices (repeated ones too), from the local
     region's lists and then from the whole mesh's: the NumPy gathering's

@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 from eval import shapes
-from shellrepair import fair, kernels
+from shellrepair import compiled, fair, fair_kernels, intrinsic_kernels
 
 #: CG against the direct solve, in mean edges. The direct solves themselves
 #: differ by ~1e-9 between two sparse factorisations of these matrices
@@ -41,7 +41,7 @@ def _bumpy_grid(k, seed, jitter=0.15):
 def test_later_rounds_by_cg_equal_the_direct_solves(order, seed, monkeypatch):
     X, F, nf = _bumpy_grid(44 + 3 * seed, seed)
     assert len(X) - nf >= fair.PCG_MIN_UNKNOWNS
-    monkeypatch.setattr(kernels, "ENABLED", False)        # no dense small-patch path either way
+    monkeypatch.setattr(compiled, "ENABLED", False)        # no dense small-patch path either way
     monkeypatch.setattr(fair, "PCG_MAX_ITER", 60)          # started far off the surface: ~15 iterations
     calls = []
     real = fair._pcg
@@ -59,7 +59,7 @@ def test_later_rounds_by_cg_equal_the_direct_solves(order, seed, monkeypatch):
 @pytest.mark.parametrize("max_iter", [0, 3])
 def test_cg_that_does_not_converge_gives_way_to_a_factorisation(max_iter, monkeypatch):
     X, F, nf = _bumpy_grid(44, 2)
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     monkeypatch.setattr(fair, "PCG_MAX_ITER", max_iter)   # too few for this start (~15 needed)
     got, _ = fair.fair_patch(X, F, nf, order=2)
     monkeypatch.setattr(fair, "PCG_MIN_UNKNOWNS", len(X))
@@ -102,7 +102,7 @@ def test_the_factor_applies_the_inverse_of_the_unknown_block():
 BLOCKS_TOLERANCE = 1e-13
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_the_compiled_energy_blocks_equal_scipys_products(order):
     from shellrepair.intrinsic import intrinsic_laplacian
@@ -114,7 +114,7 @@ def test_the_compiled_energy_blocks_equal_scipys_products(order):
     rng = np.random.default_rng(5)
     unknown = np.sort(rng.choice(n, n // 2, replace=False))     # any partition, not only a tail
     fixed = np.setdiff1d(np.arange(n), unknown)
-    (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(K.indptr, K.indices, K.data, Minv, order, unknown, fixed)
+    (up, uc, uv), (fp, fc, fv) = fair_kernels.energy_blocks(K.indptr, K.indices, K.data, Minv, order, unknown, fixed)
     Quu = sp.csr_matrix((uv, uc, up), shape=(unknown.size, unknown.size))
     Quf = sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size))
     Q = fair._energy(K, Minv, order)
@@ -126,13 +126,13 @@ def test_the_compiled_energy_blocks_equal_scipys_products(order):
     assert Quu.nnz >= Q[unknown][:, unknown].count_nonzero()
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [2, 3])
 def test_fairing_with_the_compiled_blocks_equals_the_scipy_path(order, monkeypatch):
     X, F, nf = _bumpy_grid(40, 6)
     assert len(X) - nf > fair.SMALL_UNKNOWNS                    # the sparse path
     got, _ = fair.fair_patch(X, F, nf, order=order)
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     ref, _ = fair.fair_patch(X, F, nf, order=order)
     assert np.abs(got - ref).max() <= TOLERANCE
     assert np.abs(got - X[nf:]).max() > 0.05
@@ -171,9 +171,9 @@ def test_order_3_fills_triangles_as_round_as_order_2(radius, seed):
 @pytest.mark.parametrize("numba", [True, False])
 @pytest.mark.parametrize("k", [12, 40])       # the dense small-patch path and the sparse one
 def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, monkeypatch):
-    if numba and not kernels.ENABLED:
+    if numba and not compiled.ENABLED:
         pytest.skip("Numba is not installed")
-    monkeypatch.setattr(kernels, "ENABLED", numba and kernels.ENABLED)
+    monkeypatch.setattr(compiled, "ENABLED", numba and compiled.ENABLED)
     X, F, nf = _bumpy_grid(k, 7)
     shared = []
     real = fair._Factor
@@ -213,7 +213,7 @@ def _count_factorisations(monkeypatch):
 
 @pytest.mark.parametrize("numba", [True, False])
 def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monkeypatch):
-    monkeypatch.setattr(kernels, "ENABLED", numba and kernels.ENABLED)
+    monkeypatch.setattr(compiled, "ENABLED", numba and compiled.ENABLED)
     X, F, nf = _bumpy_grid(40, 8)
     assert len(X) - nf >= fair.FIRST_SOLVE_MEMO_UNKNOWNS
     made = _count_factorisations(monkeypatch)
@@ -301,7 +301,7 @@ def _energy_rows_python(ptr, col, val, D, order, unknown, fixed):
     return rows_u, rows_f
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
     from shellrepair.intrinsic import _laplacian_arrays
@@ -317,7 +317,7 @@ def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
     pos[unknown], pos[fixed] = np.arange(unknown.size), np.arange(fixed.size)
     is_fixed = np.zeros(n, np.bool_)
     is_fixed[fixed] = True
-    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, is_fixed)
+    up, uc, uv, fp, fc, fv = fair_kernels._energy_rows(ptr, col, val, D, order, unknown, pos, is_fixed)
     ref_u, ref_f = _energy_rows_python(ptr, col, val, D, order, unknown, fixed)
     for i in range(unknown.size):
         assert list(zip(uc[up[i]:up[i + 1]].tolist(), uv[up[i]:up[i + 1]].tolist())) == ref_u[i]
@@ -325,12 +325,12 @@ def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
     # a fan of 90 triangles: rows of over 64 columns (sorted another way)
     k = 90
     T = np.array([[0, 1 + i, 1 + (i + 1) % k] for i in range(k)], np.int64)
-    ptr, col, val = kernels._laplacian_rows(T, rng.random((k, 3)), k + 1, False)
+    ptr, col, val = intrinsic_kernels._laplacian_rows(T, rng.random((k, 3)), k + 1, False)
     D = 1.0 + rng.random(k + 1)
     unknown, fixed = np.array([0, 5, 40], np.int64), np.setdiff1d(np.arange(k + 1), [0, 5, 40])
     pos = np.empty(k + 1, np.int64)
     pos[unknown], pos[fixed] = np.arange(3), np.arange(fixed.size)
-    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.isin(np.arange(k + 1), fixed))
+    up, uc, uv, fp, fc, fv = fair_kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.isin(np.arange(k + 1), fixed))
     ref_u, ref_f = _energy_rows_python(ptr, col, val, D, order, unknown, fixed)
     assert up[1] + fp[1] == k + 1 > 64
     for i in range(3):
@@ -338,10 +338,10 @@ def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
         assert list(zip(fc[fp[i]:fp[i + 1]].tolist(), fv[fp[i]:fp[i + 1]].tolist())) == ref_f[i]
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("seed", range(3))
 def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
-    """kernels._symmetrise on sorted rows of a structurally symmetric
+    """fair_kernels._symmetrise on sorted rows of a structurally symmetric
     matrix (with mirrored entries missing too, kept as they are) against
     SciPy's (Q + Qᵀ) / 2, entry for entry."""
     rng = np.random.default_rng(seed)
@@ -353,7 +353,7 @@ def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
     Q.data = rng.normal(size=Q.nnz)                  # the values: not
     ref = ((Q + Q.T) * 0.5).tocsr()
     ref.sort_indices()
-    got = kernels._symmetrise(Q.indptr.astype(np.int64), Q.indices.astype(np.int64), Q.data.copy())
+    got = fair_kernels._symmetrise(Q.indptr.astype(np.int64), Q.indices.astype(np.int64), Q.data.copy())
     assert np.array_equal(ref.indptr, Q.indptr) and np.array_equal(ref.indices, Q.indices)
     assert np.array_equal(got, ref.data)
     # an entry without its mirror stays as it was
@@ -363,7 +363,7 @@ def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
     keep[off[:5]] = False
     T = sp.csr_matrix((Q.data[keep], Q.indices[keep], np.concatenate([[0], np.cumsum(np.bincount(r[keep], minlength=n))])),
                       shape=(n, n))
-    got = kernels._symmetrise(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data.copy())
+    got = fair_kernels._symmetrise(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data.copy())
     Td = T.toarray()
     G = sp.csr_matrix((got, T.indices, T.indptr), shape=(n, n)).toarray()
     both = (Td != 0) & (Td.T != 0)
@@ -385,7 +385,7 @@ def _wheel(spokes=40, rings=4):
     return X, np.array(F, np.int64)
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [2, 3])
 def test_the_energy_blocks_of_a_high_valence_vertex_equal_scipys_products(order):
     """Rows of more than 64 columns (a valence-40 centre) are sorted another
@@ -398,7 +398,7 @@ def test_the_energy_blocks_of_a_high_valence_vertex_equal_scipys_products(order)
     Minv = 1.0 / M
     fixed = np.arange(n - 40, n)                                    # the outer ring
     unknown = np.arange(n - 40)
-    (up, uc, uv), (fp, fc, fv) = kernels.energy_blocks(K.indptr, K.indices, K.data, Minv, order, unknown, fixed)
+    (up, uc, uv), (fp, fc, fv) = fair_kernels.energy_blocks(K.indptr, K.indices, K.data, Minv, order, unknown, fixed)
     assert np.diff(up).max() > 64                                   # the long rows are there
     Q = fair._energy(K, Minv, order)
     scale = abs(Q).max()
@@ -409,7 +409,7 @@ def test_the_energy_blocks_of_a_high_valence_vertex_equal_scipys_products(order)
     assert all(np.all(np.diff(uc[up[i]:up[i + 1]]) > 0) for i in range(unknown.size))   # sorted rows
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="Numba is not installed")
+@pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
     from shellrepair.intrinsic import _laplacian_arrays
@@ -422,11 +422,11 @@ def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
     n = len(X)
     unknown, fixed = np.arange(nf, n), np.arange(nf)
     D = 1.0 / M
-    got = kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
+    got = fair_kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
     pos = np.empty(n, np.int64)
     pos[unknown], pos[fixed] = np.arange(unknown.size), np.arange(fixed.size)
-    up, uc, uv, fp, fc, fv = kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.arange(n) < nf)
-    ref = (up, uc, kernels._symmetrise(up, uc, uv)), (fp, fc, fv)   # the rows read with the slots
+    up, uc, uv, fp, fc, fv = fair_kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.arange(n) < nf)
+    ref = (up, uc, fair_kernels._symmetrise(up, uc, uv)), (fp, fc, fv)   # the rows read with the slots
     for a, b in zip(got, ref):
         for x, y in zip(a, b):
             assert np.array_equal(x, y)

@@ -92,10 +92,10 @@ def test_the_compiled_arrays_are_the_same_operator():
     import pytest
     import scipy.sparse as sp
 
-    from shellrepair import kernels
+    from shellrepair import compiled
     from shellrepair.intrinsic import _laplacian_arrays
 
-    if not kernels.ENABLED:
+    if not compiled.ENABLED:
         pytest.skip("Numba is not installed")
     V, F = _slivered_grid(seed=2)
     K, M = intrinsic_laplacian(V, F)

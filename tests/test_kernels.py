@@ -1,6 +1,6 @@
 """The compiled kernels give the NumPy versions' results to the bit.
 
-Each kernel in :mod:`shellrepair.kernels` replaces a NumPy or Python
+Each kernel of the kernel modules (``shellrepair/*_kernels.py``) replaces a NumPy or Python
 function that stays in the package as its oracle; these tests run both on
 seeded random, slivered and degenerate inputs and compare with
 ``np.array_equal`` (no tolerance)."""
@@ -8,12 +8,13 @@ seeded random, slivered and degenerate inputs and compare with
 import numpy as np
 import pytest
 
-from shellrepair import intrinsic, kernels, topology
+from shellrepair import (bridge_kernels, checks_kernels, compiled, context_kernels, fair_kernels, intersect_kernels, intrinsic,
+                         intrinsic_kernels, patch_kernels, refine_kernels, topology, topology_kernels)
 from eval import shapes
 from shellrepair.io import Mesh
 from shellrepair.context import ScanContext, rim_data, rim_data_numpy
 
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 
 
 def _slivered(k, seed):
@@ -78,17 +79,17 @@ def test_intrinsic_flips_equal_on_a_mesh_with_a_nonmanifold_edge():
 def test_vertex_faces_equal_the_sparse_counting_sort(sub, two, monkeypatch):
     # two: each step in two halves on two threads (forced on a small mesh;
     # sub 6 has more than two buckets of vertices)
-    monkeypatch.setattr(kernels, "VF_HALVES_MIN", 0 if two else 10 ** 12)
+    monkeypatch.setattr(topology_kernels, "VF_HALVES_MIN", 0 if two else 10 ** 12)
     V, F = shapes.icosphere(sub)
     rng = np.random.default_rng(sub)
     F = F[rng.permutation(len(F))]
     for n in (len(V), len(V) + 5):  # with unused vertices at the end
         o1, s1 = topology.vertex_faces(F, n)
-        o2, s2 = kernels.vertex_faces(F, n)
+        o2, s2 = topology_kernels.vertex_faces(F, n)
         assert o2.dtype == np.int64 and s2.dtype == np.int64
         assert np.array_equal(o1, o2) and np.array_equal(s1, s2)
     with pytest.raises(ValueError, match="outside"):
-        kernels.vertex_faces(np.vstack([F, [[0, 1, len(V) + 9]]]), len(V))
+        topology_kernels.vertex_faces(np.vstack([F, [[0, 1, len(V) + 9]]]), len(V))
 
 
 def test_rim_data_equals_the_python_walk():
@@ -137,10 +138,10 @@ def test_box_pairs_are_exactly_the_overlapping_boxes(seed):
     Bmax = B + rng.random((700, 3)) * 0.04
     B[:3] = -0.5
     Bmax[:3] = 1.5                                   # a few boxes spanning everything
-    ai, bj = kernels.box_pairs(A, Amax, B, Bmax)
+    ai, bj = intersect_kernels.box_pairs(A, Amax, B, Bmax)
     M = np.all((A[:, None] <= Bmax[None]) & (B[None] <= Amax[:, None]), axis=2)
     assert sorted(zip(ai.tolist(), bj.tolist())) == sorted(zip(*map(np.ndarray.tolist, np.nonzero(M))))
-    i, j = kernels.box_pairs(A, Amax)
+    i, j = intersect_kernels.box_pairs(A, Amax)
     S = np.triu(np.all((A[:, None] <= Amax[None]) & (A[None] <= Amax[:, None]), axis=2), 1)
     assert sorted(zip(i.tolist(), j.tolist())) == sorted(zip(*map(np.ndarray.tolist, np.nonzero(S))))
 
@@ -162,7 +163,7 @@ def test_crossing_tests_give_the_same_answers_with_the_box_candidates(seed, monk
     index = NearFaces(V, F, origin=V.mean(axis=0))
     out = {}
     for on in (True, False):
-        monkeypatch.setattr(kernels, "ENABLED", on)
+        monkeypatch.setattr(compiled, "ENABLED", on)
         pairs = patch_vs_index(Pt, ids, index, return_pairs=True)
         self_pairs = crossing_pairs(Pt - index.origin, ids)
         out[on] = (patch_vs_index(Pt, ids, index), patch_vs_index(Pt, ids, index, return_faces=True),
@@ -184,9 +185,9 @@ def test_faces_near_equals_the_numpy_walk(monkeypatch):
     boxes = [(c - w, c + w) for c, w in zip(rng.normal(size=(20, 3)) * 0.7, rng.random((20, 1)) * 0.3)]
     boxes += [(np.full(3, 5.0), np.full(3, 6.0)), (np.full(3, -2.0), np.full(3, 2.0))]
     for lo, hi in boxes:
-        monkeypatch.setattr(kernels, "ENABLED", False)
+        monkeypatch.setattr(compiled, "ENABLED", False)
         a = index.faces_near(lo, hi)
-        monkeypatch.setattr(kernels, "ENABLED", True)
+        monkeypatch.setattr(compiled, "ENABLED", True)
         b = index.faces_near(lo, hi)
         assert a.dtype == b.dtype and np.array_equal(a, b)
         assert not index._fmark.any()
@@ -199,7 +200,7 @@ def test_the_vertex_grid_has_the_same_keys_and_cells(monkeypatch):
     V = V * [3.0, 1.0, 1.0] + 1e6                  # far from the origin, not square
     idx = {}
     for on in (False, True):
-        monkeypatch.setattr(kernels, "ENABLED", on)
+        monkeypatch.setattr(compiled, "ENABLED", on)
         idx[on] = NearFaces(V, F, origin=V.mean(axis=0))
     a, b = idx[False], idx[True]
     assert np.array_equal(a.lo2, b.lo2) and a.h == b.h and a.ny == b.ny
@@ -208,7 +209,7 @@ def test_the_vertex_grid_has_the_same_keys_and_cells(monkeypatch):
     assert np.array_equal(a.vkey[np.argsort(a.vorder)], b.vkey[np.argsort(b.vorder)])
 
 
-#: The compiled dense fairing (kernels.fair_small) against libigl's sparse
+#: The compiled dense fairing (fair_kernels.fair_small) against libigl's sparse
 #: solve: positions in units of the mean edge.
 FAIR_TOLERANCE = 1e-9
 
@@ -238,9 +239,9 @@ def test_the_dense_fairing_equals_the_sparse_solve_to_round_off(order, seed, mon
     X, F, nf = _submesh_with_free_middle(10 + 2 * seed, seed)
     assert 0 < len(X) - nf <= fair.SMALL_UNKNOWNS
     pinned = np.array([0, 3]) if seed == 2 else None
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     ref, Kref = fair.fair_patch(X, F, nf, order=order, pinned=pinned)
-    monkeypatch.setattr(kernels, "ENABLED", True)
+    monkeypatch.setattr(compiled, "ENABLED", True)
     got, K = fair.fair_patch(X, F, nf, order=order, pinned=pinned)
     assert np.abs(got - ref).max() <= FAIR_TOLERANCE
     assert abs(K - Kref).max() <= FAIR_TOLERANCE * abs(Kref).max()
@@ -285,7 +286,7 @@ def _textbook_cholesky_solve(Q, B):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_the_dense_cholesky_equals_the_textbook_one_to_the_bit(seed):
-    """kernels._cholesky_solve (fair_small's solve, column by column)
+    """fair_kernels._cholesky_solve (fair_small's solve, column by column)
     against the row-by-row factorisation: dense, sparse with exact zeros,
     nearly singular; and a matrix that is not positive definite is refused."""
     rng = np.random.default_rng(seed)
@@ -296,12 +297,12 @@ def test_the_dense_cholesky_equals_the_textbook_one_to_the_bit(seed):
         Q = A @ A.T + (1e-6 if seed == 2 else n) * np.eye(n)
         Q = 0.5 * (Q + Q.T)
         B = rng.normal(size=(n, 3))
-        got, ok = kernels._cholesky_solve(Q, B)
+        got, ok = fair_kernels._cholesky_solve(Q, B)
         ref = _textbook_cholesky_solve(Q, B)
         assert ok and np.array_equal(got, ref)
         assert np.abs(Q @ got - B).max() <= 1e-6 * max(1.0, np.abs(B).max()) * np.linalg.cond(Q)
     Q = np.diag([1.0, -1.0, 2.0])
-    assert not kernels._cholesky_solve(Q, np.ones((3, 3)))[1] and _textbook_cholesky_solve(Q, np.ones((3, 3))) is None
+    assert not fair_kernels._cholesky_solve(Q, np.ones((3, 3)))[1] and _textbook_cholesky_solve(Q, np.ones((3, 3))) is None
 
 
 def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypatch):
@@ -314,7 +315,7 @@ def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypa
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=8, radius=0.12, seed=3)
     out = {}
     for on in (False, True):
-        monkeypatch.setattr(kernels, "ENABLED", on)
+        monkeypatch.setattr(compiled, "ENABLED", on)
         out[on] = repair_mesh(Mesh(V=V2, F=F2))
     (a, ra), (b, rb) = out[False], out[True]
     assert ra["holes_after"] == rb["holes_after"] == 0
@@ -349,7 +350,7 @@ def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
         # a jitter so that there is something to flip
         Pj = P2 + rng.normal(scale=0.03, size=P2.shape) * (~is_loop)[:, None]
         a = refine._relax_numpy(Pj, T2.copy(), is_loop, fb, rounds, d)
-        b = kernels.relax(Pj, T2.copy(), is_loop, fb, rounds, d, refine._angle, refine._unfolded, refine.FLIP_EPS)
+        b = refine_kernels.relax(Pj, T2.copy(), is_loop, fb, rounds, d, refine._angle, refine._unfolded, refine.FLIP_EPS)
         if b is None:                              # a face shared by two flips of a round: NumPy redoes it
             b = refine._relax(Pj, T2.copy(), is_loop, fb, rounds, d)
         assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2]
@@ -374,7 +375,7 @@ def test_the_compiled_half_edge_pairing_equals_the_stable_argsort(seed):
     twin = np.full(3 * len(F), -1, np.int64)
     twin[order[pair]] = order[pair + 1]
     twin[order[pair + 1]] = order[pair]
-    ks2, twin2, active2 = kernels._pair_half_edges(np.ascontiguousarray(F, np.int64), n)
+    ks2, twin2, active2 = refine_kernels._pair_half_edges(np.ascontiguousarray(F, np.int64), n)
     assert np.array_equal(ks, ks2) and np.array_equal(twin, twin2) and np.array_equal(order[pair], active2)
     assert (seed >= 2) == bool(np.any(np.bincount(np.searchsorted(np.unique(ks), ks)) > 2))
 
@@ -398,7 +399,7 @@ def test_plane_separated_pairs_never_cross_and_most_far_pairs_are_found(seed):
         A, B = A + 1e6, B + 1e6
     ai = bj = np.arange(p)
     Aid, Bid = np.arange(3 * p).reshape(p, 3), 3 * p + np.arange(3 * p).reshape(p, 3)
-    sep = kernels.separated(A, Aid, ai, B, Bid, bj, SIDE_BOUND, TINY)
+    sep = intersect_kernels.separated(A, Aid, ai, B, Bid, bj, SIDE_BOUND, TINY)
     hit = triangles_cross(A, B)
     assert not (sep & hit).any()
     assert sep.sum() > 0.3 * (~hit).sum()
@@ -460,7 +461,7 @@ def test_boxes_meeting_equals_the_numpy_mask(seed):
     lo = np.round(rng.normal(size=3) * 0.5, 1)
     hi = lo + 0.7
     want = np.all((bmin <= hi) & (bmax >= lo), axis=1)
-    got = kernels.boxes_meeting(bmin, bmax, lo, hi)
+    got = context_kernels.boxes_meeting(bmin, bmax, lo, hi)
     assert got.dtype == bool and np.array_equal(got, want)
     assert m < 200 or 0 < got.sum() < m
 
@@ -506,11 +507,11 @@ def test_fold_test_equals_the_numpy_one(seed):
     C[0, 2] = C[0, 0]                      # zero area
     Cs, Fr = V[F[scan]], F[scan]
     want = _folds_numpy(C, ids, Cs, Fr)
-    got = kernels.folds(C, ids, Cs, Fr, np.cos(np.radians(FOLD_DEGREES)))
+    got = checks_kernels.folds(C, ids, Cs, Fr, np.cos(np.radians(FOLD_DEGREES)))
     assert got.dtype == want.dtype == np.int64
     assert np.array_equal(got, want)
     assert want.size > 0                   # the flipped triangles do fold
-    empty = kernels.folds(C[:0], ids[:0], Cs[:0], Fr[:0], 0.5)
+    empty = checks_kernels.folds(C[:0], ids[:0], Cs[:0], Fr[:0], 0.5)
     assert empty.size == 0 and np.array_equal(empty, _folds_numpy(C[:0], ids[:0], Cs[:0], Fr[:0]))
 
 
@@ -526,10 +527,10 @@ def test_face_cross_equals_the_numpy_cross_products():
     faces = np.concatenate([np.arange(0, len(F), 3), [len(F) - 1, 5, 5]])
     T = F[faces]
     want = cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
-    got = kernels.face_cross(faces, F, V)
+    got = patch_kernels.face_cross(faces, F, V)
     assert np.array_equal(got, want)
     assert not want[-3].any() and want[-1].any()
-    assert kernels.face_cross(faces[:0], F, V).shape == (0, 3)
+    assert patch_kernels.face_cross(faces[:0], F, V).shape == (0, 3)
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -555,7 +556,7 @@ def test_ring_sums_equal_the_sparse_products(seed):
     Nv = rng.normal(size=(nv, 3))
     Nv[::7] = -0.0
     want = bridge._ring_sums(E, li, level, X, Nv)
-    got = kernels.ring_sums(E, li, level, X, Nv)
+    got = bridge_kernels.ring_sums(E, li, level, X, Nv)
     for a, b in zip(want, got):
         assert np.array_equal(np.asarray(a), b)
     assert want[1].min() >= 0 and want[4].max() > 0
@@ -573,7 +574,7 @@ def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
     loops = [np.asarray(h.vertices, np.int64) for h in detect_holes(V2, F2).holes]
     near = [F2[ctx.ring_faces(lp, 3)] for lp in loops]
     got = bridge._continuation_arcs_many(V2, near, loops)
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     want = bridge._continuation_arcs_many(V2, near, loops)
     for a, b in zip(want, got):
         for x, y in zip(a, b):
@@ -597,14 +598,14 @@ def test_block_ids_and_normal_sums_equal_unique_searchsorted_and_add_at():
     lid_p = np.repeat(np.arange(4), sizes)
     fkey, pkey = lid_f[:, None] * n + Fcat, lid_p * n + loopcat
     want = np.unique(np.concatenate([fkey.ravel(), pkey]))
-    ukey, L, li = kernels.block_ids(Fcat, fcount, loopcat, sizes, n)
+    ukey, L, li = bridge_kernels.block_ids(Fcat, fcount, loopcat, sizes, n)
     assert np.array_equal(ukey, want)
     assert np.array_equal(L, np.searchsorted(want, fkey)) and np.array_equal(li, np.searchsorted(want, pkey))
     Nf = np.cross(V[Fcat[:, 1]] - V[Fcat[:, 0]], V[Fcat[:, 2]] - V[Fcat[:, 0]])
     acc = np.zeros((len(want), 3))
     for c in range(3):
         np.add.at(acc, L[:, c], Nf)
-    assert np.array_equal(kernels.corner_normal_sums(L, Fcat, V, len(want)), acc)
+    assert np.array_equal(bridge_kernels.corner_normal_sums(L, Fcat, V, len(want)), acc)
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -630,9 +631,9 @@ def test_relaxation_angle_and_fold_terms_equal_the_numpy_ones(seed):
     v[150:160] = -v[150:160]
     assert np.array_equal(_angle_compiled(u, v), _angle(u, v))
     assert (_angle_compiled(u, v)[120:160] == 0.0).all()
-    assert np.array_equal(np.signbit(kernels.angle_parts(u, v)[1]), np.signbit(np.sum(u * v, axis=1)))
+    assert np.array_equal(np.signbit(refine_kernels.angle_parts(u, v)[1]), np.signbit(np.sum(u * v, axis=1)))
     want = _unfolded(pa, pb, pc, pd)
-    assert np.array_equal(kernels.unfolded(pa, pb, pc, pd), want)
+    assert np.array_equal(refine_kernels.unfolded(pa, pb, pc, pd), want)
     assert want.any() and not want.all()
 
 
@@ -651,7 +652,7 @@ def test_refinement_split_test_equals_the_numpy_one(seed):
     Tr = rng.integers(0, n, (500, 3))
     Tr[:20, 2] = Tr[:20, 0]
     want = _split_test(P, Tr, s, DENSITY_ALPHA)
-    got = kernels.split_test(P, Tr, s, DENSITY_ALPHA)
+    got = refine_kernels.split_test(P, Tr, s, DENSITY_ALPHA)
     for a, b in zip(want, got):
         assert np.array_equal(a, b)
     assert want[2].any() and not want[2].all()
@@ -671,7 +672,7 @@ def test_point_triangle_distances_equal_the_numpy_version_to_the_bit(seed, monke
                         V[F[:9]].mean(axis=1), V[:5]])                     # on degenerate faces, on vertices
     for shift in (0.0, 1e6):
         got = point_mesh_distance(Q + shift, V + shift, F)
-        monkeypatch.setattr(kernels, "ENABLED", False)
+        monkeypatch.setattr(compiled, "ENABLED", False)
         ref = point_mesh_distance(Q + shift, V + shift, F)
         monkeypatch.undo()
         assert np.array_equal(got, ref)
@@ -718,7 +719,7 @@ def _crossing_pairs_mix(seed):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_crossing_filters_decide_as_the_exact_test(seed):
-    """kernels.cross_status answers only where its filters are certain, and
+    """intersect_kernels.cross_status answers only where its filters are certain, and
     then as triangles_cross does; pair_intersections with the kernels
     equals the NumPy one on every pair (random, coplanar, shared vertices
     and edges, degenerate, 1e6 offsets)."""
@@ -727,25 +728,25 @@ def test_compiled_crossing_filters_decide_as_the_exact_test(seed):
 
     A, Aid, B, Bid, kind = _crossing_pairs_mix(seed)
     r = np.arange(len(A))
-    st = kernels.cross_status(A, Aid, r, B, Bid, r, SIDE_BOUND, O3D_BOUND, TINY)
+    st = intersect_kernels.cross_status(A, Aid, r, B, Bid, r, SIDE_BOUND, O3D_BOUND, TINY)
     ref = pair_intersections_numpy(A, Aid, B, Bid)
-    done = st != kernels.UNDECIDED
-    assert np.array_equal(st[done] == kernels.CROSS, ref[done])
+    done = st != intersect_kernels.UNDECIDED
+    assert np.array_equal(st[done] == intersect_kernels.CROSS, ref[done])
     assert np.array_equal(pair_intersections(A, Aid, B, Bid), ref)
     assert ref.sum() > 100 and (~ref).sum() > 100               # both answers occur
     assert done[kind == 0].mean() > 0.95 and (~done[np.isin(kind, [1, 2])]).all()   # coplanar: the NumPy test
     # pairs given by index (each triangle used by many pairs)
     rng = np.random.default_rng(seed)
     ai, bj = rng.integers(0, len(A), 5000), rng.integers(0, len(B), 5000)
-    st = kernels.cross_status(A, Aid, ai, B, Bid, bj, SIDE_BOUND, O3D_BOUND, TINY)
+    st = intersect_kernels.cross_status(A, Aid, ai, B, Bid, bj, SIDE_BOUND, O3D_BOUND, TINY)
     ref = pair_intersections_numpy(A[ai], Aid[ai], B[bj], Bid[bj])
-    done = st != kernels.UNDECIDED
-    assert np.array_equal(st[done] == kernels.CROSS, ref[done])
+    done = st != intersect_kernels.UNDECIDED
+    assert np.array_equal(st[done] == intersect_kernels.CROSS, ref[done])
 
 
 @pytest.mark.parametrize("seed", range(3))
 def test_patch_pairs_are_the_overlapping_boxes_with_their_answers(seed):
-    """kernels.patch_pairs (the faces' corners, boxes, pairs and tests in one
+    """intersect_kernels.patch_pairs (the faces' corners, boxes, pairs and tests in one
     call) gives the pairs box_pairs gives and cross_status's answers, both
     with all boxes compared (small) and with the grid (large)."""
     from shellrepair.intersect import SIDE_BOUND
@@ -767,18 +768,18 @@ def test_patch_pairs_are_the_overlapping_boxes_with_their_answers(seed):
         Pt[5:8, 0] = V[F[10:13, 0]]
         f = np.union1d(near, np.arange(13))
         Q = Pt - origin
-        ai, bj, st = kernels.patch_pairs(Q, ids, f, V, F, origin, SIDE_BOUND, O3D_BOUND, TINY)
+        ai, bj, st = intersect_kernels.patch_pairs(Q, ids, f, V, F, origin, SIDE_BOUND, O3D_BOUND, TINY)
         Tf = V[F[f]] - origin
-        a2, b2 = kernels.box_pairs(Q.min(axis=1), Q.max(axis=1), Tf.min(axis=1), Tf.max(axis=1))
+        a2, b2 = intersect_kernels.box_pairs(Q.min(axis=1), Q.max(axis=1), Tf.min(axis=1), Tf.max(axis=1))
         assert sorted(zip(ai.tolist(), bj.tolist())) == sorted(zip(a2.tolist(), b2.tolist()))
-        assert np.array_equal(st, kernels.cross_status(Q, ids, ai, Tf, F[f], bj, SIDE_BOUND, O3D_BOUND, TINY))
-        assert (st == kernels.CROSS).sum() > 0 and len(ai) > 50
-        assert (n_patch * len(f) > kernels.PAIRS_BRUTE) == (n_patch == 400)
+        assert np.array_equal(st, intersect_kernels.cross_status(Q, ids, ai, Tf, F[f], bj, SIDE_BOUND, O3D_BOUND, TINY))
+        assert (st == intersect_kernels.CROSS).sum() > 0 and len(ai) > 50
+        assert (n_patch * len(f) > intersect_kernels.PAIRS_BRUTE) == (n_patch == 400)
 
 
 @pytest.mark.parametrize("seed", range(20))
 def test_projection_certificate_equals_the_numpy_one(seed, monkeypatch):
-    """embeds_by_projection with kernels.projection_embeds equals its NumPy
+    """embeds_by_projection with intersect_kernels.projection_embeds equals its NumPy
     tail: fans over wavy loops (simple, self-crossing, with a repeated
     vertex, with triangles turned over or of zero area), at offset 1e6 too."""
     from shellrepair.intersect import embeds_by_projection
@@ -806,7 +807,7 @@ def test_projection_certificate_equals_the_numpy_one(seed, monkeypatch):
     for Q, Tq in cases:
         got = {}
         for on in (True, False):
-            monkeypatch.setattr(kernels, "ENABLED", on)
+            monkeypatch.setattr(compiled, "ENABLED", on)
             got[on] = embeds_by_projection(Q, Tq, k)
         assert got[True] == got[False]
         answers.append(got[True])
@@ -846,12 +847,12 @@ def test_the_dense_fairing_round_reads_k_without_its_spare_slots_to_the_bit(orde
     rng = np.random.default_rng(seed)
     W = 0.5 * rng.uniform(0.1, 2.0, size=F.shape)          # positive weights, as on a Delaunay mesh
     D = 1.0 / rng.uniform(0.2, 1.0, size=n)
-    for ptr, col, val, d in (kernels._laplacian_rows(F, np.zeros((0, 3)), n, True) + (np.ones(n),),
-                             kernels._laplacian_rows(F, W, n, False) + (D,)):
-        pc, cc, vc = kernels._drop_spare_diagonal(ptr, col, val)
+    for ptr, col, val, d in (intrinsic_kernels._laplacian_rows(F, np.zeros((0, 3)), n, True) + (np.ones(n),),
+                             intrinsic_kernels._laplacian_rows(F, W, n, False) + (D,)):
+        pc, cc, vc = fair_kernels._drop_spare_diagonal(ptr, col, val)
         assert pc[-1] < ptr[-1]                              # there were spare slots to drop
-        full, ok1 = kernels._fair_round(ptr, col, val, d, order, X, fixed, unk_pos, unk)
-        lean, ok2 = kernels._fair_round(pc, cc, vc, d, order, X, fixed, unk_pos, unk)
+        full, ok1 = fair_kernels._fair_round(ptr, col, val, d, order, X, fixed, unk_pos, unk)
+        lean, ok2 = fair_kernels._fair_round(pc, cc, vc, d, order, X, fixed, unk_pos, unk)
         assert ok1 and ok2 and np.array_equal(full, lean)
 
 
@@ -873,7 +874,7 @@ def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed
     g = np.zeros((m, 8), np.int64)
     g[:, 2:6] = rng.integers(0, 4 * m, size=(m, 4))
     g[:40, 4] = g[:40, 2]
-    cr1, dt1, cr2, dt2, unf = kernels.relax_round_parts(P, g)
+    cr1, dt1, cr2, dt2, unf = refine_kernels.relax_round_parts(P, g)
     pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
     assert np.array_equal(np.arctan2(cr1, dt1), refine._angle_compiled(pa - pc, pb - pc))
     assert np.array_equal(np.arctan2(cr2, dt2), refine._angle_compiled(pa - pd, pb - pd))

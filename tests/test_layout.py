@@ -105,5 +105,21 @@ def test_the_scan_index_checks_and_kernels_sit_below_the_stages_that_use_them():
     # stage that fills a hole, pairs loops or chooses an order is below them
     assert g["shellrepair.checks"] & stages <= {"shellrepair.holes", "shellrepair.patch", "shellrepair.mend",
                                                  "shellrepair.merge"}
-    assert g["shellrepair.kernels"] <= {"shellrepair.compiled", "shellrepair.geometry", "shellrepair.halves"}
+    # each kernel module imports the compiled switch, the plain helpers and
+    # other kernel modules only, never the code it serves
+    kernel_modules = {m for m in g if m.endswith("_kernels") and m.count(".") == 1}
+    assert len(kernel_modules) >= 10
+    for m in kernel_modules:
+        assert g[m] <= {"shellrepair.compiled", "shellrepair.geometry", "shellrepair.halves"} | kernel_modules, m
     assert g["shellrepair.materials"] & {"shellrepair.shader", "shellrepair.render"} == set()
+
+
+def test_each_kernel_module_stays_short():
+    # the kernels sit beside the code they serve, one module each (issue 39:
+    # no module over about 1000 lines), and no one module gathers them again
+    from shellrepair import compiled
+
+    for module in compiled.MODULES:
+        path = PACKAGE / (module.rsplit(".", 1)[1] + ".py")
+        assert len(path.read_text(encoding="utf-8").splitlines()) <= 1000, path.name
+    assert not (PACKAGE / "kernels.py").exists()

@@ -128,13 +128,13 @@ def test_patches_crossing_each_other_are_found_with_or_without_the_kernels(monke
     triangle through a fan, or lifted clear of it."""
     from types import SimpleNamespace
 
-    from shellrepair import kernels
+    from shellrepair import compiled
     from shellrepair.merge import _Accepted
     from shellrepair.patch import Patch
 
-    if compiled and not kernels.ENABLED:
+    if compiled and not compiled.ENABLED:
         pytest.skip("Numba is not installed")
-    monkeypatch.setattr(kernels, "ENABLED", compiled)
+    monkeypatch.setattr(compiled, "ENABLED", compiled)
     # a long thin first patch: a fan over a 10 x 1 rectangle, its centre a new vertex
     V = np.array([[0, 0, 0], [10, 0, 0], [10, 1, 0], [0, 1, 0],
                   [5, 0.5, -1 + lift], [5.2, 0.5, 1 + lift], [4.8, 0.5, 1 + lift]], float)

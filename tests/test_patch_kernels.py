@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import kernels
+from shellrepair import bridge_kernels, compiled, context_kernels, triangulate_kernels
 from shellrepair.io import Mesh
 from shellrepair.context import ScanContext, _submesh_numpy, submesh
 
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 
 
 def _same_bits(a, b):
@@ -78,10 +78,10 @@ def test_submesh_of_a_loop_off_its_faces_takes_the_numpy_path():
     faces = np.array([0, 1], np.int64)
     far = int(np.setdiff1d(np.arange(len(mesh.V)), F[faces].ravel())[0])
     vpos = np.full(len(mesh.V), -1, np.int64)
-    g, Fs, loc, ok = kernels.submesh(faces, F, np.array([F[0, 0], far, F[0, 1]], np.int64),
+    g, Fs, loc, ok = context_kernels.submesh(faces, F, np.array([F[0, 0], far, F[0, 1]], np.int64),
                                      np.array([[0, 1, 2]], np.int64), vpos)
     assert not ok and np.array_equal(g, np.unique(F[faces]))
-    g, Fs, loc, ok = kernels.submesh(np.zeros(0, np.int64), F, np.array([1, 2, 3], np.int64),
+    g, Fs, loc, ok = context_kernels.submesh(np.zeros(0, np.int64), F, np.array([1, 2, 3], np.int64),
                                      np.array([[0, 1, 2]], np.int64), vpos)
     assert not ok and g.size == 0
     assert (vpos == -1).all()   # the scratch is left as it was given
@@ -125,7 +125,7 @@ def test_inside_outline_labels_equal_points_in_poly(seed):
         S[:k, :] = np.arange(k)[:, None]                       # centroid = a corner
         S[k:2 * k, 0] = S[k:2 * k, 1] = np.arange(k)           # (2a + b) / 3: on a side's line
         S[k:2 * k, 2] = (np.arange(k) + 1) % k
-        got = kernels.inside_outline(Q, S)
+        got = triangulate_kernels.inside_outline(Q, S)
         want = S[points_in_poly(Q[S].mean(axis=1), Q)]
         assert got.dtype == want.dtype and np.array_equal(got, want)
 
@@ -141,9 +141,9 @@ def test_delaunay_in_projection_compiled_equals_numpy(seed, monkeypatch):
             k = len(P)
             for forbidden in (set(), {(0, k // 2)}, {(0, 1)}):
                 got = tr._delaunay_in_projection(P, axis, forbidden)
-                monkeypatch.setattr(kernels, "ENABLED", False)
+                monkeypatch.setattr(compiled, "ENABLED", False)
                 want = tr._delaunay_in_projection(P, axis, forbidden)
-                monkeypatch.setattr(kernels, "ENABLED", True)
+                monkeypatch.setattr(compiled, "ENABLED", True)
                 assert (got is None) == (want is None)
                 if want is not None:
                     answers += 1
@@ -163,7 +163,7 @@ def test_loop_cover_equals_the_numpy_checks_on_flat_and_nan_normals(seed):
                       np.where(rng.random(len(S)) < 0.3, 0.0, 1.0), np.r_[np.nan, np.ones(len(S) - 1)],
                       np.r_[np.ones(len(S) - 1), np.nan], np.r_[1e-13, np.ones(len(S) - 1)]):
                 a, ok_a = _loop_cover_oriented(S, n, k)
-                b, ok_b = kernels.loop_cover(S, n, k)
+                b, ok_b = triangulate_kernels.loop_cover(S, n, k)
                 assert ok_a == ok_b and a.dtype == b.dtype and np.array_equal(a, b)
 
 
@@ -185,7 +185,7 @@ def test_block_ids_equal_unique_and_searchsorted_by_marks_and_by_sorting(seed, s
     lid_p = np.repeat(np.arange(6), sizes)
     fkey, pkey = lid_f[:, None] * n + Fcat, lid_p * n + loopcat
     want = np.unique(np.concatenate([fkey.ravel(), pkey]))
-    ukey, L, li = kernels.block_ids(Fcat, fcount, loopcat, sizes, n, scratch=scratch)
+    ukey, L, li = bridge_kernels.block_ids(Fcat, fcount, loopcat, sizes, n, scratch=scratch)
     assert np.array_equal(ukey, want)
     assert np.array_equal(L, np.searchsorted(want, fkey)) and np.array_equal(li, np.searchsorted(want, pkey))
 

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from shellrepair import kernels
+from shellrepair import common_kernels, compiled
 
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="needs the compiled kernels")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="needs the compiled kernels")
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -56,8 +56,8 @@ def test_the_preload_sets_numba_up_only_where_the_kernels_are_on(monkeypatch):
     from shellrepair import preload
 
     calls = []
-    monkeypatch.setattr(kernels, "max_sq_distance", lambda Q: calls.append(len(Q)) or 0.0)
+    monkeypatch.setattr(common_kernels, "max_sq_distance", lambda Q: calls.append(len(Q)) or 0.0)
     for on in (False, True):
-        monkeypatch.setattr(kernels, "ENABLED", on)
+        monkeypatch.setattr(compiled, "ENABLED", on)
         preload.preload_fill().join()
     assert calls == [1]

@@ -13,13 +13,15 @@ Stated tolerances (each asserted below):
   order than ``np.einsum``'s, and the Beckmann exponent (up to ~745 in
   magnitude) multiplies an ulp of the cosine by that much.
 - the NumPy versions stay exactly what they were: with
-  ``SHELLREPAIR_NO_JIT=1`` the public functions return the oracle's arrays
+  the kernels off (``shellrepair.compiled.ENABLED`` False, as
+  ``SHELLREPAIR_NO_NUMBA=1`` sets it) the public functions return the oracle's arrays
   bit for bit, and tests/test_reflectance_split.py pins those values.
 """
 
 import numpy as np
 import pytest
 
+from shellrepair import compiled
 from shellrepair import shader as sd
 from shellrepair.reflectance import _dispatch
 from shellrepair.reflectance import albedo as al
@@ -29,7 +31,7 @@ from shellrepair.reflectance import layered as ly
 from shellrepair.reflectance import microfacet as mf
 
 K = _dispatch.kernels()
-pytestmark = pytest.mark.skipif(K is None, reason="Numba kernels off (SHELLREPAIR_NO_JIT or numba missing)")
+pytestmark = pytest.mark.skipif(K is None, reason="Numba kernels off (SHELLREPAIR_NO_NUMBA or numba missing)")
 
 RTOL, ATOL = 1e-12, 1e-250
 RTOL_SHADER = 1e-11
@@ -186,8 +188,8 @@ def test_exp_expm1_log_within_one_ulp_of_libm():
     assert e[x == 709.7][0] == pytest.approx(np.exp(709.7), rel=2 * ulp)
 
 
-def test_no_jit_gives_the_numpy_versions_bit_for_bit(monkeypatch):
-    monkeypatch.setenv("SHELLREPAIR_NO_JIT", "1")
+def test_kernels_off_give_the_numpy_versions_bit_for_bit(monkeypatch):
+    monkeypatch.setattr(compiled, "ENABLED", False)
     assert _dispatch.kernels() is None
     for name in ("torrance_sparrow", "km_reflectance", "diffuse_transmittance", "local_brdf"):
         fast, oracle, args = CASES[name]

@@ -32,7 +32,7 @@ import sys
 import numpy as np
 import pytest
 
-from shellrepair import coverage, materials, reflectance, shader, shading
+from shellrepair import compiled, coverage, materials, reflectance, shader, shading
 from shellrepair.reflectance import albedo, dipole, km, layered, microfacet
 
 PINS = pathlib.Path(__file__).parent / "data" / "reflectance_pins.npz"
@@ -169,7 +169,7 @@ def pin_outputs(sh, mt, sd=None):
 
 
 def test_reference_outputs_unchanged_by_the_split(monkeypatch):
-    monkeypatch.setenv("SHELLREPAIR_NO_JIT", "1")  # the NumPy versions; the kernels are held to them elsewhere
+    monkeypatch.setattr(compiled, "ENABLED", False)  # the NumPy versions; the kernels are held to them elsewhere
     pins = np.load(PINS)
     with np.errstate(all="ignore"):
         now = pin_outputs(shading, materials, shader)

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import context, kernels
+from shellrepair import compiled, context, context_kernels, topology_kernels
 from shellrepair.io import Mesh
 from shellrepair.context import ScanContext
 from shellrepair.topology import edge_topology
 
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="the region needs the compiled kernels")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="the region needs the compiled kernels")
 
 
 def _holed(sub=6, n_holes=3, radius=0.12, seed=1):
@@ -34,7 +34,7 @@ def test_faces_in_boxes_equal_the_brute_force_test(seed):
     c = V[rng.integers(10, len(V), size=1 + seed)]    # boxes around surface points
     lo = c - rng.uniform(0.05, 0.5, size=c.shape) * np.nanstd(V, axis=0)
     hi = c + rng.uniform(0.05, 0.5, size=c.shape) * np.nanstd(V, axis=0)
-    faces, fmin, fmax, inside = kernels.faces_in_boxes(V, F, lo, hi)
+    faces, fmin, fmax, inside = context_kernels.faces_in_boxes(V, F, lo, hi)
     T = V[F]
     tmin, tmax = T.min(axis=1), T.max(axis=1)
     meets = np.zeros(len(F), bool)
@@ -56,7 +56,7 @@ def test_the_region_lists_are_the_whole_mesh_lists_where_complete(monkeypatch):
     ctx = _ctx(V, F)
     reg = ctx.region()
     assert reg is not None and 0 < reg.faces.size < len(F)
-    order, start = kernels.vertex_faces(F, len(V))
+    order, start = topology_kernels.vertex_faces(F, len(V))
     for v in np.flatnonzero(reg.covered)[::7]:
         assert np.array_equal(reg.vf_order[reg.vf_start[v]:reg.vf_start[v + 1]], order[start[v]:start[v + 1]])
     loops = np.unique(ctx.topo.ends(ctx.topo.boundary_he))
@@ -144,8 +144,8 @@ def test_the_index_built_in_the_background_is_the_index_built_in_line(monkeypatc
     V, F = _holed(sub=5, n_holes=12, radius=0.08, seed=2)   # more loops than a region takes
     line = _ctx(V, F)
     calls = []
-    real = kernels.vertex_faces
-    monkeypatch.setattr(kernels, "vertex_faces", lambda *a: calls.append(1) or real(*a))
+    real = topology_kernels.vertex_faces
+    monkeypatch.setattr(topology_kernels, "vertex_faces", lambda *a: calls.append(1) or real(*a))
     bg = _ctx(V, F)
     with ThreadPoolExecutor(2) as ex:
         done = bg.index_in_background(ex)
@@ -244,11 +244,11 @@ def test_without_a_region_two_jobs_start_the_whole_mesh_lists_early_and_build_th
 
     monkeypatch.setattr(context, "LOCAL_MIN_FACES", 10 ** 12)
     V, F = _holed(n_holes=4, radius=0.1, seed=3)
-    real = kernels.vertex_faces
+    real = topology_kernels.vertex_faces
     out = {}
     for jobs in (1, 2):
         whole = []
-        monkeypatch.setattr(kernels, "vertex_faces", lambda F_, n: (whole.append(len(F_)) if len(F_) == len(F)
+        monkeypatch.setattr(topology_kernels, "vertex_faces", lambda F_, n: (whole.append(len(F_)) if len(F_) == len(F)
                                                                     else None) or real(F_, n))
         out[jobs] = repair_mesh(Mesh(V=V, F=F), jobs=jobs, order="auto")
         assert whole == [len(F)]

@@ -310,9 +310,9 @@ def _kernel_meshes():
 
 
 def _numpy_only(monkeypatch):
-    from shellrepair import fastmesh
+    from shellrepair import compiled
 
-    monkeypatch.setattr(fastmesh, "AVAILABLE", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)   # the one switch: every kernel off
 
 
 def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypatch):

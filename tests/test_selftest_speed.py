@@ -2,7 +2,7 @@
 
 ``order="auto"`` fills test holes beside each hole (:mod:`shellrepair.selftest`,
 :mod:`shellrepair.probe`) and measures each candidate's fill: the centroid
-query, the distances of the removed scan to each fill have a compiled path (:mod:`shellrepair.kernels`) beside the NumPy one
+query, the distances of the removed scan to each fill have a compiled path (:mod:`shellrepair.distance_kernels`) beside the NumPy one
 it replaces; the NumPy one is the oracle. The tests below compare the two on
 inputs that reach the awkward cases (degenerate triangles, far offsets,
 walks that run out of mesh), and the last one compares the whole test's
@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import Mesh, detect_holes, distance, kernels, selftest
+from shellrepair import Mesh, compiled, context_kernels, detect_holes, distance, distance_kernels, selftest
 from shellrepair.context import ScanContext
 
 pytest.importorskip("numba")
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="the compiled kernels are off (SHELLREPAIR_NO_NUMBA)")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="the compiled kernels are off (SHELLREPAIR_NO_NUMBA)")
 
 
 def perforated(n_holes=6, seed=0, subdivisions=4, radius=0.12):
@@ -34,7 +34,7 @@ def test_one_walk_holds_the_faces_within_each_ring_count():
     F = np.ascontiguousarray(ctx.F, np.int64)
     for h in holes:
         loop = np.asarray(h.vertices, np.int64)
-        faces, off = kernels.ring_walk(loop, 9, ctx.vf_order, ctx.vf_start, F, ctx._vmark, ctx._fmark)
+        faces, off = context_kernels.ring_walk(loop, 9, ctx.vf_order, ctx.vf_start, F, ctx._vmark, ctx._fmark)
         assert off.shape == (10,) and off[0] == 0 and np.all(np.diff(off) > 0)
         for r in range(1, 10):
             assert np.array_equal(np.sort(faces[:off[r]]), ctx._ring_faces_numpy(loop, r))
@@ -44,7 +44,7 @@ def test_one_walk_holds_the_faces_within_each_ring_count():
 def test_a_walk_that_runs_out_of_mesh_repeats_its_last_ring_end():
     V, F = shapes.icosphere(1)                                     # 80 faces: a few rings cover it
     ctx = ScanContext(Mesh(V=V, F=F))
-    faces, off = kernels.ring_walk(np.array([0], np.int64), 30, ctx.vf_order, ctx.vf_start, F, ctx._vmark,
+    faces, off = context_kernels.ring_walk(np.array([0], np.int64), 30, ctx.vf_order, ctx.vf_start, F, ctx._vmark,
                                    ctx._fmark)
     assert off[-1] == len(F) and np.array_equal(np.sort(faces), np.arange(len(F)))
     full = int(np.argmax(off == len(F)))
@@ -58,7 +58,7 @@ def test_centroids_are_numpys_means(shift):
     V = rng.normal(size=(300, 3)) + shift
     V[:10] = -0.0
     F = rng.integers(0, 300, size=(500, 3))
-    assert np.array_equal(kernels.centroids(V, F), V[F].mean(axis=1))
+    assert np.array_equal(distance_kernels.centroids(V, F), V[F].mean(axis=1))
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
@@ -70,7 +70,7 @@ def test_distances_read_from_the_vertices_equal_numpys_closest_points(seed):
     V[F[5:9, 2]] = 0.5 * (V[F[5:9, 0]] + V[F[5:9, 1]])             # collinear ones
     Q = np.concatenate([rng.normal(size=(80, 3)) * 3, V[F[:9]].mean(axis=1), V[:5]])
     idx = rng.integers(0, len(F), size=(len(Q), 8))
-    got = kernels.nearest_triangle_distances(Q, V, F, idx)
+    got = distance_kernels.nearest_triangle_distances(Q, V, F, idx)
     assert np.array_equal(got, _numpy_nearest(Q, V, F, idx))
 
 
@@ -88,8 +88,8 @@ def _old_steps(monkeypatch):
     they replace (the other kernels stay: fair_small, for one, is equal to
     round-off only, so the test with every kernel off is not the same to
     the bit)."""
-    monkeypatch.setattr(kernels, "centroids", lambda V, F: V[F].mean(axis=1))
-    monkeypatch.setattr(kernels, "nearest_triangle_distances", _numpy_nearest)
+    monkeypatch.setattr(distance_kernels, "centroids", lambda V, F: V[F].mean(axis=1))
+    monkeypatch.setattr(distance_kernels, "nearest_triangle_distances", _numpy_nearest)
 
 
 @pytest.mark.parametrize("seed", [0, 1])

@@ -2,8 +2,8 @@
 NumPy search's triangulation to the bit.
 
 :func:`shellrepair.triangulate.restricted_dp` runs
-:func:`shellrepair.kernels.restricted_prepare` and
-:func:`shellrepair.kernels.restricted_search` when the kernels are on; its
+:func:`shellrepair.triangulate_kernels.restricted_prepare` and
+:func:`shellrepair.triangulate_kernels.restricted_search` when the kernels are on; its
 NumPy form :func:`shellrepair.triangulate._restricted_dp_numpy` is the
 oracle. Both are run on seeded random loops, planar and nearly planar
 loops (where whole families of triangulations tie, so the first-of-equals
@@ -16,12 +16,12 @@ errors by their message.
 import numpy as np
 import pytest
 
-from shellrepair import compiled, kernels
+from shellrepair import compiled, triangulate_kernels
 from shellrepair import triangulate as tr
 from shellrepair.errors import MeshError
 from test_triangulate import all_triples, assert_disc, rim_normals, wavy_loop
 
-pytestmark = pytest.mark.skipif(not kernels.ENABLED, reason="numba is not installed")
+pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 
 
 def _answer(f, *args):
@@ -177,7 +177,7 @@ def _kernel_calls(run):
     return {(n, (m, n, a) in built) for m, n, a in rows}
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="compiled kernels are off")
+@pytest.mark.skipif(not compiled.ENABLED, reason="compiled kernels are off")
 def test_restricted_search_runs_compiled_for_every_input_type():
     """Whatever dtypes the caller gives, restricted_dp hands its kernels the
     types the install compiles ahead of time: no call waits on the JIT."""
@@ -247,7 +247,7 @@ def test_liepa_tables_equal_numpys(seed):
         k = int(rng.integers(4, 90))
         Q, rim, has, forb = _dp_inputs(rng, k, trial % 5)
         for axis in (None, rng.normal(size=3), np.array([0.0, 0.0, 1.0])):
-            O, worst = kernels.liepa_tables(Q, rim, has, forb, axis, tr.ANGLE_TIE)
+            O, worst = triangulate_kernels.liepa_tables(Q, rim, has, forb, axis, tr.ANGLE_TIE)
             O_np, worst_np = tr._dp_tables(Q, rim, has, forb, axis)
             assert O.dtype == np.int64 and np.array_equal(O, O_np)
             assert worst == worst_np
@@ -268,9 +268,9 @@ def test_full_dp_is_the_same_with_and_without_the_kernels(monkeypatch):
         for forb in (set(), {(int(idx[0]), int(idx[len(idx) // 2]))}):
             for axis in (None, _axis(P[idx]), -_axis(P[idx])):
                 got = _answer(tr._dp, P, idx, en, forb, axis)
-                monkeypatch.setattr(kernels, "ENABLED", False)
+                monkeypatch.setattr(compiled, "ENABLED", False)
                 want = _answer(tr._dp, P, idx, en, forb, axis)
-                monkeypatch.setattr(kernels, "ENABLED", True)
+                monkeypatch.setattr(compiled, "ENABLED", True)
                 if isinstance(want, str) or isinstance(got, str):
                     assert got == want
                     errors += 1
@@ -284,7 +284,7 @@ def test_full_dp_is_the_same_with_and_without_the_kernels(monkeypatch):
 @pytest.mark.parametrize("seed", range(4))
 def test_compiled_chord_search_is_the_row_by_row_one(seed):
     """The long sub-loop's cutting chord (the nearest allowed pair at least
-    a quarter of the loop apart): kernels.chord_rows gives the row-by-row
+    a quarter of the loop apart): triangulate_kernels.chord_rows gives the row-by-row
     search's answer or error, on wavy loops, loops on a coarse grid (equal
     distances: the row's pick is NumPy's argsort's), repeated positions,
     many forbidden chords, and loop ids that are not 0..k-1."""
@@ -316,7 +316,7 @@ def test_compiled_chord_search_is_the_row_by_row_one(seed):
         _answer(tr._best_chord_rows, P, np.arange(k), everything)
 
 
-@pytest.mark.skipif(not kernels.ENABLED, reason="compiled kernels are off")
+@pytest.mark.skipif(not compiled.ENABLED, reason="compiled kernels are off")
 def test_liepa_tables_run_compiled_with_and_without_an_axis():
     """The tables _dp passes (with and without an axis) are among the types
     the install compiles ahead of time."""
@@ -348,7 +348,7 @@ def test_centred_loop_and_vector_area_equal_numpys_sums(seed):
             P = rng.normal(size=(k, 3)) * 10.0 ** rng.integers(-3, 3) + offset
             if k == 9:
                 P[:, 1] = -0.0
-            C, va = kernels.centred_area(P)
+            C, va = triangulate_kernels.centred_area(P)
             Cn = P - P.mean(axis=0)
             van = -0.5 * cross(Cn, np.roll(Cn, -1, axis=0)).sum(axis=0)
             assert np.array_equal(C, Cn) and np.array_equal(va, van)
@@ -388,10 +388,10 @@ def test_triangulate_loop_is_the_same_with_and_without_the_kernels(seed, monkeyp
                 for axis in ("auto", np.array([0.0, 0.0, 1.0])):
                     got = _answer(tr.triangulate_loop, Pin, None, forb, axis)
                     direct = tr._delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
-                    monkeypatch.setattr(kernels, "ENABLED", False)
+                    monkeypatch.setattr(compiled, "ENABLED", False)
                     want = _answer(tr.triangulate_loop, Pin, None, forb, axis)
                     direct_np = tr._delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
-                    monkeypatch.setattr(kernels, "ENABLED", True)
+                    monkeypatch.setattr(compiled, "ENABLED", True)
                     if isinstance(want, str) or isinstance(got, str):
                         assert got == want
                     else:
@@ -409,10 +409,10 @@ def test_cover_free_finds_a_forbidden_edge_in_either_direction():
     S = np.array([[0, 1, 2], [0, 2, 3]], np.int64)     # the fan of a square, chord (0, 2)
     n = np.array([-1.0, -1.0])
     for fk, status in (([], 0), ([0 * 4 + 2], 2), ([1 * 4 + 3], 0), ([0 * 4 + 1], 2)):
-        out, st = kernels.cover_free(S, n, 4, np.array(fk, np.int64))
+        out, st = triangulate_kernels.cover_free(S, n, 4, np.array(fk, np.int64))
         assert st == status
         assert np.array_equal(out, S[:, [0, 2, 1]])
-    assert kernels.cover_free(S, np.array([-1.0, 1.0]), 4, np.zeros(0, np.int64))[1] == 1   # not a cover
+    assert triangulate_kernels.cover_free(S, np.array([-1.0, 1.0]), 4, np.zeros(0, np.int64))[1] == 1   # not a cover
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -431,10 +431,10 @@ def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monk
         for P in (wavy_loop(k, rng), folded):
             got = tr.delaunay_faces(P)
             W = tr._with_loop_edges(got, k) if got is not None else None
-            monkeypatch.setattr(kernels, "ENABLED", False)
+            monkeypatch.setattr(compiled, "ENABLED", False)
             want = tr.delaunay_faces(P)
             Wn = tr._with_loop_edges(want, k) if want is not None else None
-            monkeypatch.setattr(kernels, "ENABLED", True)
+            monkeypatch.setattr(compiled, "ENABLED", True)
             assert (got is None) == (want is None)
             if want is None:
                 continue
@@ -443,9 +443,9 @@ def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monk
             missing += len(W) > len(got)
     assert missing > 0   # some loops lacked a loop edge: the completion ran
     D = np.array([[0, 1, 2], [1, 2, 3], [0, 2, 3], [2, 3, 4]], np.int64)   # corner 4 outside a 4-loop
-    assert not kernels.loop_edges_present(D, 4)[1]
+    assert not triangulate_kernels.loop_edges_present(D, 4)[1]
     got = tr._with_loop_edges(D, 4)
-    monkeypatch.setattr(kernels, "ENABLED", False)
+    monkeypatch.setattr(compiled, "ENABLED", False)
     assert np.array_equal(got, tr._with_loop_edges(D, 4))
 
 

@@ -3,7 +3,8 @@
 The kernels (:mod:`._kernels`) are imported on first use, so importing
 the package does not import Numba (~0.6 s).  Each public function asks
 :func:`kernels` for them and falls back to its NumPy version (the test
-oracle) when they are off (``SHELLREPAIR_NO_JIT=1``), when Numba is not
+oracle) when they are off (:data:`shellrepair.compiled.ENABLED` False: the
+one switch ``SHELLREPAIR_NO_NUMBA=1``, read at call time), when Numba is not
 installed, or for an argument layout the kernels do not take (e.g. a
 direction array whose last axis is not 3); the results then differ only
 in speed.
@@ -11,9 +12,9 @@ in speed.
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
+
+from .. import compiled
 
 _KERNELS = None
 _TRIED = False
@@ -22,7 +23,7 @@ _TRIED = False
 def kernels():
     """The kernel module, or None when the NumPy versions are to be used."""
     global _KERNELS, _TRIED
-    if os.environ.get("SHELLREPAIR_NO_JIT", "") not in ("", "0"):
+    if not compiled.ENABLED:
         return None
     if not _TRIED:
         _TRIED = True

@@ -64,7 +64,7 @@ library uses, and ``make setup`` calls it.  This module is imported on the
 first call of a shading function, so importing the package does not
 import Numba.
 
-Set ``SHELLREPAIR_NO_JIT=1`` to use the NumPy versions everywhere, and
+Set ``SHELLREPAIR_NO_NUMBA=1`` to use the NumPy versions everywhere, and
 ``SHELLREPAIR_THREADS`` to cap the threads (default: the CPUs this process
 may use).
 """
