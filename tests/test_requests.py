@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import Mesh, write_mesh
+from shellrepair import Mesh, read_mesh, write_mesh
 from shellrepair.cli import main
 from shellrepair.errors import MeshError
 from shellrepair.holes import detect_holes
@@ -233,3 +233,41 @@ def test_a_file_that_is_not_a_plan_is_one_error(tmp_path, capsys, text):
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1 and "plan" in err
     assert not (tmp_path / "o.ply").exists()
+
+
+def test_a_perforated_statue_repaired_with_a_plan_file_does_what_the_plan_says(tmp_path, capsys):
+    # issue 41's case: a real bust with three holes; the plan, edited from
+    # `holes --json`, leaves one open, caps one flat and forces order 3 on the third
+    import json
+
+    from conftest import shared_scan
+
+    M = read_mesh(shared_scan("closed_nefertiti_bust.ply"))
+    diag = float(np.linalg.norm(np.ptp(M.V, axis=0)))
+    V, F, _, _ = shapes.perforate_discs(M.V, M.F, n_holes=3, radius=0.03 * diag, seed=3)
+    p = tmp_path / "bust.ply"
+    write_mesh(p, Mesh(V=V, F=F))
+    assert main(["holes", str(p), "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    ids = [lp["id"] for lp in plan["loops"] if lp["kind"] == "hole"]
+    assert len(ids) == 3
+    a, b, c = ids
+    actions = {a: "leave open", b: "cap flat", c: "order 3"}
+    for lp in plan["loops"]:
+        if lp["id"] in actions:
+            lp["action"] = actions[lp["id"]]
+    (tmp_path / "plan.json").write_text(json.dumps(plan))
+    assert main(["repair", str(p), "-o", str(tmp_path / "o.ply"), "--plan", str(tmp_path / "plan.json"),
+                 "--quiet"]) == 0
+    d = json.loads((tmp_path / "o.report.json").read_text())
+    rows = {h["id"]: h for h in d["holes"]}
+    assert [rows[i]["requested"] for i in (a, b, c)] == ["left open", "flat cap", "order 3"]
+    assert rows[a]["status"] == "skipped" and rows[a]["new_faces"] == 0
+    assert rows[b]["status"] == "filled" and rows[b]["option"].startswith("flat cap by request")
+    assert rows[c]["status"] == "filled" and "order 3" in rows[c]["option"]
+    # what the report says is what the mesh has: the hole left open is the one open loop
+    R = read_mesh(tmp_path / "o.ply")
+    (left,) = detect_holes(R.V, R.F, fill_borders=True).loops
+    holes = {L.id: L for L in detect_holes(V, F).loops}
+    assert sorted(R.V[left.vertices].tolist()) == sorted(V[holes[a].vertices].tolist())
+    assert d["holes_after"] == 1 and d["plan"] == str(tmp_path / "plan.json")
