@@ -101,6 +101,33 @@ def test_the_glb_holds_the_scan_and_the_filled_part_as_two_meshes(repaired):
     assert set(scene.geometry) == {"scan", "filled"}
 
 
+def test_pygltflib_reads_the_same_faces_the_filled_part_and_the_material(repaired, tmp_path):
+    # a second, independent reader (pygltflib, the test extra): the two
+    # meshes by name, their triangle counts, a metallic-roughness material
+    # each, and the vertex colour and the per-vertex maps as attributes
+    pygltflib = pytest.importorskip("pygltflib", reason="pygltflib is in the test extra")
+    (tmp_path / "r.glb").write_bytes(gltf_bytes(repaired))
+    g = pygltflib.GLTF2().load(str(tmp_path / "r.glb"))
+    blob = g.binary_blob()
+    by_name = {g.meshes[n.mesh].name or n.name: g.meshes[n.mesh] for n in g.nodes if n.mesh is not None}
+    assert set(by_name) == {"scan", "filled"}
+    filled = repaired.face_filled
+    for name, sel in (("scan", ~filled), ("filled", filled)):
+        (prim,) = by_name[name].primitives
+        acc = g.accessors[prim.indices]
+        assert acc.count == 3 * int(sel.sum())
+        view = g.bufferViews[acc.bufferView]
+        dt = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32}[acc.componentType]
+        idx = np.frombuffer(blob, dt, acc.count, (view.byteOffset or 0) + (acc.byteOffset or 0))
+        assert idx.max() < g.accessors[prim.attributes.POSITION].count
+        mat = g.materials[prim.material]
+        assert mat.pbrMetallicRoughness is not None
+        assert 0.0 <= mat.pbrMetallicRoughness.metallicFactor <= 1.0
+        assert prim.attributes.COLOR_0 is not None
+        extra = {k for k, v in vars(prim.attributes).items() if k.startswith("_") and v is not None}
+        assert {"_METALLIC", "_ROUGHNESS", "_COVERAGE"} <= extra, extra
+
+
 def test_a_scan_far_from_its_origin_keeps_its_precision(repaired):
     # millimetres 1e6 from the origin: float32 positions there are 0.06 mm
     # apart; stored about the scan's centre, they keep ~6e-8 of its size
