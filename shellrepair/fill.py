@@ -65,6 +65,10 @@ FLAT_RETRIES = 12
 FAIRED_RETRIES = 3
 #: Rounds of growing the region held on the flat triangulation around a crossing.
 PIN_ROUNDS = 3
+#: New vertices the Steiner layer (:mod:`~shellrepair.steiner`) may build
+#: for a hole whose work budget the earlier options spent: it is the last
+#: chance before the hole stays open, and its rounds are counted.
+STEINER_VERTICES = 20_000
 #: How each option is named in the report.
 OPTION_NAMES = {"faired": "faired order {order}", "harmonic": "harmonic (order 1)",
                 "flat cap": "flat cap: a planar opening the scan meets edge-on (order 1)"}
@@ -430,7 +434,24 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
     mended = checks.mend_last(ctx, faulty, reasons)
     if mended is not None:
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
+    patch = _steiner_last(ctx, hole_id, loop, budget, reasons)
+    if patch is not None:
+        return Outcome(patch, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+
+
+def _steiner_last(ctx, hole_id, loop, budget, reasons):
+    """The last layer for a single hole no other option closed: a patch
+    with Steiner points lifted over the scan that crosses the opening
+    (:mod:`~shellrepair.steiner`), within what is left of the hole's work
+    budget; None (the cause appended to ``reasons``) where it fails."""
+    from .steiner import steiner_patch
+
+    res = steiner_patch(ctx, hole_id, loop, max_vertices=max(budget.left(), STEINER_VERTICES))
+    budget.spent += res.spent
+    if res.patch is None:
+        reasons.append(f"last layer: {res.reason}")
+    return res.patch
 
 
 def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):

@@ -1,0 +1,335 @@
+"""The fill's last layer: a patch with vertices of its own off the rim.
+
+Where no triangulation of a ``hole`` loop's own vertices passes the
+checks (the scan crosses the opening's plane inside it, a blind bore or
+a boss rising through it; a tooth split off a gear body, whose opening
+lies on the body's wall), the patch needs vertices placed off the rim
+(Steiner points). :func:`steiner_patch` builds it as a height field over
+a plane:
+
+1. **Project** the loop on a plane (its best-fit plane, then the plane
+   normal to its vector area) where its outline is a simple polygon.
+2. **Triangulate** that polygon by ear clipping (mapbox_earcut; the
+   collinear rim vertices it drops are put back as fans) and **refine**
+   it in the plane (Liepa's splits and flips,
+   :func:`~shellrepair.refine.refine_patch`): the Steiner points.
+3. **Lift** each vertex off the plane: its base height is the harmonic
+   interpolation of the rim's own heights (0 on a planar rim, so the
+   patch is flat there); a patch triangle whose footprint in the plane
+   overlaps a scan face's footprint has all three corners raised above
+   that face's highest point by :data:`LIFT` of the opening's diameter,
+   on one side of the plane (a triangle above every point of the scan
+   under it cannot meet it), so the patch is a tent over what crosses
+   the plane and flat elsewhere.
+4. **Check** each side's patch with the project's exact checks
+   (:func:`~shellrepair.checks.check_patch`); the passing one that
+   leaves its base least wins (equal to :data:`TIE`: the side the patch
+   faces, out of the part), the runner-up recorded. Where both fail, the Steiner
+   points are made denser (the target edge length halved, at most
+   :data:`ROUNDS` rounds, each within the hole's work budget) so that
+   the raised region hugs the scan it avoids, and lifted again.
+
+Nothing here reads a clock: the rounds are counted, the same scan gives
+the same bytes.
+
+References
+----------
+P. Liepa, "Filling holes in meshes", SGP 2003 (the refinement).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .checks import check_patch
+from .context import rim_data
+from .fair import harmonic_interpolate, uniform_laplacian
+from .geometry import plane_frame
+from .intersect import _outline_is_simple
+from .patch import Patch
+from .refine import refine_patch
+
+#: How far above (or below) the highest (lowest) scan point under it a
+#: raised patch triangle's corners are put, in opening diameters.
+LIFT = 0.01
+#: Passes of raising patch triangles over the scan faces they meet.
+LIFT_PASSES = 64
+#: Rounds of denser Steiner points (target edge length halved each round).
+ROUNDS = 4
+#: Lifts closer than this (in opening diameters) are a tie: the side the
+#: patch faces (out of the part) wins.
+TIE = 1e-9
+#: Two footprints that overlap by less than this (in units of the
+#: opening's diameter) only touch (a wall standing on the rim projects
+#: onto the rim edge): the exact checks judge what is left.
+TOUCH = 1e-9
+
+
+class SteinerResult(NamedTuple):
+    """What the last layer gave for one loop."""
+    patch: object          # Patch, or None
+    reason: str            # why not ("" when a patch passed)
+    spent: int             # new vertices built and checked
+
+
+def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
+    """A patch for ``loop`` with Steiner points, lifted over the scan that
+    crosses its plane (module notes), or None and why.
+
+    Parameters
+    ----------
+    ctx : ScanContext
+    hole_id : int
+    loop : (k,) int64
+        The loop's vertices, in boundary order.
+    max_vertices : int, optional
+        New vertices the rounds may build in all (a work budget); a round
+        that would pass it is not made.
+    rounds : int
+        Refinement rounds (target edge length halved each).
+
+    Returns
+    -------
+    SteinerResult
+    """
+    loop = np.asarray(loop, np.int64)
+    k = len(loop)
+    if k < 3:
+        return SteinerResult(None, "a loop of fewer than three vertices", 0)
+    P = ctx.V[loop]
+    centre = P.mean(axis=0)
+    C = P - centre
+    diameter = float(np.ptp(P, axis=0).max())
+    if not np.isfinite(diameter) or diameter <= 0:
+        return SteinerResult(None, "the loop has no extent", 0)
+    fitted = np.linalg.svd(C, full_matrices=False)[2][-1]
+    area = 0.5 * np.cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
+    axes = [fitted]
+    if np.linalg.norm(area) > 0:
+        area = area / np.linalg.norm(area)
+        if abs(float(area @ fitted)) < 1 - 1e-9:
+            axes.append(area)
+    sigma, _, forbidden = rim_data(ctx, loop)
+    spent = 0
+    why = "its outline is not a simple polygon seen along its plane's normal or its vector area"
+    for axis in axes:
+        u, v = plane_frame(axis)
+        Q = np.column_stack([C @ u, C @ v]) / diameter
+        if not _outline_is_simple(Q):
+            continue
+        T0 = _ear_clip(Q, k)
+        if T0 is None:
+            why = "ear clipping of its outline failed"
+            continue
+        if _repeats_scan_edge(T0, k, forbidden):
+            why = "its outline's triangulation would repeat an edge of the scan"
+            continue
+        H = C @ axis / diameter                    # the rim's heights off the plane
+        face = _scan_footprints(ctx, centre, u, v, axis, diameter, P)
+        s = np.asarray(sigma, np.float64) / diameter
+        tried = []
+        for r in range(rounds):
+            Pl = np.column_stack([Q, np.zeros(k)])
+            Pr, T = refine_patch(Pl, T0, s / 2 ** r, k, forbidden)
+            n_new = len(Pr) - k
+            if max_vertices is not None and spent + 2 * n_new > max_vertices:
+                why = f"{why}; round {r + 1}: {n_new} Steiner points, over the work budget left"
+                break
+            X = Pr[:, :2]
+            base = _harmonic(T, X, H, k)
+            best = None
+            for side in _sides(X, T, axis, u, v, k):
+                h = _lift(X, T, base, face, side, k)
+                if h is None:
+                    continue
+                new = centre + diameter * (X[k:, :1] * u + X[k:, 1:] * v + h[k:, None] * axis)
+                patch = Patch(hole_id=hole_id, loop=loop, P=new, T=T, T0=T0, disc=True)
+                spent += n_new
+                bad_why, _ = check_patch(ctx, patch)
+                lifted = float(np.abs(h - base).max()) * diameter
+                tried.append((bad_why, lifted, side))
+                if bad_why is None and (best is None or lifted < best[1] - TIE * diameter):
+                    best = (patch, lifted, side)
+            if best is not None:
+                patch, lifted, side = best
+                others = [t for t in tried[-2:] if t[2] is not side]
+                runner = (f"; the other side {'passes' if others[0][0] is None else 'fails'} "
+                          f"(lifted {others[0][1]:.3g})" if others else "")
+                patch.option = (f"Steiner points: {len(patch.P)} vertices off the rim, round {r + 1}, "
+                                f"lifted {lifted:.3g} off the rim's plane "
+                                f"{'out of' if side[1] > 0 else 'into'} the part{runner}")
+                _interpolate_attributes(ctx, patch, X)
+                return SteinerResult(patch, "", spent)
+            why = "; ".join(f"{'out of' if t[2][1] > 0 else 'into'} the part: {t[0]}" for t in tried[-2:]) \
+                or why
+            why = f"Steiner points ({rounds} rounds): {why}"
+    return SteinerResult(None, why, spent)
+
+
+def _ear_clip(Q, k):
+    """Triangles over the polygon ``Q`` (k,2) by ear clipping, every vertex
+    used (the collinear ones mapbox_earcut drops put back as fans), or None."""
+    import mapbox_earcut
+
+    T = np.asarray(mapbox_earcut.triangulate_float64(np.ascontiguousarray(Q), np.array([k], np.uint32)),
+                   np.int64).reshape(-1, 3)
+    used = np.zeros(k, bool)
+    used[T.ravel()] = True
+    if not used.any():
+        return None
+    tris = [list(t) for t in T.tolist()]
+    start = int(np.flatnonzero(used)[0])
+    i = 0
+    while i < k:
+        a = (start + i) % k
+        j = 1
+        while not used[(a + j) % k]:
+            j += 1
+        if j > 1:                       # a run of dropped vertices between a and b
+            b = (a + j) % k
+            run = [(a + t) % k for t in range(1, j)]
+            for ti, t in enumerate(tris):
+                pos = [(t[m], t[(m + 1) % 3]) for m in range(3)]
+                if (a, b) in pos or (b, a) in pos:
+                    m = pos.index((a, b)) if (a, b) in pos else pos.index((b, a))
+                    c = t[(m + 2) % 3]
+                    chain = [a] + run + [b] if (a, b) in pos else [b] + run[::-1] + [a]
+                    tris[ti:ti + 1] = [[chain[q], chain[q + 1], c] for q in range(len(chain) - 1)]
+                    break
+            else:
+                return None
+        i += j
+    T = np.array(tris, np.int64)
+    if len(T) != k - 2:
+        return None
+    # loop edges reversed in the patch (as the scan's faces have them)
+    directed = {(int(t[m]), int(t[(m + 1) % 3])) for t in T for m in range(3)}
+    if (0, 1) in directed:
+        T = T[:, ::-1].copy()
+    return T
+
+
+def _repeats_scan_edge(T, k, forbidden):
+    """Does the triangulation join two loop vertices the scan joins already?"""
+    if not forbidden:
+        return False
+    E = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
+    return any((int(a), int(b)) in forbidden or (int(b), int(a)) in forbidden for a, b in E.tolist())
+
+
+def _scan_footprints(ctx, centre, u, v, axis, diameter, P):
+    """The scan faces near the opening, in the plane's frame: their 2-D
+    corners (m,3,2) and their lowest and highest heights (m,), in opening
+    diameters."""
+    index = ctx.index
+    reach = diameter * 2.0
+    lo, hi = P.min(axis=0) - reach, P.max(axis=0) + reach
+    f = np.asarray(index.faces_near(lo, hi), np.int64)
+    Tc = index.V[index.F[f]] - centre
+    xy = np.stack([Tc @ u, Tc @ v], axis=-1) / diameter
+    h = (Tc @ axis) / diameter
+    return xy, h.min(axis=1), h.max(axis=1)
+
+
+def _harmonic(T, X, H, k):
+    """Heights of the vertices ``X`` (rim first) interpolated harmonically
+    from the rim's ``H``; exactly the rim's where every rim height is 0."""
+    out = np.zeros(len(X))
+    out[:k] = H
+    if len(X) > k and np.any(H != 0):
+        K = uniform_laplacian(T, len(X))
+        out[k:] = harmonic_interpolate(K, H[:, None], k)[:, 0]
+    return out
+
+
+def _sides(X, T, axis, u, v, k):
+    """The two sides to lift to, the one the patch faces first: ``(name,
+    sign)`` with sign +1 along ``axis``."""
+    a, b, c = X[T[:, 0]], X[T[:, 1]], X[T[:, 2]]
+    turn = np.sum((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    facing = 1.0 if turn > 0 else -1.0        # (u, v, axis) is right-handed
+    return [("out", facing), ("in", -facing)]
+
+
+def _lift(X, T, base, face, side, k):
+    """Heights of the patch vertices lifted to ``side`` (module notes, step
+    3): a patch triangle whose footprint overlaps a scan face's, and whose
+    heights overlap that face's, has its corners raised above the face;
+    repeated (at most :data:`LIFT_PASSES` times) until no face is met, so
+    a scan face wholly above the patch (the far wall of a part) is passed
+    under, not climbed. The rim stays where it is."""
+    xy, hmin, hmax = face
+    sign = side[1]
+    fmin, fmax = (hmin, hmax) if sign > 0 else (-hmax, -hmin)   # the faces' heights up that side
+    g = sign * base
+    pt, pf = _overlapping(X[T], xy)
+    rim = np.arange(len(X)) < k
+    for _ in range(LIFT_PASSES):
+        if not pt.size:
+            break
+        gc = g[T]
+        meet = (fmin[pf] <= gc.max(axis=1)[pt]) & (fmax[pf] >= gc.min(axis=1)[pt])
+        need = np.full(len(T), -np.inf)
+        np.maximum.at(need, pt[meet], fmax[pf[meet]] + LIFT)
+        corner = np.full(len(X), -np.inf)
+        np.maximum.at(corner, T.ravel(), np.repeat(need, 3))
+        raised = ~rim & (corner > g)
+        if not raised.any():
+            break
+        g = np.where(raised, corner, g)
+    return sign * g
+
+
+def _overlapping(A, B):
+    """Pairs (i, j) of 2-D triangles ``A[i]`` and ``B[j]`` (a face seen
+    edge-on is a segment) whose interiors overlap by more than ``TOUCH``
+    (separating axes: the edge normals of both)."""
+    alo, ahi = A.min(axis=1), A.max(axis=1)
+    blo, bhi = B.min(axis=1), B.max(axis=1)
+    order = np.argsort(blo[:, 0], kind="stable")
+    pi, pj = [], []
+    for i in range(len(A)):
+        # boxes first
+        j = order[(blo[order, 0] < ahi[i, 0] - TOUCH)]
+        j = j[(bhi[j, 0] > alo[i, 0] + TOUCH) & (blo[j, 1] < ahi[i, 1] - TOUCH) & (bhi[j, 1] > alo[i, 1] + TOUCH)]
+        if j.size:
+            pi.append(np.full(j.size, i))
+            pj.append(j)
+    if not pi:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    pi, pj = np.concatenate(pi), np.concatenate(pj)
+    keep = np.ones(pi.size, bool)
+    for S, other, first in ((A, B, True), (B, A, False)):
+        for e in range(3):
+            own = S[pi if first else pj]
+            oth = other[pj if first else pi]
+            d = own[:, (e + 1) % 3] - own[:, e]
+            nrm = np.column_stack([-d[:, 1], d[:, 0]])
+            ln = np.linalg.norm(nrm, axis=1)
+            ok = ln > 0
+            nrm[ok] /= ln[ok, None]
+            p_own = np.einsum("nij,nj->ni", own, nrm)
+            p_oth = np.einsum("nij,nj->ni", oth, nrm)
+            apart = (p_own.max(axis=1) <= p_oth.min(axis=1) + TOUCH) | (p_oth.max(axis=1) <= p_own.min(axis=1) + TOUCH)
+            keep &= ~(apart & ok)
+    # a face seen edge-on (a segment): its own line separates too
+    return pi[keep], pj[keep]
+
+
+def _interpolate_attributes(ctx, patch, X):
+    """Colours and per-vertex properties of the new vertices, harmonic from
+    the rim's (as :func:`~shellrepair.patch.build_patch` gives them)."""
+    if ctx.colors is None and not ctx.props:
+        return
+    k = len(patch.loop)
+    K = uniform_laplacian(patch.T, len(X))
+    if ctx.colors is not None:
+        c = harmonic_interpolate(K, ctx.colors[patch.loop].astype(np.float64), k)
+        patch.colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
+    for name, arr in ctx.props.items():
+        arr = np.asarray(arr)
+        vals = harmonic_interpolate(K, arr[patch.loop].astype(np.float64)[:, None], k)[:, 0]
+        patch.props[name] = vals.astype(arr.dtype) if np.issubdtype(arr.dtype, np.floating) \
+            else np.round(vals).astype(arr.dtype)
