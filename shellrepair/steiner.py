@@ -49,7 +49,7 @@ from .fair import harmonic_interpolate, uniform_laplacian
 from .geometry import plane_frame
 from .intersect import _outline_is_simple
 from .patch import Patch
-from .refine import refine_patch
+from .refine import DENSITY_ALPHA, MAX_PATCH_FACES, _forbidden_pairs, _refine, refine_patch
 
 #: How far above (or below) the highest (lowest) scan point under it a
 #: raised patch triangle's corners are put, in opening diameters.
@@ -104,68 +104,109 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
     diameter = float(np.ptp(P, axis=0).max())
     if not np.isfinite(diameter) or diameter <= 0:
         return SteinerResult(None, "the loop has no extent", 0)
-    fitted = np.linalg.svd(C, full_matrices=False)[2][-1]
-    area = 0.5 * np.cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
-    axes = [fitted]
-    if np.linalg.norm(area) > 0:
-        area = area / np.linalg.norm(area)
-        if abs(float(area @ fitted)) < 1 - 1e-9:
-            axes.append(area)
     sigma, _, forbidden = rim_data(ctx, loop)
     spent = 0
-    why = "its outline is not a simple polygon seen along its plane's normal or its vector area"
-    for axis in axes:
+    why = []
+    for name, axis in _axes(ctx, loop, C):
         u, v = plane_frame(axis)
         Q = np.column_stack([C @ u, C @ v]) / diameter
         if not _outline_is_simple(Q):
+            why.append(f"its outline seen along {name} is not a simple polygon")
             continue
         T0 = _ear_clip(Q, k)
-        if T0 is None:
-            why = "ear clipping of its outline failed"
-            continue
-        if _repeats_scan_edge(T0, k, forbidden):
-            why = "its outline's triangulation would repeat an edge of the scan"
+        if T0 is None or _repeats_scan_edge(T0, k, forbidden):
+            why.append(f"seen along {name}, its outline's triangulation "
+                       + ("failed" if T0 is None else "would repeat an edge of the scan"))
             continue
         H = C @ axis / diameter                    # the rim's heights off the plane
         face = _scan_footprints(ctx, centre, u, v, axis, diameter, P)
-        s = np.asarray(sigma, np.float64) / diameter
+        X3, T = refine_patch(np.column_stack([Q, np.zeros(k)]), T0, np.asarray(sigma) / diameter, k, forbidden)
+        scale = np.concatenate([np.asarray(sigma, np.float64) / diameter,
+                                np.full(len(X3) - k, float(np.mean(sigma)) / diameter)])
         tried = []
         for r in range(rounds):
-            Pl = np.column_stack([Q, np.zeros(k)])
-            Pr, T = refine_patch(Pl, T0, s / 2 ** r, k, forbidden)
-            n_new = len(Pr) - k
+            if r:   # denser Steiner points where the last round raised or crossed
+                scale = scale.copy()
+                scale[_ring(T, near, len(X3))] /= 2
+                X3, T, _, _ = _refine(X3, T, scale, np.arange(len(X3)) < k, _forbidden_pairs(forbidden),
+                                      DENSITY_ALPHA, MAX_PATCH_FACES)
+                scale = _scales_after(scale, X3, T)
+            n_new = len(X3) - k
             if max_vertices is not None and spent + 2 * n_new > max_vertices:
-                why = f"{why}; round {r + 1}: {n_new} Steiner points, over the work budget left"
+                why.append(f"seen along {name}, round {r + 1}: {n_new} Steiner points, over the work budget left")
                 break
-            X = Pr[:, :2]
+            X = X3[:, :2]
             base = _harmonic(T, X, H, k)
-            best = None
-            for side in _sides(X, T, axis, u, v, k):
+            best, near = None, np.zeros(0, np.int64)
+            for side in _sides(X, T):
                 h = _lift(X, T, base, face, side, k)
-                if h is None:
-                    continue
                 new = centre + diameter * (X[k:, :1] * u + X[k:, 1:] * v + h[k:, None] * axis)
                 patch = Patch(hole_id=hole_id, loop=loop, P=new, T=T, T0=T0, disc=True)
                 spent += n_new
-                bad_why, _ = check_patch(ctx, patch)
+                bad_why, bad = check_patch(ctx, patch)
                 lifted = float(np.abs(h - base).max()) * diameter
                 tried.append((bad_why, lifted, side))
+                raised = np.flatnonzero((h != base)[T].any(axis=1))
+                near = np.union1d(near, np.union1d(bad, raised))
                 if bad_why is None and (best is None or lifted < best[1] - TIE * diameter):
                     best = (patch, lifted, side)
             if best is not None:
                 patch, lifted, side = best
-                others = [t for t in tried[-2:] if t[2] is not side]
-                runner = (f"; the other side {'passes' if others[0][0] is None else 'fails'} "
-                          f"(lifted {others[0][1]:.3g})" if others else "")
-                patch.option = (f"Steiner points: {len(patch.P)} vertices off the rim, round {r + 1}, "
-                                f"lifted {lifted:.3g} off the rim's plane "
-                                f"{'out of' if side[1] > 0 else 'into'} the part{runner}")
+                other = [t for t in tried[-2:] if t[2] is not side]
+                runner = (f"; the other side {'passes' if other[0][0] is None else 'fails'} "
+                          f"(lifted {other[0][1]:.3g})" if other else "")
+                patch.option = (f"Steiner points: {len(patch.P)} vertices off the rim (plane normal to {name}, "
+                                f"round {r + 1}), lifted {lifted:.3g} off it {side[0]} of the part{runner}")
                 _interpolate_attributes(ctx, patch, X)
                 return SteinerResult(patch, "", spent)
-            why = "; ".join(f"{'out of' if t[2][1] > 0 else 'into'} the part: {t[0]}" for t in tried[-2:]) \
-                or why
-            why = f"Steiner points ({rounds} rounds): {why}"
-    return SteinerResult(None, why, spent)
+        if tried:
+            why.append(f"seen along {name}, {len(tried) // 2} rounds: "
+                       + "; ".join(f"{t[2][0]} of the part {t[0]}" for t in tried[-2:]))
+    return SteinerResult(None, "Steiner points: " + "; ".join(why), spent)
+
+
+def _axes(ctx, loop, C):
+    """Planes to project the opening on, by their normals: the loop's
+    best-fit plane, its vector area, the mean normal of the scan faces at
+    its rim (each once)."""
+    out = [("its best-fit plane's normal", np.linalg.svd(C, full_matrices=False)[2][-1])]
+    area = 0.5 * np.cross(C, np.roll(C, -1, axis=0)).sum(axis=0)
+    T = ctx.F[ctx.faces_of(loop)]
+    rim = np.cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]]).sum(axis=0)
+    for name, a in (("its vector area", area), ("the scan's mean normal at its rim", rim)):
+        ln = float(np.linalg.norm(a))
+        if ln > 0 and np.isfinite(ln) and all(abs(float(a @ b)) / ln < 1 - 1e-6 for _, b in out):
+            out.append((name, a / ln))
+    return out
+
+
+def _ring(T, tris, n):
+    """Vertices of the triangles ``tris`` and of the triangles around them."""
+    mark = np.zeros(n, bool)
+    mark[T[tris].ravel()] = True
+    mark[T[mark[T].any(axis=1)].ravel()] = True
+    return np.flatnonzero(mark)
+
+
+def _scales_after(scale, X, T):
+    """Per-vertex scales after a refinement that added vertices: the old
+    ones kept, each new one the mean of its neighbours' known ones."""
+    n = len(X)
+    if len(scale) == n:
+        return scale
+    out = np.concatenate([scale, np.full(n - len(scale), np.nan)])
+    for _ in range(64):
+        todo = np.isnan(out)
+        if not todo.any():
+            break
+        E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+        E = np.vstack([E, E[:, ::-1]])
+        ok = ~np.isnan(out[E[:, 1]]) & todo[E[:, 0]]
+        tot = np.bincount(E[ok, 0], out[E[ok, 1]], n)
+        cnt = np.bincount(E[ok, 0], None, n)
+        fill = todo & (cnt > 0)
+        out[fill] = tot[fill] / cnt[fill]
+    return np.where(np.isnan(out), np.nanmean(out), out)
 
 
 def _ear_clip(Q, k):
@@ -244,12 +285,12 @@ def _harmonic(T, X, H, k):
     return out
 
 
-def _sides(X, T, axis, u, v, k):
+def _sides(X, T):
     """The two sides to lift to, the one the patch faces first: ``(name,
-    sign)`` with sign +1 along ``axis``."""
+    sign)``, sign +1 along the plane's normal."""
     a, b, c = X[T[:, 0]], X[T[:, 1]], X[T[:, 2]]
     turn = np.sum((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
-    facing = 1.0 if turn > 0 else -1.0        # (u, v, axis) is right-handed
+    facing = 1.0 if turn > 0 else -1.0        # (u, v, normal) is right-handed
     return [("out", facing), ("in", -facing)]
 
 
@@ -282,29 +323,29 @@ def _lift(X, T, base, face, side, k):
     return sign * g
 
 
-def _overlapping(A, B):
+def _overlapping(A, B, budget=4_000_000):
     """Pairs (i, j) of 2-D triangles ``A[i]`` and ``B[j]`` (a face seen
-    edge-on is a segment) whose interiors overlap by more than ``TOUCH``
-    (separating axes: the edge normals of both)."""
+    edge-on is a segment) whose interiors overlap by more than ``TOUCH``:
+    their boxes first (in products of at most ``budget`` entries), then
+    separating axes (the edge normals of both)."""
     alo, ahi = A.min(axis=1), A.max(axis=1)
     blo, bhi = B.min(axis=1), B.max(axis=1)
-    order = np.argsort(blo[:, 0], kind="stable")
-    pi, pj = [], []
-    for i in range(len(A)):
-        # boxes first
-        j = order[(blo[order, 0] < ahi[i, 0] - TOUCH)]
-        j = j[(bhi[j, 0] > alo[i, 0] + TOUCH) & (blo[j, 1] < ahi[i, 1] - TOUCH) & (bhi[j, 1] > alo[i, 1] + TOUCH)]
-        if j.size:
-            pi.append(np.full(j.size, i))
-            pj.append(j)
-    if not pi:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    keep = np.all((blo < ahi.max(axis=0) - TOUCH) & (bhi > alo.min(axis=0) + TOUCH), axis=1)
+    fb = np.flatnonzero(keep)
+    blo, bhi = blo[fb], bhi[fb]
+    step = max(1, budget // max(len(fb), 1))
+    pi, pj = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for s in range(0, len(A), step):
+        e = slice(s, s + step)
+        hit = np.all((blo[None] < ahi[e, None] - TOUCH) & (bhi[None] > alo[e, None] + TOUCH), axis=2)
+        a, b = np.nonzero(hit)
+        pi.append(a.astype(np.int64) + s)
+        pj.append(fb[b])
     pi, pj = np.concatenate(pi), np.concatenate(pj)
     keep = np.ones(pi.size, bool)
     for S, other, first in ((A, B, True), (B, A, False)):
+        own, oth = (S[pi], other[pj]) if first else (S[pj], other[pi])
         for e in range(3):
-            own = S[pi if first else pj]
-            oth = other[pj if first else pi]
             d = own[:, (e + 1) % 3] - own[:, e]
             nrm = np.column_stack([-d[:, 1], d[:, 0]])
             ln = np.linalg.norm(nrm, axis=1)
@@ -314,7 +355,6 @@ def _overlapping(A, B):
             p_oth = np.einsum("nij,nj->ni", oth, nrm)
             apart = (p_own.max(axis=1) <= p_oth.min(axis=1) + TOUCH) | (p_oth.max(axis=1) <= p_own.min(axis=1) + TOUCH)
             keep &= ~(apart & ok)
-    # a face seen edge-on (a segment): its own line separates too
     return pi[keep], pj[keep]
 
 

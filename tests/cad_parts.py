@@ -378,3 +378,39 @@ def gear_split_teeth(teeth=8, r_root=1.0, r_tip=1.4, height=0.5):
         Fs.append(Fp + n)
         n += len(Vp)
     return np.vstack(Vs), np.vstack(Fs), out
+
+
+def plate_with_shaped_pocket(outline, depth=0.5, size=(4.0, 4.0), n=1):
+    """A plate ``size`` x 1 with a pocket ``depth`` deep whose outline is
+    the counter-clockwise polygon ``outline`` (k,2) (a rib in the pocket is
+    a notch in it); groups ``top``, ``pocket_walls`` (one group per outline
+    edge: ``pocket_wall i``), ``pocket_bottom``, ``walls``, ``bottom``."""
+    b = _Builder()
+    outer = lambda z: _rect(0, 0, size[0], size[1], z, n)
+    ring = lambda z: np.column_stack([outline, np.full(len(outline), z)])
+    b.zip(outer(1.0), ring(1.0), [0, 0, 1], "top")
+    R0, R1 = ring(1.0 - depth), ring(1.0)
+    m = len(outline)
+    for i in range(m):
+        j = (i + 1) % m
+        d = outline[j] - outline[i]
+        w = np.array([d[1], -d[0], 0.0])
+        w = -w / np.linalg.norm(w)            # into the pocket (the outline turns counter-clockwise)
+        b.strip(R0[[i, j]], R1[[i, j]], lambda p, w=w: w, f"pocket_wall {i}", closed=False)
+    b.fan(ring(1.0 - depth), [0, 0, 1], "pocket_bottom")
+    _side_walls(b, outer(0.0), outer(1.0), "walls", (size[0] / 2, size[1] / 2))
+    b.fan(outer(0.0), [0, 0, -1], "bottom")
+    return b.mesh()
+
+
+def octagon_with_rib(cx=2.0, cy=2.0, r=1.4, rib=0.08, reach=1.0):
+    """A regular octagon's outline (counter-clockwise) with a thin rib
+    (width ``rib``) running in from the middle of one side, ``reach`` long:
+    a notch in the outline."""
+    t = 2 * np.pi * (np.arange(8) + 0.5) / 8
+    O = np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)])
+    # the side between corners 7 and 0 faces +x: notch it at its middle
+    x_side = O[0, 0]
+    notch = [[x_side, cy - rib / 2], [x_side - reach, cy - rib / 2], [x_side - reach, cy + rib / 2],
+             [x_side, cy + rib / 2]]
+    return np.vstack([O[7:8], notch, O[0:7]])
