@@ -49,7 +49,7 @@ from .fair import harmonic_interpolate, uniform_laplacian
 from .geometry import plane_frame
 from .intersect import _outline_is_simple
 from .patch import Patch
-from .refine import DENSITY_ALPHA, MAX_PATCH_FACES, _forbidden_pairs, _refine, refine_patch
+from .refine import DENSITY_ALPHA, MAX_PATCH_FACES, _forbidden_pairs, _refine, refine_patch, relax_edges
 
 #: How far above (or below) the highest (lowest) scan point under it a
 #: raised patch triangle's corners are put, in opening diameters.
@@ -61,6 +61,12 @@ ROUNDS = 4
 #: Lifts closer than this (in opening diameters) are a tie: the side the
 #: patch faces (out of the part) wins.
 TIE = 1e-9
+#: Where a round found triangles at the rim raised or crossing, the next
+#: puts Steiner points along their rim edges at this share of the rim
+#: triangle's height, to the power of the round (1/3, 1/9, ...).
+BESIDE_RIM = 1.0 / 3.0
+#: At most this many such points per rim edge and round.
+RIM_LAYER_POINTS = 256
 #: Two footprints that overlap by less than this (in units of the
 #: opening's diameter) only touch (a wall standing on the rim projects
 #: onto the rim edge): the exact checks judge what is left.
@@ -128,6 +134,7 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
             if r:   # denser Steiner points where the last round raised or crossed
                 scale = scale.copy()
                 scale[_ring(T, near, len(X3))] /= 2
+                X3, T, scale = _rim_layer(X3, T, scale, near, k, forbidden, BESIDE_RIM ** r)
                 X3, T, _, _ = _refine(X3, T, scale, np.arange(len(X3)) < k, _forbidden_pairs(forbidden),
                                       DENSITY_ALPHA, MAX_PATCH_FACES)
                 scale = _scales_after(scale, X3, T)
@@ -156,12 +163,12 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
                 runner = (f"; the other side {'passes' if other[0][0] is None else 'fails'} "
                           f"(lifted {other[0][1]:.3g})" if other else "")
                 patch.option = (f"Steiner points: {len(patch.P)} vertices off the rim (plane normal to {name}, "
-                                f"round {r + 1}), lifted {lifted:.3g} off it {side[0]} of the part{runner}")
+                                f"round {r + 1}), lifted {lifted:.3g} off it {side[0]} the part{runner}")
                 _interpolate_attributes(ctx, patch, X)
                 return SteinerResult(patch, "", spent)
         if tried:
             why.append(f"seen along {name}, {len(tried) // 2} rounds: "
-                       + "; ".join(f"{t[2][0]} of the part {t[0]}" for t in tried[-2:]))
+                       + "; ".join(f"{t[2][0]} the part, {t[0]}" for t in tried[-2:]))
     return SteinerResult(None, "Steiner points: " + "; ".join(why), spent)
 
 
@@ -178,6 +185,104 @@ def _axes(ctx, loop, C):
         if ln > 0 and np.isfinite(ln) and all(abs(float(a @ b)) / ln < 1 - 1e-6 for _, b in out):
             out.append((name, a / ln))
     return out
+
+
+def _rim_layer(X3, T, scale, near, k, forbidden, share):
+    """Steiner points along the rim edges of the triangles ``near`` (those
+    the last round raised or found crossing), on the line ``share`` of the
+    rim triangle's height inside the edge, about twice that apart: the
+    triangles at the rim, whose rim corners cannot be raised, become thin
+    enough to pass beside scan that comes close to the rim. Inserted one per
+    triangle at a time (split in three), the edges then flipped to the
+    Delaunay criterion (rim edges stay). Returns ``X3, T, scale``."""
+    k_edges = T[near]
+    rim_tris = []
+    for t, tri in zip(near.tolist(), k_edges.tolist()):
+        for m in range(3):
+            a, b = tri[m], tri[(m + 1) % 3]
+            if a < k and b < k and (a - b) % k == 1:     # rim edge (b, a): reversed in the patch
+                rim_tris.append((b, a, tri[(m + 2) % 3]))
+    if not rim_tris:
+        return X3, T, scale
+    pts, sc = [], []
+    X = X3[:, :2]
+    for a, b, c in rim_tris:
+        e = X[b] - X[a]
+        L = float(np.hypot(*e))
+        if L <= 0:
+            continue
+        inward = np.array([-e[1], e[0]]) / L
+        height = float((X[c] - X[a]) @ inward)
+        if height <= 0:
+            inward, height = -inward, -height
+        d = share * height
+        if not d > 0:
+            continue
+        m = int(min(RIM_LAYER_POINTS, max(1, np.ceil(L / (2 * d)))))
+        t = (np.arange(m) + 0.5) / m
+        pts.append(X[a] + t[:, None] * e + d * inward)
+        sc.append(np.full(m, 2 * d))
+    if not pts:
+        return X3, T, scale
+    pts, sc = np.vstack(pts), np.concatenate(sc)
+    X3, T, added = _insert(X3, T, pts, k, forbidden)
+    return X3, T, np.concatenate([scale, sc[added]])
+
+
+def _insert(X3, T, pts, k, forbidden, batches=64):
+    """Insert the 2-D points ``pts`` into the planar triangulation (``X3``
+    with z = 0): each into the triangle that strictly contains it, at most
+    one per triangle per batch, then the edges flipped to the Delaunay
+    criterion (:func:`~shellrepair.refine.relax_edges`); points in no
+    triangle's interior are skipped. Returns ``X3, T`` and which points
+    were added (in the order added)."""
+    X = X3[:, :2]
+    sign = 1.0 if _turning(X, T) > 0 else -1.0
+    todo = np.arange(len(pts))
+    added = []
+    span = float(np.ptp(X, axis=0).max()) or 1.0
+    for _ in range(batches):
+        if not todo.size:
+            break
+        A, B, C = X[T[:, 0]], X[T[:, 1]], X[T[:, 2]]
+        p = pts[todo]
+
+        def orient(P0, P1):
+            return sign * ((P1[None, :, 0] - P0[None, :, 0]) * (p[:, None, 1] - P0[None, :, 1])
+                           - (P1[None, :, 1] - P0[None, :, 1]) * (p[:, None, 0] - P0[None, :, 0]))
+
+        tol = 1e-12 * span * span
+        inside = (orient(A, B) > tol) & (orient(B, C) > tol) & (orient(C, A) > tol)
+        has = inside.any(axis=1)
+        tri = np.argmax(inside, axis=1)
+        first_of = {}
+        for i in np.flatnonzero(has).tolist():
+            first_of.setdefault(int(tri[i]), i)
+        take = np.array(sorted(first_of.values()), np.int64)
+        if not take.size:
+            break
+        ids = tri[take]
+        new = len(X3) + np.arange(take.size)
+        X3 = np.vstack([X3, np.column_stack([p[take], np.zeros(take.size)])])
+        X = X3[:, :2]
+        a, b, c = T[ids, 0], T[ids, 1], T[ids, 2]
+        keep = np.ones(len(T), bool)
+        keep[ids] = False
+        T = np.vstack([T[keep], np.column_stack([a, b, new]), np.column_stack([b, c, new]),
+                       np.column_stack([c, a, new])])
+        T = relax_edges(X3, T, k, forbidden)
+        added.extend(todo[take].tolist())
+        rest = np.ones(todo.size, bool)
+        rest[take] = False
+        rest &= has
+        todo = todo[rest]
+    return X3, T, np.asarray(added, np.int64)
+
+
+def _turning(X, T):
+    """Twice the signed area the triangles cover in the plane."""
+    a, b, c = X[T[:, 0]], X[T[:, 1]], X[T[:, 2]]
+    return float(np.sum((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])))
 
 
 def _ring(T, tris, n):
@@ -291,7 +396,7 @@ def _sides(X, T):
     a, b, c = X[T[:, 0]], X[T[:, 1]], X[T[:, 2]]
     turn = np.sum((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
     facing = 1.0 if turn > 0 else -1.0        # (u, v, normal) is right-handed
-    return [("out", facing), ("in", -facing)]
+    return [("out of", facing), ("into", -facing)]
 
 
 def _lift(X, T, base, face, side, k):

@@ -286,17 +286,18 @@ def remove(V, F, faces):
     return V, F[keep]
 
 
-def box_with_bore_through_top(radius=0.4, rise=0.5, segments=24, n=2):
+def box_with_bore_through_top(radius=0.4, rise=0.5, segments=24, n=2, at=(2.0, 1.5)):
     """A 4 x 3 x 1 box without its top, a blind bore from below (a round
     hole in the bottom, its wall and its end) running up through the
     missing top's plane, ``rise`` above it: scan crossing the opening's
     plane inside it, joined to the rim only through the bottom and the
-    walls. Groups ``bottom``, ``walls``, ``bore_wall``, ``bore_end``."""
+    walls; its axis at ``at``. Groups ``bottom``, ``walls``, ``bore_wall``,
+    ``bore_end``."""
     b = _Builder()
     outer = lambda z: _rect(0, 0, 4, 3, z, n)
-    bore = lambda z: _circle(2, 1.5, radius, z, segments)
+    bore = lambda z: _circle(at[0], at[1], radius, z, segments)
     b.zip(outer(0.0), bore(0.0), [0, 0, -1], "bottom")
-    b.strip(bore(0.0), bore(1.0 + rise), lambda p: -np.array([p[0] - 2, p[1] - 1.5, 0]), "bore_wall")
+    b.strip(bore(0.0), bore(1.0 + rise), lambda p: -np.array([p[0] - at[0], p[1] - at[1], 0]), "bore_wall")
     b.fan(bore(1.0 + rise), [0, 0, -1], "bore_end")
     _side_walls(b, outer(0.0), outer(1.0), "walls", (2, 1.5))
     return b.mesh()

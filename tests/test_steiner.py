@@ -94,6 +94,16 @@ def test_a_box_top_crossed_by_a_bore_closes_over_it():
     assert n[2] > 0
 
 
+def test_a_bore_close_to_the_walls_closes_over_it():
+    # the bore 0.15 from two walls: the triangles at the rim (whose rim
+    # corners cannot be raised) must be thin enough to pass beside it
+    V, F, g = cp.box_with_bore_through_top(radius=0.4, at=(0.55, 0.55))
+    R, report, loops = _repair_closes(V, F, closed=True)
+    assert report["holes"][0]["option"].startswith("Steiner points")
+    new = _new_vertices(R, len(V), report["holes"])[0]
+    assert new[:, 2].max() > 1.5 and (np.abs(new[:, 2] - 1.0) <= 1e-9 * 5).any()
+
+
 @pytest.mark.parametrize("teeth", [4, 11])
 def test_gear_teeth_split_off_their_body_close(teeth):
     # each tooth is open where it stood on the body: its opening lies on the
