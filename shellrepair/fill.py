@@ -132,6 +132,11 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     # agree and no test is needed
     deferred = None if defer is None else []     # the order-2 fill's, kept only if it is the one used
     patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget, deferred)
+    if patch is not None and patch.steiner:
+        # the last layer's patch is not faired: no order to choose, none tested
+        if beside is not None:
+            beside.drop_test(hole_id)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if patch is not None and len(patch.P) == 0 and patch.option == OPTION_NAMES["faired"].format(order=2):
         if defer is not None:
             defer.extend(deferred)

@@ -148,7 +148,7 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
             for side in _sides(X, T):
                 h = _lift(X, T, base, face, side, k)
                 new = centre + diameter * (X[k:, :1] * u + X[k:, 1:] * v + h[k:, None] * axis)
-                patch = Patch(hole_id=hole_id, loop=loop, P=new, T=T, T0=T0, disc=True)
+                patch = Patch(hole_id=hole_id, loop=loop, P=new, T=T, T0=T0, disc=True, steiner=True)
                 spent += n_new
                 bad_why, bad = check_patch(ctx, patch)
                 lifted = float(np.abs(h - base).max()) * diameter
