@@ -410,7 +410,10 @@ def _lift(X, T, base, face, side, k):
     sign = side[1]
     fmin, fmax = (hmin, hmax) if sign > 0 else (-hmax, -hmin)   # the faces' heights up that side
     g = sign * base
-    pt, pf = _overlapping(X[T], xy)
+    # a face wholly below the patch's lowest base height, up that side, is never met
+    near = np.flatnonzero(fmax >= g.min() - TOUCH)
+    pt, pf = _overlapping(X[T], xy[near])
+    pf = near[pf]
     rim = np.arange(len(X)) < k
     for _ in range(LIFT_PASSES):
         if not pt.size:
@@ -428,25 +431,16 @@ def _lift(X, T, base, face, side, k):
     return sign * g
 
 
-def _overlapping(A, B, budget=4_000_000):
+def _overlapping(A, B):
     """Pairs (i, j) of 2-D triangles ``A[i]`` and ``B[j]`` (a face seen
     edge-on is a segment) whose interiors overlap by more than ``TOUCH``:
-    their boxes first (in products of at most ``budget`` entries), then
-    separating axes (the edge normals of both)."""
+    their boxes first (:func:`_box_pairs`), then separating axes (the edge
+    normals of both)."""
     alo, ahi = A.min(axis=1), A.max(axis=1)
     blo, bhi = B.min(axis=1), B.max(axis=1)
-    keep = np.all((blo < ahi.max(axis=0) - TOUCH) & (bhi > alo.min(axis=0) + TOUCH), axis=1)
-    fb = np.flatnonzero(keep)
-    blo, bhi = blo[fb], bhi[fb]
-    step = max(1, budget // max(len(fb), 1))
-    pi, pj = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
-    for s in range(0, len(A), step):
-        e = slice(s, s + step)
-        hit = np.all((blo[None] < ahi[e, None] - TOUCH) & (bhi[None] > alo[e, None] + TOUCH), axis=2)
-        a, b = np.nonzero(hit)
-        pi.append(a.astype(np.int64) + s)
-        pj.append(fb[b])
-    pi, pj = np.concatenate(pi), np.concatenate(pj)
+    pi, pj = _box_pairs(alo, ahi, blo, bhi)
+    hit = np.all((blo[pj] < ahi[pi] - TOUCH) & (bhi[pj] > alo[pi] + TOUCH), axis=1)
+    pi, pj = pi[hit], pj[hit]
     keep = np.ones(pi.size, bool)
     for S, other, first in ((A, B, True), (B, A, False)):
         own, oth = (S[pi], other[pj]) if first else (S[pj], other[pi])
@@ -461,6 +455,58 @@ def _overlapping(A, B, budget=4_000_000):
             apart = (p_own.max(axis=1) <= p_oth.min(axis=1) + TOUCH) | (p_oth.max(axis=1) <= p_own.min(axis=1) + TOUCH)
             keep &= ~(apart & ok)
     return pi[keep], pj[keep]
+
+
+#: A scan face whose box covers more grid cells than this is paired with
+#: every patch triangle by boxes directly (:func:`_box_pairs`).
+BIG_FACE_CELLS = 64
+
+
+def _box_pairs(alo, ahi, blo, bhi):
+    """Candidate pairs (i, j) of 2-D boxes ``[alo, ahi]`` (patch triangles)
+    and ``[blo, bhi]`` (scan faces) that may meet: both put in a grid of
+    cells twice the median patch box, joined by cell; a face covering more
+    than :data:`BIG_FACE_CELLS` cells (a large CAD face) is paired with
+    every triangle. A superset, each pair once."""
+    if not len(alo) or not len(blo):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    origin = np.minimum(alo.min(axis=0), blo.min(axis=0))
+    size = 2.0 * float(np.median((ahi - alo).max(axis=1)))
+    span = float(np.maximum(ahi.max(axis=0), bhi.max(axis=0)).max() - origin.min())
+    if not size > 0:
+        size = span or 1.0
+    a0, a1 = np.floor((alo - origin) / size).astype(np.int64), np.floor((ahi - origin) / size).astype(np.int64)
+    b0, b1 = np.floor((blo - origin) / size).astype(np.int64), np.floor((bhi - origin) / size).astype(np.int64)
+    big = np.prod(b1 - b0 + 1, axis=1) > BIG_FACE_CELLS
+    small = np.flatnonzero(~big)
+    wide = int(max(a1[:, 1].max(), b1[small, 1].max() if small.size else 0)) + 2
+    ai, ak = _cells(a0, a1, wide)
+    bi, bk = _cells(b0[small], b1[small], wide)
+    bi = small[bi]
+    order = np.argsort(bk, kind="stable")
+    bk, bi = bk[order], bi[order]
+    lo, hi = np.searchsorted(bk, ak, "left"), np.searchsorted(bk, ak, "right")
+    cnt = hi - lo
+    pi = np.repeat(ai, cnt)
+    pj = bi[np.repeat(lo, cnt) + np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)]
+    key = np.unique(pi * len(blo) + pj)             # a pair met in several cells, once
+    pi, pj = key // len(blo), key % len(blo)
+    fb = np.flatnonzero(big)
+    if fb.size:
+        pi = np.concatenate([pi, np.repeat(np.arange(len(alo)), fb.size)])
+        pj = np.concatenate([pj, np.tile(fb, len(alo))])
+    return pi, pj
+
+
+def _cells(c0, c1, wide):
+    """(item, cell key) for every grid cell each box ``[c0, c1]`` covers."""
+    nx, ny = c1[:, 0] - c0[:, 0] + 1, c1[:, 1] - c0[:, 1] + 1
+    total = nx * ny
+    item = np.repeat(np.arange(len(c0)), total)
+    local = np.arange(int(total.sum())) - np.repeat(np.cumsum(total) - total, total)
+    ix = c0[item, 0] + local // ny[item]
+    iy = c0[item, 1] + local % ny[item]
+    return item, ix * wide + iy
 
 
 def _interpolate_attributes(ctx, patch, X):
