@@ -137,3 +137,15 @@ def test_a_loop_the_layer_cannot_close_in_its_budget_says_why():
     assert res.patch is None and "work budget" in res.reason
     res = steiner_patch(ctx, 0, loop)
     assert res.patch is not None and res.spent >= len(res.patch.P) > 0
+
+
+@pytest.mark.parametrize("where", ["rotated, 1e6 off the origin", "scaled by 1e-6", "scaled by 1e6"])
+def test_the_bore_closes_at_any_place_and_scale(where):
+    from scipy.spatial.transform import Rotation
+
+    V, F, g = cp.box_with_bore_through_top()
+    rot = Rotation.from_euler("xyz", [0.3, 0.7, 1.1]).as_matrix()
+    V = {"rotated, 1e6 off the origin": V @ rot.T + 1e6, "scaled by 1e-6": V * 1e-6,
+         "scaled by 1e6": V * 1e6}[where]
+    R, report, loops = _repair_closes(V, F, closed=True)
+    assert report["holes"][0]["option"].startswith("Steiner points")
