@@ -7,27 +7,33 @@ lies on the body's wall), the patch needs vertices placed off the rim
 (Steiner points). :func:`steiner_patch` builds it as a height field over
 a plane:
 
-1. **Project** the loop on a plane (its best-fit plane, then the plane
-   normal to its vector area) where its outline is a simple polygon.
+1. **Project** the loop on a plane where its outline is a simple
+   polygon (:func:`_axes`: normal to its best-fit plane, to its vector
+   area, to the scan's mean normal at its rim, tried in turn).
 2. **Triangulate** that polygon by ear clipping (mapbox_earcut; the
    collinear rim vertices it drops are put back as fans) and **refine**
    it in the plane (Liepa's splits and flips,
    :func:`~shellrepair.refine.refine_patch`): the Steiner points.
 3. **Lift** each vertex off the plane: its base height is the harmonic
    interpolation of the rim's own heights (0 on a planar rim, so the
-   patch is flat there); a patch triangle whose footprint in the plane
-   overlaps a scan face's footprint has all three corners raised above
-   that face's highest point by :data:`LIFT` of the opening's diameter,
-   on one side of the plane (a triangle above every point of the scan
-   under it cannot meet it), so the patch is a tent over what crosses
-   the plane and flat elsewhere.
+   patch is flat there). A patch triangle whose footprint in the plane
+   overlaps a scan face's footprint (interiors; a wall standing on the
+   rim only touches) and whose heights overlap that face's has its
+   corners raised above the face's highest point by :data:`LIFT` of the
+   opening's diameter, on one side of the plane, until no face is met (a
+   triangle above every point of the scan under it cannot meet it; a face
+   wholly above the patch is passed under). The patch is a tent over what
+   crosses the plane, exactly flat elsewhere; the rim never moves.
 4. **Check** each side's patch with the project's exact checks
    (:func:`~shellrepair.checks.check_patch`); the passing one that
-   leaves its base least wins (equal to :data:`TIE`: the side the patch
-   faces, out of the part), the runner-up recorded. Where both fail, the Steiner
-   points are made denser (the target edge length halved, at most
-   :data:`ROUNDS` rounds, each within the hole's work budget) so that
-   the raised region hugs the scan it avoids, and lifted again.
+   leaves its base least wins (within :data:`TIE`: the side the patch
+   faces, out of the part), the runner-up recorded in the option.
+5. Where both fail, the next **round** makes the Steiner points denser
+   where this one raised or crossed (the target edge length halved
+   there) and puts a row of them beside the rim edges of the triangles at
+   fault (:data:`BESIDE_RIM`: a rim triangle's rim corners cannot rise,
+   so it must be thin enough to pass beside scan close to the rim); at
+   most :data:`ROUNDS` rounds, within the hole's work budget.
 
 Nothing here reads a clock: the rounds are counted, the same scan gives
 the same bytes.
