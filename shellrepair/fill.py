@@ -7,8 +7,10 @@ crossing, pins vertices near it to the flat triangulation, then tries the
 harmonic patch and the checked flat triangulation, within a counted work
 budget (:data:`HOLE_VERTICES` + :data:`HOLE_VERTICES_PER_EDGE` per rim
 edge, in patch vertices; no clock is read); where no
-triangulation passes, the harmonic patch on the first one, mended by the
-last layer (:mod:`~shellrepair.mend`) where it crosses. :func:`_fill_pair`
+triangulation passes, the harmonic patch on the first one, mended
+(:mod:`~shellrepair.mend`) where it crosses; where that fails too, a patch
+with Steiner points lifted over the scan that crosses the opening
+(:mod:`~shellrepair.steiner`). :func:`_fill_pair`
 offers two loops facing each other across a band a tube
 (:mod:`~shellrepair.bridge`) and keeps the tube or the two caps by their
 curvature-variation energy. :func:`_run_chunk` fills a run of holes (their
@@ -255,6 +257,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
        budget), the harmonic patch on the first triangulation
        (:func:`_harmonic_last`); then the last layer mends the attempts
        with the fewest faults (:func:`checks.mend_last`).
+    5. If that fails too, a patch with vertices of its own, lifted over
+       the scan that crosses the opening (:func:`_steiner_last`,
+       :mod:`~shellrepair.steiner`); only then does the hole stay open.
 
     The first faired attempt and the harmonic patch (tried at most once:
     in step 2, or else in step 4) are always made; each later one only
@@ -278,7 +283,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
 
 
 def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
-    """The options of :func:`_fill_one_order` tried in turn (its steps 0-4)."""
+    """The options of :func:`_fill_one_order` tried in turn (its steps 0-5)."""
     t0 = time.perf_counter()
     budget = budget or checks.WorkBudget(len(loop))
     reasons = []

@@ -100,7 +100,8 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
         New vertices the rounds may build in all (a work budget); a round
         that would pass it is not made.
     rounds : int
-        Refinement rounds (target edge length halved each).
+        Rounds of Steiner points, each denser than the last where it
+        raised the patch or crossed the scan (module notes, step 5).
 
     Returns
     -------
