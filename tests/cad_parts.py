@@ -381,11 +381,15 @@ def gear_split_teeth(teeth=8, r_root=1.0, r_tip=1.4, height=0.5):
     return np.vstack(Vs), np.vstack(Fs), out
 
 
-def plate_with_shaped_pocket(outline, depth=0.5, size=(4.0, 4.0), n=1):
+def plate_with_shaped_pocket(outline, depth=0.5, size=(4.0, 4.0), n=1, pin=None, segments=16):
     """A plate ``size`` x 1 with a pocket ``depth`` deep whose outline is
     the counter-clockwise polygon ``outline`` (k,2) (a rib in the pocket is
     a notch in it); groups ``top``, ``pocket_walls`` (one group per outline
-    edge: ``pocket_wall i``), ``pocket_bottom``, ``walls``, ``bottom``."""
+    edge: ``pocket_wall i``), ``pocket_bottom``, ``walls``, ``bottom``.
+    ``pin=(x, y, radius, height)``: a blind bore from below, its end at
+    ``height`` (above the pocket's bottom, which it then crosses: a part
+    to take the pocket's bottom away from), groups ``bore_wall``,
+    ``bore_end``."""
     b = _Builder()
     outer = lambda z: _rect(0, 0, size[0], size[1], z, n)
     ring = lambda z: np.column_stack([outline, np.full(len(outline), z)])
@@ -400,7 +404,14 @@ def plate_with_shaped_pocket(outline, depth=0.5, size=(4.0, 4.0), n=1):
         b.strip(R0[[i, j]], R1[[i, j]], lambda p, w=w: w, f"pocket_wall {i}", closed=False)
     b.fan(ring(1.0 - depth), [0, 0, 1], "pocket_bottom")
     _side_walls(b, outer(0.0), outer(1.0), "walls", (size[0] / 2, size[1] / 2))
-    b.fan(outer(0.0), [0, 0, -1], "bottom")
+    if pin is None:
+        b.fan(outer(0.0), [0, 0, -1], "bottom")
+    else:
+        x, y, r, top = pin
+        bore = lambda z: _circle(x, y, r, z, segments)
+        b.zip(outer(0.0), bore(0.0), [0, 0, -1], "bottom")
+        b.strip(bore(0.0), bore(top), lambda p: -np.array([p[0] - x, p[1] - y, 0]), "bore_wall")
+        b.fan(bore(top), [0, 0, -1], "bore_end")
     return b.mesh()
 
 

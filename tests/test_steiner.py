@@ -56,6 +56,12 @@ def test_the_new_parts_are_what_they_say():
     assert topo.nonmanifold_edges.shape[0] == 0 and self_intersections(V, F) == 0
     assert topo.n_boundary_edges == 8
     assert V[F[g["bore_end"]]][:, :, 2].min() == 1.5
+    # the pocket with a pin: closed once its bottom is gone, nothing crossing
+    V, F, g = cp.plate_with_shaped_pocket(cp.octagon_with_rib(), pin=(1.6, 2.3, 0.25, 0.8))
+    V, F = cp.remove(V, F, g["pocket_bottom"])
+    topo = edge_topology(F, len(V))
+    assert topo.nonmanifold_edges.shape[0] == 0 and self_intersections(V, F) == 0
+    assert topo.n_boundary_edges == len(cp.octagon_with_rib())
     # the gear: body and teeth closed or open where they touch, nothing crossing
     V, F, g = cp.gear_split_teeth(teeth=6)
     topo = edge_topology(F, len(V))
@@ -102,6 +108,20 @@ def test_a_bore_close_to_the_walls_closes_over_it():
     assert report["holes"][0]["option"].startswith("Steiner points")
     new = _new_vertices(R, len(V), report["holes"])[0]
     assert new[:, 2].max() > 1.5 and (np.abs(new[:, 2] - 1.0) <= 1e-9 * 5).any()
+
+
+def test_an_octagonal_pocket_with_a_rib_and_a_pin_through_its_missing_bottom_closes():
+    # the pocket's outline is notched by a rib; a blind bore from below
+    # rises 0.3 through the plane of the pocket's missing bottom
+    V, F, g = cp.plate_with_shaped_pocket(cp.octagon_with_rib(), pin=(1.6, 2.3, 0.25, 0.8))
+    V, F = cp.remove(V, F, g["pocket_bottom"])
+    R, report, loops = _repair_closes(V, F)
+    assert report["holes"][0]["option"].startswith("Steiner points")
+    new = _new_vertices(R, len(V), report["holes"])[0]
+    on_plane = np.abs(new[:, 2] - 0.5) <= 1e-9 * 3
+    assert on_plane.any() and new[:, 2].max() > 0.8
+    # what is not on the bottom's plane stands over the pin's end, near it
+    assert np.all(np.hypot(new[~on_plane, 0] - 1.6, new[~on_plane, 1] - 2.3) < 1.0)
 
 
 @pytest.mark.parametrize("teeth", [4, 11])
