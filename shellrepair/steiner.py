@@ -60,6 +60,10 @@ from .refine import DENSITY_ALPHA, MAX_PATCH_FACES, _forbidden_pairs, _refine, r
 #: How far above (or below) the highest (lowest) scan point under it a
 #: raised patch triangle's corners are put, in opening diameters.
 LIFT = 0.01
+#: The scan faces read around an opening: its box grown by this many of
+#: its diameters across its plane (and as far as the scan goes along the
+#: plane's normal, where a tent may have to climb).
+REACH = 2.0
 #: Passes of raising patch triangles over the scan faces they meet.
 LIFT_PASSES = 64
 #: Rounds of denser Steiner points (target edge length halved each round).
@@ -373,12 +377,16 @@ def _repeats_scan_edge(T, k, forbidden):
 
 
 def _scan_footprints(ctx, centre, u, v, axis, diameter, P):
-    """The scan faces near the opening, in the plane's frame: their 2-D
-    corners (m,3,2) and their lowest and highest heights (m,), in opening
-    diameters."""
+    """The scan faces in the column over and under the opening (its box
+    grown by :data:`REACH` diameters across, as far as the scan goes along
+    ``axis``), in the plane's frame: their 2-D corners (m,3,2) and their
+    lowest and highest heights (m,), in opening diameters."""
     index = ctx.index
-    reach = diameter * 2.0
+    reach = diameter * REACH
     lo, hi = P.min(axis=0) - reach, P.max(axis=0) + reach
+    vlo, vhi = ctx.V.min(axis=0), ctx.V.max(axis=0)
+    along = float(np.linalg.norm(vhi - vlo)) * np.abs(axis)      # the scan's extent, along the axis
+    lo, hi = np.maximum(lo - along, vlo), np.minimum(hi + along, vhi)
     f = np.asarray(index.faces_near(lo, hi), np.int64)
     Tc = index.V[index.F[f]] - centre
     xy = np.stack([Tc @ u, Tc @ v], axis=-1) / diameter
