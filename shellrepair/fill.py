@@ -457,7 +457,13 @@ def _steiner_last(ctx, hole_id, loop, budget, reasons):
     budget; None (the cause appended to ``reasons``) where it fails."""
     from .steiner import steiner_patch
 
-    res = steiner_patch(ctx, hole_id, loop, max_vertices=max(budget.left(), STEINER_VERTICES))
+    try:
+        res = steiner_patch(ctx, hole_id, loop, max_vertices=max(budget.left(), STEINER_VERTICES))
+    except (ValueError, IndexError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        # a degenerate outline the layer's arithmetic cannot take: the hole
+        # stays open as it would without the layer, saying so
+        reasons.append(f"last layer: Steiner points: {type(exc).__name__}: {exc}")
+        return None
     budget.spent += res.spent
     if res.patch is None:
         reasons.append(f"last layer: {res.reason}")

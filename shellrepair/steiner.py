@@ -255,21 +255,31 @@ def _insert(X3, T, pts, k, forbidden, batches=64):
     for _ in range(batches):
         if not todo.size:
             break
-        A, B, C = X[T[:, 0]], X[T[:, 1]], X[T[:, 2]]
         p = pts[todo]
+        A = X[T]
+        tj, pi = _box_pairs(A.min(axis=1), A.max(axis=1), p, p)     # (triangle, point) by a grid
+        a, b, c, q = A[tj, 0], A[tj, 1], A[tj, 2], p[pi]
 
         def orient(P0, P1):
-            return sign * ((P1[None, :, 0] - P0[None, :, 0]) * (p[:, None, 1] - P0[None, :, 1])
-                           - (P1[None, :, 1] - P0[None, :, 1]) * (p[:, None, 0] - P0[None, :, 0]))
+            return sign * ((P1[:, 0] - P0[:, 0]) * (q[:, 1] - P0[:, 1]) - (P1[:, 1] - P0[:, 1]) * (q[:, 0] - P0[:, 0]))
 
         tol = 1e-12 * span * span
-        inside = (orient(A, B) > tol) & (orient(B, C) > tol) & (orient(C, A) > tol)
-        has = inside.any(axis=1)
-        tri = np.argmax(inside, axis=1)
-        first_of = {}
-        for i in np.flatnonzero(has).tolist():
-            first_of.setdefault(int(tri[i]), i)
-        take = np.array(sorted(first_of.values()), np.int64)
+        inside = (orient(a, b) > tol) & (orient(b, c) > tol) & (orient(c, a) > tol)
+        tj, pi = tj[inside], pi[inside]
+        order = np.lexsort((tj, pi))                     # each point's first triangle, then
+        tj, pi = tj[order], pi[order]                    # each triangle's first point
+        first = np.ones(pi.size, bool)
+        first[1:] = pi[1:] != pi[:-1]
+        tj, pi = tj[first], pi[first]
+        has = np.zeros(todo.size, bool)
+        has[pi] = True
+        tri = np.zeros(todo.size, np.int64)
+        tri[pi] = tj
+        order = np.lexsort((pi, tj))
+        tj_s, pi_s = tj[order], pi[order]
+        once = np.ones(tj_s.size, bool)
+        once[1:] = tj_s[1:] != tj_s[:-1]
+        take = np.sort(pi_s[once])
         if not take.size:
             break
         ids = tri[take]
