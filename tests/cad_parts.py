@@ -426,3 +426,18 @@ def octagon_with_rib(cx=2.0, cy=2.0, r=1.4, rib=0.08, reach=1.0):
     notch = [[x_side, cy - rib / 2], [x_side - reach, cy - rib / 2], [x_side - reach, cy + rib / 2],
              [x_side, cy + rib / 2]]
     return np.vstack([O[7:8], notch, O[0:7]])
+
+
+def cup_with_linked_ring(n=8):
+    """A coarse cube without its top (a cup), and a closed thin ring (a
+    torus) round the top of its wall ``x = 0``: it runs down through the
+    opening and out through the wall, so it is linked with the opening's
+    rim; every surface the rim bounds crosses it, the cup itself included
+    (the input crosses itself where the ring goes through the wall)."""
+    from eval import shapes
+
+    V, F, g = coarse_cube(n)
+    V, F = remove(V, F, g["top"])
+    Vt, Ft = shapes.torus(R=0.3, r=0.03, nu=32, nv=8)
+    Vt = Vt[:, [0, 2, 1]] + [0.0131, 0.5, 1.0173]      # its axis along y, off the grid's round values
+    return np.vstack([V, Vt]), np.vstack([F, Ft + len(V)])

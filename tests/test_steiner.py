@@ -172,3 +172,16 @@ def test_the_bore_closes_at_any_place_and_scale(where):
          "scaled by 1e6": V * 1e6}[where]
     R, report, loops = _repair_closes(V, F, closed=True)
     assert report["holes"][0]["option"].startswith("Steiner points")
+
+
+def test_an_opening_linked_with_a_ring_stays_open_and_says_why():
+    # every surface the rim bounds crosses a ring linked with it: the
+    # Steiner layer tries, fails, and the hole stays open (the report says
+    # what each plane and side met); nothing is added that crosses
+    V, F = cp.cup_with_linked_ring()
+    si = self_intersections(V, F)
+    R, report = repair_mesh(Mesh(V=V, F=F), fill_borders=True, bridge="never")
+    row = [r for r in report["holes"] if r["edges"] == 32][0]
+    assert row["status"] == "failed"
+    assert "last layer: Steiner points" in row["reason"] and "cross the scan" in row["reason"]
+    assert self_intersections(R.V, R.F) == si
