@@ -131,7 +131,7 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
             why.append(f"its outline seen along {name} is not a simple polygon")
             continue
         T0 = _ear_clip(Q, k)
-        if T0 is None or _repeats_scan_edge(T0, k, forbidden):
+        if T0 is None or _repeats_scan_edge(T0, forbidden):
             why.append(f"seen along {name}, its outline's triangulation "
                        + ("failed" if T0 is None else "would repeat an edge of the scan"))
             continue
@@ -378,7 +378,7 @@ def _ear_clip(Q, k):
     return T
 
 
-def _repeats_scan_edge(T, k, forbidden):
+def _repeats_scan_edge(T, forbidden):
     """Does the triangulation join two loop vertices the scan joins already?"""
     if not forbidden:
         return False
