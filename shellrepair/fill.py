@@ -7,8 +7,10 @@ crossing, pins vertices near it to the flat triangulation, then tries the
 harmonic patch and the checked flat triangulation, within a counted work
 budget (:data:`HOLE_VERTICES` + :data:`HOLE_VERTICES_PER_EDGE` per rim
 edge, in patch vertices; no clock is read); where no
-triangulation passes, the harmonic patch on the first one, mended by the
-last layer (:mod:`~shellrepair.mend`) where it crosses. :func:`_fill_pair`
+triangulation passes, the harmonic patch on the first one, mended
+(:mod:`~shellrepair.mend`) where it crosses; where that fails too, a patch
+with Steiner points lifted over the scan that crosses the opening
+(:mod:`~shellrepair.steiner`). :func:`_fill_pair`
 offers two loops facing each other across a band a tube
 (:mod:`~shellrepair.bridge`) and keeps the tube or the two caps by their
 curvature-variation energy. :func:`_run_chunk` fills a run of holes (their
@@ -65,6 +67,10 @@ FLAT_RETRIES = 12
 FAIRED_RETRIES = 3
 #: Rounds of growing the region held on the flat triangulation around a crossing.
 PIN_ROUNDS = 3
+#: New vertices the Steiner layer (:mod:`~shellrepair.steiner`) may build
+#: for a hole whose work budget the earlier options spent: it is the last
+#: chance before the hole stays open, and its rounds are counted.
+STEINER_VERTICES = 20_000
 #: How each option is named in the report.
 OPTION_NAMES = {"faired": "faired order {order}", "harmonic": "harmonic (order 1)",
                 "flat cap": "flat cap: a planar opening the scan meets edge-on (order 1)"}
@@ -128,6 +134,11 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     # agree and no test is needed
     deferred = None if defer is None else []     # the order-2 fill's, kept only if it is the one used
     patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 2, smooth, energy, budget, deferred)
+    if patch is not None and patch.steiner:
+        # the last layer's patch is not faired: no order to choose, none tested
+        if beside is not None:
+            beside.drop_test(hole_id)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if patch is not None and len(patch.P) == 0 and patch.option == OPTION_NAMES["faired"].format(order=2):
         if defer is not None:
             defer.extend(deferred)
@@ -246,6 +257,9 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
        budget), the harmonic patch on the first triangulation
        (:func:`_harmonic_last`); then the last layer mends the attempts
        with the fewest faults (:func:`checks.mend_last`).
+    5. If that fails too, a patch with vertices of its own, lifted over
+       the scan that crosses the opening (:func:`_steiner_last`,
+       :mod:`~shellrepair.steiner`); only then does the hole stay open.
 
     The first faired attempt and the harmonic patch (tried at most once:
     in step 2, or else in step 4) are always made; each later one only
@@ -269,7 +283,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
 
 
 def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
-    """The options of :func:`_fill_one_order` tried in turn (its steps 0-4)."""
+    """The options of :func:`_fill_one_order` tried in turn (its steps 0-5)."""
     t0 = time.perf_counter()
     budget = budget or checks.WorkBudget(len(loop))
     reasons = []
@@ -430,7 +444,30 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
     mended = checks.mend_last(ctx, faulty, reasons)
     if mended is not None:
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
+    patch = _steiner_last(ctx, hole_id, loop, budget, reasons)
+    if patch is not None:
+        return Outcome(patch, "", time.perf_counter() - t0, reasons)
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+
+
+def _steiner_last(ctx, hole_id, loop, budget, reasons):
+    """The last layer for a single hole no other option closed: a patch
+    with Steiner points lifted over the scan that crosses the opening
+    (:mod:`~shellrepair.steiner`), within what is left of the hole's work
+    budget; None (the cause appended to ``reasons``) where it fails."""
+    from .steiner import steiner_patch
+
+    try:
+        res = steiner_patch(ctx, hole_id, loop, max_vertices=max(budget.left(), STEINER_VERTICES))
+    except (ValueError, IndexError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        # a degenerate outline the layer's arithmetic cannot take: the hole
+        # stays open as it would without the layer, saying so
+        reasons.append(f"last layer: Steiner points: {type(exc).__name__}: {exc}")
+        return None
+    budget.spent += res.spent
+    if res.patch is None:
+        reasons.append(f"last layer: {res.reason}")
+    return res.patch
 
 
 def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):

@@ -102,6 +102,7 @@ class Patch:
     disc: bool = False
     fallback: object = None   # order 3 chosen by "auto": the hole's checked order-2 patch (same rim edges)
     choice: object = None     # the OrderTest behind an "auto" order
+    steiner: bool = False     # built by the last layer with Steiner points (shellrepair.steiner): not faired
 
     def global_faces(self, base):
         """Faces with new vertex j at index ``base + j``."""

@@ -284,3 +284,160 @@ def remove(V, F, faces):
     keep = np.ones(len(F), bool)
     keep[np.asarray(faces, np.int64)] = False
     return V, F[keep]
+
+
+def box_with_bore_through_top(radius=0.4, rise=0.5, segments=24, n=2, at=(2.0, 1.5)):
+    """A 4 x 3 x 1 box without its top, a blind bore from below (a round
+    hole in the bottom, its wall and its end) running up through the
+    missing top's plane, ``rise`` above it: scan crossing the opening's
+    plane inside it, joined to the rim only through the bottom and the
+    walls; its axis at ``at``. Groups ``bottom``, ``walls``, ``bore_wall``,
+    ``bore_end``."""
+    b = _Builder()
+    outer = lambda z: _rect(0, 0, 4, 3, z, n)
+    bore = lambda z: _circle(at[0], at[1], radius, z, segments)
+    b.zip(outer(0.0), bore(0.0), [0, 0, -1], "bottom")
+    b.strip(bore(0.0), bore(1.0 + rise), lambda p: -np.array([p[0] - at[0], p[1] - at[1], 0]), "bore_wall")
+    b.fan(bore(1.0 + rise), [0, 0, -1], "bore_end")
+    _side_walls(b, outer(0.0), outer(1.0), "walls", (2, 1.5))
+    return b.mesh()
+
+
+def gear_prism(teeth=12, r_root=1.0, r_tip=1.4, height=0.5, split=False):
+    """A gear's blank: the prism of a toothed outline (``teeth`` square
+    teeth between radii ``r_root`` and ``r_tip``). Groups ``top``,
+    ``bottom``, ``walls``. ``split``: each tooth a prism of its own,
+    standing against the body along its root edge, and the root edges the
+    teeth and the body share split apart (duplicate vertices), as a
+    repair of non-manifold edges leaves them."""
+    b = _Builder()
+    ang = 2 * np.pi / teeth
+    prof = []
+    for i in range(teeth):
+        a0, a1, a2, a3 = i * ang, (i + 0.25) * ang, (i + 0.5) * ang, (i + 0.75) * ang
+        prof += [[r_root * np.cos(a0), r_root * np.sin(a0)], [r_root * np.cos(a1), r_root * np.sin(a1)],
+                 [r_tip * np.cos(a1), r_tip * np.sin(a1)], [r_tip * np.cos(a2), r_tip * np.sin(a2)],
+                 [r_root * np.cos(a2), r_root * np.sin(a2)], [r_root * np.cos(a3), r_root * np.sin(a3)]]
+    prof = np.array(prof)
+    ring = lambda z: np.column_stack([prof, np.full(len(prof), z)])
+    out = lambda p: np.array([p[0], p[1], 0.0]) / np.hypot(p[0], p[1])
+    b.fan(ring(height), [0, 0, 1], "top")
+    b.fan(ring(0.0), [0, 0, -1], "bottom")
+    # each wall quad's outward normal from its own edge
+    R0, R1 = ring(0.0), ring(height)
+    m = len(prof)
+    for i in range(m):
+        j = (i + 1) % m
+        d = prof[j] - prof[i]
+        nrm = np.array([d[1], -d[0], 0.0])
+        nrm /= np.linalg.norm(nrm)
+        b.strip(R0[[i, j]], R1[[i, j]], lambda p, nrm=nrm: nrm, "walls", closed=False)
+    return b.mesh()
+
+
+def gear_split_teeth(teeth=8, r_root=1.0, r_tip=1.4, height=0.5):
+    """A gear exported as a body and teeth that share non-manifold edges,
+    with those edges split apart: the body a closed prism (a regular
+    ``2 * teeth``-gon of radius ``r_root``), each tooth a box standing on
+    one of the body's side faces, open where it stands (its own vertices,
+    at the same positions as the body's corners). Groups ``top``,
+    ``bottom``, ``walls`` (body) and ``tooth i``."""
+    b = _Builder()
+    m = 2 * teeth
+    t = 2 * np.pi * np.arange(m) / m
+    prof = np.column_stack([r_root * np.cos(t), r_root * np.sin(t)])
+    ring = lambda z: np.column_stack([prof, np.full(m, z)])
+    b.fan(ring(height), [0, 0, 1], "top")
+    b.fan(ring(0.0), [0, 0, -1], "bottom")
+    b.strip(ring(0.0), ring(height), lambda p: np.array([p[0], p[1], 0.0]), "walls")
+    V, F, groups = b.mesh()
+    parts = [(V, F, groups)]
+    for i in range(teeth):
+        a, c = prof[2 * i], prof[2 * i + 1]
+        nrm = np.array([*(a + c) / 2, 0.0])
+        nrm /= np.linalg.norm(nrm)
+        d = (r_tip - r_root) * nrm[:2]
+        tb = _Builder()
+        base = lambda z: np.array([[*a, z], [*c, z]])
+        tip = lambda z: np.array([[*(c + d), z], [*(a + d), z]])
+        quad = lambda z: np.vstack([base(z), tip(z)])
+        tb.fan(quad(height), [0, 0, 1], f"tooth {i}")
+        tb.fan(quad(0.0), [0, 0, -1], f"tooth {i}")
+        q0, q1 = quad(0.0), quad(height)
+        for s in (1, 2, 3):       # the three faces off the body (the fourth is open)
+            e = q0[(s + 1) % 4, :2] - q0[s, :2]
+            w = np.array([e[1], -e[0], 0.0])
+            if w[:2] @ (q0[s, :2] - (a + c) / 2 - d / 2) < 0:
+                w = -w
+            tb.strip(q0[[s, (s + 1) % 4]], q1[[s, (s + 1) % 4]], lambda p, w=w: w, f"tooth {i}", closed=False)
+        parts.append(tb.mesh())
+    Vs, Fs, out, n = [], [], {}, 0
+    for Vp, Fp, gp in parts:
+        for name, faces in gp.items():
+            out[name] = faces + sum(len(x) for x in Fs)
+        Vs.append(Vp)
+        Fs.append(Fp + n)
+        n += len(Vp)
+    return np.vstack(Vs), np.vstack(Fs), out
+
+
+def plate_with_shaped_pocket(outline, depth=0.5, size=(4.0, 4.0), n=1, pin=None, segments=16):
+    """A plate ``size`` x 1 with a pocket ``depth`` deep whose outline is
+    the counter-clockwise polygon ``outline`` (k,2) (a rib in the pocket is
+    a notch in it); groups ``top``, ``pocket_walls`` (one group per outline
+    edge: ``pocket_wall i``), ``pocket_bottom``, ``walls``, ``bottom``.
+    ``pin=(x, y, radius, height)``: a blind bore from below, its end at
+    ``height`` (above the pocket's bottom, which it then crosses: a part
+    to take the pocket's bottom away from), groups ``bore_wall``,
+    ``bore_end``."""
+    b = _Builder()
+    outer = lambda z: _rect(0, 0, size[0], size[1], z, n)
+    ring = lambda z: np.column_stack([outline, np.full(len(outline), z)])
+    b.zip(outer(1.0), ring(1.0), [0, 0, 1], "top")
+    R0, R1 = ring(1.0 - depth), ring(1.0)
+    m = len(outline)
+    for i in range(m):
+        j = (i + 1) % m
+        d = outline[j] - outline[i]
+        w = np.array([d[1], -d[0], 0.0])
+        w = -w / np.linalg.norm(w)            # into the pocket (the outline turns counter-clockwise)
+        b.strip(R0[[i, j]], R1[[i, j]], lambda p, w=w: w, f"pocket_wall {i}", closed=False)
+    b.fan(ring(1.0 - depth), [0, 0, 1], "pocket_bottom")
+    _side_walls(b, outer(0.0), outer(1.0), "walls", (size[0] / 2, size[1] / 2))
+    if pin is None:
+        b.fan(outer(0.0), [0, 0, -1], "bottom")
+    else:
+        x, y, r, top = pin
+        bore = lambda z: _circle(x, y, r, z, segments)
+        b.zip(outer(0.0), bore(0.0), [0, 0, -1], "bottom")
+        b.strip(bore(0.0), bore(top), lambda p: -np.array([p[0] - x, p[1] - y, 0]), "bore_wall")
+        b.fan(bore(top), [0, 0, -1], "bore_end")
+    return b.mesh()
+
+
+def octagon_with_rib(cx=2.0, cy=2.0, r=1.4, rib=0.08, reach=1.0):
+    """A regular octagon's outline (counter-clockwise) with a thin rib
+    (width ``rib``) running in from the middle of one side, ``reach`` long:
+    a notch in the outline."""
+    t = 2 * np.pi * (np.arange(8) + 0.5) / 8
+    O = np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)])
+    # the side between corners 7 and 0 faces +x: notch it at its middle
+    x_side = O[0, 0]
+    notch = [[x_side, cy - rib / 2], [x_side - reach, cy - rib / 2], [x_side - reach, cy + rib / 2],
+             [x_side, cy + rib / 2]]
+    return np.vstack([O[7:8], notch, O[0:7]])
+
+
+def cup_with_linked_ring(n=8):
+    """A coarse cube without its top (a cup), and a closed thin ring (a
+    torus) round the top of its wall ``x = 0``: it runs down through the
+    opening and out through the wall, so it is linked with the opening's
+    rim; every surface the rim bounds crosses it, the cup itself included
+    (the input crosses itself where the ring goes through the wall)."""
+    from eval import shapes
+
+    V, F, g = coarse_cube(n)
+    V, F = remove(V, F, g["top"])
+    Vt, Ft = shapes.torus(R=0.3, r=0.03, nu=32, nv=8)
+    Vt = Vt[:, [0, 2, 1]] + [0.0131, 0.5, 1.0173]      # its axis along y, off the grid's round values
+    return np.vstack([V, Vt]), np.vstack([F, Ft + len(V)])

@@ -335,12 +335,9 @@ def test_a_scan_with_holes_the_fill_could_not_close_is_partial_not_ok(tmp_path, 
     sys.path.insert(0, os.path.dirname(__file__))
     import cad_parts as cp
 
-    # a needle of scan through a cube's missing top: that opening cannot be closed
-    V, F, g = cp.coarse_cube(8)
-    V, F = cp.remove(V, F, g["top"])
-    k = len(V)
-    V = np.vstack([V, [[0.5, 0.5, 0.5], [0.5, 0.51, 1.5], [0.51, 0.5, 1.5]]])
-    F = np.vstack([F, [[k, k + 1, k + 2]]])
+    # a ring of scan linked with a cup's rim (through its opening and its
+    # wall): no surface the rim bounds avoids it, so that opening stays open
+    V, F = cp.cup_with_linked_ring()
     Vb, Fb = shapes.icosphere(3)
     _write_scans(tmp_path / "in", {"good.ply": ball_perforate(Vb, Fb, 2, 0.15, seed=2), "needle.ply": (V, F)})
     assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--fill-borders",

@@ -1,0 +1,187 @@
+"""Openings no triangulation of their rim can close get vertices of their own.
+
+Where the scan crosses an opening's plane inside it (a blind bore from
+below rising through a box's missing top; a gear tooth split off the body
+it stood on, whose opening lies on the body's wall), every triangulation of
+the rim's own vertices crosses the scan. The last layer
+(:mod:`shellrepair.steiner`) closes such an opening with Steiner points
+lifted over what crosses it: every ``hole`` loop filled, no crossing added
+(exact count), original vertices bit-identical, flat where nothing is under
+the patch.
+"""
+
+import numpy as np
+import pytest
+
+import cad_parts as cp
+from shellrepair import Mesh, detect_holes
+from shellrepair.context import ScanContext
+from shellrepair.intersect import self_intersections
+from shellrepair.repair import repair_mesh
+from shellrepair.steiner import LIFT, steiner_patch
+from shellrepair.topology import edge_topology
+
+
+def _repair_closes(V, F, **kw):
+    """Repair; assert every loop (all classed ``hole``) closed, nothing
+    crossed, the originals kept bit for bit. Returns (repaired, report,
+    loops)."""
+    scan = detect_holes(V, F, closed=kw.get("closed"))
+    assert scan.loops and all(L.kind == "hole" for L in scan.loops), [L.reason for L in scan.loops]
+    si = self_intersections(V, F)
+    R, report = repair_mesh(Mesh(V=V, F=F), **kw)
+    rows = report["holes"]
+    assert [r["status"] for r in rows] == ["filled"] * len(scan.loops), [r["reason"] for r in rows]
+    assert edge_topology(R.F, len(R.V)).n_boundary_edges == 0
+    assert np.array_equal(R.V[:len(V)].view(np.uint64), V.view(np.uint64))
+    assert np.array_equal(R.F[:len(F)], F)
+    assert self_intersections(R.V, R.F) == si
+    return R, report, scan.loops
+
+
+def _new_vertices(R, n, rows):
+    """Each row's new vertices (appended in hole order)."""
+    out, start = {}, n
+    for row in sorted(rows, key=lambda r: r["id"]):
+        out[row["id"]] = R.V[start:start + row["new_vertices"]]
+        start += row["new_vertices"]
+    assert start == len(R.V)
+    return out
+
+
+def test_the_new_parts_are_what_they_say():
+    # the bore part: open at its top only, its bore rising through that plane
+    V, F, g = cp.box_with_bore_through_top(rise=0.5)
+    topo = edge_topology(F, len(V))
+    assert topo.nonmanifold_edges.shape[0] == 0 and self_intersections(V, F) == 0
+    assert topo.n_boundary_edges == 8
+    assert V[F[g["bore_end"]]][:, :, 2].min() == 1.5
+    # the pocket with a pin: closed once its bottom is gone, nothing crossing
+    V, F, g = cp.plate_with_shaped_pocket(cp.octagon_with_rib(), pin=(1.6, 2.3, 0.25, 0.8))
+    V, F = cp.remove(V, F, g["pocket_bottom"])
+    topo = edge_topology(F, len(V))
+    assert topo.nonmanifold_edges.shape[0] == 0 and self_intersections(V, F) == 0
+    assert topo.n_boundary_edges == len(cp.octagon_with_rib())
+    # the gear: body and teeth closed or open where they touch, nothing crossing
+    V, F, g = cp.gear_split_teeth(teeth=6)
+    topo = edge_topology(F, len(V))
+    assert topo.n_boundary_edges == 6 * 4 and topo.nonmanifold_edges.shape[0] == 0
+    assert self_intersections(V, F) == 0
+
+
+def test_a_box_top_crossed_by_a_bore_closes_over_it():
+    # today's rim-only layers: "48 scan faces cross the opening's own plane
+    # inside it, so no flat triangulation avoids them"
+    V, F, g = cp.box_with_bore_through_top(rise=0.5)
+    R, report, loops = _repair_closes(V, F, closed=True)
+    row = report["holes"][0]
+    assert row["option"].startswith("Steiner points")
+    new = _new_vertices(R, len(V), report["holes"])[0]
+    # over the bore's axis the patch passes above its end (z = 1.5) ...
+    Fn = R.F[len(F):]
+    A, B, C = (R.V[Fn[:, i]] for i in range(3))
+    p = np.array([2.0, 1.5])
+
+    def cross2(a, b):
+        return (a[:, 0] - p[0]) * (b[:, 1] - p[1]) - (a[:, 1] - p[1]) * (b[:, 0] - p[0])
+
+    w = np.column_stack([cross2(B, C), cross2(C, A), cross2(A, B)])
+    over = (np.all(w >= 0, axis=1) | np.all(w <= 0, axis=1)) & (np.abs(w).sum(axis=1) > 0)
+    assert over.any()
+    z = (w[over] / w[over].sum(axis=1, keepdims=True) * np.column_stack([A[over, 2], B[over, 2], C[over, 2]])).sum(1)
+    assert z.min() > 1.5
+    # ... and the rest of it lies on the top's plane, or above it by more
+    # than the bore's rise (a plateau, no slope grazing the rim's walls)
+    rise = new[:, 2] - 1.0
+    assert np.all((np.abs(rise) <= 1e-9 * 5) | (rise > 0.5))
+    assert (np.abs(rise) <= 1e-9 * 5).any()
+    # the patch faces out of the box, like the walls
+    n = np.cross(R.V[Fn[:, 1]] - R.V[Fn[:, 0]], R.V[Fn[:, 2]] - R.V[Fn[:, 0]]).sum(axis=0)
+    assert n[2] > 0
+
+
+def test_a_bore_close_to_the_walls_closes_over_it():
+    # the bore 0.15 from two walls: the triangles at the rim (whose rim
+    # corners cannot be raised) must be thin enough to pass beside it
+    V, F, g = cp.box_with_bore_through_top(radius=0.4, at=(0.55, 0.55))
+    R, report, loops = _repair_closes(V, F, closed=True)
+    assert report["holes"][0]["option"].startswith("Steiner points")
+    new = _new_vertices(R, len(V), report["holes"])[0]
+    assert new[:, 2].max() > 1.5 and (np.abs(new[:, 2] - 1.0) <= 1e-9 * 5).any()
+
+
+def test_an_octagonal_pocket_with_a_rib_and_a_pin_through_its_missing_bottom_closes():
+    # the pocket's outline is notched by a rib; a blind bore from below
+    # rises 0.3 through the plane of the pocket's missing bottom
+    V, F, g = cp.plate_with_shaped_pocket(cp.octagon_with_rib(), pin=(1.6, 2.3, 0.25, 0.8))
+    V, F = cp.remove(V, F, g["pocket_bottom"])
+    R, report, loops = _repair_closes(V, F)
+    assert report["holes"][0]["option"].startswith("Steiner points")
+    new = _new_vertices(R, len(V), report["holes"])[0]
+    on_plane = np.abs(new[:, 2] - 0.5) <= 1e-9 * 3
+    assert on_plane.any() and new[:, 2].max() > 0.8
+    # what is not on the bottom's plane stands over the pin's end, near it
+    assert np.all(np.hypot(new[~on_plane, 0] - 1.6, new[~on_plane, 1] - 2.3) < 1.0)
+
+
+@pytest.mark.parametrize("teeth", [4, 11])
+def test_gear_teeth_split_off_their_body_close(teeth):
+    # each tooth is open where it stood on the body: its opening lies on the
+    # body's wall (coplanar scan over all of it), so no flat patch avoids it
+    V, F, g = cp.gear_split_teeth(teeth=teeth)
+    R, report, loops = _repair_closes(V, F)
+    new = _new_vertices(R, len(V), report["holes"])
+    for row in report["holes"]:
+        assert row["option"].startswith("Steiner points"), row["option"]
+        P = V[loops[row["id"]].vertices]
+        c = P.mean(axis=0)
+        normal = np.linalg.svd(P - c)[2][-1]
+        diameter = float(np.ptp(P, axis=0).max())
+        off = np.abs((new[row["id"]] - c) @ normal)
+        # lifted off the wall by the layer's own margin, no more: nearly flat
+        assert off.size and off.min() > 0 and off.max() <= 1.01 * LIFT * diameter
+
+
+def test_the_same_part_gives_the_same_bytes_with_any_jobs():
+    V, F, g = cp.gear_split_teeth(teeth=6)
+    R1, rep1 = repair_mesh(Mesh(V=V, F=F), jobs=1)
+    R2, rep2 = repair_mesh(Mesh(V=V, F=F), jobs=2)
+    R3, _ = repair_mesh(Mesh(V=V, F=F), jobs=1)
+    assert all(r["option"].startswith("Steiner points") for r in rep1["holes"])
+    assert R1.V.tobytes() == R2.V.tobytes() == R3.V.tobytes()
+    assert R1.F.tobytes() == R2.F.tobytes() == R3.F.tobytes()
+
+
+def test_a_loop_the_layer_cannot_close_in_its_budget_says_why():
+    V, F, g = cp.box_with_bore_through_top()
+    loop = detect_holes(V, F, closed=True).loops[0].vertices
+    ctx = ScanContext(Mesh(V=V, F=F))
+    res = steiner_patch(ctx, 0, loop, max_vertices=0)
+    assert res.patch is None and "work budget" in res.reason
+    res = steiner_patch(ctx, 0, loop)
+    assert res.patch is not None and res.spent >= len(res.patch.P) > 0
+
+
+@pytest.mark.parametrize("where", ["rotated, 1e6 off the origin", "scaled by 1e-6", "scaled by 1e6"])
+def test_the_bore_closes_at_any_place_and_scale(where):
+    from scipy.spatial.transform import Rotation
+
+    V, F, g = cp.box_with_bore_through_top()
+    rot = Rotation.from_euler("xyz", [0.3, 0.7, 1.1]).as_matrix()
+    V = {"rotated, 1e6 off the origin": V @ rot.T + 1e6, "scaled by 1e-6": V * 1e-6,
+         "scaled by 1e6": V * 1e6}[where]
+    R, report, loops = _repair_closes(V, F, closed=True)
+    assert report["holes"][0]["option"].startswith("Steiner points")
+
+
+def test_an_opening_linked_with_a_ring_stays_open_and_says_why():
+    # every surface the rim bounds crosses a ring linked with it: the
+    # Steiner layer tries, fails, and the hole stays open (the report says
+    # what each plane and side met); nothing is added that crosses
+    V, F = cp.cup_with_linked_ring()
+    si = self_intersections(V, F)
+    R, report = repair_mesh(Mesh(V=V, F=F), fill_borders=True, bridge="never")
+    row = [r for r in report["holes"] if r["edges"] == 32][0]
+    assert row["status"] == "failed"
+    assert "last layer: Steiner points" in row["reason"] and "cross the scan" in row["reason"]
+    assert self_intersections(R.V, R.F) == si
