@@ -19,6 +19,8 @@ This module imports no fill stage above it: :mod:`~shellrepair.fill` and
 
 from __future__ import annotations
 
+import contextlib
+
 from typing import NamedTuple
 
 import numpy as np
@@ -211,7 +213,28 @@ class WorkBudget:
         return b
 
     def absorb(self, part):
+        """Count what ``part`` (from :meth:`part`) spent."""
         self.spent += part.spent
+
+    def count(self, vertices):
+        """Count ``vertices`` new vertices built and checked elsewhere."""
+        self.spent += int(vertices)
+
+    def take_over(self, other):
+        """Stand for ``other`` (a copy of this budget that another attempt
+        spent from instead): what it spent is what this one has spent."""
+        self.spent = other.spent
+
+    @contextlib.contextmanager
+    def whole(self):
+        """Within the block, the whole budget is left (an attempt that is
+        always made once); afterwards what was spent before is counted back
+        on top of what the block spent."""
+        before, self.spent = self.spent, 0
+        try:
+            yield self
+        finally:
+            self.spent += before
 
     def describe(self):
         return (f"work budget: {self.spent} of {int(self.vertices)} patch vertices "
@@ -240,9 +263,8 @@ def mend_last(ctx, faulty, reasons, check=None, what="patch"):
         tried += 1
         res = mend_patch(ctx, patch, bad, check)
         if res.patch is not None:
-            res.patch.option = (f"{option}, mended: {res.regions} region(s) around {bad.size} faulty triangles "
-                                f"re-triangulated")
-            return res.patch
+            return res.patch.with_(option=f"{option}, mended: {res.regions} region(s) around {bad.size} faulty "
+                                          f"triangles re-triangulated")
         reasons.append(f"last layer, mending the {option} {what} ({bad.size} faulty triangles): {res.reason}")
     return None
 

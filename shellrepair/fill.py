@@ -95,9 +95,8 @@ def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth, budget):
         budget.spend(p)
         why, b2 = checks.check_patch(ctx, p)
         if why is None:
-            p.option = (f"flat cap: a planar opening the scan meets edge-on, bent (order 2) along "
-                        f"{len(free)} vertices where rim faces slant across it")
-            return p
+            return p.with_(option=f"flat cap: a planar opening the scan meets edge-on, bent (order 2) along "
+                                  f"{len(free)} vertices where rim faces slant across it")
         if len(p.T) == len(patch.T):
             bad = np.union1d(bad, b2)
     return None
@@ -145,8 +144,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         if beside is not None:
             beside.drop_test(hole_id)
         test = OrderTest(DEFAULT_ORDER, why="no new vertex: every order gives this patch, not tested")
-        patch.option += f" ({test.describe()})"
-        patch.choice = test
+        patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     test = beside.take_test(hole_id, loop) if beside is not None else None
     if test is None:
@@ -154,9 +152,8 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     if test.order == 1:
         patch, reason, secs, reasons = _fill_one_order(ctx, hole_id, loop, 1, smooth, energy, fresh, defer)
         if patch is not None:
-            patch.option += f" ({test.describe()})"
-            patch.choice = test
-        budget.spent = fresh.spent
+            patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
+        budget.take_over(fresh)
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if defer is not None:
         defer.extend(deferred)
@@ -173,7 +170,7 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
                     p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=(patch.P, patch.T),
                                      refine=False, energy=energy)
                 if p3 is not None:
-                    p3.T0, p3.disc = patch.T0, patch.disc
+                    p3 = p3.with_(T0=patch.T0, disc=patch.disc)
             else:
                 p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
                                  max_vertices=max(budget.left(), len(patch.P)))
@@ -181,17 +178,16 @@ def _fill_one(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
             p3 = None
         if p3 is not None:
             if checks.check_patch(ctx, p3)[0] is None:
-                p3.option = patch.option.replace("order 2", "order 3") + f" ({test.describe()})"
                 # the merge falls back on order 2 where order 3 and another hole's patch cross
-                patch.option += f" ({test.describe()}; order 3 and another hole's patch would cross: order 2 kept)"
-                p3.fallback = patch
-                p3.choice = patch.choice = test
+                kept = patch.with_(option=patch.option + f" ({test.describe()}; order 3 and another hole's "
+                                                         f"patch would cross: order 2 kept)", choice=test)
+                p3 = p3.with_(option=patch.option.replace("order 2", "order 3") + f" ({test.describe()})",
+                              fallback=kept, choice=test)
                 return Outcome(p3, reason, time.perf_counter() - t0, reasons)
-            patch.option += f" ({test.describe()}; order 3 crosses the scan: order 2 kept)"
-            patch.choice = test
+            patch = patch.with_(option=patch.option + f" ({test.describe()}; order 3 crosses the scan: order 2 kept)",
+                                choice=test)
             return Outcome(patch, reason, time.perf_counter() - t0, reasons)
-    patch.option += f" ({test.describe()})"
-    patch.choice = test
+    patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
     return Outcome(patch, reason, time.perf_counter() - t0, reasons)
 
 
@@ -278,7 +274,7 @@ def _fill_one_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None
 
         capped, why = edge_on_verdict(ctx, loop, hole_id)
         if not capped:
-            out.patch.option += f" (--base flat does not apply: {why})"
+            out = out._replace(patch=out.patch.with_(option=out.patch.option + f" (--base flat does not apply: {why})"))
     return out
 
 
@@ -337,8 +333,8 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                 why0, bad0 = done.check if done is not None else checks.check_patch(ctx, patch)
                 faulty.append((patch, bad0, OPTION_NAMES[name0].format(order=order0)))
                 if why0 is None:
-                    patch.option = OPTION_NAMES[name0].format(order=order0)
-                    return Outcome(patch, "", time.perf_counter() - t0, reasons)
+                    return Outcome(patch.with_(option=OPTION_NAMES[name0].format(order=order0)), "",
+                                   time.perf_counter() - t0, reasons)
                 if name0 == "flat cap" and bad0.size:
                     rolled = _roll_rim(ctx, hole_id, loop, flat.T0, patch, bad0, smooth, budget)
                     if rolled is not None:
@@ -403,12 +399,12 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                     break
                 bad = np.union1d(bad, b2) if len(pp.T) == len(patch.T) else bad
             if why is None:
-                patch.option = OPTION_NAMES[name].format(order=o)
+                option = OPTION_NAMES[name].format(order=o)
                 if avoid:
-                    patch.option += f", {len(avoid)} chords re-routed"
+                    option += f", {len(avoid)} chords re-routed"
                 if pinned is not None:
-                    patch.option += f", {len(pinned)} vertices held on the flat triangulation"
-                return Outcome(patch, "", time.perf_counter() - t0, reasons)
+                    option += f", {len(pinned)} vertices held on the flat triangulation"
+                return Outcome(patch.with_(option=option), "", time.perf_counter() - t0, reasons)
             more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
             if name == "faired" and more and faired_rounds < FAIRED_RETRIES:
                 faired_rounds += 1
@@ -424,7 +420,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
         mended = checks.mend_last(ctx, faulty, reasons) if faulty and defer is None else None
         if mended is not None:
             return Outcome(mended, "", time.perf_counter() - t0, reasons)
-        flat_ok.option = "flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else "")
+        flat_ok = flat_ok.with_(option="flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else ""))
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
     if first_flat is not None and not blocked and ("harmonic", 1) in options and "harmonic" not in tried:
         # no triangulation passed its checks, so the harmonic patch (the last
@@ -464,7 +460,7 @@ def _steiner_last(ctx, hole_id, loop, budget, reasons):
         # stays open as it would without the layer, saying so
         reasons.append(f"last layer: Steiner points: {type(exc).__name__}: {exc}")
         return None
-    budget.spent += res.spent
+    budget.count(res.spent)
     if res.patch is None:
         reasons.append(f"last layer: {res.reason}")
     return res.patch
@@ -483,7 +479,7 @@ def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):
         return None
     budget.spend(patch)
     why, bad = checks.check_patch(ctx, patch)
-    patch.option = f"{name} on the first triangulation"
+    patch = patch.with_(option=f"{name} on the first triangulation")
     if why is not None:
         reasons.append(f"{patch.option}: {why}")
     return patch, why, bad
@@ -706,9 +702,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
         except PatchError as exc:
             p, why = None, str(exc)
         if why is None:
-            p.option = (f"flat face with a hole: with loop {B.id}, a planar opening the scan meets "
-                        "edge-on around another (order 1)")
-            p.hole_id = A.id
+            p = p.with_(option=f"flat face with a hole: with loop {B.id}, a planar opening the scan meets "
+                               "edge-on around another (order 1)", hole_id=A.id)
             secs = time.perf_counter() - t0
             record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind], "tube_energy": None,
                       "caps_energy": None, "chosen": "tube", "shape": "flat face with a hole",
@@ -749,7 +744,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
             how = f"faired order {o}" if fair else "refined, not faired"
             if pinned is not None:
                 how += f", {len(pinned)} vertices held on the first tube"
-            p.option = f"tube to loop {B.id} ({first}), {how}"
+            p = p.with_(option=f"tube to loop {B.id} ({first}), {how}")
             return p, bad, p
         why_tube = f"{first}: {why}"
         tube_faults.append((p, bad, first))
@@ -845,8 +840,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
                 hbad = np.union1d(hbad, b2) if b2.size else hbad
             if held is not None:
                 on = "the arcs" if coarse is None else "the coarse tube"
-                held.option = f"tube to loop {B.id} ({first}), refined, held on {on}" + (
-                    f" except {len(free)} vertices faired (order {order}) around a fold" if free is not None else "")
+                held = held.with_(option=f"tube to loop {B.id} ({first}), refined, held on {on}" + (
+                    f" except {len(free)} vertices faired (order {order}) around a fold" if free is not None else ""))
         valid = [p for p in (faired, held) if p is not None]
         if valid:
             tube = min(valid, key=(lambda p: 0 if (p is held) == held_first else 1) if held_first is not None
@@ -868,9 +863,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
             # the rim's own plane at a spike of the rim (a scan face with
             # two rim edges), where order 2 overshoots across the spike;
             # always tried once (as the first tube, at most the whole budget)
-            spent, budget.spent = budget.spent, 0
-            tube, _, _ = attempt(first, init, 1)
-            budget.spent += spent
+            with budget.whole():
+                tube, _, _ = attempt(first, init, 1)
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
     if tube is None and mutual and mode != "always" and tube_faults:
@@ -897,7 +891,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
                 if why is not None:
                     c = None
                 else:
-                    c.option = OPTION_NAMES["faired"].format(order=order)
+                    c = c.with_(option=OPTION_NAMES["faired"].format(order=order))
                 caps.append(Outcome(c, why or "", time.perf_counter() - t1, []))
         else:
             caps = fill_caps(1.0)
@@ -907,9 +901,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
         record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind],
                   "tube_energy": None if e_tube is None else round(float(e_tube), 6), "caps_energy": None,
                   "chosen": "tube", "reason": "each loop's continuation arcs land on the other"}
-        tube.hole_id = A.id
-        if note:
-            tube.option += f" ({note})"
+        tube = tube.with_(hole_id=A.id, option=tube.option + (f" ({note})" if note else ""))
         return [Outcome(tube, "", secs, []), Outcome(None, f"bridged with loop {A.id} by a tube", secs, [])], record
     if tube is None and caps_crossing(caps):
         # the last layer, where every other option left the band open: each
@@ -943,9 +935,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
         record["reason"] = ("--bridge always" if mode == "always" else
                             f"caps failed: {why_caps}" if not caps_ok else
                             f"tube energy {e_tube:.4g} < caps energy {e_caps:.4g}")
-        tube.hole_id = A.id
-        if note:
-            tube.option += f" ({note})"
+        tube = tube.with_(hole_id=A.id, option=tube.option + (f" ({note})" if note else ""))
         return [Outcome(tube, "", secs, []), Outcome(None, f"bridged with loop {A.id} by a tube", secs, [])], record
     record["chosen"] = "caps"
     if tube is None:
@@ -964,6 +954,18 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
 
 
 _WORKER_CTX = None
+
+
+@contextlib.contextmanager
+def worker_context(ctx):
+    """The scan the worker processes forked within this block fill from
+    (:func:`_worker` reads it: a fork shares it, nothing is pickled)."""
+    global _WORKER_CTX
+    _WORKER_CTX = ctx
+    try:
+        yield
+    finally:
+        _WORKER_CTX = None
 
 
 def _run_unit(ctx, unit):
@@ -1020,7 +1022,7 @@ def _first_attempts(ctx, chunk):
         made.append((pre, _First((first, unit.smooth, False), flat, patch, error, None)))
     verdicts = iter(checks.check_patches(ctx, [f.patch for _, f in made if f.patch is not None]))
     for pre, f in made:
-        pre.first = f._replace(check=next(verdicts)) if f.patch is not None else f
+        pre.keep_first(f._replace(check=next(verdicts)) if f.patch is not None else f)
 
 
 #: The interpreter's thread switch interval (seconds) while a helper thread
@@ -1222,12 +1224,9 @@ class _Beside:
         got = self.tests.get(hole_id)
         if got is None or pre.T0 is None or not np.array_equal(T0, pre.T0):
             return
-        if pre.refined is None:
-            sigma, _, forbidden = pre.rim
-            _, scale, Pl = pre.frame
-            pre.refined = refine_patch(Pl, pre.T0, sigma / scale, len(loop), forbidden)
-        origin, scale, _ = pre.frame
-        Pl, T = pre.refined
+        sigma, _, forbidden = pre.rim
+        origin, scale, Pl0 = pre.frame
+        Pl, T = pre.refined_once(lambda: refine_patch(Pl0, pre.T0, sigma / scale, len(loop), forbidden))
         P = origin + scale * Pl[len(loop):]
         test = got[1]
 
@@ -1314,12 +1313,11 @@ def _seed_patches(ctx, holes, passes, results):
     out = {}
     base = n
     for p in built:
-        p.P = X[base:base + len(p.P)]
+        p = p.with_(P=X[base:base + len(p.P)])
         base += len(p.P)
         why, _ = checks.check_patch(ctx, p)
         if why is None:
-            p.option = f"seed, {passes} smoothing passes"
-            out[p.hole_id] = p
+            out[p.hole_id] = p.with_(option=f"seed, {passes} smoothing passes")
         else:
             results[p.hole_id] = f"seed: {why}"
     return out

@@ -172,6 +172,10 @@ class Loop:
     edge_on: float = None
     center: tuple = None
 
+    def reclass(self, kind, reason):
+        """Class the loop again (a user's request to fill a border): ``kind`` and why."""
+        self.kind, self.reason = kind, reason
+
     @property
     def axis(self):
         """(3,) unit normal of the loop's best-fit plane, as :func:`loop_stats`

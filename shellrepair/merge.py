@@ -217,12 +217,6 @@ def _merge(mesh, V, F, patches):
     q = base - n
     V2 = np.vstack([V] + newP) if newP else V.copy()
     F2 = np.vstack([F] + newF) if newF else F.copy()
-    out = Mesh(V=V2, F=F2.astype(np.int64, copy=False), vertex_dtype=mesh.vertex_dtype, path=mesh.path,
-               notes=list(mesh.notes), F_out=getattr(mesh, "F_out", None), joins=getattr(mesh, "joins", None), fixes=dict(getattr(mesh, "fixes", {})),
-               comments=list(getattr(mesh, "comments", [])), texture=getattr(mesh, "texture", None))
-    if mesh.vertex_colors is not None:
-        out.vertex_colors = np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)
-    out.vertex_props = {k: np.concatenate([np.asarray(mesh.vertex_props[k])] + v) for k, v in props.items()}
     vf = np.zeros(n + q, bool)
     vf[n:] = True
     if mesh.vertex_filled is not None:
@@ -231,5 +225,10 @@ def _merge(mesh, V, F, patches):
     ff[len(F):] = True
     if mesh.face_filled is not None:
         ff[:len(F)] = mesh.face_filled
-    out.vertex_filled, out.face_filled = vf, ff
-    return out
+    colors = None if mesh.vertex_colors is None else np.vstack([mesh.vertex_colors] + newC).astype(np.uint8)
+    return Mesh(V=V2, F=F2.astype(np.int64, copy=False), vertex_colors=colors, vertex_filled=vf, face_filled=ff,
+                vertex_props={k: np.concatenate([np.asarray(mesh.vertex_props[k])] + v) for k, v in props.items()},
+                vertex_dtype=mesh.vertex_dtype, path=mesh.path, notes=list(mesh.notes),
+                F_out=getattr(mesh, "F_out", None), joins=getattr(mesh, "joins", None),
+                fixes=dict(getattr(mesh, "fixes", {})), comments=list(getattr(mesh, "comments", [])),
+                texture=getattr(mesh, "texture", None))

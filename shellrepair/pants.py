@@ -266,8 +266,8 @@ def fill_pants(ctx, unit):
                 continue
             budget.spend(p)
             w, bad = check(ctx, p)
-            p.option = (f"pants joining loops {B.id} and {C.id} to loop {A.id}, "
-                        + (f"faired order {order}" if pinned is None else "refined, held on its guide"))
+            p = p.with_(option=f"pants joining loops {B.id} and {C.id} to loop {A.id}, "
+                               + (f"faired order {order}" if pinned is None else "refined, held on its guide"))
             if w is None:
                 pants = p
                 break
@@ -279,7 +279,7 @@ def fill_pants(ctx, unit):
             why += notes
     secs = time.perf_counter() - t0
     if pants is not None:
-        pants.hole_id = A.id
+        pants = pants.with_(hole_id=A.id)
         e = pants.energy[_checks.ENERGY] if pants.energy is not None else None
         record = {"loops": [int(A.id), int(B.id), int(C.id)], "kinds": [A.kind, B.kind, C.kind],
                   "tube_energy": None if e is None else round(float(e), 6), "caps_energy": None,

@@ -15,7 +15,7 @@ the orchestration in :mod:`~shellrepair.repair`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -62,9 +62,13 @@ class PatchError(Exception):
     """A patch option that cannot be used; the message is the reason."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class Patch:
     """A hole's shell patch, before merging.
+
+    Frozen: a stage that adds to a patch (its report sentence, the order
+    test behind it, the order-2 patch to fall back on) makes a new one with
+    :meth:`with_`, so no module changes a patch another module made.
 
     Attributes
     ----------
@@ -104,6 +108,11 @@ class Patch:
     choice: object = None     # the OrderTest behind an "auto" order
     steiner: bool = False     # built by the last layer with Steiner points (shellrepair.steiner): not faired
 
+    def with_(self, **changes):
+        """A copy of this patch with ``changes`` (field name -> value); the
+        arrays are shared, not copied."""
+        return replace(self, **changes)
+
     def global_faces(self, base):
         """Faces with new vertex j at index ``base + j``."""
         k = len(self.loop)
@@ -122,6 +131,16 @@ class _Pre:
     edge_on: bool | None = None     # _meets_edge_on, when the unit's order asked for it
     frame: tuple | None = None      # local_frame(ctx, loop, rim sigma)
     first: object = None            # the first attempt, built and checked (fill._first_attempts)
+
+    def keep_first(self, first):
+        """Keep the first attempt, built and checked in a batch (:func:`shellrepair.fill._first_attempts`)."""
+        self.first = first
+
+    def refined_once(self, make):
+        """The refined triangulation: ``make()`` the first time it is asked for, kept after."""
+        if self.refined is None:
+            self.refined = make()
+        return self.refined
 
 
 #: Holes whose first triangulation is refined together (see ``refine_patches``).

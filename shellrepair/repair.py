@@ -267,12 +267,10 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         # start processes: its runs are filled here, with the helper thread
         if jobs > 1 and len(chunks) > 1 and not mp.current_process().daemon:
             _ = ctx.index  # built before forking, so workers share it
-            _fill._WORKER_CTX = ctx
-            with mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
+            with _fill.worker_context(ctx), mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
                 for out in pool.imap(_worker, chunks, chunksize=1):
                     unit_out.extend(out)
                     _progress(progress, len(unit_out), len(units))
-            _fill._WORKER_CTX = None
         else:
             done = [0]
 
@@ -470,7 +468,7 @@ def _fill_requested(opts, scan):
                         f"{', '.join(map(str, sorted(ids))) or 'none'}; `shellrepair holes` lists them)")
     for L in scan.loops:
         if L.id in opts.fill and L.kind != "hole":
-            L.kind, L.reason = "hole", f"filled by request (classed {L.kind}: {L.reason})"
+            L.reclass("hole", f"filled by request (classed {L.kind}: {L.reason})")
 
 
 def _check_requested(opts, holes):

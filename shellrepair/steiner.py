@@ -173,10 +173,9 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
                 other = [t for t in tried[-2:] if t[2] is not side]
                 runner = (f"; the other side {'passes' if other[0][0] is None else 'fails'} "
                           f"(lifted {other[0][1]:.3g})" if other else "")
-                patch.option = (f"Steiner points: {len(patch.P)} vertices off the rim (plane normal to {name}, "
-                                f"round {r + 1}), lifted {lifted:.3g} off it {side[0]} the part{runner}")
-                _interpolate_attributes(ctx, patch, X)
-                return SteinerResult(patch, "", spent)
+                patch = patch.with_(option=f"Steiner points: {len(patch.P)} vertices off the rim (plane normal to "
+                                           f"{name}, round {r + 1}), lifted {lifted:.3g} off it {side[0]} the part{runner}")
+                return SteinerResult(_interpolate_attributes(ctx, patch, X), "", spent)
         if tried:
             why.append(f"seen along {name}, {len(tried) // 2} rounds: "
                        + "; ".join(f"{t[2][0]} the part, {t[0]}" for t in tried[-2:]))
@@ -535,17 +534,20 @@ def _cells(c0, c1, wide):
 
 
 def _interpolate_attributes(ctx, patch, X):
-    """Colours and per-vertex properties of the new vertices, harmonic from
-    the rim's (as :func:`~shellrepair.patch.build_patch` gives them)."""
+    """``patch`` with colours and per-vertex properties on its new vertices,
+    harmonic from the rim's (as :func:`~shellrepair.patch.build_patch` gives them)."""
     if ctx.colors is None and not ctx.props:
-        return
+        return patch
     k = len(patch.loop)
     K = uniform_laplacian(patch.T, len(X))
+    colors = patch.colors
     if ctx.colors is not None:
         c = harmonic_interpolate(K, ctx.colors[patch.loop].astype(np.float64), k)
-        patch.colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
+        colors = np.clip(np.round(c), 0, 255).astype(np.uint8)
+    props = dict(patch.props)
     for name, arr in ctx.props.items():
         arr = np.asarray(arr)
         vals = harmonic_interpolate(K, arr[patch.loop].astype(np.float64)[:, None], k)[:, 0]
-        patch.props[name] = vals.astype(arr.dtype) if np.issubdtype(arr.dtype, np.floating) \
+        props[name] = vals.astype(arr.dtype) if np.issubdtype(arr.dtype, np.floating) \
             else np.round(vals).astype(arr.dtype)
+    return patch.with_(colors=colors, props=props)

@@ -123,3 +123,77 @@ def test_each_kernel_module_stays_short():
         path = PACKAGE / (module.rsplit(".", 1)[1] + ".py")
         assert len(path.read_text(encoding="utf-8").splitlines()) <= 1000, path.name
     assert not (PACKAGE / "kernels.py").exists()
+
+
+#: The fill's data and where each is defined: (module, class). A stage
+#: makes a new object (``Patch.with_``) or asks the owner's method
+#: (``WorkBudget.count``, ``Loop.reclass``) instead of setting another
+#: module's object's attributes.
+FILL_DATA = (("shellrepair.patch", "Patch"), ("shellrepair.patch", "_Pre"), ("shellrepair.checks", "WorkBudget"),
+             ("shellrepair.holes", "Loop"), ("shellrepair.mesh", "Mesh"))
+#: The fill's modules, held to that.
+FILL_MODULES = ("fill", "bridge", "pants", "mend", "merge", "checks", "probe", "selftest", "steiner", "repair",
+                "context", "patch", "holes", "refine", "triangulate", "fair", "intersect")
+
+
+def _attributes_of(module, cls):
+    """Field and ``self.x =`` names of class ``cls`` in ``module``'s source."""
+    tree = ast.parse((PACKAGE.parent / Path(*module.split("."))).with_suffix(".py").read_text(encoding="utf-8"))
+    (node,) = [n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == cls]
+    names = {n.target.id for n in node.body if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)}
+    for n in ast.walk(node):
+        if isinstance(n, ast.Attribute) and isinstance(n.ctx, ast.Store) and isinstance(n.value, ast.Name) \
+                and n.value.id == "self":
+            names.add(n.attr)
+    return names
+
+
+def attribute_writes(module):
+    """``(line, name.attr)`` of every attribute a module's code sets on an
+    object other than ``self`` / ``cls``."""
+    tree = ast.parse((PACKAGE / f"{module}.py").read_text(encoding="utf-8"))
+    out = []
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Attribute) and isinstance(n.ctx, ast.Store) and isinstance(n.value, ast.Name) \
+                and n.value.id not in ("self", "cls"):
+            out.append((n.lineno, f"{n.value.id}.{n.attr}"))
+    return out
+
+
+def test_the_attribute_reader_finds_writes_to_other_objects():
+    # what the test below reads: an assignment through a name, self's left out
+    assert ("self", "cls") and _attributes_of("shellrepair.patch", "Patch") >= {"option", "choice", "fallback", "P"}
+    tree = ast.parse("def f(p):\n    p.option = 'x'\n    self.y = 1\n    q.z += 2\n")
+    got = [f"{n.value.id}.{n.attr}" for n in ast.walk(tree) if isinstance(n, ast.Attribute)
+           and isinstance(n.ctx, ast.Store) and n.value.id != "self"]
+    assert got == ["p.option", "q.z"]
+
+
+def test_no_fill_module_sets_the_attributes_of_data_another_module_owns():
+    owned = {}
+    for module, cls in FILL_DATA:
+        for a in _attributes_of(module, cls):
+            owned.setdefault(a, set()).add(module)
+    bad = []
+    for m in FILL_MODULES:
+        mine = {a for module, cls in FILL_DATA if module == f"shellrepair.{m}" for a in _attributes_of(module, cls)}
+        for line, what in attribute_writes(m):
+            attr = what.split(".", 1)[1]
+            if attr in owned and attr not in mine:
+                bad.append(f"shellrepair/{m}.py:{line}: {what}")
+    assert bad == [], bad
+
+
+def test_a_patch_cannot_be_changed_only_copied_with_changes():
+    import dataclasses
+
+    import numpy as np
+    import pytest
+
+    from shellrepair.patch import Patch
+
+    p = Patch(hole_id=1, loop=np.arange(3), P=np.zeros((0, 3)), T=np.array([[0, 1, 2]]))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.option = "changed"
+    q = p.with_(option="faired order 2", hole_id=4)
+    assert (p.option, p.hole_id) == ("", 1) and (q.option, q.hole_id) == ("faired order 2", 4) and q.T is p.T
