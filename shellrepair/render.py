@@ -80,6 +80,12 @@ _SOFTBOX_WIDTH = 0.35
 _EXPOSURE = 1.0
 #: Offset of shadow-ray origins, as a fraction of the bounding radius.
 _SHADOW_EPS = 1e-4
+#: The lights are discs seen from the statue at this angular radius
+#: (radians; ~9 degrees, a museum spot or soft box a few metres away), so
+#: shadow edges are soft, not lines across a face.
+_LIGHT_ANGULAR_RADIUS = 0.15
+#: Shadow rays per light and shaded point, on a fixed spiral over the disc.
+_SHADOW_SAMPLES = 8
 
 
 @dataclasses.dataclass(frozen=True)
@@ -269,6 +275,71 @@ def _environment(r, up, box=None):
         a = np.exp(-(1.0 - np.clip(r @ box, -1.0, 1.0)) / (0.5 * _SOFTBOX_WIDTH ** 2))
         L = L + _SOFTBOX * a[..., None]
     return L
+
+
+def _shadow_origin(p, bw, Vt, Nt, ng):
+    """Shadow-ray origins lifted off a coarse mesh's flat triangles (Hanika 2021).
+
+    The point is moved to the barycentric mix of its projections on the
+    tangent planes of the triangle's three vertices (their smooth normals),
+    where that lies above the triangle: the surface the smooth shading
+    pretends, so a lit, curved-looking face is not shadowed in steps by its
+    own neighbouring triangles (the "shadow terminator").
+
+    Parameters
+    ----------
+    p : (q,3) hit points; bw : (q,3) barycentric weights; Vt, Nt : (q,3,3)
+    the triangles' corners and unit vertex normals; ng : (q,3) the
+    geometric normals, facing the viewer.
+
+    Returns
+    -------
+    (q,3) float64 array
+
+    References
+    ----------
+    J. Hanika, "Hacking the Shadow Terminator", Ray Tracing Gems II, 2021.
+    """
+    # vertex normals turned to the side the geometric normal faces
+    s = np.sign(np.einsum("pkj,pj->pk", Nt, ng))
+    s[s == 0.0] = 1.0
+    Nt = Nt * s[:, :, None]
+    d = np.einsum("pkj,pkj->pk", p[:, None, :] - Vt, Nt)  # height above each tangent plane
+    q = p[:, None, :] - np.minimum(d, 0.0)[:, :, None] * Nt  # onto the plane where below it
+    lifted = np.einsum("pk,pkj->pj", bw, q)
+    return np.where((np.einsum("ij,ij->i", lifted - p, ng) > 0.0)[:, None], lifted, p)
+
+
+def _light_visibility(scene, origin, ldir, mask, sel):
+    """Fraction of a disc light seen from each origin (``_SHADOW_SAMPLES`` rays).
+
+    The samples lie on a Fibonacci spiral over the disc of angular radius
+    ``_LIGHT_ANGULAR_RADIUS`` about ``ldir``, turned per pixel by a fixed
+    hashed angle (from the pixel's index), so neighbouring pixels sample it
+    differently and the supersampling averages the steps away; nothing is
+    random, the picture is the same bytes every time.
+    """
+    import open3d as o3d
+
+    if len(origin) == 0:
+        return np.zeros(0)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(ldir[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t1 = np.cross(ldir, ref)
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(ldir, t1)
+    k = np.arange(_SHADOW_SAMPLES) + 0.5
+    rad = np.tan(_LIGHT_ANGULAR_RADIUS) * np.sqrt(k / _SHADOW_SAMPLES)  # equal area on the disc
+    pix = np.flatnonzero(mask.ravel())[sel].astype(np.uint64)
+    with np.errstate(over="ignore"):
+        h = (pix * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(40)
+    turn = h.astype(np.float64) * (2.0 * np.pi / float(1 << 24))
+    seen = np.zeros(len(origin))
+    for j in range(_SHADOW_SAMPLES):
+        a = np.pi * (3.0 - np.sqrt(5.0)) * j + turn
+        d = ldir[None, :] + rad[j] * (np.cos(a)[:, None] * t1 + np.sin(a)[:, None] * t2)
+        rays = np.concatenate([origin, d], axis=1).astype(np.float32)
+        seen += ~scene.test_occlusions(o3d.core.Tensor(rays)).numpy().astype(bool)
+    return seen / _SHADOW_SAMPLES
 
 
 def _dipole_spread(diffuse_img, mask, choice, material, footprint_um):
@@ -490,11 +561,18 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         # keep the shading normal facing the viewer (avoid black silhouettes)
         ndo = np.einsum("ij,ij->i", n, wo)
         n = np.where((ndo < 0.02)[:, None], ng, n)
-        c = np.einsum("pk,pk->p", bw, cov_v[tri])
-        g = np.einsum("pk,pk->p", bw, gild_v[tri])
-        dk = np.einsum("pk,pk->p", bw, crust_v[tri])
+        if maps is not None and maps.field is not None:
+            # the map read at the shaded point (soft patch edges at any mesh
+            # resolution), not its vertex values interpolated over a triangle
+            c, g, dk = maps.field.at(p, normals=n)
+            if crust is not None:
+                dk = np.einsum("pk,pk->p", bw, crust_v[tri])
+        else:
+            c = np.einsum("pk,pk->p", bw, cov_v[tri])
+            g = np.einsum("pk,pk->p", bw, gild_v[tri])
+            dk = np.einsum("pk,pk->p", bw, crust_v[tri])
         shader = sd.MaterialShader(mat)
-        origin = p + (_SHADOW_EPS * radius) * ng
+        origin = _shadow_origin(p, bw, V[tri], Nv[tri], ng) + (_SHADOW_EPS * radius) * ng
         spec_sum = np.zeros((len(p), 3))
         diff_sum = np.zeros((len(p), 3))
         for ldir_cam, E in _LIGHTS:
@@ -502,9 +580,11 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             ldir = ldir / np.linalg.norm(ldir)
             cos_i = n @ ldir
             lit = (cos_i > 0.0) & (ng @ ldir > -0.05)
-            sray = np.concatenate([origin, np.broadcast_to(ldir, origin.shape)], axis=1)
-            occl = np.isfinite(scene.cast_rays(o3d.core.Tensor(sray.astype(np.float32)))["t_hit"].numpy())
-            vis = lit & ~occl
+            seen = _light_visibility(scene, origin[lit], ldir, mask, lit)
+            vis = lit.copy()
+            vis[lit] = seen > 0.0
+            cos_i = cos_i.copy()
+            cos_i[lit] *= seen  # the visible fraction of the area light
             if not np.any(vis):
                 continue
             spec, diff = shader(ldir, wo[vis], n[vis], c[vis], g[vis], dk[vis], parts=True)

@@ -83,12 +83,13 @@ def test_convexity_of_a_sphere_is_1_25_scale_over_radius():
 
 
 def test_exposure_rain_from_above_and_shelter_under_an_overhang():
+    """Outdoors, rain greens the washed faces and a dark crust builds on the sheltered ones."""
     # a low block and, above its left half, a roof: rain reaches the right half only
     Vb, Fb = box((0.0, 0.0, 0.0), (2.0, 0.3, 1.0))
     Vr, Fr = box((-1.0, 2.0, 0.0), (1.1, 0.2, 1.2))
     V = np.concatenate([Vb, Vr])
     F = np.concatenate([Fb, Fr + len(Vb)])
-    maps = ag.aging_maps(V, F, up=(0, 1, 0))
+    maps = ag.aging_maps(V, F, up=(0, 1, 0), setting="outdoor")
     top = (np.abs(V[:, 1] - 0.3) < 1e-9) & (np.arange(len(V)) < len(Vb))
     under = top & (V[:, 0] < -0.5) & (V[:, 0] > -1.6) & (np.abs(V[:, 2]) < 0.6)
     open_ = top & (V[:, 0] > 0.8) & (V[:, 0] < 1.4) & (np.abs(V[:, 2]) < 0.6)
@@ -97,12 +98,12 @@ def test_exposure_rain_from_above_and_shelter_under_an_overhang():
     bottom = np.abs(V[:, 1] + 0.3) < 1e-9
     assert np.all(maps.exposure[bottom] == 0.0)  # facing down: no rain
     assert maps.crust[under].mean() > maps.crust[open_].mean()  # unwashed: dark crust
-    plain = ag.aging_maps(V, F, up=(0, 1, 0), params=ag.AgingParams(d_blotch=0.0))
+    plain = ag.aging_maps(V, F, up=(0, 1, 0), params=ag.AgingParams(d_blotch=0.0, setting="outdoor"))
     p = ag.AgingParams()
     np.testing.assert_allclose(plain.crust[under], p.d_shelter - p.d_offset, atol=0.08)
     assert np.all(plain.crust[open_] == 0.0)
     # turning the world upside down swaps the roles of top and bottom faces
-    flipped = ag.aging_maps(V, F, up=(0, -1, 0))
+    flipped = ag.aging_maps(V, F, up=(0, -1, 0), setting="outdoor")
     assert np.all(flipped.exposure[top] == 0.0)
 
 
