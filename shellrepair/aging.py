@@ -20,7 +20,8 @@ and sulphate deposits build a dark crust (Graedel 1987; Scott 2002):
 mixed into the green layer by the paper's eq 7
 (:data:`shellrepair.materials.DARK_CRUST`).
 
-They combine into a corrosion potential ``P = A_E e + A_K k - A_W w + A_Z z``
+Outdoors (``setting="outdoor"``) they combine into a corrosion potential
+``P = A_E e + A_K k - A_W w + A_Z z``
 and a gilding-loss potential ``Q = B_W w + B_E e + B_Z z'``.  The ``age`` in
 [0, 1] sets how much area has turned: the rust coverage c is 1 on the
 fraction ``age`` of the area where P is highest and falls smoothly to 0
@@ -30,6 +31,13 @@ fraction ``LOSS * age`` where Q is highest has lost its gilding (bare
 bronze), and the rest, the sheltered and unworn part, keeps its gold.
 Thresholds are area-weighted quantiles, so the fractions hold on any mesh
 resolution.
+
+Indoors (the default: a temple or museum statue, as the paper's
+Buddhas) no rain comes: dust, moisture and corrosion products collect in
+recesses and folds while raised, touched places keep their gold, so the
+**occlusion** o (the fraction of hemisphere rays that hit the scan,
+:func:`ambient_occlusion`; Miller 1994's accessibility) and the broad
+convexity take the place of exposure (:class:`AgingParams`, ``setting``).
 
 All measures are computed on a regular grid around the object (cell size a
 fraction of its bounding diagonal), so they depend on the shape at the
@@ -104,10 +112,41 @@ class AgingParams:
         Area fraction of the transition from bare to fully corroded, where
         the patina is thin and cuprite shows (0.2; 0.02-0.3).
     d_cavity, d_shelter, d_blotch, d_offset : float
-        Dark crust ``clip(d_cavity k + d_shelter (1 - sky) max(n.up, 0)
+        Dark crust outdoors ``clip(d_cavity k + d_shelter (1 - sky) max(n.up, 0)
         + d_blotch z'' - d_offset, 0, 1)`` (0.8, 0.6, 0.3, 0.3): cavities
         and upward surfaces under an overhang are not washed by rain; z''
         breaks it into patches.  0 everywhere with all weights 0.
+    setting : {"indoor", "outdoor"}
+        What drives the corrosion ("indoor").  Indoors (a temple or museum
+        statue) dust, moisture and corrosion products collect where the air
+        is still -- recesses, folds, under overhangs, measured by the
+        occlusion o -- while raised, touched places keep their gold:
+        ``P = a_occlusion o + a_cavity k - a_wear w - a_raised r
+        + a_blotch_indoor z`` with r the convexity at the cavity scale over
+        ``raised_full`` (clipped to [0, 1]); gilding is lost by
+        ``Q = b_occlusion o + b_blotch z' - b_wear w`` and the dark deposit is
+        ``clip(d_cavity k + d_occlusion o + d_blotch z'' - d_offset, 0, 1)``.
+        Outdoors rain decides, as described above.
+    a_occlusion, a_raised, a_blotch_indoor : float
+        Indoor weights of the corrosion potential (3, 1, 0.2): the noise
+        only moves the patches' edges, it does not make them.
+    raised_full : float
+        Convexity at the cavity scale at which a bulge counts as fully
+        raised (0.3: a sphere of radius ~4 cavity scales).
+    b_occlusion, d_occlusion : float
+        Indoor weights of occlusion in gilding loss (1) and dark deposit (1.2).
+    occlusion_rays : int
+        Hemisphere rays per vertex for the occlusion (64; fewer on large
+        scans, so that at most ``occlusion_ray_budget`` rays are cast, and
+        at least 8 per vertex).
+    occlusion_ray_budget : int
+        Rays cast in all (2**21; about 1 s on one core).
+    occlusion_reach : float or None
+        Rays hitting farther than this fraction of the diagonal do not count
+        (0.3: a recess is a local thing; None counts any hit).
+    occlusion_scale : float
+        Width of the Gaussian the occlusion is blurred with (0.015 of the
+        diagonal), so it is as smooth on a coarse mesh as on a dense one.
     """
 
     edge_scale: float = 0.015
@@ -161,7 +200,14 @@ class AgingMaps:
         The convexity kappa at the edge and cavity scales (see
         :func:`aging_maps`), positive where convex.
     crust : (n,) float64 array in [0, 1]
-        Dark deposit on the patina where rain does not wash it.
+        Dark deposit on the patina where rain does not wash it (outdoors),
+        or in still, occluded places (indoors).
+    occlusion : (n,) float64 array in [0, 1]
+        The blurred ambient occlusion of the scan's own faces (indoors; 0
+        outdoors).
+    field : AgingField or None
+        The same map, readable at any point of the surface (None for an
+        empty or degenerate mesh).
     """
 
     coverage: np.ndarray

@@ -9,7 +9,8 @@
     shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
                       [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
-                       [--before MESH] [--unit mm|cm|m] [--age A] [--up AXIS] [--gltf OUT.glb]
+                       [--before MESH] [--unit mm|cm|m] [--age A] [--up AXIS] [--setting indoor|outdoor]
+                       [--gltf OUT.glb]
 
 Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
 exit status 2; no traceback, no output file. ``batch`` goes on past a bad
@@ -152,6 +153,10 @@ def _parser():
                    help="aging in [0, 1]: 0 all gilt, 1 all corroded (default 0.5)")
     v.add_argument("--up", default="y", choices=("x", "y", "z", "-x", "-y", "-z"),
                    help="world up axis: camera up and where rain comes from (default y)")
+    v.add_argument("--setting", default="indoor", choices=("indoor", "outdoor"),
+                   help="what ages the statue: indoor, patina in recesses and gold on raised, touched areas; "
+                        "outdoor, rain greening the washed faces and a dark crust on sheltered ones "
+                        "(default: indoor)")
     v.add_argument("--gltf", metavar="OUT.glb", default=None,
                    help="also write the mesh with this look (material, age, up) as binary glTF 2.0 "
                         "(default: none)")
@@ -586,7 +591,8 @@ def _render(args):
         how = "the default" if how == "given" else "the default: the filled faces' normals cancel out"
         view = rd.DEFAULT_VIEW
     unit, unit_reason = (args.unit, "given") if args.unit else rd.infer_unit(mesh.V)
-    kw = dict(size=(w, h), material=args.material, view=view, unit=unit, age=args.age, up=up)
+    kw = dict(size=(w, h), material=args.material, view=view, unit=unit, age=args.age, up=up,
+              setting=args.setting)
     info = {}
     if args.before:  # one camera for both panels
         before = read_mesh(args.before, progress=bar)

@@ -277,14 +277,18 @@ def _environment(r, up, box=None):
     return L
 
 
-def _shadow_origin(p, bw, Vt, Nt, ng):
-    """Shadow-ray origins lifted off a coarse mesh's flat triangles (Hanika 2021).
+def _smooth_points(p, bw, Vt, Nt, ng):
+    """The points of the smooth surface a coarse mesh's shading pretends.
 
-    The point is moved to the barycentric mix of its projections on the
-    tangent planes of the triangle's three vertices (their smooth normals),
-    where that lies above the triangle: the surface the smooth shading
-    pretends, so a lit, curved-looking face is not shadowed in steps by its
-    own neighbouring triangles (the "shadow terminator").
+    Each hit point is moved to the barycentric mix of its projections on
+    the tangent planes of its triangle's three vertices (their smooth
+    normals): Phong tessellation (Boubekeur & Alexa 2008), which passes
+    through the vertices and bulges over convex triangles.  Returns that
+    point, where the aging map is read (so a map's patches do not follow the
+    flat triangles), and the shadow-ray origin: the same mix with each point
+    only lifted up to a tangent plane, kept where it is above the triangle
+    (Hanika 2021), so a lit, curved-looking face is not shadowed in steps by
+    its own neighbouring triangles (the "shadow terminator").
 
     Parameters
     ----------
@@ -294,10 +298,11 @@ def _shadow_origin(p, bw, Vt, Nt, ng):
 
     Returns
     -------
-    (q,3) float64 array
+    smooth, origin : (q,3) float64 arrays
 
     References
     ----------
+    T. Boubekeur and M. Alexa, "Phong Tessellation", SIGGRAPH Asia 2008.
     J. Hanika, "Hacking the Shadow Terminator", Ray Tracing Gems II, 2021.
     """
     # vertex normals turned to the side the geometric normal faces
@@ -305,9 +310,10 @@ def _shadow_origin(p, bw, Vt, Nt, ng):
     s[s == 0.0] = 1.0
     Nt = Nt * s[:, :, None]
     d = np.einsum("pkj,pkj->pk", p[:, None, :] - Vt, Nt)  # height above each tangent plane
-    q = p[:, None, :] - np.minimum(d, 0.0)[:, :, None] * Nt  # onto the plane where below it
-    lifted = np.einsum("pk,pkj->pj", bw, q)
-    return np.where((np.einsum("ij,ij->i", lifted - p, ng) > 0.0)[:, None], lifted, p)
+    smooth = np.einsum("pk,pkj->pj", bw, p[:, None, :] - d[:, :, None] * Nt)
+    lifted = np.einsum("pk,pkj->pj", bw, p[:, None, :] - np.minimum(d, 0.0)[:, :, None] * Nt)
+    origin = np.where((np.einsum("ij,ij->i", lifted - p, ng) > 0.0)[:, None], lifted, p)
+    return smooth, origin
 
 
 def _light_visibility(scene, origin, ldir, mask, sel):
@@ -408,7 +414,7 @@ def _scaled_camera(cam, s):
 def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                 highlight_filled=False, view=None, vertex_colors=None, coverage=None,
                 gild=None, crust=None, camera=None, unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0),
-                seed=0, supersample=2, legend=None, info=None):
+                seed=0, supersample=2, legend=None, info=None, setting=None, aging_field=None):
     """Render a triangle mesh with the aged-metal shading.
 
     Parameters
@@ -454,6 +460,14 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     info : dict or None
         If given, filled with the camera, the :class:`ModelChoice`, the unit,
         the coverage source, the aging maps and timings.
+    setting : {"indoor", "outdoor"} or None
+        What drives the aging map's corrosion (None: indoor; see
+        :func:`shellrepair.aging.aging_maps`).
+    aging_field : shellrepair.aging.AgingField or None
+        Read coverage, gilding and crust from this field at each shaded
+        point (with ``coverage`` etc. given for the model choice): how a
+        before | after pair shows one map on two meshes.  The aging map this
+        function computes itself is always read so.
 
     Returns
     -------
@@ -522,7 +536,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             gild_v = ones
         if cov_src is None:
             maps = ag.aging_maps(V, F, age=ag.DEFAULT_AGE if age is None else float(age), up=up,
-                                 seed=seed, scan=None if filled is None else ~filled)
+                                 seed=seed, scan=None if filled is None else ~filled, setting=setting)
             cov_v, gild_v, cov_src = maps.coverage, maps.gild, "aging"
             if crust is None:
                 crust_v = maps.crust
@@ -561,10 +575,14 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         # keep the shading normal facing the viewer (avoid black silhouettes)
         ndo = np.einsum("ij,ij->i", n, wo)
         n = np.where((ndo < 0.02)[:, None], ng, n)
-        if maps is not None and maps.field is not None:
-            # the map read at the shaded point (soft patch edges at any mesh
-            # resolution), not its vertex values interpolated over a triangle
-            c, g, dk = maps.field.at(p, normals=n)
+        p_smooth, origin = _smooth_points(p, bw, V[tri], Nv[tri], ng)
+        if aging_field is None and maps is not None:
+            aging_field = maps.field
+        if aging_field is not None:
+            # the map read at the shaded point of the smooth surface (soft
+            # patch edges at any mesh resolution), not its vertex values
+            # interpolated over a triangle
+            c, g, dk = aging_field.at(p_smooth, normals=n)
             if crust is not None:
                 dk = np.einsum("pk,pk->p", bw, crust_v[tri])
         else:
@@ -572,7 +590,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             g = np.einsum("pk,pk->p", bw, gild_v[tri])
             dk = np.einsum("pk,pk->p", bw, crust_v[tri])
         shader = sd.MaterialShader(mat)
-        origin = _shadow_origin(p, bw, V[tri], Nv[tri], ng) + (_SHADOW_EPS * radius) * ng
+        origin = origin + (_SHADOW_EPS * radius) * ng
         spec_sum = np.zeros((len(p), 3))
         diff_sum = np.zeros((len(p), 3))
         for ldir_cam, E in _LIGHTS:
@@ -708,7 +726,7 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
                         vertex_colors_before=None, vertex_colors_after=None, gap=8,
                         unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0), seed=0,
                         supersample=2, labels=("before", "after"), legend="filled by the repair",
-                        info=None):
+                        info=None, setting=None):
     """Before and after renders with one shared camera, side by side.
 
     Parameters
@@ -760,12 +778,14 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     cov = {"before": None, "after": None}
     gld = {"before": None, "after": None}
     crs = {"before": None, "after": None}
+    field = None
     if mat.corrodes and vertex_colors_before is None and vertex_colors_after is None:
         scan = None
         if filled is not None and np.shape(filled) == (len(Fa),):
             scan = ~np.asarray(filled, bool)
         maps = ag.aging_maps(Va, Fa, age=ag.DEFAULT_AGE if age is None else float(age), up=up, seed=seed,
-                             scan=scan)
+                             scan=scan, setting=setting)
+        field = maps.field
         _, near = cKDTree(Va).query(Vb)
         cov = {"before": maps.coverage[near], "after": maps.coverage}
         gld = {"before": maps.gild[near], "after": maps.gild}
@@ -780,7 +800,7 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
             "after": (Va, Fa, vertex_colors_after, filled, highlight_filled, legend)}.items():
         sub = {}
         img = render_mesh(V, F, vertex_colors=vc, filled=fl, highlight_filled=hl, coverage=cov[key],
-                          gild=gld[key], crust=crs[key], legend=lg, info=sub, **common)
+                          gild=gld[key], crust=crs[key], legend=lg, info=sub, aging_field=field, **common)
         if labels:
             img = draw_label(img, labels[0] if key == "before" else labels[1])
         panels[key] = img
