@@ -128,13 +128,13 @@ class AgingParams:
         ``clip(d_cavity k + d_occlusion o + d_blotch z'' - d_offset, 0, 1)``.
         Outdoors rain decides, as described above.
     a_occlusion, a_raised, a_blotch_indoor : float
-        Indoor weights of the corrosion potential (3, 1, 0.2): the noise
+        Indoor weights of the corrosion potential (3, 2.5, 0.2): the noise
         only moves the patches' edges, it does not make them.
     raised_full : float
         Convexity at the cavity scale at which a bulge counts as fully
         raised (0.3: a sphere of radius ~4 cavity scales).
     b_occlusion, d_occlusion : float
-        Indoor weights of occlusion in gilding loss (1) and dark deposit (1.2).
+        Indoor weights of occlusion in gilding loss (1) and dark deposit (2.5).
     occlusion_rays : int
         Hemisphere rays per vertex for the occlusion (64; fewer on large
         scans, so that at most ``occlusion_ray_budget`` rays are cast, and
@@ -143,7 +143,7 @@ class AgingParams:
         Rays cast in all (2**21; about 1 s on one core).
     occlusion_reach : float or None
         Rays hitting farther than this fraction of the diagonal do not count
-        (0.3: a recess is a local thing; None counts any hit).
+        (0.2: a recess is a local thing; None counts any hit).
     occlusion_scale : float
         Width of the Gaussian the occlusion is blurred with (0.015 of the
         diagonal), so it is as smooth on a coarse mesh as on a dense one.
@@ -172,12 +172,12 @@ class AgingParams:
     setting: str = "indoor"
     a_occlusion: float = 3.0
     b_occlusion: float = 1.0
-    d_occlusion: float = 1.2
+    d_occlusion: float = 2.5
     occlusion_rays: int = 64
-    occlusion_reach: float = 0.3
+    occlusion_reach: float = 0.2
     occlusion_ray_budget: int = 1 << 21
     occlusion_scale: float = 0.015
-    a_raised: float = 1.0
+    a_raised: float = 2.5
     a_blotch_indoor: float = 0.2
     raised_full: float = 0.3
 
