@@ -137,8 +137,9 @@ class AgingParams:
         Indoor weights of occlusion in gilding loss (1) and dark deposit (2.5).
     occlusion_rays : int
         Hemisphere rays per vertex for the occlusion (64; fewer on large
-        scans, so that at most ``occlusion_ray_budget`` rays are cast, and
-        at least 8 per vertex).
+        scans, so that about ``occlusion_ray_budget`` rays are cast in all,
+        but at least 16 per vertex: beyond ``budget / 16`` vertices a
+        subset of them, hashed from the index and the seed, casts rays).
     occlusion_ray_budget : int
         Rays cast in all (2**21; about 1 s on one core).
     occlusion_reach : float or None
@@ -859,25 +860,35 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
     # channels: area, area-weighted position (3), area-weighted normal (3)
     G = grid.splat(Q, np.concatenate([wq[:, None], wq[:, None] * Q, nq], axis=1))
 
-    # occlusion: each of the scan's vertices casts hemisphere rays at the
-    # scan's own faces (as ambient_occlusion); the fractions, interpolated
-    # to the surface samples, are splatted and blurred (a normalised
-    # convolution), so the field is as smooth on a coarse mesh as on a dense one
+    # occlusion: each of the scan's vertices (on a large scan, a hashed
+    # subset) casts hemisphere rays at the scan's own faces (as
+    # ambient_occlusion); the fractions, interpolated to the surface samples,
+    # are splatted and blurred (a normalised convolution), so the field is as
+    # smooth on a coarse mesh as on a dense one
     O = np.zeros((2,) + grid.shape)
     if p.setting == "indoor":
         Fs = F[shown]
         Ns = np.stack([np.bincount(Fs.ravel(), np.repeat(fn[shown][:, k], 3), minlength=n) for k in range(3)],
                       axis=1)
         vid = np.flatnonzero(used)
-        nrm = Ns[vid] / np.maximum(np.linalg.norm(Ns[vid], axis=1, keepdims=True), 1e-300)
-        rays = int(np.clip(p.occlusion_ray_budget // len(vid), 8, p.occlusion_rays))
-        keys = np.stack([vid, np.zeros_like(vid), np.ones_like(vid)], axis=1).astype(np.int64)
+        rays = int(np.clip(p.occlusion_ray_budget // len(vid), 16, p.occlusion_rays))
         reach = np.inf if p.occlusion_reach is None else p.occlusion_reach * diag
+        scene = _scene(P, Fs)
+        if len(vid) * rays <= p.occlusion_ray_budget:
+            sub = vid       # every vertex; interpolated to the samples of large faces
+        else:               # a large scan: a hashed subset of its vertices, splatted as points
+            sub = vid[_hash01(vid, np.full_like(vid, 2), np.full_like(vid, 3), seed)
+                      < p.occlusion_ray_budget / (rays * len(vid))]
+        nrm = Ns[sub] / np.maximum(np.linalg.norm(Ns[sub], axis=1, keepdims=True), 1e-300)
+        keys = np.stack([sub, np.zeros_like(sub), np.ones_like(sub)], axis=1).astype(np.int64)
         occl = np.zeros(n)
-        occl[vid] = _occluded_fraction(_scene(P, Fs), P[vid], nrm, keys, rays, seed, AO_EPS * diag, reach)
-        val = np.einsum("qk,qk->q", bq, occl[Fs[fq]])
-        O = gaussian_filter(grid.splat(Q, np.stack([wq * val, wq], axis=1)),
-                            (0.0,) + (p.occlusion_scale * diag / h,) * 3, mode="constant")
+        occl[sub] = _occluded_fraction(scene, P[sub], nrm, keys, rays, seed, AO_EPS * diag, reach)
+        if len(sub) == len(vid):
+            val = np.einsum("qk,qk->q", bq, occl[Fs[fq]])
+            O = grid.splat(Q, np.stack([wq * val, wq], axis=1))
+        else:
+            O = grid.splat(P[sub], np.stack([area[sub] * occl[sub], area[sub]], axis=1))
+        O = gaussian_filter(O, (0.0,) + (p.occlusion_scale * diag / h,) * 3, mode="constant")
     del Q, wq, nq, fq, bq
 
     # every grid quantity is read back in one trilinear pass: edge scale
