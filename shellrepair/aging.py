@@ -476,13 +476,12 @@ class _Grid:
     def __init__(self, P, h, pad=4, anchor=None):
         self.h = float(h)
         self.lo = P.min(axis=0) - pad * self.h
-        self.base = self.lo
         if anchor is not None:
             # nodes on the lattice through anchor - pad h, extended by whole
             # cells to hold every point: points added beyond the anchor's
             # box (a fill) do not move the nodes
-            self.base = np.asarray(anchor, np.float64) - pad * self.h
-            self.lo = self.base - self.h * np.ceil(np.maximum(self.base - self.lo, 0.0) / self.h)
+            base = np.asarray(anchor, np.float64) - pad * self.h
+            self.lo = base - self.h * np.ceil(np.maximum(base - self.lo, 0.0) / self.h)
         self.shape = tuple(int(x) for x in np.ceil((P.max(axis=0) + pad * self.h - self.lo) / self.h) + 1)
         self.size = int(np.prod(self.shape))
         self.n = len(P)
@@ -643,11 +642,6 @@ def _apply_turn(t, x):
     return _smoothstep(lo, hi, x)
 
 
-def _turn(x, w, fraction, band):
-    """1 on the top ``fraction`` of the area by x, 0 below, smooth over ``band``."""
-    return _apply_turn(_turn_thresholds(x, w, fraction, band), x)
-
-
 class AgingField:
     """The smooth fields behind an aging map, readable at any point of the surface.
 
@@ -659,7 +653,7 @@ class AgingField:
     edges as soft at any mesh resolution as on a dense one.
     """
 
-    def __init__(self, grid, fields, R, center, diag, params, normal_fallback=None):
+    def __init__(self, grid, fields, R, center, diag, params):
         self._grid = grid
         self._fields = fields      # (k, nx, ny, nz) float32
         self._R = R

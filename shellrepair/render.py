@@ -576,14 +576,13 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         ndo = np.einsum("ij,ij->i", n, wo)
         n = np.where((ndo < 0.02)[:, None], ng, n)
         p_smooth, origin = _smooth_points(p, bw, V[tri], Nv[tri], ng)
-        if aging_field is None and maps is not None:
-            aging_field = maps.field
-        if aging_field is not None:
+        field = aging_field if aging_field is not None else (maps.field if maps is not None else None)
+        if field is not None:
             # the map read at the shaded point of the smooth surface (soft
             # patch edges at any mesh resolution), not its vertex values
             # interpolated over a triangle
-            c, g, dk = aging_field.at(p_smooth, normals=n)
-            if crust is not None:
+            c, g, dk = field.at(p_smooth, normals=n)
+            if aging_field is None and crust is not None:  # a crust given with our own map
                 dk = np.einsum("pk,pk->p", bw, crust_v[tri])
         else:
             c = np.einsum("pk,pk->p", bw, cov_v[tri])
