@@ -4,7 +4,8 @@
 auto-framed pinhole camera are cast with open3d's ``RaycastingScene`` (an
 Embree BVH); each hit is shaded by
 :class:`shellrepair.sd.MaterialShader` under two directional lights
-with ray-traced shadows, plus a warm room with a soft box seen in mirror
+with soft ray-traced shadows (each light a small disc, 8 fixed shadow rays
+per point), plus a warm room with a soft box seen in mirror
 reflections, then tone mapped to sRGB.  Rust coverage and gilding come from
 the scan's colours when informative, else from the aging map
 (:func:`shellrepair.aging.aging_maps`).  Faces flagged ``filled``
@@ -477,7 +478,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     ------
     ValueError (shellrepair.errors.MeshError)
         For malformed V, F, filled or vertex_colors, an unknown material or
-        unit, or an age outside [0, 1].
+        unit, an age outside [0, 1] or an unknown setting.
     """
     import open3d as o3d
     from . import aging as ag
@@ -497,6 +498,8 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                               % (len(V), vertex_colors.shape))
     if age is not None and not 0.0 <= float(age) <= 1.0:
         raise _InputError("age must be in [0, 1], got %r" % (age,))
+    if setting is not None and setting not in ag.SETTINGS:
+        raise _InputError("setting must be one of %s, got %r" % (", ".join(ag.SETTINGS), setting))
     ss = int(supersample)
     if ss < 1:
         raise _InputError("supersample must be >= 1, got %r" % (supersample,))

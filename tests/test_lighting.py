@@ -85,3 +85,9 @@ def test_render_setting_outdoor_ages_the_statue_by_rain_not_by_recesses(tmp_path
     out = tmp_path / "default.png"
     assert main(["render", str(scan), "-o", str(out), "--size", "96x72", "-q"]) == 0
     np.testing.assert_array_equal(np.asarray(Image.open(out)), pics["indoor"])
+
+
+def test_an_unknown_setting_is_refused_in_one_line():
+    V, F = shapes.icosphere(1)
+    with pytest.raises(ValueError, match="setting must be one of indoor, outdoor"):
+        rd.render_mesh(V, F, size=(32, 24), setting="garden")
