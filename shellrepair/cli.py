@@ -10,7 +10,7 @@
                       [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
                        [--look-at X,Y,Z] [--radius R] [--before MESH] [--unit mm|cm|m] [--age A]
-                       [--up auto|AXIS|X,Y,Z] [--gltf OUT.glb]
+                       [--up auto|AXIS|X,Y,Z] [--setting indoor|outdoor] [--gltf OUT.glb]
 
 Bad input gives one line ``error: <file>: <what is wrong>`` on stderr and
 exit status 2; no traceback, no output file. ``batch`` goes on past a bad
@@ -166,6 +166,10 @@ def _parser():
                    help="world up axis: camera up and where rain comes from; x, y, z, -x, -y, -z or a vector; "
                         "auto (default): the one the repair recorded (X.report.json beside X.repaired.ply), "
                         "else inferred from the --before scan, else from the mesh (see repair --up)")
+    v.add_argument("--setting", default="indoor", choices=("indoor", "outdoor"),
+                   help="what ages the statue: indoor, patina in recesses and gold on raised, touched areas; "
+                        "outdoor, rain greening the washed faces and a dark crust on sheltered ones "
+                        "(default: indoor)")
     v.add_argument("--gltf", metavar="OUT.glb", default=None,
                    help="also write the mesh with this look (material, age, up) as binary glTF 2.0 "
                         "(default: none)")
@@ -679,7 +683,8 @@ def _render(args):
         how = "the default" if how == "given" else "the default: the filled faces' normals cancel out"
         view = rd.DEFAULT_VIEW
     unit, unit_reason = (args.unit, "given") if args.unit else rd.infer_unit(mesh.V)
-    kw = dict(size=(w, h), material=args.material, view=view, unit=unit, age=args.age, up=up)
+    kw = dict(size=(w, h), material=args.material, view=view, unit=unit, age=args.age, up=up,
+              setting=args.setting)
     if target is not None or args.radius is not None:   # a close-up: the camera framed on the sphere given
         V = mesh.V if before is None else np.concatenate([before.V, mesh.V])
         kw["camera"] = rd.frame_camera(V, (w, h), view, up=up, center=target, radius=args.radius)

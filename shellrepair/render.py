@@ -4,7 +4,8 @@
 auto-framed pinhole camera are cast with open3d's ``RaycastingScene`` (an
 Embree BVH); each hit is shaded by
 :class:`shellrepair.sd.MaterialShader` under two directional lights
-with ray-traced shadows, plus a warm room with a soft box seen in mirror
+with soft ray-traced shadows (each light a small disc, 8 fixed shadow rays
+per point), plus a warm room with a soft box seen in mirror
 reflections, then tone mapped to sRGB.  Rust coverage and gilding come from
 the scan's colours when informative, else from the aging map
 (:func:`shellrepair.aging.aging_maps`).  Faces flagged ``filled``
@@ -80,6 +81,12 @@ _SOFTBOX_WIDTH = 0.35
 _EXPOSURE = 1.0
 #: Offset of shadow-ray origins, as a fraction of the bounding radius.
 _SHADOW_EPS = 1e-4
+#: The lights are discs seen from the statue at this angular radius
+#: (radians; ~9 degrees, a museum spot or soft box a few metres away), so
+#: shadow edges are soft, not lines across a face.
+_LIGHT_ANGULAR_RADIUS = 0.15
+#: Shadow rays per light and shaded point, on a fixed spiral over the disc.
+_SHADOW_SAMPLES = 8
 
 
 @dataclasses.dataclass(frozen=True)
@@ -282,6 +289,77 @@ def _environment(r, up, box=None):
     return L
 
 
+def _smooth_points(p, bw, Vt, Nt, ng):
+    """The points of the smooth surface a coarse mesh's shading pretends.
+
+    Each hit point is moved to the barycentric mix of its projections on
+    the tangent planes of its triangle's three vertices (their smooth
+    normals): Phong tessellation (Boubekeur & Alexa 2008), which passes
+    through the vertices and bulges over convex triangles.  Returns that
+    point, where the aging map is read (so a map's patches do not follow the
+    flat triangles), and the shadow-ray origin: the same mix with each point
+    only lifted up to a tangent plane, kept where it is above the triangle
+    (Hanika 2021), so a lit, curved-looking face is not shadowed in steps by
+    its own neighbouring triangles (the "shadow terminator").
+
+    Parameters
+    ----------
+    p : (q,3) hit points; bw : (q,3) barycentric weights; Vt, Nt : (q,3,3)
+    the triangles' corners and unit vertex normals; ng : (q,3) the
+    geometric normals, facing the viewer.
+
+    Returns
+    -------
+    smooth, origin : (q,3) float64 arrays
+
+    References
+    ----------
+    T. Boubekeur and M. Alexa, "Phong Tessellation", SIGGRAPH Asia 2008.
+    J. Hanika, "Hacking the Shadow Terminator", Ray Tracing Gems II, 2021.
+    """
+    # vertex normals turned to the side the geometric normal faces
+    s = np.sign(np.einsum("pkj,pj->pk", Nt, ng))
+    s[s == 0.0] = 1.0
+    Nt = Nt * s[:, :, None]
+    d = np.einsum("pkj,pkj->pk", p[:, None, :] - Vt, Nt)  # height above each tangent plane
+    smooth = np.einsum("pk,pkj->pj", bw, p[:, None, :] - d[:, :, None] * Nt)
+    lifted = np.einsum("pk,pkj->pj", bw, p[:, None, :] - np.minimum(d, 0.0)[:, :, None] * Nt)
+    origin = np.where((np.einsum("ij,ij->i", lifted - p, ng) > 0.0)[:, None], lifted, p)
+    return smooth, origin
+
+
+def _light_visibility(scene, origin, ldir, mask, sel):
+    """Fraction of a disc light seen from each origin (``_SHADOW_SAMPLES`` rays).
+
+    The samples lie on a Fibonacci spiral over the disc of angular radius
+    ``_LIGHT_ANGULAR_RADIUS`` about ``ldir``, turned per pixel by a fixed
+    hashed angle (from the pixel's index), so neighbouring pixels sample it
+    differently and the supersampling averages the steps away; nothing is
+    random, the picture is the same bytes every time.
+    """
+    import open3d as o3d
+
+    if len(origin) == 0:
+        return np.zeros(0)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(ldir[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t1 = np.cross(ldir, ref)
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(ldir, t1)
+    k = np.arange(_SHADOW_SAMPLES) + 0.5
+    rad = np.tan(_LIGHT_ANGULAR_RADIUS) * np.sqrt(k / _SHADOW_SAMPLES)  # equal area on the disc
+    pix = np.flatnonzero(mask.ravel())[sel].astype(np.uint64)
+    with np.errstate(over="ignore"):
+        h = (pix * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(40)
+    turn = h.astype(np.float64) * (2.0 * np.pi / float(1 << 24))
+    seen = np.zeros(len(origin))
+    for j in range(_SHADOW_SAMPLES):
+        a = np.pi * (3.0 - np.sqrt(5.0)) * j + turn
+        d = ldir[None, :] + rad[j] * (np.cos(a)[:, None] * t1 + np.sin(a)[:, None] * t2)
+        rays = np.concatenate([origin, d], axis=1).astype(np.float32)
+        seen += ~scene.test_occlusions(o3d.core.Tensor(rays)).numpy().astype(bool)
+    return seen / _SHADOW_SAMPLES
+
+
 def _dipole_spread(diffuse_img, mask, choice, material, footprint_um):
     """Spread the diffuse radiance by the dipole profile (screen space)."""
     from scipy.signal import fftconvolve
@@ -348,7 +426,7 @@ def _scaled_camera(cam, s):
 def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                 highlight_filled=False, view=None, vertex_colors=None, coverage=None,
                 gild=None, crust=None, camera=None, unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0),
-                seed=0, supersample=2, legend=None, info=None, scene=None):
+                seed=0, supersample=2, legend=None, info=None, scene=None, setting=None, aging_field=None):
     """Render a triangle mesh with the aged-metal shading.
 
     Parameters
@@ -397,6 +475,14 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     scene : open3d.t.geometry.RaycastingScene or None
         The ray-casting scene of exactly ``V, F`` when several pictures of
         one mesh are made (its BVH is built once); default: built here.
+    setting : {"indoor", "outdoor"} or None
+        What drives the aging map's corrosion (None: indoor; see
+        :func:`shellrepair.aging.aging_maps`).
+    aging_field : shellrepair.aging.AgingField or None
+        Read coverage, gilding and crust from this field at each shaded
+        point (with ``coverage`` etc. given for the model choice): how a
+        before | after pair shows one map on two meshes.  The aging map this
+        function computes itself is always read so.
 
     Returns
     -------
@@ -406,7 +492,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
     ------
     ValueError (shellrepair.errors.MeshError)
         For malformed V, F, filled or vertex_colors, an unknown material or
-        unit, or an age outside [0, 1].
+        unit, an age outside [0, 1] or an unknown setting.
     """
     import open3d as o3d
     from . import aging as ag
@@ -426,6 +512,8 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
                               % (len(V), vertex_colors.shape))
     if age is not None and not 0.0 <= float(age) <= 1.0:
         raise _InputError("age must be in [0, 1], got %r" % (age,))
+    if setting is not None and setting not in ag.SETTINGS:
+        raise _InputError("setting must be one of %s, got %r" % (", ".join(ag.SETTINGS), setting))
     ss = int(supersample)
     if ss < 1:
         raise _InputError("supersample must be >= 1, got %r" % (supersample,))
@@ -466,7 +554,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             gild_v = ones
         if cov_src is None:
             maps = ag.aging_maps(V, F, age=ag.DEFAULT_AGE if age is None else float(age), up=up,
-                                 seed=seed, scan=None if filled is None else ~filled)
+                                 seed=seed, scan=None if filled is None else ~filled, setting=setting)
             cov_v, gild_v, cov_src = maps.coverage, maps.gild, "aging"
             if crust is None:
                 crust_v = maps.crust
@@ -505,11 +593,21 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         # keep the shading normal facing the viewer (avoid black silhouettes)
         ndo = np.einsum("ij,ij->i", n, wo)
         n = np.where((ndo < 0.02)[:, None], ng, n)
-        c = np.einsum("pk,pk->p", bw, cov_v[tri])
-        g = np.einsum("pk,pk->p", bw, gild_v[tri])
-        dk = np.einsum("pk,pk->p", bw, crust_v[tri])
+        p_smooth, origin = _smooth_points(p, bw, V[tri], Nv[tri], ng)
+        field = aging_field if aging_field is not None else (maps.field if maps is not None else None)
+        if field is not None:
+            # the map read at the shaded point of the smooth surface (soft
+            # patch edges at any mesh resolution), not its vertex values
+            # interpolated over a triangle
+            c, g, dk = field.at(p_smooth, normals=n)
+            if aging_field is None and crust is not None:  # a crust given with our own map
+                dk = np.einsum("pk,pk->p", bw, crust_v[tri])
+        else:
+            c = np.einsum("pk,pk->p", bw, cov_v[tri])
+            g = np.einsum("pk,pk->p", bw, gild_v[tri])
+            dk = np.einsum("pk,pk->p", bw, crust_v[tri])
         shader = sd.MaterialShader(mat)
-        origin = p + (_SHADOW_EPS * radius) * ng
+        origin = origin + (_SHADOW_EPS * radius) * ng
         spec_sum = np.zeros((len(p), 3))
         diff_sum = np.zeros((len(p), 3))
         for ldir_cam, E in _LIGHTS:
@@ -517,9 +615,11 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             ldir = ldir / np.linalg.norm(ldir)
             cos_i = n @ ldir
             lit = (cos_i > 0.0) & (ng @ ldir > -0.05)
-            sray = np.concatenate([origin, np.broadcast_to(ldir, origin.shape)], axis=1)
-            occl = np.isfinite(scene.cast_rays(o3d.core.Tensor(sray.astype(np.float32)))["t_hit"].numpy())
-            vis = lit & ~occl
+            seen = _light_visibility(scene, origin[lit], ldir, mask, lit)
+            vis = lit.copy()
+            vis[lit] = seen > 0.0
+            cos_i = cos_i.copy()
+            cos_i[lit] *= seen  # the visible fraction of the area light
             if not np.any(vis):
                 continue
             spec, diff = shader(ldir, wo[vis], n[vis], c[vis], g[vis], dk[vis], parts=True)
@@ -643,7 +743,7 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
                         vertex_colors_before=None, vertex_colors_after=None, gap=8,
                         unit=None, unit_um=None, age=None, up=(0.0, 1.0, 0.0), seed=0,
                         supersample=2, labels=("before", "after"), legend="filled by the repair",
-                        info=None, camera=None, maps=None, scenes=(None, None)):
+                        info=None, camera=None, maps=None, scenes=(None, None), setting=None):
     """Before and after renders with one shared camera, side by side.
 
     Parameters
@@ -704,13 +804,15 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
     cov = {"before": None, "after": None}
     gld = {"before": None, "after": None}
     crs = {"before": None, "after": None}
+    field = None
     if mat.corrodes and vertex_colors_before is None and vertex_colors_after is None:
         scan = None
         if filled is not None and np.shape(filled) == (len(Fa),):
             scan = ~np.asarray(filled, bool)
         if maps is None:
             maps = ag.aging_maps(Va, Fa, age=ag.DEFAULT_AGE if age is None else float(age), up=up, seed=seed,
-                                 scan=scan)
+                                 scan=scan, setting=setting)
+        field = maps.field
         if len(Va) >= len(Vb) and np.array_equal(Va[:len(Vb)], Vb):
             near = np.arange(len(Vb))       # a repair keeps the scan's vertices first: the same points
         else:
@@ -728,7 +830,8 @@ def render_side_by_side(V_before, F_before, V_after, F_after, *, size=(1024, 768
             "after": (Va, Fa, vertex_colors_after, filled, highlight_filled, legend, scenes[1])}.items():
         sub = {}
         img = render_mesh(V, F, vertex_colors=vc, filled=fl, highlight_filled=hl, coverage=cov[key],
-                          gild=gld[key], crust=crs[key], legend=lg, info=sub, scene=sc, **common)
+                          gild=gld[key], crust=crs[key], legend=lg, info=sub, scene=sc, aging_field=field,
+                          **common)
         if labels:
             img = draw_label(img, labels[0] if key == "before" else labels[1])
         panels[key] = img

@@ -83,12 +83,13 @@ def test_convexity_of_a_sphere_is_1_25_scale_over_radius():
 
 
 def test_exposure_rain_from_above_and_shelter_under_an_overhang():
+    """Outdoors, rain greens the washed faces and a dark crust builds on the sheltered ones."""
     # a low block and, above its left half, a roof: rain reaches the right half only
     Vb, Fb = box((0.0, 0.0, 0.0), (2.0, 0.3, 1.0))
     Vr, Fr = box((-1.0, 2.0, 0.0), (1.1, 0.2, 1.2))
     V = np.concatenate([Vb, Vr])
     F = np.concatenate([Fb, Fr + len(Vb)])
-    maps = ag.aging_maps(V, F, up=(0, 1, 0))
+    maps = ag.aging_maps(V, F, up=(0, 1, 0), setting="outdoor")
     top = (np.abs(V[:, 1] - 0.3) < 1e-9) & (np.arange(len(V)) < len(Vb))
     under = top & (V[:, 0] < -0.5) & (V[:, 0] > -1.6) & (np.abs(V[:, 2]) < 0.6)
     open_ = top & (V[:, 0] > 0.8) & (V[:, 0] < 1.4) & (np.abs(V[:, 2]) < 0.6)
@@ -97,12 +98,12 @@ def test_exposure_rain_from_above_and_shelter_under_an_overhang():
     bottom = np.abs(V[:, 1] + 0.3) < 1e-9
     assert np.all(maps.exposure[bottom] == 0.0)  # facing down: no rain
     assert maps.crust[under].mean() > maps.crust[open_].mean()  # unwashed: dark crust
-    plain = ag.aging_maps(V, F, up=(0, 1, 0), params=ag.AgingParams(d_blotch=0.0))
+    plain = ag.aging_maps(V, F, up=(0, 1, 0), params=ag.AgingParams(d_blotch=0.0, setting="outdoor"))
     p = ag.AgingParams()
     np.testing.assert_allclose(plain.crust[under], p.d_shelter - p.d_offset, atol=0.08)
     assert np.all(plain.crust[open_] == 0.0)
     # turning the world upside down swaps the roles of top and bottom faces
-    flipped = ag.aging_maps(V, F, up=(0, -1, 0))
+    flipped = ag.aging_maps(V, F, up=(0, -1, 0), setting="outdoor")
     assert np.all(flipped.exposure[top] == 0.0)
 
 
@@ -247,3 +248,162 @@ def test_a_scan_flag_of_the_wrong_length_is_refused():
     V, F = shapes.icosphere(1)
     with pytest.raises(ValueError, match="one flag per face"):
         ag.aging_maps(V, F, scan=np.ones(len(F) + 1, bool))
+
+
+# --------------------------------------------------------------------------
+# Indoors: occlusion, recesses and raised gold
+# --------------------------------------------------------------------------
+
+
+def revolve(profile, n=48):
+    """Closed surface of revolution about +y of a profile [(r, y), ...] that
+    starts and ends on the axis (r = 0), wound outward."""
+    profile = np.asarray(profile, float)
+    ring = profile[1:-1]
+    t = 2.0 * np.pi * np.arange(n) / n
+    V = [[0.0, profile[0, 1], 0.0]]
+    for r, y in ring:
+        V += [[r * np.cos(a), y, r * np.sin(a)] for a in t]
+    V.append([0.0, profile[-1, 1], 0.0])
+    V = np.asarray(V)
+    k, last = len(ring), len(V) - 1
+    F = [[0, 1 + (j + 1) % n, 1 + j] for j in range(n)]
+    for i in range(k - 1):
+        for j in range(n):
+            a, b = 1 + i * n + j, 1 + i * n + (j + 1) % n
+            F += [[a, b, b + n], [a, b + n, a + n]]
+    F += [[last, 1 + (k - 1) * n + j, 1 + (k - 1) * n + (j + 1) % n] for j in range(n)]
+    F = np.asarray(F, np.int64)
+    vol = np.einsum("ij,ij->i", V[F[:, 0]], np.cross(V[F[:, 1]], V[F[:, 2]])).sum()
+    return V, (F if vol > 0 else F[:, ::-1].copy())
+
+
+def bowl():
+    """A thick hemispherical bowl, opening up: outer radius 1, inner 0.8."""
+    outer = [(np.sin(a), -np.cos(a)) for a in np.linspace(0.0, np.pi / 2, 13)]
+    inner = [(0.8 * np.sin(a), -0.8 * np.cos(a)) for a in np.linspace(np.pi / 2, 0.0, 11)]
+    return revolve(outer + inner)
+
+
+def test_ambient_occlusion_is_deterministic_in_unit_range_and_sees_a_bowl_from_inside():
+    V, F = bowl()
+    ao = ag.ambient_occlusion(V, F)
+    np.testing.assert_array_equal(ao, ag.ambient_occlusion(V, F))  # the same bytes
+    assert ao.shape == (len(V),) and np.all((ao >= 0.0) & (ao <= 1.0))
+    r = np.hypot(V[:, 0], V[:, 2])
+    radius = np.linalg.norm(V, axis=1)
+    floor = (np.abs(radius - 0.8) < 1e-9) & (r < 0.3)           # inside, at the bottom
+    outside = (np.abs(radius - 1.0) < 1e-9) & (V[:, 1] < -0.2)   # the outer wall
+    assert floor.any() and outside.any()
+    # from the bottom the opening is a cone of half-angle 45 degrees: 1 - cos 45 of the
+    # hemisphere's solid angle escapes, so about 0.7 of the rays hit the wall
+    assert ao[floor].mean() == pytest.approx(1.0 - (1.0 - np.cos(np.pi / 4)), abs=0.1)
+    assert np.all(ao[outside] == 0.0)
+    # the indoor map puts the patina in the bowl and keeps the outside gilt
+    maps = ag.aging_maps(V, F)
+    inside = (np.abs(radius - 0.8) < 1e-9) & (V[:, 1] < -0.3)
+    assert maps.occlusion[inside].mean() > maps.occlusion[outside].mean() + 0.3
+    assert maps.coverage[inside].mean() > 2.0 * maps.coverage[outside].mean()
+    with pytest.raises(ValueError, match="rays"):
+        ag.ambient_occlusion(V, F, rays=0)
+
+
+def test_recess_ratio_compares_the_most_and_least_occluded_tenths():
+    ao = np.linspace(0.0, 1.0, 100)
+    assert ag.recess_ratio(ao, ao) == pytest.approx(np.mean(ao[-10:]) / np.mean(ao[:10]))
+    assert ag.recess_ratio(ao, 1.0 - ao) < 1.0
+    # ties at the low end are all counted in, whatever the vertex order
+    ao = np.r_[np.zeros(30), np.linspace(0.1, 1.0, 70)]
+    cov = np.r_[np.full(30, 0.2), np.ones(70)]
+    assert ag.recess_ratio(ao, cov) == pytest.approx(5.0)
+    assert ag.recess_ratio(ao[::-1], cov[::-1]) == pytest.approx(5.0)
+
+
+def _decimated(path, faces):
+    """The scan as read, or a quadric-decimated copy with about ``faces`` faces."""
+    from shellrepair.io import read_mesh
+
+    mesh = read_mesh(path)
+    if faces is None:
+        return mesh.V, mesh.F
+    import open3d as o3d
+
+    tm = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.V), o3d.utility.Vector3iVector(mesh.F))
+    tm = tm.simplify_quadric_decimation(faces)
+    tm.remove_unreferenced_vertices()
+    return np.asarray(tm.vertices, np.float64), np.asarray(tm.triangles, np.int64)
+
+
+@pytest.mark.parametrize("name, up, faces", [
+    ("closed_cheburashka.ply", (0, 1, 0), None),          # as scanned, 13k faces
+    ("closed_nefertiti_bust.ply", (0, 0, 1), 20000),      # decimated from 100k, to keep the test fast
+    ("real_bunny_zipper.ply", (0, 1, 0), 3000),           # a coarse mesh: the map must still follow the shape
+])
+def test_indoors_the_patina_gathers_in_recesses_and_gold_survives_on_raised_areas(name, up, faces):
+    """The issue's measure: with AO as the fraction of 64 hemisphere rays per
+    vertex that hit the mesh, the most occluded tenth of the vertices has at
+    least twice the mean coverage of the least occluded tenth."""
+    from conftest import shared_scan
+
+    V, F = _decimated(shared_scan(name), faces)
+    ao = ag.ambient_occlusion(V, F, rays=64)
+    maps = ag.aging_maps(V, F, up=up)  # the default: indoor, DEFAULT_AGE
+    assert ag.recess_ratio(ao, maps.coverage) >= 2.0
+    k = len(V) // 10
+    order = np.argsort(ao, kind="stable")
+    gold = maps.gild * (1.0 - maps.coverage)
+    assert gold[order[:k]].mean() > 2.0 * gold[order[-k:]].mean()
+    # outdoors the rain decides, not the recesses
+    out = ag.aging_maps(V, F, up=up, setting="outdoor")
+    assert ag.recess_ratio(ao, out.coverage) < ag.recess_ratio(ao, maps.coverage)
+
+
+def test_outdoors_rain_greens_the_washed_faces_indoors_the_sheltered_ones_gather_patina():
+    """One shape, two settings: under a low roof the air is still and no rain
+    comes; the open top is washed by rain and free of dust."""
+    Vb, Fb = box((0.0, 0.0, 0.0), (2.0, 0.3, 1.0))
+    Vr, Fr = box((-1.0, 1.0, 0.0), (1.1, 0.2, 1.2))  # roof 0.5 above the block's left half
+    V = np.concatenate([Vb, Vr])
+    F = np.concatenate([Fb, Fr + len(Vb)])
+    top = (np.abs(V[:, 1] - 0.3) < 1e-9) & (np.arange(len(V)) < len(Vb))
+    under = top & (V[:, 0] < -0.5) & (V[:, 0] > -1.6) & (np.abs(V[:, 2]) < 0.6)
+    open_ = top & (V[:, 0] > 0.8) & (V[:, 0] < 1.4) & (np.abs(V[:, 2]) < 0.6)
+    flat = ag.AgingParams(a_blotch=0.0, a_blotch_indoor=0.0)
+    indoor = ag.aging_maps(V, F, params=flat, age=0.2)
+    outdoor = ag.aging_maps(V, F, params=flat, age=0.2, setting="outdoor")
+    assert indoor.occlusion[under].mean() > indoor.occlusion[open_].mean() + 0.3
+    assert indoor.coverage[under].mean() > 0.9 and indoor.coverage[open_].mean() < 0.1
+    assert outdoor.coverage[open_].mean() > 0.9 and outdoor.coverage[under].mean() < 0.1
+    assert np.all(outdoor.occlusion == 0.0)  # outdoors no occlusion rays are cast
+    with pytest.raises(ValueError, match="setting"):
+        ag.aging_maps(V, F, setting="garden")
+
+
+def test_the_field_reads_the_map_between_the_vertices_of_a_coarse_mesh():
+    """Soft patch edges at any resolution: a coarse sphere's field, read on
+    the sphere between its vertices, gives what a fine mesh of the same
+    sphere gives there, not a blend of its corners (which follows the
+    triangles)."""
+    Vc, Fc = shapes.icosphere(2)
+    Vf, Ff = shapes.icosphere(5)
+    coarse = ag.aging_maps(Vc, Fc, seed=1)
+    fine = ag.aging_maps(Vf, Ff, seed=1)
+    c, g, k = coarse.field.at(Vc)
+    np.testing.assert_allclose(c, coarse.coverage, atol=1e-12)  # at the vertices: the vertex map
+    np.testing.assert_allclose(g, coarse.gild, atol=1e-12)
+    read, _, _ = coarse.field.at(Vf)
+    # the blend of the coarse corners at the fine vertices (nearest coarse face by its centroid)
+    from scipy.spatial import cKDTree
+
+    cen = Vc[Fc].mean(axis=1)
+    _, f = cKDTree(cen).query(Vf)
+    T = Vc[Fc[f]]
+    # barycentric coordinates of the fine vertex's projection on that face
+    e1, e2, d = T[:, 1] - T[:, 0], T[:, 2] - T[:, 0], Vf - T[:, 0]
+    d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    b1 = ((d * e1).sum(1) * d22 - (d * e2).sum(1) * d12) / (d11 * d22 - d12 * d12)
+    b2 = ((d * e2).sum(1) * d11 - (d * e1).sum(1) * d12) / (d11 * d22 - d12 * d12)
+    blend = (1 - b1 - b2) * coarse.coverage[Fc[f, 0]] + b1 * coarse.coverage[Fc[f, 1]] + b2 * coarse.coverage[Fc[f, 2]]
+    err_field = np.mean(np.abs(read - fine.coverage))
+    err_blend = np.mean(np.abs(blend - fine.coverage))
+    assert err_field < 0.1 and err_field < 0.6 * err_blend, (err_field, err_blend)
