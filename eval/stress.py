@@ -269,14 +269,26 @@ def available_shapes(*, quick=False, log=None):
     return out
 
 
-@lru_cache(maxsize=16)
 def _fixed_shape(name, quick):
+    """The truth ``V, F, meta`` of a shape drawn by name, read or built once
+    per process (:func:`_built_shape`); the arrays are read-only, so a case
+    that changed its truth in place could not change the next case's."""
+    return _built_shape(name, quick)
+
+
+@lru_cache(maxsize=16)
+def _built_shape(name, quick):
     if name in REAL:
         from shellrepair.io import read_mesh
 
         m = read_mesh(casemod.SHARED_DATA / REAL[name][0])
-        return np.asarray(m.V, np.float64), np.asarray(m.F, np.int64), {"kind": "real", "up": REAL[name][1]}
-    return PROCEDURAL[name](quick)
+        V, F, meta = np.asarray(m.V, np.float64), np.asarray(m.F, np.int64), {"kind": "real", "up": REAL[name][1]}
+    else:
+        V, F, meta = PROCEDURAL[name](quick)
+    V, F = np.array(V, np.float64), np.array(F, np.int64)     # copies the cache owns
+    V.flags.writeable = False
+    F.flags.writeable = False
+    return V, F, meta
 
 
 def _shape(name, rng, quick):

@@ -91,6 +91,26 @@ def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(gen
     assert [b["chosen"] for b in rep["bridges"]] == [b["chosen"] for b in rep0["bridges"]]
 
 
+def _failed_pants_case():
+    """The checks of the test below, on stress case s42424-02."""
+    from conftest import STRESS_SHAPES
+    from eval import stress
+
+    c = stress.stress_case(2, 42424, shapes_ok=STRESS_SHAPES)
+    assert "genus2" in c.name
+    M = Mesh(V=c.V, F=c.F)
+    R, rep = repair_mesh(M, order=2)     # (the pants and the refill, not the order's choice, are under test)
+    pants = [b.get("pants") for b in rep["bridges"] if b.get("pants")]
+    assert any("pants of loops 3, 7, 14 failed" in p for p in pants), pants
+    row = {h["id"]: h for h in rep["holes"]}[7]
+    assert row["status"] == "filled" and "filled again around the patches accepted before it" in row["option"]
+    assert [b["chosen"] for b in rep["bridges"] if sorted(b["loops"]) == [3, 14]] == ["caps"]
+    row = {h["id"]: h for h in rep["holes"]}[14]
+    assert row["status"] == "filled" and "filled again around the patches accepted before it" in row["option"]
+    assert np.array_equal(R.F[:len(c.F)], c.F)
+    assert_closed_and_clean(M, R, rep)
+
+
 @pytest.mark.slow
 def test_a_failed_pants_leaves_its_capped_loop_to_the_refill_like_any_hole():
     """Stress case s42424-02 (a genus-2 shape 39 % unseen): the pants of
@@ -100,23 +120,23 @@ def test_a_failed_pants_leaves_its_capped_loop_to_the_refill_like_any_hole():
     patches accepted before it. (Before this was fixed the fallback's loops
     all counted as a band's and loop 7 stayed open.) So is loop 14: its
     band's tube failed, the band took caps, and 14's cap crosses 3's (at
-    e950432 it stayed open)."""
-    from conftest import STRESS_SHAPES
-    from eval import stress
+    e950432 it stayed open).
 
-    shapes_ok = STRESS_SHAPES
-    c = stress.stress_case(2, 42424, shapes_ok=shapes_ok)
-    assert "genus2" in c.name
-    M = Mesh(V=c.V, F=c.F)
-    R, rep = repair_mesh(M, order=2)     # (the pants and the refill, not the order's choice, are under test)
-    assert any("pants of loops 3, 7, 14 failed" in (b.get("pants") or "") for b in rep["bridges"])
-    row = {h["id"]: h for h in rep["holes"]}[7]
-    assert row["status"] == "filled" and "filled again around the patches accepted before it" in row["option"]
-    assert [b["chosen"] for b in rep["bridges"] if sorted(b["loops"]) == [3, 14]] == ["caps"]
-    row = {h["id"]: h for h in rep["holes"]}[14]
-    assert row["status"] == "filled" and "filled again around the patches accepted before it" in row["option"]
-    assert np.array_equal(R.F[:len(c.F)], c.F)
-    assert_closed_and_clean(M, R, rep)
+    Run in a fresh interpreter: inside a long-lived pytest worker of a
+    clean-clone CI run this case twice came out otherwise (2026-12-04 and
+    2026-12-06: no pants failed), never alone, in a loop of repairs in one
+    process, under six hash seeds, with the compiled kernels loaded or not,
+    or with the cached truths read-only; the cause is not found (see the
+    closing notes)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parent
+    code = ("import sys; sys.path[:0] = [%r, %r]; import test_three_loops as t; t._failed_pants_case()"
+            % (str(here), str(here.parent)))
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=here.parent)
+    assert run.returncode == 0, run.stderr[-3000:]
 
 
 def test_the_text_and_html_reports_name_all_three_loops_of_a_pants(genus2):
