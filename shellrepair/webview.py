@@ -62,8 +62,7 @@ def filled_regions(F, filled):
     region : (m,) int64 array
         The region of each filled face (0, 1, ...), -1 for the scan's faces.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    from .topology import edge_topology, face_pieces
 
     F = np.asarray(F, np.int64)
     filled = np.asarray(filled, bool)
@@ -72,16 +71,8 @@ def filled_regions(F, filled):
     if len(idx) == 0:
         return region
     Ff = F[idx]
-    # half-edges of the filled faces, keyed by their undirected edge
-    a = Ff.ravel()
-    b = Ff[:, [1, 2, 0]].ravel()
-    key = np.minimum(a, b) * (int(F.max()) + 1) + np.maximum(a, b)
-    face = np.repeat(np.arange(len(idx)), 3)
-    order = np.argsort(key, kind="stable")
-    k, f = key[order], face[order]
-    same = k[1:] == k[:-1]
-    A = coo_matrix((np.ones(int(same.sum()), np.int8), (f[:-1][same], f[1:][same])), shape=(len(idx), len(idx)))
-    _, lab = connected_components(A, directed=False)
+    # the pieces of the filled faces, as closeups.fill_regions finds them
+    _, lab = face_pieces(edge_topology(Ff, int(F.max()) + 1), len(Ff))
     # renumber by first face, so the numbering does not depend on the solver's
     _, first = np.unique(lab, return_index=True)
     rank = np.empty(len(first), np.int64)
