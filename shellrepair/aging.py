@@ -374,6 +374,19 @@ def _scene(V, F):
     return scene
 
 
+def _mesh_arrays(V, F, who):
+    """``V`` (n,3) float64 and ``F`` (m,3) int64, or one ValueError naming
+    ``who`` (a shape that is not a triangle mesh, a face outside the vertices)."""
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
+        raise ValueError("%s: V must be (n,3) and F (m,3), got %s and %s" % (who, V.shape, F.shape))
+    if len(F) and (F.min() < 0 or F.max() >= len(V)):
+        bad = int(np.argmax((F < 0).any(axis=1) | (F >= len(V)).any(axis=1)))
+        raise ValueError("%s: face %d refers to a vertex outside 0..%d" % (who, bad, len(V) - 1))
+    return V, F
+
+
 def ambient_occlusion(V, F, *, rays=64, seed=0, max_distance=None):
     """Fraction of hemisphere rays per vertex that hit the mesh.
 
@@ -406,13 +419,7 @@ def ambient_occlusion(V, F, *, rays=64, seed=0, max_distance=None):
     """
     from .coverage import vertex_normals
 
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
-        raise ValueError("ambient_occlusion: V must be (n,3) and F (m,3), got %s and %s" % (V.shape, F.shape))
-    if len(F) and (F.min() < 0 or F.max() >= len(V)):
-        bad = int(np.argmax((F < 0).any(axis=1) | (F >= len(V)).any(axis=1)))
-        raise ValueError("ambient_occlusion: face %d refers to a vertex outside 0..%d" % (bad, len(V) - 1))
+    V, F = _mesh_arrays(V, F, "ambient_occlusion")
     if int(rays) < 1:
         raise ValueError("ambient_occlusion: rays must be >= 1, got %r" % (rays,))
     ao = np.zeros(len(V))
@@ -796,13 +803,7 @@ def aging_maps(V, F, *, age=DEFAULT_AGE, up=(0.0, 1.0, 0.0), seed=0, params=None
         p = dataclasses.replace(p, setting=setting)
     if p.setting not in SETTINGS:
         raise ValueError("aging_maps: setting must be one of %s, got %r" % (", ".join(SETTINGS), p.setting))
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
-        raise ValueError("aging_maps: V must be (n,3) and F (m,3), got %s and %s" % (V.shape, F.shape))
-    if len(F) and (F.min() < 0 or F.max() >= len(V)):
-        bad = int(np.argmax((F < 0).any(axis=1) | (F >= len(V)).any(axis=1)))
-        raise ValueError("aging_maps: face %d refers to a vertex outside 0..%d" % (bad, len(V) - 1))
+    V, F = _mesh_arrays(V, F, "aging_maps")
     age = float(age)
     if not 0.0 <= age <= 1.0:
         raise ValueError("aging_maps: age must be in [0, 1], got %r" % age)
