@@ -77,7 +77,8 @@ from .convert import MeshLike, as_mesh
 from .errors import MeshError
 from .options import RepairOptions
 from .progress import ProgressArg, as_callback
-from .holes import detect_holes, split_pinched
+from .holes import detect_holes
+from .pinched import split_pinched
 from .io import Mesh, check_references, manifold_mesh
 from .report import table1_dict
 from .topology import edge_count_delta, edge_topology

@@ -539,7 +539,7 @@ def test_a_band_pinched_at_shared_vertices_is_split_into_its_parts():
     """Loops A and B share vertices 0 and 3 (B meets them in the reverse
     order): the band between them is two discs, each a stretch of A and a
     stretch of B, together every edge of both once."""
-    from shellrepair.holes import _pinched_parts
+    from shellrepair.pinched import _pinched_parts
 
     A = np.array([0, 1, 2, 3, 4, 5])
     B = np.array([10, 3, 11, 0])

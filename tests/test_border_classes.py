@@ -25,7 +25,7 @@ import pytest
 
 from shellrepair import detect_holes, read_mesh
 from eval import shapes
-from shellrepair.holes import EDGE_ON_SHARE, WRAP_RATIO, edge_on_share, piece_views
+from shellrepair.hole_or_border import EDGE_ON_SHARE, WRAP_RATIO, edge_on_share, piece_views
 from shellrepair.topology import edge_topology, face_pieces
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -644,7 +644,7 @@ def test_wrap_shortcut_keeps_every_kind_and_only_skips_wrapping_pieces():
 def test_wrap_certificate_holds_from_every_direction():
     """A certified piece has P-/P+ >= WRAP_RATIO along 2000 random
     directions and the 400 spread ones, measured face by face."""
-    from shellrepair.holes import _CANDIDATES, _sampled_normals, _wraps
+    from shellrepair.hole_or_border import _CANDIDATES, _sampled_normals, _wraps
 
     rng = np.random.default_rng(5)
     D = rng.normal(size=(2000, 3))
@@ -671,7 +671,7 @@ def test_compiled_normal_moments_read_the_same_faces_as_the_sample():
     same sums to round-off, whole pieces and hashed subsets, one piece and
     many; and the same certificates."""
     from shellrepair import fastmesh
-    from shellrepair.holes import _sample_plan, _sampled_normals, _wrap_bound, _wraps
+    from shellrepair.hole_or_border import _sample_plan, _sampled_normals, _wrap_bound, _wraps
 
     if not fastmesh.warm_up():
         pytest.skip("the whole-mesh kernels are off (SHELLREPAIR_NO_NUMBA, or Numba missing)")
