@@ -512,10 +512,10 @@ def _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget):
     tube's area needs, on the stress suite's tori). So the guide is built
     with rings ``COARSE_SPACING`` rim edges apart, faired (its vertices
     counted against ``budget``) and resampled at the rim's spacing
-    (:func:`~shellrepair.bridge.resample_tube`): a first tube the size of
+    (:func:`~shellrepair.tube.resample_tube`): a first tube the size of
     the surface it spans. Returns ``(P, T)`` as ``guide_tube``.
     """
-    from .bridge import guide_tube, resample_tube
+    from .tube import guide_tube, resample_tube
 
     loop = np.concatenate([A.vertices, B.vertices])
     try:
@@ -656,7 +656,7 @@ def _restore_collinear(T, rings):
 def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
     """A missing region bounded by loops A and B: a tube, or a cap on each.
 
-    The tube starts from :func:`~shellrepair.bridge.guide_tube` (rings
+    The tube starts from :func:`~shellrepair.tube.guide_tube` (rings
     along both loops' continuation arcs; the plain zip of the two loops if
     that fails), is refined and faired like a cap with both loops' rings
     fixed, and is checked against the scan and itself; the faired tube and
@@ -677,14 +677,15 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
     Returns (outcomes, record): outcomes as for :func:`_fill_one` per loop
     (the tube patch is given with A, B refers to it), record for the report.
     """
-    from .bridge import MAX_REACH, continuation_arcs, guide_tube, tube_triangles
+    from .bridge import MAX_REACH, continuation_arcs
+    from .tube import guide_tube, tube_triangles
 
     t0 = time.perf_counter()
     loop = np.concatenate([A.vertices, B.vertices])
     # one budget for the band (both loops' edges): the tube's attempts after
     # its first are made only while it lasts, the caps get their shares
     budget = checks.WorkBudget(len(loop))
-    # a pair found only as wrapping one tube (bridge.wrapped_pairs) may be
+    # a pair found only as wrapping one tube (bands.wrapped_pairs) may be
     # two holes that merely wrap a thin part: its caps are filled as those
     # holes would be alone (``order`` as given, "auto" included)
     cap_order = order if wrapped else None

@@ -24,7 +24,7 @@ The two legs are joined into one loop by a strip of zero width along the
 segment between their nearest vertices (vertices on it about the rim's
 edge length apart): B walked from its vertex ``b`` all round, the strip to
 C's vertex ``c``, C walked all round, the strip back. The tube of
-:func:`shellrepair.bridge.guide_tube` between A and that loop (the legs'
+:func:`shellrepair.tube.guide_tube` between A and that loop (the legs'
 arcs, the strip's vertices borrowing theirs) sews the strip's two sides
 together: the strip's vertices become free vertices of one patch over the
 three loops, which is then refined and faired with the three loops' rings
@@ -57,7 +57,7 @@ def pants_initial(PA, PB, PC, arcs, spacing, reach):
     spacing : float
         The rim's edge length (strip vertices and tube rings this far apart).
     reach : float
-        As for :func:`shellrepair.bridge.guide_tube`.
+        As for :func:`shellrepair.tube.guide_tube`.
 
     Returns
     -------
@@ -67,7 +67,7 @@ def pants_initial(PA, PB, PC, arcs, spacing, reach):
         Triangles over ``[PA; PB; PC; P]``, oriented like the loops' scan
         faces (each loop edge reversed).
     """
-    from .bridge import guide_tube
+    from .tube import guide_tube
 
     ka, kb, kc = len(PA), len(PB), len(PC)
     k = ka + kb + kc
@@ -177,7 +177,7 @@ def with_fallback(unit, why, parts):
 
 def pants_unit(A, B, C, pairs, order, smooth, mode):
     """The :class:`PantsUnit` of waist A and legs B, C; ``pairs`` the bands
-    among them the arcs pair (:class:`shellrepair.bridge.Band`; its
+    among them the arcs pair (:class:`shellrepair.bands.Band`; its
     fallback, with caps on the other loops)."""
     from .patch import BandUnit, HoleUnit
 

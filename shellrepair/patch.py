@@ -50,7 +50,7 @@ class BandUnit(NamedTuple):
     order: object
     smooth: int
     mode: str              # the ``bridge`` option: "auto" or "always"
-    mutual: bool = False   # each loop sends most of its arcs to the other (shellrepair.bridge.Band)
+    mutual: bool = False   # each loop sends most of its arcs to the other (shellrepair.bands.Band)
     wrapped: bool = False  # paired as wrapping one tube: its caps filled as the holes alone would be
 
     @property
@@ -230,7 +230,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     forbidden = forbidden | set(avoid)
     fresh = pre is not None and not avoid and not scan_aware  # the batch's first attempt applies
     if initial is not None:
-        if isinstance(initial, tuple):  # a first tube with vertices inside (bridge.guide_tube)
+        if isinstance(initial, tuple):  # a first tube with vertices inside (tube.guide_tube)
             P_in, initial = initial
             Pl = np.vstack([Pl, (np.asarray(P_in, np.float64) - origin) / scale])
         T = np.asarray(initial, np.int64)

@@ -531,7 +531,7 @@ def tube_errors(ctx, A, B, candidates):
     the loop's edges (:func:`_band_length`: along the continuation arcs
     from loop to loop) is cut away, refilled as a tube is (its two
     rims joined along their continuation arcs,
-    :func:`shellrepair.bridge.guide_tube`, then refined and faired at each
+    :func:`shellrepair.tube.guide_tube`, then refined and faired at each
     order, :func:`shellrepair.patch.build_patch`), and the removed scan is
     measured against each fill. A test band that is not a clean band (it
     meets another hole or a border, or its rims are not two loops) is
@@ -637,12 +637,13 @@ def _band_length(ctx, A, B):
 
 def _first_tube(ctx, LA, LB):
     """The first tube between loops ``LA`` and ``LB`` of ``ctx`` along
-    their continuation arcs (:func:`shellrepair.bridge.guide_tube`, rings
+    their continuation arcs (:func:`shellrepair.tube.guide_tube`, rings
     at the rim's mean edge, arcs followed up to ``MAX_REACH`` times the
     larger loop's diameter): (new vertices, triangles, ring spacing).
     (:func:`shellrepair.fill._fill_pair` builds the real band's the same
     way, with the loops' diameters as detect_holes measured them.)"""
-    from .bridge import MAX_REACH, continuation_arcs, guide_tube
+    from .bridge import MAX_REACH, continuation_arcs
+    from .tube import guide_tube
     from .holes import _diameter
     from .context import rim_data
 

@@ -85,7 +85,7 @@ from .topology import edge_count_delta, edge_topology
 from .units import in_scan_units
 from . import blas
 from . import fill as _fill
-from .bridge import Bands, find_bands
+from .bands import Bands, find_bands
 from .pants import PantsUnit, expand, pants_unit
 from .fill import SEED_SMOOTH_PASSES, Outcome, _run_chunk, _seed_patches, _worker
 from .merge import _Accepted, _merge

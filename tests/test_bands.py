@@ -13,8 +13,8 @@ import pytest
 
 from shellrepair import Mesh, detect_holes
 from eval import shapes
-from shellrepair.bridge import (arc_points, band_pairs, continuation_arcs, guide_tube, loop_sights,
-                                resample_tube, tube_triangles)
+from shellrepair.bridge import arc_points, band_pairs, continuation_arcs, loop_sights
+from shellrepair.tube import guide_tube, resample_tube, tube_triangles
 from shellrepair.intersect import crossing_pairs
 from shellrepair.repair import repair_mesh
 from shellrepair.topology import edge_topology
@@ -357,7 +357,7 @@ def test_a_real_single_view_range_scan_pairs_no_border():
     """The range scan's outer edge and its floating debris are borders; a
     pair, if any, joins two holes."""
     from shellrepair import read_mesh
-    from shellrepair.bridge import find_bands
+    from shellrepair.bands import find_bands
     from shellrepair.context import ScanContext
 
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))

@@ -521,7 +521,7 @@ def test_real_range_scan_rim_border_and_holes():
 def test_border_loops_are_never_band_candidates():
     """Two floating triangles of the real range scan face each other and
     pass every band test; as borders they must not be bridged."""
-    from shellrepair.bridge import find_bands
+    from shellrepair.bands import find_bands
     from shellrepair.context import ScanContext
 
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))

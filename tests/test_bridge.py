@@ -6,7 +6,7 @@ import pytest
 
 from shellrepair import Mesh, detect_holes
 from eval import shapes
-from shellrepair.bridge import tube_triangles
+from shellrepair.tube import tube_triangles
 from shellrepair.repair import repair_mesh
 from shellrepair.topology import edge_topology
 

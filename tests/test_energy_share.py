@@ -4,9 +4,9 @@ The oracles are the per-call functions the shared / batched code replaced:
 :func:`shellrepair.fair.thin_plate_energy` and
 :func:`shellrepair.fair.curvature_variation_energy` (one intrinsic
 Laplacian each) for :func:`shellrepair.fair.patch_energies`; the step by
-step walk :func:`shellrepair.bridge._zip_walk` for the merged
-:func:`shellrepair.bridge._zip`; one :func:`shellrepair.bridge._lerp_loop`
-per array for :func:`shellrepair.bridge._lerp_arcs`; NumPy's ``mean`` and
+step walk :func:`shellrepair.tube.zip_rings_reference` for the merged
+:func:`shellrepair.tube.zip_rings`; one :func:`shellrepair.tube.lerp_loop`
+per array for :func:`shellrepair.tube.lerp_arcs`; NumPy's ``mean`` and
 ``linalg.norm`` for :func:`shellrepair.holes.loop_stats`; a walk over the
 triangles for :func:`shellrepair.merge._scan_edges`; NumPy's ``min`` /
 ``max`` reductions for :func:`shellrepair.geometry.bounds` and
@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import bridge, compiled, context, fair
+from shellrepair import compiled, context, fair, tube
 from shellrepair.io import Mesh
 from shellrepair.context import ScanContext
 from shellrepair.topology import edge_topology
@@ -77,7 +77,7 @@ def _params(kind, k, rng):
     related counts), coarsely rounded (ties inside a ring), or unsorted
     (the step-by-step fallback)."""
     if kind == "arclength":
-        return bridge._arclength(rng.normal(size=(k, 3)))
+        return tube.loop_parameters(rng.normal(size=(k, 3)))
     if kind == "even":
         return np.arange(k) / k
     if kind == "rounded":
@@ -96,7 +96,7 @@ def test_merged_zip_equals_the_step_by_step_walk(kind):
         ka, kc = (int(x) for x in rng.integers(3, 40, 2))
         ta, tc = _params(kind, ka, rng), _params(kind, kc, rng)
         ia, ic = np.arange(ka) + 7, rng.permutation(kc) + 100
-        got, want = bridge._zip(ta, tc, ia, ic), bridge._zip_walk(ta, tc, ia, ic)
+        got, want = tube.zip_rings(ta, tc, ia, ic), tube.zip_rings_reference(ta, tc, ia, ic)
         assert got.dtype == want.dtype == np.int64
         assert np.array_equal(got, want)
 
@@ -108,22 +108,22 @@ def test_zip_of_a_last_parameter_past_one_walks_step_by_step():
     ta = np.array([0.0, 0.4, np.nextafter(1.0, 2.0)])
     tc = np.array([0.0, 0.5, 0.999])
     ia, ic = np.arange(3), np.arange(3) + 3
-    assert np.array_equal(bridge._zip(ta, tc, ia, ic), bridge._zip_walk(ta, tc, ia, ic))
-    assert len(bridge._zip(ta, tc, ia, ic)) == 6
+    assert np.array_equal(tube.zip_rings(ta, tc, ia, ic), tube.zip_rings_reference(ta, tc, ia, ic))
+    assert len(tube.zip_rings(ta, tc, ia, ic)) == 6
 
 
 @pytest.mark.parametrize("seed", range(4))
 def test_interpolating_arcs_together_equals_one_array_at_a_time(seed):
     rng = np.random.default_rng(seed)
     k = int(rng.integers(3, 50))
-    t = bridge._arclength(rng.normal(size=(k, 3)))
+    t = tube.loop_parameters(rng.normal(size=(k, 3)))
     arcs = (rng.normal(size=(k, 3)), rng.normal(size=(k, 3)), rng.normal(size=(k, 3)),
             rng.normal(size=k), rng.random(k), 1e6 * rng.random(k))
     for m in (3, k, 2 * k + 1):
         u = np.arange(m) / m
-        got = bridge._lerp_arcs(t, arcs, u)
+        got = tube.lerp_arcs(t, arcs, u)
         for g, a in zip(got, arcs):
-            want = bridge._lerp_loop(t, a, u)
+            want = tube.lerp_loop(t, a, u)
             assert g.shape == want.shape
             assert g.tobytes() == np.ascontiguousarray(want).tobytes()
 

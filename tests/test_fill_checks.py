@@ -108,9 +108,9 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
     # turned off here to keep the refill tested on this case.)
     import numpy as np
 
-    import shellrepair.bridge
+    import shellrepair.bands
 
-    monkeypatch.setattr(shellrepair.bridge, "pants_triples", lambda *a, **k: [])
+    monkeypatch.setattr(shellrepair.bands, "pants_triples", lambda *a, **k: [])
     import shellrepair.repair   # (crossed caps are first tried as a tube: off too, to test the refill)
 
     monkeypatch.setattr(shellrepair.repair, "_tube_crossed_caps", lambda *a, **k: None)

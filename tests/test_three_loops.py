@@ -71,7 +71,7 @@ def test_pants_manifold_check_counts_boundaries_and_genus():
 @pytest.mark.slow
 def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(genus2, monkeypatch):
     """No first pants: the band the arcs pair and the cap, as without triples."""
-    import shellrepair.bridge as bridge
+    import shellrepair.bands as bands
     import shellrepair.pants as pants
 
     V, F = genus2
@@ -84,7 +84,7 @@ def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(gen
     monkeypatch.setattr(pants, "pants_initial", no_pants)
     R, rep = repair_mesh(M)
     assert "forced" in rep["bridges"][0]["pants"]
-    monkeypatch.setattr(bridge, "pants_triples", lambda *a, **k: [])
+    monkeypatch.setattr(bands, "pants_triples", lambda *a, **k: [])
     R0, rep0 = repair_mesh(M)
     assert np.array_equal(R.V, R0.V) and np.array_equal(R.F, R0.F)
     assert rep["holes_after"] == rep0["holes_after"] == 0

@@ -5,7 +5,7 @@ round the tube and the continuation arcs (circles with the tube's
 curvature) come back round to the loop they left: the arcs pair nothing.
 The loops still wrap the tube (the scan normals at their rims are radial to
 their planes) and head to each other, which
-:func:`shellrepair.bridge.wrapped_pairs` reads; the tube keeps the genus
+:func:`shellrepair.bands.wrapped_pairs` reads; the tube keeps the genus
 where two caps would cut the handle. Two small holes on either side of a
 thin tube, and the two rims of a scan that is itself a band of a sphere,
 are not paired that way.
@@ -16,7 +16,8 @@ import pytest
 
 from eval import shapes
 from shellrepair import Mesh, detect_holes
-from shellrepair.bridge import loop_sights, wrapped_pairs
+from shellrepair.bands import wrapped_pairs
+from shellrepair.bridge import loop_sights
 from shellrepair.context import ScanContext
 from shellrepair.repair import repair_mesh
 from shellrepair.topology import euler_characteristic
