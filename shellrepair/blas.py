@@ -134,5 +134,5 @@ def _counts_back(before):
 #: thread (other threads of the process see the change while a block is open).
 one_thread = CountedSetting(_counts_to_one, _counts_back)
 #: The same setting, under the name the fill's helper thread uses
-#: (:class:`shellrepair.fill.HelperThread`).
+#: (:class:`shellrepair.beside.HelperThread`).
 one_thread_everywhere = one_thread

@@ -43,7 +43,7 @@ arcs (:func:`shellrepair.tube.guide_tube`), refined to the rim's edge length, an
 either faired with both loops' rings fixed or kept on the arcs, whichever
 valid one has the lower curvature-variation energy; every option is
 checked like a cap: it must cross neither the scan nor itself, nor repeat
-an edge of the scan. Then (see :func:`shellrepair.fill._fill_pair`):
+an edge of the scan. Then (see :func:`shellrepair.band_fill._fill_pair`):
 
 * loops that see each other both ways keep a valid tube (the surface
   continues from each into the other; the caps are not built);

@@ -72,7 +72,7 @@ class ScanContext:
         # shared with a helper thread's copy of this context
         self.allowed_answers = {}
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
-        self.beside = None  # fill._Beside: a helper thread's work beside a batch's fills
+        self.beside = None  # beside.Beside: a helper thread's work beside a batch's fills
 
     def know_loops(self, loops):
         """Keep what hole detection measured of each loop (planarity, its
@@ -82,7 +82,7 @@ class ScanContext:
 
     def start_run(self, beside):
         """A run of holes starts: ``beside`` the helper thread's work beside
-        it (``fill._Beside``, or None)."""
+        it (``beside.Beside``, or None)."""
         self.beside = beside
 
     def keep_first(self, hole_id, pre):

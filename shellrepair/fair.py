@@ -473,14 +473,14 @@ def _first_solve(Quu, Quf, Xf):
 
     ``order="auto"`` fills a hole at order 2, then, where the order test asks
     for order 3, fairs the same refined patch at order 3
-    (:func:`shellrepair.fill._fill_one`): both start from the uniform thin
+    (:func:`shellrepair.fill.fill_hole`): both start from the uniform thin
     plate, and the order-3 submesh's extra ring of fixed scan does not enter
     the unknowns' rows (their K² reads two rings), so the system is the
     same, entry for entry (the ~12k-unknown hole of ``eval/bench_fill.py``:
     one factorisation of ~0.1-0.15 s; the 350-unknown holes of
     bumpy_sphere-discs-medium: ~1.5 ms each). Between :func:`first_solve_memo`
     ``(True)`` and ``(False)`` (the fill of a run of holes,
-    :func:`shellrepair.fill._run_chunk`), a system of at least
+    :func:`shellrepair.fill_runs.run_chunk`), a system of at least
     ``FIRST_SOLVE_MEMO_UNKNOWNS`` unknowns is kept with its solution (per
     run, shared by its threads; the least recently used dropped past
     ``FIRST_SOLVE_MEMO_BYTES``),

@@ -130,10 +130,10 @@ class _Pre:
     refined: tuple | None = None
     edge_on: bool | None = None     # _meets_edge_on, when the unit's order asked for it
     frame: tuple | None = None      # local_frame(ctx, loop, rim sigma)
-    first: object = None            # the first attempt, built and checked (fill._first_attempts)
+    first: object = None            # the first attempt, built and checked (fill_runs.first_attempts)
 
     def keep_first(self, first):
-        """Keep the first attempt, built and checked in a batch (:func:`shellrepair.fill._first_attempts`)."""
+        """Keep the first attempt, built and checked in a batch (:func:`shellrepair.fill_runs.first_attempts`)."""
         self.first = first
 
     def refined_once(self, make):

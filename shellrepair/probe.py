@@ -640,7 +640,7 @@ def _first_tube(ctx, LA, LB):
     their continuation arcs (:func:`shellrepair.tube.guide_tube`, rings
     at the rim's mean edge, arcs followed up to ``MAX_REACH`` times the
     larger loop's diameter): (new vertices, triangles, ring spacing).
-    (:func:`shellrepair.fill._fill_pair` builds the real band's the same
+    (:func:`shellrepair.band_fill._fill_pair` builds the real band's the same
     way, with the loops' diameters as detect_holes measured them.)"""
     from .bridge import MAX_REACH, continuation_arcs
     from .tube import guide_tube

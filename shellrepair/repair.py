@@ -23,7 +23,7 @@ Two loops facing each other across a missing band are first offered a tube
 (:mod:`~shellrepair.bridge`); the tube or the two caps are kept by their
 curvature-variation energy. Two planar loops met edge-on on one plane, one
 inside the other, are one flat face with a hole
-(:func:`~shellrepair.fill.flat_face_with_hole`).
+(:func:`~shellrepair.band_fill.flat_face_with_hole`).
 
 Then every accepted patch is appended: original vertices keep their index
 and exact values, new vertices and faces come after them and are flagged
@@ -35,7 +35,7 @@ its holes at once (the refinement as one disjoint union, with the same
 result as hole by hole). Where the runs are filled in this process (one
 run, or a daemonic process) and ``jobs`` is more than one, a second thread
 runs the ``order="auto"`` holes' order tests, and the order-3 patches they
-ask for, beside the fills (:class:`~shellrepair.fill.HelperThread`; that
+ask for, beside the fills (:class:`~shellrepair.beside.HelperThread`; that
 work reads only the scan and the run's first-attempt work). The checks
 between patches and the merge run afterwards in hole order, so the output
 does not depend on ``jobs``.
@@ -84,10 +84,13 @@ from .report import table1_dict
 from .topology import edge_count_delta, edge_topology
 from .units import in_scan_units
 from . import blas
-from . import fill as _fill
 from .bands import Bands, find_bands
 from .pants import PantsUnit, expand, pants_unit
-from .fill import SEED_SMOOTH_PASSES, Outcome, _run_chunk, _seed_patches, _worker
+from .band_fill import _fill_pair
+from .beside import HelperThread
+from .checks import Outcome
+from .fill import SEED_SMOOTH_PASSES, fill_hole, _seed_patches
+from .fill_runs import run_chunk, _worker, worker_context
 from .merge import _Accepted, _merge
 from .context import ScanContext
 from .patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
@@ -268,7 +271,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         # start processes: its runs are filled here, with the helper thread
         if jobs > 1 and len(chunks) > 1 and not mp.current_process().daemon:
             _ = ctx.index  # built before forking, so workers share it
-            with _fill.worker_context(ctx), mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
+            with worker_context(ctx), mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
                 for out in pool.imap(_worker, chunks, chunksize=1):
                     unit_out.extend(out)
                     _progress(progress, len(unit_out), len(units))
@@ -282,7 +285,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
             # a spare core runs the order="auto" holes' order tests and order-3 patches beside the fills
             with _beside(jobs > 1 and "auto" in {u.order for u in units}) as pool:
                 for chunk in chunks:
-                    unit_out.extend(_run_chunk(ctx, chunk, tick, pool=pool))
+                    unit_out.extend(run_chunk(ctx, chunk, tick, pool=pool))
     if legacy_bar:  # progress=True: the terminal bar this call drew ends its line
         from .progress import end_line
 
@@ -391,11 +394,11 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
 
 
 def _beside(use):
-    """A helper thread for work beside the fills (:class:`~shellrepair.fill.HelperThread`,
+    """A helper thread for work beside the fills (:class:`~shellrepair.beside.HelperThread`,
     a context manager), or a ``None`` stand-in when ``use`` is false."""
     import contextlib
 
-    return _fill.HelperThread() if use else contextlib.nullcontext()
+    return HelperThread() if use else contextlib.nullcontext()
 
 
 def _note_swap(rows, swapped):
@@ -413,7 +416,7 @@ def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridge
     the region missing between them is a band their continuation arcs did
     not pair (on a fat torus's inner side half of each loop's arcs land on
     the other loop and half on itself, no majority). Each such pair, in
-    hole order, is filled as a band (:func:`shellrepair.fill._fill_pair`:
+    hole order, is filled as a band (:func:`shellrepair.band_fill._fill_pair`:
     its caps, which cross, then the tube); a tube that passes its checks
     and crosses no other accepted patch takes the place of the earlier
     hole's cap. ``rows``, ``bridges`` and ``paired`` (the two loops) are
@@ -431,8 +434,8 @@ def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridge
         j = next((k for k, it in enumerate(acc.items) if it[0].hole_id == other), None)
         if j is None or A.kind != "hole" or np.intersect1d(A.vertices, B.vertices).size:
             continue
-        outs, record = _fill._fill_pair(ctx, A, B, order, smooth, mode,
-                                        *(flags or {}).get(frozenset((A.id, B.id)), (False, False)))
+        outs, record = _fill_pair(ctx, A, B, order, smooth, mode,
+                                  *(flags or {}).get(frozenset((A.id, B.id)), (False, False)))
         row["seconds"] = round(row["seconds"] + outs[0].seconds, 4)
         tube = outs[0].patch if record.get("chosen") == "tube" else None
         why, corners = acc.conflict(ctx, tube, skip=j) if tube is not None else ("", None)
@@ -499,8 +502,8 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
     ctx2 = ScanContext(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
     for h in again:
         row = rows[h.id]
-        patch, reason, secs, _ = _fill._fill_one(ctx2, h.id, np.asarray(h.vertices, np.int64),
-                                                 order_for.get(h.id, order), smooth)
+        patch, reason, secs, _ = fill_hole(ctx2, h.id, np.asarray(h.vertices, np.int64),
+                                           order_for.get(h.id, order), smooth)
         row["seconds"] = round(row["seconds"] + secs, 4)
         if patch is not None:
             patch, reason, swapped = acc.place(ctx, patch)

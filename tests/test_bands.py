@@ -167,12 +167,12 @@ def test_a_band_whose_guide_fills_its_budget_gets_the_tube_resampled_on_the_fair
     the right genus, as close to the truth, and of about the size of the
     tube refined from this guide (which does not crumple: 916 new vertices,
     the resampled tube 1045)."""
-    from shellrepair import fill
+    from shellrepair import band_fill
 
     V, F, V2, F2, _ = torus_inner_band(3)
     M = Mesh(V=V2, F=F2)
     R0, rep0 = repair_mesh(M, order=2)      # (the first tube's guide, not the choice of order, is under test)
-    monkeypatch.setattr(fill, "GUIDE_SHARE", 0.0)
+    monkeypatch.setattr(band_fill, "GUIDE_SHARE", 0.0)
     R, rep = repair_mesh(M, order=2)
     assert [b["chosen"] for b in rep["bridges"]] == ["tube"]
     assert "resampled on their faired coarse tube" in rep["holes"][0]["option"]

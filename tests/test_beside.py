@@ -8,12 +8,13 @@ import threading
 import numpy as np
 import pytest
 
-import shellrepair.fill as fill
 import shellrepair.repair as repair
 import shellrepair.selftest as selftest
 from eval import shapes
 from shellrepair import repair_mesh
+from shellrepair.beside import Beside
 from shellrepair.io import Mesh
+from shellrepair.patch import HoleUnit
 
 
 @pytest.fixture(scope="module")
@@ -53,14 +54,14 @@ def _without_times(report):
 def test_the_helper_tests_and_builds_order_3_and_changes_no_bit(smooth_holes, monkeypatch):
     seen = _record_threads(monkeypatch)
     taken = []
-    real_take = fill._Beside.take_o3
+    real_take = Beside.take_o3
 
     def take(self, hole_id, T):
         got = real_take(self, hole_id, T)
         taken.append(got[0])
         return got
 
-    monkeypatch.setattr(fill._Beside, "take_o3", take)
+    monkeypatch.setattr(Beside, "take_o3", take)
     one, rep1 = repair_mesh(smooth_holes, jobs=1)
     on_main = list(seen)
     seen.clear()
@@ -81,7 +82,7 @@ def test_work_the_helper_has_not_begun_is_done_by_the_fill(smooth_holes, monkeyp
     and does it itself: the same output."""
     one, _ = repair_mesh(smooth_holes, jobs=1)
     gate = threading.Event()
-    real_init, real_chunk = fill._Beside.__init__, repair._run_chunk
+    real_init, real_chunk = Beside.__init__, repair.run_chunk
 
     def held(self, ctx, chunk, pool, *args):
         pool.submit((-1,), gate.wait, 60)       # the helper is busy until the run's fills are done
@@ -93,8 +94,8 @@ def test_work_the_helper_has_not_begun_is_done_by_the_fill(smooth_holes, monkeyp
         finally:
             gate.set()
 
-    monkeypatch.setattr(fill._Beside, "__init__", held)
-    monkeypatch.setattr(repair, "_run_chunk", run_then_open)
+    monkeypatch.setattr(Beside, "__init__", held)
+    monkeypatch.setattr(repair, "run_chunk", run_then_open)
     seen = _record_threads(monkeypatch)
     try:
         two, rep = repair_mesh(smooth_holes, jobs=2)
@@ -124,10 +125,10 @@ def test_the_helper_takes_the_largest_holes_first(monkeypatch):
             return self
 
     rims = {0: 12, 1: 300, 2: 40, 3: 300, 4: 9, 5: 41}          # hole id -> rim edges, not in size order
-    chunk = [fill.HoleUnit(h, np.arange(k), "auto", None) for h, k in rims.items()]
-    chunk.insert(2, fill.HoleUnit(9, np.arange(500), 2, None))   # a fixed order: no test, no place
+    chunk = [HoleUnit(h, np.arange(k), "auto", None) for h, k in rims.items()]
+    chunk.insert(2, HoleUnit(9, np.arange(500), 2, None))   # a fixed order: no test, no place
     pool = Queue()
-    beside = fill._Beside(Context(), chunk, pool)
+    beside = Beside(Context(), chunk, pool)
     assert sorted(beside.place, key=beside.place.get) == [1, 3, 5, 2, 0, 4]
     assert sorted(pool.keys) == [((0, 0), 1), ((1, 0), 3), ((2, 0), 5), ((3, 0), 2), ((4, 0), 0), ((5, 0), 4)]
     assert list(beside.tests) == [0, 1, 2, 3, 4, 5]             # the fill steals tests in hole order

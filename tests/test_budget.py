@@ -69,7 +69,7 @@ def test_a_spent_budget_stops_the_retries_and_keeps_the_checked_flat_triangulati
     spy = _Spy(monkeypatch)
     budget = checks.WorkBudget(len(loop))
     budget.vertices = 0          # nothing left after the first attempt
-    patch, reason, _, reasons = fill._fill_one_order(ctx, 0, loop, 2, 0, budget=budget)
+    patch, reason, _, reasons = fill.fill_hole_at_order(ctx, 0, loop, 2, 0, budget=budget)
     assert spy.refined == 2                      # the first attempt and the harmonic patch only
     assert patch is not None and len(patch.P) == 0 and patch.option.startswith("flat triangulation")
     assert any("not tried" in r and "work budget" in r for r in reasons)
@@ -85,7 +85,7 @@ def test_a_budget_of_two_and_a_half_patches_allows_one_faired_retry(monkeypatch)
     spy = _Spy(monkeypatch)
     budget = checks.WorkBudget(len(loop))
     budget.vertices = 2.5 * size
-    patch, *_ = fill._fill_one_order(ctx, 0, loop, 2, 0, budget=budget)
+    patch, *_ = fill.fill_hole_at_order(ctx, 0, loop, 2, 0, budget=budget)
     assert spy.refined == 3
     assert budget.spent == 3 * size
     assert patch is not None and len(patch.P) == 0
@@ -95,7 +95,7 @@ def test_with_the_default_budget_the_same_hole_retries_more(monkeypatch):
     """The control: the bound above is what cut the retries."""
     ctx, loop = _sheet_with_a_hole()
     spy = _Spy(monkeypatch)
-    fill._fill_one_order(ctx, 0, loop, 2, 0)
+    fill.fill_hole_at_order(ctx, 0, loop, 2, 0)
     assert spy.refined > 3
 
 
@@ -170,6 +170,6 @@ def test_failed_faired_attempts_are_mended_before_the_flat_triangulation_is_kept
 
     monkeypatch.setattr(mend, "mend_patch", mend_patch)
     monkeypatch.setattr(checks, "check_patch", check)
-    patch, *_ = fill._fill_one_order(ctx, 0, loop, 2, 0)
+    patch, *_ = fill.fill_hole_at_order(ctx, 0, loop, 2, 0)
     assert patch is not None and "mended" in patch.option and len(patch.P) > 0
     assert real_check(ctx, patch)[0] is None

@@ -241,7 +241,7 @@ def test_a_remembered_first_solve_gives_the_same_fairing_to_the_bit(numba, monke
 
 
 def test_a_thread_given_the_runs_memo_takes_the_first_solves_made_in_another(monkeypatch):
-    """The fill's helper thread shares its run's memo (fill._Beside): an
+    """The fill's helper thread shares its run's memo (beside.Beside): an
     order-3 fairing there takes the order-2 fill's first solve."""
     import threading
 

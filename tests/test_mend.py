@@ -24,7 +24,7 @@ import numpy as np
 from eval import shapes
 from shellrepair import Mesh
 from shellrepair.checks import check_patch
-from shellrepair.fill import _fill_one
+from shellrepair.fill import fill_hole
 from shellrepair.holes import boundary_loops
 from shellrepair.mend import mend_patch
 from shellrepair.context import ScanContext
@@ -134,7 +134,7 @@ def test_a_pillar_through_a_curved_opening_defeats_mending_and_is_passed_over():
     V[:, 2] = 0.5 * (V[:, 0] - 0.5) ** 2          # bent: the opening is not a plane region
     Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
     ctx = ScanContext(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
-    out = _fill_one(ctx, 0, loop, 2, 0)
+    out = fill_hole(ctx, 0, loop, 2, 0)
     said = "; ".join(out.reasons)
     assert "last layer, mending" in said
     assert "crosses neither the scan" in said or "grew to" in said or "not discs" in said
@@ -148,7 +148,7 @@ def test_a_pillar_through_a_plane_opening_is_not_mended_and_is_passed_over():
     V, F, loop = _sheet_with_a_hole()
     Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
     ctx = ScanContext(Mesh(V=np.vstack([V, Vp]), F=np.vstack([F, Fp + len(V)])))
-    out = _fill_one(ctx, 0, loop, 2, 0)
+    out = fill_hole(ctx, 0, loop, 2, 0)
     said = "; ".join(out.reasons)
     assert "cross the opening's own plane inside it" in said
     assert "last layer, mending" not in said
@@ -177,7 +177,7 @@ def test_a_pillar_is_given_up_within_the_rounds_and_the_region_bound():
 def test_the_last_layer_leaves_a_hole_the_earlier_layers_fill_alone():
     V, F, loop = _sheet_with_a_hole()
     ctx = ScanContext(Mesh(V=V, F=F))
-    out = _fill_one(ctx, 0, loop, 2, 0)
+    out = fill_hole(ctx, 0, loop, 2, 0)
     assert out.patch is not None
     assert "mended" not in out.patch.option
 
@@ -215,7 +215,7 @@ def test_a_hole_round_a_twisted_tongue_the_earlier_layers_leave_open_is_mended(m
 
     V, F, loop = _sheet_with_a_twisted_tongue(1.5 * np.pi, 0.1)
     ctx = ScanContext(Mesh(V=V, F=F))
-    out = _fill_one(ctx, 0, loop, 2, 0)
+    out = fill_hole(ctx, 0, loop, 2, 0)
     assert any("still crosses the scan after re-routing" in r for r in out.reasons)
     assert out.patch is not None, out.reason
     assert "mended" in out.patch.option

@@ -356,13 +356,13 @@ def test_loaded_whole_mesh_kernels_give_a_small_mesh_the_same_repair(monkeypatch
 @pytest.mark.slow
 def test_first_attempts_made_for_a_chunk_at_once_change_no_hole(monkeypatch):
     """The first attempt of each hole of a chunk is built and checked with
-    the others' (fill._first_attempts: one batched crossing query); holes
+    the others' (fill_runs.first_attempts: one batched crossing query); holes
     whose first attempt fails go on to their retries as before. Here the
     patches with new vertices of every third hole are made to "cross the
     scan" (the same fake answer in the batched and the single query), so
     the retry path runs too: the repair equals the one without the batch."""
     import shellrepair.checks as checks
-    import shellrepair.fill as fill
+    import shellrepair.fill_runs as fill_runs
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.02, frequency=5)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=10, radius=0.25, seed=4)
@@ -380,7 +380,7 @@ def test_first_attempts_made_for_a_chunk_at_once_change_no_hole(monkeypatch):
     monkeypatch.setattr(checks, "patch_vs_index_many",
                         lambda items, index: [fake(Pt, Pid, b) for (Pt, Pid), b in zip(items, real_many(items, index))])
     batched = repair_mesh(Mesh(V=V2, F=F2))
-    monkeypatch.setattr(fill, "_first_attempts", lambda ctx, chunk: None)
+    monkeypatch.setattr(fill_runs, "first_attempts", lambda ctx, chunk: None)
     alone = repair_mesh(Mesh(V=V2, F=F2))
     for name in ("V", "F", "vertex_filled", "face_filled"):
         assert np.array_equal(getattr(batched[0], name), getattr(alone[0], name))

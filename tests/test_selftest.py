@@ -6,7 +6,7 @@ from scipy.spatial import cKDTree
 
 from eval import shapes
 from shellrepair import Mesh, detect_holes, probe, read_mesh, selftest
-from shellrepair.fill import _fill_one_order
+from shellrepair.fill import fill_hole_at_order
 from shellrepair.context import ScanContext
 from shellrepair.patch import build_patch
 from shellrepair.probe import PROBES, hole_radius, probe_errors
@@ -45,8 +45,8 @@ def forced_and_auto(V, F, centers, radius):
     rows = []
     for h in scan.holes:
         t = choose_order(ctx, h.id, h.vertices)
-        p1, *_ = _fill_one_order(ctx, h.id, h.vertices, 1, 0)
-        p2, *_ = _fill_one_order(ctx, h.id, h.vertices, 2, 0)
+        p1, *_ = fill_hole_at_order(ctx, h.id, h.vertices, 1, 0)
+        p2, *_ = fill_hole_at_order(ctx, h.id, h.vertices, 2, 0)
         p3 = build_patch(ctx, h.id, h.vertices, order=3, initial=p2.T0)
         rows.append((t, {o: true_rms(p, truth) for o, p in ((1, p1), (2, p2), (3, p3))}))
     return rows
