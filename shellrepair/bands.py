@@ -16,10 +16,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .bridge import (ARC_SAMPLES, MAX_REACH, SIGHT_SLACK, _continuation_arcs_many, band_pairs, loop_sights,
+from .bridge import (ARC_SAMPLES, MAX_REACH, SIGHT_SLACK, continuation_arcs_many, band_pairs, loop_sights,
                      pants_triples)
 
-__all__ = ["Band", "Bands", "find_bands", "wrapped_pairs"]
+__all__ = ["Band", "Bands", "find_bands", "wrapped_pairs", "loops_with_partner"]
 
 
 class Band(NamedTuple):
@@ -71,7 +71,7 @@ def find_bands(ctx, scan):
     ok = (nb != row) & (np.linalg.norm(centres[nb] - centres[row], axis=1) <= reach[row] + radius[nb])
     cand = [int(i) for i in ids[np.unique(row[ok])]]
     touching = _touching(loops, ids)
-    cand = _with_partner(ctx, loops, cand, hole, touching)
+    cand = loops_with_partner(ctx, loops, cand, hole, touching)
     if not cand:
         return Bands([], [])
     arcs = {}
@@ -164,7 +164,7 @@ def wrapped_pairs(V, loops, ids, faces_near, touching=(), arcs=None):
     rims = [np.asarray(loops[a].vertices, np.int64) for a in ids]
     known = {} if arcs is None else arcs
     todo = [x for x, a in enumerate(ids) if a not in known]
-    found = dict(zip(todo, _continuation_arcs_many(V, [faces_near(rims[x]) for x in todo],
+    found = dict(zip(todo, continuation_arcs_many(V, [faces_near(rims[x]) for x in todo],
                                                    [rims[x] for x in todo]))) if todo else {}
     info = {}
     for x, (a, lp) in enumerate(zip(ids, rims)):
@@ -227,7 +227,7 @@ def _touching(loops, ids):
     return touching
 
 
-def _with_partner(ctx, loops, cand, hole, touching=None):
+def loops_with_partner(ctx, loops, cand, hole, touching=None):
     """The loops of ``cand`` whose continuation arcs can land on another
     ``hole`` loop they do not touch; the others cannot see any loop that
     may be paired with them, so following their arcs changes no pair.
@@ -242,6 +242,25 @@ def _with_partner(ctx, loops, cand, hole, touching=None):
     edge of a target vertex. So every landing on loop ``b`` has a vertex of
     ``b`` within ``r + 2e + reach (1 + 1/ARC_SAMPLES + SIGHT_SLACK) +
     edge_b`` of the loop's centre, ``r`` its farthest rim vertex.
+
+    Parameters
+    ----------
+    ctx : ScanContext
+        The scan.
+    loops : list of Loop
+        The scan's loops (:class:`shellrepair.holes.Loop`).
+    cand : list of int
+        The loops to filter (ids).
+    hole : (len(loops),) bool
+        Which loops are classed ``hole``.
+    touching : set of (int, int), optional
+        The pairs of hole loops that share a vertex (found here when not
+        given).
+
+    Returns
+    -------
+    list of int
+        The loops of ``cand`` kept, in their order.
     """
     from .geometry import concat_ranges
 

@@ -68,8 +68,8 @@ from scipy.spatial import cKDTree
 
 from . import bridge_kernels, compiled
 
-__all__ = ["continuation_arcs", "arc_points", "loop_sights", "band_pairs", "pants_triples", "MAX_REACH",
-           "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
+__all__ = ["continuation_arcs", "continuation_arcs_many", "next_to", "arc_points", "loop_sights", "band_pairs",
+           "pants_triples", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
 
 #: Arcs are followed at most this many loop diameters (or one full turn):
 #: the search horizon for a partner loop, not a decision threshold.
@@ -130,10 +130,10 @@ def continuation_arcs(V, F_near, loop, smooth=2):
     the plane through ``p`` normal to the loop, so the circle lies across
     the rim.
     """
-    return _continuation_arcs_many(V, [F_near], [loop], smooth)[0]
+    return continuation_arcs_many(V, [F_near], [loop], smooth)[0]
 
 
-def _continuation_arcs_many(V, F_nears, loops, smooth=2):
+def continuation_arcs_many(V, F_nears, loops, smooth=2):
     """:func:`continuation_arcs` of several loops at once (the one
     implementation: a single loop is a batch of one).
 
@@ -163,7 +163,7 @@ def _continuation_arcs_many(V, F_nears, loops, smooth=2):
 
 
 def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
-    """:func:`_continuation_arcs_many` with the loops' rows concatenated.
+    """:func:`continuation_arcs_many` with the loops' rows concatenated.
 
     Returns
     -------
@@ -192,9 +192,9 @@ def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
     E = np.concatenate([L[:, [0, 1]], L[:, [1, 2]], L[:, [2, 0]]])
     level = np.full(nv, 3, np.int64)
     level[li] = 0
-    ring1 = _next_to(E, level == 0) & (level > 0)     # the adjacency's rows li meet these columns
+    ring1 = next_to(E, level == 0) & (level > 0)     # the adjacency's rows li meet these columns
     level[ring1] = 1
-    ring2 = _next_to(E, ring1) & (level > 1)
+    ring2 = next_to(E, ring1) & (level > 1)
     level[ring2] = 2
     X = V[ukey % n]
     # area-weighted vertex normals, summed block by block
@@ -290,10 +290,23 @@ def _ring_sums(E, li, level, X, Nv):
     return R1 @ X, R1.sum(axis=1).A1, R1 @ Nv, R2 @ X, R2.sum(axis=1).A1, R2 @ Nv
 
 
-def _next_to(E, mark):
-    """The vertices joined by an edge of ``E`` (k,2) to a marked one: the
-    columns the rows ``mark`` of the (symmetric, all ones) adjacency of
-    ``E`` meet, without building the rows."""
+def next_to(E, mark):
+    """The vertices joined by an edge to a marked one: the columns the rows
+    ``mark`` of the (symmetric, all ones) adjacency of ``E`` meet, without
+    building the rows (the rings around a loop, :func:`continuation_arcs`).
+
+    Parameters
+    ----------
+    E : (k,2) int64
+        Edges (repeated edges and self-loops allowed).
+    mark : (n,) bool
+        The marked vertices.
+
+    Returns
+    -------
+    (n,) bool
+        The vertices an edge joins to a marked vertex.
+    """
     out = np.zeros(len(mark), bool)
     out[E[mark[E[:, 0]], 1]] = True
     out[E[mark[E[:, 1]], 0]] = True

@@ -27,7 +27,7 @@ import numpy as np
 
 from . import checks_kernels, compiled
 from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
-from .merge import _edges_of, _scan_edges
+from .merge import _edges_of, scan_edges as patch_scan_edges
 from .patch import _corners
 
 
@@ -293,6 +293,6 @@ def check_joining(ctx, patch, scan_edges, what):
     repeat one of their ``scan_edges`` (:func:`edges_across`; ``what``
     names the patch in the reason)."""
     why, bad = check_patch(ctx, patch)
-    if why is None and any(e in scan_edges for e in _scan_edges(patch)):
+    if why is None and any(e in scan_edges for e in patch_scan_edges(patch)):
         why = f"the {what} would repeat an edge of the scan"
     return why, bad

@@ -59,7 +59,15 @@ def quiet_hugepages():
     _set_madvise_hugepage(False)
 
 
-def _parser():
+def build_parser():
+    """The command line's argument parser (what :func:`main` reads).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        Its sub-commands ``holes``, ``repair``, ``batch`` and ``render``;
+        ``parse_args`` gives each option its default, as :func:`main` sees it.
+    """
     from . import __version__
 
     p = argparse.ArgumentParser(prog="shellrepair", description="Fill the holes of 3D scans with smooth shells.")
@@ -318,7 +326,7 @@ def _signed_values(argv):
 
 def main(argv=None):
     """Run the command line; returns the exit status."""
-    args = _parser().parse_args(_signed_values(sys.argv[1:] if argv is None else list(argv)))
+    args = build_parser().parse_args(_signed_values(sys.argv[1:] if argv is None else list(argv)))
     quiet_hugepages()
     try:
         return {"holes": _holes, "repair": _repair, "batch": _batch, "render": _render}[args.cmd](args)

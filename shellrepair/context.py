@@ -68,7 +68,7 @@ class ScanContext:
         self._vf_future = None
         self._region_future = None   # the region on its way from another thread (take_region)
         self._early_vf = None        # and the whole-mesh lists, where there is no region
-        # loop bytes -> {triangle key: 0/1}: the scan test's answers (_scan_allowed),
+        # loop bytes -> {triangle key: 0/1}: the scan test's answers (scan_allowed),
         # shared with a helper thread's copy of this context
         self.allowed_answers = {}
         self.pre = {}  # hole id -> _Pre: first-attempt work done for a batch of holes
@@ -130,7 +130,7 @@ class ScanContext:
 
     @property
     def index(self):
-        """The near-face index of the crossing checks: :class:`_LocalIndex`
+        """The near-face index of the crossing checks: :class:`LocalIndex`
         over the region (:meth:`region`) when there is one, else the
         whole-mesh :class:`~shellrepair.intersect.NearFaces`."""
         return self.build_index()
@@ -151,7 +151,7 @@ class ScanContext:
         """:attr:`index`, built once, by the first thread to ask (the others wait)."""
         def build():
             reg = self.region()
-            return _LocalIndex(self, reg) if reg is not None else self.whole_index()
+            return LocalIndex(self, reg) if reg is not None else self.whole_index()
 
         return self._once("_index", build)
 
@@ -398,14 +398,23 @@ def region_of(V, F, topo):
     return _Region(F, len(V), lo, hi, found) if found[0].size <= LOCAL_MAX_SHARE * len(F) else None
 
 
-class _LocalIndex:
+class LocalIndex:
     """What the crossing checks read of a near-face index
     (:func:`shellrepair.intersect.patch_vs_index`: ``faces_near``, ``V``,
     ``F``, ``origin``), from a :class:`_Region`: the faces whose bounding
     boxes meet a query box inside one of the region's boxes (a superset of
     the faces that meet it, as the whole-mesh index gives; the exact tests
     decide). Any other query, and anything else, goes to the whole-mesh
-    index, built then."""
+    index, built then.
+
+    Parameters
+    ----------
+    ctx : ScanContext
+        The scan whose whole-mesh index answers what the region cannot.
+    region : _Region
+        The boxes around the holes, with the faces meeting each
+        (:meth:`ScanContext.region`).
+    """
 
     def __init__(self, ctx, region):
         self._ctx = ctx

@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 
 from . import compiled, distance_kernels
 
-__all__ = ["point_mesh_distance"]
+__all__ = ["point_mesh_distance", "nearest_triangle_distances_reference"]
 
 #: Triangles nearest (by centroid) to each measured point searched for its closest point.
 NEAREST_TRIANGLES = 8
@@ -55,6 +55,32 @@ def point_mesh_distance(Q, V, F, nearest=NEAREST_TRIANGLES):
     E = P - _closest_on_triangles(P, Tn[:, 0], Tn[:, 1], Tn[:, 2])
     d = np.sqrt(_dot3(E, E))
     return d.reshape(len(Q), kk).min(axis=1)
+
+
+def nearest_triangle_distances_reference(Q, V, F, idx):
+    """Distance of each point to the nearest of its candidate triangles, in
+    NumPy: :func:`point_mesh_distance`'s step after the candidates are
+    found, and the reference
+    :func:`shellrepair.distance_kernels.nearest_triangle_distances` (the
+    compiled step) is held to.
+
+    Parameters
+    ----------
+    Q : (p,3) float64
+    V : (n,3) float64
+    F : (m,3) int64
+    idx : (p,k) int64
+        Per point, its candidate triangles (rows of ``F``).
+
+    Returns
+    -------
+    d : (p,) float64
+    """
+    kk = idx.shape[1]
+    P = np.repeat(Q, kk, axis=0)
+    T = V[F][idx.ravel()]
+    E = P - _closest_on_triangles(P, T[:, 0], T[:, 1], T[:, 2])
+    return np.sqrt(_dot3(E, E)).reshape(len(Q), kk).min(axis=1)
 
 
 def _dot3(a, b):

@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import compiled, intrinsic_kernels
-from .refine import _independent_flips
+from .refine import independent_flips
 from .topology import edge_topology, manifold_pairs
 
 __all__ = ["intrinsic_delaunay", "intrinsic_laplacian"]
@@ -133,7 +133,7 @@ def _flip_to_delaunay_numpy(X, F, max_rounds=MAX_ROUNDS):
         bad = np.flatnonzero((s < -FLIP_TOL) & (c != d) & np.isfinite(s))
         if bad.size == 0:
             return T, L, True, (cot, A)
-        k = _independent_flips(bad, f1[bad], f2[bad], -s[bad], bad, t)
+        k = independent_flips(bad, f1[bad], f2[bad], -s[bad], bad, t)
         F1, F2, I1, I2 = f1[k], f2[k], i1[k], i2[k]
         a, b, C, D = T[F1, I1], T[F1, _NXT[I1]], c[k], d[k]
         lab, lbc, lca = L[F1, I1], L[F1, _NXT[I1]], L[F1, _NXT[_NXT[I1]]]

@@ -1,6 +1,6 @@
 """Append accepted patches to the scan (step 5): originals untouched.
 
-:class:`_Accepted` keeps the patches accepted so far so that a later patch
+:class:`Accepted` keeps the patches accepted so far so that a later patch
 can be checked against them; :func:`_merge` appends their vertices and faces
 after the scan's own (original indices and values bit-identical), flags them
 ``filled`` and interpolates vertex properties harmonically from the rim.
@@ -24,10 +24,23 @@ def _edges_of(T):
     return np.sort(E, axis=1)
 
 
-def _scan_edges(patch):
+def scan_edges(patch):
     """Edges the patch creates between scan vertices, as (a, b) with a < b
     (in :func:`_edges_of`'s order: the triangles' first edges, then their
-    second and third ones)."""
+    second and third ones).
+
+    Parameters
+    ----------
+    patch : Patch
+        Its ``loop`` (k,) (the rim's scan vertices) and ``T`` (m,3), whose
+        indices below k are the rim's.
+
+    Returns
+    -------
+    list of (int, int)
+        The scan vertex pairs, one per triangle edge with both ends on the
+        rim, repeats kept.
+    """
     k = len(patch.loop)
     T = np.asarray(patch.T)
     A, B = T.T, T[:, [1, 2, 0]].T    # row e: every triangle's edge e, so the mask reads edge by edge
@@ -36,13 +49,15 @@ def _scan_edges(patch):
     return list(zip(np.minimum(x, y).tolist(), np.maximum(x, y).tolist()))
 
 
-class _Accepted:
+class Accepted:
     """Patches accepted so far, with their corners and boxes cached.
 
     ``items`` holds ``(patch, C, oid)`` per accepted patch; the per-triangle
     spheres, tree and boxes a later patch's check reads are built the first
     time a patch's box meets this one's (most patches are never near
-    another)."""
+    another). Made empty; :meth:`add` accepts a patch, :meth:`conflict`
+    says whether a new one crosses those accepted.
+    """
 
     def __init__(self):
         self.items = []
@@ -66,15 +81,15 @@ class _Accepted:
         self.edges.update(self._edges(patch))
 
     def _edges(self, patch):
-        """:func:`_scan_edges` of ``patch``, taken from the last conflict check when it was this patch's."""
+        """:func:`scan_edges` of ``patch``, taken from the last conflict check when it was this patch's."""
         if self._last is not None and self._last[0] is patch:
             return self._last[1]
-        return _scan_edges(patch)
+        return scan_edges(patch)
 
     def _item_edges(self, j):
         """Item ``j``'s scan edges, listed once."""
         if self._own[j] is None:
-            self._own[j] = set(_scan_edges(self.items[j][0]))
+            self._own[j] = set(scan_edges(self.items[j][0]))
         return self._own[j]
 
     def _item_boxes(self, j):
@@ -99,7 +114,7 @@ class _Accepted:
         (the one the patch would replace)."""
         self.clash = None
         own = self._item_edges(skip) if skip is not None else ()
-        mine = _scan_edges(patch)
+        mine = scan_edges(patch)
         self._last = (patch, mine)
         if any(e in self.edges and e not in own for e in mine):
             return "an earlier patch already created an edge this patch needs", None
@@ -144,8 +159,8 @@ class _Accepted:
         """Put ``patch`` in item ``j``'s place where it joins other loops than
         the item's (a tube in place of one of its loops' caps): the scan edges
         the item created go, the patch's come."""
-        self.edges.difference_update(_scan_edges(self.items[j][0]))
-        self.edges.update(_scan_edges(patch))
+        self.edges.difference_update(scan_edges(self.items[j][0]))
+        self.edges.update(scan_edges(patch))
         self.replace(j, patch, C, ids)
 
     def _set(self, j, item):

@@ -206,7 +206,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
         them, on the flat triangulation, instead of being faired.
     scan_aware : bool
         Triangulate with only triangles that cross no scan face near the
-        hole (:func:`_scan_allowed`).
+        hole (:func:`scan_allowed`).
     max_vertices : int, optional
         Raise :class:`PatchError` when refinement makes more new vertices
         than this (a work budget), before the costly fairing.
@@ -239,7 +239,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     else:
         try:
             T = triangulate_loop(Pl, edge_normals, forbidden,
-                                 allowed=_scan_allowed(ctx, loop) if scan_aware else None)
+                                 allowed=scan_allowed(ctx, loop) if scan_aware else None)
         except MeshError as exc:
             raise PatchError(str(exc)) from None
     T0 = T
@@ -292,7 +292,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
                  energy=patch_energy, order=order if fair else None)
 
 
-def _scan_allowed(ctx, loop):
+def scan_allowed(ctx, loop):
     """``allowed(T)`` for :func:`triangulate_loop`: True for the triangles
     (loop positions) that cross no scan face.
 
@@ -301,6 +301,19 @@ def _scan_allowed(ctx, loop):
     retries of one hole (re-routed chords, sub-loops, the mender) ask about
     the same triangles many times (on a 699-edge hole, 13104 asked, 1611
     different).
+
+    Parameters
+    ----------
+    ctx : ScanContext
+        The scan; its ``allowed_answers`` keeps the answers.
+    loop : (k,) int64
+        The rim's vertex indices.
+
+    Returns
+    -------
+    allowed : callable
+        ``allowed(T)`` for triangles ``T`` (t,3) of loop positions: (t,)
+        bool, True where the triangle crosses no scan face.
     """
     loop = np.asarray(loop, np.int64)
     k = np.int64(len(loop))

@@ -2,7 +2,7 @@
 
 :func:`split_pinched` replaces such a pair of loops of a
 :class:`~shellrepair.holes.HoleScan` by the loops of the parts of the band
-between the shared vertices (:func:`_pinched_parts`).
+between the shared vertices (:func:`pinched_parts`).
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import numpy as np
 from .holes import loop_stats
 from .topology import face_pieces
 
-__all__ = ["split_pinched"]
+__all__ = ["split_pinched", "pinched_parts"]
 
 
-def _pinched_parts(A, B):
+def pinched_parts(A, B):
     """The loops bounding the parts of one band pinched where loops ``A``
     and ``B`` (vertex arrays in boundary half-edge order) share vertices,
     or None when they do not share at least two in opposite cyclic orders.
@@ -24,6 +24,17 @@ def _pinched_parts(A, B):
     missing region is bounded by A from ``p`` to ``q`` and by B from ``q``
     back to ``p``: both run with the scan on their left, so the part lies
     on their right like a hole's.
+
+    Parameters
+    ----------
+    A, B : (ka,), (kb,) int64
+        The two loops' vertices, each in boundary half-edge order.
+
+    Returns
+    -------
+    parts : list of (k,) int64, or None
+        Each part's loop; together they use every edge of ``A`` and ``B``
+        once.
     """
     A, B = np.asarray(A, np.int64), np.asarray(B, np.int64)
     shared = np.intersect1d(A, B)
@@ -107,7 +118,7 @@ def split_pinched(V, F, topo, scan, pieces=None):
     for a, b in touching:
         if a in used or b in used:
             continue
-        parts = _pinched_parts(loops[a].vertices, loops[b].vertices)
+        parts = pinched_parts(loops[a].vertices, loops[b].vertices)
         if parts is None or any(bounds_scan_all_round(p) for p in parts):
             continue
         used.update((a, b))

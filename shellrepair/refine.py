@@ -23,7 +23,8 @@ import numpy as np
 from . import compiled, refine_kernels
 from .geometry import cross
 
-__all__ = ["refine_patch", "refine_patches", "relax_edges", "DENSITY_ALPHA"]
+__all__ = ["refine_patch", "refine_patches", "relax_edges", "relax_rounds", "relax_rounds_reference",
+           "independent_flips", "DENSITY_ALPHA"]
 
 #: Liepa's density factor α.
 DENSITY_ALPHA = math.sqrt(2.0)
@@ -133,7 +134,7 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
     both the test and the next relaxation's first round look at the
     triangles the last round made or changed (the result is the one
     testing every triangle every round gives)."""
-    T, changed, settled = _relax(P, T, is_loop, forb)
+    T, changed, settled = relax_rounds(P, T, is_loop, forb)
     capped = False
     test = np.ones(len(T), bool)          # triangles whose split verdict may have changed
     for _ in range(64):
@@ -160,7 +161,7 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
         T = np.vstack([T[keep], np.column_stack([a, b, new]), np.column_stack([b, c, new]),
                        np.column_stack([c, a, new])])
         fresh = np.concatenate([np.zeros(int(keep.sum()), bool), np.ones(3 * ids.size, bool)])
-        T, changed, settled = _relax(P, T, is_loop, forb, dirty=fresh if settled else None)
+        T, changed, settled = relax_rounds(P, T, is_loop, forb, dirty=fresh if settled else None)
         test = fresh | changed
     return P, T, owner, capped
 
@@ -199,21 +200,49 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
     T2 : (t,3) int64
     """
     P = np.asarray(P, np.float64)
-    return _relax(P, np.array(T, np.int64), np.arange(len(P)) < n_loop, _forbidden_pairs(forbidden), max_rounds)[0]
+    return relax_rounds(P, np.array(T, np.int64), np.arange(len(P)) < n_loop, _forbidden_pairs(forbidden),
+                        max_rounds)[0]
 
 
-def _relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
-    """:func:`_relax_numpy`, its bookkeeping compiled (:func:`shellrepair.refine_kernels.relax`,
-    the same result) when Numba is there."""
+def relax_rounds(P, T, is_loop, forb, max_rounds=100, dirty=None):
+    """Delaunay flips of a patch's triangles, round by round
+    (:func:`relax_rounds_reference`), its bookkeeping compiled
+    (:func:`shellrepair.refine_kernels.relax`, the same result) when Numba
+    is there.
+
+    Parameters
+    ----------
+    P : (n,3) float64
+        The positions, the loop's first.
+    T : (t,3) int64
+        The triangles (changed in place by the NumPy rounds).
+    is_loop : (n,) bool
+        The loop's vertices.
+    forb : (f,2) int64
+        Forbidden chords.
+    max_rounds : int
+    dirty : (t,) bool, optional
+        The triangles whose edges the first round looks at (default: all).
+
+    Returns
+    -------
+    T : (t,3) int64
+    changed : (t,) bool
+        The triangles flips changed.
+    settled : bool
+        Whether it stopped because nothing was left to flip.
+    """
     if compiled.ENABLED:
         out = refine_kernels.relax(P, T, is_loop, forb, max_rounds, dirty, None, None, FLIP_EPS)   # (_angle_compiled's numbers)
         if out is not None:   # None: a tie the vectorised writes order; redone below
             return out
-    return _relax_numpy(P, T, is_loop, forb, max_rounds, dirty)
+    return relax_rounds_reference(P, T, is_loop, forb, max_rounds, dirty)
 
 
-def _relax_numpy(P, T, is_loop, forb, max_rounds=100, dirty=None):
-    """Body of :func:`relax_edges` (``forb`` (f,2) forbidden chords).
+def relax_rounds_reference(P, T, is_loop, forb, max_rounds=100, dirty=None):
+    """Body of :func:`relax_edges` (``forb`` (f,2) forbidden chords), in
+    NumPy: the reference :func:`relax_rounds`' compiled bookkeeping is held
+    to. Parameters and returns as :func:`relax_rounds`.
 
     Returns ``(T, changed, settled)``: the triangles, which of them flips
     changed, and whether it stopped because nothing was left to flip (not
@@ -290,7 +319,7 @@ def _relax_numpy(P, T, is_loop, forb, max_rounds=100, dirty=None):
             break
         ncd = np.zeros(len(c), np.int64)
         ncd[cand] = ncd_c[ok]
-        cand = _independent_flips(cand, f1[cand], f2[cand], excess[cand], ncd[cand], nt)
+        cand = independent_flips(cand, f1[cand], f2[cand], excess[cand], ncd[cand], nt)
         if cand.size == 0:
             settled = True
             break
@@ -348,7 +377,7 @@ def _unfolded(pa, pb, pc, pd):
     return (np.sum(m1 * nold, axis=1) > 0) & (np.sum(m2 * nold, axis=1) > 0)
 
 
-def _independent_flips(cand, g1, g2, excess, ncd, nt):
+def independent_flips(cand, g1, g2, excess, ncd, nt):
     """The candidate flips of one round that can be made together.
 
     An edge flips if it is the worst (largest ``excess``) edge of both its
@@ -356,7 +385,25 @@ def _independent_flips(cand, g1, g2, excess, ncd, nt):
     face (as either of its two faces: two edges of one face that tie as its
     worst never both flip, which would write that face twice and leave an
     edge with three faces), and of edges that would make the same new edge
-    (key ``ncd``) the first. Returns the chosen entries of ``cand``.
+    (key ``ncd``) the first.
+
+    Parameters
+    ----------
+    cand : (c,) int64
+        The candidate edges, in their order.
+    g1, g2 : (c,) int64
+        Each candidate's two faces.
+    excess : (c,) float64
+        How far each is from Delaunay (the larger, the worse).
+    ncd : (c,) int64
+        The key of the edge each flip would make.
+    nt : int
+        Number of faces.
+
+    Returns
+    -------
+    (s,) int64
+        The chosen entries of ``cand``.
     """
     best = np.full(nt, -np.inf)
     np.maximum.at(best, g1, excess)

@@ -91,7 +91,7 @@ from .beside import HelperThread
 from .checks import Outcome
 from .fill import SEED_SMOOTH_PASSES, fill_hole, _seed_patches
 from .fill_runs import run_chunk, _worker, worker_context
-from .merge import _Accepted, _merge
+from .merge import Accepted, _merge
 from .context import ScanContext
 from .patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
 
@@ -299,7 +299,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     paired = {L.id for u, (_, record) in zip(units, unit_out) if isinstance(u, (BandUnit, PantsUnit))
               and (record is None or record.get("chosen") != "caps")
               for L in ((u.A, u.B, u.C) if isinstance(u, PantsUnit) else (u.A, u.B))}
-    acc = _Accepted()
+    acc = Accepted()
     rows = {}
     bridges = []
     for u, (outs, record) in zip(units, unit_out):

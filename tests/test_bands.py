@@ -539,19 +539,19 @@ def test_a_band_pinched_at_shared_vertices_is_split_into_its_parts():
     """Loops A and B share vertices 0 and 3 (B meets them in the reverse
     order): the band between them is two discs, each a stretch of A and a
     stretch of B, together every edge of both once."""
-    from shellrepair.pinched import _pinched_parts
+    from shellrepair.pinched import pinched_parts
 
     A = np.array([0, 1, 2, 3, 4, 5])
     B = np.array([10, 3, 11, 0])
-    parts = _pinched_parts(A, B)
+    parts = pinched_parts(A, B)
     assert [p.tolist() for p in parts] == [[0, 1, 2, 3, 11], [3, 4, 5, 0, 10]]
     edges = sorted((int(a), int(b)) for p in parts for a, b in zip(p, np.roll(p, -1)))
     own = sorted((int(a), int(b)) for L in (A, B) for a, b in zip(L, np.roll(L, -1)))
     # each part's closing edges (2->3 of A ... ) are the loops' own edges
     assert len(edges) == len(own) == 10 and set(edges) == set(own)
     # the same order on both (not a pinched band), or a single shared vertex: left alone
-    assert _pinched_parts(A, np.array([10, 0, 11, 3, 12, 4])) is None
-    assert _pinched_parts(A, np.array([10, 0, 11])) is None
+    assert pinched_parts(A, np.array([10, 0, 11, 3, 12, 4])) is None
+    assert pinched_parts(A, np.array([10, 0, 11])) is None
 
 
 # --------------------------------------------------------------------------
@@ -626,13 +626,13 @@ def _loop_sights_reference(V, loops, faces_near, candidates):
 def test_arcs_of_many_loops_at_once_are_those_of_each_loop_alone_to_the_bit():
     # one loop's block of the batch sees no other loop: batched with all the
     # scan's loops, each gets the bits it gets alone (a batch of one)
-    from shellrepair.bridge import _continuation_arcs_many
+    from shellrepair.bridge import continuation_arcs_many
 
     n = 0
     for ctx, scan in _many_loops():
         loops = [L.vertices for L in scan.loops]
         near = [ctx.F[ctx.ring_faces(lp, 3)] for lp in loops]
-        for lp, fn, many in zip(loops, near, _continuation_arcs_many(ctx.V, near, loops)):
+        for lp, fn, many in zip(loops, near, continuation_arcs_many(ctx.V, near, loops)):
             for x, y in zip(continuation_arcs(ctx.V, fn, lp), many):
                 assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
             n += 1
@@ -650,26 +650,26 @@ def test_sights_stop_each_arc_at_its_first_landing_with_the_same_counts():
 
 
 def test_loops_left_out_of_the_band_search_land_on_no_loop_they_could_pair_with(monkeypatch):
-    """_with_partner drops only loops whose arcs cannot land on a hole
+    """bands.loops_with_partner drops only loops whose arcs cannot land on a hole
     they do not touch (checked by following them), and the pairs found
     are those found without it."""
-    from shellrepair import bridge
+    from shellrepair import bands
 
     dropped = 0
     for ctx, scan in _many_loops():
         loops = scan.loops
         hole = np.array([L.kind == "hole" for L in loops])
         cand = list(np.flatnonzero(hole))
-        kept = set(bridge._with_partner(ctx, loops, cand, hole))
+        kept = set(bands.loops_with_partner(ctx, loops, cand, hole))
         out = [a for a in cand if a not in kept]
         dropped += len(out)
         sights = _loop_sights_reference(ctx.V, loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], out)
         for a, (counts, _) in sights.items():
             for b in np.flatnonzero(counts):
                 assert b == a or not hole[b] or np.intersect1d(loops[a].vertices, loops[b].vertices).size
-        with_filter = [(b.A.id, b.B.id, b.score) for b in bridge.find_bands(ctx, scan).pairs]
-        monkeypatch.setattr(bridge, "_with_partner", lambda ctx, loops, cand, hole, touching=None: cand)
-        without = [(b.A.id, b.B.id, b.score) for b in bridge.find_bands(ctx, scan).pairs]
+        with_filter = [(b.A.id, b.B.id, b.score) for b in bands.find_bands(ctx, scan).pairs]
+        monkeypatch.setattr(bands, "loops_with_partner", lambda ctx, loops, cand, hole, touching=None: cand)
+        without = [(b.A.id, b.B.id, b.score) for b in bands.find_bands(ctx, scan).pairs]
         monkeypatch.undo()
         assert with_filter == without
     assert dropped >= 1

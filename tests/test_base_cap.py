@@ -70,15 +70,15 @@ def test_the_user_says_what_a_planar_opening_is():
 def test_base_takes_three_words():
     import pytest
 
-    from shellrepair.cli import _parser
+    from shellrepair.cli import build_parser
     from shellrepair.errors import MeshError
     from shellrepair.options import RepairOptions
 
     with pytest.raises(MeshError, match="base must be 'auto', 'flat' or 'faired'"):
         RepairOptions(base="round")
-    assert _parser().parse_args(["repair", "x.ply", "--base", "flat"]).base == "flat"
-    assert _parser().parse_args(["batch", "d", "-o", "o", "--base", "faired"]).base == "faired"
-    assert _parser().parse_args(["repair", "x.ply"]).base == "auto"
+    assert build_parser().parse_args(["repair", "x.ply", "--base", "flat"]).base == "flat"
+    assert build_parser().parse_args(["batch", "d", "-o", "o", "--base", "faired"]).base == "faired"
+    assert build_parser().parse_args(["repair", "x.ply"]).base == "auto"
 
 
 def test_base_flat_that_cannot_apply_says_why_in_the_row():

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from eval import shapes
 from shellrepair import batch
 from shellrepair.batch import default_jobs, list_scans, repair_folder, summary_table
-from shellrepair.cli import _parser, main
+from shellrepair.cli import build_parser, main
 from shellrepair.io import Mesh, read_mesh, write_mesh
 from shellrepair.progress import Progress, prefix, step
 from shellrepair.topology import edge_topology
@@ -131,8 +131,8 @@ def test_scheduler_without_dask_is_one_line_exit_2(tmp_path, monkeypatch, capsys
 def test_jobs_default_to_the_cores_there_are_in_batch_and_repair(tmp_path, capsys):
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     assert default_jobs() == cores >= 1
-    assert _parser().parse_args(["batch", "in", "-o", "out"]).jobs == cores
-    assert _parser().parse_args(["repair", "s.ply"]).jobs == cores  # the repair fills its holes on them too
+    assert build_parser().parse_args(["batch", "in", "-o", "out"]).jobs == cores
+    assert build_parser().parse_args(["repair", "s.ply"]).jobs == cores  # the repair fills its holes on them too
     (tmp_path / "in").mkdir()
     assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--jobs", "0"]) == 2
     assert "jobs must be a whole number, at least 1, got 0" in capsys.readouterr().err

@@ -139,7 +139,7 @@ def test_ring_masks_are_the_columns_the_adjacency_rows_meet():
     self-loops included)."""
     import scipy.sparse as sp
 
-    from shellrepair.bridge import _next_to
+    from shellrepair.bridge import next_to
 
     rng = np.random.default_rng(3)
     nv = 60
@@ -151,5 +151,5 @@ def test_ring_masks_are_the_columns_the_adjacency_rows_meet():
     for _ in range(5):
         mark = rng.random(nv) < 0.1
         want = A[np.flatnonzero(mark)].sum(axis=0).A1 > 0
-        assert np.array_equal(_next_to(E, mark), want)
-    assert not _next_to(E, np.zeros(nv, bool)).any()
+        assert np.array_equal(next_to(E, mark), want)
+    assert not next_to(E, np.zeros(nv, bool)).any()

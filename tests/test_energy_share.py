@@ -8,7 +8,7 @@ step walk :func:`shellrepair.tube.zip_rings_reference` for the merged
 :func:`shellrepair.tube.zip_rings`; one :func:`shellrepair.tube.lerp_loop`
 per array for :func:`shellrepair.tube.lerp_arcs`; NumPy's ``mean`` and
 ``linalg.norm`` for :func:`shellrepair.holes.loop_stats`; a walk over the
-triangles for :func:`shellrepair.merge._scan_edges`; NumPy's ``min`` /
+triangles for :func:`shellrepair.merge.scan_edges`; NumPy's ``min`` /
 ``max`` reductions for :func:`shellrepair.geometry.bounds` and
 :func:`shellrepair.geometry.triangle_boxes`; the NumPy gathering
 ``_faces_of_numpy`` for the compiled ``ScanContext.faces_of``.
@@ -27,7 +27,7 @@ from shellrepair.context import ScanContext
 from shellrepair.topology import edge_topology
 from shellrepair.geometry import bounds, triangle_boxes
 from shellrepair.holes import loop_stats
-from shellrepair.merge import _scan_edges
+from shellrepair.merge import scan_edges
 
 
 def _bumpy_patch(k, seed):
@@ -167,7 +167,7 @@ def test_scan_edges_list_the_triangles_edges_slot_by_slot():
         k, q = int(rng.integers(3, 30)), int(rng.integers(0, 20))
         T = rng.integers(0, k + q, size=(0 if i % 50 == 0 else int(rng.integers(1, 60)), 3)).astype(np.int64)
         patch = types.SimpleNamespace(loop=rng.permutation(10 ** 6)[:k].astype(np.int64), T=T)
-        got = _scan_edges(patch)
+        got = scan_edges(patch)
         assert got == _scan_edges_by_walk(patch.loop, T)
         assert all(type(v) is int for e in got for v in e)   # hashable like the accepted edges' set
 

@@ -154,10 +154,10 @@ def test_scan_answers_about_a_holes_triangles_are_kept_and_equal_fresh_ones(monk
     asked = []
     real = patch_mod.patch_vs_index
     monkeypatch.setattr(patch_mod, "patch_vs_index", lambda Pt, *a, **kw: asked.append(len(Pt)) or real(Pt, *a, **kw))
-    first = patch_mod._scan_allowed(ctx, loop)
+    first = patch_mod.scan_allowed(ctx, loop)
     assert np.array_equal(first(T[:200]), fresh[:200]) and sum(asked) <= 200
     n = sum(asked)
-    again = patch_mod._scan_allowed(ctx, loop)
+    again = patch_mod.scan_allowed(ctx, loop)
     assert np.array_equal(again(T[:, ::-1]), fresh)        # corners reversed, from a new allowed()
     known = {tuple(t) for t in np.sort(T[:200], axis=1).tolist()}
     new = [i for i, t in enumerate(np.sort(T, axis=1).tolist()) if tuple(t) not in known]

@@ -327,7 +327,7 @@ def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypa
 
 @pytest.mark.parametrize("seed", range(6))
 def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
-    """Delaunay flips of a patch (refine._relax): the same triangles, the
+    """Delaunay flips of a patch (refine.relax_rounds): the same triangles, the
     same changed faces, the same verdict, with forbidden chords, dirty
     faces, a round cap and the symmetric ties of a regular fan."""
     from shellrepair import refine, triangulate
@@ -349,10 +349,10 @@ def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
     for rounds, d, fb in ((100, None, forb), (2, None, forb), (100, dirty, np.zeros((0, 2), np.int64))):
         # a jitter so that there is something to flip
         Pj = P2 + rng.normal(scale=0.03, size=P2.shape) * (~is_loop)[:, None]
-        a = refine._relax_numpy(Pj, T2.copy(), is_loop, fb, rounds, d)
+        a = refine.relax_rounds_reference(Pj, T2.copy(), is_loop, fb, rounds, d)
         b = refine_kernels.relax(Pj, T2.copy(), is_loop, fb, rounds, d, refine._angle, refine._unfolded, refine.FLIP_EPS)
         if b is None:                              # a face shared by two flips of a round: NumPy redoes it
-            b = refine._relax(Pj, T2.copy(), is_loop, fb, rounds, d)
+            b = refine.relax_rounds(Pj, T2.copy(), is_loop, fb, rounds, d)
         assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2]
         assert d is not None or rounds < 100 or a[1].any()
 
@@ -549,9 +549,9 @@ def test_ring_sums_equal_the_sparse_products(seed):
     li = np.concatenate([li, li[:2]])                 # a rim vertex listed twice
     level = np.full(nv, 3, np.int64)
     level[li] = 0
-    r1 = bridge._next_to(E, level == 0) & (level > 0)
+    r1 = bridge.next_to(E, level == 0) & (level > 0)
     level[r1] = 1
-    level[bridge._next_to(E, r1) & (level > 1)] = 2
+    level[bridge.next_to(E, r1) & (level > 1)] = 2
     X = rng.normal(size=(nv, 3)) * 10.0 ** rng.integers(-3, 4, (nv, 1))
     Nv = rng.normal(size=(nv, 3))
     Nv[::7] = -0.0
@@ -573,9 +573,9 @@ def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
     ctx = ScanContext(Mesh(V=V2, F=F2))
     loops = [np.asarray(h.vertices, np.int64) for h in detect_holes(V2, F2).holes]
     near = [F2[ctx.ring_faces(lp, 3)] for lp in loops]
-    got = bridge._continuation_arcs_many(V2, near, loops)
+    got = bridge.continuation_arcs_many(V2, near, loops)
     monkeypatch.setattr(compiled, "ENABLED", False)
-    want = bridge._continuation_arcs_many(V2, near, loops)
+    want = bridge.continuation_arcs_many(V2, near, loops)
     for a, b in zip(want, got):
         for x, y in zip(a, b):
             assert np.array_equal(x, y)
@@ -815,11 +815,11 @@ def test_projection_certificate_equals_the_numpy_one(seed, monkeypatch):
 
 
 def test_scan_edges_are_the_loop_edges_of_the_sorted_edge_list():
-    """merge._scan_edges (masks per edge column) lists what sorting every
+    """merge.scan_edges (masks per edge column) lists what sorting every
     patch edge and keeping those between loop vertices lists, in that order."""
     from types import SimpleNamespace
 
-    from shellrepair.merge import _edges_of, _scan_edges
+    from shellrepair.merge import _edges_of, scan_edges
 
     rng = np.random.default_rng(5)
     loop = rng.permutation(1000)[:30]
@@ -828,8 +828,8 @@ def test_scan_edges_are_the_loop_edges_of_the_sorted_edge_list():
     k = len(loop)
     E = _edges_of(np.where(T < k, loop[np.minimum(T, k - 1)], -1))
     want = [tuple(e) for e in E[(E >= 0).all(axis=1)].tolist()]
-    assert _scan_edges(patch) == want and len(want) > 50
-    assert _scan_edges(SimpleNamespace(loop=loop, T=T[:0])) == []
+    assert scan_edges(patch) == want and len(want) > 50
+    assert scan_edges(SimpleNamespace(loop=loop, T=T[:0])) == []
 
 
 @pytest.mark.parametrize("order", [1, 2, 3])
@@ -862,7 +862,7 @@ def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed
     each candidate edge in one pass) gives refine._angle's arctan2
     arguments and refine._unfolded's verdicts to the bit, on random quads
     of mixed scales, degenerate, flat and far-offset ones included; and
-    the relaxation that uses it (refine._relax) flips as the NumPy rounds do."""
+    the relaxation that uses it (refine.relax_rounds) flips as the NumPy rounds do."""
     from shellrepair import refine, triangulate
 
     rng = np.random.default_rng(seed)
@@ -894,6 +894,6 @@ def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed
     is_loop = np.arange(len(Q2)) < k
     Qj = Q2 + rng.normal(scale=0.04, size=Q2.shape) * (~is_loop)[:, None]
     forb = np.zeros((0, 2), np.int64)
-    a = refine._relax_numpy(Qj, T2.copy(), is_loop, forb)
-    b = refine._relax(Qj, T2.copy(), is_loop, forb)
+    a = refine.relax_rounds_reference(Qj, T2.copy(), is_loop, forb)
+    b = refine.relax_rounds(Qj, T2.copy(), is_loop, forb)
     assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2] and a[1].any()

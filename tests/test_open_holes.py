@@ -129,7 +129,7 @@ def test_patches_crossing_each_other_are_found_with_or_without_the_kernels(monke
     from types import SimpleNamespace
 
     from shellrepair import compiled
-    from shellrepair.merge import _Accepted
+    from shellrepair.merge import Accepted
     from shellrepair.patch import Patch
 
     if compiled and not compiled.ENABLED:
@@ -142,7 +142,7 @@ def test_patches_crossing_each_other_are_found_with_or_without_the_kernels(monke
     fan = Patch(hole_id=0, loop=np.arange(4), P=np.array([[5.0, 0.5, 0.0]]),
                 T=np.array([[1, 0, 4], [2, 1, 4], [3, 2, 4], [0, 3, 4]]))
     spike = Patch(hole_id=1, loop=np.array([4, 5, 6]), P=np.zeros((0, 3)), T=np.array([[0, 2, 1]]))
-    acc = _Accepted()
+    acc = Accepted()
     assert acc.place(ctx, fan)[0] is fan
     placed, why, _ = acc.place(ctx, spike)
     assert (placed is None) == crosses

@@ -76,7 +76,7 @@ def test_near_faces_of_the_region_hold_every_face_meeting_the_box(monkeypatch):
     V, F = _holed()
     ctx = _ctx(V, F)
     local, whole = ctx.index, ctx.whole_index()
-    assert isinstance(local, context._LocalIndex)
+    assert isinstance(local, context.LocalIndex)
     assert np.array_equal(local.origin, whole.origin)
     T = V[F]
     tmin, tmax = T.min(axis=1), T.max(axis=1)

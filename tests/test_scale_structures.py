@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, _independent_flips, _relax, _unfolded, refine_patch,
+from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, independent_flips, relax_rounds, _unfolded, refine_patch,
                                 refine_patches)
 from shellrepair.context import ScanContext, local_frame, rim_data
 from shellrepair.io import Mesh, read_mesh, write_mesh
@@ -161,7 +161,7 @@ def test_batched_refinement_equals_refining_each_patch_alone():
 
 def _relax_full_pass(P, T, is_loop, forb, max_rounds=100):
     """The plain version: every round re-pairs all half-edges by a sort and
-    judges every interior edge (the specification of ``refine._relax``)."""
+    judges every interior edge (the specification of ``refine.relax_rounds``)."""
     n = len(P)
     nt = len(T)
     if nt < 2:
@@ -198,7 +198,7 @@ def _relax_full_pass(P, T, is_loop, forb, max_rounds=100):
             break
         # the same choice of flips as refine makes (what differs is how the
         # candidates are found: all edges, re-paired by a sort, every round)
-        cand = _independent_flips(cand, h1[cand] // 3, h2[cand] // 3, excess[cand], ncd_c, nt)
+        cand = independent_flips(cand, h1[cand] // 3, h2[cand] // 3, excess[cand], ncd_c, nt)
         f1, f2 = h1[cand] // 3, h2[cand] // 3
         if cand.size == 0:
             break
@@ -236,7 +236,7 @@ def test_incremental_relaxation_flips_exactly_as_a_full_pass_each_round():
         forb = np.array([[0, k // 2], [3, 20]]) if trial % 2 else np.zeros((0, 2), np.int64)
         for rounds in (1, 2, 4, 100):                # round by round, and to the end
             want = _relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=rounds)
-            got = _relax(P, T.copy(), is_loop, forb, max_rounds=rounds)[0]
+            got = relax_rounds(P, T.copy(), is_loop, forb, max_rounds=rounds)[0]
             assert np.array_equal(got, want)
         assert not np.array_equal(_relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=4),
                                   _relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=2))  # many rounds
