@@ -70,7 +70,7 @@ the ahead-of-time build of these kernels (:mod:`shellrepair.compiled`,
 The result agrees with libigl's to round-off, not to the bit (another
 ordering sums in another order): ``tests/test_cholesky.py`` checks the
 solution of random and degenerate SPD systems against SciPy's LU to a
-relative residual of 1e-10, and :class:`shellrepair.fair._Factor` keeps
+relative residual of 1e-10, and :class:`shellrepair.fair.Factor` keeps
 libigl's factorisation as the path without Numba (and as the fallback
 where a front is not positive definite: :class:`NotPositiveDefinite`).
 """

@@ -73,7 +73,9 @@ import scipy.sparse.linalg as spla
 from . import cholesky, compiled, fair_kernels, intrinsic_kernels
 from .intrinsic import intrinsic_laplacian
 
-__all__ = ["fair_patch", "fair_patch_orders", "Operator", "as_matrix", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate"]
+__all__ = ["fair_patch", "fair_patch_orders", "Operator", "as_matrix", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate",
+           "cotan_operators", "energy_matrix", "as_sparse", "Factor", "pcg", "current_first_solve_memo", "energy_rows",
+           "symmetrise_rows"]
 
 #: Rounds of cotangent re-evaluation after the uniform first solve.
 COTAN_ROUNDS = 2
@@ -117,13 +119,40 @@ def uniform_laplacian(F, n):
                            np.concatenate([d, np.repeat(d, np.diff(A.indptr))]))), shape=(n, n))
 
 
-def _cotan_operators(X, F):
-    """K and lumped M of the submesh's intrinsic Delaunay triangulation."""
+def cotan_operators(X, F):
+    """K and lumped M of the submesh's intrinsic Delaunay triangulation
+    (what each cotangent fairing round and energy builds once).
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+
+    Returns
+    -------
+    K : (n,n) sparse
+        The cotangent Laplacian.
+    M : (n,) float64
+        The lumped masses.
+    """
     return intrinsic_laplacian(X, F)
 
 
-def _energy(K, Minv, order):
-    """Q of the module docstring; ``Minv`` None for unit masses."""
+def energy_matrix(K, Minv, order):
+    """Q of the module docstring, by SciPy's sparse products.
+
+    Parameters
+    ----------
+    K : (n,n) sparse
+        The Laplacian.
+    Minv : (n,) float64 or None
+        Inverse masses; None for unit masses.
+    order : 1, 2 or 3
+
+    Returns
+    -------
+    Q : (n,n) sparse, symmetric
+    """
     if order == 1:
         return K
     if Minv is None:  # K symmetric: its powers are too
@@ -141,7 +170,7 @@ def _energy(K, Minv, order):
 
 def _blocks(K, Minv, order, fixed, unknown):
     """The unknowns' block Q_uu (CSC) and the fixed coupling Q_uf (CSR) of
-    :func:`_energy`'s Q: compiled in one pass per row
+    :func:`energy_matrix`'s Q: compiled in one pass per row
     (:func:`shellrepair.fair_kernels.energy_blocks`) when Numba is there, else
     SciPy's products and slices. ``K``: sparse, or the CSR arrays of
     :func:`_operators`."""
@@ -154,7 +183,7 @@ def _blocks(K, Minv, order, fixed, unknown):
         (up, uc, uv), (fp, fc, fv) = fair_kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
         return (sp.csc_matrix((uv, uc, up), shape=(unknown.size, unknown.size)),
                 sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size)))
-    Qu = _energy(K, Minv, order)[unknown]
+    Qu = energy_matrix(K, Minv, order)[unknown]
     return Qu[:, unknown].tocsc(), Qu[:, fixed].tocsr()
 
 
@@ -162,20 +191,75 @@ def _operators(X, F, uniform=False):
     """K (and M, None for ``uniform``) of a fairing round: as compiled CSR
     arrays when Numba is there (no SciPy assembly), else sparse."""
     if not compiled.ENABLED:
-        return (uniform_laplacian(F, len(X)), None) if uniform else _cotan_operators(X, F)
+        return (uniform_laplacian(F, len(X)), None) if uniform else cotan_operators(X, F)
     if uniform:
         return intrinsic_kernels._laplacian_rows(np.ascontiguousarray(F, np.int64), np.zeros((0, 3)), len(X), True), None
-    from .intrinsic import _laplacian_arrays
+    from .intrinsic import laplacian_arrays
 
-    return _laplacian_arrays(X, F)
+    return laplacian_arrays(X, F)
 
 
-def _as_sparse(K, n):
-    """The CSC matrix of :func:`_operators`' K."""
+def as_sparse(K, n):
+    """The CSC matrix of :func:`_operators`' K, assembled now (what
+    :class:`Operator` assembles when first read).
+
+    Parameters
+    ----------
+    K : sparse, or (ptr, col, val) CSR arrays
+    n : int
+
+    Returns
+    -------
+    (n,n) CSC sparse matrix
+    """
     if sp.issparse(K):
         return K
     ptr, col, val = K
     return sp.csr_matrix((val, col, ptr), shape=(n, n)).tocsc()
+
+
+def energy_rows(ptr, col, val, D, order, unknown, pos, is_fixed):
+    """The rows ``unknown`` of ``K (D K)^(order−1)``, the compiled step of
+    :func:`shellrepair.fair_kernels.energy_blocks` before its
+    symmetrisation: each entry summed from 0.0 in the order the row's
+    expansion meets its terms, the columns sorted and split into the
+    unknowns' block and the fixed one. Needs the kernels.
+
+    Parameters
+    ----------
+    ptr, col, val : CSR arrays of K (n,n)
+    D : (n,) float64
+        The inverse masses.
+    order : 1, 2 or 3
+    unknown : (u,) int64
+    pos : (n,) int64
+        Each vertex's place in ``unknown``, or in the fixed ones.
+    is_fixed : (n,) bool
+
+    Returns
+    -------
+    u_ptr, u_col, u_val, f_ptr, f_col, f_val
+        The unknowns' block and the fixed block, as CSR arrays.
+    """
+    return fair_kernels._energy_rows(ptr, col, val, D, order, unknown, pos, is_fixed)
+
+
+def symmetrise_rows(ptr, col, val):
+    """``(Q + Qᵀ) / 2`` of a matrix whose pattern is symmetric, on its sorted
+    CSR rows: the compiled last step of
+    :func:`shellrepair.fair_kernels.energy_blocks`; an entry without its
+    mirror is kept as it is. Needs the kernels.
+
+    Parameters
+    ----------
+    ptr, col : CSR pattern, each row's columns sorted
+    val : values (changed in place)
+
+    Returns
+    -------
+    val : the half-sums, on the same pattern
+    """
+    return fair_kernels._symmetrise(ptr, col, val)
 
 
 class Operator:
@@ -196,7 +280,7 @@ class Operator:
     def tocsc(self):
         """The (n,n) CSC matrix (assembled once)."""
         if self._K is None:
-            self._K = _as_sparse(self._arrays, self._n)
+            self._K = as_sparse(self._arrays, self._n)
             self._arrays = None
         return self._K
 
@@ -233,13 +317,21 @@ def as_matrix(K):
     return K.tocsc() if isinstance(K, Operator) else K
 
 
-class _Factor:
+class Factor:
     """Q_uu, the unknowns' block of Q, factorised once: by
     :func:`shellrepair.cholesky.factor` (nested dissection, dense fronts)
     where the kernels are there, else (and where a front is not positive
     definite) libigl's sparse LLᵀ (``min_quad_with_fixed_precompute`` with
     no fixed rows), or SciPy's LU where libigl fails or gives non-finite
-    values. ``Q_uf`` couples the unknowns to the fixed rows."""
+    values. ``Q_uf`` couples the unknowns to the fixed rows.
+
+    Parameters
+    ----------
+    Quu : (u,u) sparse
+        The unknowns' block, symmetric positive definite.
+    Quf : (u,f) sparse
+        The coupling to the fixed rows.
+    """
 
     def __init__(self, Quu, Quf):
         self.Quu, self.Quf = Quu, Quf
@@ -299,12 +391,29 @@ class _Factor:
         return self._solve(R)
 
 
-def _pcg(A, B, X0, precond, tol=None, max_iter=None):
+def pcg(A, B, X0, precond, tol=None, max_iter=None):
     """Conjugate gradients on A X = B (A symmetric positive definite), one
     run per column, preconditioned by ``precond(R) ≈ A⁻¹ R``.
 
-    Returns X, or None when some column has not reached
-    ‖B − A X‖ ≤ tol ‖B‖ within ``max_iter`` iterations (or broke down)."""
+    Parameters
+    ----------
+    A : (n,n) sparse
+    B : (n,c) float64
+    X0 : (n,c) float64
+        The start.
+    precond : callable
+        ``precond(R)`` for R (n,c).
+    tol : float, optional
+        Relative residual per column (default ``PCG_TOL``).
+    max_iter : int, optional
+        Default ``PCG_MAX_ITER``.
+
+    Returns
+    -------
+    X : (n,c) float64, or None
+        None when some column has not reached ‖B − A X‖ ≤ tol ‖B‖ within
+        ``max_iter`` iterations (or broke down).
+    """
     tol = PCG_TOL if tol is None else tol
     max_iter = PCG_MAX_ITER if max_iter is None else max_iter
     X = np.array(X0, np.float64)
@@ -468,6 +577,16 @@ def first_solve_memo(on):
     return _memo.store
 
 
+def current_first_solve_memo():
+    """The memo of first solves in use in this thread (:func:`first_solve_memo`).
+
+    Returns
+    -------
+    memo : the memo, or None when none is in use
+    """
+    return getattr(_memo, "store", None)
+
+
 def _first_solve(Quu, Quf, Xf):
     """The uniform first solve, Q_uu⁻¹ (−Q_uf X_f), remembered in a fill's run.
 
@@ -491,7 +610,7 @@ def _first_solve(Quu, Quf, Xf):
     R = -(Quf @ Xf)
     store = getattr(_memo, "store", None)
     if store is None or Quu.shape[0] < FIRST_SOLVE_MEMO_UNKNOWNS:
-        return _Factor(Quu, Quf)._solve(R)
+        return Factor(Quu, Quf)._solve(R)
     Q = sp.csc_matrix(Quu)
     arrays = (Q.indptr.copy(), Q.indices.copy(), Q.data.copy(), R.copy())   # before a factorisation sorts them
     key = (Quu.shape[0], Quu.nnz, hash(arrays[2].tobytes()), hash(arrays[3].tobytes()))
@@ -502,7 +621,7 @@ def _first_solve(Quu, Quf, Xf):
             memo[key] = hit                  # most recently used last
     if hit is not None and all(a.dtype == b.dtype and np.array_equal(a, b) for a, b in zip(arrays, hit[0])):
         return hit[1].copy()
-    Z = _Factor(Quu, Quf)._solve(R)          # (two threads may solve one system at once: the same Z)
+    Z = Factor(Quu, Quf)._solve(R)          # (two threads may solve one system at once: the same Z)
     size = lambda e: sum(a.nbytes for a in e[0]) + e[1].nbytes
     entry = (arrays, Z.copy())
     with store.lock:
@@ -545,9 +664,9 @@ def _cotan_rounds(X, F, fixed, unknown, order, rounds, K, ops=None):
         Quu, Quf = _blocks(Kc, 1.0 / np.maximum(Mc, floor), order, fixed, unknown)
         Xn = None
         if last is not None:   # a later round: the previous round's factors precondition CG
-            Xn = _pcg(Quu, -(Quf @ X[fixed]), X[unknown], last.apply)
+            Xn = pcg(Quu, -(Quf @ X[fixed]), X[unknown], last.apply)
         if Xn is None:
-            f = _Factor(Quu, Quf)
+            f = Factor(Quu, Quf)
             Xn = f.minimise(X[fixed])
             if unknown.size >= PCG_MIN_UNKNOWNS:
                 last = f
@@ -657,7 +776,7 @@ def thin_plate_energy(X, F, rows):
     """
     X = np.asarray(X, np.float64)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # a blown-up patch: inf, below
-        K, M = _cotan_operators(X, np.asarray(F, np.int64))
+        K, M = cotan_operators(X, np.asarray(F, np.int64))
     return _thin_plate(K, M, X, rows)
 
 
@@ -691,7 +810,7 @@ def curvature_variation_energy(X, F, S):
     """
     X = np.asarray(X, np.float64)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # a blown-up patch: inf, below
-        K, M = _cotan_operators(X, np.asarray(F, np.int64))
+        K, M = cotan_operators(X, np.asarray(F, np.int64))
     return _curvature_variation(K, M, X, S)
 
 
@@ -730,5 +849,5 @@ def patch_energies(X, F, rows, S):
     """
     X = np.asarray(X, np.float64)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # a blown-up patch: inf
-        K, M = _cotan_operators(X, np.asarray(F, np.int64))
+        K, M = cotan_operators(X, np.asarray(F, np.int64))
     return _thin_plate(K, M, X, rows), _curvature_variation(K, M, X, S)

@@ -15,7 +15,8 @@ import numpy as np
 from .geometry import cross, plane_frame
 from . import fastmesh
 
-__all__ = ["piece_views", "edge_on_share", "WRAP_RATIO", "EDGE_ON_SHARE"]
+__all__ = ["piece_views", "edge_on_share", "sampled_normals", "sample_plan", "wrap_certificate",
+           "wrap_certificate_of_sums", "VIEW_DIRECTIONS", "WRAP_RATIO", "EDGE_ON_SHARE"]
 
 #: Least ratio of back-facing to front-facing projected area, from the best
 #: single view, at which a piece wraps around (rule 2 of :mod:`shellrepair.holes`' docstring).
@@ -76,7 +77,9 @@ def _fibonacci_directions(n):
     return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
 
 
-_CANDIDATES = _fibonacci_directions(VIEW_CANDIDATES)
+#: The ``VIEW_CANDIDATES`` unit directions (rows) the search of a best view
+#: starts from.
+VIEW_DIRECTIONS = _fibonacci_directions(VIEW_CANDIDATES)
 
 
 def _back_front(D, S):
@@ -98,7 +101,7 @@ def _best_view(S):
     directions (and the mean normal), then a pattern search around the four
     best, the step halving from half the spread's spacing to ~0.1°."""
     m = S.sum(axis=0)
-    D = _CANDIDATES
+    D = VIEW_DIRECTIONS
     nm = np.linalg.norm(m)
     if nm > 0:
         D = np.vstack([D, m / nm])
@@ -125,10 +128,29 @@ def _best_view(S):
     return best[0]
 
 
-def _sample_plan(F, fpiece, which, max_faces):
-    """Which faces :func:`_sampled_normals` reads, as a rule per face: face
+def sample_plan(F, fpiece, which, max_faces):
+    """Which faces :func:`sampled_normals` reads, as a rule per face: face
     ``f`` is read when ``row[f] >= 0`` (its row in ``which``) and the hash of
-    its index ``(f · 2654435761) mod 2³²`` is below ``thresh[row[f]]``."""
+    its index ``(f · 2654435761) mod 2³²`` is below ``thresh[row[f]]`` (the
+    form the compiled :func:`shellrepair.fastmesh.normal_moments` reads).
+
+    Parameters
+    ----------
+    F : (m,3) int64
+    fpiece : (m,) int64
+        Each face's piece.
+    which : (k,) int64
+        The pieces measured.
+    max_faces : int
+        Faces read per piece at most (about).
+
+    Returns
+    -------
+    row : (m,) int64
+        Each face's row in ``which``, -1 for a face of another piece.
+    thresh : (k,) float64
+        Per piece, the hash below which a face is read (inf: every face).
+    """
     k = which.size
     if k == 1 and which[0] == 0 and int(fpiece.max(initial=0)) == 0:
         row = np.zeros(len(F), np.int64)
@@ -143,13 +165,23 @@ def _sample_plan(F, fpiece, which, max_faces):
     return row, np.full(k, np.inf)
 
 
-def _sampled_normals(V, F, fpiece, which, max_faces):
+def sampled_normals(V, F, fpiece, which, max_faces):
     """The faces of the pieces ``which`` that are read to measure them.
 
     A piece of more than ``max_faces`` faces is read on a fixed
     pseudo-random subset of about ``max_faces`` of them (a hash of the face
     index, so the same faces every run); a one-piece scan skips the
     per-face piece lookups.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+    fpiece : (m,) int64
+        Each face's piece.
+    which : (k,) int64
+        The pieces measured.
+    max_faces : int
 
     Returns
     -------
@@ -234,7 +266,7 @@ def piece_views(V, F, fpiece, which, *, max_faces=None):
 
 def _piece_views(V, F, fpiece, which, *, max_faces=None, certify=False):
     """:func:`piece_views`, and with ``certify`` no search for the pieces
-    whose normals alone prove that they wrap around (:func:`_wraps`): their
+    whose normals alone prove that they wrap around (:func:`wrap_certificate`): their
     view and ratio are NaN. Returns ``view, ratio, certified``."""
     which = np.asarray(which, np.int64)
     k = which.size
@@ -244,13 +276,14 @@ def _piece_views(V, F, fpiece, which, *, max_faces=None, certify=False):
     max_faces = VIEW_SAMPLES if max_faces is None else int(max_faces)
     certified = None
     if certify and fastmesh.enabled(len(F)):   # the certificate in one compiled pass, no per-face arrays
-        certified = _wrap_bound(*fastmesh.normal_moments(V, F, *_sample_plan(F, fpiece, which, max_faces), k))
+        moments = fastmesh.normal_moments(V, F, *sample_plan(F, fpiece, which, max_faces), k)
+        certified = wrap_certificate_of_sums(*moments)
         if certified.all():
             return np.full((k, 3), np.nan), np.full(k, np.nan), certified
-    fr, n, ln = _sampled_normals(V, F, fpiece, which, max_faces)
+    fr, n, ln = sampled_normals(V, F, fpiece, which, max_faces)
     ok = ln > 0
     if certified is None:
-        certified = _wraps(fr, n, ln, k) if certify else np.zeros(k, bool)
+        certified = wrap_certificate(fr, n, ln, k) if certify else np.zeros(k, bool)
     if certified.all():
         return np.full((k, 3), np.nan), np.full(k, np.nan), certified
     G = NORMAL_BINS
@@ -283,7 +316,7 @@ def _piece_views(V, F, fpiece, which, *, max_faces=None, certify=False):
     return view, ratio, certified
 
 
-def _wraps(fr, n, ln, k):
+def wrap_certificate(fr, n, ln, k):
     """Pieces whose face normals prove ``P−/P+ ≥ WRAP_RATIO`` from every
     direction, without a search.
 
@@ -301,7 +334,7 @@ def _wraps(fr, n, ln, k):
 
     Parameters
     ----------
-    fr, n, ln : as :func:`_sampled_normals` returns them
+    fr, n, ln : as :func:`sampled_normals` returns them
     k : int
         Number of pieces.
 
@@ -321,11 +354,23 @@ def _wraps(fr, n, ln, k):
             wi = n[:, i] * w
             for j in range(i, 3):
                 M[:, i, j] = M[:, j, i] = np.bincount(fr, weights=wi * n[:, j], minlength=k)
-    return _wrap_bound(a, M)
+    return wrap_certificate_of_sums(a, M)
 
 
-def _wrap_bound(a, M):
-    """:func:`_wraps` from the sums ``a`` (k,3) and ``M`` (k,3,3)."""
+def wrap_certificate_of_sums(a, M):
+    """:func:`wrap_certificate` from the sums it reads.
+
+    Parameters
+    ----------
+    a : (k,3) float64
+        Per piece, the sum of its faces' (doubled) vector areas.
+    M : (k,3,3) float64
+        Per piece, ``Σ n_f n_fᵀ / |n_f|``.
+
+    Returns
+    -------
+    certified : (k,) bool
+    """
     lam = np.linalg.eigvalsh(M)[:, 0]
     need = np.linalg.norm(a, axis=1) * (1.0 + WRAP_RATIO) / (1.0 - WRAP_RATIO)
     slack = 1e-9 * np.trace(M, axis1=1, axis2=2)   # the eigenvalue's and the sums' rounding, with room
@@ -373,7 +418,7 @@ def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
     k = which.size
     if k == 0:
         return np.zeros(0)
-    fr, n, ln = _sampled_normals(V, F, fpiece, which, int(max_faces))   # ln: twice the area
+    fr, n, ln = sampled_normals(V, F, fpiece, which, int(max_faces))   # ln: twice the area
     sin_e = np.sin(np.radians(EDGE_ON_DEGREES))
     tot = np.bincount(fr, weights=ln, minlength=k)
     s_view = np.abs(np.einsum("ij,ij->i", n, np.asarray(views, np.float64)[fr]))
@@ -386,7 +431,7 @@ def edge_on_share(V, F, fpiece, which, views, *, max_faces=EDGE_ON_SAMPLES):
         fl, nl, ll = sub[fr[rows]], n[rows], ln[rows]
         kl = int(look.sum())
         M = sp.csr_matrix((np.ones(len(fl)), (fl, np.arange(len(fl)))), shape=(kl, len(fl)))
-        D = _CANDIDATES
+        D = VIEW_DIRECTIONS
         front, back, edge = (np.zeros((kl, len(D))) for _ in range(3))
         for s0 in range(0, len(fl), 8192):             # faces in chunks: (chunk, directions) at a time
             sl = slice(s0, s0 + 8192)

@@ -451,8 +451,8 @@ def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, f
         and reported. False (what a repair needs, the kinds only; the
         loops' ``piece_area`` is then None): a piece
         whose normals alone prove that it wraps around (rule 2 from every
-        direction, :func:`_wraps`) is read closed without the search of its
-        best view; its loops get ``back_ratio`` None and a reason that says
+        direction, :func:`~shellrepair.hole_or_border.wrap_certificate`) is
+        read closed without the search of its best view; its loops get ``back_ratio`` None and a reason that says
         so. The kinds are the same either way.
 
     Returns

@@ -38,7 +38,7 @@ from . import compiled, intrinsic_kernels
 from .refine import independent_flips
 from .topology import edge_topology, manifold_pairs
 
-__all__ = ["intrinsic_delaunay", "intrinsic_laplacian"]
+__all__ = ["intrinsic_delaunay", "intrinsic_laplacian", "laplacian_arrays", "laplacian_rows"]
 
 #: An edge flips when its opposite cotangents sum below ``-FLIP_TOL``.
 FLIP_TOL = 1e-12
@@ -182,11 +182,39 @@ def intrinsic_laplacian(X, F):
     return K, M
 
 
-def _laplacian_arrays(X, F):
+def laplacian_rows(T, W, n, binary=False):
+    """K = D − A as CSR rows, by the compiled kernel the fairing rounds use
+    (diagonal included, columns unsorted, a spare zero on the diagonal).
+    Needs the kernels.
+
+    Parameters
+    ----------
+    T : (m,3) int64
+    W : (m,3) float64
+        Per face and side, the weight of the side's edge (½ cot for the
+        cotangent Laplacian); read only when not ``binary``.
+    n : int
+        Number of vertices.
+    binary : bool
+        A is the 0/1 adjacency of the edges of ``T`` (the uniform Laplacian).
+
+    Returns
+    -------
+    ptr, col, val : the CSR arrays of K
+    """
+    return intrinsic_kernels._laplacian_rows(np.ascontiguousarray(T, np.int64), W, n, binary)
+
+
+def laplacian_arrays(X, F):
     """:func:`intrinsic_laplacian` for the fairing rounds: K as compiled CSR
     arrays (:func:`shellrepair.intrinsic_kernels._laplacian_rows`: columns unsorted,
     a spare zero on the diagonal; K is symmetric, so they are its CSC too),
     without SciPy's conversion and sort. Needs the kernels.
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
 
     Returns
     -------

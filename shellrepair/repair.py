@@ -237,7 +237,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     ctx.know_loops(scan.loops)
     results = {}
     bands = find_bands(ctx, scan) if bridge != "never" and method == "fair" else Bands([], [])
-    # each pair's flags, for a pair the fill tries again (_tube_crossed_caps)
+    # each pair's flags, for a pair the fill tries again (tube_crossed_caps)
     flags = {frozenset((b.A.id, b.B.id)): (b.mutual, b.wrapped)
              for b in bands.pairs + [x for t in bands.triples for x in t[3]]}
     # a loop left open or capped flat by request joins no band; its partner is filled alone
@@ -333,7 +333,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if record is not None:
             bridges.append(record)
     if method == "fair" and bridge != "never":
-        _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges, flags)
+        tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges, flags)
     _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, asked_order)
     asked_fill = set(opts.fill)
     for h in all_holes:
@@ -411,7 +411,7 @@ def _note_swap(rows, swapped):
 _CROSSED = re.compile(r"patch would cross the patch of hole (\d+)$")
 
 
-def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges, flags=None):
+def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges, flags=None):
     """Two single holes whose caps cross each other cannot both be capped:
     the region missing between them is a band their continuation arcs did
     not pair (on a fat torus's inner side half of each loop's arcs land on
@@ -421,7 +421,30 @@ def _tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridge
     and crosses no other accepted patch takes the place of the earlier
     hole's cap. ``rows``, ``bridges`` and ``paired`` (the two loops) are
     updated in place; a pair left as it was goes on to
-    :func:`_refill_crossed`."""
+    :func:`_refill_crossed`.
+
+    Parameters
+    ----------
+    ctx : ScanContext
+    scan : HoleScan
+    paired : set of int
+        The loops filled as part of a band or pants (gets the pairs joined here).
+    rows : dict
+        Report row per hole id (their ``reason`` says which patch a failed
+        cap crossed).
+    acc : Accepted
+        The patches accepted so far (:class:`shellrepair.merge.Accepted`).
+    order, smooth, mode
+        As for :func:`shellrepair.band_fill._fill_pair`.
+    bridges : list of dict
+        The report's band records (gets one per pair tried).
+    flags : dict, optional
+        ``(mutual, wrapped)`` per pair of loop ids, from the band search.
+
+    Returns
+    -------
+    None
+    """
     for hid in sorted(rows):
         row = rows[hid]
         m = _CROSSED.match(str(row["reason"]))

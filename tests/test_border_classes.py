@@ -644,17 +644,17 @@ def test_wrap_shortcut_keeps_every_kind_and_only_skips_wrapping_pieces():
 def test_wrap_certificate_holds_from_every_direction():
     """A certified piece has P-/P+ >= WRAP_RATIO along 2000 random
     directions and the 400 spread ones, measured face by face."""
-    from shellrepair.hole_or_border import _CANDIDATES, _sampled_normals, _wraps
+    from shellrepair.hole_or_border import VIEW_DIRECTIONS, sampled_normals, wrap_certificate
 
     rng = np.random.default_rng(5)
     D = rng.normal(size=(2000, 3))
-    D = np.vstack([D / np.linalg.norm(D, axis=1)[:, None], _CANDIDATES])
+    D = np.vstack([D / np.linalg.norm(D, axis=1)[:, None], VIEW_DIRECTIONS])
     seen = [0, 0]
     for V, F in _shortcut_shapes():
         k, fp = face_pieces(edge_topology(F, len(V)), len(F))
         which = np.arange(k)
-        fr, n, ln = _sampled_normals(V, F, fp, which, 50000)
-        cert = _wraps(fr, n, ln, k)
+        fr, n, ln = sampled_normals(V, F, fp, which, 50000)
+        cert = wrap_certificate(fr, n, ln, k)
         for j in which:
             S = n[fr == j] @ D.T
             with np.errstate(divide="ignore", invalid="ignore"):    # a sheet seen from its back: inf
@@ -667,11 +667,11 @@ def test_wrap_certificate_holds_from_every_direction():
 
 def test_compiled_normal_moments_read_the_same_faces_as_the_sample():
     """fastmesh.normal_moments (the repair's certificate when the kernels
-    are loaded) sums over exactly the faces _sampled_normals reads: the
+    are loaded) sums over exactly the faces sampled_normals reads: the
     same sums to round-off, whole pieces and hashed subsets, one piece and
     many; and the same certificates."""
     from shellrepair import fastmesh
-    from shellrepair.hole_or_border import _sample_plan, _sampled_normals, _wrap_bound, _wraps
+    from shellrepair.hole_or_border import sample_plan, sampled_normals, wrap_certificate_of_sums, wrap_certificate
 
     if not fastmesh.warm_up():
         pytest.skip("the whole-mesh kernels are off (SHELLREPAIR_NO_NUMBA, or Numba missing)")
@@ -679,8 +679,8 @@ def test_compiled_normal_moments_read_the_same_faces_as_the_sample():
         k, fp = face_pieces(edge_topology(F, len(V)), len(F))
         which = np.arange(k)
         for max_faces in (50000, 300):
-            fr, n, ln = _sampled_normals(V, F, fp, which, max_faces)
-            a, M = fastmesh.normal_moments(V, F, *_sample_plan(F, fp, which, max_faces), k)
+            fr, n, ln = sampled_normals(V, F, fp, which, max_faces)
+            a, M = fastmesh.normal_moments(V, F, *sample_plan(F, fp, which, max_faces), k)
             want = np.column_stack([np.bincount(fr, weights=n[:, j], minlength=k) for j in range(3)])
             assert np.allclose(a, want, rtol=1e-9, atol=1e-12 * np.abs(n).sum())
-            assert np.array_equal(_wrap_bound(a, M), _wraps(fr, n, ln, k))
+            assert np.array_equal(wrap_certificate_of_sums(a, M), wrap_certificate(fr, n, ln, k))

@@ -1,5 +1,5 @@
 """The fairing's sparse Cholesky (shellrepair.cholesky): nested dissection,
-dense fronts, and its place in fair._Factor.
+dense fronts, and its place in fair.Factor.
 
 Its solutions are checked against SciPy's sparse LU: the two sum in other
 orders, so they agree to round-off, stated here as a relative residual of
@@ -121,7 +121,7 @@ def test_fair_factor_falls_back_where_not_positive_definite():
     Q = grid_laplacian(8).tolil()
     Q[10, 10] = -3.0
     Q = sp.csc_matrix(Q)
-    f = fair._Factor(Q, sp.csr_matrix((Q.shape[0], 1)))
+    f = fair.Factor(Q, sp.csr_matrix((Q.shape[0], 1)))
     assert f.chol is None
     B = np.random.default_rng(1).standard_normal((Q.shape[0], 3))
     assert relative_residual(Q, f.apply(B), B) < 1e-10

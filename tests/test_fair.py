@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 from eval import shapes
-from shellrepair import compiled, fair, fair_kernels, intrinsic_kernels
+from shellrepair import compiled, fair, fair_kernels, intrinsic
 
 #: CG against the direct solve, in mean edges. The direct solves themselves
 #: differ by ~1e-9 between two sparse factorisations of these matrices
@@ -44,8 +44,8 @@ def test_later_rounds_by_cg_equal_the_direct_solves(order, seed, monkeypatch):
     monkeypatch.setattr(compiled, "ENABLED", False)        # no dense small-patch path either way
     monkeypatch.setattr(fair, "PCG_MAX_ITER", 60)          # started far off the surface: ~15 iterations
     calls = []
-    real = fair._pcg
-    monkeypatch.setattr(fair, "_pcg", lambda *a, **k: calls.append(real(*a, **k)) or calls[-1])
+    real = fair.pcg
+    monkeypatch.setattr(fair, "pcg", lambda *a, **k: calls.append(real(*a, **k)) or calls[-1])
     got, K = fair.fair_patch(X, F, nf, order=order, rounds=3)
     assert len(calls) == 2 and all(c is not None for c in calls)   # rounds 2 and 3 went by CG
     monkeypatch.setattr(fair, "PCG_MIN_UNKNOWNS", len(X))
@@ -75,21 +75,21 @@ def test_pcg_solves_each_column_to_the_stated_residual():
     B = rng.normal(size=(n, 3))
     B[:, 1] = 0.0                                          # a zero column stays zero
     diag = A.diagonal()
-    X = fair._pcg(A, B, np.zeros((n, 3)), lambda R: R / diag[:, None], tol=1e-12, max_iter=500)
+    X = fair.pcg(A, B, np.zeros((n, 3)), lambda R: R / diag[:, None], tol=1e-12, max_iter=500)
     assert X is not None
     res = np.linalg.norm(B - A @ X, axis=0)
     assert np.all(res <= 1e-12 * np.linalg.norm(B, axis=0) + 1e-300)
     assert np.array_equal(X[:, 1], np.zeros(n))
-    assert fair._pcg(A, B, np.zeros((n, 3)), lambda R: R, tol=1e-12, max_iter=2) is None
+    assert fair.pcg(A, B, np.zeros((n, 3)), lambda R: R, tol=1e-12, max_iter=2) is None
 
 
 def test_the_factor_applies_the_inverse_of_the_unknown_block():
     X, F, nf = _bumpy_grid(20, 0)
     n = len(X)
-    Q = fair._energy(fair.uniform_laplacian(F, n), None, 2)
+    Q = fair.energy_matrix(fair.uniform_laplacian(F, n), None, 2)
     fixed, unknown = np.arange(nf), np.arange(nf, n)
     Quu, Quf = Q[unknown][:, unknown].tocsc(), Q[unknown][:, fixed].tocsr()
-    f = fair._Factor(Quu, Quf)
+    f = fair.Factor(Quu, Quf)
     R = np.random.default_rng(0).normal(size=(unknown.size, 3))
     Z = f.apply(R)
     assert np.abs(Quu @ Z - R).max() <= 1e-9 * np.abs(R).max()
@@ -117,7 +117,7 @@ def test_the_compiled_energy_blocks_equal_scipys_products(order):
     (up, uc, uv), (fp, fc, fv) = fair_kernels.energy_blocks(K.indptr, K.indices, K.data, Minv, order, unknown, fixed)
     Quu = sp.csr_matrix((uv, uc, up), shape=(unknown.size, unknown.size))
     Quf = sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size))
-    Q = fair._energy(K, Minv, order)
+    Q = fair.energy_matrix(K, Minv, order)
     scale = abs(Q).max()
     assert abs(Quu - Q[unknown][:, unknown]).max() <= BLOCKS_TOLERANCE * scale
     assert abs(Quf - Q[unknown][:, fixed]).max() <= BLOCKS_TOLERANCE * scale
@@ -176,14 +176,14 @@ def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, m
     monkeypatch.setattr(compiled, "ENABLED", numba and compiled.ENABLED)
     X, F, nf = _bumpy_grid(k, 7)
     shared = []
-    real = fair._Factor
+    real = fair.Factor
 
     class Counted(real):
         def __init__(self, *a):
             shared.append(1)
             real.__init__(self, *a)
 
-    monkeypatch.setattr(fair, "_Factor", Counted)
+    monkeypatch.setattr(fair, "Factor", Counted)
     together = fair.fair_patch_orders(X, F, nf, (1, 2, 3), rounds=2)
     n_together = len(shared)
     for order, (Xu, K) in zip((1, 2, 3), together):
@@ -200,14 +200,14 @@ def test_fairing_several_orders_at_once_equals_each_alone_to_the_bit(k, numba, m
 
 def _count_factorisations(monkeypatch):
     made = []
-    real = fair._Factor
+    real = fair.Factor
 
     class Counted(real):
         def __init__(self, *a):
             made.append(a[0].shape[0])
             real.__init__(self, *a)
 
-    monkeypatch.setattr(fair, "_Factor", Counted)
+    monkeypatch.setattr(fair, "Factor", Counted)
     return made
 
 
@@ -267,7 +267,7 @@ def test_a_thread_given_the_runs_memo_takes_the_first_solves_made_in_another(mon
         t = threading.Thread(target=helper)
         t.start()
         t.join()
-        assert fair._memo.store is memo      # the other thread leaving it does not end it here
+        assert fair.current_first_solve_memo() is memo      # the other thread leaving it does not end it here
     finally:
         fair.first_solve_memo(False)
     assert out["made"] == alone - 1 and np.array_equal(out["X"], ref3)
@@ -304,10 +304,10 @@ def _energy_rows_python(ptr, col, val, D, order, unknown, fixed):
 @pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
-    from shellrepair.intrinsic import _laplacian_arrays
+    from shellrepair.intrinsic import laplacian_arrays
 
     X, F, nf = _bumpy_grid(16, 3)
-    (ptr, col, val), M = _laplacian_arrays(X, F)        # spare diagonal slots kept: repeated columns
+    (ptr, col, val), M = laplacian_arrays(X, F)        # spare diagonal slots kept: repeated columns
     n = len(X)
     rng = np.random.default_rng(order)
     unknown = np.sort(rng.choice(n, n // 2, replace=False))
@@ -317,7 +317,7 @@ def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
     pos[unknown], pos[fixed] = np.arange(unknown.size), np.arange(fixed.size)
     is_fixed = np.zeros(n, np.bool_)
     is_fixed[fixed] = True
-    up, uc, uv, fp, fc, fv = fair_kernels._energy_rows(ptr, col, val, D, order, unknown, pos, is_fixed)
+    up, uc, uv, fp, fc, fv = fair.energy_rows(ptr, col, val, D, order, unknown, pos, is_fixed)
     ref_u, ref_f = _energy_rows_python(ptr, col, val, D, order, unknown, fixed)
     for i in range(unknown.size):
         assert list(zip(uc[up[i]:up[i + 1]].tolist(), uv[up[i]:up[i + 1]].tolist())) == ref_u[i]
@@ -325,12 +325,12 @@ def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
     # a fan of 90 triangles: rows of over 64 columns (sorted another way)
     k = 90
     T = np.array([[0, 1 + i, 1 + (i + 1) % k] for i in range(k)], np.int64)
-    ptr, col, val = intrinsic_kernels._laplacian_rows(T, rng.random((k, 3)), k + 1, False)
+    ptr, col, val = intrinsic.laplacian_rows(T, rng.random((k, 3)), k + 1, False)
     D = 1.0 + rng.random(k + 1)
     unknown, fixed = np.array([0, 5, 40], np.int64), np.setdiff1d(np.arange(k + 1), [0, 5, 40])
     pos = np.empty(k + 1, np.int64)
     pos[unknown], pos[fixed] = np.arange(3), np.arange(fixed.size)
-    up, uc, uv, fp, fc, fv = fair_kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.isin(np.arange(k + 1), fixed))
+    up, uc, uv, fp, fc, fv = fair.energy_rows(ptr, col, val, D, order, unknown, pos, np.isin(np.arange(k + 1), fixed))
     ref_u, ref_f = _energy_rows_python(ptr, col, val, D, order, unknown, fixed)
     assert up[1] + fp[1] == k + 1 > 64
     for i in range(3):
@@ -341,7 +341,7 @@ def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
 @pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("seed", range(3))
 def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
-    """fair_kernels._symmetrise on sorted rows of a structurally symmetric
+    """fair.symmetrise_rows (the compiled step) on sorted rows of a structurally symmetric
     matrix (with mirrored entries missing too, kept as they are) against
     SciPy's (Q + Qᵀ) / 2, entry for entry."""
     rng = np.random.default_rng(seed)
@@ -353,7 +353,7 @@ def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
     Q.data = rng.normal(size=Q.nnz)                  # the values: not
     ref = ((Q + Q.T) * 0.5).tocsr()
     ref.sort_indices()
-    got = fair_kernels._symmetrise(Q.indptr.astype(np.int64), Q.indices.astype(np.int64), Q.data.copy())
+    got = fair.symmetrise_rows(Q.indptr.astype(np.int64), Q.indices.astype(np.int64), Q.data.copy())
     assert np.array_equal(ref.indptr, Q.indptr) and np.array_equal(ref.indices, Q.indices)
     assert np.array_equal(got, ref.data)
     # an entry without its mirror stays as it was
@@ -363,7 +363,7 @@ def test_the_compiled_symmetrisation_equals_scipys_half_sum_to_the_bit(seed):
     keep[off[:5]] = False
     T = sp.csr_matrix((Q.data[keep], Q.indices[keep], np.concatenate([[0], np.cumsum(np.bincount(r[keep], minlength=n))])),
                       shape=(n, n))
-    got = fair_kernels._symmetrise(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data.copy())
+    got = fair.symmetrise_rows(T.indptr.astype(np.int64), T.indices.astype(np.int64), T.data.copy())
     Td = T.toarray()
     G = sp.csr_matrix((got, T.indices, T.indptr), shape=(n, n)).toarray()
     both = (Td != 0) & (Td.T != 0)
@@ -400,7 +400,7 @@ def test_the_energy_blocks_of_a_high_valence_vertex_equal_scipys_products(order)
     unknown = np.arange(n - 40)
     (up, uc, uv), (fp, fc, fv) = fair_kernels.energy_blocks(K.indptr, K.indices, K.data, Minv, order, unknown, fixed)
     assert np.diff(up).max() > 64                                   # the long rows are there
-    Q = fair._energy(K, Minv, order)
+    Q = fair.energy_matrix(K, Minv, order)
     scale = abs(Q).max()
     Quu = sp.csr_matrix((uv, uc, up), shape=(unknown.size, unknown.size))
     Quf = sp.csr_matrix((fv, fc, fp), shape=(unknown.size, fixed.size))
@@ -412,10 +412,10 @@ def test_the_energy_blocks_of_a_high_valence_vertex_equal_scipys_products(order)
 @pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
-    from shellrepair.intrinsic import _laplacian_arrays
+    from shellrepair.intrinsic import laplacian_arrays
 
     X, F, nf = _bumpy_grid(24, 9)
-    (ptr, col, val), M = _laplacian_arrays(X, F)
+    (ptr, col, val), M = laplacian_arrays(X, F)
     spare = sum(int(np.sum((col[ptr[i] + 1:ptr[i + 1]] == i) & (val[ptr[i] + 1:ptr[i + 1]] == 0.0)))
                 for i in range(len(X)))
     assert spare > len(col) // 4                                   # the slots are there to drop
@@ -425,8 +425,8 @@ def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
     got = fair_kernels.energy_blocks(ptr, col, val, D, order, unknown, fixed)
     pos = np.empty(n, np.int64)
     pos[unknown], pos[fixed] = np.arange(unknown.size), np.arange(fixed.size)
-    up, uc, uv, fp, fc, fv = fair_kernels._energy_rows(ptr, col, val, D, order, unknown, pos, np.arange(n) < nf)
-    ref = (up, uc, fair_kernels._symmetrise(up, uc, uv)), (fp, fc, fv)   # the rows read with the slots
+    up, uc, uv, fp, fc, fv = fair.energy_rows(ptr, col, val, D, order, unknown, pos, np.arange(n) < nf)
+    ref = (up, uc, fair.symmetrise_rows(up, uc, uv)), (fp, fc, fv)   # the rows read with the slots
     for a, b in zip(got, ref):
         for x, y in zip(a, b):
             assert np.array_equal(x, y)
@@ -440,7 +440,7 @@ def test_the_returned_operator_is_assembled_when_read_and_equals_the_eager_matri
     M = fair.as_matrix(K)
     assert sp.isspmatrix_csc(M) and M is K.tocsc()          # assembled once
     with monkeypatch.context() as m:                         # the matrix assembled at once, as before
-        m.setattr(fair, "Operator", fair._as_sparse)
+        m.setattr(fair, "Operator", fair.as_sparse)
         Xe, E = fair.fair_patch(X, F, nf, order=2)
     assert sp.isspmatrix_csc(E) and np.array_equal(Xu, Xe)
     assert np.array_equal(M.indptr, E.indptr) and np.array_equal(M.indices, E.indices)

@@ -113,7 +113,7 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
     monkeypatch.setattr(shellrepair.bands, "pants_triples", lambda *a, **k: [])
     import shellrepair.repair   # (crossed caps are first tried as a tube: off too, to test the refill)
 
-    monkeypatch.setattr(shellrepair.repair, "_tube_crossed_caps", lambda *a, **k: None)
+    monkeypatch.setattr(shellrepair.repair, "tube_crossed_caps", lambda *a, **k: None)
 
     from conftest import STRESS_SHAPES
     from eval import stress

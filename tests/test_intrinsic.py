@@ -93,13 +93,13 @@ def test_the_compiled_arrays_are_the_same_operator():
     import scipy.sparse as sp
 
     from shellrepair import compiled
-    from shellrepair.intrinsic import _laplacian_arrays
+    from shellrepair.intrinsic import laplacian_arrays
 
     if not compiled.ENABLED:
         pytest.skip("Numba is not installed")
     V, F = _slivered_grid(seed=2)
     K, M = intrinsic_laplacian(V, F)
-    (ptr, col, val), M2 = _laplacian_arrays(V, F)
+    (ptr, col, val), M2 = laplacian_arrays(V, F)
     K2 = sp.csr_matrix((val, col, ptr), shape=K.shape)
     assert abs(K2 - K).max() <= 1e-14 * abs(K).max()      # the same sums in another order
     assert np.array_equal(M2, M)

@@ -314,14 +314,13 @@ def test_auto_order_takes_order_3_on_a_large_hole_in_a_fine_sphere():
 
 
 @pytest.mark.slow
-def test_progress_moves_hole_by_hole_through_batched_runs(monkeypatch):
+def test_progress_moves_hole_by_hole_through_batched_runs():
     import shellrepair.repair as repair
 
     calls = []
-    monkeypatch.setattr(repair, "_progress", lambda on, i, n, label="filling holes": calls.append((label, i, n)))
     V, F = shapes.icosphere(4)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=30, radius=0.09, seed=5)
-    _, rep = repair_mesh(Mesh(V=V2, F=F2), progress=True)
+    _, rep = repair_mesh(Mesh(V=V2, F=F2), progress=lambda label, i, n: calls.append((label, i, n)))
     n = rep["holes_before"]
     assert n > repair.BATCH
     assert [i for label, i, m in calls if label == "filling holes"] == list(range(1, n + 1))
@@ -340,7 +339,8 @@ def test_loaded_whole_mesh_kernels_give_a_small_mesh_the_same_repair(monkeypatch
         pytest.skip("the whole-mesh kernels are off (SHELLREPAIR_NO_NUMBA, or Numba missing)")
     assert fastmesh.enabled(len(F2))
     fast = repair_mesh(Mesh(V=V2, F=F2))
-    monkeypatch.setattr(fastmesh, "_K", None)
+    real = fastmesh.enabled     # as without the kernels loaded: only meshes of MIN_FACES faces use them
+    monkeypatch.setattr(fastmesh, "enabled", lambda n_faces: n_faces >= fastmesh.MIN_FACES and real(n_faces))
     assert not fastmesh.enabled(len(F2))
     plain = repair_mesh(Mesh(V=V2, F=F2))
     for name in ("V", "F", "vertex_filled", "face_filled"):
