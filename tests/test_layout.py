@@ -98,8 +98,9 @@ def test_no_module_imports_itself_through_others():
 
 def test_the_scan_index_checks_and_kernels_sit_below_the_stages_that_use_them():
     g = import_graph()
-    stages = {"shellrepair." + m for m in ("holes", "patch", "bridge", "pants", "mend", "merge", "probe",
-                                            "selftest", "fill", "repair")}
+    stages = {"shellrepair." + m for m in ("holes", "hole_or_border", "pinched", "patch", "bridge", "bands", "tube",
+                                            "pants", "mend", "merge", "probe", "selftest", "fill", "band_fill",
+                                            "fill_runs", "beside", "repair")}
     assert not g["shellrepair.context"] & stages
     # the checks build on a patch's corners, mend, and merge's edge lists; no
     # stage that fills a hole, pairs loops or chooses an order is below them
@@ -132,8 +133,9 @@ def test_each_kernel_module_stays_short():
 FILL_DATA = (("shellrepair.patch", "Patch"), ("shellrepair.patch", "_Pre"), ("shellrepair.checks", "WorkBudget"),
              ("shellrepair.holes", "Loop"), ("shellrepair.mesh", "Mesh"))
 #: The fill's modules, held to that.
-FILL_MODULES = ("fill", "bridge", "pants", "mend", "merge", "checks", "probe", "selftest", "steiner", "repair",
-                "context", "patch", "holes", "refine", "triangulate", "fair", "intersect")
+FILL_MODULES = ("fill", "band_fill", "fill_runs", "beside", "bridge", "bands", "tube", "pants", "mend", "merge", "checks",
+                "probe", "selftest", "steiner", "repair", "context", "patch", "holes", "hole_or_border", "pinched",
+                "refine", "triangulate", "fair", "intersect")
 
 
 def _attributes_of(module, cls):
