@@ -32,7 +32,7 @@ import threading
 
 import numpy as np
 
-from ._dispatch import elementwise, kernels
+from .dispatch import elementwise, kernels
 from .microfacet import COS_EPS, M_MIN, _TINY, _fresnel_dielectric_np
 
 __all__ = [
@@ -770,7 +770,7 @@ def diffuse_transmittance(cos_theta, m, eta):
     >>> float(diffuse_transmittance(0.5, 0.3, 1.0))   # index-matched: no reflection
     1.0
     """
-    K = kernels()
+    K = kernels("albedo")
     a = rho_dt_table().kernel_args if K is not None else None
     if a is not None:
         return elementwise(K.diffuse_transmittance, (cos_theta, m, eta), a[:10])
@@ -809,7 +809,7 @@ def mean_transmittance(m, eta):
     :func:`layered_diffuse` integrated over incidence returns exactly
     ``rho_dt(o) R (1 - r_i) / (1 - r_i R) <= rho_dt(o)``.
     """
-    K = kernels()
+    K = kernels("albedo")
     a = rho_dt_table().kernel_args if K is not None else None
     if a is not None:
         return elementwise(K.mean_transmittance, (m, eta), a[1:4] + a[7:])
@@ -869,7 +869,7 @@ def internal_reflectance(m, eta):
     at eta = 1.5 this gives r_i ~ 0.60, the classical value.  Clamped to
     [0, 1 - 1e-9] so that ``1 / (1 - r_i R)`` stays finite.
     """
-    K = kernels()
+    K = kernels("albedo")
     a = rho_dt_table().kernel_args if K is not None else None
     if a is not None:
         return elementwise(K.internal_reflectance, (m, eta), a[1:4] + a[7:] + RHO_DT_ETA_RANGE)

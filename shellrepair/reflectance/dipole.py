@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._dispatch import elementwise, kernels
+from .dispatch import elementwise, kernels
 from .microfacet import _TINY
 
 __all__ = ["dipole_rd", "dipole_tail_fraction", "dipole_profile"]
@@ -62,7 +62,7 @@ def dipole_rd(alpha_prime, eta):
     >>> float(dipole_rd(0.0, 1.3))
     0.0
     """
-    K = kernels()
+    K = kernels("dipole")
     if K is not None:
         return elementwise(K.dipole_rd, (alpha_prime, eta))
     return _dipole_rd_np(alpha_prime, eta)
@@ -102,7 +102,7 @@ def dipole_tail_fraction(r, sigma_a, sigma_s_prime, eta):
     Used by :func:`shellrepair.shader.choose_model` as the error of
     treating transport as local within a pixel footprint.
     """
-    K = kernels()
+    K = kernels("dipole")
     if K is not None:
         return elementwise(K.dipole_tail_fraction, (r, sigma_a, sigma_s_prime, eta))
     return _dipole_tail_fraction_np(r, sigma_a, sigma_s_prime, eta)
@@ -152,7 +152,7 @@ def dipole_profile(r, sigma_a, sigma_s_prime, eta):
     with s = sigma_tr = sqrt(3 sigma_a sigma_t'), z_r = 1/sigma_t',
     z_v = z_r (1 + 4A/3), d = sqrt(r^2 + z^2).
     """
-    K = kernels()
+    K = kernels("dipole")
     if K is not None:
         return elementwise(K.dipole_profile, (r, sigma_a, sigma_s_prime, eta))
     return _dipole_profile_np(r, sigma_a, sigma_s_prime, eta)
