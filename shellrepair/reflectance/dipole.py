@@ -27,8 +27,20 @@ __all__ = ["dipole_rd", "dipole_tail_fraction", "dipole_profile"]
 # --------------------------------------------------------------------------
 
 
-def _dipole_A(eta):
-    """Boundary mismatch A = (1 + F_dr)/(1 - F_dr), F_dr by Jensen et al.'s fit."""
+def dipole_A(eta):
+    """Boundary mismatch A = (1 + F_dr)/(1 - F_dr), F_dr by Jensen et al.'s fit.
+
+    Parameters
+    ----------
+    eta : (...) float array
+        Relative refractive index of the boundary (> 0).
+
+    Returns
+    -------
+    A : (...) float64 array
+        Greater than 1 for eta > 1 (internal reflection at a denser
+        medium's boundary); used by :func:`dipole_rd` and the profile.
+    """
     eta = np.asarray(eta, dtype=np.float64)
     # Diffuse Fresnel reflectance fit (Jensen et al. 2001; Egan & Hilgeman)
     F_dr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
@@ -71,7 +83,7 @@ def dipole_rd(alpha_prime, eta):
 def _dipole_rd_np(alpha_prime, eta):
     """NumPy version of :func:`dipole_rd` (the test oracle of the compiled kernel)."""
     a = np.clip(np.asarray(alpha_prime, dtype=np.float64), 0.0, 1.0)
-    A = _dipole_A(eta)
+    A = dipole_A(eta)
     s = np.sqrt(3.0 * (1.0 - a))
     return 0.5 * a * (1.0 + np.exp(-(4.0 / 3.0) * A * s)) * np.exp(-s)
 
@@ -116,7 +128,7 @@ def _dipole_tail_fraction_np(r, sigma_a, sigma_s_prime, eta):
     st = sa + ss  # sigma_t'
     s_tr = np.sqrt(3.0 * sa * st)
     zr = 1.0 / st
-    zv = zr * (1.0 + 4.0 / 3.0 * _dipole_A(eta))
+    zv = zr * (1.0 + 4.0 / 3.0 * dipole_A(eta))
     dr = np.sqrt(r * r + zr * zr)
     dv = np.sqrt(r * r + zv * zv)
     tail = zr * np.exp(-s_tr * dr) / dr + zv * np.exp(-s_tr * dv) / dv
@@ -167,7 +179,7 @@ def _dipole_profile_np(r, sigma_a, sigma_s_prime, eta):
     alpha = ss / st
     s_tr = np.sqrt(3.0 * sa * st)
     zr = 1.0 / st
-    zv = zr * (1.0 + 4.0 / 3.0 * _dipole_A(eta))
+    zv = zr * (1.0 + 4.0 / 3.0 * dipole_A(eta))
     dr = np.sqrt(r * r + zr * zr)
     dv = np.sqrt(r * r + zv * zv)
     pole_r = zr * (1.0 + s_tr * dr) * np.exp(-s_tr * dr) / dr**3  # real source
