@@ -48,6 +48,7 @@ __all__ = [
     "render_side_by_side",
     "save_png",
     "save_image",
+    "downsample",
     "infer_unit",
     "draw_label",
     "draw_legend",
@@ -410,8 +411,24 @@ def _linear_to_srgb8(x):
     return np.round(s * 255.0).astype(np.uint8)
 
 
-def _downsample(img, s):
-    """Average s x s blocks of an sRGB uint8 image in linear light."""
+def downsample(img, s):
+    """Average s x s blocks of an sRGB uint8 image in linear light.
+
+    How :func:`render_mesh` turns its supersampled image (``supersample=s``)
+    into the output: each output pixel is the mean of s x s rendered ones,
+    taken in linear light and encoded back to sRGB.
+
+    Parameters
+    ----------
+    img : (H*s, W*s, 3) uint8 array
+        sRGB image whose sides are multiples of s.
+    s : int
+        Block side (>= 1; 1 returns ``img`` itself).
+
+    Returns
+    -------
+    (H, W, 3) uint8 array
+    """
     if s == 1:
         return img
     H, W = img.shape[0] // s, img.shape[1] // s
@@ -644,7 +661,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             rgb[fsel] = (1.0 - FILLED_TINT_WEIGHT) * rgb[fsel] + FILLED_TINT_WEIGHT * FILLED_TINT * (
                 0.35 + 0.65 * no[fsel, None])
         image[mask] = _srgb(rgb)
-    image = _downsample(image, ss)
+    image = downsample(image, ss)
     if legend:
         image = draw_legend(image, legend, FILLED_TINT if highlight_filled else None)
     t3 = time.perf_counter()
