@@ -9,6 +9,8 @@ run in a new interpreter. Each run gives
   script around the child (interpreter start, imports, the kernels loaded,
   the read, the repair and the write: loading moved to a background thread
   counts);
+* ``cpu``: the child's user + system CPU seconds (its threads' work
+  summed; less disturbed by other load than the wall time);
 * ``seconds``: the report's ``seconds`` (detection, fill and merge, timed by
   :func:`shellrepair.repair.repair_mesh`, imports before it excluded);
 * ``seconds_total``: the report's ``seconds_total`` (the command's own
@@ -42,6 +44,7 @@ import hashlib
 import json
 import os
 import re
+import resource
 import statistics
 import subprocess
 import sys
@@ -90,19 +93,25 @@ def _strip(x):
     return x
 
 
+def _children_cpu():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def repair_once(tree, scan, work):
     """One cold ``repair`` with ``tree``'s code: wall, the report's timings, output hashes."""
     out, rep = work / "out.ply", work / "out.report.json"
     for p in (out, rep):
         p.unlink(missing_ok=True)
     cmd = [sys.executable, "-c", _ENTRY, "repair", str(scan), "-o", str(out), "--report", str(rep), "-q"]
-    t0 = time.perf_counter()
+    c0, t0 = _children_cpu(), time.perf_counter()
     p = subprocess.run(cmd, cwd=work, env=env_for(tree), capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    cpu = _children_cpu() - c0
     if p.returncode:
         raise RuntimeError(f"{tree}: repair failed ({p.returncode}): {p.stderr[-800:]}")
     report = json.loads(rep.read_text())
-    return {"wall": wall, "seconds": report["seconds"], "seconds_total": report["seconds_total"],
+    return {"wall": wall, "cpu": cpu, "seconds": report["seconds"], "seconds_total": report["seconds_total"],
             "mesh_sha256": hashlib.sha256(out.read_bytes()).hexdigest(),
             "report_sha256": hashlib.sha256(json.dumps(_strip(report), sort_keys=True).encode()).hexdigest()}
 
@@ -160,7 +169,7 @@ def measure(trees, runs=7, radius=0.15, log=print):
         for t in trees:
             r = repair_once(t, scan, work)
             rows[t].append(r)
-            log(f"run {i} {t}: wall {r['wall']:.3f} s, seconds {r['seconds']:.4f}, "
+            log(f"run {i} {t}: wall {r['wall']:.3f} s, cpu {r['cpu']:.3f} s, seconds {r['seconds']:.4f}, "
                 f"seconds_total {r['seconds_total']:.4f}")
         for t in trees:
             imports[t].append(import_once(t, work))
@@ -174,6 +183,7 @@ def measure(trees, runs=7, radius=0.15, log=print):
         res["trees"][str(t)] = {
             "commit": _commit(t),
             "wall": statistics.median(r["wall"] for r in rs),
+            "cpu": statistics.median(r["cpu"] for r in rs),
             "seconds": statistics.median(r["seconds"] for r in rs),
             "seconds_total": statistics.median(r["seconds_total"] for r in rs),
             "import": statistics.median(x["import"] for x in imports[t]),
@@ -198,10 +208,10 @@ def _commit(tree):
 def text(res):
     L = [f"case: {res['case']}; median of {res['runs']} runs per tree, interleaved",
          f"load average before {res['load_before']}, after {res['load_after']}", ""]
-    L.append(f"{'tree':40s} {'wall s':>7s} {'seconds':>8s} {'s_total':>8s} {'import s':>9s}  largest imports")
+    L.append(f"{'tree':40s} {'wall s':>7s} {'cpu s':>6s} {'seconds':>8s} {'s_total':>8s} {'import s':>9s}  largest imports")
     for t, r in res["trees"].items():
         top = ", ".join(f"{k} {v:.3f}" for k, v in list(r["import_by_package"].items())[:4])
-        L.append(f"{t:40s} {r['wall']:7.3f} {r['seconds']:8.4f} {r['seconds_total']:8.4f} {r['import']:9.3f}  {top}")
+        L.append(f"{t:40s} {r['wall']:7.3f} {r['cpu']:6.3f} {r['seconds']:8.4f} {r['seconds_total']:8.4f} {r['import']:9.3f}  {top}")
     L.append("")
     for t, r in res["trees"].items():
         L.append(f"{t} ({r['commit']}): wall {', '.join(f'{x:.3f}' for x in r['all_wall'])}; seconds "
