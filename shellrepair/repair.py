@@ -96,6 +96,9 @@ from .fill import SEED_SMOOTH_PASSES, Outcome, _run_chunk, _seed_patches, _worke
 from .merge import _Accepted, _merge
 from .context import ScanContext
 from .patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
+# the order test of order="auto" (the default), which the fill imports on its
+# first hole: loaded with this module, before a repair's clock starts
+from . import distance, probe, selftest  # noqa: F401
 
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
 
