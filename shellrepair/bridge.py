@@ -68,7 +68,7 @@ from itertools import chain
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 from . import bridge_kernels, compiled
 

@@ -11,7 +11,7 @@ order.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 from . import compiled, distance_kernels
 

@@ -28,7 +28,7 @@ import time
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 from . import checks
 from .counted import CountedSetting

@@ -61,7 +61,7 @@ from .predicates import EPS, O3D_BOUND, TINY, orient2d, orient3d
 from . import compiled, intersect_kernels, topology_kernels
 from . import fastmesh
 from .topology import vertex_faces
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 __all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "crossing_pairs", "self_intersections",
            "patch_vs_index_many",
