@@ -92,7 +92,9 @@ class SteinerResult(NamedTuple):
 
 def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
     """A patch for ``loop`` with Steiner points, lifted over the scan that
-    crosses its plane (module notes), or None and why.
+    crosses its plane (module notes), or None and why. Where the loop's
+    outline folds over itself in every plane tried, the loop is cut into
+    pieces along chords between its own vertices (:func:`_cut_patch`).
 
     Parameters
     ----------
@@ -116,20 +118,43 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
     if k < 3:
         return SteinerResult(None, "a loop of fewer than three vertices", 0)
     P = ctx.V[loop]
+    diameter = float(np.ptp(P, axis=0).max())
+    if not np.isfinite(diameter) or diameter <= 0:
+        return SteinerResult(None, "the loop has no extent", 0)
+    patch, why, spent, folded = _over_planes(ctx, hole_id, loop, max_vertices, rounds)
+    if patch is None and folded:
+        left = None if max_vertices is None else max_vertices - spent
+        patch, cut_why, cut_spent = _cut_patch(ctx, hole_id, loop, left, rounds, 0)
+        spent += cut_spent
+        why = f"{why}; {cut_why}"
+    if patch is None:
+        return SteinerResult(None, "Steiner points: " + why, spent)
+    return SteinerResult(_interpolate_attributes(ctx, patch, k + len(patch.P)), "", spent)
+
+
+def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
+    """The patch over the first plane (:func:`_axes`) that gives one that
+    passes (module notes, steps 1 to 5), its attributes not yet
+    interpolated. Returns ``(patch or None, why, spent, folded)``:
+    ``folded`` when the outline is not simple in any plane tried."""
+    k = len(loop)
+    P = ctx.V[loop]
     centre = P.mean(axis=0)
     C = P - centre
     diameter = float(np.ptp(P, axis=0).max())
     if not np.isfinite(diameter) or diameter <= 0:
-        return SteinerResult(None, "the loop has no extent", 0)
+        return None, "the loop has no extent", 0, False
     sigma, _, forbidden = rim_data(ctx, loop)
     spent = 0
     why = []
+    folded = True
     for name, axis in _axes(ctx, loop, C):
         u, v = plane_frame(axis)
         Q = np.column_stack([C @ u, C @ v]) / diameter
         if not _outline_is_simple(Q):
             why.append(f"its outline seen along {name} is not a simple polygon")
             continue
+        folded = False
         T0 = _ear_clip(Q, k)
         if T0 is None or _repeats_scan_edge(T0, forbidden):
             why.append(f"seen along {name}, its outline's triangulation "
@@ -175,11 +200,110 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
                           f"(lifted {other[0][1]:.3g})" if other else "")
                 patch = patch.with_(option=f"Steiner points: {len(patch.P)} vertices off the rim (plane normal to "
                                            f"{name}, round {r + 1}), lifted {lifted:.3g} off it {side[0]} the part{runner}")
-                return SteinerResult(_interpolate_attributes(ctx, patch, X), "", spent)
+                return patch, "", spent, False
         if tried:
             why.append(f"seen along {name}, {len(tried) // 2} rounds: "
                        + "; ".join(f"{t[2][0]} the part, {t[0]}" for t in tried[-2:]))
-    return SteinerResult(None, "Steiner points: " + "; ".join(why), spent)
+    return None, "; ".join(why), spent, folded
+
+
+def _cut_patch(ctx, hole_id, loop, max_vertices, rounds, depth):
+    """A patch for a loop whose outline folds over itself in every plane
+    (an opening wrapped most of the way round a pipe or a corner): the loop
+    cut along a chord between two of its vertices (:func:`_chords`: the
+    shortest against the shorter of the two rim paths it cuts off, a waist)
+    into two loops, each closed by :func:`_over_planes` or cut again (at
+    most :data:`CUT_DEPTH` times deep), the pieces joined along their
+    chords and the whole checked again (:func:`~shellrepair.checks.check_patch`:
+    the pieces against each other, the folds across the chords). The next
+    chord (at most :data:`CUT_TRIES` a level) where a piece fails. The
+    chords are rim edges of both pieces: never split, never lifted.
+    Returns ``(patch or None, why, spent)``."""
+    k = len(loop)
+    spent = 0
+    why = []
+    _, _, forbidden = rim_data(ctx, loop)
+    for i, j in _chords(ctx.V[loop], loop, forbidden):
+        sides = [np.arange(i, j + 1), np.concatenate([np.arange(j, k), np.arange(0, i + 1)])]
+        parts = []
+        for s in sides:
+            left = None if max_vertices is None else max_vertices - spent
+            patch, w, used, folded = _over_planes(ctx, hole_id, loop[s], left, rounds)
+            spent += used
+            if patch is None and folded and depth + 1 < CUT_DEPTH and len(s) >= 4:
+                left = None if max_vertices is None else max_vertices - spent
+                patch, w, used = _cut_patch(ctx, hole_id, loop[s], left, rounds, depth + 1)
+                spent += used
+            if patch is None:
+                why.append(f"cut between rim vertices {i} and {j}: the piece of {len(s)} vertices fails ({w})")
+                break
+            parts.append((s, patch))
+        else:
+            whole = _joined(hole_id, loop, parts)
+            bad_why, _ = check_patch(ctx, whole)
+            if bad_why is None:
+                return whole, "", spent
+            why.append(f"cut between rim vertices {i} and {j}: the pieces together fail ({bad_why})")
+        if max_vertices is not None and spent >= max_vertices:
+            why.append("the work budget is spent")
+            break
+    if not why:
+        why.append("no chord to cut it along")
+    return None, "cut into pieces along chords: " + "; ".join(why), spent
+
+
+#: Chords tried, at each level of cutting (:func:`_cut_patch`).
+CUT_TRIES = 3
+#: Levels of cutting: a loop is cut into at most 2 ** CUT_DEPTH pieces.
+CUT_DEPTH = 3
+
+
+def _chords(P, loop, forbidden):
+    """Chords (i, j), i < j, between vertices of the loop at positions ``P``
+    to cut it along, best first (at most :data:`CUT_TRIES`): each is at
+    least two edges from either end, joins two distinct vertices the scan
+    does not join, and scores its length over the shorter of the two rim
+    paths between its ends (a waist: short across, long around); ties go
+    to the lower (i, j)."""
+    k = len(P)
+    run = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1))])
+    total = run[-1]
+    best = []
+    for i in range(k - 2):
+        j = np.arange(i + 2, k - (1 if i == 0 else 0))
+        if not j.size:
+            continue
+        length = np.linalg.norm(P[j] - P[i], axis=1)
+        around = run[j] - run[i]
+        score = length / np.maximum(np.minimum(around, total - around), 1e-300)
+        ok = (loop[j] != loop[i]) & (length > 0)
+        for m in np.flatnonzero(ok)[np.argsort(score[ok], kind="stable")][:CUT_TRIES]:
+            jj = int(j[m])
+            if (i, jj) not in forbidden and (jj, i) not in forbidden:
+                best.append((float(score[m]), i, jj))
+    best.sort()
+    return [(i, j) for _, i, j in best[:CUT_TRIES]]
+
+
+def _joined(hole_id, loop, parts):
+    """One patch over ``loop`` from the pieces' patches ``(positions in
+    loop, patch)``: their triangles on the loop's positions, their new
+    vertices one after another."""
+    k = len(loop)
+    Ps, Ts, T0s, options = [], [], [], []
+    n = 0
+    for s, p in parts:
+        ks = len(s)
+        idx = np.concatenate([s, k + n + np.arange(len(p.P))])
+        Ts.append(idx[p.T])
+        T0s.append(s[p.T0])
+        Ps.append(p.P)
+        n += len(p.P)
+        options.append(p.option.removeprefix("Steiner points: "))
+    option = (f"Steiner points: {n} vertices off the rim, in {len(parts)} pieces cut along chords between rim "
+              f"vertices (its outline is not simple in any plane): " + " | ".join(options))
+    return Patch(hole_id=hole_id, loop=loop, P=np.vstack(Ps), T=np.vstack(Ts), T0=np.vstack(T0s), disc=True,
+                 steiner=True, option=option)
 
 
 def _axes(ctx, loop, C):
@@ -533,13 +657,14 @@ def _cells(c0, c1, wide):
     return item, ix * wide + iy
 
 
-def _interpolate_attributes(ctx, patch, X):
-    """``patch`` with colours and per-vertex properties on its new vertices,
-    harmonic from the rim's (as :func:`~shellrepair.patch.build_patch` gives them)."""
+def _interpolate_attributes(ctx, patch, n):
+    """``patch`` (``n`` vertices, rim first) with colours and per-vertex
+    properties on its new vertices, harmonic from the rim's (as
+    :func:`~shellrepair.patch.build_patch` gives them)."""
     if ctx.colors is None and not ctx.props:
         return patch
     k = len(patch.loop)
-    K = uniform_laplacian(patch.T, len(X))
+    K = uniform_laplacian(patch.T, n)
     colors = patch.colors
     if ctx.colors is not None:
         c = harmonic_interpolate(K, ctx.colors[patch.loop].astype(np.float64), k)
