@@ -223,7 +223,7 @@ def _cut_patch(ctx, hole_id, loop, max_vertices, rounds, depth):
     spent = 0
     why = []
     _, _, forbidden = rim_data(ctx, loop)
-    for i, j in _chords(ctx.V[loop], loop, forbidden):
+    for i, j in _chords(ctx, loop, forbidden):
         sides = [np.arange(i, j + 1), np.concatenate([np.arange(j, k), np.arange(0, i + 1)])]
         parts = []
         for s in sides:
@@ -253,36 +253,78 @@ def _cut_patch(ctx, hole_id, loop, max_vertices, rounds, depth):
 
 
 #: Chords tried, at each level of cutting (:func:`_cut_patch`).
-CUT_TRIES = 3
+CUT_TRIES = 4
 #: Levels of cutting: a loop is cut into at most 2 ** CUT_DEPTH pieces.
 CUT_DEPTH = 3
+#: A chord tried after another has both its ends at least this many rim
+#: edges from the ends of every chord tried before it.
+CUT_SPREAD = 1
+#: A chord that leaves the scan's surface at its ends (its direction's
+#: cosine with the scan's normal there) scores this much worse per unit
+#: of that cosine: a chord across the part's inside is a poor path over
+#: the missing surface.
+CUT_OFF_SURFACE = 4.0
 
 
-def _chords(P, loop, forbidden):
-    """Chords (i, j), i < j, between vertices of the loop at positions ``P``
-    to cut it along, best first (at most :data:`CUT_TRIES`): each is at
-    least two edges from either end, joins two distinct vertices the scan
-    does not join, and scores its length over the shorter of the two rim
-    paths between its ends (a waist: short across, long around); ties go
-    to the lower (i, j)."""
+def _chords(ctx, loop, forbidden):
+    """Chords (i, j), i < j, between the loop's vertices to cut it along,
+    best first (at most :data:`CUT_TRIES`): each is at least two edges from
+    either end, joins two distinct vertices the scan does not join, and
+    scores its length over the shorter of the two rim paths between its
+    ends (a waist: short across, long around), times ``1 +``
+    :data:`CUT_OFF_SURFACE` times the larger cosine between it and the
+    scan's normal at its ends (it should run along the missing surface,
+    not across the part); ties go to the lower (i, j). Each chord after
+    the first keeps its ends :data:`CUT_SPREAD` rim edges from the ends of
+    those before it."""
+    P = ctx.V[loop]
     k = len(P)
     run = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1))])
     total = run[-1]
-    best = []
+    normal = _vertex_normals(ctx, loop)
+    ranked = []
     for i in range(k - 2):
         j = np.arange(i + 2, k - (1 if i == 0 else 0))
         if not j.size:
             continue
-        length = np.linalg.norm(P[j] - P[i], axis=1)
+        d = P[j] - P[i]
+        length = np.linalg.norm(d, axis=1)
+        t = d / np.maximum(length, 1e-300)[:, None]
+        off = np.maximum(np.abs(t @ normal[i]), np.abs(np.einsum("ij,ij->i", t, normal[j])))
         around = run[j] - run[i]
-        score = length / np.maximum(np.minimum(around, total - around), 1e-300)
+        score = length / np.maximum(np.minimum(around, total - around), 1e-300) * (1 + CUT_OFF_SURFACE * off)
         ok = (loop[j] != loop[i]) & (length > 0)
-        for m in np.flatnonzero(ok)[np.argsort(score[ok], kind="stable")][:CUT_TRIES]:
+        for m in np.flatnonzero(ok)[np.argsort(score[ok], kind="stable")][:4 * CUT_TRIES]:
             jj = int(j[m])
             if (i, jj) not in forbidden and (jj, i) not in forbidden:
-                best.append((float(score[m]), i, jj))
-    best.sort()
-    return [(i, j) for _, i, j in best[:CUT_TRIES]]
+                ranked.append((float(score[m]), i, jj))
+    ranked.sort()
+    out = []
+    for _, i, j in ranked:
+        ends = [e for c in out for e in c]
+        if all(min((i - e) % k, (e - i) % k) >= CUT_SPREAD and min((j - e) % k, (e - j) % k) >= CUT_SPREAD
+               for e in ends):
+            out.append((i, j))
+            if len(out) == CUT_TRIES:
+                break
+    return out
+
+
+def _vertex_normals(ctx, loop):
+    """Unit normals of the scan at the loop's vertices (the sum of its
+    faces' area vectors there; zero where they cancel)."""
+    f = np.asarray(ctx.faces_of(loop), np.int64)
+    T = ctx.F[f]
+    A = np.cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    ids, pos = np.unique(loop, return_inverse=True)
+    acc = np.zeros((len(ids), 3))
+    for c in range(3):
+        at = np.searchsorted(ids, T[:, c])
+        hit = (at < len(ids)) & (ids[np.minimum(at, len(ids) - 1)] == T[:, c])
+        np.add.at(acc, at[hit], A[hit])
+    n = acc[pos]
+    ln = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.divide(n, ln, out=np.zeros_like(n), where=ln > 0)
 
 
 def _joined(hole_id, loop, parts):
@@ -615,7 +657,8 @@ def _box_pairs(alo, ahi, blo, bhi):
     and ``[blo, bhi]`` (scan faces) that may meet: both put in a grid of
     cells twice the median patch box, joined by cell; a face covering more
     than :data:`BIG_FACE_CELLS` cells (a large CAD face) is paired with
-    every triangle. A superset, each pair once."""
+    every triangle, a triangle covering more with every face. A superset,
+    each pair once."""
     if not len(alo) or not len(blo):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     origin = np.minimum(alo.min(axis=0), blo.min(axis=0))
@@ -628,7 +671,12 @@ def _box_pairs(alo, ahi, blo, bhi):
     big = np.prod(b1 - b0 + 1, axis=1) > BIG_FACE_CELLS
     small = np.flatnonzero(~big)
     wide = int(max(a1[:, 1].max(), b1[small, 1].max() if small.size else 0)) + 2
-    ai, ak = _cells(a0, a1, wide)
+    # a patch triangle far larger than the median (a piece seen nearly
+    # edge-on) is paired with every face by boxes too, not spread over cells
+    big_a = np.prod(a1 - a0 + 1, axis=1) > BIG_FACE_CELLS
+    small_a = np.flatnonzero(~big_a)
+    ai, ak = _cells(a0[small_a], a1[small_a], wide)
+    ai = small_a[ai]
     bi, bk = _cells(b0[small], b1[small], wide)
     bi = small[bi]
     order = np.argsort(bk, kind="stable")
@@ -643,6 +691,10 @@ def _box_pairs(alo, ahi, blo, bhi):
     if fb.size:
         pi = np.concatenate([pi, np.repeat(np.arange(len(alo)), fb.size)])
         pj = np.concatenate([pj, np.tile(fb, len(alo))])
+    ab = np.flatnonzero(big_a)
+    if ab.size and small.size:      # (a big triangle and a big face: paired above)
+        pi = np.concatenate([pi, np.repeat(ab, small.size)])
+        pj = np.concatenate([pj, np.tile(small, ab.size)])
     return pi, pj
 
 
