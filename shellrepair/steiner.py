@@ -34,6 +34,12 @@ a plane:
    fault (:data:`BESIDE_RIM`: a rim triangle's rim corners cannot rise,
    so it must be thin enough to pass beside scan close to the rim); at
    most :data:`ROUNDS` rounds, within the hole's work budget.
+6. Where the outline folds over itself in every plane (a window wrapped
+   most of the way round a pipe), the loop is **cut** along a chord
+   between two of its vertices (:func:`_chords`: a waist that runs along
+   the missing surface) into two loops, each closed as above or cut again
+   (:func:`_cut_patch`); the pieces are joined along their chords and the
+   whole checked again.
 
 Nothing here reads a clock: the rounds are counted, the same scan gives
 the same bytes.
