@@ -13,6 +13,9 @@ are the same; the docstrings of the functions measured quote them.
   cKDTree of centroids, then the exact distance to the 8 nearest
   triangles) against libigl's ``point_mesh_squared_distance`` (an AABB
   tree, exact), on the order test's own queries.
+* ``grid``: :class:`shellrepair.intersect.NearFaces` (vertices in xy
+  columns) against a SciPy cKDTree of the vertices, for the crossing
+  checks' box queries on a 1.3M-face mesh.
 * ``readers``: our OBJ / OFF / STL readers (:mod:`shellrepair.formats`)
   against meshio and Open3D on a ~1M-face file of each format, and what
   each keeps.
@@ -109,11 +112,11 @@ def polygon(repeat):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("sections", nargs="*", default=["polygon", "distance", "readers"])
+    ap.add_argument("sections", nargs="*", default=["polygon", "distance", "grid", "readers"])
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args(argv)
     for s in args.sections:
-        {"polygon": polygon, "distance": distance, "readers": readers}[s](args.repeat)
+        {"polygon": polygon, "distance": distance, "grid": grid, "readers": readers}[s](args.repeat)
         print()
     return 0
 
@@ -186,6 +189,53 @@ def distance(repeat):
         print(f"  {name}: {len(calls)} calls, {n} points; ours {1e3 * t_ours:.1f} ms, igl {1e3 * t_igl:.1f} ms; "
               f"{differ} distances differ (largest relative {worst:.2e}); same orders chosen: {orders}; "
               f"same mesh bytes: {same}; same report (test RMS per order): {rms}")
+
+
+def grid(repeat):
+    from scipy.spatial import cKDTree
+
+    from eval import shapes
+    from shellrepair import fastmesh
+    from shellrepair.geometry import concat_ranges
+    from shellrepair.intersect import NearFaces
+
+    fastmesh.warm_up()
+    V, F = shapes.icosphere(8)   # 1.3M faces
+    V = V + 1e-4 * np.random.default_rng(0).standard_normal(V.shape)
+    t_grid, nf = best_of(lambda: NearFaces(V, F), repeat)
+    t_tree, tree = best_of(lambda: cKDTree(V), repeat)
+    from shellrepair import intersect_kernels
+
+    t_sort, _ = best_of(lambda: intersect_kernels.grid_sort(V, grow=nf.grow), repeat)
+    rng = np.random.default_rng(1)
+    h = float(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).mean())
+    boxes = []
+    for c in V[rng.choice(len(V), 200, replace=False)]:
+        half = h * rng.uniform(5, 40)
+        boxes.append((c - half, c + half))
+
+    def by_grid():
+        return [nf.faces_near(lo, hi) for lo, hi in boxes]
+
+    def by_tree():   # the same set: vertices in the grown box (a ball around it, then the box), their faces
+        out = []
+        for lo, hi in boxes:
+            lo, hi = lo - nf.grow, hi + nf.grow
+            vs = np.asarray(tree.query_ball_point(0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))), np.int64)
+            vs = vs[np.all((V[vs] >= lo) & (V[vs] <= hi), axis=1)]
+            s = nf.vf_start[vs]
+            f = nf.vf_order[concat_ranges(s, nf.vf_start[vs + 1] - s)] // 3
+            out.append(np.unique(np.concatenate([f, nf.big])))
+        return out
+
+    q_grid, a = best_of(by_grid, repeat)
+    q_tree, b = best_of(by_tree, repeat)
+    same = all(np.array_equal(x, y) for x, y in zip(a, b))
+    print(f"grid: intersect.NearFaces (xy columns, compiled counting sorts) against a cKDTree of the vertices, "
+          f"{len(F)} faces, 200 boxes of 10-80 edges")
+    print(f"  build: the whole index {1e3 * t_grid:.0f} ms (edge lengths and vertex-face lists, which both need, "
+          f"included), its grid {1e3 * t_sort:.0f} ms against cKDTree {1e3 * t_tree:.0f} ms; 200 queries: grid {1e3 * q_grid:.1f} ms, cKDTree {1e3 * q_tree:.1f} ms; "
+          f"same faces: {same}")
 
 
 def readers(repeat):
