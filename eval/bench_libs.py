@@ -26,6 +26,7 @@ Asserts nothing; needs the bench/test extras (scikit-image, meshio).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -238,8 +239,98 @@ def grid(repeat):
           f"same faces: {same}")
 
 
+def _reader_files(folder):
+    """A 1.3M-face sphere as OBJ (vertex colours, texture coordinates, a
+    comment, two groups and materials), COFF (vertex colours, a comment)
+    and binary STL; returns {format: path}."""
+    from eval import shapes
+
+    V, F = shapes.icosphere(8)
+    V = V + 1e-4 * np.random.default_rng(0).standard_normal(V.shape)
+    C = (np.abs(V) * 255).astype(np.uint8)
+    uv = np.round(V[:, :2] * 0.5 + 0.5, 6)
+    half = len(F) // 2
+    fmt_v = lambda rows: "".join(f"v {x:.9g} {y:.9g} {z:.9g} {r / 255:.6g} {g / 255:.6g} {b / 255:.6g}\n"
+                                 for (x, y, z), (r, g, b) in rows)
+    lines = ["# a 1.3M-face sphere, coloured and textured\n", "mtllib sphere.mtl\n", fmt_v(zip(V.tolist(), C.tolist())),
+             "".join(f"vt {u:.6g} {w:.6g}\n" for u, w in uv.tolist())]
+    for name, rows in (("front", F[:half]), ("back", F[half:])):
+        lines.append(f"g {name}\nusemtl {name}\n")
+        lines.append("".join(f"f {a}/{a} {b}/{b} {c}/{c}\n" for a, b, c in (rows + 1).tolist()))
+    out = {"obj": folder / "sphere.obj", "off": folder / "sphere.off", "stl": folder / "sphere.stl"}
+    out["obj"].write_text("".join(lines))
+    off = ["COFF\n# a 1.3M-face sphere, coloured\n", f"{len(V)} {len(F)} 0\n",
+           "".join(f"{x:.9g} {y:.9g} {z:.9g} {r} {g} {b} 255\n" for (x, y, z), (r, g, b) in zip(V.tolist(), C.tolist())),
+           "".join(f"3 {a} {b} {c}\n" for a, b, c in F.tolist())]
+    out["off"].write_text("".join(off))
+    out["off (plain)"] = folder / "plain.off"   # what meshio reads: OFF without colours
+    out["off (plain)"].write_text("".join(["OFF\n", off[1], "".join(f"{x:.9g} {y:.9g} {z:.9g}\n" for x, y, z in V.tolist()),
+                                           off[3]]))
+    rec = np.zeros(len(F), [("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["v"] = V[F]
+    out["stl"].write_bytes(b"\0" * 80 + np.uint32(len(F)).tobytes() + rec.tobytes())
+    return out, len(F)
+
+
 def readers(repeat):
-    raise NotImplementedError
+    import tempfile
+
+    import meshio
+    import open3d as o3d
+
+    from shellrepair.formats.obj import read_obj
+    from shellrepair.formats.off import read_off
+    from shellrepair.formats.stl import read_stl
+    from shellrepair.io import read_mesh
+
+    def arrays(m):
+        if hasattr(m, "cells"):
+            return np.asarray(m.points, np.float64), np.vstack([c.data for c in m.cells]).astype(np.int64)
+        if hasattr(m, "triangles"):
+            return np.asarray(m.vertices), np.asarray(m.triangles, np.int64)
+        return m.V, m.F
+
+    def kept_ours(m):
+        t = m.texture
+        return {"vertices": len(m.V), "faces": len(m.F), "colours": m.vertex_colors is not None,
+                "texcoords": t is not None and len(t.uv) > 0,
+                "materials/groups": t is not None and len(t.materials) > 0,
+                "comments": bool(m.comments), "notes": len(m.notes)}
+
+    def kept_meshio(m):
+        keys = set(m.point_data) | set(m.cell_data)
+        return {"vertices": len(m.points), "faces": sum(len(c.data) for c in m.cells),
+                "colours": any("color" in k.lower() or "rgb" in k.lower() for k in keys),
+                "texcoords": any("vt" in k or "uv" in k.lower() or "tex" in k.lower() for k in keys),
+                "materials/groups": any("group" in k.lower() or "mat" in k.lower() for k in keys)
+                or len(m.cells) > 1, "comments": False, "notes": 0}
+
+    def kept_o3d(m):
+        return {"vertices": len(m.vertices), "faces": len(m.triangles), "colours": m.has_vertex_colors(),
+                "texcoords": m.has_triangle_uvs(), "materials/groups": m.has_triangle_material_ids()
+                and len(np.unique(np.asarray(m.triangle_material_ids))) > 1, "comments": False, "notes": 0}
+
+    with tempfile.TemporaryDirectory() as tmp:
+        files, nf = _reader_files(Path(tmp))
+        print(f"readers: {nf} faces (load average {os.getloadavg()[0]:.1f}); seconds (fastest of {repeat}), and what each keeps "
+              "(ours: read_mesh, checks and notes included; parser: the format's reader alone)")
+        for fmt, path in files.items():
+            print(f"  {fmt.upper()} ({path.stat().st_size / 1e6:.0f} MB)")
+            parse = {"obj": read_obj, "off": read_off, "off (plain)": read_off, "stl": read_stl}[fmt]
+            for name, read, kept in (("ours", lambda: read_mesh(path), kept_ours),
+                                     ("parser", lambda: parse(path.read_bytes()), kept_ours),
+                                     ("meshio", lambda: meshio.read(path), kept_meshio),
+                                     ("open3d", lambda: o3d.io.read_triangle_mesh(str(path)), kept_o3d)):
+                try:
+                    t, m = best_of(read, repeat)
+                except (Exception, SystemExit) as exc:  # noqa: BLE001 - a reader that fails (meshio may exit): said so
+                    print(f"    {name:7s} fails: {type(exc).__name__}: {str(exc)[:80]}")
+                    continue
+                if name == "ours":
+                    ref = arrays(m)
+                got = arrays(m)
+                same = len(got[0]) == len(ref[0]) and np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+                print(f"    {name:7s} {t:6.2f} s  {kept(m)}, V and F equal to ours: {same}")
 
 
 if __name__ == "__main__":
