@@ -62,7 +62,7 @@ def record(path=compiled.TYPES_FILE):
     _small_repair()
     rows = [[m, n, list(_listed(a))] for m, n, a in compiled.recorded()
             if not any(_unusable(k) for k in a)]
-    Path(path).write_text("[\n" + ",\n".join(json.dumps(r, separators=(",", ":")) for r in rows) + "\n]\n")
+    atomic_write(path, "[\n" + ",\n".join(json.dumps(r, separators=(",", ":")) for r in rows) + "\n]\n")
     print(f"recorded {len(rows)} kernel signatures in {path}")
 
 
