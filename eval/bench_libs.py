@@ -1,7 +1,7 @@
 """Our own small structures against the libraries that do the same job.
 
-Run ``.venv/bin/python eval/bench_libs.py [polygon|distance|readers ...]``
-(all three when none is named). Each section prints its numbers (the
+Run ``.venv/bin/python eval/bench_libs.py [polygon|distance|grid|readers ...]``
+(all four when none is named). Each section prints its numbers (the
 fastest of ``--repeat`` runs, in one warm process) and whether the answers
 are the same; the docstrings of the functions measured quote them.
 
@@ -109,17 +109,6 @@ def polygon(repeat):
     n = sum(len(f) for f in ours_fr)
     print(f"hole detection on 3 single-view scans ({n} loops): points-in-polygon time ours {1e3 * ours_t:.1f} ms, "
           f"skimage {1e3 * sk_t:.1f} ms; inside fractions the same to the bit: {ours_fr == sk_fr}")
-
-
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("sections", nargs="*", default=["polygon", "distance", "grid", "readers"])
-    ap.add_argument("--repeat", type=int, default=5)
-    args = ap.parse_args(argv)
-    for s in args.sections:
-        {"polygon": polygon, "distance": distance, "grid": grid, "readers": readers}[s](args.repeat)
-        print()
-    return 0
 
 
 def _distance_cases():
@@ -331,6 +320,17 @@ def readers(repeat):
                 got = arrays(m)
                 same = len(got[0]) == len(ref[0]) and np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
                 print(f"    {name:7s} {t:6.2f} s  {kept(m)}, V and F equal to ours: {same}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("sections", nargs="*", default=["polygon", "distance", "grid", "readers"])
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args(argv)
+    for s in args.sections:
+        {"polygon": polygon, "distance": distance, "grid": grid, "readers": readers}[s](args.repeat)
+        print()
+    return 0
 
 
 if __name__ == "__main__":
