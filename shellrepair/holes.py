@@ -81,7 +81,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .geometry import cross, plane_frame, uniq
+from .geometry import cross, plane_frame, points_in_polygon, uniq
 from . import compiled, fastmesh
 from .topology import components_of_pieces, edge_topology, face_areas, face_pieces
 
@@ -443,8 +443,6 @@ def _inside_fractions(V, loops, axes, centers, cent, w, chunk=64):
     """Area fraction of sample points (face centroids ``cent`` with areas
     ``w``) inside each loop's outline seen along its axis; the projections
     of the samples are made for ``chunk`` loops at a time, by one product."""
-    from skimage.measure import points_in_poly
-
     out = np.zeros(len(loops))
     tot = float(w.sum())
     if not len(loops) or tot <= 0:
@@ -461,7 +459,7 @@ def _inside_fractions(V, loops, axes, centers, cent, w, chunk=64):
             lo, hi = poly.min(axis=0), poly.max(axis=0)
             box = np.flatnonzero((PU[j] >= lo[0]) & (PU[j] <= hi[0]) & (PW[j] >= lo[1]) & (PW[j] <= hi[1]))
             if box.size:  # only these can be inside
-                inside = points_in_poly(np.column_stack([PU[j, box], PW[j, box]]), poly)
+                inside = points_in_polygon(np.column_stack([PU[j, box], PW[j, box]]), poly)
                 out[i] = float(w[box[inside]].sum() / tot)
     return out
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import tempfile
 import time
 
 import numpy as np
@@ -888,8 +887,9 @@ def save_image(path, image):
 
     Notes
     -----
-    The image is written to a temporary file in the target folder and moved
-    into place with ``os.replace``, so a failure leaves no partial file.
+    The image is encoded in memory and written by the package's one atomic
+    write (:func:`shellrepair.files.atomic_write`: a temporary file in the
+    target folder, renamed into place), so a failure leaves no partial file.
 
     Raises
     ------
@@ -898,28 +898,20 @@ def save_image(path, image):
     OSError
         If the folder does not exist or is not writable.
     """
+    import io
+
     from PIL import Image
+
+    from .files import atomic_write
 
     fmt = image_format(path)
     img = np.asarray(image)
     if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
         raise ValueError("image must be an (H,W,3) uint8 array, got %s %s" % (img.shape, img.dtype))
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.splitext(path)[1])
-    try:
-        from .io import new_file_mode
-        os.fchmod(fd, new_file_mode())  # as a plain open() would, not mkstemp's 0600
-        with os.fdopen(fd, "wb") as fh:
-            kw = {"quality": 92} if fmt == "JPEG" else {}
-            Image.fromarray(img, "RGB").save(fh, format=fmt, **kw)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    buf = io.BytesIO()
+    kw = {"quality": 92} if fmt == "JPEG" else {}
+    Image.fromarray(img, "RGB").save(buf, format=fmt, **kw)
+    atomic_write(path, buf.getvalue(), os_errors=True)
 
 
 def save_png(path, image):

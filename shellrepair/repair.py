@@ -296,7 +296,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     if legacy_bar:  # progress=True: the terminal bar this call drew ends its line
         from .progress import end_line
 
-        end_line()
+        end_line(progress)
 
     # sequential merge: patches against each other, in hole order
     units, unit_out = expand(units, unit_out)     # a pants unit: its parts, one per loop

@@ -27,7 +27,6 @@ import dataclasses
 import functools
 import hashlib
 import os
-import tempfile
 import threading
 
 import numpy as np
@@ -644,12 +643,14 @@ def rho_dt_table():
         if table is None:
             table = _build_table()
             try:
+                import io
+
+                from ..files import atomic_write
+
                 os.makedirs(os.path.dirname(path), exist_ok=True)
-                fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".npz")
-                with os.fdopen(fd, "wb") as fh:
-                    np.savez(fh, u=table.u, log_m=table.log_m, kappa=table.kappa,
-                             values=table.values)
-                os.replace(tmp, path)
+                buf = io.BytesIO()
+                np.savez(buf, u=table.u, log_m=table.log_m, kappa=table.kappa, values=table.values)
+                atomic_write(path, buf.getvalue(), os_errors=True)
             except OSError:
                 pass
         _TABLE = table
