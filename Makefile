@@ -83,6 +83,11 @@ $(STAMP): $(INSTALLED) $(SOURCES) shellrepair/aot_types.json
 # pictures of batch's and repair --html's pages, the tests, the benchmarks)
 $(SHADING): $(STAMP) $(SOURCES)
 	@echo "building the shading (first use, or a module changed since the last build)"
+	@# Numba checks a cached kernel against its own file only: a kernel that inlines a helper of another
+	@# kernel module would load stale machine code after that helper changed, so a change to any of the
+	@# reflectance modules drops their whole cache
+	@if [ -f $(SHADING) ] && [ -n "$$(find shellrepair/reflectance -name '*.py' -newer $(SHADING))" ]; then \
+	  echo "a reflectance module changed: recompiling all its kernels"; rm -f shellrepair/reflectance/__pycache__/*.nb[ic]; fi
 	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"
 	$(PY) -c "from shellrepair.shader import warm_up; warm_up()"
 	touch $(SHADING)

@@ -357,7 +357,7 @@ def function_cases(N):
         ("dipole_tail_fraction", sh.dipole_tail_fraction, dp._dipole_tail_fraction_np,
          plain_dipole_tail_fraction, (X, K, S, eta)),
         ("dipole_profile", sh.dipole_profile, dp._dipole_profile_np, plain_dipole_profile, (X, K, S, eta)),
-        ("MaterialShader", lambda *a: shader(*a), lambda *a: sd._material_shader_np(shader, *a),
+        ("MaterialShader", lambda *a: shader(*a), lambda *a: shader.evaluate_numpy(*a),
          lambda wi_, wo_, n_, c_, g_, d_: plain_shade(wi_, wo_, n_, c_, mat, pt, g_, d_),
          (wi, wo, n, cov, gild, crust)),
     ]
@@ -372,7 +372,7 @@ def bench_functions(N, repeat, clock=time.perf_counter):
     the largest relative difference from the oracle and from the plain
     version.
     """
-    from shellrepair.reflectance import _dispatch
+    from shellrepair.reflectance import dispatch
 
     cases = function_cases(N)
     for _, fn, _, _, args in cases:  # compile (or load the cache) outside the timing
@@ -391,8 +391,8 @@ def bench_functions(N, repeat, clock=time.perf_counter):
             "max_rel_diff_vs_oracle": float(np.max(np.abs(f[ok] - fo[ok]) / np.maximum(np.abs(fo[ok]), 1e-250))),
             "max_abs_diff_vs_plain": float(np.max(np.abs(f[ok] - fp[ok]))),
         }
-    return {"points": N, "threads": _dispatch.kernels().n_threads() if _dispatch.kernels() else 0,
-            "jit": _dispatch.kernels() is not None, "functions": out}
+    on = dispatch.kernels("microfacet") is not None
+    return {"points": N, "threads": dispatch.n_threads() if on else 0, "jit": on, "functions": out}
 
 
 
@@ -431,16 +431,15 @@ def _columns(a, N):
 
 def _kernel_call(fn, args):
     """The compiled kernel and its arguments that one call of the public function runs."""
-    from shellrepair.reflectance import _dispatch
+    from shellrepair.reflectance import dispatch
 
-    K = _dispatch.kernels()
     seen = []
-    real = K.run
-    K.run = lambda kernel, P, *a: (seen.append((kernel, P, a)), real(kernel, P, *a))[-1]
+    real = dispatch.run
+    dispatch.run = lambda kernel, P, *a: (seen.append((kernel, P, a)), real(kernel, P, *a))[-1]
     try:
         fn(*args)
     finally:
-        K.run = real
+        dispatch.run = real
     return seen[0] if len(seen) == 1 else None
 
 
@@ -460,10 +459,9 @@ def bench_ceilings(N, repeat, names=None):
     """
     import resource
 
-    from shellrepair.reflectance import _dispatch
+    from shellrepair.reflectance import dispatch
 
-    K = _dispatch.kernels()
-    if K is None:
+    if dispatch.kernels("microfacet") is None:
         raise SystemExit("--ceilings needs the compiled kernels")
     cases = [c for c in function_cases(N) if names is None or c[0] in names]
     env = os.environ.get("SHELLREPAIR_THREADS")
@@ -486,12 +484,12 @@ def bench_ceilings(N, repeat, names=None):
             r0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
             t1, _ = best_of(lambda: fn(*args), repeat, time.thread_time)
             faults = (resource.getrusage(resource.RUSAGE_SELF).ru_minflt - r0) / repeat
-            s1, _ = best_of(lambda: K.run(stream, N, *ins, *outs_cols()), repeat, time.thread_time)
+            s1, _ = best_of(lambda: dispatch.run(stream, N, *ins, *outs_cols()), repeat, time.thread_time)
             with np.errstate(all="ignore"):
                 p1, _ = best_of(lambda: plain(*args), max(1, repeat // 2), time.thread_time)
             threads(2)
             t2, _ = best_of(lambda: fn(*args), repeat)
-            s2, _ = best_of(lambda: K.run(stream, N, *ins, *outs_cols()), repeat)
+            s2, _ = best_of(lambda: dispatch.run(stream, N, *ins, *outs_cols()), repeat)
             n_l2 = 32768
             small = [a[:n_l2] if isinstance(a, np.ndarray) and a.ndim and a.shape[0] == N else a for a in args]
             call = _kernel_call(fn, small)
@@ -522,7 +520,7 @@ def bench_ceilings(N, repeat, names=None):
         x = np.zeros(1)
         nop(0, 0, x)
         threads(2)
-        trip = best_of(lambda: K.run(nop, 2 * K.MIN_POINTS_PER_THREAD, x), 50)[0]  # two ranges, no work
+        trip = best_of(lambda: dispatch.run(nop, 2 * dispatch.MIN_POINTS_PER_THREAD, x), 50)[0]  # two ranges, no work
     finally:
         if env is None:
             os.environ.pop("SHELLREPAIR_THREADS", None)

@@ -580,11 +580,6 @@ def _surface_samples(P, F, h, cr):
             np.concatenate(Bs))
 
 
-def _vertex_areas(V, F):
-    a = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
-    return np.bincount(F.ravel(), np.repeat(a / 3.0, 3), minlength=len(V))
-
-
 #: Bins of the histogram behind the area-weighted quantiles.
 _QUANTILE_BINS = 1 << 14
 

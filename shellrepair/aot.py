@@ -23,12 +23,12 @@ import argparse
 import importlib
 import json
 import os
-import shutil
 import sys
 import tempfile
 from pathlib import Path
 
 from . import compiled
+from .files import atomic_write
 
 __all__ = ["record", "build"]
 
@@ -62,7 +62,7 @@ def record(path=compiled.TYPES_FILE):
     _small_repair()
     rows = [[m, n, list(_listed(a))] for m, n, a in compiled.recorded()
             if not any(_unusable(k) for k in a)]
-    Path(path).write_text("[\n" + ",\n".join(json.dumps(r, separators=(",", ":")) for r in rows) + "\n]\n")
+    atomic_write(path, "[\n" + ",\n".join(json.dumps(r, separators=(",", ":")) for r in rows) + "\n]\n")
     print(f"recorded {len(rows)} kernel signatures in {path}")
 
 
@@ -137,8 +137,10 @@ def build(part=None, out_dir=None):
                 cc.export(compiled.symbol(i), tuple(_numba_type(a) for a in args))(k.jit.py_func)
             cc.compile()
             built = [f for f in os.listdir(tmp) if f.startswith(names[p])]
-            for f in built:
-                shutil.move(os.path.join(tmp, f), out_dir / f)
+            for f in built:  # a process importing the package meanwhile sees the old file or the new, whole
+                src = os.path.join(tmp, f)
+                with open(src, "rb") as fh:
+                    atomic_write(out_dir / f, fh.read(), mode=os.stat(src).st_mode & 0o777, os_errors=True)
         print(f"built {names[p]} ({sum(compiled.part_of(i) == p for i in range(len(rows)))} kernel signatures)")
     current = set(names)
     for f in out_dir.glob("_aot_*"):

@@ -14,7 +14,7 @@ from itertools import chain
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 from .bridge import (ARC_SAMPLES, MAX_REACH, SIGHT_SLACK, continuation_arcs_many, band_pairs, loop_sights,
                      pants_triples)

@@ -64,7 +64,7 @@ are found by :func:`shellrepair.bands.find_bands`, the tube is built by
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 from . import bridge_kernels, compiled
 

@@ -57,10 +57,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from . import fastmesh
+from .components import connected_components
+from .lazyscipy import breadth_first_order, sparse as sp
 from .geometry import concat_ranges, cross, dot
 from .topology import CHUNK, corner_fans, edge_topology, manifold_pairs
 
@@ -172,8 +172,7 @@ def orient_faces(F, V=None, topo=None):
     f, g, differ = _manifold_face_pairs(F, topo)
 
     # pieces: faces joined across manifold edges
-    A = sp.csr_matrix((np.ones(f.size, np.int8), (f, g)), shape=(m, m))
-    n_pieces, piece = connected_components(A, directed=False)
+    n_pieces, piece = connected_components(m, f, g)
     first = np.full(n_pieces, m, np.int64)
     np.minimum.at(first, piece, np.arange(m))
 
@@ -565,8 +564,7 @@ def _nonmanifold_pairs(V, F, topo):
     # faces of one closed part, the surface under a fold) belongs together
     h1, h2 = manifold_pairs(topo)
     m = len(F)
-    _, piece = connected_components(sp.csr_matrix((np.ones(h1.size, np.int8), (h1 // 3, h2 // 3)), shape=(m, m)),
-                                    directed=False)
+    _, piece = connected_components(m, h1 // 3, h2 // 3)
     pairs, left = [], []
     for e in nm.tolist():
         hs = topo.he_order[start[e]:start[e] + count[e]]

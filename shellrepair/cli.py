@@ -328,29 +328,30 @@ def main(argv=None):
     """Run the command line; returns the exit status."""
     args = build_parser().parse_args(_signed_values(sys.argv[1:] if argv is None else list(argv)))
     quiet_hugepages()
+    bar = terminal_bar(args.quiet)  # the one progress bar of this command (None: nothing drawn)
     try:
-        return {"holes": _holes, "repair": _repair, "batch": _batch, "render": _render}[args.cmd](args)
+        return {"holes": _holes, "repair": _repair, "batch": _batch, "render": _render}[args.cmd](args, bar)
     except MeshError as exc:
-        end_line()  # a bar left open by the interrupted work
+        end_line(bar)  # a bar left open by the interrupted work
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
-        end_line()
+        end_line(bar)
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
     except MemoryError:
-        end_line()
+        end_line(bar)
         print(f"error: {getattr(args, 'scan', None) or getattr(args, 'mesh', None) or getattr(args, 'dir', '')}: "
               "out of memory",
               file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        end_line()
+        end_line(bar)
         print("error: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # an internal bug: still one line unless --debug
-        end_line()
+        end_line(bar)
         if args.debug:
             raise
         print(f"error: internal error: {type(exc).__name__}: {exc} (run with --debug for a traceback)",
@@ -408,7 +409,7 @@ def _closed(args):
     return {"auto": None, "yes": True, "no": False}[args.closed]
 
 
-def _holes(args):
+def _holes(args, bar):
     from .holes import detect_holes
     from .io import read_mesh
     from .report import holes_dict, holes_table
@@ -418,14 +419,13 @@ def _holes(args):
     from .units import in_scan_units
 
     opts = RepairOptions(**_hole_limits(args), fill_borders=args.fill_borders, closed=_closed(args))  # checked first
-    bar = terminal_bar(args.quiet)
     mesh = read_mesh(args.scan, progress=bar)
     max_size, size_label, _ = in_scan_units(opts.max_hole_size, opts.unit, mesh.V)
     topo, pieces, areas = mesh.cached("topology", "pieces", "face_areas")
     scan = detect_holes(mesh.V, mesh.F, max_hole=opts.max_hole, fill_borders=args.fill_borders,
                         closed=_closed(args), max_size=max_size, size_label=size_label,
                         topo=topo, pieces=pieces, areas=areas)
-    end_line()  # the loading bar's
+    end_line(bar)  # the loading bar's
     d = holes_dict(scan, path=args.scan, n_vertices=mesh.n_vertices, n_faces=mesh.n_faces, notes=mesh.notes)
     if args.json:
         print(json.dumps(d, indent=1))
@@ -450,7 +450,7 @@ def _same_file(a, b):
     return a.resolve() == b.resolve()
 
 
-def _repair(args):
+def _repair(args, bar):
     from .io import SUPPORTED, atomic_write_many, check_output_path, format_losses, mesh_bytes, read_mesh
     from .preload import preload_fill
     from .report import table1_text
@@ -483,7 +483,6 @@ def _repair(args):
                         "the scan, the output, the report or the page")
     opts = _options(args)  # every check that needs no reading happens before the work
     t0 = time.perf_counter()
-    bar = terminal_bar(args.quiet)
     preload_fill()    # the fill's modules and kernels load while the scan is read
     mesh = read_mesh(args.scan, progress=bar)
     from .repair import repair_mesh
@@ -527,7 +526,7 @@ def _repair(args):
     atomic_write_many(items)
     if bar is not None:
         bar(f"writing {out.name}", 2, 2)
-    end_line()
+    end_line(bar)
     if args.json:
         print(json.dumps(report, indent=1))
     elif not args.quiet:
@@ -603,10 +602,8 @@ def _scan_up(arg, mesh):
 
 
 
-def _batch(args):
+def _batch(args, bar):
     from .batch import repair_folder, repaired, summary_table
-
-    bar = terminal_bar(args.quiet)
 
     def line(row):  # one line per finished scan, unless the JSON is wanted or -q
         if not args.json and not args.quiet:
@@ -623,6 +620,7 @@ def _batch(args):
         check_output_folder(args.outdir)
     summary = repair_folder(args.dir, args.outdir, _options(args), jobs=args.jobs, scheduler=args.scheduler,
                             on_scan=line, html=args.html, progress=bar or False)
+    end_line(bar)
     if summary["runner"].get("note") and not args.quiet:
         print(f"note: {summary['runner']['note']}", file=sys.stderr)
     if args.json:
@@ -639,7 +637,7 @@ def _batch(args):
     return 0 if summary["n_failed"] == 0 else 2
 
 
-def _render(args):
+def _render(args, bar):
     import numpy as np
 
     from .io import read_mesh
@@ -669,13 +667,12 @@ def _render(args):
         raise MeshError(f"--radius must be a positive length, got {args.radius:g}")
     with _for_flag("--gltf"):
         glb = _glb_path(args.gltf, (args.mesh, out, args.before), "an input mesh or the picture")
-    bar = terminal_bar(args.quiet)
     mesh = read_mesh(args.mesh, progress=bar)
-    end_line()
+    end_line(bar)
     before = None
     if args.before:
         before = read_mesh(args.before, progress=bar)
-        end_line()
+        end_line(bar)
     if args.highlight_filled and (mesh.face_filled is None or not mesh.face_filled.any()):
         print(f"warning: {args.mesh}: no face is flagged filled, so --highlight-filled shows nothing "
               "(render the output of shellrepair repair)", file=sys.stderr)

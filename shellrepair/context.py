@@ -374,14 +374,12 @@ def region_of(V, F, topo):
     bh = topo.boundary_he
     if bh.size == 0 or bh.size > LOCAL_MAX_EDGES:
         return None
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    from .components import connected_components
 
     E = topo.ends(bh)
     vs, inv = np.unique(E, return_inverse=True)
     inv = inv.reshape(-1, 2)
-    nc, lab = connected_components(coo_matrix((np.ones(len(E)), (inv[:, 0], inv[:, 1])), shape=(len(vs), len(vs))),
-                                   directed=False)
+    nc, lab = connected_components(len(vs), inv[:, 0], inv[:, 1])
     P = V[vs]
     if nc > LOCAL_MAX_LOOPS or not np.isfinite(P).all():
         return None

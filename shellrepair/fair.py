@@ -67,8 +67,8 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
+from .lazyscipy import sparse as sp
+from .lazyscipy import sparse_linalg as spla
 
 from . import cholesky, compiled, fair_kernels, intrinsic_kernels
 from .intrinsic import intrinsic_laplacian

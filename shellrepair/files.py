@@ -84,18 +84,29 @@ def new_file_mode():
     return 0o666 & ~mask
 
 
-def atomic_write(path, payload):
-    """Write ``payload`` (bytes or str) to ``path`` through a temp file + rename."""
-    atomic_write_many([(path, payload)])
+def atomic_write(path, payload, *, mode=None, os_errors=False):
+    """Write ``payload`` (bytes or str) to ``path`` through a temp file + rename
+    (:func:`atomic_write_many` of one file; the same parameters)."""
+    atomic_write_many([(path, payload)], mode=mode, os_errors=os_errors)
 
 
-def atomic_write_many(items):
+def atomic_write_many(items, *, mode=None, os_errors=False):
     """Write several files, none of them partially.
+
+    The one atomic write of the package: meshes, reports, pages, pictures
+    (:func:`shellrepair.render.save_image`) and the shading's tables
+    (:mod:`shellrepair.reflectance`) all go through it.
 
     Parameters
     ----------
     items : list of (path, payload)
         ``payload`` is bytes or str (written as UTF-8).
+    mode : int, optional
+        Permissions of the written files; default as a plain ``open()``
+        would give them (:func:`new_file_mode`), not ``mkstemp``'s 0600.
+    os_errors : bool
+        Raise the ``OSError`` itself (its ``filename`` the target) instead
+        of a :class:`MeshError`, for callers that promise ``OSError``.
 
     Notes
     -----
@@ -106,8 +117,15 @@ def atomic_write_many(items):
     it was. If a rename fails, the targets this call created are removed
     again (a target that existed before keeps its new content). Any
     failure removes the temporary files and raises :class:`MeshError`
-    naming the target.
+    naming the target (``OSError`` with ``os_errors``).
     """
+    mode = new_file_mode() if mode is None else int(mode)
+
+    def failed(exc, path):
+        if os_errors:
+            return OSError(exc.errno, exc.strerror or str(exc), str(path))
+        return MeshError(f"cannot write: {exc.strerror or exc}", path)
+
     tmps = []
     created = []  # targets that did not exist before and were already renamed into place
     try:
@@ -118,22 +136,22 @@ def atomic_write_many(items):
             try:
                 fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=str(path.parent))
             except OSError as exc:
-                raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
+                raise failed(exc, path) from None
             tmps.append((tmp, path))
             try:
-                os.fchmod(fd, new_file_mode())  # as a plain open() would, not mkstemp's 0600
+                os.fchmod(fd, mode)
                 with os.fdopen(fd, "wb") as fh:
                     fh.write(payload)
                     fh.flush()
                     os.fsync(fh.fileno())
             except OSError as exc:
-                raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
+                raise failed(exc, path) from None
         for i, (tmp, path) in enumerate(tmps):
             existed = path.exists()
             try:
                 os.replace(tmp, path)
             except OSError as exc:
-                raise MeshError(f"cannot write: {exc.strerror or exc}", path) from None
+                raise failed(exc, path) from None
             tmps[i] = (None, path)
             if not existed:
                 created.append(path)

@@ -22,7 +22,7 @@ import copy
 import time
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 from . import checks
 from .fair import umbrella_smooth

@@ -4,7 +4,8 @@ import math
 
 import numpy as np
 
-__all__ = ["cross", "dot", "uniq", "plane_frame", "bounding_spheres", "bounds", "triangle_boxes", "concat_ranges"]
+__all__ = ["cross", "dot", "uniq", "plane_frame", "bounding_spheres", "bounds", "triangle_boxes", "concat_ranges",
+           "points_in_polygon"]
 
 
 def cross(a, b):
@@ -135,3 +136,110 @@ def vertex_faces_scipy(F, n_vertices):
     # a counting sort by vertex: SciPy's COO -> CSR conversion, stable within a row
     A = sp.csr_matrix((np.ones(flat.size, np.int8), (flat, np.arange(flat.size))), shape=(n, flat.size))
     return A.indices.astype(np.int64), A.indptr.astype(np.int64)
+
+
+#: Distance (in each coordinate) within which a point counts as at a corner
+#: of the polygon in :func:`points_in_polygon`.
+CORNER_EPS = 1e-12
+
+
+def points_in_polygon(points, polygon):
+    """Which points lie inside a polygon, on its sides or at its corners.
+
+    A crossing count, the coordinates taken relative to each point: the
+    crossings of the polygon's sides with the rays to the right and to the
+    left of the point (an odd count on one side only: on a side), a point
+    within :data:`CORNER_EPS` of a corner in both coordinates counting as at
+    it. Each (side, point) pair is computed with the same arithmetic, in the
+    same order, as the compiled test of :mod:`shellrepair.triangulate_kernels`
+    (``_outline_label``) and as scikit-image's ``points_in_poly``, which it
+    replaces (scikit-image is no longer a dependency); only the pairs that
+    can cross are computed: a side's pairs are the points whose y lies
+    within its y range (one sort of the points, one ``searchsorted`` per
+    end), so the work is about the points times the sides a horizontal line
+    meets, not times all sides.
+
+    Measured by ``python eval/bench_libs.py polygon`` (fastest of 5 in one
+    warm process, 2 cores shared with other work), ms ours / skimage, the
+    same answers each time, on random star outlines (jagged: a horizontal
+    line meets many of their sides)::
+
+        corners  points:  1000             20000
+             24          0.35 / 0.12      9.28 / 2.49
+            200          0.89 / 0.96     35.89 / 43.12
+           2000         99.94 / 83.71   371.80 / 461.45
+
+    and on hole detection's own outlines and samples (three single-view
+    scans, the bunny among them, 8 loops): 21.8 ms / 181.7 ms, the inside
+    fractions equal to the bit. Slower than scikit-image's compiled loop
+    only on small outlines (fractions of a millisecond), faster where the
+    time goes.
+
+    Parameters
+    ----------
+    points : (p,2) float64
+    polygon : (k,2) float64
+        The corners in order, either way round (closed implicitly; the first
+        may be repeated at the end).
+
+    Returns
+    -------
+    inside : (p,) bool
+        Inside, on a side or at a corner.
+
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> points_in_polygon(np.array([[0.5, 0.5], [1.5, 0.5], [1.0, 0.5], [0.0, 0.0]]), square).tolist()
+    [True, False, True, True]
+    """
+    P = np.asarray(points, np.float64).reshape(-1, 2)
+    Q = np.asarray(polygon, np.float64).reshape(-1, 2)
+    p = len(P)
+    if p == 0 or len(Q) == 0:
+        return np.zeros(p, bool)
+    order = np.argsort(P[:, 1], kind="stable")
+    xs, ys = P[order, 0], P[order, 1]
+    qx, qy = Q[:, 0], Q[:, 1]
+    bx, by = np.roll(qx, 1), np.roll(qy, 1)      # each side runs from corner i - 1 (b) to corner i (a)
+    # a side can only be crossed by the rays of points with y in its y range (x - y > 0 iff x > y)
+    lo = np.searchsorted(ys, np.minimum(qy, by), "left")
+    hi = np.searchsorted(ys, np.maximum(qy, by), "right")
+    right = np.zeros(p, np.int64)
+    left = np.zeros(p, np.int64)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a side parallel to the rays crosses neither
+        for e0, e1 in _pair_chunks(hi - lo):
+            n = hi[e0:e1] - lo[e0:e1]
+            j = concat_ranges(lo[e0:e1], n)
+            e = np.repeat(np.arange(e0, e1), n)
+            xa, ya = qx[e] - xs[j], qy[e] - ys[j]
+            xb, yb = bx[e] - xs[j], by[e] - ys[j]
+            at = (xa * yb - xb * ya) / (yb - ya)
+            right += np.bincount(j[((ya > 0) != (yb > 0)) & (at > 0)], minlength=p)
+            left += np.bincount(j[((ya < 0) != (yb < 0)) & (at < 0)], minlength=p)
+    inside = ((right & 1) | (left & 1)).astype(bool)
+    # at a corner: |corner - point| < CORNER_EPS in both coordinates (candidates from a wider y band)
+    clo = np.searchsorted(ys, qy - 2 * CORNER_EPS, "left")
+    chi = np.searchsorted(ys, qy + 2 * CORNER_EPS, "right")
+    if (chi > clo).any():
+        j = concat_ranges(clo, chi - clo)
+        c = np.repeat(np.arange(len(Q)), chi - clo)
+        xa, ya = qx[c] - xs[j], qy[c] - ys[j]
+        inside[j[(-CORNER_EPS < xa) & (xa < CORNER_EPS) & (-CORNER_EPS < ya) & (ya < CORNER_EPS)]] = True
+    out = np.empty(p, bool)
+    out[order] = inside
+    return out
+
+
+#: (side, point) pairs computed at once by :func:`points_in_polygon` (memory: ~100 bytes each).
+PAIR_CHUNK = 1 << 20
+
+
+def _pair_chunks(counts):
+    """Consecutive ranges ``[e0, e1)`` of sides whose pair counts sum to
+    about :data:`PAIR_CHUNK` at most (a side with more: alone)."""
+    ends = np.cumsum(counts)
+    e0, k = 0, len(counts)
+    while e0 < k:
+        base = ends[e0 - 1] if e0 else 0
+        e1 = max(int(np.searchsorted(ends, base + PAIR_CHUNK, "right")), e0 + 1)
+        yield e0, min(e1, k)
+        e0 = e1

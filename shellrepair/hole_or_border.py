@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cross, plane_frame
+from .geometry import cross, plane_frame, points_in_polygon
 from . import fastmesh
 
 __all__ = ["piece_views", "edge_on_share", "sampled_normals", "sample_plan", "wrap_certificate",
@@ -45,8 +45,6 @@ def _inside_fractions(V, loops, axes, centers, cent, w, chunk=64):
     """Area fraction of sample points (face centroids ``cent`` with areas
     ``w``) inside each loop's outline seen along its axis; the projections
     of the samples are made for ``chunk`` loops at a time, by one product."""
-    from skimage.measure import points_in_poly
-
     out = np.zeros(len(loops))
     tot = float(w.sum())
     if not len(loops) or tot <= 0:
@@ -63,7 +61,7 @@ def _inside_fractions(V, loops, axes, centers, cent, w, chunk=64):
             lo, hi = poly.min(axis=0), poly.max(axis=0)
             box = np.flatnonzero((PU[j] >= lo[0]) & (PU[j] <= hi[0]) & (PW[j] >= lo[1]) & (PW[j] <= hi[1]))
             if box.size:  # only these can be inside
-                inside = points_in_poly(np.column_stack([PU[j, box], PW[j, box]]), poly)
+                inside = points_in_polygon(np.column_stack([PU[j, box], PW[j, box]]), poly)
                 out[i] = float(w[box[inside]].sum() / tot)
     return out
 

@@ -61,7 +61,7 @@ from .predicates import EPS, O3D_BOUND, TINY, orient2d, orient3d
 from . import compiled, intersect_kernels, topology_kernels
 from . import fastmesh
 from .topology import vertex_faces
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 __all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "crossing_pairs", "self_intersections",
            "patch_vs_index_many",
@@ -532,6 +532,14 @@ class NearFaces:
     every box (so a scan with very many such triangles makes every query
     pay for them). Building costs two sorts; a query costs the columns its
     box spans, so the check of a small hole in a large scan stays small.
+
+    Kept rather than a SciPy ``cKDTree`` of the vertices (a ball around the
+    grown box, then the box: the same faces), measured by ``python
+    eval/bench_libs.py grid --repeat 3`` on a 1.3M-face sphere, 200 boxes
+    of 10-80 edges: the grid is built in 75 ms (compiled counting sorts)
+    against the tree's 865 ms, and answers the 200 queries in 804 ms against
+    1953 ms (the edge lengths and vertex-face lists, 2.1 s in all, are
+    needed either way).
 
     Parameters
     ----------

@@ -32,7 +32,7 @@ digital geometry processing", Computing 81 (2007). N. Sharp, K. Crane,
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
+from .lazyscipy import sparse as sp
 
 from . import compiled, intrinsic_kernels
 from .refine import independent_flips

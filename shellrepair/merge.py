@@ -10,7 +10,7 @@ from __future__ import annotations
 
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 from . import compiled, intersect_kernels
 from .geometry import bounding_spheres, bounds, triangle_boxes

@@ -40,7 +40,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .lazyscipy import cKDTree
 
 __all__ = ["pants_initial", "pants_is_manifold", "PantsUnit", "PantsResult", "fill_pants", "with_fallback", "expand", "pants_unit"]
 

@@ -200,8 +200,7 @@ def _mean_edge(V, loop):
 
 def _component(F, seed_faces):
     """Faces of ``F`` connected to ``seed_faces`` through shared edges (local ids)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    from .components import connected_components
 
     m = len(F)
     if m == 0:
@@ -213,8 +212,7 @@ def _component(F, seed_faces):
     ks = key[order]
     same = np.flatnonzero(ks[1:] == ks[:-1])
     a, b = fid[order[same]], fid[order[same + 1]]
-    g = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(m, m))
-    _, lab = connected_components(g, directed=False)
+    _, lab = connected_components(m, a, b)
     keep = np.zeros(int(lab.max()) + 1, bool)
     keep[lab[seed_faces]] = True
     return np.flatnonzero(keep[lab])

@@ -1,9 +1,5 @@
 """Progress: the callback the library reports to, and the bar the command line draws.
 
-The bar (:class:`TerminalBar`, about a hundred lines) is what the command
-line draws; tqdm would do the same for one more runtime dependency, and the
-library itself draws nothing, so it is kept.
-
 The protocol
 ------------
 Every long library call takes ``progress=None``: a callable, called as
@@ -21,8 +17,8 @@ The calls come from the thread that called the library function, in order;
 (a new loop) at any time. The library draws nothing, ends no line and
 ignores what the callback returns; an exception the callback raises stops
 the work and reaches the caller (a way to cancel). ``None`` (or ``False``)
-reports nothing. ``True`` is kept for older callers: it draws the bar below
-on stderr when that is a terminal, as ``progress=True`` always did.
+reports nothing. ``True`` is kept for older callers: that call gets its own
+:func:`terminal_bar` (nothing when stderr is not a terminal).
 
 >>> seen = []
 >>> from shellrepair.progress import as_callback
@@ -35,48 +31,49 @@ True
 
 The bar
 -------
-The command line (:mod:`shellrepair.cli`) is the one place that draws:
-it passes :func:`terminal_bar` (``None`` with ``-q`` or when stderr is not a
-terminal) as the callback. A tiny progress bar for long work, drawn on
-stderr only when it is a terminal.
+The command line (:mod:`shellrepair.cli`) is the one place that draws: it
+makes one :func:`terminal_bar` per command (``None`` with ``-q`` or when
+stderr is not a terminal) and passes it as the callback. The bar is tqdm's,
+drawn on stderr, one label at a time on one line::
 
-    with Progress("filling holes", total=len(units)) as bar:
-        for u in units:
-            ...
-            bar.update()
+    filling holes [############............]  120/240  50%  12.3 s
 
-draws, at most every ``min_interval`` seconds and once at the end::
-
-    filling holes [##########..........]  120/240  50%  12.3 s
-
-When stderr is not a terminal (a pipe, a log file, a test), nothing is
-written at all, so logs and captured output stay clean. No dependency.
+redrawn at most every :data:`MIN_INTERVAL` seconds, and always at the end
+of a label. The command line wipes the line (:meth:`TerminalBar.clear`)
+before printing one of its own, and ends it (:func:`end_line`) before a
+table or an error. The bar holds no state outside its own object.
 """
 
 from __future__ import annotations
 
 import sys
-import time
 from typing import Callable, Optional, Union
 
-__all__ = ["ProgressCallback", "ProgressArg", "as_callback", "terminal_bar", "TerminalBar", "Progress", "progress_enabled",
-           "step", "end_line"]
+__all__ = ["ProgressCallback", "ProgressArg", "as_callback", "terminal_bar", "TerminalBar", "progress_enabled",
+           "end_line"]
 
 #: The type of a progress callback: ``progress(label, done, total)``.
 ProgressCallback = Callable[[str, int, int], None]
 #: What a library function's ``progress`` argument accepts.
 ProgressArg = Union[None, bool, ProgressCallback]
 
+#: Seconds between two redraws; updates in between only count (tqdm's ``mininterval``).
+MIN_INTERVAL = 0.1
+#: Characters of the bar itself.
+BAR_WIDTH = 24
+#: What one bar shows: label, bar, count, percentage, seconds since the label started.
+BAR_FORMAT = "{desc} [{bar:%d}] {n_fmt}/{total_fmt} {percentage:3.0f}%%  {elapsed_s:.1f} s" % BAR_WIDTH
 
-def as_callback(progress: Union[None, bool, ProgressCallback]) -> Optional[ProgressCallback]:
+
+def as_callback(progress: ProgressArg) -> Optional[ProgressCallback]:
     """The callback a library function reports to, from its ``progress`` argument.
 
     Parameters
     ----------
     progress : None, bool or callable
         ``None`` / ``False``: nothing; a callable ``(label, done, total)``:
-        itself; ``True`` (older callers): :func:`step`, the bar drawn on
-        stderr when it is a terminal.
+        itself; ``True`` (older callers): a new :func:`terminal_bar`, drawn
+        on stderr when it is a terminal (else a callback that does nothing).
 
     Returns
     -------
@@ -90,52 +87,11 @@ def as_callback(progress: Union[None, bool, ProgressCallback]) -> Optional[Progr
     if progress is None or progress is False:
         return None
     if progress is True:
-        return step
+        return terminal_bar() or _silent
     if callable(progress):
         return progress
     raise TypeError(f"progress must be None, True, False or a callable (label, done, total), "
                     f"not {type(progress).__name__}")
-
-
-class TerminalBar:
-    """The drawn callback: a bar per label on stderr (:func:`step`).
-
-    Calling it reports progress (the protocol above); :meth:`end` ends the
-    bars' line so that a table or an error starts on a line of its own.
-    """
-
-    def __call__(self, label, done, total):
-        step(label, done, total)
-
-    def clear(self):
-        """Wipe the bar's line, so that a line printed now starts at column 0
-        (the next call draws the bar again, below it)."""
-        global _open
-        if not _open:
-            return
-        _open = False
-        try:
-            sys.stderr.write("\r" + CLEAR_EOL)
-            sys.stderr.flush()
-        except (OSError, ValueError):
-            pass
-
-    def end(self):
-        """End the bars' line (:func:`end_line`)."""
-        end_line()
-
-
-def terminal_bar(quiet=False):
-    """A :class:`TerminalBar` when stderr is a terminal and not ``quiet``, else None."""
-    return None if quiet or not progress_enabled() else TerminalBar()
-
-
-#: Seconds between two redraws; updates in between only count.
-MIN_INTERVAL = 0.1
-#: ANSI "erase to end of line": wipes what a longer earlier line left.
-CLEAR_EOL = "\x1b[K"
-#: Characters of the bar itself.
-BAR_WIDTH = 24
 
 
 def progress_enabled(stream=None):
@@ -147,168 +103,85 @@ def progress_enabled(stream=None):
         return False
 
 
-class Progress:
-    """Count/total progress of one long step, with a label and elapsed time.
+def terminal_bar(quiet=False):
+    """A :class:`TerminalBar` on stderr when it is a terminal and not ``quiet``, else None.
 
     Parameters
     ----------
-    label : str
-        What is being done ("filling holes", "scans").
-    total : int
-        How many items; 0 or less draws a count without a bar.
-    enabled : bool, optional
-        Draw at all; default: stderr is a terminal (:func:`progress_enabled`).
+    quiet : bool
+        The command line's ``-q``.
+
+    Returns
+    -------
+    bar : TerminalBar or None
+    """
+    return None if quiet or not progress_enabled() else TerminalBar()
+
+
+class TerminalBar:
+    """A progress callback that tqdm draws: one bar per label, on one line.
+
+    A new label (or a new total, or a count that goes down: a new loop)
+    replaces the bar on the same line; :meth:`clear` wipes the line,
+    :meth:`end` draws the last state and ends the line. A bar that is
+    dropped without :meth:`end` wipes its line.
+
+    Parameters
+    ----------
     stream : file, optional
-        Where to draw; default ``sys.stderr``.
-    min_interval : float
-        Seconds between redraws (throttling).
-    clock : callable
-        Time source, ``time.monotonic`` by default (tests pass their own).
+        Where to draw; default the ``sys.stderr`` of the moment the bar is made.
     """
 
-    def __init__(self, label, total, *, enabled=None, stream=None, min_interval=MIN_INTERVAL,
-                 clock=time.monotonic):
-        self.label = str(label)
-        self.total = int(total)
+    def __init__(self, stream=None):
         self.stream = sys.stderr if stream is None else stream
-        self.enabled = progress_enabled(self.stream) if enabled is None else bool(enabled)
-        self.min_interval = float(min_interval)
-        self.clock = clock
-        self.count = 0
-        self.t0 = clock()
-        self._last = None
-        self.draws = 0
+        self._bar = None
 
-    def update(self, n=1, *, note="", force=False):
-        """Count ``n`` more items done; redraw if enough time has passed
-        (or ``force``, or the last item is done)."""
-        self.count += int(n)
-        if not self.enabled:
-            return
-        now = self.clock()
-        done = self.total > 0 and self.count >= self.total
-        if self._last is not None and now - self._last < self.min_interval and not (done or force):
-            return
-        self._draw(now, note)
+    def __call__(self, label, done, total):
+        bar = self._bar
+        if bar is None or bar.desc != label or bar.total != total or done < bar.n:
+            self._drop()
+            bar = self._bar = _tqdm()(total=total, initial=done, desc=label, file=self.stream, leave=False,
+                                      ascii=".#", bar_format=BAR_FORMAT, mininterval=MIN_INTERVAL)
+        else:
+            bar.update(done - bar.n)
+        if done >= total:
+            bar.refresh()  # the end of a label is always drawn
 
     def clear(self):
-        """Wipe the bar's line, so that other output can start at column 0;
-        the next update draws it again."""
-        if not self.enabled or self._last is None:
-            return
-        try:
-            self.stream.write("\r" + CLEAR_EOL)
-            self.stream.flush()
-        except (OSError, ValueError):
-            self.enabled = False
+        """Wipe the bar's line, so that a line printed now starts at column 0
+        (the next call draws the bar again, below it)."""
+        if self._bar is not None:
+            self._bar.clear()
 
-    def set(self, count, *, note=""):
-        """Set the count to ``count`` (for callers that know i/n)."""
-        self.update(int(count) - self.count, note=note)
+    def end(self):
+        """Draw the last state and end the bar's line, if a bar is drawn, so
+        that what follows (a table, an error) starts on a line of its own."""
+        bar, self._bar = self._bar, None
+        if bar is not None:
+            bar.leave = True
+            bar.close()
 
-    def line(self, now=None, note=""):
-        """The text of the bar (without the carriage return)."""
-        now = self.clock() if now is None else now
-        el = now - self.t0
-        if self.total > 0:
-            f = min(max(self.count / self.total, 0.0), 1.0)
-            fill = int(round(f * BAR_WIDTH))
-            bar = "#" * fill + "." * (BAR_WIDTH - fill)
-            w = len(str(self.total))
-            s = f"{self.label} [{bar}] {self.count:>{w}}/{self.total} {100 * f:3.0f}%  {el:.1f} s"
-        else:
-            s = f"{self.label}: {self.count}  {el:.1f} s"
-        return s + (f"  {note}" if note else "")
-
-    def _draw(self, now, note=""):
-        s = self.line(now, note)
-        try:  # carriage return, the line, then clear what a longer earlier line left (ANSI EL)
-            self.stream.write("\r" + s + CLEAR_EOL)
-            self.stream.flush()
-        except (OSError, ValueError):
-            self.enabled = False
-            return
-        self._last = now
-        self.draws += 1
-
-    def close(self):
-        """Draw the final state and end the line (only if anything was drawn)."""
-        if not self.enabled:
-            return
-        if self._last is None or self.draws == 0 or self._last != self.clock():
-            self._draw(self.clock())
-        try:
-            self.stream.write("\n")
-            self.stream.flush()
-        except (OSError, ValueError):
-            pass
-        self.enabled = False
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-        return False
+    def _drop(self):
+        bar, self._bar = self._bar, None
+        if bar is not None:
+            bar.close()  # leave=False: wipes its line
 
 
-# --------------------------------------------------------------------------
-# the hook repair_mesh calls once per filled unit, and a label prefix
-# --------------------------------------------------------------------------
-_prefix = []
-_current = None
-_open = False  # a bar drawn by step() whose line nobody has ended yet
+def end_line(bar):
+    """End the line of ``bar`` (a :class:`TerminalBar`; None: nothing)."""
+    if bar is not None and hasattr(bar, "end"):
+        bar.end()
 
 
-class prefix:
-    """Context manager: prefix every bar's label while inside (``batch``
-    puts the scan being repaired in front of ``filling holes``)."""
-
-    def __init__(self, text):
-        self.text = str(text)
-
-    def __enter__(self):
-        _prefix.append(self.text)
-        return self
-
-    def __exit__(self, *exc):
-        _prefix.pop()
-        return False
+def _silent(label, done, total):
+    """The callback of ``progress=True`` when stderr is not a terminal."""
 
 
-def full_label(label):
-    """``label`` behind the active prefixes."""
-    return ": ".join(_prefix + [label]) if _prefix else label
+def _tqdm():
+    """tqdm's bar, without its monitor thread (our redraws come with our calls)."""
+    from tqdm import tqdm
 
+    class Bar(tqdm):
+        monitor_interval = 0
 
-def step(label, i, n, *, stream=None):
-    """Report item ``i`` of ``n`` of a loop that calls this once per item.
-
-    A new bar starts when ``i <= 1`` or the label or total changes; at
-    ``i == n`` the final state is drawn and the bar is dropped. The line is
-    not ended here: the caller ends it (``repair_mesh`` prints the newline
-    after its loop). Silent unless stderr is a terminal.
-    """
-    global _current, _open
-    lab = full_label(label)
-    b = _current
-    if b is None or i <= 1 or b.total != n or b.label != lab:
-        b = _current = Progress(lab, n, stream=stream)
-    b.set(i)
-    _open = _open or b.draws > 0
-    if n > 0 and i >= n:
-        _current = None
-
-
-def end_line(stream=None):
-    """End the line that :func:`step` bars were drawn on, if any was, so
-    that what follows (a table, an error) starts on a line of its own."""
-    global _current, _open
-    _current = None
-    if not _open:
-        return
-    _open = False
-    try:
-        (sys.stderr if stream is None else stream).write("\n")
-    except (OSError, ValueError):
-        pass
+    return Bar

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import tempfile
 import time
 
 import numpy as np
@@ -48,6 +47,7 @@ __all__ = [
     "render_side_by_side",
     "save_png",
     "save_image",
+    "downsample",
     "infer_unit",
     "draw_label",
     "draw_legend",
@@ -410,8 +410,24 @@ def _linear_to_srgb8(x):
     return np.round(s * 255.0).astype(np.uint8)
 
 
-def _downsample(img, s):
-    """Average s x s blocks of an sRGB uint8 image in linear light."""
+def downsample(img, s):
+    """Average s x s blocks of an sRGB uint8 image in linear light.
+
+    How :func:`render_mesh` turns its supersampled image (``supersample=s``)
+    into the output: each output pixel is the mean of s x s rendered ones,
+    taken in linear light and encoded back to sRGB.
+
+    Parameters
+    ----------
+    img : (H*s, W*s, 3) uint8 array
+        sRGB image whose sides are multiples of s.
+    s : int
+        Block side (>= 1; 1 returns ``img`` itself).
+
+    Returns
+    -------
+    (H, W, 3) uint8 array
+    """
     if s == 1:
         return img
     H, W = img.shape[0] // s, img.shape[1] // s
@@ -644,7 +660,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
             rgb[fsel] = (1.0 - FILLED_TINT_WEIGHT) * rgb[fsel] + FILLED_TINT_WEIGHT * FILLED_TINT * (
                 0.35 + 0.65 * no[fsel, None])
         image[mask] = _srgb(rgb)
-    image = _downsample(image, ss)
+    image = downsample(image, ss)
     if legend:
         image = draw_legend(image, legend, FILLED_TINT if highlight_filled else None)
     t3 = time.perf_counter()
@@ -871,8 +887,9 @@ def save_image(path, image):
 
     Notes
     -----
-    The image is written to a temporary file in the target folder and moved
-    into place with ``os.replace``, so a failure leaves no partial file.
+    The image is encoded in memory and written by the package's one atomic
+    write (:func:`shellrepair.files.atomic_write`: a temporary file in the
+    target folder, renamed into place), so a failure leaves no partial file.
 
     Raises
     ------
@@ -881,28 +898,20 @@ def save_image(path, image):
     OSError
         If the folder does not exist or is not writable.
     """
+    import io
+
     from PIL import Image
+
+    from .files import atomic_write
 
     fmt = image_format(path)
     img = np.asarray(image)
     if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
         raise ValueError("image must be an (H,W,3) uint8 array, got %s %s" % (img.shape, img.dtype))
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.splitext(path)[1])
-    try:
-        from .io import new_file_mode
-        os.fchmod(fd, new_file_mode())  # as a plain open() would, not mkstemp's 0600
-        with os.fdopen(fd, "wb") as fh:
-            kw = {"quality": 92} if fmt == "JPEG" else {}
-            Image.fromarray(img, "RGB").save(fh, format=fmt, **kw)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    buf = io.BytesIO()
+    kw = {"quality": 92} if fmt == "JPEG" else {}
+    Image.fromarray(img, "RGB").save(buf, format=fmt, **kw)
+    atomic_write(path, buf.getvalue(), os_errors=True)
 
 
 def save_png(path, image):

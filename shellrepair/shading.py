@@ -3,9 +3,10 @@
 Everything lives in :mod:`shellrepair.reflectance` (microfacet, albedo,
 Kubelka-Munk, dipole, layered); this module re-exports the same objects so
 that ``from shellrepair.shading import rho_dt_table`` and ``sh.<name>`` keep
-working.  Private helpers that tests and the benchmark read
-(``sh._rule_albedo``, ``sh._albedo_geometry``, ...) are found in the
-package's modules on attribute access.
+working.  The modules' names beyond the package's ``__all__`` that tests
+and the benchmark read (``sh.rule_albedo``, ``sh.albedo_geometry``,
+``sh.dipole_A``, ...) are found in the package's modules on attribute
+access.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ _MODULES = (_microfacet, _albedo, _km, _dipole, _layered)
 
 
 def __getattr__(name):
-    """Private names (``_TINY``, ``_rule_albedo``, ...) from the module that defines them."""
+    """A name of a module (``rule_albedo``, ``SHIPPED_BITS``, ...) from the module that defines it."""
     for mod in _MODULES:
         if name in vars(mod):
             return getattr(mod, name)

@@ -34,6 +34,12 @@ a plane:
    fault (:data:`BESIDE_RIM`: a rim triangle's rim corners cannot rise,
    so it must be thin enough to pass beside scan close to the rim); at
    most :data:`ROUNDS` rounds, within the hole's work budget.
+6. Where the outline folds over itself in every plane (a window wrapped
+   most of the way round a pipe), the loop is **cut** along a chord
+   between two of its vertices (:func:`_chords`: a waist that runs along
+   the missing surface) into two loops, each closed as above or cut again
+   (:func:`_cut_patch`); the pieces are joined along their chords and the
+   whole checked again.
 
 Nothing here reads a clock: the rounds are counted, the same scan gives
 the same bytes.
@@ -92,7 +98,9 @@ class SteinerResult(NamedTuple):
 
 def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
     """A patch for ``loop`` with Steiner points, lifted over the scan that
-    crosses its plane (module notes), or None and why.
+    crosses its plane (module notes), or None and why. Where the loop's
+    outline folds over itself in every plane tried, the loop is cut into
+    pieces along chords between its own vertices (:func:`_cut_patch`).
 
     Parameters
     ----------
@@ -116,20 +124,43 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
     if k < 3:
         return SteinerResult(None, "a loop of fewer than three vertices", 0)
     P = ctx.V[loop]
+    diameter = float(np.ptp(P, axis=0).max())
+    if not np.isfinite(diameter) or diameter <= 0:
+        return SteinerResult(None, "the loop has no extent", 0)
+    patch, why, spent, folded = _over_planes(ctx, hole_id, loop, max_vertices, rounds)
+    if patch is None and folded:
+        left = None if max_vertices is None else max_vertices - spent
+        patch, cut_why, cut_spent = _cut_patch(ctx, hole_id, loop, left, rounds, 0)
+        spent += cut_spent
+        why = f"{why}; {cut_why}"
+    if patch is None:
+        return SteinerResult(None, "Steiner points: " + why, spent)
+    return SteinerResult(_interpolate_attributes(ctx, patch, k + len(patch.P)), "", spent)
+
+
+def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
+    """The patch over the first plane (:func:`_axes`) that gives one that
+    passes (module notes, steps 1 to 5), its attributes not yet
+    interpolated. Returns ``(patch or None, why, spent, folded)``:
+    ``folded`` when the outline is not simple in any plane tried."""
+    k = len(loop)
+    P = ctx.V[loop]
     centre = P.mean(axis=0)
     C = P - centre
     diameter = float(np.ptp(P, axis=0).max())
     if not np.isfinite(diameter) or diameter <= 0:
-        return SteinerResult(None, "the loop has no extent", 0)
+        return None, "the loop has no extent", 0, False
     sigma, _, forbidden = rim_data(ctx, loop)
     spent = 0
     why = []
+    folded = True
     for name, axis in _axes(ctx, loop, C):
         u, v = plane_frame(axis)
         Q = np.column_stack([C @ u, C @ v]) / diameter
         if not _outline_is_simple(Q):
             why.append(f"its outline seen along {name} is not a simple polygon")
             continue
+        folded = False
         T0 = _ear_clip(Q, k)
         if T0 is None or _repeats_scan_edge(T0, forbidden):
             why.append(f"seen along {name}, its outline's triangulation "
@@ -175,11 +206,152 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
                           f"(lifted {other[0][1]:.3g})" if other else "")
                 patch = patch.with_(option=f"Steiner points: {len(patch.P)} vertices off the rim (plane normal to "
                                            f"{name}, round {r + 1}), lifted {lifted:.3g} off it {side[0]} the part{runner}")
-                return SteinerResult(_interpolate_attributes(ctx, patch, X), "", spent)
+                return patch, "", spent, False
         if tried:
             why.append(f"seen along {name}, {len(tried) // 2} rounds: "
                        + "; ".join(f"{t[2][0]} the part, {t[0]}" for t in tried[-2:]))
-    return SteinerResult(None, "Steiner points: " + "; ".join(why), spent)
+    return None, "; ".join(why), spent, folded
+
+
+def _cut_patch(ctx, hole_id, loop, max_vertices, rounds, depth):
+    """A patch for a loop whose outline folds over itself in every plane
+    (an opening wrapped most of the way round a pipe or a corner): the loop
+    cut along a chord between two of its vertices (:func:`_chords`: the
+    shortest against the shorter of the two rim paths it cuts off, a waist)
+    into two loops, each closed by :func:`_over_planes` or cut again (at
+    most :data:`CUT_DEPTH` times deep), the pieces joined along their
+    chords and the whole checked again (:func:`~shellrepair.checks.check_patch`:
+    the pieces against each other, the folds across the chords). The next
+    chord (at most :data:`CUT_TRIES` a level) where a piece fails. The
+    chords are rim edges of both pieces: never split, never lifted.
+    Returns ``(patch or None, why, spent)``."""
+    k = len(loop)
+    spent = 0
+    why = []
+    _, _, forbidden = rim_data(ctx, loop)
+    for i, j in _chords(ctx, loop, forbidden):
+        sides = [np.arange(i, j + 1), np.concatenate([np.arange(j, k), np.arange(0, i + 1)])]
+        parts = []
+        for s in sides:
+            left = None if max_vertices is None else max_vertices - spent
+            patch, w, used, folded = _over_planes(ctx, hole_id, loop[s], left, rounds)
+            spent += used
+            if patch is None and folded and depth + 1 < CUT_DEPTH and len(s) >= 4:
+                left = None if max_vertices is None else max_vertices - spent
+                patch, w, used = _cut_patch(ctx, hole_id, loop[s], left, rounds, depth + 1)
+                spent += used
+            if patch is None:
+                why.append(f"cut between rim vertices {i} and {j}: the piece of {len(s)} vertices fails ({w})")
+                break
+            parts.append((s, patch))
+        else:
+            whole = _joined(hole_id, loop, parts)
+            bad_why, _ = check_patch(ctx, whole)
+            if bad_why is None:
+                return whole, "", spent
+            why.append(f"cut between rim vertices {i} and {j}: the pieces together fail ({bad_why})")
+        if max_vertices is not None and spent >= max_vertices:
+            why.append("the work budget is spent")
+            break
+    if not why:
+        why.append("no chord to cut it along")
+    return None, "cut into pieces along chords: " + "; ".join(why), spent
+
+
+#: Chords tried, at each level of cutting (:func:`_cut_patch`).
+CUT_TRIES = 4
+#: Levels of cutting: a loop is cut into at most 2 ** CUT_DEPTH pieces.
+CUT_DEPTH = 3
+#: A chord tried after another has both its ends at least this many rim
+#: edges from the ends of every chord tried before it.
+CUT_SPREAD = 1
+#: A chord that leaves the scan's surface at its ends (its direction's
+#: cosine with the scan's normal there) scores this much worse per unit
+#: of that cosine: a chord across the part's inside is a poor path over
+#: the missing surface.
+CUT_OFF_SURFACE = 4.0
+
+
+def _chords(ctx, loop, forbidden):
+    """Chords (i, j), i < j, between the loop's vertices to cut it along,
+    best first (at most :data:`CUT_TRIES`): each is at least two edges from
+    either end, joins two distinct vertices the scan does not join, and
+    scores its length over the shorter of the two rim paths between its
+    ends (a waist: short across, long around), times ``1 +``
+    :data:`CUT_OFF_SURFACE` times the larger cosine between it and the
+    scan's normal at its ends (it should run along the missing surface,
+    not across the part); ties go to the lower (i, j). Each chord after
+    the first keeps its ends :data:`CUT_SPREAD` rim edges from the ends of
+    those before it."""
+    P = ctx.V[loop]
+    k = len(P)
+    run = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1))])
+    total = run[-1]
+    normal = _vertex_normals(ctx, loop)
+    ranked = []
+    for i in range(k - 2):
+        j = np.arange(i + 2, k - (1 if i == 0 else 0))
+        if not j.size:
+            continue
+        d = P[j] - P[i]
+        length = np.linalg.norm(d, axis=1)
+        t = d / np.maximum(length, 1e-300)[:, None]
+        off = np.maximum(np.abs(t @ normal[i]), np.abs(np.einsum("ij,ij->i", t, normal[j])))
+        around = run[j] - run[i]
+        score = length / np.maximum(np.minimum(around, total - around), 1e-300) * (1 + CUT_OFF_SURFACE * off)
+        ok = (loop[j] != loop[i]) & (length > 0)
+        for m in np.flatnonzero(ok)[np.argsort(score[ok], kind="stable")][:4 * CUT_TRIES]:
+            jj = int(j[m])
+            if (i, jj) not in forbidden and (jj, i) not in forbidden:
+                ranked.append((float(score[m]), i, jj))
+    ranked.sort()
+    out = []
+    for _, i, j in ranked:
+        ends = [e for c in out for e in c]
+        if all(min((i - e) % k, (e - i) % k) >= CUT_SPREAD and min((j - e) % k, (e - j) % k) >= CUT_SPREAD
+               for e in ends):
+            out.append((i, j))
+            if len(out) == CUT_TRIES:
+                break
+    return out
+
+
+def _vertex_normals(ctx, loop):
+    """Unit normals of the scan at the loop's vertices (the sum of its
+    faces' area vectors there; zero where they cancel)."""
+    f = np.asarray(ctx.faces_of(loop), np.int64)
+    T = ctx.F[f]
+    A = np.cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
+    ids, pos = np.unique(loop, return_inverse=True)
+    acc = np.zeros((len(ids), 3))
+    for c in range(3):
+        at = np.searchsorted(ids, T[:, c])
+        hit = (at < len(ids)) & (ids[np.minimum(at, len(ids) - 1)] == T[:, c])
+        np.add.at(acc, at[hit], A[hit])
+    n = acc[pos]
+    ln = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.divide(n, ln, out=np.zeros_like(n), where=ln > 0)
+
+
+def _joined(hole_id, loop, parts):
+    """One patch over ``loop`` from the pieces' patches ``(positions in
+    loop, patch)``: their triangles on the loop's positions, their new
+    vertices one after another."""
+    k = len(loop)
+    Ps, Ts, T0s, options = [], [], [], []
+    n = 0
+    for s, p in parts:
+        ks = len(s)
+        idx = np.concatenate([s, k + n + np.arange(len(p.P))])
+        Ts.append(idx[p.T])
+        T0s.append(s[p.T0])
+        Ps.append(p.P)
+        n += len(p.P)
+        options.append(p.option.removeprefix("Steiner points: "))
+    option = (f"Steiner points: {n} vertices off the rim, in {len(parts)} pieces cut along chords between rim "
+              f"vertices (its outline is not simple in any plane): " + " | ".join(options))
+    return Patch(hole_id=hole_id, loop=loop, P=np.vstack(Ps), T=np.vstack(Ts), T0=np.vstack(T0s), disc=True,
+                 steiner=True, option=option)
 
 
 def _axes(ctx, loop, C):
@@ -491,7 +663,8 @@ def _box_pairs(alo, ahi, blo, bhi):
     and ``[blo, bhi]`` (scan faces) that may meet: both put in a grid of
     cells twice the median patch box, joined by cell; a face covering more
     than :data:`BIG_FACE_CELLS` cells (a large CAD face) is paired with
-    every triangle. A superset, each pair once."""
+    every triangle, a triangle covering more with every face. A superset,
+    each pair once."""
     if not len(alo) or not len(blo):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     origin = np.minimum(alo.min(axis=0), blo.min(axis=0))
@@ -504,7 +677,12 @@ def _box_pairs(alo, ahi, blo, bhi):
     big = np.prod(b1 - b0 + 1, axis=1) > BIG_FACE_CELLS
     small = np.flatnonzero(~big)
     wide = int(max(a1[:, 1].max(), b1[small, 1].max() if small.size else 0)) + 2
-    ai, ak = _cells(a0, a1, wide)
+    # a patch triangle far larger than the median (a piece seen nearly
+    # edge-on) is paired with every face by boxes too, not spread over cells
+    big_a = np.prod(a1 - a0 + 1, axis=1) > BIG_FACE_CELLS
+    small_a = np.flatnonzero(~big_a)
+    ai, ak = _cells(a0[small_a], a1[small_a], wide)
+    ai = small_a[ai]
     bi, bk = _cells(b0[small], b1[small], wide)
     bi = small[bi]
     order = np.argsort(bk, kind="stable")
@@ -519,6 +697,10 @@ def _box_pairs(alo, ahi, blo, bhi):
     if fb.size:
         pi = np.concatenate([pi, np.repeat(np.arange(len(alo)), fb.size)])
         pj = np.concatenate([pj, np.tile(fb, len(alo))])
+    ab = np.flatnonzero(big_a)
+    if ab.size and small.size:      # (a big triangle and a big face: paired above)
+        pi = np.concatenate([pi, np.repeat(ab, small.size)])
+        pj = np.concatenate([pj, np.tile(small, ab.size)])
     return pi, pj
 
 
@@ -533,13 +715,14 @@ def _cells(c0, c1, wide):
     return item, ix * wide + iy
 
 
-def _interpolate_attributes(ctx, patch, X):
-    """``patch`` with colours and per-vertex properties on its new vertices,
-    harmonic from the rim's (as :func:`~shellrepair.patch.build_patch` gives them)."""
+def _interpolate_attributes(ctx, patch, n):
+    """``patch`` (``n`` vertices, rim first) with colours and per-vertex
+    properties on its new vertices, harmonic from the rim's (as
+    :func:`~shellrepair.patch.build_patch` gives them)."""
     if ctx.colors is None and not ctx.props:
         return patch
     k = len(patch.loop)
-    K = uniform_laplacian(patch.T, len(X))
+    K = uniform_laplacian(patch.T, n)
     colors = patch.colors
     if ctx.colors is not None:
         c = harmonic_interpolate(K, ctx.colors[patch.loop].astype(np.float64), k)

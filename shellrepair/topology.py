@@ -9,8 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
+from .lazyscipy import sparse as sp
+from .lazyscipy import connected_components
 
 from . import fastmesh
 from .geometry import cross, uniq, vertex_faces_scipy

@@ -43,7 +43,7 @@ from collections import OrderedDict
 import numpy as np
 
 from . import compiled, triangulate_kernels
-from .geometry import cross, dot, plane_frame
+from .geometry import cross, dot, plane_frame, points_in_polygon
 
 from .errors import MeshError
 
@@ -220,8 +220,7 @@ def _loop_cover_numpy(P, Q, S, a, k, forbidden):
     triangles ``S`` in NumPy (the compiled checks' test oracle): ``S``
     kept inside the outline and oriented, or None."""
     # keep triangles whose centroid is inside the outline (even-odd rule)
-    from skimage.measure import points_in_poly
-    inside = points_in_poly(Q[S].mean(axis=1), Q)
+    inside = points_in_polygon(Q[S].mean(axis=1), Q)
     S = S[inside]
     if len(S) != k - 2:
         return None

@@ -441,3 +441,51 @@ def cup_with_linked_ring(n=8):
     Vt, Ft = shapes.torus(R=0.3, r=0.03, nu=32, nv=8)
     Vt = Vt[:, [0, 2, 1]] + [0.0131, 0.5, 1.0173]      # its axis along y, off the grid's round values
     return np.vstack([V, Vt]), np.vstack([F, Ft + len(V)])
+
+
+def pipe_with_wrapped_window(window=(6, 7, 0, 1, 2, 3), apothem=1.1, cavity=0.4, length=3.0, band=(1.0, 2.0),
+                             bore=(1.5, 0.2, 1.5), segments=16):
+    """An octagonal pipe (outer faces ``apothem`` from its axis, face 0
+    facing +x; a square cavity ``cavity`` from the axis running its whole
+    ``length``) with a window cut in its outer wall: the band of faces
+    ``window`` between heights ``band``. Over 270 degrees, the window's
+    outline folds over itself seen along any direction. A blind bore
+    ``bore=(z, radius, reach)`` runs from the cavity's +x wall along +x
+    out through the window's plane to x = ``reach``: scan crossing the
+    opening inside it, joined to its rim only through the pipe. Groups
+    ``window`` (not built: the opening), ``outer``, ``ends``, ``cavity``,
+    ``bore_wall``, ``bore_end``."""
+    b = _Builder()
+    corner = apothem / np.cos(np.pi / 8)
+    ang = np.radians(-22.5 + 45.0 * np.arange(8))
+    octagon = np.column_stack([corner * np.cos(ang), corner * np.sin(ang)])
+    heights = [0.0, band[0], band[1], length]
+    for i in range(8):
+        j = (i + 1) % 8
+        mid = (octagon[i] + octagon[j]) / 2
+        w = np.array([*mid, 0.0]) / np.linalg.norm(mid)
+        for s in range(3):
+            if s == 1 and i in window:
+                continue
+            lo = np.array([[*octagon[i], heights[s]], [*octagon[j], heights[s]]])
+            hi = np.array([[*octagon[i], heights[s + 1]], [*octagon[j], heights[s + 1]]])
+            b.strip(lo, hi, lambda p, w=w: w, "outer", closed=False)
+    c = cavity
+    square = np.array([[c, -c], [c, c], [-c, c], [-c, -c]])
+    ring = lambda R, z: np.column_stack([R, np.full(len(R), z)])
+    b.zip(ring(octagon, length), ring(square, length), [0, 0, 1], "ends")
+    b.zip(ring(octagon, 0.0), ring(square, 0.0), [0, 0, -1], "ends")
+    z0, r, reach = bore
+    t = 2 * np.pi * np.arange(segments) / segments
+    mouth = lambda x: np.column_stack([np.full(segments, x), r * np.cos(t), z0 + r * np.sin(t)])
+    for i in range(4):
+        a, d = square[i], square[(i + 1) % 4]
+        wall = np.array([[*a, 0.0], [*d, 0.0], [*d, length], [*a, length]])
+        inward = -np.array([*(a + d) / 2, 0.0]) / np.linalg.norm((a + d) / 2)
+        if i == 0:          # the +x wall, the bore's mouth in it
+            b.zip(wall, mouth(c), inward, "cavity")
+        else:
+            b.fan(wall, inward, "cavity")
+    b.strip(mouth(c), mouth(reach), lambda p: -np.array([0.0, p[1], p[2] - z0]), "bore_wall")
+    b.fan(mouth(reach), [-1.0, 0, 0], "bore_end")
+    return b.mesh()

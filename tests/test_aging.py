@@ -8,6 +8,7 @@ from scipy import ndimage
 
 from shellrepair import aging as ag
 from shellrepair import render as rd
+from shellrepair.topology import face_areas
 from eval import shapes
 
 BUNNY = Path(__file__).resolve().parents[1] / "data" / "bunny_zipper.ply"
@@ -32,7 +33,10 @@ def box(center, half, n=12):
 
 
 def area_weights(V, F):
-    return ag._vertex_areas(np.asarray(V, float), np.asarray(F, np.int64))
+    """Each vertex's share of the surface: a third of the area of each face around it."""
+    F = np.asarray(F, np.int64)
+    a = face_areas(np.asarray(V, float), F)
+    return np.bincount(F.ravel(), np.repeat(a / 3.0, 3), minlength=len(V))
 
 
 def colour_masks(img):

@@ -14,8 +14,9 @@ from shellrepair import batch
 from shellrepair.batch import default_jobs, list_scans, repair_folder, summary_table
 from shellrepair.cli import build_parser, main
 from shellrepair.io import Mesh, read_mesh, write_mesh
-from shellrepair.progress import Progress, prefix, step
+from shellrepair.progress import TerminalBar, as_callback, end_line, terminal_bar
 from shellrepair.topology import edge_topology
+from terminal import Tty, at_empty_line, screen
 
 
 def ball_perforate(V, F, n_holes, radius, seed=0):
@@ -194,75 +195,60 @@ def test_summary_table_lines_up():
 # --------------------------------------------------------------------------
 # progress
 # --------------------------------------------------------------------------
-class _Tty(io.StringIO):
-    def isatty(self):
-        return True
+def test_progress_is_silent_when_not_a_terminal(monkeypatch):
+    quiet = io.StringIO()
+    monkeypatch.setattr("sys.stderr", quiet)
+    assert terminal_bar() is None
+    as_callback(True)("filling holes", 1, 2)  # older callers' progress=True
+    assert quiet.getvalue() == ""
 
 
-class _Clock:
-    def __init__(self):
-        self.t = 0.0
-
-    def __call__(self):
-        return self.t
-
-
-def test_progress_is_silent_when_not_a_terminal():
-    s = io.StringIO()
-    b = Progress("filling holes", 10, stream=s)
-    for _ in range(10):
-        b.update()
-    b.close()
-    assert s.getvalue() == "" and b.count == 10
+def test_progress_draws_throttled_and_always_the_last_item():
+    s = Tty()
+    bar = TerminalBar(stream=s)
+    for i in range(1, 1001):  # a thousand quick updates: tqdm redraws every MIN_INTERVAL s, not 1000 times
+        bar("filling holes", i, 1000)
+    assert s.getvalue().count("filling holes [") < 100
+    lines, _ = screen(s.getvalue())
+    assert len(lines) == 1 and lines[0].startswith("filling holes [") and "1000/1000 100%" in lines[0]
+    assert lines[0].endswith(" s")  # the seconds since the label started
 
 
-def test_progress_draws_throttled_with_label_count_and_time():
-    s, clock = _Tty(), _Clock()
-    b = Progress("filling holes", 1000, stream=s, clock=clock, min_interval=0.1)
-    for i in range(999):
-        clock.t = i * 0.001  # 999 updates within 1 s: about 10 redraws, not 999
-        b.update()
-    assert 9 <= b.draws <= 11
-    clock.t = 1.5
-    b.update()  # the last item is always drawn
-    b.close()
-    last = s.getvalue().rstrip("\n").split("\r")[-1]
-    assert last.startswith("filling holes [") and "1000/1000" in last and "100%" in last and "1.5 s" in last
-    assert s.getvalue().endswith("\n")
-
-
-def test_step_hook_uses_prefix_and_restarts_per_loop(monkeypatch):
-    s = _Tty()
-    monkeypatch.setattr("sys.stderr", s)
-    with prefix("2/3 bust.ply"):
-        for i in range(1, 4):
-            step("filling holes", i, 3)
-    out = s.getvalue()
-    assert "2/3 bust.ply: filling holes [" in out and "3/3" in out
-    s.truncate(0)
-    s.seek(0)
-    step("filling holes", 1, 5)  # a new loop starts a new bar, without the prefix
-    assert s.getvalue().split("\r")[-1].startswith("filling holes [") and "1/5" in s.getvalue()
+def test_a_new_label_or_a_new_loop_replaces_the_bar_on_its_line():
+    s = Tty()
+    bar = TerminalBar(stream=s)
+    for i in range(1, 4):
+        bar("2/3 bust.ply: filling holes", i, 3)
+    lines, _ = screen(s.getvalue())
+    assert len(lines) == 1 and lines[0].startswith("2/3 bust.ply: filling holes [") and "3/3 100%" in lines[0]
+    bar("filling holes", 1, 5)  # a new label: a new bar, on the same line
+    lines, _ = screen(s.getvalue())
+    assert len(lines) == 1 and lines[0].startswith("filling holes [") and "1/5" in lines[0]
+    bar("filling holes", 3, 5)
+    bar("filling holes", 0, 5)  # the count goes down: a new loop
+    lines, _ = screen(s.getvalue())
+    assert len(lines) == 1 and "0/5" in lines[0]
 
 
 def test_batch_bars_on_a_terminal_leave_each_scan_on_its_own_line(tmp_path, monkeypatch, capsys):
-    from shellrepair.progress import TerminalBar
-
     V, F = shapes.icosphere(2)
     _write_scans(tmp_path / "in", {"p.ply": ball_perforate(V, F, 1, 0.3, seed=0),
                                    "q.ply": ball_perforate(V, F, 2, 0.25, seed=1)})
-    tty = _Tty()
+    tty = Tty()
     monkeypatch.setattr("sys.stderr", tty)
+    bar = terminal_bar()
     lines = []
     # one scan at a time in this process: each scan draws its own bars
     # the caller wipes the bar's line before its own, as the command line does
-    repair_folder(tmp_path / "in", tmp_path / "out", jobs=1, progress=True,
-                  on_scan=lambda r: (TerminalBar().clear(), lines.append(tty.tell())))
+    repair_folder(tmp_path / "in", tmp_path / "out", jobs=1, progress=bar,
+                  on_scan=lambda r: (bar.clear(), lines.append(tty.tell())))
+    end_line(bar)
     drawn = tty.getvalue()
     assert "1/2 p.ply: filling holes [" in drawn and "2/2 q.ply: filling holes [" in drawn
-    assert drawn.rstrip("\n").split("\r")[-1].startswith("scans [") and "2/2 100%" in drawn
-    # before each per-scan line the bar's line is wiped (carriage return, erase to end of line)
-    assert all(drawn[:at].endswith("\r\x1b[K") for at in lines)
+    shown, column = screen(drawn)
+    assert shown[-2].startswith("scans [") and "2/2 100%" in shown[-2] and shown[-1] == "" and column == 0
+    # before each per-scan line the bar's line is wiped and the cursor is at its start
+    assert all(at_empty_line(drawn[:at]) for at in lines)
 
 
 def test_loading_shows_its_stages_on_a_terminal_only(tmp_path, monkeypatch):
@@ -272,20 +258,25 @@ def test_loading_shows_its_stages_on_a_terminal_only(tmp_path, monkeypatch):
     monkeypatch.setattr("sys.stderr", quiet)
     read_mesh(tmp_path / "bust.ply", progress=True)
     assert quiet.getvalue() == ""
-    tty = _Tty()
+    tty = Tty()
     monkeypatch.setattr("sys.stderr", tty)
-    m = read_mesh(tmp_path / "bust.ply", progress=True)
+    m = read_mesh(tmp_path / "bust.ply", progress=True)  # older callers: a bar of this call's own
     drawn = tty.getvalue()
-    assert "loading bust.ply [" in drawn and "0/4" in drawn
-    assert drawn.split("\r")[-1].startswith("loading bust.ply [") and "4/4 100%" in drawn
-    assert not drawn.endswith("\n")              # left open for the repair's bars
+    assert "loading bust.ply [" in drawn and "0/4" in drawn and "4/4 100%" in drawn
+    tty = Tty()
+    monkeypatch.setattr("sys.stderr", tty)
+    bar = terminal_bar()
+    read_mesh(tmp_path / "bust.ply", progress=bar)
+    lines, _ = screen(tty.getvalue())
+    assert len(lines) == 1 and lines[0].startswith("loading bust.ply [") and "4/4 100%" in lines[0]
+    assert not tty.getvalue().endswith("\n")              # left open for the repair's bars
     assert len(m.F) == len(F)
 
 
 def test_an_error_after_a_bar_starts_on_its_own_line(tmp_path, monkeypatch):
     # a file that parses, then fails validation: the loading bar was drawn
     (tmp_path / "range.obj").write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n")
-    tty = _Tty()
+    tty = Tty()
     monkeypatch.setattr("sys.stderr", tty)
     assert main(["repair", str(tmp_path / "range.obj")]) == 2
     out = tty.getvalue()
@@ -298,7 +289,7 @@ def test_an_error_after_a_bar_starts_on_its_own_line(tmp_path, monkeypatch):
 def test_holes_command_ends_the_loading_bar_line(tmp_path, monkeypatch, capsys):
     V, F = shapes.icosphere(2)
     write_mesh(tmp_path / "bust.ply", Mesh(V=V, F=F[3:]))
-    tty = _Tty()
+    tty = Tty()
     monkeypatch.setattr("sys.stderr", tty)
     assert main(["holes", str(tmp_path / "bust.ply")]) == 0
     assert "loading bust.ply [" in tty.getvalue() and tty.getvalue().endswith("\n")

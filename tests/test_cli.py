@@ -10,6 +10,7 @@ import pytest
 from shellrepair import Mesh, write_mesh
 from eval import shapes
 from shellrepair.cli import main
+from terminal import screen
 
 
 def _perforated(tmp_path, name="s.ply"):
@@ -148,12 +149,14 @@ def test_the_terminal_bar_is_made_only_for_a_terminal_and_not_when_quiet(monkeyp
     assert isinstance(bar, TerminalBar)
     bar("loading a.ply", 0, 4)
     bar("loading a.ply", 4, 4)
-    assert tty.getvalue().split("\r")[-1].startswith("loading a.ply [") and "4/4 100%" in tty.getvalue()
-    bar.clear()  # wiped: what is printed next starts at column 0
-    assert tty.getvalue().endswith("\r\x1b[K")
+    lines, _ = screen(tty.getvalue())
+    assert len(lines) == 1 and lines[0].startswith("loading a.ply [") and "4/4 100%" in lines[0]
+    bar.clear()  # wiped: what is printed next starts at column 0 of an empty line
+    assert screen(tty.getvalue()) == ([""], 0)
     bar("writing a.ply", 1, 2)
-    bar.end()
-    assert tty.getvalue().endswith("\n") and "writing a.ply [" in tty.getvalue()
+    bar.end()  # the last state stays, and the line is ended
+    lines, column = screen(tty.getvalue())
+    assert lines[0].startswith("writing a.ply [") and "1/2" in lines[0] and lines[1:] == [""] and column == 0
 
 
 def test_a_view_with_a_negative_azimuth_is_read_as_a_value(tmp_path):

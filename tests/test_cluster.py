@@ -17,6 +17,7 @@ distributed = pytest.importorskip(
 from shellrepair import batch  # noqa: E402
 from eval import shapes  # noqa: E402
 from shellrepair.batch import repair_folder  # noqa: E402
+from terminal import at_empty_line  # noqa: E402
 from shellrepair.cli import main  # noqa: E402
 from shellrepair.io import Mesh, read_mesh, write_mesh  # noqa: E402
 from shellrepair.topology import edge_topology  # noqa: E402
@@ -123,7 +124,7 @@ def cluster():
 
 @pytest.mark.slow
 def test_existing_scheduler_one_task_per_scan_same_page_and_pictures(tmp_path, cluster, monkeypatch):
-    from shellrepair.progress import TerminalBar
+    from shellrepair.progress import end_line, terminal_bar
 
     folder = tmp_path / "scans"
     folder.mkdir()
@@ -134,11 +135,13 @@ def test_existing_scheduler_one_task_per_scan_same_page_and_pictures(tmp_path, c
     (tmp_path / "out").rename(tmp_path / "local")
     tty = _Tty()
     monkeypatch.setattr("sys.stderr", tty)
+    bar = terminal_bar()
     seen = []
     before = cluster.scheduler.task_prefixes.get("shellrepair-scan")
     before = before.state_counts["memory"] if before is not None else 0
-    s = repair_folder(folder, tmp_path / "out", scheduler=cluster.scheduler_address, html=True, progress=True,
-                      on_scan=lambda r: (TerminalBar().clear(), seen.append((r["file"], r["status"], tty.tell()))))
+    s = repair_folder(folder, tmp_path / "out", scheduler=cluster.scheduler_address, html=True, progress=bar,
+                      on_scan=lambda r: (bar.clear(), seen.append((r["file"], r["status"], tty.tell()))))
+    end_line(bar)
     assert s["runner"] == {"kind": "scheduler", "workers": 2, "scheduler": cluster.scheduler_address,
                            "jobs_per_scan": 1}
     # one task per scan ran on the cluster's workers
@@ -147,7 +150,7 @@ def test_existing_scheduler_one_task_per_scan_same_page_and_pictures(tmp_path, c
     assert dict((f, st) for f, st, _ in seen) == {"bust.ply": "ok", "empty.stl": "error"}
     # progress on this side: the scans bar (the caller wipes its line before its own, as the CLI does)
     drawn = tty.getvalue()
-    assert "2/2 100%" in drawn and all(drawn[:at].endswith("\r\x1b[K") for _, _, at in seen)
+    assert "2/2 100%" in drawn and all(at_empty_line(drawn[:at]) for _, _, at in seen)
     assert_same_outputs(tmp_path / "local", tmp_path / "out")
     assert (tmp_path / "out" / "bust.view.png").stat().st_size > 1000
     assert "bust.view.png" in (tmp_path / "out" / "index.html").read_text()

@@ -216,7 +216,7 @@ def _plan(module, *goal):
 
 @_NEEDS_MAKE
 @pytest.mark.parametrize("module", ["shellrepair/refine_kernels.py", "shellrepair/fastmesh.py",
-                                    "shellrepair/reflectance/_kernels.py", "shellrepair/repair.py"])
+                                    "shellrepair/reflectance/common_kernels.py", "shellrepair/repair.py"])
 @pytest.mark.parametrize("goal, run", [(("repair",), "shellrepair.cli repair"),
                                        (("holes",), "shellrepair.cli holes"),
                                        (("batch", "ARGS=--no-html"), "shellrepair.cli batch")])
@@ -238,7 +238,7 @@ def test_a_changed_module_is_built_before_the_next_run(module, goal, run):
 
 
 @_NEEDS_MAKE
-@pytest.mark.parametrize("module", ["shellrepair/context_kernels.py", "shellrepair/reflectance/_kernels.py"])
+@pytest.mark.parametrize("module", ["shellrepair/context_kernels.py", "shellrepair/reflectance/common_kernels.py"])
 @pytest.mark.parametrize("goal, run", [(("render",), "shellrepair.cli render"), (("test",), "-m pytest"),
                                        (("batch",), "shellrepair.cli batch"),
                                        (("repair", "ARGS=--html x.html"), "shellrepair.cli repair")])

@@ -85,3 +85,16 @@ def test_the_bundled_scan_under_a_racing_clock_writes_the_same_bytes(tmp_path, m
     calm, _ = _repair_bytes(tmp_path, "bunny", scan.V, scan.F, False, monkeypatch)
     raced, _ = _repair_bytes(tmp_path, "bunny", scan.V, scan.F, True, monkeypatch)
     assert calm == raced
+
+
+def test_the_last_layer_under_a_racing_clock_writes_the_same_bytes(tmp_path, monkeypatch):
+    # a window round a pipe, a bore through it: every earlier layer fails
+    # (re-routed chords, mending) and the Steiner layer cuts it in pieces;
+    # the budget of all of it is counted, so the bytes are the same
+    import cad_parts
+
+    V, F, _ = cad_parts.pipe_with_wrapped_window(bore=(1.5, 0.35, 1.6))
+    calm, report = _repair_bytes(tmp_path, "pipe", V, F, False, monkeypatch, closed=True)
+    raced, _ = _repair_bytes(tmp_path, "pipe", V, F, True, monkeypatch, closed=True)
+    assert report["holes"][0]["option"].startswith("Steiner points")
+    assert calm == raced

@@ -81,7 +81,7 @@ def test_a_range_scan_of_a_scene_is_filled_without_crossing(tmp_path, view):
     assert report["filled"] >= 1
 
 
-@pytest.mark.parametrize("name", ["armadillo", "rocker_arm_genus1", "nefertiti_bust", "cheburashka"])
+@pytest.mark.parametrize("name", ["armadillo", "rocker_arm_genus1", "nefertiti_bust", "cheburashka", "fandisk_cad"])
 @pytest.mark.slow
 def test_range_scans_of_real_meshes_are_filled_without_crossing(tmp_path, name):
     m = read_mesh(shared_scan(f"closed_{name}.ply"))

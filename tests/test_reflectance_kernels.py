@@ -1,4 +1,5 @@
-"""The compiled shading kernels against their NumPy versions (the oracles).
+"""The compiled shading kernels against their NumPy versions (the oracles:
+:mod:`shellrepair.reflectance.reference`, :meth:`shellrepair.shader.MaterialShader.evaluate_numpy`).
 
 Stated tolerances (each asserted below):
 
@@ -23,15 +24,15 @@ import pytest
 
 from shellrepair import compiled
 from shellrepair import shader as sd
-from shellrepair.reflectance import _dispatch
 from shellrepair.reflectance import albedo as al
 from shellrepair.reflectance import dipole as dp
-from shellrepair.reflectance import km
+from shellrepair.reflectance import dispatch, km
 from shellrepair.reflectance import layered as ly
 from shellrepair.reflectance import microfacet as mf
+from shellrepair.reflectance import reference as ref
 
-K = _dispatch.kernels()
-pytestmark = pytest.mark.skipif(K is None, reason="Numba kernels off (SHELLREPAIR_NO_NUMBA or numba missing)")
+KERNELS_ON = all(dispatch.kernels(name) is not None for name in dispatch.KERNEL_MODULES)
+pytestmark = pytest.mark.skipif(not KERNELS_ON, reason="Numba kernels off (SHELLREPAIR_NO_NUMBA or numba missing)")
 
 RTOL, ATOL = 1e-12, 1e-250
 RTOL_SHADER = 1e-11
@@ -79,42 +80,42 @@ def cases():
     up = np.array([0.0, 0.0, 1.0])
     eta_pole = np.random.default_rng(5).uniform(3.8, 3.95, len(c))
     return {
-        "beckmann_D": (mf.beckmann_D, mf._beckmann_D_np, (c, m)),
-        "beckmann_D broadcast": (mf.beckmann_D, mf._beckmann_D_np, (c[:40, None], m[None, :50])),
-        "v_cavity_G": (mf.v_cavity_G, mf._v_cavity_G_np, (c, c[::-1], np.abs(c), c - 0.2)),
-        "fresnel_dielectric": (mf.fresnel_dielectric, mf._fresnel_dielectric_np, (c, eta)),
-        "fresnel_conductor": (mf.fresnel_conductor, mf._fresnel_conductor_np, (c, eta, Kc)),
-        "fresnel_conductor per channel": (mf.fresnel_conductor, mf._fresnel_conductor_np, (c[:, None],) + nk),
-        "torrance_sparrow": (mf.torrance_sparrow, mf._torrance_sparrow_np, (wi, wo, n, m, eta)),
-        "torrance_sparrow one normal, scalars": (mf.torrance_sparrow, mf._torrance_sparrow_np,
+        "beckmann_D": (mf.beckmann_D, ref.beckmann_D, (c, m)),
+        "beckmann_D broadcast": (mf.beckmann_D, ref.beckmann_D, (c[:40, None], m[None, :50])),
+        "v_cavity_G": (mf.v_cavity_G, ref.v_cavity_G, (c, c[::-1], np.abs(c), c - 0.2)),
+        "fresnel_dielectric": (mf.fresnel_dielectric, ref.fresnel_dielectric, (c, eta)),
+        "fresnel_conductor": (mf.fresnel_conductor, ref.fresnel_conductor, (c, eta, Kc)),
+        "fresnel_conductor per channel": (mf.fresnel_conductor, ref.fresnel_conductor, (c[:, None],) + nk),
+        "torrance_sparrow": (mf.torrance_sparrow, ref.torrance_sparrow, (wi, wo, n, m, eta)),
+        "torrance_sparrow one normal, scalars": (mf.torrance_sparrow, ref.torrance_sparrow,
                                                  (wi, wo, up, 0.3, 1.75)),
-        "torrance_sparrow_conductor": (mf.torrance_sparrow_conductor, mf._torrance_sparrow_conductor_np,
+        "torrance_sparrow_conductor": (mf.torrance_sparrow_conductor, ref.torrance_sparrow_conductor,
                                        (wi, wo, n, m) + nk),
-        "diffuse_transmittance": (al.diffuse_transmittance, al._diffuse_transmittance_np, (c, m, eta)),
-        "diffuse_transmittance one index": (al.diffuse_transmittance, al._diffuse_transmittance_np,
+        "diffuse_transmittance": (al.diffuse_transmittance, ref.diffuse_transmittance, (c, m, eta)),
+        "diffuse_transmittance one index": (al.diffuse_transmittance, ref.diffuse_transmittance,
                                             (c, m, 0.8)),
-        "mean_transmittance": (al.mean_transmittance, al._mean_transmittance_np, (m, eta)),
-        "internal_reflectance": (al.internal_reflectance, al._internal_reflectance_np, (m, eta)),
-        "layered_diffuse": (ly.layered_diffuse, ly._layered_diffuse_np, (c, c[::-1], m, eta, R3)),
-        "layered_diffuse one stack": (ly.layered_diffuse, ly._layered_diffuse_np, (c, c[::-1], m, 1.75, R3[5])),
-        "local_brdf": (ly.local_brdf, ly._local_brdf_np, (wi, wo, n, m, eta, R3)),
-        "local_brdf scalars": (ly.local_brdf, ly._local_brdf_np, (wi, wo, up, 0.3, 1.75, R3[7])),
-        "km_r_inf": (km.km_r_inf, km._km_r_inf_np, (Kc, S)),
-        "km_reflectance": (km.km_reflectance, km._km_reflectance_np, (Kc, S, X, Rg)),
-        "km_reflectance per channel": (km.km_reflectance, km._km_reflectance_np,
+        "mean_transmittance": (al.mean_transmittance, ref.mean_transmittance, (m, eta)),
+        "internal_reflectance": (al.internal_reflectance, ref.internal_reflectance, (m, eta)),
+        "layered_diffuse": (ly.layered_diffuse, ref.layered_diffuse, (c, c[::-1], m, eta, R3)),
+        "layered_diffuse one stack": (ly.layered_diffuse, ref.layered_diffuse, (c, c[::-1], m, 1.75, R3[5])),
+        "local_brdf": (ly.local_brdf, ref.local_brdf, (wi, wo, n, m, eta, R3)),
+        "local_brdf scalars": (ly.local_brdf, ref.local_brdf, (wi, wo, up, 0.3, 1.75, R3[7])),
+        "km_r_inf": (km.km_r_inf, ref.km_r_inf, (Kc, S)),
+        "km_reflectance": (km.km_reflectance, ref.km_reflectance, (Kc, S, X, Rg)),
+        "km_reflectance per channel": (km.km_reflectance, ref.km_reflectance,
                                        (Kc[:, None], S[:, None], X[:, None], R3)),
-        "dipole_rd": (dp.dipole_rd, dp._dipole_rd_np, (Rg, eta)),
-        "dipole_tail_fraction": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np, (X, Kc, S, eta)),
-        "dipole_profile": (dp.dipole_profile, dp._dipole_profile_np, (X, Kc + 1e-3, S, eta)),
+        "dipole_rd": (dp.dipole_rd, ref.dipole_rd, (Rg, eta)),
+        "dipole_tail_fraction": (dp.dipole_tail_fraction, ref.dipole_tail_fraction, (X, Kc, S, eta)),
+        "dipole_profile": (dp.dipole_profile, ref.dipole_profile, (X, Kc + 1e-3, S, eta)),
         # eta ~ 3.86: F_dr -> 1, where A = (1 + F_dr) / (1 - F_dr) magnifies an ulp of F_dr
         # g > 1e150: the kernel's one reciprocal of (g + c)(c (g - c) + 1) is taken on scaled operands
-        "fresnel_dielectric huge index": (mf.fresnel_dielectric, mf._fresnel_dielectric_np,
+        "fresnel_dielectric huge index": (mf.fresnel_dielectric, ref.fresnel_dielectric,
                                           (c, np.exp(np.random.default_rng(6).uniform(345, 354.85, len(c))))),
         # r^2 overflows (dr = inf) for most points, r = 0 and r = inf for some
-        "dipole_tail_fraction huge r": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np,
+        "dipole_tail_fraction huge r": (dp.dipole_tail_fraction, ref.dipole_tail_fraction,
                                         (X * 1e160, Kc + 1e-3, S, eta)),
-        "dipole_rd near the F_dr pole": (dp.dipole_rd, dp._dipole_rd_np, (Rg, eta_pole)),
-        "dipole_tail_fraction near the F_dr pole": (dp.dipole_tail_fraction, dp._dipole_tail_fraction_np,
+        "dipole_rd near the F_dr pole": (dp.dipole_rd, ref.dipole_rd, (Rg, eta_pole)),
+        "dipole_tail_fraction near the F_dr pole": (dp.dipole_tail_fraction, ref.dipole_tail_fraction,
                                                     (X, Kc + 1e-3, S, eta_pole)),
     }
 
@@ -136,9 +137,9 @@ def test_kernel_matches_numpy_oracle(name):
 
 
 def test_scalar_inputs_give_0d_arrays_like_numpy():
-    for f, g, args in [(mf.beckmann_D, mf._beckmann_D_np, (1.0, 0.5)),
-                       (km.km_reflectance, km._km_reflectance_np, (0.0, 1.0, 1.0, 0.0)),
-                       (al.diffuse_transmittance, al._diffuse_transmittance_np, (0.5, 0.3, 1.0))]:
+    for f, g, args in [(mf.beckmann_D, ref.beckmann_D, (1.0, 0.5)),
+                       (km.km_reflectance, ref.km_reflectance, (0.0, 1.0, 1.0, 0.0)),
+                       (al.diffuse_transmittance, ref.diffuse_transmittance, (0.5, 0.3, 1.0))]:
         a, b = f(*args), g(*args)
         assert np.shape(a) == np.shape(b) == ()
         assert float(a) == pytest.approx(float(b), rel=RTOL)
@@ -157,16 +158,16 @@ def test_material_shader_matches_numpy_oracle(name):
     shader = sd.MaterialShader(name)
     args = (p["wi"], p["wo"], p["n"], p["c"], g, d)
     f = shader(*args)
-    f_np = sd._material_shader_np(shader, *args)
+    f_np = shader.evaluate_numpy(*args)
     assert f.shape == f_np.shape == (len(p["c"]), 3) and np.all(np.isfinite(f))
     np.testing.assert_allclose(f, f_np, rtol=RTOL_SHADER, atol=ATOL)
     spec, diff = shader(*args, parts=True)
-    spec_np, diff_np = sd._material_shader_np(shader, *args, parts=True)
+    spec_np, diff_np = shader.evaluate_numpy(*args, parts=True)
     np.testing.assert_allclose(spec, spec_np, rtol=RTOL_SHADER, atol=ATOL)
     np.testing.assert_allclose(diff, diff_np, rtol=RTOL_SHADER, atol=ATOL)
     # one light for all points, scalar coverage (the renderer's call)
     one = shader(p["wi"][5], p["wo"], p["n"], 0.4, 0.7, 0.2, parts=True)
-    one_np = sd._material_shader_np(shader, p["wi"][5], p["wo"], p["n"], 0.4, 0.7, 0.2, parts=True)
+    one_np = shader.evaluate_numpy(p["wi"][5], p["wo"], p["n"], 0.4, 0.7, 0.2, parts=True)
     for a, b in zip(one, one_np):
         np.testing.assert_allclose(a, b, rtol=RTOL_SHADER, atol=ATOL)
 
@@ -176,7 +177,9 @@ def test_exp_expm1_log_within_one_ulp_of_libm():
     x = np.concatenate([rng.uniform(-745, 709, 200000), rng.uniform(-1, 1, 100000),
                         rng.uniform(-1e-6, 1e-6, 10000), [0.0, -0.0, 1e-300, 0.3465, 0.3466, -0.3466, 709.7]])
     e, em1, lg = np.empty_like(x), np.empty_like(x), np.empty_like(x)
-    K._math_check(x, e, em1, lg)
+    from shellrepair.reflectance import common_kernels
+
+    common_kernels.exp_expm1_log(x, e, em1, lg)
     with np.errstate(all="ignore"):
         ref_e, ref_m, ref_l = np.exp(x), np.expm1(x), np.log(np.abs(x))
     ulp = np.finfo(np.float64).eps
@@ -190,7 +193,7 @@ def test_exp_expm1_log_within_one_ulp_of_libm():
 
 def test_kernels_off_give_the_numpy_versions_bit_for_bit(monkeypatch):
     monkeypatch.setattr(compiled, "ENABLED", False)
-    assert _dispatch.kernels() is None
+    assert all(dispatch.kernels(name) is None for name in dispatch.KERNEL_MODULES)
     for name in ("torrance_sparrow", "km_reflectance", "diffuse_transmittance", "local_brdf"):
         fast, oracle, args = CASES[name]
         with np.errstate(all="ignore"):
@@ -198,7 +201,7 @@ def test_kernels_off_give_the_numpy_versions_bit_for_bit(monkeypatch):
     shader = sd.MaterialShader("aged-bronze")
     p = hard_inputs(N=500)
     args = (p["wi"], p["wo"], p["n"], p["c"], 1.0, 0.0)
-    np.testing.assert_array_equal(shader(*args), sd._material_shader_np(shader, *args))
+    np.testing.assert_array_equal(shader(*args), shader.evaluate_numpy(*args))
 
 
 def test_threads_give_the_same_bits_as_one(monkeypatch):
@@ -209,7 +212,7 @@ def test_threads_give_the_same_bits_as_one(monkeypatch):
     shader = sd.MaterialShader("aged-bronze")
     s_one = shader(p["wi"], p["wo"], p["n"], p["c"])
     monkeypatch.setenv("SHELLREPAIR_THREADS", "3")
-    monkeypatch.setattr(K, "MIN_POINTS_PER_THREAD", 1000)
+    monkeypatch.setattr(dispatch, "MIN_POINTS_PER_THREAD", 1000)
     np.testing.assert_array_equal(mf.torrance_sparrow(*args), one)
     np.testing.assert_array_equal(shader(p["wi"], p["wo"], p["n"], p["c"]), s_one)
 
@@ -224,5 +227,7 @@ def test_warm_up_compiles_every_kernel():
     from shellrepair.shader import warm_up
 
     n = warm_up()
-    assert n >= len(K.KERNELS)
-    assert all(len(getattr(K, k).signatures) >= 1 for k in K.KERNELS)
+    kernels = [getattr(dispatch.kernels(name), k) for name in dispatch.KERNEL_MODULES
+               for k in dispatch.kernels(name).KERNELS]
+    assert n >= len(kernels) == 17
+    assert all(len(k.signatures) >= 1 for k in kernels)

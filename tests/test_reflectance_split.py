@@ -58,11 +58,13 @@ def test_shading_facade_names_are_the_package_objects():
             assert obj.__module__ == homes[0].__name__, name
 
 
-def test_shading_facade_private_names_resolve_to_their_module():
-    assert shading._rule_albedo is albedo._rule_albedo
-    assert shading._albedo_geometry is albedo._albedo_geometry
-    assert shading._dipole_A is dipole._dipole_A
-    assert shading._TINY == microfacet._TINY
+def test_shading_facade_module_names_resolve_to_their_module():
+    # names the modules define beyond the package's __all__ (functions and constants)
+    assert "rule_albedo" not in shading.__all__ and "SHIPPED_BITS" not in shading.__all__
+    assert shading.rule_albedo is albedo.rule_albedo
+    assert shading.albedo_geometry is albedo.albedo_geometry
+    assert shading.dipole_A is dipole.dipole_A
+    assert shading.SHIPPED_BITS == albedo.SHIPPED_BITS
     with pytest.raises(AttributeError):
         shading.no_such_name  # noqa: B018
 

@@ -210,11 +210,11 @@ def test_supersampling_is_the_linear_average_of_a_finer_render(sphere):
     aa = rd.render_mesh(V, F, size=(80, 60), supersample=2, **kw)
     fine = rd.render_mesh(V, F, size=(160, 120), supersample=1, **kw)
     # same rays: the 2x2 render averaged in linear light, re-encoded
-    expect = rd._downsample(fine, 2)
+    expect = rd.downsample(fine, 2)
     assert np.abs(aa.astype(int) - expect.astype(int)).max() <= 1
     # closer to a 4x4 reference than one ray per pixel is (jagged edges, aliased highlights)
     one = rd.render_mesh(V, F, size=(80, 60), supersample=1, **kw)
-    ref = rd._downsample(rd.render_mesh(V, F, size=(320, 240), supersample=1, **kw), 4).astype(int)
+    ref = rd.downsample(rd.render_mesh(V, F, size=(320, 240), supersample=1, **kw), 4).astype(int)
     err_one = np.abs(one.astype(int) - ref).sum(-1)
     err_aa = np.abs(aa.astype(int) - ref).sum(-1)
     assert err_aa.mean() < 0.6 * err_one.mean()

@@ -57,7 +57,7 @@ def test_the_shipped_values_lie_below_the_rule_and_within_the_stated_error_of_th
     i, j, k = (rng.choice(p, 60) for p in pick)
     cos, m, eta = T.u[i] ** 2, np.exp(T.log_m[j]), eta_nodes[k]
     got = T.values[i, j, k]
-    rule = np.array([1.0 - sh._rule_albedo(c[None], mm[None], np.array([e]))[0, 0]
+    rule = np.array([1.0 - sh.rule_albedo(c[None], mm[None], np.array([e]))[0, 0]
                      for c, mm, e in zip(cos, m, eta)])
     converged = 1.0 - sh.specular_albedo(cos, m, eta, n_t=48, n_phi=80)
     assert np.all(got <= rule)

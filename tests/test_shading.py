@@ -177,11 +177,11 @@ def test_white_furnace_specular_lobe():
     """With F = 1 the V-cavity lobe reflects at most everything, and all at m -> 0."""
     cos_o = np.cos(np.radians(np.array([0, 30, 60, 80, 89, 90.0])))
     for m in (0.005, 0.02, 0.3, 1.0, 1.5):
-        w, _ = sh._albedo_geometry(cos_o, np.full(cos_o.shape, m), 32, 48)
+        w, _ = sh.albedo_geometry(cos_o, np.full(cos_o.shape, m), 32, 48)
         albedo_F1 = w.sum(axis=1)
         assert np.all(albedo_F1 <= 1.0 + 1e-9)
         assert np.all(albedo_F1 > 0.2)  # single scattering loses energy only at large m
-    w, _ = sh._albedo_geometry(np.array([1.0, 0.5]), np.array([0.01, 0.01]), 32, 48)
+    w, _ = sh.albedo_geometry(np.array([1.0, 0.5]), np.array([0.01, 0.01]), 32, 48)
     np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-3)
 
 
@@ -337,7 +337,7 @@ def test_dipole_rd_values_and_consistency_with_profile():
     Rd = sh.dipole_rd(a, 1.3)
     assert Rd[0] == 0.0 and np.all(np.diff(Rd) > 0) and np.all(Rd <= 1)
     assert Rd[-1] == pytest.approx(1.0, abs=1e-15)  # no absorption: everything comes back
-    assert sh._dipole_A(1.3) > 1.0  # internal reflection at a denser medium's boundary
+    assert sh.dipole_A(1.3) > 1.0  # internal reflection at a denser medium's boundary
     sa, ss = 0.02, 1.0
     total, _ = quad(lambda r: sh.dipole_profile(r, sa, ss, 1.3) * 2 * np.pi * r, 0, np.inf, limit=200)
     assert total == pytest.approx(float(sh.dipole_rd(ss / (sa + ss), 1.3)), rel=1e-8)
@@ -526,7 +526,7 @@ def _layered_albedo(theta_deg, m, eta, R):
     """Directional albedo of local_brdf: the lobe by the table's own quadrature rule
     (the same way its nodes are computed) + the diffuse part integrated over incidence."""
     co = np.cos(np.radians(np.asarray(theta_deg, float)))
-    A_spec = sh._rule_albedo(co, np.full(co.shape, m), np.array([eta]))[:, 0]
+    A_spec = sh.rule_albedo(co, np.full(co.shape, m), np.array([eta]))[:, 0]
     mu, w = _incidence_rule(eta)
     fd = sh.layered_diffuse(mu[None, :], co[:, None], m, eta, np.atleast_1d(R))[..., 0]
     return A_spec + 2.0 * np.pi * np.sum(fd * mu * w, axis=1)
@@ -598,7 +598,7 @@ def test_table_rule_against_the_converged_integral():
     co = np.cos(np.radians(th))
     for m, eta, bound in [(0.02, 1.5, 1e-4), (0.3, 1.75, 1e-4), (1.5, 2.5, 1e-4), (0.3, 0.67, 5e-3),
                           (1.5, 0.67, 1.5e-2)]:
-        rule = sh._rule_albedo(co, np.full(4, m), np.array([eta]))[:, 0]
+        rule = sh.rule_albedo(co, np.full(4, m), np.array([eta]))[:, 0]
         ref = sh.specular_albedo(co, m, eta, n_t=128, n_phi=192)
         assert np.max(np.abs(rule - ref)) <= bound, (m, eta, np.max(np.abs(rule - ref)))
 

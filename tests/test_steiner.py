@@ -185,3 +185,100 @@ def test_an_opening_linked_with_a_ring_stays_open_and_says_why():
     assert row["status"] == "failed"
     assert "last layer: Steiner points" in row["reason"] and "cross the scan" in row["reason"]
     assert self_intersections(R.V, R.F) == si
+
+
+def _outline_simple_along(P, d):
+    """Is the closed polygon ``P`` (k,3), seen along ``d``, simple (no two
+    non-adjacent edges meet, no two vertices at one point)?"""
+    u = np.cross(d, [1.0, 0, 0] if abs(d[0]) < 0.9 else [0, 1.0, 0])
+    u /= np.linalg.norm(u)
+    v = np.cross(d, u)
+    Q = np.column_stack([P @ u, P @ v])
+    k = len(Q)
+
+    def orient(a, b, c):
+        return np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+    for i in range(k):
+        a, b = Q[i], Q[(i + 1) % k]
+        for j in range(i + 1, k):
+            c, e = Q[j], Q[(j + 1) % k]
+            if j == i + 1 or (i == 0 and j == k - 1):
+                continue
+            o1, o2, o3, o4 = orient(a, b, c), orient(a, b, e), orient(c, e, a), orient(c, e, b)
+            if o1 * o2 <= 0 and o3 * o4 <= 0:
+                return False
+    return True
+
+
+def _rim_triangulation_exists(V, F, loop):
+    """Is there any triangulation of the loop's own vertices (k - 2
+    triangles over the polygon, every one of them) whose triangles each
+    avoid the scan? Each of the C(k, 3) triangles is tested against every
+    scan face by the exact crossing test; then the polygon's triangulations are
+    searched by intervals (a triangulation of i..j uses one triangle
+    (i, m, j) and triangulations of i..m and m..j)."""
+    from shellrepair.intersect import pair_intersections
+
+    k = len(loop)
+    tris = np.array([(i, m, j) for i in range(k) for m in range(i + 1, k) for j in range(m + 1, k)], np.int64)
+    ids = loop[tris]
+    a, b = np.repeat(np.arange(len(tris)), len(F)), np.tile(np.arange(len(F)), len(tris))
+    hit = pair_intersections(V[ids[a]], ids[a], V[F[b]], F[b]).reshape(len(tris), len(F)).any(axis=1)
+    ok = {tuple(t): not h for t, h in zip(tris.tolist(), hit)}
+    can = {}
+    for span in range(1, k):
+        for i in range(k - span):
+            j = i + span
+            can[i, j] = span == 1 or any(ok[i, m, j] and can[i, m] and can[m, j] for m in range(i + 1, j))
+    return can[0, k - 1]
+
+
+#: Windows round the pipe: (faces cut, as built or moved)
+WINDOWS = {"270 degrees": ((6, 7, 0, 1, 2, 3), "as built"),
+           "270 degrees, rotated, 1e6 off the origin": ((6, 7, 0, 1, 2, 3), "moved"),
+           "225 degrees, the bore beside a chord's best places": ((6, 7, 0, 1, 2), "as built"),
+           "315 degrees, the bore at its end": ((2, 3, 4, 5, 6, 7, 0), "as built")}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n.startswith("315") else n
+                                  for n in WINDOWS])
+def test_an_opening_wrapped_round_a_pipe_over_a_bore_closes_in_pieces(name):
+    # a window cut 225 to 315 degrees round an octagonal pipe's wall, a
+    # blind bore from the pipe's cavity running out through it: the
+    # window's outline folds over itself seen along any direction (no plane
+    # to triangulate it in), and no triangulation of its rim's own vertices
+    # avoids the bore; cut along a chord into two pieces, each closed over
+    # a plane
+    from scipy.spatial.transform import Rotation
+
+    window, where = WINDOWS[name]
+    V, F, g = cp.pipe_with_wrapped_window(window=window, bore=(1.5, 0.35, 1.6))
+    if where != "as built":
+        V = V @ Rotation.from_euler("xyz", [0.3, 0.7, 1.1]).as_matrix().T + 1e6
+    loop = detect_holes(V, F, closed=True).loops[0].vertices
+    P = V[loop] - V[loop].mean(axis=0)
+    rng = np.random.default_rng(0)
+    dirs = rng.normal(size=(200, 3))
+    dirs = np.vstack([dirs / np.linalg.norm(dirs, axis=1)[:, None], np.eye(3)])
+    assert not any(_outline_simple_along(P, d) for d in dirs)
+    if where == "as built":
+        assert not _rim_triangulation_exists(V, F, loop)
+    R, report, loops = _repair_closes(V, F, closed=True)
+    row = report["holes"][0]
+    assert row["option"].startswith("Steiner points") and "in 2 pieces cut along chords" in row["option"], \
+        row["option"]
+    # the patch passes over the bore's end, out of the pipe
+    new = _new_vertices(R, len(V), report["holes"])[0]
+    if where == "as built":
+        assert new[:, 0].max() > 1.6
+
+
+def test_a_wrapped_opening_with_nothing_through_it_closes():
+    # the same window, the bore short of the pipe's outer wall: its rim's
+    # own vertices have triangulations that avoid the scan (the search
+    # above finds them where they exist); whatever closes it, nothing is
+    # crossed
+    V, F, g = cp.pipe_with_wrapped_window(bore=(1.5, 0.35, 0.9))
+    assert _rim_triangulation_exists(V, F, detect_holes(V, F, closed=True).loops[0].vertices)
+    _repair_closes(V, F, closed=True)

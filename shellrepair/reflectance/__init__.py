@@ -8,6 +8,14 @@ One module per model:
 - :mod:`.dipole`: dipole diffusion (Jensen et al. 2001), for the model choice;
 - :mod:`.layered`: the local layered BRDF that joins them (eq 2).
 
+Each model's per-point functions run compiled kernels (Numba) when they
+are on: ``<model>_kernels`` beside each module (:mod:`.microfacet_kernels`,
+...; :mod:`.shader_kernels` for :class:`shellrepair.shader.MaterialShader`;
+:mod:`.common_kernels` for what they share), reached through
+:mod:`.dispatch`.  Their NumPy versions, the path with the kernels off
+(``SHELLREPAIR_NO_NUMBA=1``) and the kernels' test oracles, are gathered in
+:mod:`.reference`.
+
 
 The surface of a gilt-bronze statue after centuries is a rough interface
 (Torrance-Sparrow microfacets, paper eqs 8-13) over a stack of corrosion

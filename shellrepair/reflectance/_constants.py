@@ -1,6 +1,7 @@
 """The microfacet model's guards, shared by the NumPy functions
 (:mod:`.microfacet`, where they are documented to users) and the compiled
-kernels (:mod:`._kernels`), so that neither imports the other."""
+kernels (:mod:`.common_kernels` and the ``*_kernels`` modules beside each model), so
+that neither imports the other."""
 
 import numpy as np
 

@@ -27,12 +27,11 @@ import dataclasses
 import functools
 import hashlib
 import os
-import tempfile
 import threading
 
 import numpy as np
 
-from ._dispatch import elementwise, kernels
+from .dispatch import elementwise, kernels
 from .microfacet import COS_EPS, M_MIN, _TINY, _fresnel_dielectric_np
 
 __all__ = [
@@ -70,13 +69,27 @@ def _gauss_legendre01(n):
     return 0.5 * (x + 1.0), 0.5 * w
 
 
-def _albedo_geometry(cos_o, m, n_t, n_phi):
+def albedo_geometry(cos_o, m, n_t, n_phi):
     """Quadrature nodes for the specular albedo at given (cos_o, m).
 
-    ``cos_o`` and ``m`` are 1-D arrays of equal length P.  Returns
-    ``(weight, o_dot_h)`` of shape (P, n_phi * n_t) such that
-    ``albedo(eta) = sum(weight * F(o_dot_h, eta), axis=-1)``.
+    The rule behind :func:`specular_albedo` and the rho_dt table
+    (:func:`rule_albedo`); with F = 1 its weights sum to the lobe's
+    albedo without Fresnel (at most 1: the white furnace).
 
+    Parameters
+    ----------
+    cos_o, m : (P,) float arrays
+        Cosine of the view direction and Beckmann roughness, pairwise.
+    n_t, n_phi : int
+        Gauss-Legendre nodes along the slope and the azimuth.
+
+    Returns
+    -------
+    weight, o_dot_h : (P, n_phi * n_t) float64 arrays
+        ``albedo(eta) = sum(weight * F(o_dot_h, eta), axis=-1)``.
+
+    Notes
+    -----
     The integral ``int f_r (n.i) dw_i`` is rewritten over half vectors
     (dw_i = 4 (o.h) dw_h) and the Beckmann slope density is mapped to the
     unit square: ``tan^2 theta_h = -m^2 log(1 - t)``, so that
@@ -172,7 +185,7 @@ def specular_albedo(cos_theta, m, eta, *, n_t=64, n_phi=64):
 
     Notes
     -----
-    The integral of eq 3; ``rho_dt = 1 - A``.  See ``_albedo_geometry`` for
+    The integral of eq 3; ``rho_dt = 1 - A``.  See ``albedo_geometry`` for
     the change of variables that makes a tensor Gauss rule accurate even at
     m = 0.005 and 90 degree incidence.
     """
@@ -189,7 +202,7 @@ def specular_albedo(cos_theta, m, eta, *, n_t=64, n_phi=64):
     step = max(1, 2_000_000 // (n_t * n_phi))
     for s in range(0, c.size, step):
         sl = slice(s, s + step)
-        w, oh = _albedo_geometry(c[sl], mm[sl], n_t, n_phi)
+        w, oh = albedo_geometry(c[sl], mm[sl], n_t, n_phi)
         out[sl] = np.sum(w * _fresnel_dielectric_np(oh, ee[sl, None]), axis=-1)
     return out.reshape(shape)
 
@@ -362,7 +375,7 @@ def _grid():
     return u, log_m, kappa
 
 
-def _rule_albedo(cos_theta, m, eta):
+def rule_albedo(cos_theta, m, eta):
     """Specular albedo by the table's own quadrature rule.
 
     Parameters
@@ -378,7 +391,7 @@ def _rule_albedo(cos_theta, m, eta):
 
     Notes
     -----
-    The rule every table node holds: ``_albedo_geometry`` at
+    The rule every table node holds: ``albedo_geometry`` at
     ``_TABLE_QUAD`` Gauss points, its weights deposited on ``_TABLE_N_C``
     nodes in o.h (linear hats), where F is tabulated for every eta at once.
     The white-furnace bound of the layered model (``f_TS + f_d`` reflects
@@ -395,7 +408,7 @@ def _rule_albedo(cos_theta, m, eta):
     step = 64
     for s0 in range(0, c.size, step):
         sl = slice(s0, s0 + step)
-        w, oh = _albedo_geometry(c[sl], mm[sl], n_t, n_phi)
+        w, oh = albedo_geometry(c[sl], mm[sl], n_t, n_phi)
         # the lobe with F = 1 reflects at most 1 (single scattering, V-cavity
         # G); the rule's excess over 1 is quadrature error (<= 2e-9 measured
         # at m ~ 0.02) and is scaled away
@@ -417,7 +430,7 @@ def _build_table():
     Trilinear interpolation overshoots where rho_dt is convex (near
     grazing) and across the step at the critical angle (eta < 1), and
     there the layered model would reflect more than it receives.  So the
-    interpolant is compared with the rule (:func:`_rule_albedo`) at check
+    interpolant is compared with the rule (:func:`rule_albedo`) at check
     points between the nodes: cell midpoints in u and in log m, midpoints
     and quarter points in kappa (also at the (u, m) nodes), and for
     eta < 1 around the critical angle, where rho_dt steps over ~m radians
@@ -441,7 +454,7 @@ def _build_table():
     dk = kappa[1] - kappa[0]
     kap_q = np.concatenate([kappa[:-1] + 0.25 * dk, kappa[:-1] + 0.75 * dk])
     eta_chk = np.concatenate([eta, eta_mid, _eta_of_kappa(kap_q)])
-    at_nodes = 1.0 - _rule_albedo(cos_n, m_n, eta_chk)  # (Nu * Nm, K)
+    at_nodes = 1.0 - rule_albedo(cos_n, m_n, eta_chk)  # (Nu * Nm, K)
     vals = at_nodes[:, :Nk].reshape(Nu, Nm, Nk).copy()
     raw = RhoDtTable(u, log_m, kappa, vals)
     # check points: (cos, m) pairs x eta values
@@ -453,7 +466,7 @@ def _build_table():
     cos_c = np.concatenate([p[0] for p in pairs])
     m_c = np.concatenate([p[1] for p in pairs])
     # blocks of check points: (cos (P,), m (P,), eta (K,), reference (P, K))
-    blocks = [(cos_c, m_c, eta_chk, 1.0 - _rule_albedo(cos_c, m_c, eta_chk)),
+    blocks = [(cos_c, m_c, eta_chk, 1.0 - rule_albedo(cos_c, m_c, eta_chk)),
               (cos_n, m_n, eta_chk[Nk:], at_nodes[:, Nk:])]  # node pairs, off-node etas
     # eta < 1: the step at the critical angle, smoothed over ~m radians
     # (Beckmann tail exp(-(d/m)^2)): from 3 m inside it to 6 m past it,
@@ -464,7 +477,7 @@ def _build_table():
         th = th_c + offsets[:, None] * m_s[None, :]
         cs = np.cos(np.clip(th, 0.0, 0.5 * np.pi)).ravel()
         ms = np.tile(m_s, len(offsets))
-        blocks.append((cs, ms, np.array([e]), 1.0 - _rule_albedo(cs, ms, np.array([e]))))
+        blocks.append((cs, ms, np.array([e]), 1.0 - rule_albedo(cs, ms, np.array([e]))))
     # the points where the interpolant overshoots the rule
     flat = vals.ravel().copy()
     bad_idx, bad_w, bad_ref = [], [], []
@@ -596,7 +609,7 @@ def rho_dt_table():
     Notes
     -----
     The table is a function of fixed parameters, built by the quadrature
-    rule of :func:`_rule_albedo` at every node and at ~10^7 check points
+    rule of :func:`rule_albedo` at every node and at ~10^7 check points
     for the lower envelope (:func:`_build_table`: 40 s of CPU, 90 s on two
     busy cores), so it ships with the package (:data:`SHIPPED_TABLE`,
     ~0.8 MB; read in milliseconds; its values are the built ones rounded
@@ -630,12 +643,14 @@ def rho_dt_table():
         if table is None:
             table = _build_table()
             try:
+                import io
+
+                from ..files import atomic_write
+
                 os.makedirs(os.path.dirname(path), exist_ok=True)
-                fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".npz")
-                with os.fdopen(fd, "wb") as fh:
-                    np.savez(fh, u=table.u, log_m=table.log_m, kappa=table.kappa,
-                             values=table.values)
-                os.replace(tmp, path)
+                buf = io.BytesIO()
+                np.savez(buf, u=table.u, log_m=table.log_m, kappa=table.kappa, values=table.values)
+                atomic_write(path, buf.getvalue(), os_errors=True)
             except OSError:
                 pass
         _TABLE = table
@@ -770,7 +785,7 @@ def diffuse_transmittance(cos_theta, m, eta):
     >>> float(diffuse_transmittance(0.5, 0.3, 1.0))   # index-matched: no reflection
     1.0
     """
-    K = kernels()
+    K = kernels("albedo")
     a = rho_dt_table().kernel_args if K is not None else None
     if a is not None:
         return elementwise(K.diffuse_transmittance, (cos_theta, m, eta), a[:10])
@@ -809,7 +824,7 @@ def mean_transmittance(m, eta):
     :func:`layered_diffuse` integrated over incidence returns exactly
     ``rho_dt(o) R (1 - r_i) / (1 - r_i R) <= rho_dt(o)``.
     """
-    K = kernels()
+    K = kernels("albedo")
     a = rho_dt_table().kernel_args if K is not None else None
     if a is not None:
         return elementwise(K.mean_transmittance, (m, eta), a[1:4] + a[7:])
@@ -869,7 +884,7 @@ def internal_reflectance(m, eta):
     at eta = 1.5 this gives r_i ~ 0.60, the classical value.  Clamped to
     [0, 1 - 1e-9] so that ``1 / (1 - r_i R)`` stays finite.
     """
-    K = kernels()
+    K = kernels("albedo")
     a = rho_dt_table().kernel_args if K is not None else None
     if a is not None:
         return elementwise(K.internal_reflectance, (m, eta), a[1:4] + a[7:] + RHO_DT_ETA_RANGE)

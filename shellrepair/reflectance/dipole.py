@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._dispatch import elementwise, kernels
+from .dispatch import elementwise, kernels
 from .microfacet import _TINY
 
 __all__ = ["dipole_rd", "dipole_tail_fraction", "dipole_profile"]
@@ -27,8 +27,20 @@ __all__ = ["dipole_rd", "dipole_tail_fraction", "dipole_profile"]
 # --------------------------------------------------------------------------
 
 
-def _dipole_A(eta):
-    """Boundary mismatch A = (1 + F_dr)/(1 - F_dr), F_dr by Jensen et al.'s fit."""
+def dipole_A(eta):
+    """Boundary mismatch A = (1 + F_dr)/(1 - F_dr), F_dr by Jensen et al.'s fit.
+
+    Parameters
+    ----------
+    eta : (...) float array
+        Relative refractive index of the boundary (> 0).
+
+    Returns
+    -------
+    A : (...) float64 array
+        Greater than 1 for eta > 1 (internal reflection at a denser
+        medium's boundary); used by :func:`dipole_rd` and the profile.
+    """
     eta = np.asarray(eta, dtype=np.float64)
     # Diffuse Fresnel reflectance fit (Jensen et al. 2001; Egan & Hilgeman)
     F_dr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
@@ -62,7 +74,7 @@ def dipole_rd(alpha_prime, eta):
     >>> float(dipole_rd(0.0, 1.3))
     0.0
     """
-    K = kernels()
+    K = kernels("dipole")
     if K is not None:
         return elementwise(K.dipole_rd, (alpha_prime, eta))
     return _dipole_rd_np(alpha_prime, eta)
@@ -71,7 +83,7 @@ def dipole_rd(alpha_prime, eta):
 def _dipole_rd_np(alpha_prime, eta):
     """NumPy version of :func:`dipole_rd` (the test oracle of the compiled kernel)."""
     a = np.clip(np.asarray(alpha_prime, dtype=np.float64), 0.0, 1.0)
-    A = _dipole_A(eta)
+    A = dipole_A(eta)
     s = np.sqrt(3.0 * (1.0 - a))
     return 0.5 * a * (1.0 + np.exp(-(4.0 / 3.0) * A * s)) * np.exp(-s)
 
@@ -102,7 +114,7 @@ def dipole_tail_fraction(r, sigma_a, sigma_s_prime, eta):
     Used by :func:`shellrepair.shader.choose_model` as the error of
     treating transport as local within a pixel footprint.
     """
-    K = kernels()
+    K = kernels("dipole")
     if K is not None:
         return elementwise(K.dipole_tail_fraction, (r, sigma_a, sigma_s_prime, eta))
     return _dipole_tail_fraction_np(r, sigma_a, sigma_s_prime, eta)
@@ -116,7 +128,7 @@ def _dipole_tail_fraction_np(r, sigma_a, sigma_s_prime, eta):
     st = sa + ss  # sigma_t'
     s_tr = np.sqrt(3.0 * sa * st)
     zr = 1.0 / st
-    zv = zr * (1.0 + 4.0 / 3.0 * _dipole_A(eta))
+    zv = zr * (1.0 + 4.0 / 3.0 * dipole_A(eta))
     dr = np.sqrt(r * r + zr * zr)
     dv = np.sqrt(r * r + zv * zv)
     tail = zr * np.exp(-s_tr * dr) / dr + zv * np.exp(-s_tr * dv) / dv
@@ -152,7 +164,7 @@ def dipole_profile(r, sigma_a, sigma_s_prime, eta):
     with s = sigma_tr = sqrt(3 sigma_a sigma_t'), z_r = 1/sigma_t',
     z_v = z_r (1 + 4A/3), d = sqrt(r^2 + z^2).
     """
-    K = kernels()
+    K = kernels("dipole")
     if K is not None:
         return elementwise(K.dipole_profile, (r, sigma_a, sigma_s_prime, eta))
     return _dipole_profile_np(r, sigma_a, sigma_s_prime, eta)
@@ -167,7 +179,7 @@ def _dipole_profile_np(r, sigma_a, sigma_s_prime, eta):
     alpha = ss / st
     s_tr = np.sqrt(3.0 * sa * st)
     zr = 1.0 / st
-    zv = zr * (1.0 + 4.0 / 3.0 * _dipole_A(eta))
+    zv = zr * (1.0 + 4.0 / 3.0 * dipole_A(eta))
     dr = np.sqrt(r * r + zr * zr)
     dv = np.sqrt(r * r + zv * zv)
     pole_r = zr * (1.0 + s_tr * dr) * np.exp(-s_tr * dr) / dr**3  # real source

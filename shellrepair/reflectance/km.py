@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._dispatch import elementwise, kernels
+from .dispatch import elementwise, kernels
 
 __all__ = ["km_r_inf", "km_reflectance", "km_layers", "km_mix", "km_to_transport"]
 
@@ -69,7 +69,7 @@ def km_r_inf(K, S):
     >>> float(km_r_inf(0.0, 1.0)), float(km_r_inf(1.0, 0.0))
     (1.0, 0.0)
     """
-    K_ = kernels()
+    K_ = kernels("km")
     if K_ is not None:
         return elementwise(K_.km_r_inf, (K, S))
     return _km_r_inf_np(K, S)
@@ -134,7 +134,7 @@ def km_reflectance(K, S, X, Rg):
     >>> round(float(km_reflectance(0.0, 1.0, 1.0, 0.0)), 12)   # SX / (1 + SX)
     0.5
     """
-    K_ = kernels()
+    K_ = kernels("km")
     if K_ is not None:
         return elementwise(K_.km_reflectance, (K, S, X, Rg))
     return _km_reflectance_np(K, S, X, Rg)

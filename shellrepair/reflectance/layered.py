@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._dispatch import directional, kernels, with_rows
+from .dispatch import directional, kernels, with_rows
 from .albedo import (
     RHO_DT_ETA_RANGE,
     _diffuse_transmittance_np,
@@ -76,7 +76,7 @@ def layered_diffuse(cos_i, cos_o, m, eta, R_km):
     with eta = 1 it is Lambert's R / pi.  Without the correction a white stack under an
     eta = 1.75 interface reflects only rho_bar ~ 0.9 of what enters.
     """
-    K = kernels()
+    K = kernels("layered")
     a = rho_dt_table().kernel_args if K is not None else None
     if a is not None:
         return with_rows(K.layered_diffuse, (cos_i, cos_o, m, eta), R_km, a + RHO_DT_ETA_RANGE)
@@ -135,7 +135,7 @@ def local_brdf(wi, wo, n, m, eta, R_km):
     ``A + (1 - A) R_eff <= 1`` where ``R_eff = R (1 - r_i) / (1 - r_i R) <= 1``
     (= 1 for a white stack).
     """
-    K = kernels()
+    K = kernels("layered")
     a = rho_dt_table().kernel_args if K is not None else None
     if a is not None:
         f = directional(K.local_brdf, (wi, wo, n), (m, eta), rows=R_km, extra=a + RHO_DT_ETA_RANGE)

@@ -34,7 +34,7 @@ import numpy as np
 
 # the guards, documented in their module and shared with the compiled kernels
 from ._constants import COS_EPS, M_MIN, MU_FLOOR, _TINY
-from ._dispatch import directional, elementwise, kernels
+from .dispatch import directional, elementwise, kernels
 
 __all__ = [
     "M_MIN",
@@ -99,7 +99,7 @@ def beckmann_D(cos_theta_h, m):
     >>> round(float(beckmann_D(1.0, 0.5)), 6)   # 1 / (pi m^2)
     1.27324
     """
-    K = kernels()
+    K = kernels("microfacet")
     if K is not None:
         return elementwise(K.beckmann_D, (cos_theta_h, m))
     return _beckmann_D_np(cos_theta_h, m)
@@ -149,7 +149,7 @@ def v_cavity_G(n_dot_h, n_dot_i, n_dot_o, o_dot_h):
     >>> float(v_cavity_G(1.0, 1.0, 1.0, 1.0))
     1.0
     """
-    K = kernels()
+    K = kernels("microfacet")
     if K is not None:
         return elementwise(K.v_cavity_G, (n_dot_h, n_dot_i, n_dot_o, o_dot_h))
     return _v_cavity_G_np(n_dot_h, n_dot_i, n_dot_o, o_dot_h)
@@ -199,7 +199,7 @@ def fresnel_dielectric(cos_i, eta):
     >>> round(float(fresnel_dielectric(1.0, 1.5)), 6)   # ((n-1)/(n+1))^2
     0.04
     """
-    K = kernels()
+    K = kernels("microfacet")
     if K is not None:
         return elementwise(K.fresnel_dielectric, (cos_i, eta))
     return _fresnel_dielectric_np(cos_i, eta)
@@ -258,7 +258,7 @@ def fresnel_conductor(cos_i, n, k):
     >>> round(float(fresnel_conductor(1.0, 0.43, 2.455)), 4)  # gold, 549 nm
     0.7869
     """
-    K = kernels()
+    K = kernels("microfacet")
     if K is not None:
         return elementwise(K.fresnel_conductor, (cos_i, n, k))
     return _fresnel_conductor_np(cos_i, n, k)
@@ -351,7 +351,7 @@ def torrance_sparrow(wi, wo, n, m, eta):
     ----------
     Cook & Torrance 1982; source paper eqs 8-13.
     """
-    K = kernels()
+    K = kernels("microfacet")
     if K is not None:
         f = directional(K.torrance_sparrow, (wi, wo, n), (m, eta))
         if f is not None:
@@ -386,7 +386,7 @@ def torrance_sparrow_conductor(wi, wo, n, m, n_metal, k_metal):
     -----
     Eq 8 with F replaced by :func:`fresnel_conductor` (gold leaf, bronze).
     """
-    K = kernels()
+    K = kernels("microfacet")
     nm, km = np.asarray(n_metal, dtype=np.float64), np.asarray(k_metal, dtype=np.float64)
     if K is not None and nm.ndim <= 1 and nm.shape == km.shape:
         nm, km = np.ascontiguousarray(nm.reshape(-1)), np.ascontiguousarray(km.reshape(-1))

@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -43,17 +42,16 @@ def write_table(path=None):
     table : RhoDtTable
         The table as a reader of the file gets it.
     """
+    import io
+
+    from ..files import atomic_write
+
     path = os.fspath(path or albedo.SHIPPED_TABLE)
     arrays = albedo.encode_table(albedo._build_table())
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
-        os.chmod(tmp, 0o644)            # package data: readable by all, as a checkout's files are
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    # package data: readable by all, as a checkout's files are
+    atomic_write(path, buf.getvalue(), mode=0o644, os_errors=True)
     return albedo.decode_table(arrays)
 
 
