@@ -305,7 +305,7 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
 
     Returns
     -------
-    T, changed, settled : as ``_relax``; or None when two flips of a round
+    T, changed, settled : as :func:`shellrepair.refine.relax`; or None when two flips of a round
         share a face (a tie between equal excesses), for the caller to
         redo in NumPy.
     """

@@ -318,7 +318,7 @@ def test_compiled_chord_search_is_the_row_by_row_one(seed):
 
 @pytest.mark.skipif(not compiled.ENABLED, reason="compiled kernels are off")
 def test_liepa_tables_run_compiled_with_and_without_an_axis():
-    """The tables _dp passes (with and without an axis) are among the types
+    """The tables liepa_dp passes (with and without an axis) are among the types
     the install compiles ahead of time."""
     rng = np.random.default_rng(2)
     P = wavy_loop(12, rng)
@@ -418,7 +418,7 @@ def test_cover_free_finds_a_forbidden_edge_in_either_direction():
 @pytest.mark.parametrize("seed", range(4))
 def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monkeypatch):
     """delaunay_faces (sorted corners, sorted unique keys) and
-    _with_loop_edges (the loop edges the faces lack, each completed with
+    with_loop_edges (the loop edges the faces lack, each completed with
     every apex) give the same arrays with the kernels and without, on
     wavy and folded loops (which miss loop edges) and on rows holding a
     corner outside the loop (left to NumPy)."""
