@@ -58,9 +58,9 @@ def test_batch_and_the_command_line_take_order_auto_and_refuse_bad_values(tmp_pa
 
 
 def test_every_option_of_every_command_says_what_it_does_and_its_default():
-    from shellrepair.cli import _parser
+    from shellrepair.cli import build_parser
 
-    p = _parser()
+    p = build_parser()
     subs = next(a for a in p._actions if a.__class__.__name__ == "_SubParsersAction")
     for name, sub in subs.choices.items():
         for a in sub._actions:
