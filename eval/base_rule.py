@@ -4,7 +4,7 @@
 
 A planar opening that the scan meets edge-on gets a flat cap when the scan
 turns into the opening's plane along most of its rim
-(:func:`shellrepair.patch._turns_into_opening`), and a faired fill
+(:func:`shellrepair.patch.turns_into_opening`), and a faired fill
 otherwise. This script builds cases ``0..n-1`` of each seed with the
 ``base`` family forced (:func:`eval.stress.stress_case`: the bottom 5–25 %
 of a figure cut off by a plane tilted up to 25°) and repairs each at the
@@ -55,7 +55,7 @@ def run_case(case, truth, facts):
     from shellrepair.io import Mesh
     from shellrepair.repair import repair_mesh
 
-    rule = patch._turns_into_opening
+    rule = patch.turns_into_opening
     asked = []
 
     def spy(ctx, loop):
@@ -67,14 +67,14 @@ def run_case(case, truth, facts):
            "shape": case.params.get("shape")}
     try:
         for mode in MODES:
-            patch._turns_into_opening = spy if mode == "rule" else (lambda ctx, loop, v=(mode == "flat"): v)
+            patch.turns_into_opening = spy if mode == "rule" else (lambda ctx, loop, v=(mode == "flat"): v)
             out, rep = repair_mesh(Mesh(V=np.asarray(case.V, np.float64), F=np.asarray(case.F, np.int64)))
             ev = metrics.evaluate(case.V, case.F, out.V, out.F, truth, n_samples=20000, seed=0, facts=facts,
                                   self_intersections=False)
             row[mode] = ev.get("rms_permille")
             row[mode + "_holes_after"] = int(rep["holes_after"])
     finally:
-        patch._turns_into_opening = rule
+        patch.turns_into_opening = rule
     row["asked"] = asked
     try:
         V, F, _ = peers.run_tool("cgal", case.V, case.F)

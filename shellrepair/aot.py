@@ -30,10 +30,10 @@ from pathlib import Path
 from . import compiled
 from .files import atomic_write
 
-__all__ = ["record", "build"]
+__all__ = ["record", "build", "numba_type"]
 
 
-def _numba_type(key):
+def numba_type(key):
     """The Numba type of an argument key of :func:`shellrepair.compiled.describe`."""
     import numpy as np
     from numba.core import types
@@ -44,7 +44,7 @@ def _numba_type(key):
     if isinstance(key, str):
         return from_dtype(np.dtype(key))
     if key[0] == "t":
-        items = [_numba_type(k) for k in key[1:]]
+        items = [numba_type(k) for k in key[1:]]
         return types.Tuple(items) if items and len(set(items)) > 1 else types.UniTuple(items[0], len(items)) if items else types.Tuple(())
     dtype, ndim, layout, writeable, aligned = key
     return types.Array(from_dtype(np.dtype(dtype)), ndim, layout, readonly=not writeable, aligned=aligned)
@@ -134,7 +134,7 @@ def build(part=None, out_dir=None):
                 if compiled.part_of(i) != p:
                     continue
                 k = compiled.REGISTRY[m][n]
-                cc.export(compiled.symbol(i), tuple(_numba_type(a) for a in args))(k.jit.py_func)
+                cc.export(compiled.symbol(i), tuple(numba_type(a) for a in args))(k.jit.py_func)
             cc.compile()
             built = [f for f in os.listdir(tmp) if f.startswith(names[p])]
             for f in built:  # a process importing the package meanwhile sees the old file or the new, whole

@@ -19,7 +19,7 @@ from .checks import Outcome
 from .context import rim_data
 from .fill import OPTION_NAMES, PIN_ROUNDS, fill_hole, _pin_region, band_order
 from .merge import Accepted
-from .patch import PatchError, _corners, _meets_edge_on, build_patch
+from .patch import PatchError, corners, _meets_edge_on, build_patch
 
 __all__ = ["flat_face_with_hole", "CAPS_SHARE", "GUIDE_SHARE", "COARSE_SPACING"]
 
@@ -298,7 +298,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
         why = "; ".join(f"cap of loop {L.id}: {c[1] or 'failed'}" for L, c in zip((A, B), caps) if c[0] is None)
         if not why:
             acc = Accepted()
-            acc.add(caps[0][0], *_corners(ctx, caps[0][0]))
+            acc.add(caps[0][0], *corners(ctx, caps[0][0]))
             if acc.conflict(ctx, caps[1][0])[0]:
                 why = "the two caps cross each other"
         return why

@@ -63,7 +63,7 @@ from .errors import MeshError
 from .files import check_output_folder
 from .report import repaired, status_counts
 
-__all__ = ["repair_folder", "list_scans", "summary_table", "default_jobs", "SUMMARY_NAME"]
+__all__ = ["repair_folder", "list_scans", "summary_table", "default_jobs", "write_index", "SUMMARY_NAME"]
 
 #: The folder summary written into OUTDIR.
 SUMMARY_NAME = "summary.json"
@@ -445,7 +445,7 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
         summary.update(_totals(summary["scans"]), seconds=round(time.perf_counter() - t_all, 3))
         atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
         if html:
-            _write_index(summary, outdir, sections)
+            write_index(summary, outdir, sections)
 
     try:
         if kind == "in-process":
@@ -461,7 +461,7 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
     summary.update(_totals(summary["scans"]), seconds=round(time.perf_counter() - t_all, 3))
     atomic_write(summary_path, json.dumps(summary, indent=1) + "\n")
     if html:
-        _write_index(summary, outdir, sections)
+        write_index(summary, outdir, sections)
     return summary
 
 
@@ -538,7 +538,7 @@ def _size(path):
 INDEX_NAME = "index.html"
 
 
-def _write_index(summary, outdir, cache=None):
+def write_index(summary, outdir, cache=None):
     """OUTDIR/index.html from the summary and the reports written so far.
 
     Parameters

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ring_sums", "block_ids", "corner_normal_sums", "arc_landings"]
+__all__ = ["ring_sums", "block_ids", "corner_normal_sums", "arc_landings", "kd_build", "KD_LEAF"]
 
 from . import compiled
 from .patch_kernels import _face_cross
@@ -274,7 +274,7 @@ def corner_normal_sums(L, Fcat, V, nv):
 
 
 #: Points per leaf of :func:`arc_landings`' k-d tree of rim vertices.
-_KD_LEAF = 8
+KD_LEAF = 8
 
 
 @njit(cache=True, nogil=True)
@@ -307,7 +307,7 @@ def _kd_build(P):
     # order[lo[b]:hi[b]]; an inner node's left child holds the points at
     # most split[b] along axis[b], its right child those at least it
     n = P.shape[0]
-    cap = n + 2      # a split node has more than _KD_LEAF points: leaves hold 4 or more
+    cap = n + 2      # a split node has more than KD_LEAF points: leaves hold 4 or more
     lo = np.empty(cap, np.int64)
     hi = np.empty(cap, np.int64)
     axis = np.full(cap, -1, np.int64)
@@ -323,7 +323,7 @@ def _kd_build(P):
         nt -= 1
         b = todo[nt]
         a, z = lo[b], hi[b]
-        if z - a <= _KD_LEAF:
+        if z - a <= KD_LEAF:
             continue
         best, ax = -1.0, 0
         for k in range(3):
@@ -582,3 +582,27 @@ def arc_landings(U, T, N, kap, s0, length, n_samples, slack, ent, nent, P, owner
             return landed, 1
         status, r = _arc_landings(*args, i(rank_of(args[10])), landed, r)
     return landed, status
+
+
+def kd_build(P):
+    """The k-d tree :func:`arc_landings` queries (compiled ``_kd_build``):
+    index medians along the widest axis; node b covers ``order[lo[b]:hi[b]]``,
+    an inner node's left child (``left[b]``, its right one ``left[b] + 1``)
+    the points at most ``split[b]`` along ``axis[b]``, its right child those
+    at least it; a leaf (``axis`` −1) holds at most ``KD_LEAF`` points.
+
+    Parameters
+    ----------
+    P : (n,3) float64
+
+    Returns
+    -------
+    order : (n,) int64
+    lo, hi : int64
+        Each node's range in ``order``.
+    axis : int64
+        Each node's split axis, −1 for a leaf.
+    split : float64
+    left : int64
+    """
+    return _kd_build(np.ascontiguousarray(P, np.float64))

@@ -55,12 +55,30 @@ def _folds(ctx, patch, C, ids):
     Fr = ctx.F[ctx.faces_of(patch.loop)]
     if compiled.ENABLED:
         return checks_kernels.folds(C, ids, ctx.V[Fr], Fr, np.cos(np.radians(FOLD_DEGREES)))
-    return _folds_numpy(C, ids, ctx.V[Fr], Fr)
+    return folds_reference(C, ids, ctx.V[Fr], Fr)
 
 
-def _folds_numpy(C, ids, Cs, Fr):
-    """:func:`_folds` in NumPy (the compiled test's oracle), from the patch's
-    corners and corner ids and the scan faces at its rim (corners, ids)."""
+def folds_reference(C, ids, Cs, Fr):
+    """The patch triangles folded onto a neighbour (``FOLD_DEGREES``), in
+    NumPy: the fallback when kernels are off, and the oracle of
+    :func:`shellrepair.checks_kernels.folds`.
+
+    Parameters
+    ----------
+    C : (t,3,3) float64
+        The patch's triangle corners.
+    ids : (t,3) int64
+        Their ids (:func:`shellrepair.patch.corners`).
+    Cs : (r,3,3) float64
+        The corners of the scan faces at the patch's rim.
+    Fr : (r,3) int64
+        Those faces.
+
+    Returns
+    -------
+    (f,) int64
+        The folded patch triangles, sorted.
+    """
     T = np.concatenate([C, Cs])                          # patch triangles, then scan faces at the rim
     I = np.concatenate([ids, Fr])
     tri = np.concatenate([np.arange(len(C)), -1 - np.arange(len(Fr))])

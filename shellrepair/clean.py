@@ -65,7 +65,8 @@ from .geometry import concat_ranges, cross, dot
 from .topology import CHUNK, corner_fans, edge_topology, manifold_pairs
 
 __all__ = ["OrientResult", "orient_faces", "describe_open_chains", "ManifoldResult", "make_manifold",
-           "split_piece_junctions", "FIX_COUNTS"]
+           "split_piece_junctions", "signed_volumes",
+           "triple_hash_reference", "FIX_COUNTS"]
 
 
 @dataclass
@@ -236,7 +237,7 @@ def _finish(F, V, topo, piece, first, n_pieces, flip, nonorientable_pieces):
         closed = ~has_boundary
         closed[nonorientable_pieces] = False
         if closed.any():
-            vol = _signed_volumes(V, F, flip, piece, n_pieces)
+            vol = signed_volumes(V, F, flip, piece, n_pieces)
             decided = closed & (vol != 0)
             invert[decided] = vol[decided] < 0
     if invert.any():
@@ -260,11 +261,27 @@ def _finish(F, V, topo, piece, first, n_pieces, flip, nonorientable_pieces):
     return res
 
 
-def _signed_volumes(V, F, flip, piece, n_pieces):
+def signed_volumes(V, F, flip, piece, n_pieces):
     """Signed volume of each piece with ``flip`` applied, about its own centroid.
 
     Taking each piece about the mean of its face centroids keeps the triple
     products small for scans far from the origin (millimetres at 1e6).
+    Compiled (:func:`shellrepair.fastmesh.piece_signed_volumes`, the same
+    sums) when the whole-mesh kernels are used.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+    flip : (m,) bool
+        Faces to count reversed.
+    piece : (m,) int64
+        Each face's piece.
+    n_pieces : int
+
+    Returns
+    -------
+    (n_pieces,) float64
     """
     if fastmesh.enabled(len(F)):
         return fastmesh.piece_signed_volumes(V, F, flip, piece, n_pieces)
@@ -624,7 +641,7 @@ def clean_faces(F):
     # faces whose hash value repeats (all duplicates, and rare collisions)
     # are grouped exactly, so a scan without duplicates sorts one array
     G = F if n_degen == 0 else F[idx]
-    h = fastmesh.triple_hash(G) if fastmesh.enabled(len(G)) else _triple_hash(G)
+    h = fastmesh.triple_hash(G) if fastmesh.enabled(len(G)) else triple_hash_reference(G)
     del G
     hs = np.sort(h)
     rep = np.unique(hs[1:][hs[1:] == hs[:-1]])
@@ -650,8 +667,19 @@ def clean_faces(F):
     return F[kept], kept, notes
 
 
-def _triple_hash(F):
-    """A 64-bit hash of each row's vertex set (equal for equal sets in any order)."""
+def triple_hash_reference(F):
+    """A 64-bit hash of each row's vertex set (equal for equal sets in any
+    order), in NumPy: the fallback, and the oracle of
+    :func:`shellrepair.fastmesh.triple_hash`.
+
+    Parameters
+    ----------
+    F : (m,3) int64
+
+    Returns
+    -------
+    (m,) uint64
+    """
     x, y, z = F[:, 0], F[:, 1], F[:, 2]
     a = np.minimum(x, y)
     np.minimum(a, z, out=a)

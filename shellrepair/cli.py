@@ -37,7 +37,7 @@ from pathlib import Path
 from .errors import MeshError
 from .progress import end_line, terminal_bar
 
-__all__ = ["main", "quiet_hugepages"]
+__all__ = ["main", "parse_args", "build_parser", "signed_values", "quiet_hugepages"]
 
 
 def quiet_hugepages():
@@ -60,13 +60,13 @@ def quiet_hugepages():
 
 
 def build_parser():
-    """The command line's argument parser (what :func:`main` reads).
+    """The command line's argument parser.
 
     Returns
     -------
     argparse.ArgumentParser
-        Its sub-commands ``holes``, ``repair``, ``batch`` and ``render``;
-        ``parse_args`` gives each option its default, as :func:`main` sees it.
+        The ``shellrepair`` parser with its commands (holes, repair, batch,
+        render) and their options.
     """
     from . import __version__
 
@@ -309,9 +309,20 @@ def _hole_options(p):
 _SIGNED = ("--view", "--look-at", "--up")
 
 
-def _signed_values(argv):
+def signed_values(argv):
     """``--view -46,12`` as ``--view=-46,12``: argparse reads a value that
-    starts with ``-`` (and is not one plain number) as an option."""
+    starts with ``-`` (and is not one plain number) as an option.
+
+    Parameters
+    ----------
+    argv : list of str
+        The command line's words (without the program name).
+
+    Returns
+    -------
+    list of str
+        The same words, each value of a signed option joined to its option.
+    """
     out, i = [], 0
     while i < len(argv):
         a = argv[i]
@@ -324,9 +335,25 @@ def _signed_values(argv):
     return out
 
 
+def parse_args(argv):
+    """The command line's arguments, read as :func:`main` reads them.
+
+    Parameters
+    ----------
+    argv : list of str
+        The command line's words (without the program name).
+
+    Returns
+    -------
+    argparse.Namespace
+        The command (``cmd``) and its options.
+    """
+    return build_parser().parse_args(signed_values(list(argv)))
+
+
 def main(argv=None):
     """Run the command line; returns the exit status."""
-    args = build_parser().parse_args(_signed_values(sys.argv[1:] if argv is None else list(argv)))
+    args = parse_args(sys.argv[1:] if argv is None else argv)
     quiet_hugepages()
     bar = terminal_bar(args.quiet)  # the one progress bar of this command (None: nothing drawn)
     try:

@@ -56,7 +56,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["ENABLED", "kernel", "available", "numba_found", "aot_loaded", "jit_loaded", "source_hash", "TYPES_FILE",
-           "PARTS", "MODULES", "describe"]
+           "PARTS", "MODULES", "describe", "aot_built"]
 
 HERE = Path(__file__).resolve().parent
 #: The argument types compiled ahead of time (written by ``python -m shellrepair.aot record``).
@@ -98,7 +98,7 @@ def _aot_names(digest=None):
 _BUILT = None
 
 
-def _aot_built() -> bool:
+def aot_built() -> bool:
     """Whether the compiled modules for these sources are there (looked up once)."""
     global _BUILT
     if _BUILT is None:
@@ -118,7 +118,7 @@ def available() -> bool:
     sources, or Numba can be imported (and ``SHELLREPAIR_NO_NUMBA`` is unset)."""
     if _NO_NUMBA:
         return False
-    return _aot_built() or numba_found()
+    return aot_built() or numba_found()
 
 
 #: The one flag: whether the kernels run (:func:`available`, once at import).
@@ -182,7 +182,7 @@ def _load_aot():
         if _AOT is not None:
             return _AOT
         table = {}
-        if _aot_built():
+        if aot_built():
             digest = source_hash()
             mods = [importlib.import_module(f"shellrepair.{n}") for n in _aot_names(digest)]
             for i, (m, n, args) in enumerate(read_types()):

@@ -443,7 +443,7 @@ def rim_data(ctx, loop):
     order, start = (reg.vf_order, reg.vf_start) if reg is not None else ctx.vf
     sig_sum, sig_cnt, edge_normals, forb = context_kernels.rim_walk(loop, order, start, ctx.F, ctx.V)
     forbidden = set(zip(forb[:, 0].tolist(), forb[:, 1].tolist()))
-    return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
+    return rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
 
 
 def _rim_faces(ctx, loop):
@@ -457,14 +457,30 @@ def _rim_faces(ctx, loop):
     return E, ln, nrm
 
 
-def _rim_sigma(ctx, loop, sig_sum, sig_cnt):
+def rim_sigma(ctx, loop, sig_sum, sig_cnt):
+    """The scale σ per loop vertex: the mean length of the scan edges at it,
+    or the loop edge from it where it has none (compiled:
+    :func:`shellrepair.context_kernels.rim_sigma`, else :func:`rim_sigma_reference`).
+
+    Parameters
+    ----------
+    ctx : ScanContext
+    loop : (k,) int64
+    sig_sum, sig_cnt : (k,) float64
+        The summed lengths of the scan edges at each loop vertex, and their count.
+
+    Returns
+    -------
+    (k,) float64
+    """
     if compiled.ENABLED:
         return context_kernels.rim_sigma(ctx.V, loop, sig_sum, sig_cnt)
-    return _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt)
+    return rim_sigma_reference(ctx, loop, sig_sum, sig_cnt)
 
 
-def _rim_sigma_numpy(ctx, loop, sig_sum, sig_cnt):
-    """:func:`_rim_sigma` in NumPy (the compiled one's test oracle)."""
+def rim_sigma_reference(ctx, loop, sig_sum, sig_cnt):
+    """:func:`rim_sigma` in NumPy (the fallback when kernels are off, and the
+    compiled one's test oracle); parameters and returns as :func:`rim_sigma`."""
     sigma = sig_sum / np.maximum(sig_cnt, 1)
     loop_len = np.linalg.norm(ctx.V[np.concatenate([loop[1:], loop[:1]])] - ctx.V[loop], axis=1)   # np.roll by -1
     return np.where(sig_cnt > 0, sigma, loop_len)
@@ -493,7 +509,7 @@ def rim_data_numpy(ctx, loop):
                 edge_normals[ia] = nrm[r % m]
             elif ia != (ib + 1) % k:
                 forbidden.add((min(ia, ib), max(ia, ib)))
-    return _rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
+    return rim_sigma(ctx, loop, sig_sum, sig_cnt), edge_normals, forbidden
 
 
 def submesh(ctx, loop, Pl, T, rings):
@@ -507,12 +523,33 @@ def submesh(ctx, loop, Pl, T, rings):
         g, Fs, loc_loop, ok = context_kernels.submesh(rf, ctx.F, loop, T, ctx.vpos())
         if ok:
             return g, Fs, len(g), loc_loop
-    return _submesh_numpy(ctx, loop, T, rf)
+    return submesh_reference(ctx, loop, T, rf)
 
 
-def _submesh_numpy(ctx, loop, T, rf):
-    """:func:`submesh` in NumPy from its ring faces ``rf`` (the compiled
-    numbering's test oracle)."""
+def submesh_reference(ctx, loop, T, rf):
+    """:func:`submesh` in NumPy from its ring faces ``rf`` (the fallback, and
+    the oracle of :func:`shellrepair.context_kernels.submesh`'s numbering).
+
+    Parameters
+    ----------
+    ctx : ScanContext
+    loop : (k,) int64
+    T : (t,3) int64
+        The patch's triangles (ids below k: loop positions; from k: new vertices).
+    rf : (r,) int64
+        The scan faces of the submesh (:meth:`ScanContext.ring_faces`).
+
+    Returns
+    -------
+    g : (n,) int64
+        Global ids of the fixed (scan) vertices, sorted.
+    Fs : (r+t,3) int64
+        The ring faces then the patch's, in local ids (fixed vertices first, then new).
+    nf : int
+        ``len(g)``.
+    loc_loop : (k,) int64
+        Each loop vertex's local id.
+    """
     k = len(loop)
     Fg = ctx.F[rf]
     g = uniq(Fg)

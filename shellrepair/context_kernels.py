@@ -10,7 +10,7 @@
   order test's band);
 * :func:`submesh`: a hole's submesh in local numbering
   (:func:`shellrepair.context.submesh`); :func:`rim_sigma`: a patch's rim
-  scale (:func:`shellrepair.context._rim_sigma`);
+  scale (:func:`shellrepair.context.rim_sigma`);
 * :func:`rim_edges`: a loop's rim scale and scan normals from the faces
   around it (:func:`shellrepair.context.rim_data`), and :func:`rim_walk`:
   the same with the faces around the loop found and measured in one pass.
@@ -266,7 +266,7 @@ def _rim_sigma(V, loop, sig_sum, sig_cnt):
 def rim_sigma(V, loop, sig_sum, sig_cnt):
     """Per loop vertex, the mean length of the scan edges at it, or the
     length of its loop edge where it has none (as
-    :func:`shellrepair.context._rim_sigma`).
+    :func:`shellrepair.context.rim_sigma`).
 
     Parameters
     ----------

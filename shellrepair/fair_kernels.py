@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["fair_small", "energy_blocks"]
+__all__ = ["fair_small", "energy_blocks", "cholesky_solve", "fair_round", "drop_spare_diagonal"]
 
 from . import compiled
 from .intrinsic_kernels import _cot_area, _flips, _laplacian_rows
@@ -415,7 +415,7 @@ def _symmetrise(ptr, col, val):
 
 @njit(cache=True, nogil=True)
 def _drop_spare_diagonal(ptr, col, val):
-    """The rows without the spare zero slots :func:`_laplacian_rows` leaves
+    """The rows without the spare zero slots :func:`shellrepair.intrinsic_kernels.laplacian_rows` leaves
     on the diagonal (a zero entry of column i in row i after the row's
     first): about half of a cotangent Laplacian's entries, each adding a
     zero product in :func:`_energy_rows` (so dropping them changes no sum)."""
@@ -481,3 +481,70 @@ def energy_blocks(ptr, col, val, D, order, unknown, fixed):
                                           is_fixed)
     uv = _symmetrise(up, uc, uv)
     return (up, uc, uv), (fp, fc, fv)
+
+
+def cholesky_solve(Q, B):
+    """Solve Q x = B by the dense Cholesky of :func:`fair_small`'s solves
+    (compiled ``_cholesky_solve``: the factor of the textbook row-by-row
+    Cholesky, each sum taken k = 0, 1, ... in turn).
+
+    Parameters
+    ----------
+    Q : (n,n) float64
+        Symmetric positive definite.
+    B : (n,c) float64
+
+    Returns
+    -------
+    X : (n,c) float64
+    ok : bool
+        False when a pivot was not positive (Q is not positive definite).
+    """
+    return _cholesky_solve(np.ascontiguousarray(Q, np.float64), np.ascontiguousarray(B, np.float64))
+
+
+def fair_round(ptr, col, val, D, order, X, fixed, unk_pos, unk):
+    """One round of :func:`fair_small` (compiled ``_fair_round``): minimise
+    xᵀQx, Q = K (D K)^(order−1), over the unknown rows of X.
+
+    Parameters
+    ----------
+    ptr, col, val : int64, int64, float64
+        K as CSR rows (:func:`shellrepair.intrinsic_kernels.laplacian_rows`,
+        with or without its spare diagonal slots: :func:`drop_spare_diagonal`).
+    D : (n,) float64
+        The inverse masses (ones for the uniform Laplacian).
+    order : int
+    X : (n,3) float64
+        The positions; the fixed rows are kept.
+    fixed : (n,) bool
+    unk_pos : (n,) int64
+        Each vertex's row among the unknowns, −1 for a fixed one.
+    unk : (u,) int64
+        The unknown vertices.
+
+    Returns
+    -------
+    Xu : (u,3) float64
+        The unknowns' positions.
+    ok : bool
+        False when the solve's Cholesky failed.
+    """
+    return _fair_round(ptr, col, val, D, order, X, fixed, unk_pos, unk)
+
+
+def drop_spare_diagonal(ptr, col, val):
+    """K's CSR rows without the spare zero slots
+    :func:`shellrepair.intrinsic_kernels.laplacian_rows` leaves on the
+    diagonal (compiled ``_drop_spare_diagonal``; dropping them changes no sum).
+
+    Parameters
+    ----------
+    ptr, col, val : int64, int64, float64
+
+    Returns
+    -------
+    ptr, col, val : int64, int64, float64
+        The same rows, each without its spare slots.
+    """
+    return _drop_spare_diagonal(ptr, col, val)

@@ -42,7 +42,7 @@ from . import compiled, halves
 #: :func:`preload` overlaps the loading with the reading of the file).
 MIN_FACES = 400_000
 
-__all__ = ["MIN_FACES", "enabled", "preload", "edge_topology_arrays", "edge_ids", "face_pieces_labels",
+__all__ = ["MIN_FACES", "enabled", "preload", "edge_topology_arrays", "edge_topology_steps", "edge_ids", "face_pieces_labels",
            "face_areas", "normal_moments", "edge_sq_lengths", "triple_hash", "vertex_faces", "piece_signed_volumes", "warm_up"]
 
 #: Runs of slots shorter than this are sorted by insertion (a vertex's
@@ -233,10 +233,31 @@ def _single_kernel(slot, count, n_single):
     return single
 
 
-def _edge_topology_steps(F, n, shift, two=False):
+def edge_topology_steps(F, n, shift, two=False):
     """The half-edge topology's arrays (see :func:`edge_topology_arrays`) in
     four steps, each in two halves: on two threads with ``two`` (the same
-    arrays either way)."""
+    arrays either way).
+
+    Parameters
+    ----------
+    F : (m,3) int64, C-contiguous
+    n : int
+        Vertex count.
+    shift : int
+        Vertices are filed in buckets of ``2**shift`` consecutive ids.
+    two : bool
+        Run each step's halves on two threads.
+
+    Returns
+    -------
+    he_order, edges, edge_count, boundary_he, consistent
+        As :func:`edge_topology_arrays`.
+
+    Raises
+    ------
+    ValueError
+        When a vertex id is outside ``0 .. n-1``.
+    """
     run = halves.both if two else halves.in_turn
     K = _kernels()
     m = len(F)
@@ -327,7 +348,7 @@ def edge_topology_arrays(F, n):
     if n >= 2 ** (63 - _KEY_SHIFT) or 3 * len(F) >= 2 ** _HE_BITS:
         return None
     shift = max(1, min(_BUCKET_SHIFT, max(n - 1, 1).bit_length()))
-    return _edge_topology_steps(F, n, shift, two=_two_threads(len(F)))
+    return edge_topology_steps(F, n, shift, two=_two_threads(len(F)))
 
 
 def edge_ids(he_order, edge_count):
@@ -565,7 +586,7 @@ def _triple_hash_kernel(F, out):
 
 def triple_hash(F):
     """The 64-bit hash of each row's vertex set that
-    :func:`shellrepair.io._triple_hash` computes, (m,) uint64, in one pass."""
+    :func:`shellrepair.clean.triple_hash_reference` computes, (m,) uint64, in one pass."""
     out = np.empty(len(F), np.uint64)
     _kernels().triple_hash(np.ascontiguousarray(F, np.int64), out)
     return out
@@ -596,7 +617,7 @@ def _volumes_kernel(V, F, flip, piece, n_pieces):
         cx = V[F[f, 2], 0] - cen[p, 0]
         cy = V[F[f, 2], 1] - cen[p, 1]
         cz = V[F[f, 2], 2] - cen[p, 2]
-        # dot(a, cross(b, c)) / 6 as clean._signed_volumes writes it
+        # dot(a, cross(b, c)) / 6 as clean.signed_volumes writes it
         det = (ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)) / 6.0
         vol[p] += -det if flip[f] else det
     return vol
@@ -604,7 +625,7 @@ def _volumes_kernel(V, F, flip, piece, n_pieces):
 
 def piece_signed_volumes(V, F, flip, piece, n_pieces):
     """Signed volume of each piece with ``flip`` applied, about the mean of
-    its face centroids; the sums of :func:`shellrepair.clean._signed_volumes`
+    its face centroids; the sums of :func:`shellrepair.clean.signed_volumes`
     in the same order (one pass for the centroids, one for the volumes)."""
     return _kernels().volumes(np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64),
                                np.ascontiguousarray(flip, np.bool_), np.ascontiguousarray(piece, np.int64),
@@ -640,7 +661,7 @@ def warm_up():
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
     F = np.array([[0, 1, 2], [2, 1, 3]], np.int64)
     order, edges, count, _, _ = edge_topology_arrays(F, 4)
-    _edge_topology_steps(F, 4, 1, two=True)
+    edge_topology_steps(F, 4, 1, two=True)
     edge_ids(order, count)
     face_pieces_labels(SimpleNamespace(he_order=order, edge_count=count), F, 2, manifold_only=True)
     face_areas(V, F)

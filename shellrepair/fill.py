@@ -28,7 +28,7 @@ from . import checks
 from .fair import umbrella_smooth
 
 from .checks import Outcome
-from .patch import PatchError, _corners, _meets_edge_on, build_patch
+from .patch import PatchError, corners, _meets_edge_on, build_patch
 
 __all__ = ["fill_hole", "fill_hole_at_order", "band_order", "SEED_SMOOTH_PASSES"]
 
@@ -39,7 +39,7 @@ SEED_SMOOTH_PASSES = 10
 def _chords_near(ctx, patch, bad):
     """Chords of the unrefined triangulation nearest to the faulty triangles."""
     k = len(patch.loop)
-    C, _ = _corners(ctx, patch)
+    C, _ = corners(ctx, patch)
     P0 = ctx.V[patch.loop]
     c0 = P0[patch.T0].mean(axis=1)
     near = np.unique(cKDTree(c0).query(C[bad].mean(axis=1))[1])

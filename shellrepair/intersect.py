@@ -883,21 +883,32 @@ def self_intersections(V, F):
     return len(crossing_pairs(V[F] - V.mean(axis=0), F))
 
 
-def _outline_is_simple(Q):
+def outline_is_simple(Q):
     """Is the closed 2-D polygon ``Q`` (k,2) simple (no two non-adjacent
     edges meet, not even touching)? Pair by pair in a compiled loop
     (:func:`shellrepair.intersect_kernels.outline_simple`) when the kernels are on,
-    else all pairs at once (:func:`_outline_is_simple_numpy`); the same
-    tests in the same arithmetic, so the same answer."""
+    else all pairs at once (:func:`outline_is_simple_reference`); the same
+    tests in the same arithmetic, so the same answer.
+
+    Parameters
+    ----------
+    Q : (k,2) float64
+
+    Returns
+    -------
+    bool
+    """
     Q = np.asarray(Q, np.float64)
     if not compiled.ENABLED or len(Q) < 3 or not np.isfinite(Q).all():
-        return _outline_is_simple_numpy(Q)
+        return outline_is_simple_reference(Q)
     span = float(np.ptp(Q, axis=0).max()) or 1.0
     return intersect_kernels.outline_simple(Q, 1e-12 * span * span)
 
 
-def _outline_is_simple_numpy(Q):
-    """:func:`_outline_is_simple` by NumPy over all edge pairs (the kernel's test oracle)."""
+def outline_is_simple_reference(Q):
+    """:func:`outline_is_simple` by NumPy over all edge pairs (the fallback,
+    and the oracle of :func:`shellrepair.intersect_kernels.outline_simple`);
+    parameters and returns as :func:`outline_is_simple`."""
     k = len(Q)
     if k < 3:
         return False
@@ -981,4 +992,4 @@ def embeds_by_projection(P, T, n_loop, axis=None):
     areas = -areas
     if not (areas > PROJECTION_AREA_TOL * np.abs(areas).max()).all():
         return False
-    return _outline_is_simple(q)
+    return outline_is_simple(q)

@@ -679,7 +679,7 @@ def projection_embeds(Q, T, k, sgn, area_tol):
     call: every projected patch triangle turns against the loop with an
     area above ``area_tol`` times the largest, and the loop's outline (the
     first ``k`` rows of ``Q``) is simple (:func:`outline_simple`, with
-    :func:`shellrepair.intersect._outline_is_simple`'s tolerance); the same
+    :func:`shellrepair.intersect.outline_is_simple`'s tolerance); the same
     products, comparisons and tolerance, so the same answer.
 
     Parameters
@@ -735,7 +735,7 @@ def _outline_simple(Q, eps):
 
 
 def outline_simple(Q, eps):
-    """:func:`shellrepair.intersect._outline_is_simple`'s pair test on every
+    """:func:`shellrepair.intersect.outline_is_simple`'s pair test on every
     pair of non-adjacent edges of the closed polygon ``Q`` (k,2), k >= 3,
     with its tolerance ``eps``: the same orientations, in the same
     arithmetic, so the same answer; it stops at the first pair that meets."""

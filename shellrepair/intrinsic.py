@@ -38,7 +38,8 @@ from . import compiled, intrinsic_kernels
 from .refine import independent_flips
 from .topology import edge_topology, manifold_pairs
 
-__all__ = ["intrinsic_delaunay", "intrinsic_laplacian", "laplacian_arrays", "laplacian_rows"]
+__all__ = ["intrinsic_delaunay", "intrinsic_laplacian", "laplacian_arrays", "flip_to_delaunay", "flip_to_delaunay_reference",
+           "cotangents", "twins", "triangle_areas"]
 
 #: An edge flips when its opposite cotangents sum below ``-FLIP_TOL``.
 FLIP_TOL = 1e-12
@@ -58,17 +59,42 @@ def triangle_areas(L):
     return 0.25 * np.sqrt(np.maximum(q, 0.0))
 
 
-def _cotangents(L):
-    """Cotangent of the angle facing each side (t,3), and the areas (t,)."""
+def cotangents(L):
+    """Cotangent of the angle facing each side, and the triangles' areas.
+
+    Parameters
+    ----------
+    L : (t,3) float64
+        ``L[f,i]``: length of the side from corner i to corner (i+1)%3.
+
+    Returns
+    -------
+    cot : (t,3) float64
+        Cotangent of the angle facing each side.
+    A : (t,) float64
+        The areas (:func:`triangle_areas`).
+    """
     A = triangle_areas(L)
     b, c = L[:, [1, 2, 0]], L[:, [2, 0, 1]]
     return (b * b + c * c - L * L) / (4.0 * np.maximum(A, 1e-300))[:, None], A
 
 
-def _twins(T, n):
+def twins(T, n):
     """Twin of each half-edge (slot ``3f+i`` runs ``T[f,i] -> T[f,i+1]``), or
     −1: boundary edges, and vertex pairs with more than two half-edges
-    (which are then not flipped)."""
+    (which are then not flipped).
+
+    Parameters
+    ----------
+    T : (t,3) int64
+        Triangles.
+    n : int
+        Vertex count.
+
+    Returns
+    -------
+    twin : (3t,) int64
+    """
     h1, h2 = manifold_pairs(edge_topology(T, n))
     twin = np.full(3 * len(T), -1, np.int64)
     twin[h1] = h2
@@ -94,17 +120,31 @@ def intrinsic_delaunay(X, F, max_rounds=MAX_ROUNDS):
     settled : bool
         Every interior edge is Delaunay (False if ``max_rounds`` ran out).
     """
-    T, L, settled, _ = _flip_to_delaunay(X, F, max_rounds)
+    T, L, settled, _ = flip_to_delaunay(X, F, max_rounds)
     return T, L, settled
 
 
-def _flip_to_delaunay(X, F, max_rounds=MAX_ROUNDS):
+def flip_to_delaunay(X, F, max_rounds=MAX_ROUNDS):
     """:func:`intrinsic_delaunay`, plus the cotangents and areas of the result
     (from its last round) when settled, else None. Compiled
     (:func:`shellrepair.intrinsic_kernels.intrinsic_flips`, the same bits) when Numba
-    is there, else :func:`_flip_to_delaunay_numpy`."""
+    is there, else :func:`flip_to_delaunay_reference`.
+
+    Parameters
+    ----------
+    X : (n,3) float64
+    F : (m,3) int64
+    max_rounds : int
+
+    Returns
+    -------
+    T, L, settled
+        As :func:`intrinsic_delaunay`.
+    known : (cot (m,3), A (m,)) or None
+        :func:`cotangents` of the result when settled.
+    """
     if not compiled.ENABLED:
-        return _flip_to_delaunay_numpy(X, F, max_rounds)
+        return flip_to_delaunay_reference(X, F, max_rounds)
     X = np.asarray(X, np.float64)
     T = np.array(F, np.int64)
     P = X[T]
@@ -113,18 +153,19 @@ def _flip_to_delaunay(X, F, max_rounds=MAX_ROUNDS):
     return T, L, settled, ((cot, A) if settled else None)
 
 
-def _flip_to_delaunay_numpy(X, F, max_rounds=MAX_ROUNDS):
-    """:func:`_flip_to_delaunay` in NumPy: rounds of vectorised flips (the
-    compiled kernel's test oracle)."""
+def flip_to_delaunay_reference(X, F, max_rounds=MAX_ROUNDS):
+    """:func:`flip_to_delaunay` in NumPy: rounds of vectorised flips (the
+    compiled kernel's test oracle, and the fallback when kernels are off).
+    Parameters and returns as :func:`flip_to_delaunay`."""
     X = np.asarray(X, np.float64)
     T = np.array(F, np.int64)
     P = X[T]
     L = np.linalg.norm(P[:, [1, 2, 0]] - P, axis=2)
     n, t = len(X), len(T)
     for _ in range(int(max_rounds)):
-        twin = _twins(T, n)
+        twin = twins(T, n)
         h1 = np.flatnonzero(twin > np.arange(3 * t))   # each interior edge once
-        cot, A = _cotangents(L)
+        cot, A = cotangents(L)
         f1, i1 = h1 // 3, h1 % 3
         h2 = twin[h1]
         f2, i2 = h2 // 3, h2 % 3
@@ -171,8 +212,8 @@ def intrinsic_laplacian(X, F):
         corners (the same total area as the mesh).
     """
     n = len(X)
-    T, L, _, known = _flip_to_delaunay(X, F)
-    cot, A = _cotangents(L) if known is None else known
+    T, L, _, known = flip_to_delaunay(X, F)
+    cot, A = cotangents(L) if known is None else known
     w = 0.5 * cot.ravel()
     i, j = T.ravel(), T[:, [1, 2, 0]].ravel()
     # each side's weight w: −w at (i, j) and (j, i), +w at (i, i) and (j, j); duplicates summed
@@ -182,39 +223,11 @@ def intrinsic_laplacian(X, F):
     return K, M
 
 
-def laplacian_rows(T, W, n, binary=False):
-    """K = D − A as CSR rows, by the compiled kernel the fairing rounds use
-    (diagonal included, columns unsorted, a spare zero on the diagonal).
-    Needs the kernels.
-
-    Parameters
-    ----------
-    T : (m,3) int64
-    W : (m,3) float64
-        Per face and side, the weight of the side's edge (½ cot for the
-        cotangent Laplacian); read only when not ``binary``.
-    n : int
-        Number of vertices.
-    binary : bool
-        A is the 0/1 adjacency of the edges of ``T`` (the uniform Laplacian).
-
-    Returns
-    -------
-    ptr, col, val : the CSR arrays of K
-    """
-    return intrinsic_kernels._laplacian_rows(np.ascontiguousarray(T, np.int64), W, n, binary)
-
-
 def laplacian_arrays(X, F):
     """:func:`intrinsic_laplacian` for the fairing rounds: K as compiled CSR
-    arrays (:func:`shellrepair.intrinsic_kernels._laplacian_rows`: columns unsorted,
+    arrays (:func:`shellrepair.intrinsic_kernels.laplacian_rows`: columns unsorted,
     a spare zero on the diagonal; K is symmetric, so they are its CSC too),
     without SciPy's conversion and sort. Needs the kernels.
-
-    Parameters
-    ----------
-    X : (n,3) float64
-    F : (m,3) int64
 
     Returns
     -------
@@ -222,8 +235,8 @@ def laplacian_arrays(X, F):
     M : (n,) float64
     """
     n = len(X)
-    T, L, _, known = _flip_to_delaunay(X, F)
-    cot, A = _cotangents(L) if known is None else known
-    ptr, col, val = intrinsic_kernels._laplacian_rows(T, 0.5 * cot, n, False)
+    T, L, _, known = flip_to_delaunay(X, F)
+    cot, A = cotangents(L) if known is None else known
+    ptr, col, val = intrinsic_kernels.laplacian_rows(T, 0.5 * cot, n, False)
     M = np.bincount(T.ravel(), np.repeat(A / 3.0, 3), n)
     return (ptr, col, val), M

@@ -2,8 +2,8 @@
 
 * :func:`intrinsic_flips`: intrinsic Delaunay edge flips in rounds, with
   the cotangents and areas of the result
-  (:func:`shellrepair.intrinsic._flip_to_delaunay`);
-* ``_laplacian_rows``: a Laplacian's CSR rows, the cotangent one of
+  (:func:`shellrepair.intrinsic.flip_to_delaunay`);
+* :func:`laplacian_rows`: a Laplacian's CSR rows, the cotangent one of
   :func:`shellrepair.intrinsic.intrinsic_laplacian` and the uniform one of
   :mod:`shellrepair.fair` (whose kernels call these too).
 
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["intrinsic_flips"]
+__all__ = ["intrinsic_flips", "laplacian_rows"]
 
 from . import compiled
 
@@ -28,7 +28,7 @@ njit = compiled.kernel
 # --------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
 def _cot_area(L, cot, A):
-    """:func:`shellrepair.intrinsic._cotangents` into ``cot``, ``A``."""
+    """:func:`shellrepair.intrinsic.cotangents` into ``cot``, ``A``."""
     for f in range(L.shape[0]):
         x, y, z = L[f, 0], L[f, 1], L[f, 2]
         # sides sorted a >= b >= c (the values, as np.sort gives them)
@@ -53,7 +53,7 @@ def _cot_area(L, cot, A):
 @njit(cache=True, nogil=True)
 def _manifold_twins(T, n, twin, start, slot):
     """Twin half-edges of the edges with exactly two half-edges, else −1
-    (:func:`shellrepair.intrinsic._twins`): half-edges bucketed by their
+    (:func:`shellrepair.intrinsic.twins`): half-edges bucketed by their
     smaller vertex (a counting sort), then paired inside each bucket."""
     m3 = 3 * T.shape[0]
     start[:] = 0
@@ -120,7 +120,7 @@ def _flips(T, L, n, max_rounds, flip_tol):
                 nb += 1
         if nb == 0:
             return True, cot, A
-        # refine._independent_flips: each the worst edge of both its faces;
+        # refine.independent_flips: each the worst edge of both its faces;
         # of ties the first keeps a face
         for j in range(nb):
             h = cand[j]
@@ -201,7 +201,7 @@ def _flips(T, L, n, max_rounds, flip_tol):
 
 
 def intrinsic_flips(T, L, n, max_rounds, flip_tol):
-    """Intrinsic Delaunay flips in rounds (as :func:`shellrepair.intrinsic._flip_to_delaunay`).
+    """Intrinsic Delaunay flips in rounds (as :func:`shellrepair.intrinsic.flip_to_delaunay`).
 
     Parameters
     ----------
@@ -298,3 +298,31 @@ def _laplacian_rows(T, W, n, binary):
             col[q] = v                  # unused slots: zeros on the diagonal
             val[q] = 0.0
     return ptr, col, val
+
+
+def laplacian_rows(T, W, n, binary):
+    """A Laplacian K = D − A as CSR rows (the compiled ``_laplacian_rows``).
+
+    Parameters
+    ----------
+    T : (m,3) int64, C-contiguous
+        Triangles.
+    W : (m,3) float64
+        ``W[f,s]``: the weight of side s of triangle f (read unless ``binary``).
+    n : int
+        Vertex count.
+    binary : bool
+        A is the 0/1 adjacency of the edges of ``T`` (the uniform Laplacian
+        of :func:`shellrepair.fair.uniform_laplacian`); else ``A_ij`` sums
+        ``W`` over the sides joining i and j (the cotangent Laplacian of
+        :func:`shellrepair.intrinsic.intrinsic_laplacian` with W = ½ cot).
+
+    Returns
+    -------
+    ptr : (n+1,) int64
+    col : int64
+        Each row's columns, its diagonal first, unsorted; each row ends with
+        spare slots (a zero on the diagonal) where sides repeat.
+    val : float64
+    """
+    return _laplacian_rows(T, W, n, binary)

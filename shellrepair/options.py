@@ -71,7 +71,7 @@ class RepairOptions:
         unscanned underside of a figure that stood on a table, or a cut
         through the figure): ``"auto"`` (default) caps it flat where the
         scan turns into the opening's plane along most of its rim and fairs
-        it otherwise (:func:`shellrepair.patch._turns_into_opening`);
+        it otherwise (:func:`shellrepair.patch.turns_into_opening`);
         ``"flat"`` caps every such opening flat (the object's real base is
         there); ``"faired"`` continues the walls into a faired fill. Planar
         openings of CAD parts are capped flat in every case.

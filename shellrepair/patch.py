@@ -338,20 +338,39 @@ def scan_allowed(ctx, loop):
     return allowed
 
 
-def _corners(ctx, patch):
-    """A patch's triangle corners (t,3,3) and ids (t,3): the scan vertex,
-    or ``-(1 + j)`` for new vertex j."""
+def corners(ctx, patch):
+    """A patch's triangle corners and their ids (compiled:
+    :func:`shellrepair.patch_kernels.patch_corners`, else :func:`corners_reference`).
+
+    Parameters
+    ----------
+    ctx : ScanContext
+    patch : Patch
+
+    Returns
+    -------
+    C : (t,3,3) float64
+        Each triangle's corners.
+    ids : (t,3) int64
+        The scan vertex at each corner, or ``-(1 + j)`` for new vertex j.
+    """
     if compiled.ENABLED:
         return patch_kernels.patch_corners(ctx.V, patch.loop, patch.P, patch.T)
-    return _corners_numpy(ctx, patch)
+    return corners_reference(ctx, patch)
 
 
-def _corners_numpy(ctx, patch):
-    """:func:`_corners` in NumPy (the compiled one's test oracle)."""
+def corners_reference(ctx, patch):
+    """:func:`corners` in NumPy (the fallback when kernels are off, and the
+    oracle of :func:`shellrepair.patch_kernels.patch_corners`); parameters
+    and returns as :func:`corners`."""
     k = len(patch.loop)
     allp = np.vstack([ctx.V[patch.loop], patch.P])
     ids = np.where(patch.T < k, patch.loop[np.minimum(patch.T, k - 1)], -(1 + patch.T - k))
     return allp[patch.T], ids.astype(np.int64)
+
+
+_corners = corners  # alias until merge.py and checks.py import corners
+
 #: A loop at most this planar (RMS distance to its plane over its diameter) ...
 EDGE_ON_PLANARITY = 0.02
 #: ... whose surrounding faces (``EDGE_ON_RINGS`` rings) have normals with a
@@ -360,7 +379,7 @@ EDGE_ON_PLANARITY = 0.02
 #: end. The walls stand across the opening's plane; a faired patch
 #: continues them into a dome. On a scan it gets a flat cap only where the
 #: walls turn into the opening's plane along most of its rim
-#: (:func:`_turns_into_opening`): a base the scan reached the edge of, not
+#: (:func:`turns_into_opening`): a base the scan reached the edge of, not
 #: a cut through walls that run on.
 EDGE_ON_COS = 0.35
 EDGE_ON_RINGS = 6
@@ -383,7 +402,7 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     plane, to be capped flat? On a scan, by ``ctx.base``
     (:class:`shellrepair.options.RepairOptions`): ``"flat"`` every such
     opening, ``"faired"`` none, ``"auto"`` where the walls turn into it
-    (:func:`_turns_into_opening`); a CAD face's outline always."""
+    (:func:`turns_into_opening`); a CAD face's outline always."""
     return edge_on_verdict(ctx, loop, hole_id)[0]
 
 
@@ -425,7 +444,7 @@ def edge_on_verdict(ctx, loop, hole_id=None):
     # the user's word on what the opening is (RepairOptions.base), else the rule
     if ctx.base == "flat":
         return True, ""
-    if ctx.base == "auto" and _turns_into_opening(ctx, loop):
+    if ctx.base == "auto" and turns_into_opening(ctx, loop):
         return True, ""
     return False, "faired by request" if ctx.base == "faired" else "the scan does not turn into its plane"
 
@@ -438,7 +457,7 @@ def _face_cross(ctx, faces):
     return cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
 
 
-def _turns_into_opening(ctx, loop):
+def turns_into_opening(ctx, loop):
     """Does the scan turn into the opening's plane along most of its rim?
 
     Walls standing across a planar opening either end there (a statue's
@@ -451,13 +470,24 @@ def _turns_into_opening(ctx, loop):
     formula; the scan's faces run the other way round the rim). The
     opening is a base, to be capped flat, when more than half of its rim
     vertices turn into it; otherwise the faired fill continues the walls.
+
+    Parameters
+    ----------
+    ctx : ScanContext
+    loop : (k,) int64
+        The opening's rim vertices, in the loop's order.
+
+    Returns
+    -------
+    bool
+        True: a base, to be capped flat.
     """
     return 2 * rim_turning(ctx, loop) > len(loop)
 
 
 def rim_turning(ctx, loop):
     """How many of the loop's vertices have first-ring faces that face out
-    through the opening (:func:`_turns_into_opening`'s count; 0 for a loop
+    through the opening (:func:`turns_into_opening`'s count; 0 for a loop
     with no orientation, such as one folded onto itself)."""
     P = ctx.V[loop]
     Q = np.roll(P, -1, axis=0)

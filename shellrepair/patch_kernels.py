@@ -1,7 +1,7 @@
 """Compiled kernels of a patch's checks (:mod:`shellrepair.patch`, Numba).
 
 * :func:`patch_corners`: a patch's triangle corners
-  (:func:`shellrepair.patch._corners`);
+  (:func:`shellrepair.patch.corners`);
 * :func:`face_cross`: faces' cross products, gathered and computed in one
   pass (:func:`shellrepair.patch._meets_edge_on`; the bridge's corner
   normal sums call it too).
@@ -44,7 +44,7 @@ def _patch_corners(V, loop, P, T):
 
 def patch_corners(V, loop, P, T):
     """A patch's triangle corners and their ids (as
-    :func:`shellrepair.patch._corners`).
+    :func:`shellrepair.patch.corners`).
 
     Parameters
     ----------

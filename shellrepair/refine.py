@@ -23,8 +23,8 @@ import numpy as np
 from . import compiled, refine_kernels
 from .geometry import cross
 
-__all__ = ["refine_patch", "refine_patches", "relax_edges", "relax_rounds", "relax_rounds_reference",
-           "independent_flips", "DENSITY_ALPHA"]
+__all__ = ["refine_patch", "refine_patches", "relax_edges", "relax", "relax_reference", "split_test_reference",
+           "angle_between", "unfolded", "independent_flips", "in_sorted", "DENSITY_ALPHA"]
 
 #: Liepa's density factor α.
 DENSITY_ALPHA = math.sqrt(2.0)
@@ -134,12 +134,12 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
     both the test and the next relaxation's first round look at the
     triangles the last round made or changed (the result is the one
     testing every triangle every round gives)."""
-    T, changed, settled = relax_rounds(P, T, is_loop, forb)
+    T, changed, settled = relax(P, T, is_loop, forb)
     capped = False
     test = np.ones(len(T), bool)          # triangles whose split verdict may have changed
     for _ in range(64):
         rows = np.flatnonzero(test)
-        C, sc, split_r = (refine_kernels.split_test if compiled.ENABLED else _split_test)(P, T[rows], s, alpha)
+        C, sc, split_r = (refine_kernels.split_test if compiled.ENABLED else split_test_reference)(P, T[rows], s, alpha)
         if not split_r.any():
             break
         split = np.zeros(len(T), bool)
@@ -161,16 +161,32 @@ def _refine(P, T, s, is_loop, forb, alpha, max_faces, owner=None):
         T = np.vstack([T[keep], np.column_stack([a, b, new]), np.column_stack([b, c, new]),
                        np.column_stack([c, a, new])])
         fresh = np.concatenate([np.zeros(int(keep.sum()), bool), np.ones(3 * ids.size, bool)])
-        T, changed, settled = relax_rounds(P, T, is_loop, forb, dirty=fresh if settled else None)
+        T, changed, settled = relax(P, T, is_loop, forb, dirty=fresh if settled else None)
         test = fresh | changed
     return P, T, owner, capped
 
 
-def _split_test(P, Tr, s, alpha):
+def split_test_reference(P, Tr, s, alpha):
     """The triangles ``Tr`` to split: centroid ``C``, mean scale ``sc`` and
     whether ``alpha`` times the centroid's distance to every corner exceeds
-    both ``sc`` and that corner's scale (:func:`shellrepair.refine_kernels.split_test`
-    is the same compiled)."""
+    both ``sc`` and that corner's scale. In NumPy: the fallback when kernels
+    are off, and the oracle of :func:`shellrepair.refine_kernels.split_test`
+    (the same, compiled).
+
+    Parameters
+    ----------
+    P : (k,3) float64
+    Tr : (r,3) int64
+    s : (k,) float64
+        Each vertex's scale.
+    alpha : float
+
+    Returns
+    -------
+    C : (r,3) float64
+    sc : (r,) float64
+    split : (r,) bool
+    """
     C = P[Tr].mean(axis=1)
     sc = s[Tr].mean(axis=1)
     d = np.linalg.norm(C[:, None, :] - P[Tr], axis=2) * alpha  # (r,3)
@@ -200,29 +216,26 @@ def relax_edges(P, T, n_loop, forbidden=None, max_rounds=100):
     T2 : (t,3) int64
     """
     P = np.asarray(P, np.float64)
-    return relax_rounds(P, np.array(T, np.int64), np.arange(len(P)) < n_loop, _forbidden_pairs(forbidden),
-                        max_rounds)[0]
+    return relax(P, np.array(T, np.int64), np.arange(len(P)) < n_loop, _forbidden_pairs(forbidden), max_rounds)[0]
 
 
-def relax_rounds(P, T, is_loop, forb, max_rounds=100, dirty=None):
-    """Delaunay flips of a patch's triangles, round by round
-    (:func:`relax_rounds_reference`), its bookkeeping compiled
-    (:func:`shellrepair.refine_kernels.relax`, the same result) when Numba
-    is there.
+def relax(P, T, is_loop, forb, max_rounds=100, dirty=None):
+    """The Delaunay relaxation of :func:`relax_edges` on arrays:
+    :func:`relax_reference`, its bookkeeping compiled
+    (:func:`shellrepair.refine_kernels.relax`, the same result) when Numba is there.
 
     Parameters
     ----------
-    P : (n,3) float64
-        The positions, the loop's first.
+    P : (k,3) float64
     T : (t,3) int64
-        The triangles (changed in place by the NumPy rounds).
-    is_loop : (n,) bool
-        The loop's vertices.
+        Triangles; may be changed in place.
+    is_loop : (k,) bool
+        The loop vertices.
     forb : (f,2) int64
-        Forbidden chords.
+        Forbidden chords between loop vertices.
     max_rounds : int
     dirty : (t,) bool, optional
-        The triangles whose edges the first round looks at (default: all).
+        Only these triangles' edges are looked at first (see :func:`relax_reference`).
 
     Returns
     -------
@@ -233,16 +246,16 @@ def relax_rounds(P, T, is_loop, forb, max_rounds=100, dirty=None):
         Whether it stopped because nothing was left to flip.
     """
     if compiled.ENABLED:
-        out = refine_kernels.relax(P, T, is_loop, forb, max_rounds, dirty, None, None, FLIP_EPS)   # (_angle_compiled's numbers)
+        out = refine_kernels.relax(P, T, is_loop, forb, max_rounds, dirty, None, None, FLIP_EPS)   # (angle_between's numbers, its products and sums compiled)
         if out is not None:   # None: a tie the vectorised writes order; redone below
             return out
-    return relax_rounds_reference(P, T, is_loop, forb, max_rounds, dirty)
+    return relax_reference(P, T, is_loop, forb, max_rounds, dirty)
 
 
-def relax_rounds_reference(P, T, is_loop, forb, max_rounds=100, dirty=None):
-    """Body of :func:`relax_edges` (``forb`` (f,2) forbidden chords), in
-    NumPy: the reference :func:`relax_rounds`' compiled bookkeeping is held
-    to. Parameters and returns as :func:`relax_rounds`.
+def relax_reference(P, T, is_loop, forb, max_rounds=100, dirty=None):
+    """:func:`relax` in NumPy: the fallback when kernels are off (or when a
+    tie needs the vectorised writes' order), and the oracle of
+    :func:`shellrepair.refine_kernels.relax`. Parameters as :func:`relax`.
 
     Returns ``(T, changed, settled)``: the triangles, which of them flips
     changed, and whether it stopped because nothing was left to flip (not
@@ -293,14 +306,14 @@ def relax_rounds_reference(P, T, is_loop, forb, max_rounds=100, dirty=None):
         srt = np.argsort(kab, kind="stable")  # a full pass lists edges by key
         h1, h2, f1, f2, i1, i2, a, b, c, d = (x[srt] for x in (h1, h2, f1, f2, i1, i2, a, b, c, d))
         pa, pb, pc, pd = P[a], P[b], P[c], P[d]
-        excess = _angle(pa - pc, pb - pc) + _angle(pa - pd, pb - pd) - np.pi
+        excess = angle_between(pa - pc, pb - pc) + angle_between(pa - pd, pb - pd) - np.pi
         geo = np.flatnonzero((excess > FLIP_EPS) & (c != d))
         if geo.size == 0:
             settled = True
             break
         cc, dd = c[geo], d[geo]
         ncd_c = np.minimum(cc, dd) * n + np.maximum(cc, dd)
-        exists = _in_sorted(ncd_c, edge_keys)
+        exists = in_sorted(ncd_c, edge_keys)
         if changed_keys:  # edges flips have made or removed since the pairing
             ck = np.fromiter(changed_keys.keys(), np.int64, len(changed_keys))
             cv = np.fromiter(changed_keys.values(), bool, len(changed_keys))
@@ -311,8 +324,8 @@ def relax_rounds_reference(P, T, is_loop, forb, max_rounds=100, dirty=None):
             exists[hit] = cv[pos[hit]]
         ok = ~exists                                     # the new edge must not exist
         if forb.size:
-            ok &= ~(is_loop[cc] & is_loop[dd] & _in_sorted(ncd_c, forb))
-        ok &= _unfolded(pa[geo], pb[geo], pc[geo], pd[geo])
+            ok &= ~(is_loop[cc] & is_loop[dd] & in_sorted(ncd_c, forb))
+        ok &= unfolded(pa[geo], pb[geo], pc[geo], pd[geo])
         cand = geo[ok]
         if cand.size == 0:
             settled = True
@@ -368,9 +381,20 @@ def relax_rounds_reference(P, T, is_loop, forb, max_rounds=100, dirty=None):
     return T, changed, settled
 
 
-def _unfolded(pa, pb, pc, pd):
+def unfolded(pa, pb, pc, pd):
     """Would flipping edge a-b of triangles (a,b,c), (b,a,d) to c-d keep both
-    new triangles facing the way the old pair faced (no fold)?"""
+    new triangles facing the way the old pair faced (no fold)? The oracle of
+    :func:`shellrepair.refine_kernels.unfolded`.
+
+    Parameters
+    ----------
+    pa, pb, pc, pd : (m,3) float64
+        The corners of each candidate edge's two triangles.
+
+    Returns
+    -------
+    (m,) bool
+    """
     nold = cross(pb - pa, pc - pa) + cross(pa - pb, pd - pb)
     m1 = cross(pa - pc, pd - pc)
     m2 = cross(pb - pd, pc - pd)
@@ -390,19 +414,19 @@ def independent_flips(cand, g1, g2, excess, ncd, nt):
     Parameters
     ----------
     cand : (c,) int64
-        The candidate edges, in their order.
+        The candidate edges, in the order ties are broken.
     g1, g2 : (c,) int64
         Each candidate's two faces.
     excess : (c,) float64
-        How far each is from Delaunay (the larger, the worse).
+        How far each candidate's opposite angles sum beyond π.
     ncd : (c,) int64
         The key of the edge each flip would make.
     nt : int
-        Number of faces.
+        Face count.
 
     Returns
     -------
-    (s,) int64
+    (f,) int64
         The chosen entries of ``cand``.
     """
     best = np.full(nt, -np.inf)
@@ -424,22 +448,37 @@ def independent_flips(cand, g1, g2, excess, ncd, nt):
     return cand[np.flatnonzero(keep)[firstn]]
 
 
-def _in_sorted(x, sorted_keys):
-    """``np.isin(x, sorted_keys)`` for a sorted ``sorted_keys``."""
+def in_sorted(x, sorted_keys):
+    """``np.isin(x, sorted_keys)`` for a sorted ``sorted_keys``.
+
+    Parameters
+    ----------
+    x : (m,) int64
+    sorted_keys : (k,) int64, sorted
+
+    Returns
+    -------
+    (m,) bool
+    """
     if sorted_keys.size == 0:
         return np.zeros(len(x), bool)
     pos = np.minimum(np.searchsorted(sorted_keys, x), sorted_keys.size - 1)
     return sorted_keys[pos] == x
 
 
-def _angle_compiled(u, v):
-    """:func:`_angle` with its products and sums compiled
-    (:func:`shellrepair.refine_kernels.angle_parts`), NumPy's arctan2."""
-    cr, dt = refine_kernels.angle_parts(u, v)
-    return np.arctan2(cr, dt)
+def angle_between(u, v):
+    """Angle between row vectors (atan2 form, accurate near 0 and π); the
+    arctan2 arguments are those :func:`shellrepair.refine_kernels.angle_parts` computes.
 
+    Parameters
+    ----------
+    u, v : (m,3) float64
 
-def _angle(u, v):
-    """Angle between row vectors (atan2 form, accurate near 0 and π)."""
+    Returns
+    -------
+    (m,) float64
+        In [0, π].
+    """
     cr = np.linalg.norm(cross(u, v), axis=1)
     return np.arctan2(cr, np.sum(u * v, axis=1))
+

@@ -1,11 +1,11 @@
 """Compiled kernels of a patch's refinement and relaxation (:mod:`shellrepair.refine`, Numba).
 
 * :func:`relax`: a patch's Delaunay edge flips
-  (:func:`shellrepair.refine._relax`), the angles still NumPy's, and
+  (:func:`shellrepair.refine.relax`), the angles still NumPy's, and
   :func:`relax_round_parts`: one round's angle parts and fold tests;
 * :func:`angle_parts`, :func:`unfolded`: the products and sums of the
   relaxation's opposite angles (the arctan2 left to NumPy) and its fold
-  test (:func:`shellrepair.refine._angle`, :func:`shellrepair.refine._unfolded`);
+  test (:func:`shellrepair.refine.angle_between`, :func:`shellrepair.refine.unfolded`);
 * :func:`split_test`: the refinement's split test (:func:`shellrepair.refine._refine`).
 
 Each gives what its NumPy version gives, to the bit (tests/test_kernels.py).
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["relax", "relax_round_parts", "angle_parts", "unfolded", "split_test"]
+__all__ = ["relax", "relax_round_parts", "angle_parts", "unfolded", "split_test", "pair_half_edges"]
 
 from . import compiled
 from .common_kernels import _in_sorted
@@ -25,7 +25,7 @@ njit = compiled.kernel
 
 
 # --------------------------------------------------------------------------
-# Delaunay relaxation of a patch (refine._relax): the bookkeeping compiled,
+# Delaunay relaxation of a patch (refine.relax): the bookkeeping compiled,
 # the angles left to NumPy (its arctan2 is not libm's to the last bit)
 # --------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
@@ -53,7 +53,7 @@ def _relax_gather(T, twin, active, n):
 
 @njit(cache=True, nogil=True)
 def _relax_apply(T, twin, changed, is_loop, forb, edge_keys, ck_keys, ck_vals, g, excess, unfolded, flip_eps, n):
-    """One round of refine._relax after its angles: returns (status, active);
+    """One round of refine.relax after its angles: returns (status, active);
     status 0: flipped, go on; 1: settled; 2: faces shared by two flips of
     the round (a tie NumPy's vectorised writes resolve by order: the caller
     redoes the whole relaxation in NumPy). ``ck_keys`` (sorted) and
@@ -91,7 +91,7 @@ def _relax_apply(T, twin, changed, is_loop, forb, edge_keys, ck_keys, ck_vals, g
             nc += 1
     if nc == 0:
         return 1, none, ck_keys, ck_vals
-    # refine._independent_flips
+    # refine.independent_flips
     best = np.empty(nt)
     for q in range(nc):
         j = cand[q]
@@ -239,7 +239,7 @@ def _relax_apply(T, twin, changed, is_loop, forb, edge_keys, ck_keys, ck_vals, g
 
 @njit(cache=True, nogil=True)
 def _pair_half_edges(T, n):
-    """The half-edge pairing of :func:`shellrepair.refine._relax_numpy`
+    """The half-edge pairing of :func:`shellrepair.refine.relax_reference`
     (``key = min·n + max`` per half-edge ``3f+c``, its stable argsort, twins
     of neighbours in it), by a counting sort on the lower vertex and an
     insertion sort on the higher one within it (the same order).
@@ -295,7 +295,7 @@ def _pair_half_edges(T, n):
 
 
 def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
-    """:func:`shellrepair.refine._relax` with its bookkeeping compiled.
+    """:func:`shellrepair.refine.relax` with its bookkeeping compiled.
 
     The same rounds, choices and results; the opposite angles and the fold
     test stay NumPy's own (``angle``, ``unfolded``: refine's functions),
@@ -305,7 +305,7 @@ def relax(P, T, is_loop, forb, max_rounds, dirty, angle, unfolded, flip_eps):
 
     Returns
     -------
-    T, changed, settled : as ``_relax``; or None when two flips of a round
+    T, changed, settled : as :func:`shellrepair.refine.relax`; or None when two flips of a round
         share a face (a tie between equal excesses), for the caller to
         redo in NumPy.
     """
@@ -406,7 +406,7 @@ def _angle_parts(u, v):
 
 
 def angle_parts(u, v):
-    """The two arguments of :func:`shellrepair.refine._angle`'s arctan2:
+    """The two arguments of :func:`shellrepair.refine.angle_between`'s arctan2:
     ``|u × v|`` and ``u · v`` per row, as its NumPy products and sums
     give them (the arctan2 stays NumPy's).
 
@@ -445,7 +445,7 @@ def _unfolded(pa, pb, pc, pd):
 
 
 def unfolded(pa, pb, pc, pd):
-    """:func:`shellrepair.refine._unfolded` compiled: would flipping edge
+    """:func:`shellrepair.refine.unfolded` compiled: would flipping edge
     a-b of triangles (a,b,c), (b,a,d) to c-d keep both new triangles
     facing the way the old pair faced? The same products and sums.
 
@@ -501,3 +501,26 @@ def split_test(P, Tr, s, alpha):
     """
     return _split_test(np.ascontiguousarray(P, np.float64), np.ascontiguousarray(Tr, np.int64),
                        np.ascontiguousarray(s, np.float64), float(alpha))
+
+
+def pair_half_edges(T, n):
+    """The half-edge pairing :func:`relax` starts from (compiled ``_pair_half_edges``):
+    ``key = min·n + max`` per half-edge ``3f+c`` (running ``T[f,c] -> T[f,(c+1)%3]``),
+    as NumPy's stable argsort of the keys pairs them.
+
+    Parameters
+    ----------
+    T : (t,3) int64
+    n : int
+        Vertex count (above every id in ``T``).
+
+    Returns
+    -------
+    ks : (3t,) int64
+        The sorted keys.
+    twin : (3t,) int64
+        Each half-edge's neighbour of equal key in the sorted order (−1: none).
+    active : int64
+        ``order[pair]``: the first half-edge of each pair, in key order.
+    """
+    return _pair_half_edges(np.ascontiguousarray(T, np.int64), n)

@@ -59,7 +59,7 @@ from .checks import check_patch
 from .context import rim_data
 from .fair import harmonic_interpolate, uniform_laplacian
 from .geometry import plane_frame
-from .intersect import _outline_is_simple
+from .intersect import outline_is_simple
 from .patch import Patch
 from .refine import DENSITY_ALPHA, MAX_PATCH_FACES, _forbidden_pairs, _refine, refine_patch, relax_edges
 
@@ -157,7 +157,7 @@ def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
     for name, axis in _axes(ctx, loop, C):
         u, v = plane_frame(axis)
         Q = np.column_stack([C @ u, C @ v]) / diameter
-        if not _outline_is_simple(Q):
+        if not outline_is_simple(Q):
             why.append(f"its outline seen along {name} is not a simple polygon")
             continue
         folded = False

@@ -18,7 +18,7 @@ from .geometry import cross, uniq, vertex_faces_scipy
 #: Faces per chunk in per-face geometry over the whole mesh.
 CHUNK = 1 << 16
 
-__all__ = ["EdgeTopology", "edge_topology", "edge_count_delta", "face_components", "face_pieces", "face_areas",
+__all__ = ["EdgeTopology", "edge_topology", "edge_topology_reference", "edge_count_delta", "face_components", "face_pieces", "face_areas",
            "face_normals",
            "euler_characteristic", "vertex_faces", "components_of_pieces", "manifold_pairs",
            "coincident_vertices", "corner_fans"]
@@ -128,7 +128,7 @@ def edge_topology(F, n_vertices=None):
         order, edges, count, boundary_he, consistent = got
         edge_of_he = None   # built when asked for
     else:
-        order, edge_of_he, edges, count, boundary_he = _edge_topology_numpy(F, n)
+        order, edge_of_he, edges, count, boundary_he = edge_topology_reference(F, n)
         consistent = None
     return EdgeTopology(edges=edges, edge_count=count, boundary_he=boundary_he, nonmanifold_edges=edges[count > 2],
                         he_order=order, faces=F, consistent=consistent, _edge_of_he=edge_of_he)
@@ -154,9 +154,22 @@ def _edge_topology_compact(F, n):
                         consistent=topo.consistent, _edge_of_he=topo._edge_of_he)
 
 
-def _edge_topology_numpy(F, n):
+def edge_topology_reference(F, n):
     """:func:`edge_topology`'s arrays by one stable argsort of packed edge
-    keys (the reference for :func:`shellrepair.fastmesh.edge_topology_arrays`)."""
+    keys, in NumPy: the fallback, and the reference for
+    :func:`shellrepair.fastmesh.edge_topology_arrays`.
+
+    Parameters
+    ----------
+    F : (m,3) int64, C-contiguous
+    n : int
+        Vertex count.
+
+    Returns
+    -------
+    he_order, edge_of_he, edges, edge_count, boundary_he
+        The fields of :class:`EdgeTopology` of the same names.
+    """
     nn = np.int64(max(n, 1))
     m = F.shape[0]
     m3 = 3 * m

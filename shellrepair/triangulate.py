@@ -47,7 +47,9 @@ from .geometry import cross, dot, plane_frame, points_in_polygon
 
 from .errors import MeshError
 
-__all__ = ["triangulate_loop", "restricted_dp", "delaunay_faces", "DP_MAX", "RESTRICTED_MAX"]
+__all__ = ["triangulate_loop", "restricted_dp", "restricted_dp_reference", "delaunay_faces", "delaunay_faces_uncached",
+           "delaunay_in_projection", "loop_cover_reference", "with_loop_edges", "best_chord", "best_chord_rows", "liepa_dp",
+           "dp_tables_reference", "vector_length", "DP_MAX", "RESTRICTED_MAX", "DELAUNAY_KEPT", "DELAUNAY_CACHE"]
 
 #: Largest loop triangulated by one dynamic program.
 DP_MAX = 200
@@ -88,7 +90,7 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
        (:func:`delaunay_faces`, :func:`restricted_dp`; loops up to
        ``RESTRICTED_MAX`` edges). Such triangles meet only at shared edges
        and corners, so this triangulation never crosses itself;
-    3. the full O(k³) search (:func:`_dp`), loops up to ``DP_MAX`` edges;
+    3. the full O(k³) search (:func:`liepa_dp`), loops up to ``DP_MAX`` edges;
     4. longer loops are cut by a short chord into two pieces, each
        triangulated by layers 2–4 on its own vertices.
 
@@ -152,37 +154,64 @@ def triangulate_loop(P, edge_normals=None, forbidden=None, axis="auto", fast=Tru
         else:
             C = P - P.mean(axis=0)
             va = -0.5 * cross(C, np.concatenate([C[1:], C[:1]])).sum(axis=0)   # np.roll by -1
-        ln = _length(va)
+        ln = vector_length(va)
         axis = va / ln if ln > 0 else None
     if axis is not None:
         axis = np.asarray(axis, np.float64)
     if axis is not None and fast:
-        T = _delaunay_in_projection(P, axis, forbidden, C)
+        T = delaunay_in_projection(P, axis, forbidden, C)
         if T is not None and (allowed is None or np.asarray(allowed(T), bool).all()):
             return T
     return _triangulate(P, idx, edge_normals, forbidden, axis, allowed)
 
 
-def _length(x):
+def vector_length(x):
     """``np.linalg.norm(x)`` of a vector: for a float64 one its own steps
     (``sqrt(x.dot(x))``, the same dot product) without its Python
-    overhead."""
+    overhead.
+
+    Parameters
+    ----------
+    x : (d,) array
+
+    Returns
+    -------
+    float
+        The same value as ``np.linalg.norm(x)``, to the bit.
+    """
     if x.dtype == np.float64 and x.ndim == 1:
         return math.sqrt(x.dot(x))
     return np.linalg.norm(x)
 
 
-def _delaunay_in_projection(P, axis, forbidden, C=None):
+def delaunay_in_projection(P, axis, forbidden, C=None):
     """The Delaunay triangulation of the loop projected along ``axis``, when
     it is a triangulation of the loop: every loop edge present, k − 2
     triangles inside the outline, all facing along ``axis``, no forbidden
     chord. None otherwise (non-convex outlines whose edges are not Delaunay,
-    outlines that overlap themselves). ``C``: ``P - P.mean(axis=0)`` when
-    the caller has it."""
+    outlines that overlap themselves).
+
+    Parameters
+    ----------
+    P : (k,3) float64
+        The loop.
+    axis : (3,) float64
+        The direction to project along (any length).
+    forbidden : set of (int, int)
+        Chords (loop positions, smaller first) no triangle may have.
+    C : (k,3) float64, optional
+        ``P - P.mean(axis=0)``, when the caller has it.
+
+    Returns
+    -------
+    T : (k-2,3) int64 or None
+        Compiled checks when the kernels are on, else
+        :func:`loop_cover_reference`'s; the same triangles.
+    """
     from scipy.spatial import Delaunay, QhullError
 
     k = len(P)
-    a = axis / _length(axis)
+    a = axis / vector_length(axis)
     u, v = plane_frame(a)
     if C is None:
         plain = compiled.ENABLED and P.dtype == np.float64 and P.flags.c_contiguous
@@ -216,7 +245,7 @@ _NO_KEYS = np.zeros(0, np.int64)
 
 
 def _loop_cover_numpy(P, Q, S, a, k, forbidden):
-    """The checks of :func:`_delaunay_in_projection` on its Delaunay
+    """The checks of :func:`delaunay_in_projection` on its Delaunay
     triangles ``S`` in NumPy (the compiled checks' test oracle): ``S``
     kept inside the outline and oriented, or None."""
     # keep triangles whose centroid is inside the outline (even-odd rule)
@@ -226,15 +255,30 @@ def _loop_cover_numpy(P, Q, S, a, k, forbidden):
         return None
     # orient each along the axis (our convention: normal along the axis)
     n = cross(P[S[:, 1]] - P[S[:, 0]], P[S[:, 2]] - P[S[:, 0]]) @ a
-    S, ok = _loop_cover_oriented(S, n, k)
+    S, ok = loop_cover_reference(S, n, k)
     return _none_forbidden(S, forbidden) if ok else None
 
 
-def _loop_cover_oriented(S, n, k):
+def loop_cover_reference(S, n, k):
     """``S`` turned to face along ``n``'s signs, and whether it covers the
     loop: no triangle flat (``|n|`` at most 1e-12 of the largest), every
-    loop edge present (NumPy; :func:`shellrepair.triangulate_kernels.loop_cover`'s
-    oracle)."""
+    loop edge present (NumPy: the fallback, and
+    :func:`shellrepair.triangulate_kernels.loop_cover`'s oracle).
+
+    Parameters
+    ----------
+    S : (t,3) int64
+        Triangles of loop positions.
+    n : (t,) float64
+        Each triangle's normal along the projection axis.
+    k : int
+        Loop length.
+
+    Returns
+    -------
+    S : (t,3) int64
+    covers : bool
+    """
     S = np.where((n < 0)[:, None], S[:, [0, 2, 1]], S)
     n = np.abs(n)
     if (n <= 1e-12 * np.max(n)).any():
@@ -268,11 +312,11 @@ def _triangulate(P, idx, edge_normals, forbidden, axis, allowed=None):
     if k <= DP_MAX:
         if axis is not None:
             try:
-                return _dp(P, idx, edge_normals, forbidden, axis)
+                return liepa_dp(P, idx, edge_normals, forbidden, axis)
             except MeshError:
                 pass
-        return _dp(P, idx, edge_normals, forbidden, None)
-    i, j = _best_chord(P, idx, forbidden)
+        return liepa_dp(P, idx, edge_normals, forbidden, None)
+    i, j = best_chord(P, idx, forbidden)
     a = idx[i:j + 1]                          # closes with chord idx[j] -> idx[i]
     b = np.concatenate([idx[j:], idx[:i + 1]])  # closes with chord idx[i] -> idx[j]
     Ta = _triangulate(P, a, edge_normals, forbidden, axis, allowed)
@@ -289,7 +333,7 @@ def _restricted(P, idx, edge_normals, forbidden, axis, allowed):
     D = delaunay_faces(Q)
     if D is None or len(D) > FACES_PER_VERTEX * k:
         return None
-    D = _with_loop_edges(D, k)
+    D = with_loop_edges(D, k)
     # rim normals of the sub-loop's edges that are loop edges; forbidden pairs in local positions
     nxt = np.roll(idx, -1)
     rim_ok = (idx + 1) % len(P) == nxt
@@ -324,10 +368,24 @@ def _restricted(P, idx, edge_normals, forbidden, axis, allowed):
     return None
 
 
-def _with_loop_edges(D, k):
+def with_loop_edges(D, k):
     """Candidates ``D`` plus, for each loop edge no candidate has (the
     tetrahedralization need not contain the loop's edges), the triangles on
-    it with every other apex; only those may then cross other candidates."""
+    it with every other apex; only those may then cross other candidates.
+
+    Parameters
+    ----------
+    D : (t,3) int64
+        Candidate triangles of loop positions, corners sorted ascending
+        (:func:`delaunay_faces`).
+    k : int
+        Loop length.
+
+    Returns
+    -------
+    (u,3) int64
+        ``D`` itself when it has every loop edge, else the union, sorted by key.
+    """
     n = np.int64(k)
     seen, ok = triangulate_kernels.loop_edges_present(D, k) if compiled.ENABLED else (None, False)
     if ok:
@@ -349,20 +407,40 @@ def _with_loop_edges(D, k):
     return np.column_stack([key // (n * n), (key // n) % n, key % n])
 
 
-#: Sub-loops shorter than this are searched row by row (:func:`_best_chord_rows`).
+#: Sub-loops shorter than this are searched row by row (:func:`best_chord_rows`).
 CHORD_ROWS_MAX = 256
 
 
-def _best_chord(P, idx, forbidden):
+def best_chord(P, idx, forbidden):
     """Shortest chord between loop positions at least k/4 apart either way.
 
-    The answer of the row-by-row search (:func:`_best_chord_rows`, O(k²)),
+    The answer of the row-by-row search (:func:`best_chord_rows`, O(k²)),
     in O(k^1.5 log k): the positions are cut into blocks of about √k; a row
     ``i``'s allowed partners (``i + q .. i + k − q``) are whole blocks, each
     searched by a k-d tree (blocks holding a forbidden partner of the row
     by brute force), and at most two part-blocks at the window's ends, by
     brute force. The row nearest overall, the first of equals, gets its
-    partner as the row-by-row search picks it.
+    partner as the row-by-row search picks it. Compiled
+    (:func:`shellrepair.triangulate_kernels.chord_rows`) when the kernels
+    are on, the loop at most ``CHORD_KERNEL_MAX`` long and its ids distinct.
+
+    Parameters
+    ----------
+    P : (n,3) float64
+    idx : (k,) int64
+        The sub-loop's vertices.
+    forbidden : set of (int, int)
+        Vertex pairs (smaller first) no chord may join.
+
+    Returns
+    -------
+    i, j : int
+        The chord's positions in ``idx``, ``i < j``.
+
+    Raises
+    ------
+    MeshError
+        When every far enough pair is forbidden.
     """
     from scipy.spatial import cKDTree
 
@@ -370,7 +448,7 @@ def _best_chord(P, idx, forbidden):
     if compiled.ENABLED and k <= CHORD_KERNEL_MAX and len(np.unique(idx)) == k:
         return _best_chord_compiled(P, idx, forbidden)
     if k < CHORD_ROWS_MAX:
-        return _best_chord_rows(P, idx, forbidden)
+        return best_chord_rows(P, idx, forbidden)
     Q = P[idx]
     q = max(3, k // 4)
     rows = k - q
@@ -461,7 +539,7 @@ CHORD_KERNEL_MAX = 6000
 
 
 def _best_chord_compiled(P, idx, forbidden):
-    """:func:`_best_chord_rows` by :func:`shellrepair.triangulate_kernels.chord_rows`;
+    """:func:`best_chord_rows` by :func:`shellrepair.triangulate_kernels.chord_rows`;
     where the chosen row has several equally near partners, its pick is
     made as the row-by-row search makes it (NumPy's argsort order)."""
     k = len(idx)
@@ -474,8 +552,11 @@ def _best_chord_compiled(P, idx, forbidden):
     return i, (_pick_in_row(Q, idx, i, q, forbidden) if ties > 1 else j)
 
 
-def _best_chord_rows(P, idx, forbidden):
-    """:func:`_best_chord` row by row (its test oracle)."""
+def best_chord_rows(P, idx, forbidden):
+    """:func:`best_chord` row by row, O(k²): used for short sub-loops, and
+    the oracle of the block search and of
+    :func:`shellrepair.triangulate_kernels.chord_rows`. Parameters, returns
+    and errors as :func:`best_chord`."""
     k = len(idx)
     Q = P[idx]
     q = max(3, k // 4)
@@ -496,8 +577,33 @@ def _best_chord_rows(P, idx, forbidden):
     return best[1], best[2]
 
 
-def _dp(P, idx, edge_normals, forbidden, axis=None):
-    """Liepa's O(k³) dynamic program on the sub-loop ``idx``."""
+def liepa_dp(P, idx, edge_normals, forbidden, axis=None):
+    """Liepa's O(k³) dynamic program on the sub-loop ``idx``: the
+    triangulation whose worst dihedral angle (then area) is least (tables
+    compiled by :func:`shellrepair.triangulate_kernels.liepa_tables` when the
+    kernels are on, else :func:`dp_tables_reference`; the same triangles).
+
+    Parameters
+    ----------
+    P : (n,3) float64
+    idx : (k,) int64
+        The sub-loop's vertices, in order.
+    edge_normals : (n,3) float64
+        The scan face's normal across each loop edge ``(i, i+1)``.
+    forbidden : set of (int, int)
+        Vertex pairs (smaller first) no triangle side may join.
+    axis : (3,) float64, optional
+        Every triangle must face along it.
+
+    Returns
+    -------
+    T : (k-2,3) int64
+
+    Raises
+    ------
+    MeshError
+        When no triangulation avoids the forbidden chords (or faces along ``axis``).
+    """
     k = len(idx)
     if k == 3:
         T = np.array([[idx[0], idx[2], idx[1]]], np.int64)
@@ -527,7 +633,7 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
     if compiled.ENABLED:
         O, worst = triangulate_kernels.liepa_tables(Q, rim, has_rim, forb, axis, ANGLE_TIE)
     else:
-        O, worst = _dp_tables(Q, rim, has_rim, forb, axis)
+        O, worst = dp_tables_reference(Q, rim, has_rim, forb, axis)
     if not np.isfinite(worst):
         if axis is not None:
             raise MeshError("no triangulation of this loop faces along its axis")
@@ -545,13 +651,28 @@ def _dp(P, idx, edge_normals, forbidden, axis=None):
     return np.array(tris, np.int64)
 
 
-def _dp_tables(Q, rim, has_rim, forb, axis):
-    """The tables of :func:`_dp`, vectorised over all splits of one interval
+def dp_tables_reference(Q, rim, has_rim, forb, axis):
+    """The tables of :func:`liepa_dp`, vectorised over all splits of one interval
     length at a time (the compiled :func:`shellrepair.triangulate_kernels.liepa_tables`'
-    test oracle).
+    test oracle, and the fallback when the kernels are off).
 
-    Returns ``(O, worst)``: the apex closing each interval ``(i, j)`` and
-    the whole loop's worst dihedral cost (inf: no triangulation).
+    Parameters
+    ----------
+    Q : (k,3) float64
+        The sub-loop's positions.
+    rim : (k,3) float64
+        The scan normal across each sub-loop edge ``(i, i+1)`` where ``has_rim``.
+    has_rim : (k,) bool
+    forb : (k,k) bool
+        Forbidden chords, ``forb[i, j]`` for ``i < j``.
+    axis : (3,) float64 or None
+
+    Returns
+    -------
+    O : (k,k) int64
+        The apex closing each interval ``(i, j)``.
+    worst : float
+        The whole loop's worst dihedral cost (inf: no triangulation).
     """
     k = len(Q)
     axis = None if axis is None else np.asarray(axis, np.float64)
@@ -628,7 +749,8 @@ def _uses_forbidden(T, forbidden):
 #: triangulate the same sub-loops again (74 calls, 34 different point sets
 #: on one 699-edge hole).
 DELAUNAY_KEPT = 32
-_DELAUNAY = OrderedDict()
+#: The kept answers of :func:`delaunay_faces`, by point set, oldest first.
+DELAUNAY_CACHE = OrderedDict()
 _DELAUNAY_LOCK = threading.Lock()
 
 
@@ -651,22 +773,23 @@ def delaunay_faces(P):
     P = np.asarray(P)
     key = (P.dtype.str, P.shape, P.tobytes())
     with _DELAUNAY_LOCK:
-        D = _DELAUNAY.get(key, _DELAUNAY)
-        if D is not _DELAUNAY:
-            _DELAUNAY.move_to_end(key)
-    if D is _DELAUNAY:      # not kept
-        D = _delaunay_faces(P)
+        D = DELAUNAY_CACHE.get(key, DELAUNAY_CACHE)
+        if D is not DELAUNAY_CACHE:
+            DELAUNAY_CACHE.move_to_end(key)
+    if D is DELAUNAY_CACHE:      # not kept
+        D = delaunay_faces_uncached(P)
         with _DELAUNAY_LOCK:
-            _DELAUNAY[key] = D
-            while len(_DELAUNAY) > DELAUNAY_KEPT:
-                _DELAUNAY.popitem(last=False)
+            DELAUNAY_CACHE[key] = D
+            while len(DELAUNAY_CACHE) > DELAUNAY_KEPT:
+                DELAUNAY_CACHE.popitem(last=False)
     # a copy: the caller may change it, and the kernels it goes to take
     # writeable arrays (a read-only one is another signature to compile)
     return None if D is None else D.copy()
 
 
-def _delaunay_faces(P):
-    """:func:`delaunay_faces`, computed."""
+def delaunay_faces_uncached(P):
+    """:func:`delaunay_faces`, computed (neither looked up nor kept).
+    Parameters and returns as :func:`delaunay_faces`."""
     from scipy.spatial import Delaunay, QhullError
 
     if len(P) < 4:
@@ -722,7 +845,7 @@ def restricted_dp(P, cand, edge_normals, forbidden, axis=None):
         T = _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis)
         if T is not None:
             return T
-    return _restricted_dp_numpy(P, cand, edge_normals, forbidden, axis)
+    return restricted_dp_reference(P, cand, edge_normals, forbidden, axis)
 
 
 def _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis):
@@ -754,9 +877,10 @@ def _restricted_dp_compiled(P, cand, edge_normals, forbidden, axis):
 _NO_RESTRICTED = "no triangulation of this loop uses only triangles of its Delaunay tetrahedralization"
 
 
-def _restricted_dp_numpy(P, cand, edge_normals, forbidden, axis=None):
-    """:func:`restricted_dp` in NumPy, the interval lengths in groups (the
-    compiled search's test oracle)."""
+def restricted_dp_reference(P, cand, edge_normals, forbidden, axis=None):
+    """:func:`restricted_dp` in NumPy, the interval lengths in groups: the
+    fallback, and the compiled search's test oracle. Parameters, returns
+    and errors as :func:`restricted_dp`."""
     k = len(P)
     cand = np.asarray(cand, np.int64).reshape(-1, 3)
     a, b, c = cand[:, 0], cand[:, 1], cand[:, 2]
@@ -837,3 +961,6 @@ def _restricted_dp_numpy(P, cand, edge_normals, forbidden, axis=None):
         stack.append((i, m))
         stack.append((m, j))
     return np.array(tris, np.int64)
+
+
+_with_loop_edges = with_loop_edges  # alias until mend.py imports with_loop_edges

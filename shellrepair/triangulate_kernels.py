@@ -1,22 +1,22 @@
 """Compiled kernels of a loop's triangulation (:mod:`shellrepair.triangulate`, Numba).
 
 * :func:`inside_outline`, :func:`loop_cover`: the inside test and the cover
-  test of :func:`shellrepair.triangulate._delaunay_in_projection`;
+  test of :func:`shellrepair.triangulate.delaunay_in_projection`;
 * :func:`centred_area`, :func:`outline_cross`, :func:`cover_free`: a
   loop's centred positions and vector area, and the projected Delaunay
   triangulation's inside, normal and cover tests with the forbidden edges
   (:func:`shellrepair.triangulate.triangulate_loop`,
-  :func:`shellrepair.triangulate._delaunay_in_projection`);
+  :func:`shellrepair.triangulate.delaunay_in_projection`);
 * :func:`tet_faces`, :func:`loop_edges_present`: the triangles of a
   tetrahedralization and the loop edges among them
   (:func:`shellrepair.triangulate.delaunay_faces`,
-  :func:`shellrepair.triangulate._with_loop_edges`);
+  :func:`shellrepair.triangulate.with_loop_edges`);
 * :func:`restricted_prepare`, :func:`restricted_search`: the candidate
   triangles' edges and normals and the minimum-weight search over them by
   interval length (:func:`shellrepair.triangulate.restricted_dp`);
 * :func:`liepa_tables`, :func:`chord_rows`: the tables of Liepa's dynamic
-  program (:func:`shellrepair.triangulate._dp`) and the row search of
-  :func:`shellrepair.triangulate._best_chord_rows`.
+  program (:func:`shellrepair.triangulate.liepa_dp`) and the row search of
+  :func:`shellrepair.triangulate.best_chord_rows`.
 
 Each gives what its NumPy version gives, to the bit
 (tests/test_triangulate_kernels.py, tests/test_patch_kernels.py). How the
@@ -87,7 +87,7 @@ def _inside_outline(Q, S):
 def inside_outline(Q, S):
     """The triangles of ``S`` whose centroid is inside the outline ``Q``,
     on its sides or at its corners (as
-    :func:`shellrepair.triangulate._delaunay_in_projection`'s test by
+    :func:`shellrepair.triangulate.delaunay_in_projection`'s test by
     ``skimage.measure.points_in_poly``: a crossing count, corners within
     1e-12).
 
@@ -142,7 +142,7 @@ def _loop_cover(S, n, k):
 def loop_cover(S, n, k):
     """Orient the triangles ``S`` by the signs of ``n`` and test that they
     triangulate the loop of ``k`` positions (as
-    :func:`shellrepair.triangulate._delaunay_in_projection`).
+    :func:`shellrepair.triangulate.delaunay_in_projection`).
 
     Parameters
     ----------
@@ -244,7 +244,7 @@ def _outline_cross(Q, S, P):
 def outline_cross(Q, S, P):
     """:func:`inside_outline` and the kept triangles' cross products
     ``(P[b] - P[a]) × (P[c] - P[a])`` (the normal test of
-    :func:`shellrepair.triangulate._delaunay_in_projection`, before its
+    :func:`shellrepair.triangulate.delaunay_in_projection`, before its
     product with the axis, which stays NumPy's).
 
     Parameters
@@ -387,7 +387,7 @@ def _loop_edges_present(D, k):
 def loop_edges_present(D, k):
     """Which loop edges ``(i, i+1)`` (and ``(0, k-1)`` last) are an edge
     ``(a, b)``, ``(b, c)`` or ``(a, c)`` of some row of ``D``
-    (:func:`shellrepair.triangulate._with_loop_edges`'s ``np.isin``).
+    (:func:`shellrepair.triangulate.with_loop_edges`'s ``np.isin``).
 
     Parameters
     ----------
@@ -643,7 +643,7 @@ def _restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, ar
 def restricted_search(k, a, b, c, el, er, et, ne, base, edge_normals, n, nz, area, bad0, top, tie):
     """The group loop and the read-back of
     :func:`shellrepair.triangulate.restricted_dp` (its NumPy form
-    :func:`shellrepair.triangulate._restricted_dp_numpy`): intervals by
+    :func:`shellrepair.triangulate.restricted_dp_reference`): intervals by
     increasing length, each closed by the candidate of least worst
     dihedral cost, the least area among costs within ``tie`` of it (the
     first of equal areas, as ``np.lexsort`` orders them), with the same
@@ -809,7 +809,7 @@ def _liepa_tables(Q, rim, has_rim, forb, axis, use_axis, tie):
 
 
 def liepa_tables(Q, rim, has_rim, forb, axis, tie):
-    """The tables of :func:`shellrepair.triangulate._dp` (Liepa's O(k³)
+    """The tables of :func:`shellrepair.triangulate.liepa_dp` (Liepa's O(k³)
     dynamic program), with its products, clips, maxima and first-of-equals
     choices, one interval at a time.
 
@@ -866,7 +866,7 @@ def _chord_rows(Q, q, fk):
 
 
 def chord_rows(Q, q, fk):
-    """The row-by-row search of :func:`shellrepair.triangulate._best_chord_rows`:
+    """The row-by-row search of :func:`shellrepair.triangulate.best_chord_rows`:
     the row ``i`` whose nearest allowed partner ``j`` (``i + q <= j <=
     min(k - 1, i + k - q)``) is nearest overall, the first such row.
 

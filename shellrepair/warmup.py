@@ -20,7 +20,7 @@ import numpy as np
 
 from . import (bridge_kernels, checks_kernels, common_kernels, compiled, context_kernels, distance_kernels, fair_kernels,
                intersect_kernels, intrinsic_kernels, patch_kernels, refine_kernels, topology_kernels, triangulate_kernels)
-from .refine import FLIP_EPS, _angle, _unfolded
+from .refine import FLIP_EPS, angle_between, unfolded
 from .triangulate import restricted_dp
 
 __all__ = ["warm_up"]
@@ -91,12 +91,12 @@ def _warm_first():
               np.zeros(1, np.int64), 1e-15, 1e-280)
     X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.2]])
     refine_kernels.relax(X * [1.0, 1.0, 0.0] + [[0, 0, 0], [0, 0, 0], [0, 0, 0], [-0.6, -0.6, 0]], T, np.ones(4, np.bool_),
-          np.zeros((0, 2), np.int64), 5, None, _angle, _unfolded, FLIP_EPS)
+          np.zeros((0, 2), np.int64), 5, None, angle_between, unfolded, FLIP_EPS)
     for order in (1, 2, 3):
         fair_kernels.fair_small(X, T, np.array([True, True, False, True]), order, 2, 1e-10, 1e-12, 100)
-    # beside the fairing: these call kernels it calls too (_box_pairs, _laplacian_rows) with other types
+    # beside the fairing: these call kernels it calls too (_box_pairs, laplacian_rows) with other types
     intersect_kernels.patch_pairs(Tr + 0.25, np.array([[-1, 1, -2]]), np.array([0, 1], np.int64), X, T, np.zeros(3), 1e-15, 1e-15, 1e-280)
-    ptr4, col4, val4 = intrinsic_kernels._laplacian_rows(T, np.zeros((0, 3)), 4, True)
+    ptr4, col4, val4 = intrinsic_kernels.laplacian_rows(T, np.zeros((0, 3)), 4, True)
     fair_kernels.energy_blocks(ptr4, col4, val4, np.ones(4), 3, np.array([2], np.int64), np.array([0, 1, 3], np.int64))
 
 

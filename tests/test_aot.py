@@ -20,7 +20,7 @@ from shellrepair import compiled
 ROOT = Path(__file__).resolve().parents[1]
 BUNNY = ROOT / "data" / "bunny_zipper.ply"
 
-_built = pytest.mark.skipif(not compiled._aot_built(),
+_built = pytest.mark.skipif(not compiled.aot_built(),
                             reason="the ahead-of-time kernels are not built for these sources (make setup builds them)")
 
 
@@ -39,10 +39,10 @@ def test_argument_keys_name_the_types_numba_gives_them():
     scalars of Python and NumPy, None and tuples: a compiled function is
     called only with the types it was compiled for."""
     numba = pytest.importorskip("numba")
-    from shellrepair.aot import _numba_type
+    from shellrepair.aot import numba_type
 
     for v in _values():
-        assert _numba_type(compiled.describe(v)) == numba.typeof(v), v
+        assert numba_type(compiled.describe(v)) == numba.typeof(v), v
 
 
 def test_the_types_file_lists_only_known_kernels_with_usable_types():

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from eval import shapes
 from shellrepair import batch
 from shellrepair.batch import default_jobs, list_scans, repair_folder, summary_table
-from shellrepair.cli import build_parser, main
+from shellrepair.cli import main, parse_args
 from shellrepair.io import Mesh, read_mesh, write_mesh
 from shellrepair.progress import TerminalBar, as_callback, end_line, terminal_bar
 from shellrepair.topology import edge_topology
@@ -132,8 +132,8 @@ def test_scheduler_without_dask_is_one_line_exit_2(tmp_path, monkeypatch, capsys
 def test_jobs_default_to_the_cores_there_are_in_batch_and_repair(tmp_path, capsys):
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     assert default_jobs() == cores >= 1
-    assert build_parser().parse_args(["batch", "in", "-o", "out"]).jobs == cores
-    assert build_parser().parse_args(["repair", "s.ply"]).jobs == cores  # the repair fills its holes on them too
+    assert parse_args(["batch", "in", "-o", "out"]).jobs == cores
+    assert parse_args(["repair", "s.ply"]).jobs == cores  # the repair fills its holes on them too
     (tmp_path / "in").mkdir()
     assert main(["batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--jobs", "0"]) == 2
     assert "jobs must be a whole number, at least 1, got 0" in capsys.readouterr().err
@@ -310,13 +310,13 @@ def test_the_collection_page_reads_each_report_once_and_equals_a_fresh_build(tmp
     assert len(reads) == 2  # one section per scan, not one per scan per rewrite
     written = (tmp_path / "out" / batch.INDEX_NAME).read_text()
     (tmp_path / "fresh").mkdir()
-    batch._write_index(summary, tmp_path / "fresh")
+    batch.write_index(summary, tmp_path / "fresh")
     assert (tmp_path / "fresh" / batch.INDEX_NAME).read_text() == written
     # scans on a cluster finish in any order: the second scan's section,
     # built first at position 0, is not the first scan's at position 0
     cache = {}
-    batch._write_index({**summary, "scans": summary["scans"][1:]}, tmp_path / "fresh", cache)
-    batch._write_index(summary, tmp_path / "fresh", cache)
+    batch.write_index({**summary, "scans": summary["scans"][1:]}, tmp_path / "fresh", cache)
+    batch.write_index(summary, tmp_path / "fresh", cache)
     assert (tmp_path / "fresh" / batch.INDEX_NAME).read_text() == written
 
 

@@ -116,13 +116,21 @@ def _one_arc(P, owner, n_samples=4):
     return args
 
 
+def _leaf_rank(tree):
+    """Each point's position in a cKDTree's leaf order (``tree.indices``):
+    of points at one place, the tree's query keeps the first."""
+    rank = np.empty(len(tree.indices), np.int64)
+    rank[tree.indices] = np.arange(len(tree.indices))
+    return rank
+
+
 def test_a_tie_at_one_place_is_settled_as_the_scipy_tree_settles_it():
     # the arc's third sample (x = 0.75) is 0.25 from the point (1, 0, 0),
     # which is in loops 1 and 2 (a pinch): within its slack, so it lands
     # on whichever copy cKDTree returns
     for order in ([1, 2], [2, 1]):
         args = _one_arc([[1.0, 0, 0], [1.0, 0, 0]], np.array(order))
-        got, status = bridge_kernels.arc_landings(*args, rank_of=lambda P: bridge._leaf_rank(cKDTree(P)))
+        got, status = bridge_kernels.arc_landings(*args, rank_of=lambda P: _leaf_rank(cKDTree(P)))
         P, owner = args[10], args[11]
         _, j = cKDTree(P).query([0.75, 0, 0])
         assert status == 0 and got[0] == owner[j]
@@ -137,7 +145,7 @@ def test_a_tie_between_places_that_decide_differently_is_left_to_numpy():
     # distance from every sample: the kernel declines, loop_sights' NumPy
     # walk decides
     args = _one_arc([[1.0, 0.1, 0], [1.0, -0.1, 0]], np.array([1, 2]))
-    assert bridge_kernels.arc_landings(*args, rank_of=lambda P: bridge._leaf_rank(cKDTree(P)))[1] == 1
+    assert bridge_kernels.arc_landings(*args, rank_of=lambda P: _leaf_rank(cKDTree(P)))[1] == 1
     # the same places in one loop decide alike: the kernel keeps either
     args = _one_arc([[1.0, 0.1, 0], [1.0, -0.1, 0]], np.array([1, 1]))
     got, status = bridge_kernels.arc_landings(*args)
@@ -157,11 +165,11 @@ def test_kd_tree_splits_every_node_between_its_children(seed):
     # the query's box bounds rest on this
     rng = np.random.default_rng(seed)
     P = np.round(rng.random((500, 3)) * 6) / 6                     # many equal coordinates
-    order, lo, hi, axis, split, left = bridge_kernels._kd_build(P)
+    order, lo, hi, axis, split, left = bridge_kernels.kd_build(P)
     assert np.array_equal(np.sort(order), np.arange(len(P)))
     for b in np.flatnonzero(axis >= 0):
         a = axis[b]
         L, R = left[b], left[b] + 1
         assert lo[L] == lo[b] and hi[L] == lo[R] and hi[R] == hi[b]
         assert P[order[lo[L]:hi[L]], a].max() <= split[b] <= P[order[lo[R]:hi[R]], a].min()
-    assert (hi - lo)[axis < 0].max() <= bridge_kernels._KD_LEAF
+    assert (hi - lo)[axis < 0].max() <= bridge_kernels.KD_LEAF

@@ -161,11 +161,11 @@ def test_the_terminal_bar_is_made_only_for_a_terminal_and_not_when_quiet(monkeyp
 
 def test_a_view_with_a_negative_azimuth_is_read_as_a_value(tmp_path):
     # `--view -46,12` (argparse alone takes "-46,12" for an option and stops)
-    from shellrepair.cli import build_parser, _signed_values
+    from shellrepair.cli import parse_args, signed_values
 
-    args = build_parser().parse_args(_signed_values(["render", "m.ply", "-o", "x.png", "--view", "-46,12"]))
+    args = parse_args(["render", "m.ply", "-o", "x.png", "--view", "-46,12"])
     assert args.view == "-46,12" or tuple(args.view) == (-46.0, 12.0)
-    assert _signed_values(["render", "m.ply", "--view", "-46,12"])[-1] == "--view=-46,12"
+    assert signed_values(["render", "m.ply", "--view", "-46,12"])[-1] == "--view=-46,12"
 
 
 def test_render_prints_the_camera_it_picked_so_it_can_be_given_again(tmp_path, capsys):

@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 from eval import shapes
-from shellrepair import compiled, fair, fair_kernels, intrinsic
+from shellrepair import compiled, fair, fair_kernels, intrinsic_kernels
 
 #: CG against the direct solve, in mean edges. The direct solves themselves
 #: differ by ~1e-9 between two sparse factorisations of these matrices
@@ -325,7 +325,7 @@ def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
     # a fan of 90 triangles: rows of over 64 columns (sorted another way)
     k = 90
     T = np.array([[0, 1 + i, 1 + (i + 1) % k] for i in range(k)], np.int64)
-    ptr, col, val = intrinsic.laplacian_rows(T, rng.random((k, 3)), k + 1, False)
+    ptr, col, val = intrinsic_kernels.laplacian_rows(T, rng.random((k, 3)), k + 1, False)
     D = 1.0 + rng.random(k + 1)
     unknown, fixed = np.array([0, 5, 40], np.int64), np.setdiff1d(np.arange(k + 1), [0, 5, 40])
     pos = np.empty(k + 1, np.int64)

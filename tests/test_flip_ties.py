@@ -1,6 +1,6 @@
 """Delaunay flips made together in one round never write a triangle twice.
 
-Each round of the refinement's relaxation (``refine.relax_rounds``) and of the
+Each round of the refinement's relaxation (``refine.relax``) and of the
 intrinsic Delaunay flips (``intrinsic._flip_to_delaunay``) flips a set of
 edges at once, each the worst edge of both its triangles. When two edges
 of one triangle tie as its worst, only one of them may flip: both flipping
@@ -47,7 +47,7 @@ def test_the_relaxation_of_a_refined_hole_whose_angles_tie_stays_manifold():
     P, T, is_loop, forb, dirty = z["P"], z["T"], z["is_loop"], z["forb"], z["dirty"]
     k = int(is_loop.sum())
     assert edge_topology(T, len(P)).edge_count.max() == 2
-    for relax in (refine.relax_rounds, refine.relax_rounds_reference):
+    for relax in (refine.relax, refine.relax_reference):
         T2, _, _ = relax(P, T.copy(), is_loop, forb, 100, dirty if dirty.size else None)
         t = edge_topology(np.asarray(T2, np.int64), len(P))
         assert t.edge_count.max() == 2 and t.edge_count.min() >= 1

@@ -4,7 +4,7 @@ ordinary cotangent Laplacian where nothing needs flipping."""
 import numpy as np
 
 from eval import shapes
-from shellrepair.intrinsic import _cotangents, _twins, intrinsic_delaunay, intrinsic_laplacian
+from shellrepair.intrinsic import cotangents, intrinsic_delaunay, intrinsic_laplacian, twins
 
 
 def _slivered_grid(k=12, seed=0):
@@ -45,15 +45,15 @@ def test_a_delaunay_mesh_keeps_its_triangles_and_gets_the_ordinary_cotangent_lap
 
 def test_slivers_are_flipped_away_and_the_operator_stays_exact_on_a_flat_piece():
     V, F = _slivered_grid()
-    cot0, _ = _cotangents(np.linalg.norm(V[F][:, [1, 2, 0]] - V[F], axis=2))
+    cot0, _ = cotangents(np.linalg.norm(V[F][:, [1, 2, 0]] - V[F], axis=2))
     assert cot0.max() > 20 and cot0.min() < -1    # angles near 0, and obtuse ones
     T, L, settled = intrinsic_delaunay(V, F)
     assert settled and not np.array_equal(T, F)
     # flat: intrinsic flips are ordinary flips, lengths are plane distances
     assert np.allclose(L, np.linalg.norm(V[T][:, [1, 2, 0]] - V[T], axis=2), rtol=1e-10, atol=1e-12)
     # Delaunay: the two angles facing every interior edge sum to at most π
-    cot, A = _cotangents(L)
-    twin = _twins(T, len(V))
+    cot, A = cotangents(L)
+    twin = twins(T, len(V))
     h = np.flatnonzero(twin >= 0)
     assert (cot.ravel()[h] + cot.ravel()[twin[h]] >= -1e-9).all()
     K, M = intrinsic_laplacian(V, F)
@@ -81,7 +81,7 @@ def test_on_a_curved_surface_flips_keep_the_area_and_leave_no_negative_inner_wei
     W /= np.linalg.norm(W, axis=1)[:, None]
     T, L, settled = intrinsic_delaunay(W, F)
     assert settled and not np.array_equal(T, F)           # something was flipped
-    _, A0 = _cotangents(np.linalg.norm(W[F][:, [1, 2, 0]] - W[F], axis=2))
+    _, A0 = cotangents(np.linalg.norm(W[F][:, [1, 2, 0]] - W[F], axis=2))
     K, M = intrinsic_laplacian(W, F)
     assert np.isclose(M.sum(), A0.sum(), rtol=1e-12)
     Kc = K.tocoo()

@@ -94,7 +94,7 @@ def test_clean_faces_drops_exactly_the_later_copies_of_a_vertex_set(monkeypatch,
     F = rng.integers(0, 40, size=(3000, 3))
     F = np.vstack([F, F[rng.integers(0, 3000, 500)][:, [2, 0, 1]]])
     if colliding:   # a hash with many collisions must not change the result
-        monkeypatch.setattr(clean_module, "_triple_hash", lambda G: (G.min(axis=1) % 3).astype(np.uint64))
+        monkeypatch.setattr(clean_module, "triple_hash_reference", lambda G: (G.min(axis=1) % 3).astype(np.uint64))
     Fc, kept, notes = clean_faces(F)
     ok = np.flatnonzero((F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2]))
     _, first = np.unique(np.sort(F[ok], axis=1), axis=0, return_index=True)
@@ -455,8 +455,8 @@ def test_ply_face_records_with_scalars_around_a_list_of_varying_length(tmp_path,
     assert m.F.tolist() == [[1, 4, 2], [0, 1, 2], [0, 2, 3], [0, 2, 3]]
     assert any("face properties not kept: flags, quality" in n for n in m.notes)
     data = _ply(fmt, XYZ, SQ, fprops, faces)
-    fmt_, elements, pos = ply_module._parse_ply_header(data)
-    face = ply_module._ply_binary_body(data, pos, elements, ">" if "big" in fmt else "<")["face"]
+    fmt_, elements, pos = ply_module.parse_ply_header(data)
+    face = ply_module.ply_binary_body(data, pos, elements, ">" if "big" in fmt else "<")["face"]
     assert face["flags"].tolist() == [7, 8, 9] and face["quality"].tolist() == [0.5, 1.5, 2.5]
     with pytest.raises(MeshError, match="truncated"):
         _read_bytes(tmp_path, "t.ply", _ply(fmt, XYZ, SQ, fprops, faces)[:-3])
@@ -472,7 +472,9 @@ def test_stl_weld_joins_equal_corners_in_order_of_appearance(monkeypatch, collid
     P[rng.random(P.shape) < 0.2] *= -1  # some zeros become -0.0
     if colliding:
         monkeypatch.setattr(stl_module, "_row_hash", lambda bits: (bits[:, 0] % np.uint64(3)))
-    m = stl_module._weld(P, "f8")
+    facets = "".join("facet normal 0 0 0\nouter loop\n" + "".join(f"vertex {x!r} {y!r} {z!r}\n" for x, y, z in tri)
+                     + "endloop\nendfacet\n" for tri in P.reshape(-1, 3, 3).tolist())
+    m = stl_module.read_stl(f"solid welded\n{facets}endsolid welded\n".encode())   # ascii: corners welded as float64
     assert np.array_equal(m.V[m.F.reshape(-1)], P + 0.0)
     _, first = np.unique(P + 0.0, axis=0, return_index=True)
     assert np.array_equal(m.V, (P + 0.0)[np.sort(first)])

@@ -1,7 +1,8 @@
 """The compiled kernels give the NumPy versions' results to the bit.
 
 Each kernel of the kernel modules (``shellrepair/*_kernels.py``) replaces a NumPy or Python
-function that stays in the package as its oracle; these tests run both on
+function that stays in the package as its oracle (a public ``*_reference``
+function beside its caller, or :mod:`shellrepair.reference`); these tests run both on
 seeded random, slivered and degenerate inputs and compare with
 ``np.array_equal`` (no tolerance)."""
 
@@ -17,6 +18,12 @@ from shellrepair.context import ScanContext, rim_data, rim_data_numpy
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 
 
+def _angle_compiled(u, v):
+    """refine.angle_between with its products and sums compiled
+    (refine_kernels.angle_parts), NumPy's arctan2."""
+    return np.arctan2(*refine_kernels.angle_parts(u, v))
+
+
 def _slivered(k, seed):
     """A jittered grid whose every third interior edge is split at 2 %."""
     from test_intrinsic import _slivered_grid
@@ -25,8 +32,8 @@ def _slivered(k, seed):
 
 
 def _same_flips(X, F, max_rounds=intrinsic.MAX_ROUNDS):
-    a = intrinsic._flip_to_delaunay_numpy(X, F, max_rounds)
-    b = intrinsic._flip_to_delaunay(X, F, max_rounds)
+    a = intrinsic.flip_to_delaunay_reference(X, F, max_rounds)
+    b = intrinsic.flip_to_delaunay(X, F, max_rounds)
     assert a[2] == b[2]
     assert np.array_equal(a[0], b[0])
     assert np.array_equal(a[1], b[1])
@@ -286,7 +293,7 @@ def _textbook_cholesky_solve(Q, B):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_the_dense_cholesky_equals_the_textbook_one_to_the_bit(seed):
-    """fair_kernels._cholesky_solve (fair_small's solve, column by column)
+    """fair_kernels.cholesky_solve (fair_small's solve, column by column)
     against the row-by-row factorisation: dense, sparse with exact zeros,
     nearly singular; and a matrix that is not positive definite is refused."""
     rng = np.random.default_rng(seed)
@@ -297,12 +304,12 @@ def test_the_dense_cholesky_equals_the_textbook_one_to_the_bit(seed):
         Q = A @ A.T + (1e-6 if seed == 2 else n) * np.eye(n)
         Q = 0.5 * (Q + Q.T)
         B = rng.normal(size=(n, 3))
-        got, ok = fair_kernels._cholesky_solve(Q, B)
+        got, ok = fair_kernels.cholesky_solve(Q, B)
         ref = _textbook_cholesky_solve(Q, B)
         assert ok and np.array_equal(got, ref)
         assert np.abs(Q @ got - B).max() <= 1e-6 * max(1.0, np.abs(B).max()) * np.linalg.cond(Q)
     Q = np.diag([1.0, -1.0, 2.0])
-    assert not fair_kernels._cholesky_solve(Q, np.ones((3, 3)))[1] and _textbook_cholesky_solve(Q, np.ones((3, 3))) is None
+    assert not fair_kernels.cholesky_solve(Q, np.ones((3, 3)))[1] and _textbook_cholesky_solve(Q, np.ones((3, 3))) is None
 
 
 def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypatch):
@@ -327,7 +334,7 @@ def test_a_repair_with_the_kernels_equals_the_numpy_repair_to_round_off(monkeypa
 
 @pytest.mark.parametrize("seed", range(6))
 def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
-    """Delaunay flips of a patch (refine.relax_rounds): the same triangles, the
+    """Delaunay flips of a patch (refine.relax): the same triangles, the
     same changed faces, the same verdict, with forbidden chords, dirty
     faces, a round cap and the symmetric ties of a regular fan."""
     from shellrepair import refine, triangulate
@@ -349,10 +356,11 @@ def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
     for rounds, d, fb in ((100, None, forb), (2, None, forb), (100, dirty, np.zeros((0, 2), np.int64))):
         # a jitter so that there is something to flip
         Pj = P2 + rng.normal(scale=0.03, size=P2.shape) * (~is_loop)[:, None]
-        a = refine.relax_rounds_reference(Pj, T2.copy(), is_loop, fb, rounds, d)
-        b = refine_kernels.relax(Pj, T2.copy(), is_loop, fb, rounds, d, refine._angle, refine._unfolded, refine.FLIP_EPS)
+        a = refine.relax_reference(Pj, T2.copy(), is_loop, fb, rounds, d)
+        b = refine_kernels.relax(Pj, T2.copy(), is_loop, fb, rounds, d, refine.angle_between, refine.unfolded,
+                                 refine.FLIP_EPS)
         if b is None:                              # a face shared by two flips of a round: NumPy redoes it
-            b = refine.relax_rounds(Pj, T2.copy(), is_loop, fb, rounds, d)
+            b = refine.relax(Pj, T2.copy(), is_loop, fb, rounds, d)
         assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2]
         assert d is not None or rounds < 100 or a[1].any()
 
@@ -375,7 +383,7 @@ def test_the_compiled_half_edge_pairing_equals_the_stable_argsort(seed):
     twin = np.full(3 * len(F), -1, np.int64)
     twin[order[pair]] = order[pair + 1]
     twin[order[pair + 1]] = order[pair]
-    ks2, twin2, active2 = refine_kernels._pair_half_edges(np.ascontiguousarray(F, np.int64), n)
+    ks2, twin2, active2 = refine_kernels.pair_half_edges(F, n)
     assert np.array_equal(ks, ks2) and np.array_equal(twin, twin2) and np.array_equal(order[pair], active2)
     assert (seed >= 2) == bool(np.any(np.bincount(np.searchsorted(np.unique(ks), ks)) > 2))
 
@@ -425,11 +433,11 @@ def _outlines(seed):
 
 @pytest.mark.parametrize("seed", range(30))
 def test_outline_simplicity_equals_the_numpy_pair_test(seed):
-    from shellrepair.intersect import _outline_is_simple, _outline_is_simple_numpy
+    from shellrepair.intersect import outline_is_simple, outline_is_simple_reference
 
     answers = []
     for Q in _outlines(seed):
-        a, b = _outline_is_simple_numpy(Q), _outline_is_simple(Q)
+        a, b = outline_is_simple_reference(Q), outline_is_simple(Q)
         assert a == b
         answers.append(a)
     assert answers[0]                  # a star-shaped outline is simple
@@ -439,16 +447,25 @@ def test_outline_simplicity_equals_the_numpy_pair_test(seed):
 
 @pytest.mark.parametrize("seed", range(20))
 def test_loop_diameter_equals_the_numpy_chunks_to_the_bit(seed):
-    from shellrepair.holes import _diameter, _diameter_numpy
+    from shellrepair import common_kernels, reference
+    from shellrepair.holes import loop_stats
+
+    def diameter(Q):
+        """The compiled diameter (holes' once the kernels are loaded)."""
+        return float(np.sqrt(common_kernels.max_sq_distance(Q)))
 
     rng = np.random.default_rng(seed)
     k = int(rng.integers(2, 700))
     for Q in (rng.normal(size=(k, 3)), np.round(rng.normal(size=(k, 3)), 1),     # ties
               rng.normal(size=(k, 3)) * 1e-7 + 1e6, np.zeros((k, 3))):
-        a, b = _diameter_numpy(Q, chunk=97), _diameter(Q)
+        a, b = reference.loop_diameter(Q, chunk=97), diameter(Q)
         assert np.float64(a).tobytes() == np.float64(b).tobytes()
+        # the hole's measure uses it, on the loop about its mean
+        c = loop_stats(Q, np.arange(k))["center"]
+        assert np.float64(loop_stats(Q, np.arange(k))["diameter"]).tobytes() == \
+            np.float64(reference.loop_diameter(Q - c, chunk=97)).tobytes()
     P = rng.normal(size=(k, 3))
-    assert _diameter(P) == pytest.approx(np.max(np.linalg.norm(P[:, None] - P[None], axis=2)), rel=1e-15)
+    assert diameter(P) == pytest.approx(np.max(np.linalg.norm(P[:, None] - P[None], axis=2)), rel=1e-15)
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -472,7 +489,7 @@ def test_fold_test_equals_the_numpy_one(seed):
     neighbour (exact folds), some pushed nearly flat against one (within
     and beyond FOLD_DEGREES), plus a zero-area triangle: the compiled fold
     test flags exactly the triangles the NumPy one does."""
-    from shellrepair.checks import FOLD_DEGREES, _folds_numpy
+    from shellrepair.checks import FOLD_DEGREES, folds_reference
 
     rng = np.random.default_rng(seed)
     n = 7
@@ -506,13 +523,13 @@ def test_fold_test_equals_the_numpy_one(seed):
     ids = np.concatenate([ids, np.column_stack([ids[pick, 1], ids[pick, 0], -1000 - np.arange(len(pick))])])
     C[0, 2] = C[0, 0]                      # zero area
     Cs, Fr = V[F[scan]], F[scan]
-    want = _folds_numpy(C, ids, Cs, Fr)
+    want = folds_reference(C, ids, Cs, Fr)
     got = checks_kernels.folds(C, ids, Cs, Fr, np.cos(np.radians(FOLD_DEGREES)))
     assert got.dtype == want.dtype == np.int64
     assert np.array_equal(got, want)
     assert want.size > 0                   # the flipped triangles do fold
     empty = checks_kernels.folds(C[:0], ids[:0], Cs[:0], Fr[:0], 0.5)
-    assert empty.size == 0 and np.array_equal(empty, _folds_numpy(C[:0], ids[:0], Cs[:0], Fr[:0]))
+    assert empty.size == 0 and np.array_equal(empty, folds_reference(C[:0], ids[:0], Cs[:0], Fr[:0]))
 
 
 def test_face_cross_equals_the_numpy_cross_products():
@@ -539,7 +556,14 @@ def test_ring_sums_equal_the_sparse_products(seed):
     arcs' base points and normals): compiled, they equal the sparse
     products to the bit, on a random graph with repeated edges and
     self-loops and on the rings of real holes (via the arcs themselves)."""
-    from shellrepair import bridge
+    from shellrepair import reference
+
+    def next_to(E, mark):
+        """The vertices an edge of E joins to a marked one."""
+        out = np.zeros(len(mark), bool)
+        out[E[mark[E[:, 0]], 1]] = True
+        out[E[mark[E[:, 1]], 0]] = True
+        return out
 
     rng = np.random.default_rng(seed)
     nv = 80
@@ -549,13 +573,13 @@ def test_ring_sums_equal_the_sparse_products(seed):
     li = np.concatenate([li, li[:2]])                 # a rim vertex listed twice
     level = np.full(nv, 3, np.int64)
     level[li] = 0
-    r1 = bridge.next_to(E, level == 0) & (level > 0)
+    r1 = next_to(E, level == 0) & (level > 0)
     level[r1] = 1
-    level[bridge.next_to(E, r1) & (level > 1)] = 2
+    level[next_to(E, r1) & (level > 1)] = 2
     X = rng.normal(size=(nv, 3)) * 10.0 ** rng.integers(-3, 4, (nv, 1))
     Nv = rng.normal(size=(nv, 3))
     Nv[::7] = -0.0
-    want = bridge._ring_sums(E, li, level, X, Nv)
+    want = reference.ring_sums(E, li, level, X, Nv)
     got = bridge_kernels.ring_sums(E, li, level, X, Nv)
     for a, b in zip(want, got):
         assert np.array_equal(np.asarray(a), b)
@@ -573,9 +597,10 @@ def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
     ctx = ScanContext(Mesh(V=V2, F=F2))
     loops = [np.asarray(h.vertices, np.int64) for h in detect_holes(V2, F2).holes]
     near = [F2[ctx.ring_faces(lp, 3)] for lp in loops]
-    got = bridge.continuation_arcs_many(V2, near, loops)
+    assert len(loops) == 4
+    got = [bridge.continuation_arcs(V2, f, lp) for f, lp in zip(near, loops)]
     monkeypatch.setattr(compiled, "ENABLED", False)
-    want = bridge.continuation_arcs_many(V2, near, loops)
+    want = [bridge.continuation_arcs(V2, f, lp) for f, lp in zip(near, loops)]
     for a, b in zip(want, got):
         for x, y in zip(a, b):
             assert np.array_equal(x, y)
@@ -612,9 +637,9 @@ def test_block_ids_and_normal_sums_equal_unique_searchsorted_and_add_at():
 def test_relaxation_angle_and_fold_terms_equal_the_numpy_ones(seed):
     """The relaxation's opposite angles and fold test on random quads of
     mixed scales (flat, folded, degenerate and far-offset ones included):
-    the compiled products and sums give refine._angle's and
-    refine._unfolded's results to the bit."""
-    from shellrepair.refine import _angle, _angle_compiled, _unfolded
+    the compiled products and sums give refine.angle_between's and
+    refine.unfolded's results to the bit."""
+    from shellrepair.refine import angle_between, unfolded
 
     rng = np.random.default_rng(seed)
     m = 400
@@ -629,10 +654,10 @@ def test_relaxation_angle_and_fold_terms_equal_the_numpy_ones(seed):
     u[120:160] = 0.0                                # a side of length 0 ...
     u[120:140] *= -1.0                              # ... some as -0.0: the angle is 0, not π
     v[150:160] = -v[150:160]
-    assert np.array_equal(_angle_compiled(u, v), _angle(u, v))
+    assert np.array_equal(_angle_compiled(u, v), angle_between(u, v))
     assert (_angle_compiled(u, v)[120:160] == 0.0).all()
     assert np.array_equal(np.signbit(refine_kernels.angle_parts(u, v)[1]), np.signbit(np.sum(u * v, axis=1)))
-    want = _unfolded(pa, pb, pc, pd)
+    want = unfolded(pa, pb, pc, pd)
     assert np.array_equal(refine_kernels.unfolded(pa, pb, pc, pd), want)
     assert want.any() and not want.all()
 
@@ -642,7 +667,7 @@ def test_refinement_split_test_equals_the_numpy_one(seed):
     """Centroids, mean scales and split verdicts of random triangles of
     mixed scales, far from the origin and degenerate ones included: the
     compiled split test equals refine's NumPy one to the bit."""
-    from shellrepair.refine import DENSITY_ALPHA, _split_test
+    from shellrepair.refine import DENSITY_ALPHA, split_test_reference
 
     rng = np.random.default_rng(seed)
     n = 300
@@ -651,7 +676,7 @@ def test_refinement_split_test_equals_the_numpy_one(seed):
     s = rng.random(n) * 10.0 ** rng.integers(-3, 3, n)
     Tr = rng.integers(0, n, (500, 3))
     Tr[:20, 2] = Tr[:20, 0]
-    want = _split_test(P, Tr, s, DENSITY_ALPHA)
+    want = split_test_reference(P, Tr, s, DENSITY_ALPHA)
     got = refine_kernels.split_test(P, Tr, s, DENSITY_ALPHA)
     for a, b in zip(want, got):
         assert np.array_equal(a, b)
@@ -835,7 +860,7 @@ def test_scan_edges_are_the_loop_edges_of_the_sorted_edge_list():
 @pytest.mark.parametrize("order", [1, 2, 3])
 @pytest.mark.parametrize("seed", range(3))
 def test_the_dense_fairing_round_reads_k_without_its_spare_slots_to_the_bit(order, seed):
-    """fair_small's solves take K without _laplacian_rows' spare zero
+    """fair_small's solves take K without laplacian_rows' spare zero
     diagonal slots (each only added a zero product): every round's
     positions as with the spare slots, uniform and cotangent weights."""
     X, F, nf = _submesh_with_free_middle(9 + 3 * seed, seed)
@@ -847,22 +872,22 @@ def test_the_dense_fairing_round_reads_k_without_its_spare_slots_to_the_bit(orde
     rng = np.random.default_rng(seed)
     W = 0.5 * rng.uniform(0.1, 2.0, size=F.shape)          # positive weights, as on a Delaunay mesh
     D = 1.0 / rng.uniform(0.2, 1.0, size=n)
-    for ptr, col, val, d in (intrinsic_kernels._laplacian_rows(F, np.zeros((0, 3)), n, True) + (np.ones(n),),
-                             intrinsic_kernels._laplacian_rows(F, W, n, False) + (D,)):
-        pc, cc, vc = fair_kernels._drop_spare_diagonal(ptr, col, val)
+    for ptr, col, val, d in (intrinsic_kernels.laplacian_rows(F, np.zeros((0, 3)), n, True) + (np.ones(n),),
+                             intrinsic_kernels.laplacian_rows(F, W, n, False) + (D,)):
+        pc, cc, vc = fair_kernels.drop_spare_diagonal(ptr, col, val)
         assert pc[-1] < ptr[-1]                              # there were spare slots to drop
-        full, ok1 = fair_kernels._fair_round(ptr, col, val, d, order, X, fixed, unk_pos, unk)
-        lean, ok2 = fair_kernels._fair_round(pc, cc, vc, d, order, X, fixed, unk_pos, unk)
+        full, ok1 = fair_kernels.fair_round(ptr, col, val, d, order, X, fixed, unk_pos, unk)
+        lean, ok2 = fair_kernels.fair_round(pc, cc, vc, d, order, X, fixed, unk_pos, unk)
         assert ok1 and ok2 and np.array_equal(full, lean)
 
 
 @pytest.mark.parametrize("seed", range(4))
 def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed):
     """relax_round_parts (the angle parts at c and d and the fold test of
-    each candidate edge in one pass) gives refine._angle's arctan2
-    arguments and refine._unfolded's verdicts to the bit, on random quads
+    each candidate edge in one pass) gives refine.angle_between's arctan2
+    arguments and refine.unfolded's verdicts to the bit, on random quads
     of mixed scales, degenerate, flat and far-offset ones included; and
-    the relaxation that uses it (refine.relax_rounds) flips as the NumPy rounds do."""
+    the relaxation that uses it (refine.relax) flips as the NumPy rounds do."""
     from shellrepair import refine, triangulate
 
     rng = np.random.default_rng(seed)
@@ -876,17 +901,17 @@ def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed
     g[:40, 4] = g[:40, 2]
     cr1, dt1, cr2, dt2, unf = refine_kernels.relax_round_parts(P, g)
     pa, pb, pc, pd = P[g[:, 2]], P[g[:, 3]], P[g[:, 4]], P[g[:, 5]]
-    assert np.array_equal(np.arctan2(cr1, dt1), refine._angle_compiled(pa - pc, pb - pc))
-    assert np.array_equal(np.arctan2(cr2, dt2), refine._angle_compiled(pa - pd, pb - pd))
-    # and NumPy's _angle, sides of length 0 included (there every product
+    assert np.array_equal(np.arctan2(cr1, dt1), _angle_compiled(pa - pc, pb - pc))
+    assert np.array_equal(np.arctan2(cr2, dt2), _angle_compiled(pa - pd, pb - pd))
+    # and NumPy's angle_between, sides of length 0 included (there every product
     # is ±0.0 and the dot product, summed from 0.0 as np.sum does, is +0.0:
     # arctan2 gives 0, not π)
     zero = ~np.any(pa != pc, axis=1) | ~np.any(pb != pc, axis=1)
     assert 40 <= zero.sum() <= 50                    # (random ids may meet too)
-    assert np.array_equal(np.arctan2(cr1, dt1), refine._angle(pa - pc, pb - pc))
+    assert np.array_equal(np.arctan2(cr1, dt1), refine.angle_between(pa - pc, pb - pc))
     assert (np.arctan2(cr1, dt1)[zero] == 0.0).all()
-    assert np.array_equal(np.arctan2(cr2, dt2), refine._angle(pa - pd, pb - pd))
-    assert np.array_equal(unf, refine._unfolded(pa, pb, pc, pd)) and unf.any() and not unf.all()
+    assert np.array_equal(np.arctan2(cr2, dt2), refine.angle_between(pa - pd, pb - pd))
+    assert np.array_equal(unf, refine.unfolded(pa, pb, pc, pd)) and unf.any() and not unf.all()
     k = 20 + 6 * seed
     t = np.sort(rng.uniform(0, 2 * np.pi, k))
     Q = np.column_stack([np.cos(t), np.sin(t) * (1 + 0.2 * seed), 0.3 * np.cos(2 * t)])
@@ -894,6 +919,6 @@ def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed
     is_loop = np.arange(len(Q2)) < k
     Qj = Q2 + rng.normal(scale=0.04, size=Q2.shape) * (~is_loop)[:, None]
     forb = np.zeros((0, 2), np.int64)
-    a = refine.relax_rounds_reference(Qj, T2.copy(), is_loop, forb)
-    b = refine.relax_rounds(Qj, T2.copy(), is_loop, forb)
+    a = refine.relax_reference(Qj, T2.copy(), is_loop, forb)
+    b = refine.relax(Qj, T2.copy(), is_loop, forb)
     assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) and a[2] == b[2] and a[1].any()

@@ -11,7 +11,7 @@ import pytest
 from eval import shapes
 from shellrepair import bridge_kernels, compiled, context_kernels, triangulate_kernels
 from shellrepair.io import Mesh
-from shellrepair.context import ScanContext, _submesh_numpy, submesh
+from shellrepair.context import ScanContext, submesh_reference, submesh
 
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 
@@ -63,7 +63,7 @@ def test_submesh_numbering_equals_the_numpy_one(seed):
         for rings in (1, 2, 3):
             rf = ctx.ring_faces(loop, rings)
             got = submesh(ctx, loop, None, T, rings)
-            want = _submesh_numpy(ctx, loop, T, rf)
+            want = submesh_reference(ctx, loop, T, rf)
             assert got[2] == want[2]
             for a, b in ((got[0], want[0]), (got[1], want[1]), (got[3], want[3])):
                 assert a.dtype == b.dtype and np.array_equal(a, b)
@@ -140,9 +140,9 @@ def test_delaunay_in_projection_compiled_equals_numpy(seed, monkeypatch):
         for axis in (np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0]), rng.standard_normal(3)):
             k = len(P)
             for forbidden in (set(), {(0, k // 2)}, {(0, 1)}):
-                got = tr._delaunay_in_projection(P, axis, forbidden)
+                got = tr.delaunay_in_projection(P, axis, forbidden)
                 monkeypatch.setattr(compiled, "ENABLED", False)
-                want = tr._delaunay_in_projection(P, axis, forbidden)
+                want = tr.delaunay_in_projection(P, axis, forbidden)
                 monkeypatch.setattr(compiled, "ENABLED", True)
                 assert (got is None) == (want is None)
                 if want is not None:
@@ -153,7 +153,7 @@ def test_delaunay_in_projection_compiled_equals_numpy(seed, monkeypatch):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_loop_cover_equals_the_numpy_checks_on_flat_and_nan_normals(seed):
-    from shellrepair.triangulate import _loop_cover_oriented
+    from shellrepair.triangulate import loop_cover_reference
 
     rng = np.random.default_rng(seed)
     for k in (3, 5, 9):
@@ -162,7 +162,7 @@ def test_loop_cover_equals_the_numpy_checks_on_flat_and_nan_normals(seed):
             for n in (rng.standard_normal(len(S)), -np.abs(rng.standard_normal(len(S))),
                       np.where(rng.random(len(S)) < 0.3, 0.0, 1.0), np.r_[np.nan, np.ones(len(S) - 1)],
                       np.r_[np.ones(len(S) - 1), np.nan], np.r_[1e-13, np.ones(len(S) - 1)]):
-                a, ok_a = _loop_cover_oriented(S, n, k)
+                a, ok_a = loop_cover_reference(S, n, k)
                 b, ok_b = triangulate_kernels.loop_cover(S, n, k)
                 assert ok_a == ok_b and a.dtype == b.dtype and np.array_equal(a, b)
 
@@ -195,8 +195,8 @@ def test_patch_corners_and_rim_sigma_equal_numpy(seed):
     """Corners and ids of patches with and without new vertices, and the
     rim scale with some rim vertices lacking scan edges (their loop edge
     instead), non-finite positions included: to the bit."""
-    from shellrepair.context import _rim_sigma, _rim_sigma_numpy
-    from shellrepair.patch import Patch, _corners, _corners_numpy
+    from shellrepair.context import rim_sigma, rim_sigma_reference
+    from shellrepair.patch import Patch, corners, corners_reference
 
     mesh = _perforated_torus(seed)
     ctx = ScanContext(mesh)
@@ -209,11 +209,11 @@ def test_patch_corners_and_rim_sigma_equal_numpy(seed):
         P = rng.standard_normal((q, 3)) * 1e3
         T = rng.integers(0, k + q, (k + 2 * q, 3))
         patch = Patch(hole_id=0, loop=loop, P=P, T=T)
-        for a, b in zip(_corners(ctx, patch), _corners_numpy(ctx, patch)):
+        for a, b in zip(corners(ctx, patch), corners_reference(ctx, patch)):
             assert _same_bits(a, b)
         cnt = rng.integers(0, 4, k).astype(np.float64)
         tot = rng.random(k) * cnt
-        assert _same_bits(_rim_sigma(ctx, loop, tot, cnt), _rim_sigma_numpy(ctx, loop, tot, cnt))
+        assert _same_bits(rim_sigma(ctx, loop, tot, cnt), rim_sigma_reference(ctx, loop, tot, cnt))
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -251,7 +251,7 @@ def test_edge_topology_of_a_few_faces_of_a_large_mesh_equals_the_full_numbering(
     from shellrepair import fastmesh, topology
 
     if compiled:
-        fastmesh._kernels()                   # loaded: used for any size
+        fastmesh.warm_up()                   # loaded: used for any size
     else:
         monkeypatch.setattr(fastmesh, "enabled", lambda n_faces: False)
     mesh = _perforated_torus(seed)
@@ -277,10 +277,10 @@ def test_turns_into_opening_leaves_the_vertex_scratch_clear():
     """The base test reads loop positions from the context's scratch and
     sets them back: later users find it all -1."""
     from shellrepair.holes import boundary_loops
-    from shellrepair.patch import _turns_into_opening
+    from shellrepair.patch import turns_into_opening
 
     mesh = _perforated_torus(1)
     ctx = ScanContext(mesh)
     for loop in boundary_loops(mesh.F, len(mesh.V))[0]:
-        _turns_into_opening(ctx, np.asarray(loop, np.int64))
+        turns_into_opening(ctx, np.asarray(loop, np.int64))
         assert (ctx.vpos() == -1).all()

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair.refine import (FLIP_EPS, _angle, _in_sorted, independent_flips, relax_rounds, _unfolded, refine_patch,
-                                refine_patches)
+from shellrepair.refine import (FLIP_EPS, angle_between, in_sorted, independent_flips, refine_patch, refine_patches,
+                                relax, unfolded)
 from shellrepair.context import ScanContext, local_frame, rim_data
 from shellrepair.io import Mesh, read_mesh, write_mesh
 from shellrepair.report import holes_dict
@@ -161,7 +161,7 @@ def test_batched_refinement_equals_refining_each_patch_alone():
 
 def _relax_full_pass(P, T, is_loop, forb, max_rounds=100):
     """The plain version: every round re-pairs all half-edges by a sort and
-    judges every interior edge (the specification of ``refine.relax_rounds``)."""
+    judges every interior edge (the specification of ``refine.relax``)."""
     n = len(P)
     nt = len(T)
     if nt < 2:
@@ -183,16 +183,16 @@ def _relax_full_pass(P, T, is_loop, forb, max_rounds=100):
         a, b = he[h1, 0], he[h1, 1]
         c, d = opp[h1], opp[h2]
         pa, pb, pc, pd = P[a], P[b], P[c], P[d]
-        excess = _angle(pa - pc, pb - pc) + _angle(pa - pd, pb - pd) - np.pi
+        excess = angle_between(pa - pc, pb - pc) + angle_between(pa - pd, pb - pd) - np.pi
         cand = np.flatnonzero((excess > FLIP_EPS) & (c != d))
         if cand.size == 0:
             break
         cc, dd = c[cand], d[cand]
         ncd_c = np.minimum(cc, dd) * n + np.maximum(cc, dd)
-        ok = ~_in_sorted(ncd_c, ks)                     # the new edge must not exist
+        ok = ~in_sorted(ncd_c, ks)                     # the new edge must not exist
         if forb.size:
-            ok &= ~(is_loop[cc] & is_loop[dd] & _in_sorted(ncd_c, forb))
-        ok &= _unfolded(pa[cand], pb[cand], pc[cand], pd[cand])
+            ok &= ~(is_loop[cc] & is_loop[dd] & in_sorted(ncd_c, forb))
+        ok &= unfolded(pa[cand], pb[cand], pc[cand], pd[cand])
         ncd_c, cand = ncd_c[ok], cand[ok]
         if cand.size == 0:
             break
@@ -236,7 +236,7 @@ def test_incremental_relaxation_flips_exactly_as_a_full_pass_each_round():
         forb = np.array([[0, k // 2], [3, 20]]) if trial % 2 else np.zeros((0, 2), np.int64)
         for rounds in (1, 2, 4, 100):                # round by round, and to the end
             want = _relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=rounds)
-            got = relax_rounds(P, T.copy(), is_loop, forb, max_rounds=rounds)[0]
+            got = relax(P, T.copy(), is_loop, forb, max_rounds=rounds)[0]
             assert np.array_equal(got, want)
         assert not np.array_equal(_relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=4),
                                   _relax_full_pass(P, T.copy(), is_loop, forb, max_rounds=2))  # many rounds
@@ -321,16 +321,14 @@ def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypat
     import scipy.sparse as sp
 
     from shellrepair import clean, fastmesh
-    from shellrepair import io as io_module
-    from shellrepair.topology import _edge_topology_numpy
+    from shellrepair.topology import edge_topology_reference
 
-    # clean_faces' hash, wherever clean_faces lives (io before the io split, clean after)
-    triple_hash_numpy = getattr(clean, "_triple_hash", None) or io_module._triple_hash
+    triple_hash_numpy = clean.triple_hash_reference    # clean_faces' hash without the kernels
 
     for name, V, F in _kernel_meshes():
         n = len(V)
         order, edges, count, bhe, consistent = fastmesh.edge_topology_arrays(F, n)
-        want = _edge_topology_numpy(np.ascontiguousarray(F, np.int64), n)
+        want = edge_topology_reference(np.ascontiguousarray(F, np.int64), n)
         got = (order, fastmesh.edge_ids(order, count), edges, count, bhe)
         for g, w, what in zip(got, want, ("he_order", "edge_of_he", "edges", "edge_count", "boundary_he")):
             assert g.dtype == np.int64 and np.array_equal(g, w), (name, what)
@@ -368,7 +366,7 @@ def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypat
 def test_orientation_with_kernels_equals_the_numpy_search(monkeypatch):
     pytest.importorskip("numba")
     from shellrepair import fastmesh
-    from shellrepair.clean import _signed_volumes, orient_faces
+    from shellrepair.clean import signed_volumes, orient_faces
 
     monkeypatch.setattr(fastmesh, "MIN_FACES", 0)
     rng = np.random.default_rng(11)
@@ -379,13 +377,13 @@ def test_orientation_with_kernels_equals_the_numpy_search(monkeypatch):
             slow = orient_faces(F, V)
             piece = face_pieces(edge_topology(F, len(V)), len(F))
             flip = rng.random(len(F)) < 0.3
-            vol_ref = _signed_volumes(V, F, flip, piece[1], piece[0])
+            vol_ref = signed_volumes(V, F, flip, piece[1], piece[0])
         assert np.array_equal(fast.F, slow.F) and np.array_equal(fast.flipped, slow.flipped), name
         assert (fast.n_pieces, fast.nonorientable, fast.notes) == (slow.n_pieces, slow.nonorientable, slow.notes)
         assert (fast.piece is None) == (slow.piece is None)
         assert fast.piece is None or np.array_equal(fast.piece, slow.piece)
         # the volumes decide closed pieces' winding: the same sums in the same order
-        assert np.array_equal(_signed_volumes(V, F, flip, piece[1], piece[0]), vol_ref), name
+        assert np.array_equal(signed_volumes(V, F, flip, piece[1], piece[0]), vol_ref), name
     # the sphere with flipped faces is wound outward again, with either path
     V, F = shapes.icosphere(3)
     G = F.copy()
@@ -459,18 +457,18 @@ def test_the_topology_on_two_threads_equals_it_on_one(shift):
     vertex runs the steps must keep whole), and NumPy's edges and counts."""
     pytest.importorskip("numba")
     from shellrepair import fastmesh
-    from shellrepair.topology import _edge_topology_numpy
+    from shellrepair.topology import edge_topology_reference
 
     for name, V, F in _kernel_meshes():
         F = np.ascontiguousarray(F, np.int64)
-        two = fastmesh._edge_topology_steps(F, len(V), shift, two=True)
-        turn = fastmesh._edge_topology_steps(F, len(V), shift)
+        two = fastmesh.edge_topology_steps(F, len(V), shift, two=True)
+        turn = fastmesh.edge_topology_steps(F, len(V), shift)
         assert all(np.array_equal(a, b) for a, b in zip(turn[:4], two[:4])) and turn[4] == two[4], name
-        order, _, edges, count, boundary = _edge_topology_numpy(F, len(V))
+        order, _, edges, count, boundary = edge_topology_reference(F, len(V))
         assert np.array_equal(two[0], order) and np.array_equal(two[1], edges), name
         assert np.array_equal(two[2], count) and np.array_equal(two[3], boundary), name
     with pytest.raises(ValueError, match="outside"):
-        fastmesh._edge_topology_steps(np.array([[0, 1, 2], [0, 1, 5]], np.int64), 4, 1, two=True)
+        fastmesh.edge_topology_steps(np.array([[0, 1, 2], [0, 1, 5]], np.int64), 4, 1, two=True)
 
 
 def test_a_large_mesh_takes_the_two_thread_topology(monkeypatch):

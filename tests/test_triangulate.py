@@ -16,7 +16,7 @@ import pytest
 
 from shellrepair.errors import MeshError
 from shellrepair.intersect import crossing_pairs
-from shellrepair.triangulate import _dp, delaunay_faces, restricted_dp, triangulate_loop
+from shellrepair.triangulate import delaunay_faces, liepa_dp, restricted_dp, triangulate_loop
 
 
 def assert_disc(T, k):
@@ -70,7 +70,7 @@ def test_restricted_search_over_every_triangle_is_the_full_search(seed):
     P = wavy_loop(k, rng)
     en = rim_normals(P)
     forb = {(0, k // 2)} if k > 6 else set()
-    full = _dp(P, np.arange(k), en, forb)
+    full = liepa_dp(P, np.arange(k), en, forb)
     mine = restricted_dp(P, all_triples(k), en, forb)
     canon = lambda T: sorted(tuple(np.roll(t, -int(np.argmin(t)))) for t in np.asarray(T).tolist())
     assert canon(mine) == canon(full)
@@ -110,7 +110,7 @@ def test_restricted_search_is_valid_and_close_to_the_full_search():
         P = wavy_loop(k, rng, noise=0.1, wave=0.2)
         en = rim_normals(P)
         D = delaunay_faces(P)
-        full = _dp(P, np.arange(k), en, set())
+        full = liepa_dp(P, np.arange(k), en, set())
         if not set(map(tuple, np.sort(full, axis=1).tolist())) <= set(map(tuple, D.tolist())):
             continue
         T = restricted_dp(P, D, en, set())
@@ -305,7 +305,7 @@ def test_the_block_chord_search_picks_the_row_by_row_chord(kind):
     """The chord that cuts a long loop (k/4 apart either way, shortest, no
     forbidden pair) is found in O(k^1.5 log k) by blocks and k-d trees; it
     is the one the O(k²) row-by-row search picks, ties included."""
-    from shellrepair.triangulate import _best_chord, _best_chord_rows
+    from shellrepair.triangulate import best_chord, best_chord_rows
 
     rng = np.random.default_rng(3)
     for _ in range(6):
@@ -325,10 +325,10 @@ def test_the_block_chord_search_picks_the_row_by_row_chord(kind):
         X = np.zeros((idx.max() + 1, 3))
         X[idx] = P
         forbidden = {tuple(sorted(rng.choice(idx, 2, replace=False).tolist())) for _ in range(100)}
-        i, j = _best_chord_rows(X, idx, forbidden)
+        i, j = best_chord_rows(X, idx, forbidden)
         # forbid the best chord's neighbours too: the answer moves, both must follow
         forbidden |= {tuple(sorted((int(idx[(i + d) % len(idx)]), int(idx[j])))) for d in range(-2, 3)}
-        assert _best_chord(X, idx, forbidden) == _best_chord_rows(X, idx, forbidden)
+        assert best_chord(X, idx, forbidden) == best_chord_rows(X, idx, forbidden)
 
 
 def test_plane_frame_of_one_axis_equals_the_array_version_to_the_bit():
@@ -367,10 +367,10 @@ def test_a_tetrahedralization_asked_again_is_the_kept_one(monkeypatch):
 
     rng = np.random.default_rng(3)
     P = wavy_loop(40, rng)
-    tr._DELAUNAY.clear()
+    tr.DELAUNAY_CACHE.clear()
     calls = []
-    real = tr._delaunay_faces
-    monkeypatch.setattr(tr, "_delaunay_faces", lambda X: calls.append(len(X)) or real(X))
+    real = tr.delaunay_faces_uncached
+    monkeypatch.setattr(tr, "delaunay_faces_uncached", lambda X: calls.append(len(X)) or real(X))
     D = delaunay_faces(P)
     assert D is not None and D.flags.writeable and np.array_equal(D, real(P))
     D[:] = 0                                              # the caller's copy
@@ -379,7 +379,7 @@ def test_a_tetrahedralization_asked_again_is_the_kept_one(monkeypatch):
     assert np.array_equal(delaunay_faces(P.astype(np.float32)), real(P.astype(np.float32))) and len(calls) == 2
     for s in range(tr.DELAUNAY_KEPT):
         delaunay_faces(P + s + 1.0)
-    assert len(tr._DELAUNAY) == tr.DELAUNAY_KEPT
+    assert len(tr.DELAUNAY_CACHE) == tr.DELAUNAY_KEPT
     n = len(calls)
     delaunay_faces(P)                                     # let go: asked of Qhull again
     assert len(calls) == n + 1

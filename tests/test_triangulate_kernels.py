@@ -4,7 +4,7 @@ NumPy search's triangulation to the bit.
 :func:`shellrepair.triangulate.restricted_dp` runs
 :func:`shellrepair.triangulate_kernels.restricted_prepare` and
 :func:`shellrepair.triangulate_kernels.restricted_search` when the kernels are on; its
-NumPy form :func:`shellrepair.triangulate._restricted_dp_numpy` is the
+NumPy form :func:`shellrepair.triangulate.restricted_dp_reference` is the
 oracle. Both are run on seeded random loops, planar and nearly planar
 loops (where whole families of triangulations tie, so the first-of-equals
 rule decides), loops with forbidden chords, degenerate (zero-area)
@@ -34,7 +34,7 @@ def _answer(f, *args):
 def _same(P, cand, en, forbidden, axis):
     """Both searches' answers, asserted equal; the answer (or the error text)."""
     got = _answer(tr.restricted_dp, P, cand, en, forbidden, axis)
-    want = _answer(tr._restricted_dp_numpy, P, cand, en, forbidden, axis)
+    want = _answer(tr.restricted_dp_reference, P, cand, en, forbidden, axis)
     if isinstance(want, str) or isinstance(got, str):
         assert got == want
     else:
@@ -66,7 +66,7 @@ def test_restricted_search_equals_numpy_on_random_wavy_loops(seed):
         D = tr.delaunay_faces(P)
         if D is None:
             continue
-        for cand in (D, tr._with_loop_edges(D, k)):
+        for cand in (D, tr.with_loop_edges(D, k)):
             for en in (rim_normals(P), np.zeros((k, 3))):
                 for axis in (None, _axis(P)):
                     T = _same(P, cand, en, set(), axis)
@@ -93,7 +93,7 @@ def test_restricted_search_equals_numpy_with_forbidden_chords_and_partial_rims(s
             if j - i > 1:
                 forb.add((i, j))
         forb.add((0, k // 2))
-        for cand in (all_triples(k), tr._with_loop_edges(tr.delaunay_faces(P), k)):
+        for cand in (all_triples(k), tr.with_loop_edges(tr.delaunay_faces(P), k)):
             for axis in (None, _axis(P), -_axis(P)):
                 T = _same(P, cand, en, forb, axis)
                 if isinstance(T, str):
@@ -146,7 +146,7 @@ def test_restricted_search_equals_numpy_on_nearly_planar_and_degenerate_loops(se
         en = np.tile([0.0, 0.0, 1.0], (k, 1)) + 1e-13 * rng.normal(size=(k, 3))
         en[int(rng.integers(0, k))] = np.nan
         en[int(rng.integers(0, k))] = 1e-300
-        for cand in (all_triples(k), tr._with_loop_edges(tr.delaunay_faces(P), k) if tr.delaunay_faces(P) is not None
+        for cand in (all_triples(k), tr.with_loop_edges(tr.delaunay_faces(P), k) if tr.delaunay_faces(P) is not None
                      else all_triples(k)):
             for axis in (None, np.array([0.0, 0.0, 1.0])):
                 _same(P, cand, en, set(), axis)
@@ -159,7 +159,7 @@ def test_restricted_search_raises_the_same_error_without_a_triangulation():
         with pytest.raises(MeshError, match="no triangulation"):
             tr.restricted_dp(P, cand, np.zeros((4, 3)), set())
         with pytest.raises(MeshError, match="no triangulation"):
-            tr._restricted_dp_numpy(P, cand, np.zeros((4, 3)), set())
+            tr.restricted_dp_reference(P, cand, np.zeros((4, 3)), set())
     # every triangulation needs the forbidden chord (0, 2) or (1, 3)
     for forb in ({(0, 2), (1, 3)},):
         assert isinstance(_same(P, all_triples(4), np.zeros((4, 3)), forb, None), str)
@@ -248,7 +248,7 @@ def test_liepa_tables_equal_numpys(seed):
         Q, rim, has, forb = _dp_inputs(rng, k, trial % 5)
         for axis in (None, rng.normal(size=3), np.array([0.0, 0.0, 1.0])):
             O, worst = triangulate_kernels.liepa_tables(Q, rim, has, forb, axis, tr.ANGLE_TIE)
-            O_np, worst_np = tr._dp_tables(Q, rim, has, forb, axis)
+            O_np, worst_np = tr.dp_tables_reference(Q, rim, has, forb, axis)
             assert O.dtype == np.int64 and np.array_equal(O, O_np)
             assert worst == worst_np
             finite += bool(np.isfinite(worst))
@@ -257,7 +257,7 @@ def test_liepa_tables_equal_numpys(seed):
 
 
 def test_full_dp_is_the_same_with_and_without_the_kernels(monkeypatch):
-    """tr._dp's triangles (or its error) on sub-loops of a larger loop, with
+    """tr.liepa_dp's triangles (or its error) on sub-loops of a larger loop, with
     rim normals only where a sub-loop edge is a loop edge: the same either
     way."""
     rng = np.random.default_rng(11)
@@ -267,9 +267,9 @@ def test_full_dp_is_the_same_with_and_without_the_kernels(monkeypatch):
     for idx in (np.arange(60), np.arange(10, 45), np.r_[50:60, 0:12], np.array([3, 9, 20, 21, 22, 40])):
         for forb in (set(), {(int(idx[0]), int(idx[len(idx) // 2]))}):
             for axis in (None, _axis(P[idx]), -_axis(P[idx])):
-                got = _answer(tr._dp, P, idx, en, forb, axis)
+                got = _answer(tr.liepa_dp, P, idx, en, forb, axis)
                 monkeypatch.setattr(compiled, "ENABLED", False)
-                want = _answer(tr._dp, P, idx, en, forb, axis)
+                want = _answer(tr.liepa_dp, P, idx, en, forb, axis)
                 monkeypatch.setattr(compiled, "ENABLED", True)
                 if isinstance(want, str) or isinstance(got, str):
                     assert got == want
@@ -301,8 +301,8 @@ def test_compiled_chord_search_is_the_row_by_row_one(seed):
         Pfull = np.zeros((3 * k, 3))
         Pfull[idx] = P
         forb = {tuple(sorted(rng.choice(idx, 2, replace=False).tolist())) for _ in range(int(rng.integers(0, 3 * k)))}
-        got = _answer(tr._best_chord_compiled, Pfull, idx, forb)
-        assert got == _answer(tr._best_chord_rows, Pfull, idx, forb)
+        got = _answer(tr.best_chord, Pfull, idx, forb)
+        assert got == _answer(tr.best_chord_rows, Pfull, idx, forb)
         if not isinstance(got, str):
             i, j = got
             d = np.linalg.norm(P[i + max(3, k // 4):min(k, i + k - max(3, k // 4) + 1)] - P[i], axis=1)
@@ -312,20 +312,20 @@ def test_compiled_chord_search_is_the_row_by_row_one(seed):
     k = 12
     P = wavy_loop(k, rng)
     everything = {(a, b) for a in range(k) for b in range(a + 1, k)}
-    assert _answer(tr._best_chord_compiled, P, np.arange(k), everything) == \
-        _answer(tr._best_chord_rows, P, np.arange(k), everything)
+    assert _answer(tr.best_chord, P, np.arange(k), everything) == \
+        _answer(tr.best_chord_rows, P, np.arange(k), everything)
 
 
 @pytest.mark.skipif(not compiled.ENABLED, reason="compiled kernels are off")
 def test_liepa_tables_run_compiled_with_and_without_an_axis():
-    """The tables _dp passes (with and without an axis) are among the types
+    """The tables liepa_dp passes (with and without an axis) are among the types
     the install compiles ahead of time."""
     rng = np.random.default_rng(2)
     P = wavy_loop(12, rng)
 
     def run():
         for axis in (None, _axis(P)):
-            _answer(tr._dp, P, np.arange(12), rim_normals(P), {(0, 5)}, axis)
+            _answer(tr.liepa_dp, P, np.arange(12), rim_normals(P), {(0, 5)}, axis)
 
     calls = _kernel_calls(run)
     assert "_liepa_tables" in {n for n, _ in calls}
@@ -387,10 +387,10 @@ def test_triangulate_loop_is_the_same_with_and_without_the_kernels(seed, monkeyp
             for forb in forbs:
                 for axis in ("auto", np.array([0.0, 0.0, 1.0])):
                     got = _answer(tr.triangulate_loop, Pin, None, forb, axis)
-                    direct = tr._delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
+                    direct = tr.delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
                     monkeypatch.setattr(compiled, "ENABLED", False)
                     want = _answer(tr.triangulate_loop, Pin, None, forb, axis)
-                    direct_np = tr._delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
+                    direct_np = tr.delaunay_in_projection(Pin, _axis(Pin) if isinstance(axis, str) else axis, forb)
                     monkeypatch.setattr(compiled, "ENABLED", True)
                     if isinstance(want, str) or isinstance(got, str):
                         assert got == want
@@ -418,7 +418,7 @@ def test_cover_free_finds_a_forbidden_edge_in_either_direction():
 @pytest.mark.parametrize("seed", range(4))
 def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monkeypatch):
     """delaunay_faces (sorted corners, sorted unique keys) and
-    _with_loop_edges (the loop edges the faces lack, each completed with
+    with_loop_edges (the loop edges the faces lack, each completed with
     every apex) give the same arrays with the kernels and without, on
     wavy and folded loops (which miss loop edges) and on rows holding a
     corner outside the loop (left to NumPy)."""
@@ -430,10 +430,10 @@ def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monk
         folded = np.column_stack([np.cos(th), np.sin(2 * th) * 0.6, 0.8 * np.sin(3 * th)]) + 0.02 * rng.normal(size=(k, 3))
         for P in (wavy_loop(k, rng), folded):
             got = tr.delaunay_faces(P)
-            W = tr._with_loop_edges(got, k) if got is not None else None
+            W = tr.with_loop_edges(got, k) if got is not None else None
             monkeypatch.setattr(compiled, "ENABLED", False)
             want = tr.delaunay_faces(P)
-            Wn = tr._with_loop_edges(want, k) if want is not None else None
+            Wn = tr.with_loop_edges(want, k) if want is not None else None
             monkeypatch.setattr(compiled, "ENABLED", True)
             assert (got is None) == (want is None)
             if want is None:
@@ -444,9 +444,9 @@ def test_tetrahedralization_faces_and_missing_loop_edges_equal_numpys(seed, monk
     assert missing > 0   # some loops lacked a loop edge: the completion ran
     D = np.array([[0, 1, 2], [1, 2, 3], [0, 2, 3], [2, 3, 4]], np.int64)   # corner 4 outside a 4-loop
     assert not triangulate_kernels.loop_edges_present(D, 4)[1]
-    got = tr._with_loop_edges(D, 4)
+    got = tr.with_loop_edges(D, 4)
     monkeypatch.setattr(compiled, "ENABLED", False)
-    assert np.array_equal(got, tr._with_loop_edges(D, 4))
+    assert np.array_equal(got, tr.with_loop_edges(D, 4))
 
 
 def test_the_axis_length_is_numpys_norm():
@@ -455,7 +455,7 @@ def test_the_axis_length_is_numpys_norm():
     rng = np.random.default_rng(9)
     for _ in range(2000):
         x = rng.normal(size=3) * 10.0 ** rng.integers(-150, 150)
-        assert tr._length(x) == np.linalg.norm(x)
+        assert tr.vector_length(x) == np.linalg.norm(x)
     for x in (np.zeros(3), np.array([np.inf, 1.0, 0.0]), np.array([3, 4, 0]), np.ones((2, 3))):
-        got, want = tr._length(x), np.linalg.norm(x)
+        got, want = tr.vector_length(x), np.linalg.norm(x)
         assert got == want or (np.isnan(got) and np.isnan(want))

@@ -31,7 +31,7 @@ from ..mesh import FaceTexture, Mesh, written_faces
 from .polygons import polygons_to_triangles
 from .text import colors_to_uint8, parse_numbers, token_counts
 
-__all__ = ["read_ply", "ply_bytes"]
+__all__ = ["read_ply", "ply_bytes", "parse_ply_header", "ply_binary_body"]
 
 
 _PLY_TYPES = {
@@ -45,7 +45,28 @@ _PLY_NAMES = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort",
               "i4": "int", "u4": "uint", "f4": "float", "f8": "double"}
 
 
-def _parse_ply_header(data):
+def parse_ply_header(data):
+    """A PLY file's header.
+
+    Parameters
+    ----------
+    data : bytes
+        The whole file.
+
+    Returns
+    -------
+    fmt : str
+        ``ascii``, ``binary_little_endian`` or ``binary_big_endian``.
+    elements : list of dict
+        Each element's ``name``, ``count`` and ``props``, in file order.
+    pos : int
+        Where the body starts in ``data``.
+
+    Raises
+    ------
+    MeshError
+        When the header is missing or malformed.
+    """
     end = data.find(b"end_header")
     if not data.startswith(b"ply"):
         raise MeshError("not a PLY file (missing 'ply' magic)")
@@ -124,7 +145,7 @@ def _ply_comments(data):
 
 
 def read_ply(data):
-    fmt, elements, pos = _parse_ply_header(data)
+    fmt, elements, pos = parse_ply_header(data)
     names = [e["name"] for e in elements]
     if "vertex" not in names:
         raise MeshError("PLY has no vertex element")
@@ -135,7 +156,7 @@ def read_ply(data):
         tables = _ply_ascii_body(data[pos:], elements, notes)
     else:
         endian = "<" if fmt == "binary_little_endian" else ">"
-        tables = _ply_binary_body(data, pos, elements, endian)
+        tables = ply_binary_body(data, pos, elements, endian)
     vert = tables["vertex"]
     for c in "xyz":
         if c not in vert:
@@ -241,7 +262,31 @@ def _face_texture(uv, counts, n_faces, C, texnumber):
                        face_material=np.full(len(C), -1, np.int64), face_texnumber=tn)
 
 
-def _ply_binary_body(data, pos, elements, endian):
+def ply_binary_body(data, pos, elements, endian):
+    """The tables of a binary PLY body.
+
+    Parameters
+    ----------
+    data : bytes
+        The whole file.
+    pos : int
+        Where the body starts (:func:`parse_ply_header`).
+    elements : list of dict
+        The header's elements.
+    endian : str
+        ``"<"`` or ``">"``.
+
+    Returns
+    -------
+    dict
+        Per element name, its columns by property name (a list property's
+        column holds its rows).
+
+    Raises
+    ------
+    MeshError
+        When the body is truncated.
+    """
     tables = {}
     for el in elements:
         props, count, name = el["props"], el["count"], el["name"]
