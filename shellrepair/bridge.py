@@ -426,7 +426,7 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
     reach = np.repeat([max_reach * max(loops[a].diameter, 1e-300) for a in ent_a.tolist()], m)
     turn = np.where(np.abs(kap) > 0, 2 * np.pi / np.maximum(np.abs(kap), 1e-300), np.inf)
     length = np.minimum(reach, turn)
-    # only an arc's first landing counts (see _landings_numpy)
+    # only an arc's first landing counts (see landings_reference)
     ent = np.repeat(np.arange(len(ent_a)), m)
     arow = np.repeat(ent_a, m)
     krow = np.repeat(sizes[ent_a], m)
@@ -443,7 +443,7 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
                                               owner, place, edge, arow, krow, irow, SELF_SKIP,
                                               rank_of=lambda P: _leaf_rank(tree_of(P)))
     if status != 0:
-        landed = _landings_numpy(U, T, N, kap, s0, length, n_samples, slack, ent, first, tree_of(V[allv]),
+        landed = landings_reference(U, T, N, kap, s0, length, n_samples, slack, ent, first, tree_of(V[allv]),
                                  owner, place, edge, arow, krow, irow)
     out = {}
     for e, a in enumerate(ent_a.tolist()):
@@ -460,8 +460,8 @@ def _leaf_rank(tree):
     return rank
 
 
-def _landings_numpy(U, T, N, kap, s0, length, n_samples, slack, ent, first, tree, owner, place, edge, arow, krow,
-                    irow):
+def landings_reference(U, T, N, kap, s0, length, n_samples, slack, ent, first, tree, owner, place, edge, arow, krow,
+                       irow):
     """The loop each arc lands on first (-1: none), the NumPy version of
     :func:`shellrepair.bridge_kernels.arc_landings` (its oracle; arguments as
     there, ``first`` the followed loops' first rows and ``tree`` a

@@ -6,7 +6,7 @@
   normal sums;
 * :func:`arc_landings`: where each continuation arc lands first, arc by
   arc, sample by sample, in a k-d tree of the rim vertices
-  (:func:`shellrepair.bridge._landings_numpy`, which asks SciPy's
+  (:func:`shellrepair.bridge.landings_reference`, which asks SciPy's
   ``cKDTree`` run by run).
 
 Each gives what its NumPy version gives, to the bit (tests/test_kernels.py,
@@ -519,7 +519,7 @@ def arc_landings(U, T, N, kap, s0, length, n_samples, slack, ent, nent, P, owner
                  skip, rank_of=None):
     """The loop each continuation arc lands on first
     (:func:`shellrepair.bridge.loop_sights`' walk along the arcs, the
-    NumPy version :func:`shellrepair.bridge._landings_numpy` its oracle),
+    NumPy version :func:`shellrepair.bridge.landings_reference` its oracle),
     arc by arc and sample by sample, each sample looked up in a k-d tree
     of the rim vertices.
 

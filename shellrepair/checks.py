@@ -27,8 +27,8 @@ import numpy as np
 
 from . import checks_kernels, compiled
 from .intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
-from .merge import _edges_of, scan_edges as patch_scan_edges
-from .patch import _corners
+from .merge import edges_of, scan_edges as patch_scan_edges
+from .patch import corners as corners_of
 
 
 class Outcome(NamedTuple):
@@ -109,7 +109,7 @@ def folds_reference(C, ids, Cs, Fr):
 
 def check_patch(ctx, patch):
     """Why the patch cannot be used (or None), and the patch triangles at fault."""
-    C, ids = _corners(ctx, patch)
+    C, ids = corners_of(ctx, patch)
     if not np.isfinite(C).all():
         return "non-finite patch positions", np.zeros(0, np.int64)
     return _check_rest(ctx, patch, C, ids, patch_vs_index(C, ids, ctx.index, return_faces=True))
@@ -119,7 +119,7 @@ def check_patches(ctx, patches):
     """:func:`check_patch` of each patch, their crossing queries against
     the scan in one batch (:func:`~shellrepair.intersect.patch_vs_index_many`);
     the same answers."""
-    corners = [_corners(ctx, p) for p in patches]
+    corners = [corners_of(ctx, p) for p in patches]
     finite = [bool(np.isfinite(C).all()) for C, _ in corners]
     bads = iter(patch_vs_index_many([c for c, ok in zip(corners, finite) if ok], ctx.index))
     return [_check_rest(ctx, p, C, ids, next(bads)) if ok else ("non-finite patch positions", np.zeros(0, np.int64))
@@ -166,7 +166,7 @@ def blocked_in_plane(ctx, hole_id, flat, bad):
         planarity = loop_stats(ctx.V, loop)["planarity"]
     if planarity > BLOCKED_PLANARITY or not embeds_by_projection(ctx.V[loop], flat.T, len(loop)):
         return 0
-    C, ids = _corners(ctx, flat)
+    C, ids = corners_of(ctx, flat)
     pairs = patch_vs_index(C[bad], ids[bad], ctx.index, return_pairs=True)
     faces = np.unique(pairs[:, 1])
     touching = np.isin(ctx.F[faces], loop).any(axis=1)
@@ -301,7 +301,7 @@ def edges_across(ctx, loops):
     loops' own edges (sorted pairs): a patch joining the loops (a tube, a
     pants) that made one again would be non-manifold."""
     verts = np.concatenate([L.vertices for L in loops])
-    edges = {tuple(e) for e in _edges_of(ctx.F[ctx.faces_of(verts)]).tolist()}
+    edges = {tuple(e) for e in edges_of(ctx.F[ctx.faces_of(verts)]).tolist()}
     return edges - {tuple(sorted(e)) for L in loops
                     for e in zip(L.vertices.tolist(), np.roll(L.vertices, -1).tolist())}
 

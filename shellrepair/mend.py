@@ -42,7 +42,7 @@ import numpy as np
 from .errors import MeshError
 from .geometry import cross, dot
 from .intersect import TriangleIndex, patch_vs_index
-from .triangulate import _with_loop_edges, delaunay_faces, restricted_dp
+from .triangulate import with_loop_edges, delaunay_faces, restricted_dp
 
 #: Rings of patch triangles added around the faulty ones before cutting.
 MEND_RINGS = 1
@@ -136,7 +136,7 @@ def _candidates(m, Q):
     out = []
     D = delaunay_faces(Q)
     if D is not None:
-        out.append(_with_loop_edges(D, m))
+        out.append(with_loop_edges(D, m))
     if m <= MEND_ALL_MAX:
         a, b, c = np.meshgrid(np.arange(m), np.arange(m), np.arange(m), indexing="ij")
         sel = (a < b) & (b < c)

@@ -16,17 +16,27 @@ from . import compiled, intersect_kernels
 from .geometry import bounding_spheres, bounds, triangle_boxes
 from .intersect import _pairs_cross, ball_pairs, pair_intersections
 from .io import Mesh
-from .patch import _corners
+from .patch import corners as corners_of
 
 
-def _edges_of(T):
+def edges_of(T):
+    """Every triangle's three edges, each as (low, high).
+
+    Parameters
+    ----------
+    T : (m, 3) int64 triangles
+
+    Returns
+    -------
+    (3m, 2) int64: the triangles' first edges, then their second and third ones, each sorted.
+    """
     E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
     return np.sort(E, axis=1)
 
 
 def scan_edges(patch):
     """Edges the patch creates between scan vertices, as (a, b) with a < b
-    (in :func:`_edges_of`'s order: the triangles' first edges, then their
+    (in :func:`edges_of`'s order: the triangles' first edges, then their
     second and third ones).
 
     Parameters
@@ -118,7 +128,7 @@ class Accepted:
         self._last = (patch, mine)
         if any(e in self.edges and e not in own for e in mine):
             return "an earlier patch already created an edge this patch needs", None
-        C, ids = _corners(ctx, patch)
+        C, ids = corners_of(ctx, patch)
         if self.items:
             lo, hi = bounds(C.reshape(-1, 3))
             near = np.flatnonzero(np.all((self.lo <= hi) & (lo <= self.hi), axis=1))

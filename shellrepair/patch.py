@@ -369,7 +369,6 @@ def corners_reference(ctx, patch):
     return allp[patch.T], ids.astype(np.int64)
 
 
-_corners = corners  # alias until merge.py and checks.py import corners
 
 #: A loop at most this planar (RMS distance to its plane over its diameter) ...
 EDGE_ON_PLANARITY = 0.02

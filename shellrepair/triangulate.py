@@ -963,4 +963,3 @@ def restricted_dp_reference(P, cand, edge_normals, forbidden, axis=None):
     return np.array(tris, np.int64)
 
 
-_with_loop_edges = with_loop_edges  # alias until mend.py imports with_loop_edges

@@ -3,7 +3,7 @@ NumPy walk's landings to the bit.
 
 :func:`shellrepair.bridge_kernels.arc_landings` follows each arc sample by
 sample in its own k-d tree of the rim vertices;
-:func:`shellrepair.bridge._landings_numpy` (its oracle) asks SciPy's
+:func:`shellrepair.bridge.landings_reference` (its oracle) asks SciPy's
 ``cKDTree`` run by run. Both are run here on the arcs
 :func:`shellrepair.bridge.loop_sights` builds for seeded scans with many
 holes, holes close to each other, loops pinched together at a shared
@@ -67,7 +67,7 @@ def _walks(V, F):
     assert len(seen) == 1
     (U, T, N, kap, s0, length, n_samples, slack, ent, nent, P, owner, place, edge, arow, krow, irow, skip), asked, got = seen[0]
     first = np.concatenate([[0], np.cumsum(np.bincount(ent, minlength=nent))])
-    want = bridge._landings_numpy(U, T, N, kap, s0, length, n_samples, slack, ent, first, cKDTree(P), owner, place,
+    want = bridge.landings_reference(U, T, N, kap, s0, length, n_samples, slack, ent, first, cKDTree(P), owner, place,
                                   edge, arow, krow, irow)
     return seen[0][0], asked, got, want
 
@@ -134,7 +134,7 @@ def test_a_tie_at_one_place_is_settled_as_the_scipy_tree_settles_it():
         P, owner = args[10], args[11]
         _, j = cKDTree(P).query([0.75, 0, 0])
         assert status == 0 and got[0] == owner[j]
-        want = bridge._landings_numpy(*args[:9], np.array([0, 1]), cKDTree(P), owner, args[12], *args[13:17])
+        want = bridge.landings_reference(*args[:9], np.array([0, 1]), cKDTree(P), owner, args[12], *args[13:17])
         assert np.array_equal(got, want)
         # without the tree's order the kernel does not guess
         assert bridge_kernels.arc_landings(*args)[1] == 1

@@ -844,14 +844,14 @@ def test_scan_edges_are_the_loop_edges_of_the_sorted_edge_list():
     patch edge and keeping those between loop vertices lists, in that order."""
     from types import SimpleNamespace
 
-    from shellrepair.merge import _edges_of, scan_edges
+    from shellrepair.merge import edges_of, scan_edges
 
     rng = np.random.default_rng(5)
     loop = rng.permutation(1000)[:30]
     T = rng.integers(0, 45, (200, 3))                # ids >= 30: new vertices
     patch = SimpleNamespace(loop=loop, T=T)
     k = len(loop)
-    E = _edges_of(np.where(T < k, loop[np.minimum(T, k - 1)], -1))
+    E = edges_of(np.where(T < k, loop[np.minimum(T, k - 1)], -1))
     want = [tuple(e) for e in E[(E >= 0).all(axis=1)].tolist()]
     assert scan_edges(patch) == want and len(want) > 50
     assert scan_edges(SimpleNamespace(loop=loop, T=T[:0])) == []
