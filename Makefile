@@ -9,11 +9,11 @@ TESTTOOLS = .venv/.shellrepair-installed-test
 # module changes (after a git pull), so no run pays the compiler
 STAMP    = .venv/.shellrepair-built
 # written when the shading is built too: its Numba kernels (minutes; its
-# rho_dt table ships with the package, shellrepair/reflectance/rho_dt_table.npz);
+# rho_dt table ships with the package, shellrepair/appearance/reflectance/rho_dt_table.npz);
 # what render, the HTML pictures of batch and repair --html, the tests and the
 # benchmarks add to the fill's build
 SHADING  = .venv/.shellrepair-built-shading
-SOURCES  = $(wildcard shellrepair/*.py shellrepair/*/*.py)
+SOURCES  = $(wildcard shellrepair/*.py shellrepair/*/*.py shellrepair/*/*/*.py)
 SCAN    ?= data/bunny_zipper.ply
 OUT     ?= $(basename $(SCAN)).repaired.ply
 REPORT  ?= $(basename $(SCAN)).report.json
@@ -73,10 +73,10 @@ $(STAMP): $(INSTALLED) $(SOURCES) shellrepair/aot_types.json
 	$(PY) -m shellrepair.aot build --part 1; second=$$?; wait $$first && [ $$second = 0 ] || { \
 	  echo "the ahead-of-time build failed: compiling the kernels with Numba's JIT instead (cached beside the package)"; \
 	  $(PY) -c "from shellrepair import warmup; warmup.warm_up(share=1)" & first=$$!; \
-	  $(PY) -c "from shellrepair import warmup, cholesky; warmup.warm_up(share=2); cholesky.warm_up()" \
+	  $(PY) -c "from shellrepair import warmup; from shellrepair.fill import cholesky; warmup.warm_up(share=2); cholesky.warm_up()" \
 	    || { wait $$first; exit 1; }; wait $$first; }
 	@echo "compiling the whole-mesh kernels (Numba, once, cached beside the package; used from 400k faces)"
-	$(PY) -c "from shellrepair import fastmesh; fastmesh.warm_up()"
+	$(PY) -c "from shellrepair.mesh import fastmesh; fastmesh.warm_up()"
 	touch $(STAMP)
 
 # the shading, which no repair uses: only rendering does (render, the
@@ -86,10 +86,10 @@ $(SHADING): $(STAMP) $(SOURCES)
 	@# Numba checks a cached kernel against its own file only: a kernel that inlines a helper of another
 	@# kernel module would load stale machine code after that helper changed, so a change to any of the
 	@# reflectance modules drops their whole cache
-	@if [ -f $(SHADING) ] && [ -n "$$(find shellrepair/reflectance -name '*.py' -newer $(SHADING))" ]; then \
-	  echo "a reflectance module changed: recompiling all its kernels"; rm -f shellrepair/reflectance/__pycache__/*.nb[ic]; fi
-	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/reflectance/__pycache__)"
-	$(PY) -c "from shellrepair.shader import warm_up; warm_up()"
+	@if [ -f $(SHADING) ] && [ -n "$$(find shellrepair/appearance/reflectance -name '*.py' -newer $(SHADING))" ]; then \
+	  echo "a reflectance module changed: recompiling all its kernels"; rm -f shellrepair/appearance/reflectance/__pycache__/*.nb[ic]; fi
+	@echo "compiling the shading kernels (Numba, once; cached in shellrepair/appearance/reflectance/__pycache__)"
+	$(PY) -c "from shellrepair.appearance.shader import warm_up; warm_up()"
 	touch $(SHADING)
 
 # open3d's wheel needs libusb (and libgomp); install them from Debian if missing.

@@ -7,12 +7,12 @@ gilt-bronze statue. For every case (:mod:`eval.cases`) and tool
 
 1. **Cameras** aimed at the holes: the largest connected regions of removed
    faces of the ground truth (up to ``--views`` per case), each seen along
-   its area-weighted mean normal (:func:`shellrepair.render.view_towards`)
+   its area-weighted mean normal (:func:`shellrepair.appearance.render.view_towards`)
    and framed on the region with context around it
-   (:func:`shellrepair.render.frame_camera`). The same cameras serve the
+   (:func:`shellrepair.appearance.render.frame_camera`). The same cameras serve the
    truth and every tool.
 2. **One material and one aging state**: the aging map
-   (:func:`shellrepair.aging.aging_maps`: rust coverage, gilding, crust) is
+   (:func:`shellrepair.appearance.aging.aging_maps`: rust coverage, gilding, crust) is
    computed once on the ground truth and carried to each tool's mesh by
    nearest vertex, and the unit is inferred once from the truth, so the
    renders differ only by geometry (normals, shape, silhouettes, shadows).
@@ -135,9 +135,9 @@ def region_cameras(V, F, removed, *, n_views=2, size=(256, 256), margin=1.7, up=
 
     Returns
     -------
-    cameras : list of shellrepair.render.Camera
+    cameras : list of shellrepair.appearance.render.Camera
     """
-    from shellrepair import render
+    from shellrepair.appearance import render
 
     import open3d as o3d
 
@@ -166,7 +166,7 @@ def _unblocked(cam, pts, scene, max_steps=8):
     """
     import open3d as o3d
 
-    from shellrepair import render
+    from shellrepair.appearance import render
 
     target = np.asarray(cam.target, np.float64)
     d = np.asarray(cam.eye, np.float64) - target
@@ -211,7 +211,7 @@ def truth_look(V, F, *, age=None, up=(0.0, 1.0, 0.0), seed=0):
     -------
     look : dict of (n,) float64 arrays ``coverage``, ``gild``, ``crust``
     """
-    from shellrepair import aging
+    from shellrepair.appearance import aging
 
     m = aging.aging_maps(V, F, age=aging.DEFAULT_AGE if age is None else float(age), up=up, seed=seed)
     return {"coverage": m.coverage, "gild": m.gild, "crust": m.crust}
@@ -244,7 +244,7 @@ def render_view(V, F, camera, look, *, unit="m", material="aged-bronze", supersa
     ----------
     V : (n,3) float array
     F : (m,3) int array
-    camera : shellrepair.render.Camera
+    camera : shellrepair.appearance.render.Camera
     look : dict of (n,) arrays ``coverage``, ``gild``, ``crust``
     unit : str
         Mesh unit, the same for every mesh compared (sets the model choice).
@@ -255,7 +255,7 @@ def render_view(V, F, camera, look, *, unit="m", material="aged-bronze", supersa
     -------
     image : (H,W,3) uint8 array
     """
-    from shellrepair import render
+    from shellrepair.appearance import render
 
     return render.render_mesh(V, F, camera=camera, material=material, coverage=look["coverage"],
                               gild=look["gild"], crust=look["crust"], unit=unit,
@@ -431,7 +431,7 @@ def _outline(img, mask):
 
 def worst_figure(worst, path):
     """Each tool's worst view: truth | tool, the region outlined, one row per tool."""
-    from shellrepair import render
+    from shellrepair.appearance import render
 
     rows = []
     for tool, w in worst.items():
@@ -508,7 +508,7 @@ def main(argv=None):
     from eval import metrics, peers
     from eval.bench import machine_info
     from eval.worker import ToolRunner
-    from shellrepair import render
+    from shellrepair.appearance import render
 
     args = parse_args(sys.argv[1:] if argv is None else argv)
     names = [s.strip() for s in args.cases.split(",") if s.strip()]

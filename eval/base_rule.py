@@ -4,7 +4,7 @@
 
 A planar opening that the scan meets edge-on gets a flat cap when the scan
 turns into the opening's plane along most of its rim
-(:func:`shellrepair.patch.turns_into_opening`), and a faired fill
+(:func:`shellrepair.fill.patch.turns_into_opening`), and a faired fill
 otherwise. This script builds cases ``0..n-1`` of each seed with the
 ``base`` family forced (:func:`eval.stress.stress_case`: the bottom 5–25 %
 of a figure cut off by a plane tilted up to 25°) and repairs each at the
@@ -42,8 +42,8 @@ MODES = ("rule", "faired", "flat")
 
 def turning_share(ctx, loop):
     """The rule's statistic: the share of rim vertices whose first-ring
-    faces face out through the opening (:func:`shellrepair.patch.rim_turning`)."""
-    from shellrepair.patch import rim_turning
+    faces face out through the opening (:func:`shellrepair.fill.patch.rim_turning`)."""
+    from shellrepair.fill.patch import rim_turning
 
     return rim_turning(ctx, loop) / len(loop)
 
@@ -51,8 +51,8 @@ def turning_share(ctx, loop):
 def run_case(case, truth, facts):
     """The three repairs and CGAL's fill of one case: a row."""
     from eval import metrics, peers
-    from shellrepair import patch
-    from shellrepair.io import Mesh
+    from shellrepair.fill import patch
+    from shellrepair.mesh.io import Mesh
     from shellrepair.repair import repair_mesh
 
     rule = patch.turns_into_opening

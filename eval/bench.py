@@ -114,7 +114,7 @@ def run_case(case, tools, runners, tmp, *, n_samples, seed, log=print, cold_time
 
     ``COLD`` among ``tools`` is our command line in a fresh process
     (:func:`run_cold`, ``cold_timeout`` seconds at most), not a worker."""
-    from shellrepair.topology import face_areas
+    from shellrepair.mesh.topology import face_areas
 
     case_npz = tmp / f"{case.name}.npz"
     np.savez(case_npz, V=case.V, F=case.F)
@@ -201,8 +201,8 @@ def run_cold(case, tmp, timeout):
         repaired ``{"V", "F"}`` as read back); else ``error``.
     """
     from eval.cold_start import user_env
-    from shellrepair.io import read_mesh, write_mesh
-    from shellrepair.mesh import Mesh
+    from shellrepair.mesh.io import read_mesh, write_mesh
+    from shellrepair.mesh.core import Mesh
 
     ply, out, rep = (tmp / f"{case.name}.cold{suffix}" for suffix in (".ply", ".out.ply", ".report.json"))
     write_mesh(ply, Mesh(V=case.V, F=case.F))

@@ -20,7 +20,7 @@ unperforated surface. ``--repeat N``
 (default 3) runs each tool N times in its (warm) child and keeps the
 fastest run's time: the minimum is the least disturbed on a shared
 machine, and the child's warm-up on a tiny sphere does not load the
-whole-mesh kernels (:mod:`shellrepair.fastmesh`, from 400k faces), so
+whole-mesh kernels (:mod:`shellrepair.mesh.fastmesh`, from 400k faces), so
 the first large run pays that once; the metrics are those of the last run
 (every run gives the same output). ``--repeat 1`` is
 :func:`eval.bench_scale.compare_peers`'s single run. ``--profile``
@@ -70,7 +70,7 @@ def profile(V2, F2, n=30):
     import cProfile
     import pstats
 
-    from shellrepair.io import Mesh
+    from shellrepair.mesh.io import Mesh
     from shellrepair.repair import repair_mesh
 
     repair_mesh(Mesh(V=V2, F=F2))  # warm (imports, JIT caches)
@@ -89,7 +89,7 @@ def compare_repeated(case_dir, tools, timeout, repeat):
     times in its child: ``seconds`` is the fastest run, ``runs`` all of them."""
     from eval import metrics, peers
     from eval.worker import ToolRunner
-    from shellrepair.topology import face_areas
+    from shellrepair.mesh.topology import face_areas
 
     d = Path(case_dir)
     V, F = np.load(d / "V.npy"), np.load(d / "F.npy")

@@ -5,18 +5,18 @@ Run ``.venv/bin/python eval/bench_libs.py [polygon|distance|grid|readers ...]``
 fastest of ``--repeat`` runs, in one warm process) and whether the answers
 are the same; the docstrings of the functions measured quote them.
 
-* ``polygon``: :func:`shellrepair.geometry.points_in_polygon` (NumPy) against
+* ``polygon``: :func:`shellrepair.mesh.geometry.points_in_polygon` (NumPy) against
   scikit-image's ``points_in_poly`` (Cython), which the fill used before:
   random outlines, and the outlines and samples hole detection tests
-  (:func:`shellrepair.holes._inside_fractions`) on single-view scans.
-* ``distance``: :func:`shellrepair.distance.point_mesh_distance` (SciPy's
+  (:func:`shellrepair.holes.loops._inside_fractions`) on single-view scans.
+* ``distance``: :func:`shellrepair.mesh.distance.point_mesh_distance` (SciPy's
   cKDTree of centroids, then the exact distance to the 8 nearest
   triangles) against libigl's ``point_mesh_squared_distance`` (an AABB
   tree, exact), on the order test's own queries.
-* ``grid``: :class:`shellrepair.intersect.NearFaces` (vertices in xy
+* ``grid``: :class:`shellrepair.mesh.intersect.NearFaces` (vertices in xy
   columns) against a SciPy cKDTree of the vertices, for the crossing
   checks' box queries on a 1.3M-face mesh.
-* ``readers``: our OBJ / OFF / STL readers (:mod:`shellrepair.formats`)
+* ``readers``: our OBJ / OFF / STL readers (:mod:`shellrepair.mesh.formats`)
   against meshio and Open3D on a ~1M-face file of each format, and what
   each keeps.
 
@@ -62,8 +62,8 @@ def polygon(repeat):
     from skimage.measure import points_in_poly
 
     from eval import shapes
-    from shellrepair import holes
-    from shellrepair.geometry import points_in_polygon
+    from shellrepair.holes import loops as holes
+    from shellrepair.mesh.geometry import points_in_polygon
 
     rng = np.random.default_rng(0)
     print("polygon: random star outlines, uniform points in [-1,1]^2 plus every corner and side midpoint")
@@ -77,11 +77,11 @@ def polygon(repeat):
             print(f"{k:>8} {p:>7} {1e3 * t_ours:>9.2f} {1e3 * t_sk:>11.2f} {t_ours / t_sk:>6.1f}  "
                   f"{bool(np.array_equal(a, b))}")
     # the fill's own use: hole detection's inside fractions on single-view scans
-    from shellrepair.holes import detect_holes
+    from shellrepair.holes.loops import detect_holes
 
     scans = [shapes.range_scan(*shapes.bumpy_sphere(5, amplitude=0.05, frequency=5)),
              shapes.range_scan(*shapes.torus(nu=160, nv=60), view=(0.1, -1.0, 0.9))]
-    from shellrepair.io import read_mesh
+    from shellrepair.mesh.io import read_mesh
 
     bunny = read_mesh(ROOT / "data" / "bunny_zipper.ply")
     scans.append((bunny.V, bunny.F))
@@ -114,7 +114,7 @@ def polygon(repeat):
 def _distance_cases():
     """Scans whose holes the order test measures: (name, mesh)."""
     from eval import shapes
-    from shellrepair.io import Mesh, read_mesh
+    from shellrepair.mesh.io import Mesh, read_mesh
 
     out = []
     V, F = shapes.bumpy_sphere(4, amplitude=0.03, frequency=6)
@@ -130,8 +130,8 @@ def _distance_cases():
 def distance(repeat):
     import igl
 
-    from shellrepair import distance as dist
-    from shellrepair.io import mesh_bytes
+    from shellrepair.mesh import distance as dist
+    from shellrepair.mesh.io import mesh_bytes
     from shellrepair.repair import repair_mesh
 
     ours = dist.point_mesh_distance
@@ -185,16 +185,16 @@ def grid(repeat):
     from scipy.spatial import cKDTree
 
     from eval import shapes
-    from shellrepair import fastmesh
-    from shellrepair.geometry import concat_ranges
-    from shellrepair.intersect import NearFaces
+    from shellrepair.mesh import fastmesh
+    from shellrepair.mesh.geometry import concat_ranges
+    from shellrepair.mesh.intersect import NearFaces
 
     fastmesh.warm_up()
     V, F = shapes.icosphere(8)   # 1.3M faces
     V = V + 1e-4 * np.random.default_rng(0).standard_normal(V.shape)
     t_grid, nf = best_of(lambda: NearFaces(V, F), repeat)
     t_tree, tree = best_of(lambda: cKDTree(V), repeat)
-    from shellrepair import intersect_kernels
+    from shellrepair.mesh import intersect_kernels
 
     t_sort, _ = best_of(lambda: intersect_kernels.grid_sort(V, grow=nf.grow), repeat)
     rng = np.random.default_rng(1)
@@ -267,10 +267,10 @@ def readers(repeat):
     import meshio
     import open3d as o3d
 
-    from shellrepair.formats.obj import read_obj
-    from shellrepair.formats.off import read_off
-    from shellrepair.formats.stl import read_stl
-    from shellrepair.io import read_mesh
+    from shellrepair.mesh.formats.obj import read_obj
+    from shellrepair.mesh.formats.off import read_off
+    from shellrepair.mesh.formats.stl import read_stl
+    from shellrepair.mesh.io import read_mesh
 
     def arrays(m):
         if hasattr(m, "cells"):

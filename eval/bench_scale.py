@@ -22,24 +22,24 @@ Each step runs in its own child process (``--child``), so one step's
 memory does not hide the next one's, and a step that runs out of memory or
 time is recorded as such and the rest go on:
 
-* ``read``: :func:`shellrepair.io.read_mesh` of the PLY (parse, validate,
+* ``read``: :func:`shellrepair.mesh.io.read_mesh` of the PLY (parse, validate,
   clean, orient);
-* ``detect``: :func:`shellrepair.holes.detect_holes` on the arrays;
+* ``detect``: :func:`shellrepair.holes.loops.detect_holes` on the arrays;
 * ``fill-j1``, ``fill-j2``: :func:`shellrepair.repair.repair_mesh` with
   ``jobs`` 1 and 2 (includes its own detection, setup and merge);
 * ``fill-j1-hp``: ``fill-j1`` with NumPy's default huge-page advice left
   on (every other step turns it off, as the command line does: see
   :func:`shellrepair.cli.quiet_hugepages`);
-* ``write``: :func:`shellrepair.io.write_mesh` of the repaired mesh (binary PLY);
+* ``write``: :func:`shellrepair.mesh.io.write_mesh` of the repaired mesh (binary PLY);
 * ``cli``: the command line end to end, ``shellrepair repair scan.ply -o
   out.ply`` (read to write, with its defaults), in a fresh interpreter:
   ``seconds`` is the whole child process (start-up and imports included;
   the output's hash is taken by the parent afterwards), ``peak_rss_mb``
   its peak. Inside it, the whole-mesh steps are timed as
-  they run: ``load`` (:func:`shellrepair.io.read_mesh`: parse, clean,
+  they run: ``load`` (:func:`shellrepair.mesh.io.read_mesh`: parse, clean,
   topology, orientation, areas), ``topology`` (the
-  :func:`shellrepair.topology.edge_topology` call within it), ``detection``
-  (:func:`shellrepair.holes.detect_holes`), ``merge`` (the patches appended
+  :func:`shellrepair.mesh.topology.edge_topology` call within it), ``detection``
+  (:func:`shellrepair.holes.loops.detect_holes`), ``merge`` (the patches appended
   to the scan) and ``write`` (the output's bytes built and written).
 * ``cold`` (once, not per case): a user's first ``make repair`` after
   ``make setup`` against the second, on a fresh copy of the checkout set up
@@ -236,7 +236,7 @@ def make_case(freq, n_holes=HOLES, seed=SEED, radii=None):
 def build_cases(names, tmp, *, truth=False, log=print):
     """Write each case's PLY (and the arrays the steps load) into ``tmp``;
     with ``truth``, also the closed surface (for the peer comparison)."""
-    from shellrepair.io import Mesh, write_mesh
+    from shellrepair.mesh.io import Mesh, write_mesh
 
     out = {}
     for name in names:
@@ -283,7 +283,7 @@ def _reset_peak():
 
 
 def _load_arrays(d):
-    from shellrepair.io import Mesh
+    from shellrepair.mesh.io import Mesh
 
     return Mesh(V=np.load(d / "V.npy"), F=np.load(d / "F.npy"), vertex_dtype="f4", path=str(d / "scan.ply"))
 
@@ -293,7 +293,7 @@ def run_child(step, case_dir, out_json, profile=None):
     import resource
 
     from shellrepair.cli import quiet_hugepages
-    from shellrepair.io import Mesh
+    from shellrepair.mesh.io import Mesh
 
     res = {"step": step}
     if step.endswith("-hp"):  # NumPy's default: large arrays advised for huge pages
@@ -327,13 +327,13 @@ def run_child(step, case_dir, out_json, profile=None):
         prof.enable()
     t0 = time.perf_counter()
     if step == "read":
-        from shellrepair.io import read_mesh
+        from shellrepair.mesh.io import read_mesh
 
         m = read_mesh(d / "scan.ply")
         secs = time.perf_counter() - t0
         res.update(vertices=m.n_vertices, faces=m.n_faces, notes=m.notes)
     elif step == "detect":
-        from shellrepair.holes import detect_holes
+        from shellrepair.holes.loops import detect_holes
 
         scan = detect_holes(mesh.V, mesh.F)
         secs = time.perf_counter() - t0
@@ -358,7 +358,7 @@ def run_child(step, case_dir, out_json, profile=None):
             h.update(np.ascontiguousarray(a).tobytes())
         res["output_sha256"] = h.hexdigest()[:16]
     elif step == "write":
-        from shellrepair.io import write_mesh
+        from shellrepair.mesh.io import write_mesh
 
         write_mesh(d / "repaired.ply", rep)
         secs = time.perf_counter() - t0
@@ -381,7 +381,10 @@ def _run_cli_step(d):
     with the whole-mesh steps timed as they run and their sizes recorded."""
     import functools
 
-    from shellrepair import cli, holes, io, repair, topology
+    from shellrepair import cli, repair
+    from shellrepair.holes import loops as holes
+    from shellrepair.mesh import io
+    from shellrepair.mesh import topology
 
     steps = {}
     depth = {"topology": 0}
@@ -565,7 +568,7 @@ def compare_peers(case_dir, tools, timeout, *, n_samples=20000, log=print):
     """Ours and the peers on one case, measured against the true surface."""
     from eval import metrics, peers
     from eval.worker import ToolRunner
-    from shellrepair.topology import face_areas
+    from shellrepair.mesh.topology import face_areas
 
     d = Path(case_dir)
     V, F = np.load(d / "V.npy"), np.load(d / "F.npy")

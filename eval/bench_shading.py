@@ -16,7 +16,7 @@ Measures, in one run on this machine:
 3. render time of a ~1M-face mesh at 1024 x 1024 (2 x 2 rays per pixel),
    and the cost of that antialiasing (one ray per pixel against 2 x 2) on
    the bundled bunny;
-4. the aging map (shellrepair.aging) on a ~1M-vertex mesh: wall and CPU
+4. the aging map (shellrepair.appearance.aging) on a ~1M-vertex mesh: wall and CPU
    seconds;
 5. the numbers docs/shading.md quotes: the footprint where the model
    switches to the dipole, how far rho_dt at m = 0.005 is from its smooth
@@ -63,11 +63,11 @@ import numpy as np
 
 sys.path.insert(0, os.path.abspath(os.path.join(os.path.dirname(__file__), "..")))
 
-from shellrepair import materials as mt  # noqa: E402
-from shellrepair import shader as sd  # noqa: E402
-from shellrepair import render as rd  # noqa: E402
-from shellrepair import shading as sh  # noqa: E402
-from shellrepair.reflectance import albedo  # noqa: E402
+from shellrepair.appearance import materials as mt  # noqa: E402
+from shellrepair.appearance import shader as sd  # noqa: E402
+from shellrepair.appearance import render as rd  # noqa: E402
+from shellrepair.appearance import shading as sh  # noqa: E402
+from shellrepair.appearance.reflectance import albedo  # noqa: E402
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 
@@ -315,9 +315,9 @@ def plain_shade(wi, wo, n, c, mat, pt, gild, crust):
 
 def function_cases(N):
     """(name, ours, oracle, plain, args) of each public function on N random points (seeded)."""
-    from shellrepair.reflectance import albedo as al, dipole as dp, km, layered as ly
-    from shellrepair.reflectance import microfacet as mf
-    from shellrepair import shader as sd
+    from shellrepair.appearance.reflectance import albedo as al, dipole as dp, km, layered as ly
+    from shellrepair.appearance.reflectance import microfacet as mf
+    from shellrepair.appearance import shader as sd
 
     rng = np.random.default_rng(42)
     wi, wo, n, cov, gild, crust = random_points(N, seed=7)
@@ -372,7 +372,7 @@ def bench_functions(N, repeat, clock=time.perf_counter):
     the largest relative difference from the oracle and from the plain
     version.
     """
-    from shellrepair.reflectance import dispatch
+    from shellrepair.appearance.reflectance import dispatch
 
     cases = function_cases(N)
     for _, fn, _, _, args in cases:  # compile (or load the cache) outside the timing
@@ -431,7 +431,7 @@ def _columns(a, N):
 
 def _kernel_call(fn, args):
     """The compiled kernel and its arguments that one call of the public function runs."""
-    from shellrepair.reflectance import dispatch
+    from shellrepair.appearance.reflectance import dispatch
 
     seen = []
     real = dispatch.run
@@ -459,7 +459,7 @@ def bench_ceilings(N, repeat, names=None):
     """
     import resource
 
-    from shellrepair.reflectance import dispatch
+    from shellrepair.appearance.reflectance import dispatch
 
     if dispatch.kernels("microfacet") is None:
         raise SystemExit("--ceilings needs the compiled kernels")
@@ -626,7 +626,7 @@ def bench_shading(N, repeat):
 
 
 def bench_table(n_samples):
-    # build: what `python -m shellrepair.reflectance.table` spends; load: the shipped file read
+    # build: what `python -m shellrepair.appearance.reflectance.table` spends; load: the shipped file read
     t = time.perf_counter()
     albedo._build_table()
     build = time.perf_counter() - t
@@ -691,7 +691,7 @@ def bench_render(faces, size):
 
 
 def bench_aging(target_faces):
-    from shellrepair import aging as ag
+    from shellrepair.appearance import aging as ag
 
     V, F = bumpy_sphere(target_faces)
     from eval import shapes
@@ -705,7 +705,7 @@ def bench_aging(target_faces):
 
 
 def bench_antialiasing(size):
-    from shellrepair.io import read_mesh
+    from shellrepair.mesh.io import read_mesh
 
     bunny = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "bunny_zipper.ply")
     mesh = read_mesh(bunny)

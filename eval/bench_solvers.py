@@ -5,11 +5,11 @@ extra's ``scikit-sparse`` and Debian's ``libsuitesparse-dev``; a solver
 that does not import is left out and said so).
 
 The systems are the fill's own: every Q_uu the fairing factorises while
-repairing real and synthetic scans (``shellrepair.cholesky.factor`` is
+repairing real and synthetic scans (``shellrepair.fill.cholesky.factor`` is
 wrapped to keep a copy), with the right-hand side it solves (three
 coordinates). Each system is then factorised and solved by
 
-* ``ours``: :func:`shellrepair.cholesky.factor` (nested dissection,
+* ``ours``: :func:`shellrepair.fill.cholesky.factor` (nested dissection,
   dense fronts, Numba), then ``.solve``;
 * ``cholmod``: scikit-sparse's ``cholesky`` (CHOLMOD, supernodal, its own
   AMD/METIS ordering), then the solve;
@@ -68,7 +68,7 @@ def _cases():
 
 def collect():
     """Every Q_uu the fairing factorises on the cases, with a right-hand side."""
-    from shellrepair import cholesky
+    from shellrepair.fill import cholesky
     from shellrepair.repair import repair_mesh
 
     systems = []
@@ -89,7 +89,7 @@ def collect():
 
 
 def _solvers():
-    from shellrepair import cholesky
+    from shellrepair.fill import cholesky
 
     out = {"ours": lambda Q: cholesky.factor(Q).solve}
     try:
@@ -153,7 +153,7 @@ def cold(repeat=3):
     300-unknown fairing system (the system built, and one of the fill's
     Numba kernels loaded, before the clock starts)."""
     setup = ("import sys, time; sys.path.insert(0, %r); import numpy as np, scipy.sparse as sp; "
-             "from eval import shapes; from shellrepair.fair import uniform_laplacian; "
+             "from eval import shapes; from shellrepair.fill.fair import uniform_laplacian; "
              "from shellrepair import common_kernels; common_kernels.max_sq_distance(np.zeros((3, 3))); "
              "V, F = shapes.icosphere(3); K = uniform_laplacian(F, len(V)); "
              "u = np.arange(300); Q = sp.csc_matrix((K @ K)[u][:, u] + sp.identity(300) * 1e-3); "

@@ -143,8 +143,8 @@ def _run_tool(tool, cname, what, truth, V, F):
     a peer: the holes counted on its output)."""
     from eval import peers
     from shellrepair import repair_mesh
-    from shellrepair.holes import boundary_loops
-    from shellrepair.topology import edge_topology
+    from shellrepair.holes.loops import boundary_loops
+    from shellrepair.mesh.topology import edge_topology
 
     row = {"case": cname, "description": what, "faces": int(len(F)), "tool": tool,
            "holes": len(boundary_loops(F, len(V))[0]), "status": "ok", "decisions": None}

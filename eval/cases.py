@@ -49,8 +49,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
 from eval import shapes
-from shellrepair.holes import boundary_loops
-from shellrepair.topology import edge_topology, face_areas, face_pieces
+from shellrepair.holes.loops import boundary_loops
+from shellrepair.mesh.topology import edge_topology, face_areas, face_pieces
 
 __all__ = ["Case", "SHARED_DATA", "ground_truth", "make_case", "disc_mask", "occlusion_mask",
            "scanner_positions", "occlusion_scanner", "tiny_holes_mask", "pinch_mask", "slit_mask", "band_mask",
@@ -153,7 +153,7 @@ def ground_truth(name, *, quick=False):
             notes.append(f"{REAL_SCANS[name]} not found in {SHARED_DATA}: a synthetic bumpy sphere stands in")
             V, F = shapes.bumpy_sphere(4 if quick else 6, amplitude=0.01, frequency=24, seed=7)
         else:
-            from shellrepair.io import read_mesh
+            from shellrepair.mesh.io import read_mesh
 
             m = read_mesh(path)
             V, F = m.V, m.F

@@ -21,7 +21,7 @@ What is fresh and what is reused
   puts the running environment's ``site-packages`` on the new
   environment's path (their ``.pyc`` were written when they were
   installed, as for a user's ``pip install``).
-* The rho_dt table is in the copy (``shellrepair/reflectance/rho_dt_table.npz``,
+* The rho_dt table is in the copy (``shellrepair/appearance/reflectance/rho_dt_table.npz``,
   package data): nothing builds it.
 * The environment of the commands: a user's (``NUMBA_CACHE_DIR``,
   ``NUMBA_DISABLE_JIT``, ``SHELLREPAIR_NO_NUMBA``, ``PYTHONDONTWRITEBYTECODE``,

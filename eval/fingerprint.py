@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from eval import shapes  # noqa: E402
-from shellrepair.io import Mesh, read_mesh  # noqa: E402
+from shellrepair.mesh.io import Mesh, read_mesh  # noqa: E402
 from shellrepair.repair import repair_mesh  # noqa: E402
 from eval import cases  # noqa: E402
 

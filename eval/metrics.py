@@ -39,9 +39,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from shellrepair.holes import boundary_loops
-from shellrepair.report import interpolation_rate
-from shellrepair.topology import edge_topology, face_areas
+from shellrepair.holes.loops import boundary_loops
+from shellrepair.report.table import interpolation_rate
+from shellrepair.mesh.topology import edge_topology, face_areas
 
 __all__ = ["TruthSurface", "closest_point_on_triangles", "sample_faces", "match_vertices",
            "added_faces", "mesh_checks", "self_intersecting_faces", "rim_edge_length", "evaluate",

@@ -44,7 +44,7 @@ import numpy as np
 
 from eval import cases, metrics, shapes
 from eval.stress import random_rotation
-from shellrepair.holes import boundary_loops
+from shellrepair.holes.loops import boundary_loops
 
 RESULTS = ROOT / "eval" / "results" / "order2-cgal"
 RIM_EDGES = (50, 2000)

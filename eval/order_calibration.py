@@ -93,7 +93,7 @@ def patches_by_loop(V_in, F_in, V_out, F_out, loops):
 
 def patch_rms(V, F, faces, truth_V, truth_F, diag):
     """RMS distance of a patch's face centroids and vertices to the truth, per mille of ``diag``."""
-    from shellrepair.distance import point_mesh_distance
+    from shellrepair.mesh.distance import point_mesh_distance
 
     T = F[faces]
     P = np.concatenate([V[T].mean(axis=1), V[np.unique(T)]])
@@ -103,8 +103,8 @@ def patch_rms(V, F, faces, truth_V, truth_F, diag):
 
 def run_case(case):
     """Per judged hole of one case: the test's verdict and each forced order's truth RMS."""
-    from shellrepair.holes import detect_holes
-    from shellrepair.io import Mesh
+    from shellrepair.holes.loops import detect_holes
+    from shellrepair.mesh.io import Mesh
     from shellrepair.repair import repair_mesh
 
     diag = float(np.linalg.norm(case.V_true.max(axis=0) - case.V_true.min(axis=0)))

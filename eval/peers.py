@@ -22,7 +22,7 @@ tool                 call
 ours-o1/o2/o3        ``shellrepair.repair.repair_mesh(mesh, order=k)``, its compiled
                      kernels loaded before the call is timed (as a peer's
                      import loads its native library)
-ours-auto            ``repair_mesh(mesh, order="auto")`` (1, 2 or 3 per hole by test holes of its size, shellrepair.selftest)
+ours-auto            ``repair_mesh(mesh, order="auto")`` (1, 2 or 3 per hole by test holes of its size, shellrepair.fill.selftest)
 ours-cli             the command line's default (``shellrepair repair``, ``make repair``): ``order="auto"``
                      and ``jobs`` the cores there are (a helper thread runs the band tests and the
                      order-3 patches beside the fill; the same output as ``ours-auto``). In the
@@ -81,7 +81,7 @@ def _ours(V, F, **kw):
         from shellrepair.repair import repair_mesh
     except ImportError as exc:
         raise ToolMissing(f"shellrepair.repair is not available ({exc})") from None
-    from shellrepair.io import Mesh
+    from shellrepair.mesh.io import Mesh
 
     _load_kernels()
     mesh = Mesh(V=np.array(V, np.float64), F=np.array(F, np.int64))
@@ -105,10 +105,12 @@ def _load_kernels():
     """Load our compiled kernels (Numba, from the on-disk cache that ``make
     setup`` fills) before the timed call, as importing a peer loads its
     native library before its call is timed. Once loaded, the whole-mesh
-    steps use them on meshes of any size (:func:`shellrepair.fastmesh.enabled`).
+    steps use them on meshes of any size (:func:`shellrepair.mesh.fastmesh.enabled`).
     A user's first run pays the loading once per process; bench_scale's
     first and second ``make repair`` show that cost."""
-    from shellrepair import cholesky, fastmesh, warmup
+    from shellrepair import warmup
+    from shellrepair.fill import cholesky
+    from shellrepair.mesh import fastmesh
 
     warmup.warm_up()
     cholesky.warm_up()
@@ -156,7 +158,7 @@ def ours_seed(V, F):
 # --------------------------------------------------------------------------
 def pymeshlab_close_holes(V, F):
     ml = _import("pymeshlab")
-    from shellrepair.topology import edge_topology
+    from shellrepair.mesh.topology import edge_topology
 
     t0 = time.perf_counter()
     ms = ml.MeshSet()

@@ -43,7 +43,7 @@ its bounding-box centre) and rounded to float32.
 What is measured, per case and tool (every figure by position, not by a
 tool's own report):
 
-* ``holes``: loops the library's :func:`shellrepair.holes.detect_holes`
+* ``holes``: loops the library's :func:`shellrepair.holes.loops.detect_holes`
   classes ``hole`` (every loop is truly a hole: the truths are closed;
   ``borders`` counts the others);
 * ``fill rate``: hole loops closed / hole loops. A loop is closed when each
@@ -100,7 +100,7 @@ from scipy.spatial import cKDTree  # noqa: E402
 
 from eval import cases as casemod  # noqa: E402
 from eval import metrics, peers  # noqa: E402
-from shellrepair.topology import euler_characteristic  # noqa: E402
+from shellrepair.mesh.topology import euler_characteristic  # noqa: E402
 
 __all__ = ["FAMILIES", "SHAPES", "stress_case", "available_shapes", "measure", "triangle_pairs_added",
            "closed_loops", "run", "main"]
@@ -279,7 +279,7 @@ def _fixed_shape(name, quick):
 @lru_cache(maxsize=16)
 def _built_shape(name, quick):
     if name in REAL:
-        from shellrepair.io import read_mesh
+        from shellrepair.mesh.io import read_mesh
 
         m = read_mesh(casemod.SHARED_DATA / REAL[name][0])
         V, F, meta = np.asarray(m.V, np.float64), np.asarray(m.F, np.int64), {"kind": "real", "up": REAL[name][1]}
@@ -325,7 +325,7 @@ def _f32(V):
 # perforations
 # --------------------------------------------------------------------------
 def _area_fraction(V, F, remove):
-    from shellrepair.topology import face_areas
+    from shellrepair.mesh.topology import face_areas
 
     A = face_areas(V, F)
     return float(A[remove].sum() / A.sum())
@@ -415,7 +415,7 @@ def _band_mask(V, F, meta, rng):
 
 def _base_mask(V, F, up, rng):
     """The bottom 5–25 % of the area below a plane tilted up to 25° from ``up``."""
-    from shellrepair.topology import face_areas
+    from shellrepair.mesh.topology import face_areas
 
     u = np.zeros(3)
     u[up] = 1.0
@@ -442,7 +442,7 @@ BAND_MIN_PIECE = 0.01
 
 def _keep_big(F, remove, min_fraction):
     """Also remove the pieces left with fewer than ``min_fraction`` of the faces."""
-    from shellrepair.topology import edge_topology, face_pieces
+    from shellrepair.mesh.topology import edge_topology, face_pieces
 
     remove = np.asarray(remove, bool).copy()
     keep = np.flatnonzero(~remove)
@@ -718,7 +718,7 @@ def closed_loops(loops, in_to_out, F_out):
 
 def input_facts(case):
     """What every tool's output is compared with: loops, their class, the truth."""
-    from shellrepair.holes import detect_holes
+    from shellrepair.holes.loops import detect_holes
 
     scan = detect_holes(case.V, case.F)
     loops = [L.vertices for L in scan.loops]

@@ -13,7 +13,7 @@ Run ``make table1`` (or ``.venv/bin/python eval/table1.py [--seed N]
 the output says so.
 
 Holes before and after are the counts of ``repair_mesh``'s report (holes
-as classed by :mod:`shellrepair.holes`); ``loops after`` counts the
+as classed by :mod:`shellrepair.holes.loops`); ``loops after`` counts the
 boundary loops left in the output, as a check.
 """
 
@@ -30,9 +30,9 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from eval import cases  # noqa: E402
-from shellrepair.holes import boundary_loops  # noqa: E402
-from shellrepair.io import Mesh  # noqa: E402
-from shellrepair.report import interpolation_rate  # noqa: E402
+from shellrepair.holes.loops import boundary_loops  # noqa: E402
+from shellrepair.mesh.io import Mesh  # noqa: E402
+from shellrepair.report.table import interpolation_rate  # noqa: E402
 
 PAPER = {"holes_before": 156, "holes_after": 54, "interpolation_rate": 65.4}
 

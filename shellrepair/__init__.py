@@ -9,11 +9,11 @@ synthesized, and render the result with an aged-metal appearance.
 (1, 0)
 """
 
-from .errors import MeshError
-from .io import Mesh, read_mesh, write_mesh
-from .holes import detect_holes, boundary_loops
-from .convert import as_mesh, to_open3d, to_trimesh
-from .options import RepairOptions
+from shellrepair.errors import MeshError
+from shellrepair.mesh.io import Mesh, read_mesh, write_mesh
+from shellrepair.holes.loops import detect_holes, boundary_loops
+from shellrepair.mesh.convert import as_mesh, to_open3d, to_trimesh
+from shellrepair.options import RepairOptions
 
 __version__ = "0.1.0"
 __all__ = ["MeshError", "Mesh", "read_mesh", "write_mesh", "detect_holes", "boundary_loops", "repair_mesh",
@@ -23,9 +23,9 @@ __all__ = ["MeshError", "Mesh", "read_mesh", "write_mesh", "detect_holes", "boun
 def __getattr__(name):
     # imported on first use: the solvers and the renderer load libigl / open3d
     if name == "repair_mesh":
-        from .repair import repair_mesh
+        from shellrepair.repair import repair_mesh
         return repair_mesh
     if name == "render_mesh":
-        from .render import render_mesh
+        from shellrepair.appearance.render import render_mesh
         return render_mesh
     raise AttributeError(f"module 'shellrepair' has no attribute {name!r}")

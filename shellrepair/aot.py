@@ -27,8 +27,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from . import compiled
-from .files import atomic_write
+from shellrepair import compiled
+from shellrepair.files import atomic_write
 
 __all__ = ["record", "build", "numba_type"]
 
@@ -54,7 +54,8 @@ def record(path=compiled.TYPES_FILE):
     """Write the argument types the warm-ups and a small repair pass to each kernel."""
     os.environ["SHELLREPAIR_NO_AOT"] = "1"
     compiled._BUILT = False
-    from . import cholesky, warmup
+    from shellrepair import warmup
+    from shellrepair.fill import cholesky
 
     compiled.start_recording()
     warmup.warm_up()
@@ -78,8 +79,8 @@ def _small_repair():
     """A repair of a sphere with three holes of different sizes, in memory."""
     import numpy as np
 
-    from .mesh import Mesh
-    from .repair import repair_mesh
+    from shellrepair.mesh.core import Mesh
+    from shellrepair.repair import repair_mesh
 
     t = (1 + 5 ** 0.5) / 2
     V = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t], [0, 1, -t],

@@ -7,7 +7,7 @@ For each ``*.ply``, ``*.obj``, ``*.off`` and ``*.stl`` file directly in the
 folder (not in sub-folders; names starting with ``.`` are skipped), in
 sorted name order:
 
-1. read it (:func:`shellrepair.io.read_mesh`);
+1. read it (:func:`shellrepair.mesh.io.read_mesh`);
 2. fill its holes (:func:`shellrepair.repair.repair_mesh`, the same options
    for every scan);
 3. write ``OUTDIR/<stem>.repaired.ply`` and ``OUTDIR/<stem>.report.json``
@@ -59,9 +59,9 @@ import os
 import time
 from pathlib import Path
 
-from .errors import MeshError
-from .files import check_output_folder
-from .report import repaired, status_counts
+from shellrepair.errors import MeshError
+from shellrepair.files import check_output_folder
+from shellrepair.report.table import repaired, status_counts
 
 __all__ = ["repair_folder", "list_scans", "summary_table", "default_jobs", "write_index", "SUMMARY_NAME"]
 
@@ -163,14 +163,14 @@ def _repair_one(task, options, progress):
     """Read, repair and write one scan; returns its summary row fields.
     With ``task["picture"]`` (a path), also its before | after picture there,
     and its 3D view's script beside it (``.js`` for ``.png``)."""
-    from .io import atomic_write_many, mesh_bytes, read_mesh
-    from .preload import preload_fill
+    from shellrepair.mesh.io import atomic_write_many, mesh_bytes, read_mesh
+    from shellrepair.preload import preload_fill
 
     scan, out, report_path, picture = task["scan"], task["out"], task["report"], task["picture"]
     t0 = time.perf_counter()
     preload_fill()    # the fill's modules and kernels load while the scan is read
     mesh = read_mesh(scan, progress=progress)
-    from .repair import repair_mesh
+    from shellrepair.repair import repair_mesh
 
     row = {"vertices": mesh.n_vertices, "faces": mesh.n_faces}
     repaired, report = repair_mesh(mesh, progress=progress, **options)  # options: RepairOptions.as_dict()
@@ -179,9 +179,9 @@ def _repair_one(task, options, progress):
     report["notes"] = list(repaired.notes)
     items = []
     if picture is not None:
-        from .closeups import closeups, pictures_record
-        from .htmlreport import figure, file_sha256
-        from .upaxis import infer_up
+        from shellrepair.report.closeups import closeups, pictures_record
+        from shellrepair.report.html import figure, file_sha256
+        from shellrepair.report.upaxis import infer_up
 
         report["up"] = up = infer_up(mesh.V, mesh.F)   # the one axis of every picture of this scan
         fig = figure(mesh, repaired, report, up=up["axis"])
@@ -200,7 +200,7 @@ def _repair_one(task, options, progress):
                     files[("region" if kind == "fill" else "failed", r[key])] = name
                     items.append((Path(picture).with_name(name), r["png"]))
         report["pictures"] = pictures_record(fig, pics, files)
-        from .webview import payload_script, view_payload
+        from shellrepair.report.webview import payload_script, view_payload
 
         view = view_payload(repaired, up=up["axis"])
         if view is not None:   # the 3D view's mesh, loaded by the page when shown
@@ -278,7 +278,7 @@ def _lost_row(name, exc):
 
 
 def _totals(rows):
-    from .report import interpolation_rate
+    from shellrepair.report.table import interpolation_rate
 
     done = [r for r in rows if repaired(r)]
     before = sum(r["holes_before"] for r in done)
@@ -347,13 +347,13 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
         Called with each finished summary row, in the order scans finish
         (the CLI prints a line).
     html : bool
-        Also write ``outdir/index.html`` (:func:`shellrepair.htmlreport.collection_page`):
+        Also write ``outdir/index.html`` (:func:`shellrepair.report.html.collection_page`):
         Table 1 of the collection and of each scan, each scan's holes,
         notes and provenance, its before | after picture
         (``outdir/<name>.view.png``, linked from the page), a close-up of
         each filled region (``<name>.fill-<k>.png``, the 24 largest) and of
         each hole that could not be filled (``<name>.failed-<id>.png``),
-        all with the scan's inferred up axis (:mod:`shellrepair.upaxis`,
+        all with the scan's inferred up axis (:mod:`shellrepair.report.upaxis`,
         recorded in its report), and its 3D view (``outdir/<name>.view.js``,
         loaded when scrolled to). Rewritten after every scan, like the summary.
     connect_timeout : float, optional
@@ -382,10 +382,10 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
         within ``connect_timeout``, no workers); a bad scan is a row, not an
         exception.
     """
-    from .io import atomic_write
-    from .progress import as_callback
+    from shellrepair.mesh.io import atomic_write
+    from shellrepair.progress import as_callback
 
-    from .options import RepairOptions
+    from shellrepair.options import RepairOptions
 
     opts = RepairOptions.make(options, **changes)  # checked once, before any scan
     if jobs is None:
@@ -552,7 +552,7 @@ def write_index(summary, outdir, cache=None):
         rewritten after every scan, and each scan's report is read once
         rather than once per later scan.
     """
-    from .htmlreport import collection_page, write_page
+    from shellrepair.report.html import collection_page, write_page
 
     sections = []
     for i, r in enumerate(summary["scans"]):
@@ -569,7 +569,7 @@ def write_index(summary, outdir, cache=None):
 
 def _index_section(i, r, options):
     """One scan's section of the collection page (None for a failed scan)."""
-    from .htmlreport import report_json, scan_section
+    from shellrepair.report.html import report_json, scan_section
 
     if not repaired(r):
         return None

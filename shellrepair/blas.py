@@ -1,7 +1,7 @@
 """One BLAS thread for the fill: the bundled OpenBLAS thread counts, set and put back.
 
 The fill is many small dense products (a hole's fronts in
-:mod:`shellrepair.cholesky`, NumPy's small matrix products around it).
+:mod:`shellrepair.fill.cholesky`, NumPy's small matrix products around it).
 NumPy and SciPy each bundle an OpenBLAS, whose default is a thread per
 core; on a product of a few hundred rows the second thread costs more than
 it gives, and after each call OpenBLAS's workers spin for a while, taking
@@ -57,7 +57,7 @@ import glob
 import os
 import threading
 
-from .counted import CountedSetting
+from shellrepair.counted import CountedSetting
 
 __all__ = ["one_thread", "one_thread_everywhere", "global_setters", "counts"]
 
@@ -134,5 +134,5 @@ def _counts_back(before):
 #: thread (other threads of the process see the change while a block is open).
 one_thread = CountedSetting(_counts_to_one, _counts_back)
 #: The same setting, under the name the fill's helper thread uses
-#: (:class:`shellrepair.beside.HelperThread`).
+#: (:class:`shellrepair.fill.beside.HelperThread`).
 one_thread_everywhere = one_thread

@@ -34,8 +34,8 @@ import sys
 import time
 from pathlib import Path
 
-from .errors import MeshError
-from .progress import end_line, terminal_bar
+from shellrepair.errors import MeshError
+from shellrepair.progress import end_line, terminal_bar
 
 __all__ = ["main", "parse_args", "build_parser", "signed_values", "quiet_hugepages"]
 
@@ -68,7 +68,7 @@ def build_parser():
         The ``shellrepair`` parser with its commands (holes, repair, batch,
         render) and their options.
     """
-    from . import __version__
+    from shellrepair import __version__
 
     p = argparse.ArgumentParser(prog="shellrepair", description="Fill the holes of 3D scans with smooth shells.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors (default: one line)")
@@ -129,7 +129,7 @@ def build_parser():
     b.add_argument("-o", "--outdir", metavar="OUTDIR", required=True,
                    help="output folder, created if missing (its parent must exist)")
     _repair_options(b)
-    from .batch import default_jobs
+    from shellrepair.batch import default_jobs
 
     b.add_argument("--jobs", type=int, default=default_jobs(), metavar="N",
                    help="cores to use: N scans at once in local worker processes (with Dask, "
@@ -193,7 +193,7 @@ def _quiet(p):
 
 def _up_arg(text):
     """--up: auto, an axis name or a vector (checked here, used as given)."""
-    from .upaxis import parse_up
+    from shellrepair.report.upaxis import parse_up
 
     if text == "auto":
         return text
@@ -235,7 +235,7 @@ def _ids(text):
 
 def _max_hole(text):
     """--max-hole: a whole number of edges, or a length with its unit (value, unit)."""
-    from .units import parse_length
+    from shellrepair.mesh.units import parse_length
 
     try:
         n = int(text)
@@ -277,7 +277,7 @@ def _repair_options(p):
     p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch (default: 0)")
     p.add_argument("--method", choices=("fair", "seed"), default="fair",
                    help="fair: local faired shells (default); seed: the paper's smoothed-copy method")
-    from .batch import default_jobs
+    from shellrepair.batch import default_jobs
 
     p.add_argument("--jobs", type=int, default=default_jobs(), metavar="N",
                    help=f"fill holes on N processes (one run of holes: a helper thread), same output for any N "
@@ -389,11 +389,11 @@ def main(argv=None):
 def _options(args):
     """The repair options of the command line, checked once
     (:class:`shellrepair.options.RepairOptions`)."""
-    from .options import RepairOptions
+    from shellrepair.options import RepairOptions
 
     plan = {"leave_open": [], "cap_flat": [], "fill": [], "order_for": {}, "expect": {}}
     if getattr(args, "plan", None):
-        from .plan import read_plan
+        from shellrepair.plan import read_plan
 
         plan = read_plan(args.plan)
     try:
@@ -437,13 +437,13 @@ def _closed(args):
 
 
 def _holes(args, bar):
-    from .holes import detect_holes
-    from .io import read_mesh
-    from .report import holes_dict, holes_table
+    from shellrepair.holes.loops import detect_holes
+    from shellrepair.mesh.io import read_mesh
+    from shellrepair.report.table import holes_dict, holes_table
 
-    from .options import RepairOptions
+    from shellrepair.options import RepairOptions
 
-    from .units import in_scan_units
+    from shellrepair.mesh.units import in_scan_units
 
     opts = RepairOptions(**_hole_limits(args), fill_borders=args.fill_borders, closed=_closed(args))  # checked first
     mesh = read_mesh(args.scan, progress=bar)
@@ -478,9 +478,9 @@ def _same_file(a, b):
 
 
 def _repair(args, bar):
-    from .io import SUPPORTED, atomic_write_many, check_output_path, format_losses, mesh_bytes, read_mesh
-    from .preload import preload_fill
-    from .report import table1_text
+    from shellrepair.mesh.io import SUPPORTED, atomic_write_many, check_output_path, format_losses, mesh_bytes, read_mesh
+    from shellrepair.preload import preload_fill
+    from shellrepair.report.table import table1_text
 
     out = Path(args.output) if args.output else _default_output(args.scan)
     report_path = Path(args.report) if args.report else out.with_name(
@@ -512,7 +512,7 @@ def _repair(args, bar):
     t0 = time.perf_counter()
     preload_fill()    # the fill's modules and kernels load while the scan is read
     mesh = read_mesh(args.scan, progress=bar)
-    from .repair import repair_mesh
+    from shellrepair.repair import repair_mesh
 
     repaired, report = repair_mesh(mesh, opts, progress=bar)
     report["file"] = str(args.scan)
@@ -528,9 +528,9 @@ def _repair(args, bar):
     report["up"] = up = _scan_up(args.up, mesh)     # the one axis of every picture of this scan
     html = None
     if page is not None:
-        from .closeups import closeups, pictures_record
-        from .htmlreport import figure, file_sha256, scan_page
-        from .webview import view_payload
+        from shellrepair.report.closeups import closeups, pictures_record
+        from shellrepair.report.html import figure, file_sha256, scan_page
+        from shellrepair.report.webview import view_payload
 
         if bar is not None:
             bar("pictures", 0, 1)
@@ -546,7 +546,7 @@ def _repair(args, bar):
     if html is not None:
         items.append((page, html))
     if glb is not None:
-        from .gltf import gltf_bytes
+        from shellrepair.appearance.gltf import gltf_bytes
 
         items.append((glb, gltf_bytes(repaired, up=up["axis"])))
     # mesh, report (and page, glTF) appear together or not at all
@@ -606,7 +606,7 @@ def _glb_path(arg, others, what):
     """The ``--gltf`` output as a Path (None when not asked), checked before
     any work: a ``.glb`` name, a writable place, none of ``others``
     (paths, None for those not given)."""
-    from .io import check_output_path
+    from shellrepair.mesh.io import check_output_path
 
     if not arg:
         return None
@@ -621,8 +621,8 @@ def _glb_path(arg, others, what):
 
 def _scan_up(arg, mesh):
     """The up axis record of ``--up`` for a scan: given, or inferred from it
-    (:mod:`shellrepair.upaxis`)."""
-    from .upaxis import given_up, infer_up
+    (:mod:`shellrepair.report.upaxis`)."""
+    from shellrepair.report.upaxis import given_up, infer_up
 
     return infer_up(mesh.V, mesh.F) if arg == "auto" else given_up(arg)
 
@@ -630,7 +630,7 @@ def _scan_up(arg, mesh):
 
 
 def _batch(args, bar):
-    from .batch import repair_folder, repaired, summary_table
+    from shellrepair.batch import repair_folder, repaired, summary_table
 
     def line(row):  # one line per finished scan, unless the JSON is wanted or -q
         if not args.json and not args.quiet:
@@ -641,7 +641,7 @@ def _batch(args, bar):
                     if repaired(row) else f"error: {row['error']}")
             print(f"{row['file']}: {what} ({row['seconds']:.1f} s)", flush=True)
 
-    from .files import check_output_folder
+    from shellrepair.files import check_output_folder
 
     with _for_flag("-o"):   # before any work (repair_folder creates it)
         check_output_folder(args.outdir)
@@ -667,8 +667,8 @@ def _batch(args, bar):
 def _render(args, bar):
     import numpy as np
 
-    from .io import read_mesh
-    from . import render as rd
+    from shellrepair.mesh.io import read_mesh
+    from shellrepair.appearance import render as rd
 
     try:
         w, h = (int(x) for x in args.size.lower().split("x"))
@@ -682,7 +682,7 @@ def _render(args, bar):
         except (ValueError, AssertionError):
             raise MeshError(f"--view must be AZ,EL in degrees, got '{args.view}'") from None
     out = Path(args.output)
-    from .io import check_output_path
+    from shellrepair.mesh.io import check_output_path
 
     with _for_flag("-o"):
         rd.image_format(out)  # an unknown image extension is refused before the work
@@ -734,8 +734,8 @@ def _render(args, bar):
                              vertex_colors=mesh.vertex_colors, legend=legend, info=info, **kw)
     rd.save_image(out, img)
     if glb is not None:
-        from .gltf import gltf_bytes
-        from .io import atomic_write
+        from shellrepair.appearance.gltf import gltf_bytes
+        from shellrepair.mesh.io import atomic_write
 
         atomic_write(glb, gltf_bytes(mesh, age=args.age, up=up, material=args.material))
     if args.quiet:

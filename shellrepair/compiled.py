@@ -1,10 +1,10 @@
 """The compiled kernels: machine code built ahead of time, Numba's JIT behind it.
 
 Each kernel module sits beside the code it speeds up
-(:mod:`shellrepair.refine_kernels` beside :mod:`shellrepair.refine`, and
+(:mod:`shellrepair.fill.refine_kernels` beside :mod:`shellrepair.fill.refine`, and
 so on for context, topology, triangulate, patch, intersect, intrinsic,
-fair, checks, bridge and distance; :mod:`shellrepair.common_kernels` holds
-the helpers several share; :mod:`shellrepair.cholesky` is the fairing's
+fair, checks, bridge and distance; :mod:`shellrepair.mesh.common_kernels` holds
+the helpers several share; :mod:`shellrepair.fill.cholesky` is the fairing's
 sparse factorisation). Each kernel does what a NumPy (or plain Python)
 function of the package does, with the same floating-point operations in
 the same order, so its result is the same to the bit; that function stays
@@ -33,7 +33,7 @@ same LLVM without fast-math, so they give the same bits (tests/test_aot.py
 compares them); only the time differs.
 
 The one switch: ``SHELLREPAIR_NO_NUMBA=1`` turns every kernel off, here
-and in :mod:`shellrepair.fastmesh` and :mod:`shellrepair.reflectance`
+and in :mod:`shellrepair.mesh.fastmesh` and :mod:`shellrepair.appearance.reflectance`
 (callers use their NumPy versions, as without Numba). :data:`ENABLED` is
 the flag every caller reads (``if compiled.ENABLED:``, at call time, so a
 test may set it False to run the NumPy versions). ``SHELLREPAIR_NO_AOT=1``
@@ -62,9 +62,21 @@ HERE = Path(__file__).resolve().parent
 #: The argument types compiled ahead of time (written by ``python -m shellrepair.aot record``).
 TYPES_FILE = HERE / "aot_types.json"
 #: The modules whose kernels are compiled ahead of time (their source is hashed).
-MODULES = tuple(f"shellrepair.{m}_kernels" for m in ("common", "topology", "context", "triangulate", "patch", "intersect",
-                                                    "intrinsic", "refine", "fair", "checks", "bridge", "distance")) \
-    + ("shellrepair.cholesky",)
+MODULES = (
+    "shellrepair.mesh.common_kernels",
+    "shellrepair.mesh.topology_kernels",
+    "shellrepair.mesh.index_kernels",
+    "shellrepair.fill.triangulate_kernels",
+    "shellrepair.fill.patch_kernels",
+    "shellrepair.mesh.intersect_kernels",
+    "shellrepair.fill.intrinsic_kernels",
+    "shellrepair.fill.refine_kernels",
+    "shellrepair.fill.fair_kernels",
+    "shellrepair.fill.checks_kernels",
+    "shellrepair.fill.bridge_kernels",
+    "shellrepair.mesh.distance_kernels",
+    "shellrepair.fill.cholesky",
+)
 #: Extension modules the kernels are split into (built side by side, one process each).
 PARTS = 2
 
@@ -85,7 +97,7 @@ def source_hash() -> str:
     and the types file: the compiled modules' names carry it."""
     h = hashlib.sha256()
     for name in MODULES:
-        h.update((HERE / (name.rsplit(".", 1)[1] + ".py")).read_bytes())
+        h.update((HERE.parent / Path(*name.split("."))).with_suffix(".py").read_bytes())
     h.update(TYPES_FILE.read_bytes() if TYPES_FILE.exists() else b"")
     return h.hexdigest()[:12]
 

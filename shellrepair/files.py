@@ -12,7 +12,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from .errors import MeshError
+from shellrepair.errors import MeshError
 
 __all__ = ["check_output_path", "check_output_folder", "new_file_mode", "atomic_write", "atomic_write_many"]
 
@@ -94,8 +94,8 @@ def atomic_write_many(items, *, mode=None, os_errors=False):
     """Write several files, none of them partially.
 
     The one atomic write of the package: meshes, reports, pages, pictures
-    (:func:`shellrepair.render.save_image`) and the shading's tables
-    (:mod:`shellrepair.reflectance`) all go through it.
+    (:func:`shellrepair.appearance.render.save_image`) and the shading's tables
+    (:mod:`shellrepair.appearance.reflectance`) all go through it.
 
     Parameters
     ----------

@@ -20,7 +20,7 @@ import math
 import numbers
 from dataclasses import dataclass
 
-from .errors import MeshError
+from shellrepair.errors import MeshError
 
 __all__ = ["RepairOptions"]
 
@@ -45,8 +45,8 @@ class RepairOptions:
         ``"auto"`` (default) picks 1, 2 or 3 per hole: the order whose
         fills of test holes of the hole's own size, cut into intact scan
         beside it, lie closest to the scan cut away; a tube's by test
-        bands of its own kind (:mod:`shellrepair.selftest`,
-        :mod:`shellrepair.probe`).
+        bands of its own kind (:mod:`shellrepair.fill.selftest`,
+        :mod:`shellrepair.fill.probe`).
     smooth : int
         Non-shrinking smoothing passes of each patch after fairing (for
         ``method="seed"``: passes over the whole duplicate).
@@ -71,7 +71,7 @@ class RepairOptions:
         unscanned underside of a figure that stood on a table, or a cut
         through the figure): ``"auto"`` (default) caps it flat where the
         scan turns into the opening's plane along most of its rim and fairs
-        it otherwise (:func:`shellrepair.patch.turns_into_opening`);
+        it otherwise (:func:`shellrepair.fill.patch.turns_into_opening`);
         ``"flat"`` caps every such opening flat (the object's real base is
         there); ``"faired"`` continues the walls into a faired fill. Planar
         openings of CAD parts are capped flat in every case.
@@ -90,7 +90,7 @@ class RepairOptions:
         ``max_hole`` in edges. The scan's own unit is ``unit``.
     unit : {"mm", "cm", "m"} or None
         The scan's length unit, for ``max_hole_size``; None infers it from
-        the scan's size (:func:`shellrepair.units.infer_unit`) and the
+        the scan's size (:func:`shellrepair.mesh.units.infer_unit`) and the
         report says so.
     cap_flat : tuple of int
         Hole ids to cap on their own (never bridged to another loop) by the
@@ -139,7 +139,7 @@ class RepairOptions:
         if self.base not in _BASES:
             raise MeshError(f"base must be 'auto', 'flat' or 'faired', got {self.base!r}")
         if self.max_hole_size is not None:
-            from .units import UNITS_UM
+            from shellrepair.mesh.units import UNITS_UM
 
             size = self.max_hole_size
             ok = isinstance(size, (tuple, list)) and len(size) == 2 and size[1] in UNITS_UM

@@ -25,7 +25,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .errors import MeshError
+from shellrepair.errors import MeshError
 
 __all__ = ["read_plan", "ACTIONS"]
 

@@ -21,7 +21,8 @@ __all__ = ["preload_fill"]
 def _load():
     import numpy as np
 
-    from . import common_kernels, compiled, repair  # noqa: F401  (the fill's modules, imported here)
+    from shellrepair import compiled, repair
+    from shellrepair.mesh import common_kernels  # noqa: F401  (the fill's modules, imported here)
 
     if compiled.ENABLED:
         common_kernels.max_sq_distance(np.zeros((1, 3)))   # the compiled modules' loading (or Numba's set-up), with the first kernel the repair calls

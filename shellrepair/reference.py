@@ -7,8 +7,8 @@ equality to the bit. This module imports no kernel module.
 
 An oracle that the package itself also runs when the kernels are off stays
 beside its caller as a public ``*_reference`` function instead (for example
-:func:`shellrepair.refine.relax_reference` or
-:func:`shellrepair.intrinsic.flip_to_delaunay_reference`).
+:func:`shellrepair.fill.refine.relax_reference` or
+:func:`shellrepair.fill.intrinsic.flip_to_delaunay_reference`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ __all__ = ["loop_diameter", "ring_sums"]
 def loop_diameter(Q, chunk=2048):
     """Largest distance between two rows of ``Q``, in chunks of rows.
 
-    The oracle of :func:`shellrepair.common_kernels.max_sq_distance` (its
+    The oracle of :func:`shellrepair.mesh.common_kernels.max_sq_distance` (its
     square root): each squared distance summed over the last axis as NumPy
     sums it, then the largest.
 
@@ -48,7 +48,7 @@ def ring_sums(E, li, level, X, Nv):
     neighbours at level 1, their count, and the same over the level-2
     neighbours of those.
 
-    The oracle of :func:`shellrepair.bridge_kernels.ring_sums`: the rows of
+    The oracle of :func:`shellrepair.fill.bridge_kernels.ring_sums`: the rows of
     ``R1 = A[li]`` and ``R2 = R1 A`` restricted to those levels, ``A`` the
     all-ones adjacency of the edges ``E``, as SciPy's sparse products (each
     row summed in column order from zero).

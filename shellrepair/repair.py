@@ -1,16 +1,16 @@
 """Fill every hole of a scan with a faired shell patch and merge it.
 
-Per hole (a loop classed ``hole`` by :mod:`shellrepair.holes`), touching
+Per hole (a loop classed ``hole`` by :mod:`shellrepair.holes.loops`), touching
 only the patch and a few rings of scan around it:
 
-1. triangulate the loop (:mod:`~shellrepair.triangulate`);
-2. refine it to the density of the rim (:mod:`~shellrepair.refine`);
+1. triangulate the loop (:mod:`~shellrepair.fill.triangulate`);
+2. refine it to the density of the rim (:mod:`~shellrepair.fill.refine`);
 3. fair it, Δᵏx = 0 with the scan around it fixed
-   (:mod:`~shellrepair.fair`), optionally smooth it (Taubin, non-shrinking);
+   (:mod:`~shellrepair.fill.fair`), optionally smooth it (Taubin, non-shrinking);
    a planar opening that the scan meets edge-on (a base, a sole; on a CAD
    part, any exactly planar outline with a crease along its rim) gets a
    flat cap instead, bent only where rim faces slant across it;
-4. check it (:mod:`~shellrepair.intersect`): no patch triangle may cross the
+4. check it (:mod:`~shellrepair.mesh.intersect`): no patch triangle may cross the
    scan, itself or an earlier patch, and no patch may create an edge the
    mesh has. A patch that crosses is rebuilt: chords near the crossing are
    re-routed, vertices near it are held on the flat triangulation, then the
@@ -20,10 +20,10 @@ only the patch and a few rings of scan around it:
    the hole stays open and the report says why.
 
 Two loops facing each other across a missing band are first offered a tube
-(:mod:`~shellrepair.bridge`); the tube or the two caps are kept by their
+(:mod:`~shellrepair.fill.bridge`); the tube or the two caps are kept by their
 curvature-variation energy. Two planar loops met edge-on on one plane, one
 inside the other, are one flat face with a hole
-(:func:`~shellrepair.band_fill.flat_face_with_hole`).
+(:func:`~shellrepair.fill.band_fill.flat_face_with_hole`).
 
 Then every accepted patch is appended: original vertices keep their index
 and exact values, new vertices and faces come after them and are flagged
@@ -35,16 +35,16 @@ its holes at once (the refinement as one disjoint union, with the same
 result as hole by hole). Where the runs are filled in this process (one
 run, or a daemonic process) and ``jobs`` is more than one, a second thread
 runs the ``order="auto"`` holes' order tests, and the order-3 patches they
-ask for, beside the fills (:class:`~shellrepair.beside.HelperThread`; that
+ask for, beside the fills (:class:`~shellrepair.fill.beside.HelperThread`; that
 work reads only the scan and the run's first-attempt work). The checks
 between patches and the merge run afterwards in hole order, so the output
 does not depend on ``jobs``.
 
 Whole-mesh structures (edges, vertex-to-face lists, the faces near a box)
 are built once, vectorised; a patch is checked against the scan faces near
-its own box only (:class:`~shellrepair.intersect.NearFaces`), and against
+its own box only (:class:`~shellrepair.mesh.intersect.NearFaces`), and against
 itself by a projection certificate where one holds
-(:func:`~shellrepair.intersect.embeds_by_projection`), pair by pair
+(:func:`~shellrepair.mesh.intersect.embeds_by_projection`), pair by pair
 otherwise.
 
 ``method="seed"`` is the paper's simple shape model for comparison: close
@@ -52,9 +52,9 @@ each hole with the same triangulation, smooth a duplicate of the whole
 mesh ``smooth`` times (10 by default) with the umbrella operator, and take
 the filled region's vertices from the smoothed duplicate.
 
-The steps live in their own modules: :mod:`~shellrepair.patch` (one
-patch), :mod:`~shellrepair.fill` (attempts, checks, retries, bands),
-:mod:`~shellrepair.bridge` (finding bands), :mod:`~shellrepair.merge`
+The steps live in their own modules: :mod:`~shellrepair.fill.patch` (one
+patch), :mod:`~shellrepair.fill.hole` (attempts, checks, retries, bands),
+:mod:`~shellrepair.fill.bridge` (finding bands), :mod:`~shellrepair.fill.merge`
 (appending the patches); this module runs them over a scan and writes the
 report.
 
@@ -75,34 +75,36 @@ import numpy as np
 # k-d trees (scipy.spatial, 0.3-0.5 s to import, scipy.sparse with it): loaded
 # with this module, before a repair's clock starts, not by its first hole.
 # The modules below name SciPy through shellrepair.lazyscipy, so reading a
-# scan (shellrepair.io) does not load it.
+# scan (shellrepair.mesh.io) does not load it.
 import scipy.spatial  # noqa: F401
 
-from .clean import describe_open_chains
-from .convert import MeshLike, as_mesh
-from .errors import MeshError
-from .options import RepairOptions
-from .progress import ProgressArg, as_callback
-from .holes import detect_holes
-from .pinched import split_pinched
-from .io import Mesh, check_references, manifold_mesh
-from .report import table1_dict
-from .topology import edge_count_delta, edge_topology
-from .units import in_scan_units
-from . import blas
-from .bands import Bands, find_bands
-from .pants import PantsUnit, expand, pants_unit
-from .band_fill import _fill_pair
-from .beside import HelperThread
-from .checks import Outcome
-from .fill import SEED_SMOOTH_PASSES, fill_hole, _seed_patches
-from .fill_runs import run_chunk, _worker, worker_context
-from .merge import Accepted, _merge
-from .context import ScanContext
-from .patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
+from shellrepair.mesh.clean import describe_open_chains
+from shellrepair.mesh.convert import MeshLike, as_mesh
+from shellrepair.errors import MeshError
+from shellrepair.options import RepairOptions
+from shellrepair.progress import ProgressArg, as_callback
+from shellrepair.holes.loops import detect_holes
+from shellrepair.holes.pinched import split_pinched
+from shellrepair.mesh.io import Mesh, check_references, manifold_mesh
+from shellrepair.report.table import table1_dict
+from shellrepair.mesh.topology import edge_count_delta, edge_topology
+from shellrepair.mesh.units import in_scan_units
+from shellrepair import blas
+from shellrepair.fill.bands import Bands, find_bands
+from shellrepair.fill.pants import PantsUnit, expand, pants_unit
+from shellrepair.fill.band_fill import _fill_pair
+from shellrepair.fill.beside import HelperThread
+from shellrepair.fill.checks import Outcome
+from shellrepair.fill.hole import SEED_SMOOTH_PASSES, fill_hole, _seed_patches
+from shellrepair.fill.runs import run_chunk, _worker, worker_context
+from shellrepair.fill.merge import Accepted, _merge
+from shellrepair.mesh.index import ScanContext
+from shellrepair.fill.patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
 # the order test of order="auto" (the default), which the fill imports on its
 # first hole: loaded with this module, before a repair's clock starts
-from . import distance, probe, selftest  # noqa: F401
+from shellrepair.mesh import distance
+from shellrepair.fill import probe
+from shellrepair.fill import selftest  # noqa: F401
 
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
 
@@ -114,7 +116,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     Parameters
     ----------
     mesh : Mesh, (V, F), open3d or trimesh mesh, or path
-        See :func:`shellrepair.convert.as_mesh`.
+        See :func:`shellrepair.mesh.convert.as_mesh`.
     options : RepairOptions, optional
         How holes are found and filled (:class:`shellrepair.options.RepairOptions`:
         ``order``, ``smooth``, ``max_hole``, ``fill_borders``, ``method``,
@@ -134,7 +136,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
         Original vertices first and unchanged; new vertices and faces
         flagged in ``vertex_filled`` / ``face_filled``.
     report : dict
-        Table 1 fields (see :func:`shellrepair.report.table1_dict`) plus
+        Table 1 fields (see :func:`shellrepair.report.table.table1_dict`) plus
         per-hole details.
 
     Raises
@@ -142,7 +144,7 @@ def repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, prog
     MeshError
         An option out of range, or a face that refers to a vertex outside
         ``V`` or to a vertex with a NaN or infinite coordinate (one line,
-        as :func:`shellrepair.io.read_mesh` says it; a vertex no face uses
+        as :func:`shellrepair.mesh.io.read_mesh` says it; a vertex no face uses
         may be non-finite, and is given back as it was).
     """
     with blas.one_thread():     # the fill's many small products: one BLAS thread (shellrepair.blas)
@@ -298,7 +300,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 for chunk in chunks:
                     unit_out.extend(run_chunk(ctx, chunk, tick, pool=pool))
     if legacy_bar:  # progress=True: the terminal bar this call drew ends its line
-        from .progress import end_line
+        from shellrepair.progress import end_line
 
         end_line(progress)
 
@@ -412,7 +414,7 @@ def _daemonic():
 
 
 def _beside(use):
-    """A helper thread for work beside the fills (:class:`~shellrepair.beside.HelperThread`,
+    """A helper thread for work beside the fills (:class:`~shellrepair.fill.beside.HelperThread`,
     a context manager), or a ``None`` stand-in when ``use`` is false."""
     import contextlib
 
@@ -434,7 +436,7 @@ def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges
     the region missing between them is a band their continuation arcs did
     not pair (on a fat torus's inner side half of each loop's arcs land on
     the other loop and half on itself, no majority). Each such pair, in
-    hole order, is filled as a band (:func:`shellrepair.band_fill._fill_pair`:
+    hole order, is filled as a band (:func:`shellrepair.fill.band_fill._fill_pair`:
     its caps, which cross, then the tube); a tube that passes its checks
     and crosses no other accepted patch takes the place of the earlier
     hole's cap. ``rows``, ``bridges`` and ``paired`` (the two loops) are
@@ -451,9 +453,9 @@ def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges
         Report row per hole id (their ``reason`` says which patch a failed
         cap crossed).
     acc : Accepted
-        The patches accepted so far (:class:`shellrepair.merge.Accepted`).
+        The patches accepted so far (:class:`shellrepair.fill.merge.Accepted`).
     order, smooth, mode
-        As for :func:`shellrepair.band_fill._fill_pair`.
+        As for :func:`shellrepair.fill.band_fill._fill_pair`.
     bridges : list of dict
         The report's band records (gets one per pair tried).
     flags : dict, optional
@@ -577,8 +579,8 @@ def _progress(report, i, n, label="filling holes"):
 class _Early(NamedTuple):
     """The region around the boundary loops of a mesh and, where there is
     none, its whole-mesh vertex-face lists, on their way from an executor
-    (:func:`shellrepair.context.early_lists`) for the context that will hold
-    these very arrays (:meth:`shellrepair.context.ScanContext.take_region`)."""
+    (:func:`shellrepair.mesh.index.early_lists`) for the context that will hold
+    these very arrays (:meth:`shellrepair.mesh.index.ScanContext.take_region`)."""
 
     V: np.ndarray
     F: np.ndarray
@@ -597,7 +599,7 @@ def _early_region(ex, V, F, topo):
     executor, or when ``V`` is not float64 (the context's would be a copy)."""
     if ex is None or topo is None or not isinstance(V, np.ndarray) or V.dtype != np.float64:
         return None
-    from . import context
+    from shellrepair.mesh import index as context
 
     return _Early(V, F, topo, *context.early_lists(ex, V, F, topo))
 

@@ -8,7 +8,7 @@ Makefile runs :func:`warm_up` instead, in two halves side by side
 repair to list the argument types the ahead-of-time build compiles.
 
 This module sits above the kernels and the modules whose kernels it calls
-(:mod:`~shellrepair.refine`, :mod:`~shellrepair.triangulate`), so the
+(:mod:`~shellrepair.fill.refine`, :mod:`~shellrepair.fill.triangulate`), so the
 kernels themselves import none of them.
 """
 
@@ -18,10 +18,21 @@ import threading
 
 import numpy as np
 
-from . import (bridge_kernels, checks_kernels, common_kernels, compiled, context_kernels, distance_kernels, fair_kernels,
-               intersect_kernels, intrinsic_kernels, patch_kernels, refine_kernels, topology_kernels, triangulate_kernels)
-from .refine import FLIP_EPS, angle_between, unfolded
-from .triangulate import restricted_dp
+from shellrepair import compiled
+from shellrepair.fill import bridge_kernels
+from shellrepair.fill import checks_kernels
+from shellrepair.mesh import common_kernels
+from shellrepair.mesh import index_kernels as context_kernels
+from shellrepair.mesh import distance_kernels
+from shellrepair.fill import fair_kernels
+from shellrepair.mesh import intersect_kernels
+from shellrepair.fill import intrinsic_kernels
+from shellrepair.fill import patch_kernels
+from shellrepair.fill import refine_kernels
+from shellrepair.mesh import topology_kernels
+from shellrepair.fill import triangulate_kernels
+from shellrepair.fill.refine import FLIP_EPS, angle_between, unfolded
+from shellrepair.fill.triangulate import restricted_dp
 
 __all__ = ["warm_up"]
 
@@ -50,7 +61,7 @@ def warm_up(share=None):
     if not compiled.ENABLED:
         return False
     if share is not None:
-        from . import cachelock
+        from shellrepair import cachelock
 
         cachelock.install()
         (_warm_first, _warm_second)[int(share) - 1]()

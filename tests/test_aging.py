@@ -1,4 +1,4 @@
-"""Specification of shellrepair.aging: where the statue corrodes and keeps its gold."""
+"""Specification of shellrepair.appearance.aging: where the statue corrodes and keeps its gold."""
 
 from pathlib import Path
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from shellrepair import aging as ag
-from shellrepair import render as rd
-from shellrepair.topology import face_areas
+from shellrepair.appearance import aging as ag
+from shellrepair.appearance import render as rd
+from shellrepair.mesh.topology import face_areas
 from eval import shapes
 
 BUNNY = Path(__file__).resolve().parents[1] / "data" / "bunny_zipper.ply"
@@ -189,7 +189,7 @@ def test_deterministic_seeded_and_resolution_independent():
 
 
 def _aged_render(path, up, size=(240, 180), seed=0):
-    from shellrepair.io import read_mesh
+    from shellrepair.mesh.io import read_mesh
 
     mesh = read_mesh(path)
     return rd.render_mesh(mesh.V, mesh.F, size=size, up=up, seed=seed)
@@ -325,7 +325,7 @@ def test_recess_ratio_compares_the_most_and_least_occluded_tenths():
 
 def _decimated(path, faces):
     """The scan as read, or a quadric-decimated copy with about ``faces`` faces."""
-    from shellrepair.io import read_mesh
+    from shellrepair.mesh.io import read_mesh
 
     mesh = read_mesh(path)
     if faces is None:

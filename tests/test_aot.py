@@ -106,28 +106,30 @@ def test_every_module_that_defines_kernels_is_compiled_and_hashed():
     """Each module that marks kernels with ``compiled.kernel`` is among
     :data:`shellrepair.compiled.MODULES`: the build compiles its kernels
     and the source hash covers its file."""
-    marking = {f"shellrepair.{p.stem}" for p in (ROOT / "shellrepair").glob("*.py")
+    marking = {".".join(p.relative_to(ROOT).with_suffix("").parts) for p in (ROOT / "shellrepair").rglob("*.py")
                if "njit = compiled.kernel" in p.read_text(encoding="utf-8")}
     assert marking == set(compiled.MODULES)
     for module in compiled.MODULES:
-        assert (compiled.HERE / (module.rsplit(".", 1)[1] + ".py")).exists(), module
+        assert (ROOT / Path(*module.split("."))).with_suffix(".py").exists(), module
 
 
 def test_a_changed_kernel_source_names_other_modules(tmp_path, monkeypatch):
     """The compiled modules' names carry a hash of the kernels' sources and
     of the types file, so a checkout whose kernels changed (a pull without
     ``make``) finds no module to load and runs the JIT."""
-    files = [m.rsplit(".", 1)[1] + ".py" for m in compiled.MODULES]
+    files = [str(Path(*m.split(".")[1:]).with_suffix(".py")) for m in compiled.MODULES]
+    here = tmp_path / "shellrepair"
     for name in files + ["aot_types.json"]:
-        (tmp_path / name).write_bytes((compiled.HERE / name).read_bytes())
-    monkeypatch.setattr(compiled, "HERE", tmp_path)
-    monkeypatch.setattr(compiled, "TYPES_FILE", tmp_path / "aot_types.json")
+        (here / name).parent.mkdir(parents=True, exist_ok=True)
+        (here / name).write_bytes((compiled.HERE / name).read_bytes())
+    monkeypatch.setattr(compiled, "HERE", here)
+    monkeypatch.setattr(compiled, "TYPES_FILE", here / "aot_types.json")
     before = compiled.source_hash()
     for name in files:   # an edit of any kernel module
-        with open(tmp_path / name, "a") as f:
+        with open(here / name, "a") as f:
             f.write("\n# an edit\n")
         assert compiled.source_hash() != before, name
-        (tmp_path / name).write_bytes((ROOT / "shellrepair" / name).read_bytes())
+        (here / name).write_bytes((ROOT / "shellrepair" / name).read_bytes())
         assert compiled.source_hash() == before
     rows = json.loads((tmp_path / "aot_types.json").read_text())
     (tmp_path / "aot_types.json").write_text(json.dumps(rows[:-1]))

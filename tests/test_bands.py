@@ -2,7 +2,7 @@
 
 A torus's inner band, the cut around a thin arm, a hole with an island in
 it: each is one missing region with two boundary loops. The loops find each
-other by their continuation arcs (shellrepair.bridge), the tube is built
+other by their continuation arcs (shellrepair.fill.bridge), the tube is built
 along those arcs, refined, faired and checked, and is kept when the two
 caps are impossible, when each loop's arcs land on the other, or when its
 energy is lower. Borders are never bridged.
@@ -13,11 +13,11 @@ import pytest
 
 from shellrepair import Mesh, detect_holes
 from eval import shapes
-from shellrepair.bridge import arc_points, band_pairs, continuation_arcs, loop_sights
-from shellrepair.tube import guide_tube, resample_tube, tube_triangles
-from shellrepair.intersect import crossing_pairs
+from shellrepair.fill.bridge import arc_points, band_pairs, continuation_arcs, loop_sights
+from shellrepair.fill.tube import guide_tube, resample_tube, tube_triangles
+from shellrepair.mesh.intersect import crossing_pairs
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import edge_topology
+from shellrepair.mesh.topology import edge_topology
 
 from conftest import shared_scan
 
@@ -167,7 +167,7 @@ def test_a_band_whose_guide_fills_its_budget_gets_the_tube_resampled_on_the_fair
     the right genus, as close to the truth, and of about the size of the
     tube refined from this guide (which does not crumple: 916 new vertices,
     the resampled tube 1045)."""
-    from shellrepair import band_fill
+    from shellrepair.fill import band_fill
 
     V, F, V2, F2, _ = torus_inner_band(3)
     M = Mesh(V=V2, F=F2)
@@ -357,8 +357,8 @@ def test_a_real_single_view_range_scan_pairs_no_border():
     """The range scan's outer edge and its floating debris are borders; a
     pair, if any, joins two holes."""
     from shellrepair import read_mesh
-    from shellrepair.bands import find_bands
-    from shellrepair.context import ScanContext
+    from shellrepair.fill.bands import find_bands
+    from shellrepair.mesh.index import ScanContext
 
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
     scan = detect_holes(m.V, m.F)
@@ -539,7 +539,7 @@ def test_a_band_pinched_at_shared_vertices_is_split_into_its_parts():
     """Loops A and B share vertices 0 and 3 (B meets them in the reverse
     order): the band between them is two discs, each a stretch of A and a
     stretch of B, together every edge of both once."""
-    from shellrepair.pinched import pinched_parts
+    from shellrepair.holes.pinched import pinched_parts
 
     A = np.array([0, 1, 2, 3, 4, 5])
     B = np.array([10, 3, 11, 0])
@@ -561,7 +561,7 @@ def _many_loops():
     """Scans with many loops: tiny and medium disc holes on a bumpy sphere
     (loops of 3 to ~60 vertices, some within reach of each other), a torus
     band, and a slit pinched into touching loops."""
-    from shellrepair.context import ScanContext
+    from shellrepair.mesh.index import ScanContext
 
     out = []
     V, F = shapes.bumpy_sphere(3, amplitude=0.03, frequency=4)
@@ -585,7 +585,7 @@ def _loop_sights_reference(V, loops, faces_near, candidates):
     sample of every arc looked up in one query."""
     from scipy.spatial import cKDTree
 
-    from shellrepair.bridge import ARC_SAMPLES, ARCS_PER_LOOP, MAX_REACH, SELF_SKIP, SIGHT_SLACK
+    from shellrepair.fill.bridge import ARC_SAMPLES, ARCS_PER_LOOP, MAX_REACH, SELF_SKIP, SIGHT_SLACK
 
     sizes = [len(L.vertices) for L in loops]
     owner = np.repeat(np.arange(len(loops)), sizes)
@@ -626,7 +626,7 @@ def _loop_sights_reference(V, loops, faces_near, candidates):
 def test_arcs_of_many_loops_at_once_are_those_of_each_loop_alone_to_the_bit():
     # one loop's block of the batch sees no other loop: batched with all the
     # scan's loops, each gets the bits it gets alone (a batch of one)
-    from shellrepair.bridge import continuation_arcs_many
+    from shellrepair.fill.bridge import continuation_arcs_many
 
     n = 0
     for ctx, scan in _many_loops():
@@ -653,7 +653,7 @@ def test_loops_left_out_of_the_band_search_land_on_no_loop_they_could_pair_with(
     """bands.loops_with_partner drops only loops whose arcs cannot land on a hole
     they do not touch (checked by following them), and the pairs found
     are those found without it."""
-    from shellrepair import bands
+    from shellrepair.fill import bands
 
     dropped = 0
     for ctx, scan in _many_loops():

@@ -13,9 +13,9 @@ from eval import shapes
 from shellrepair import batch
 from shellrepair.batch import default_jobs, list_scans, repair_folder, summary_table
 from shellrepair.cli import main, parse_args
-from shellrepair.io import Mesh, read_mesh, write_mesh
+from shellrepair.mesh.io import Mesh, read_mesh, write_mesh
 from shellrepair.progress import TerminalBar, as_callback, end_line, terminal_bar
-from shellrepair.topology import edge_topology
+from shellrepair.mesh.topology import edge_topology
 from terminal import Tty, at_empty_line, screen
 
 
@@ -300,7 +300,7 @@ def test_the_collection_page_reads_each_report_once_and_equals_a_fresh_build(tmp
     V, F = shapes.bumpy_sphere(3, amplitude=0.03, frequency=6)
     scans = {f"s{i}.ply": ball_perforate(V, F, n_holes=2, radius=0.15, seed=i) for i in range(2)}
     _write_scans(tmp_path / "in", scans)
-    from shellrepair import htmlreport
+    from shellrepair.report import html as htmlreport
     reads = []
     real = htmlreport.report_json
     monkeypatch.setattr(htmlreport, "report_json", lambda r: reads.append(1) or real(r))

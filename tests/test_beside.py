@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 import shellrepair.repair as repair
-import shellrepair.selftest as selftest
+import shellrepair.fill.selftest as selftest
 from eval import shapes
 from shellrepair import repair_mesh
-from shellrepair.beside import Beside
-from shellrepair.io import Mesh
-from shellrepair.patch import HoleUnit
+from shellrepair.fill.beside import Beside
+from shellrepair.mesh.io import Mesh
+from shellrepair.fill.patch import HoleUnit
 
 
 @pytest.fixture(scope="module")

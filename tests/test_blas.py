@@ -85,7 +85,7 @@ def test_blocks_overlapping_in_two_threads(counts_at_3):
 def test_the_helper_thread_puts_the_switch_interval_and_blas_counts_back():
     import sys
 
-    from shellrepair.beside import SWITCH_SECONDS, HelperThread
+    from shellrepair.fill.beside import SWITCH_SECONDS, HelperThread
 
     gs = blas.global_setters()
     interval = sys.getswitchinterval()

@@ -25,8 +25,8 @@ import pytest
 
 from shellrepair import detect_holes, read_mesh
 from eval import shapes
-from shellrepair.hole_or_border import EDGE_ON_SHARE, WRAP_RATIO, edge_on_share, piece_views
-from shellrepair.topology import edge_topology, face_pieces
+from shellrepair.holes.hole_or_border import EDGE_ON_SHARE, WRAP_RATIO, edge_on_share, piece_views
+from shellrepair.mesh.topology import edge_topology, face_pieces
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from conftest import SHARED, shared_scan  # noqa: E402
@@ -360,7 +360,7 @@ def test_an_arm_missing_a_band_is_bridged_into_one_closed_arm():
     sphere-like (χ 2), the scan's vertices unchanged, the new ones inside
     the band and on the arm's radius 0.1 within 7 %."""
     from shellrepair import repair_mesh
-    from shellrepair.io import Mesh
+    from shellrepair.mesh.io import Mesh
 
     V, F = arm_across_a_band()
     out, rep = repair_mesh(Mesh(V=V, F=F))
@@ -521,8 +521,8 @@ def test_real_range_scan_rim_border_and_holes():
 def test_border_loops_are_never_band_candidates():
     """Two floating triangles of the real range scan face each other and
     pass every band test; as borders they must not be bridged."""
-    from shellrepair.bands import find_bands
-    from shellrepair.context import ScanContext
+    from shellrepair.fill.bands import find_bands
+    from shellrepair.mesh.index import ScanContext
 
     m = read_mesh(shared_scan("real_rangescan_dragon_000.ply"))
     scan = detect_holes(m.V, m.F)
@@ -644,7 +644,7 @@ def test_wrap_shortcut_keeps_every_kind_and_only_skips_wrapping_pieces():
 def test_wrap_certificate_holds_from_every_direction():
     """A certified piece has P-/P+ >= WRAP_RATIO along 2000 random
     directions and the 400 spread ones, measured face by face."""
-    from shellrepair.hole_or_border import VIEW_DIRECTIONS, sampled_normals, wrap_certificate
+    from shellrepair.holes.hole_or_border import VIEW_DIRECTIONS, sampled_normals, wrap_certificate
 
     rng = np.random.default_rng(5)
     D = rng.normal(size=(2000, 3))
@@ -670,8 +670,8 @@ def test_compiled_normal_moments_read_the_same_faces_as_the_sample():
     are loaded) sums over exactly the faces sampled_normals reads: the
     same sums to round-off, whole pieces and hashed subsets, one piece and
     many; and the same certificates."""
-    from shellrepair import fastmesh
-    from shellrepair.hole_or_border import sample_plan, sampled_normals, wrap_certificate_of_sums, wrap_certificate
+    from shellrepair.mesh import fastmesh
+    from shellrepair.holes.hole_or_border import sample_plan, sampled_normals, wrap_certificate_of_sums, wrap_certificate
 
     if not fastmesh.warm_up():
         pytest.skip("the whole-mesh kernels are off (SHELLREPAIR_NO_NUMBA, or Numba missing)")

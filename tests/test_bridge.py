@@ -6,9 +6,9 @@ import pytest
 
 from shellrepair import Mesh, detect_holes
 from eval import shapes
-from shellrepair.tube import tube_triangles
+from shellrepair.fill.tube import tube_triangles
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import edge_topology
+from shellrepair.mesh.topology import edge_topology
 
 
 def torus_without_inner_band(cut=-0.6, r=0.35):
@@ -113,7 +113,7 @@ def test_cylinder_missing_a_ring_gets_a_tube():
 
 
 def test_arc_points_are_exact_circles_and_lines():
-    from shellrepair.bridge import arc_points
+    from shellrepair.fill.bridge import arc_points
 
     U = np.zeros((3, 3))
     T = np.tile([1.0, 0.0, 0.0], (3, 1))
@@ -139,7 +139,7 @@ def test_ring_masks_are_the_columns_the_adjacency_rows_meet():
     self-loops included)."""
     import scipy.sparse as sp
 
-    from shellrepair.bridge import next_to
+    from shellrepair.fill.bridge import next_to
 
     rng = np.random.default_rng(3)
     nv = 60

@@ -1,11 +1,11 @@
 """The band search's compiled walk along the continuation arcs gives the
 NumPy walk's landings to the bit.
 
-:func:`shellrepair.bridge_kernels.arc_landings` follows each arc sample by
+:func:`shellrepair.fill.bridge_kernels.arc_landings` follows each arc sample by
 sample in its own k-d tree of the rim vertices;
-:func:`shellrepair.bridge.landings_reference` (its oracle) asks SciPy's
+:func:`shellrepair.fill.bridge.landings_reference` (its oracle) asks SciPy's
 ``cKDTree`` run by run. Both are run here on the arcs
-:func:`shellrepair.bridge.loop_sights` builds for seeded scans with many
+:func:`shellrepair.fill.bridge.loop_sights` builds for seeded scans with many
 holes, holes close to each other, loops pinched together at a shared
 vertex (the same point in two loops: a tie the kernel settles by the
 ``cKDTree``'s own order) and a torus band (exact mirror symmetry), and
@@ -17,9 +17,11 @@ import pytest
 from scipy.spatial import cKDTree
 
 from eval import shapes
-from shellrepair import bridge, bridge_kernels, compiled, detect_holes
-from shellrepair.io import Mesh
-from shellrepair.context import ScanContext
+from shellrepair import compiled, detect_holes
+from shellrepair.fill import bridge
+from shellrepair.fill import bridge_kernels
+from shellrepair.mesh.io import Mesh
+from shellrepair.mesh.index import ScanContext
 
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 

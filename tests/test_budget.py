@@ -1,4 +1,4 @@
-"""A hole's work is bounded (shellrepair.checks.WorkBudget, issue #13 item 5).
+"""A hole's work is bounded (shellrepair.fill.checks.WorkBudget, issue #13 item 5).
 
 The budget counts new patch vertices built over all attempts
 (``HOLE_VERTICES + HOLE_VERTICES_PER_EDGE * edges``): the first attempt is
@@ -13,13 +13,13 @@ seconds.
 import numpy as np
 import pytest
 
-import shellrepair.checks as checks
-import shellrepair.fill as fill
+import shellrepair.fill.checks as checks
+import shellrepair.fill.hole as fill
 from shellrepair import Mesh
 from eval import shapes
-from shellrepair.holes import boundary_loops
-from shellrepair.context import ScanContext
-from shellrepair.patch import PatchError, build_patch
+from shellrepair.holes.loops import boundary_loops
+from shellrepair.mesh.index import ScanContext
+from shellrepair.fill.patch import PatchError, build_patch
 
 
 def _sheet_with_a_hole(n=25):
@@ -150,7 +150,7 @@ def test_failed_faired_attempts_are_mended_before_the_flat_triangulation_is_kept
     gets a refined, faired surface, not a flat triangulation without one
     new vertex (a large opening of a scan: RMS 10.7 -> 3.9 per mille on
     eval/big_holes.py's b37663-07)."""
-    import shellrepair.mend as mend
+    import shellrepair.fill.mend as mend
 
     ctx, loop = _sheet_with_a_hole()
     real_check, real_mend = checks.check_patch, mend.mend_patch

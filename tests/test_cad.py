@@ -20,9 +20,9 @@ from scipy.spatial.transform import Rotation
 
 import cad_parts as cp
 from shellrepair import Mesh, detect_holes, read_mesh
-from shellrepair.intersect import self_intersections
+from shellrepair.mesh.intersect import self_intersections
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import edge_topology
+from shellrepair.mesh.topology import edge_topology
 
 from conftest import shared_scan
 
@@ -213,7 +213,7 @@ def test_an_opening_crossed_by_scan_through_its_plane_closes_over_it():
     # a needle of scan stands through the middle of a cube's missing top:
     # every flat triangulation crosses it, and so does every triangulation
     # of the rim's own vertices; the needle is a loose triangle, so a patch
-    # with vertices of its own passes over it (shellrepair.steiner), flat
+    # with vertices of its own passes over it (shellrepair.fill.steiner), flat
     # where nothing is under it, and nothing is crossed
     V, F, g = cp.coarse_cube(8)
     V, F = cp.remove(V, F, g["top"])

@@ -1,4 +1,4 @@
-"""The fairing's sparse Cholesky (shellrepair.cholesky): nested dissection,
+"""The fairing's sparse Cholesky (shellrepair.fill.cholesky): nested dissection,
 dense fronts, and its place in fair.Factor.
 
 Its solutions are checked against SciPy's sparse LU: the two sum in other
@@ -13,7 +13,9 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from shellrepair import cholesky, compiled, fair
+from shellrepair import compiled
+from shellrepair.fill import cholesky
+from shellrepair.fill import fair
 
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="Numba not installed (libigl's factorisation runs instead)")
 

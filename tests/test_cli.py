@@ -169,7 +169,7 @@ def test_a_view_with_a_negative_azimuth_is_read_as_a_value(tmp_path):
 
 
 def test_render_prints_the_camera_it_picked_so_it_can_be_given_again(tmp_path, capsys):
-    from shellrepair import render as rd
+    from shellrepair.appearance import render as rd
     from shellrepair.repair import repair_mesh
 
     V, F = shapes.icosphere(3)

@@ -19,8 +19,8 @@ from eval import shapes  # noqa: E402
 from shellrepair.batch import repair_folder  # noqa: E402
 from terminal import at_empty_line  # noqa: E402
 from shellrepair.cli import main  # noqa: E402
-from shellrepair.io import Mesh, read_mesh, write_mesh  # noqa: E402
-from shellrepair.topology import edge_topology  # noqa: E402
+from shellrepair.mesh.io import Mesh, read_mesh, write_mesh  # noqa: E402
+from shellrepair.mesh.topology import edge_topology  # noqa: E402
 
 #: Report and summary fields that measure time, the only ones allowed to differ.
 TIMING = re.compile(rb'("seconds(?:_total)?": )-?[0-9.eE+-]+')

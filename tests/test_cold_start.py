@@ -1,7 +1,7 @@
 """After ``make setup``, no repair waits on the Numba compiler (issue 14).
 
 ``make setup`` runs :func:`shellrepair.warmup.warm_up` and
-:func:`shellrepair.fastmesh.warm_up`, which compile each kernel for the
+:func:`shellrepair.mesh.fastmesh.warm_up`, which compile each kernel for the
 argument types they pass and save the machine code (``cache=True``). A
 later process loads a kernel from that cache only for those types: a call
 with other types (an int32 array, a float where the warm-up gave an int,
@@ -200,8 +200,8 @@ _NEEDS_MAKE = pytest.mark.skipif(
 #: shading's (.venv/.shellrepair-built-shading), which no repair uses.
 _FILL_STEPS = ("compileall", "shellrepair.aot build --part 0", "shellrepair.aot build --part 1",
                "warmup.warm_up(share=1)", "warmup.warm_up(share=2)", "cholesky.warm_up()", "fastmesh.warm_up()")
-_SHADING_STEPS = ("from shellrepair.shader import warm_up",)
-#: The rho_dt table ships with the package (shellrepair/reflectance/rho_dt_table.npz): no build step makes it.
+_SHADING_STEPS = ("from shellrepair.appearance.shader import warm_up",)
+#: The rho_dt table ships with the package (shellrepair/appearance/reflectance/rho_dt_table.npz): no build step makes it.
 _NEVER_BUILT = "rho_dt_table"
 
 
@@ -215,8 +215,8 @@ def _plan(module, *goal):
 
 
 @_NEEDS_MAKE
-@pytest.mark.parametrize("module", ["shellrepair/refine_kernels.py", "shellrepair/fastmesh.py",
-                                    "shellrepair/reflectance/common_kernels.py", "shellrepair/repair.py"])
+@pytest.mark.parametrize("module", ["shellrepair/fill/refine_kernels.py", "shellrepair/mesh/fastmesh.py",
+                                    "shellrepair/appearance/reflectance/common_kernels.py", "shellrepair/repair.py"])
 @pytest.mark.parametrize("goal, run", [(("repair",), "shellrepair.cli repair"),
                                        (("holes",), "shellrepair.cli holes"),
                                        (("batch", "ARGS=--no-html"), "shellrepair.cli batch")])
@@ -238,7 +238,7 @@ def test_a_changed_module_is_built_before_the_next_run(module, goal, run):
 
 
 @_NEEDS_MAKE
-@pytest.mark.parametrize("module", ["shellrepair/context_kernels.py", "shellrepair/reflectance/common_kernels.py"])
+@pytest.mark.parametrize("module", ["shellrepair/mesh/index_kernels.py", "shellrepair/appearance/reflectance/common_kernels.py"])
 @pytest.mark.parametrize("goal, run", [(("render",), "shellrepair.cli render"), (("test",), "-m pytest"),
                                        (("batch",), "shellrepair.cli batch"),
                                        (("repair", "ARGS=--html x.html"), "shellrepair.cli repair")])

@@ -6,7 +6,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components as scipy_components
 
 from eval import shapes
-from shellrepair.components import connected_components
+from shellrepair.mesh.components import connected_components
 
 
 def scipy_labels(n, a, b):

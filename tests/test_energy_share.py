@@ -1,16 +1,16 @@
 """Per-hole work shared or batched without changing a bit.
 
 The oracles are the per-call functions the shared / batched code replaced:
-:func:`shellrepair.fair.thin_plate_energy` and
-:func:`shellrepair.fair.curvature_variation_energy` (one intrinsic
-Laplacian each) for :func:`shellrepair.fair.patch_energies`; the step by
-step walk :func:`shellrepair.tube.zip_rings_reference` for the merged
-:func:`shellrepair.tube.zip_rings`; one :func:`shellrepair.tube.lerp_loop`
-per array for :func:`shellrepair.tube.lerp_arcs`; NumPy's ``mean`` and
-``linalg.norm`` for :func:`shellrepair.holes.loop_stats`; a walk over the
-triangles for :func:`shellrepair.merge.scan_edges`; NumPy's ``min`` /
-``max`` reductions for :func:`shellrepair.geometry.bounds` and
-:func:`shellrepair.geometry.triangle_boxes`; the NumPy gathering
+:func:`shellrepair.fill.fair.thin_plate_energy` and
+:func:`shellrepair.fill.fair.curvature_variation_energy` (one intrinsic
+Laplacian each) for :func:`shellrepair.fill.fair.patch_energies`; the step by
+step walk :func:`shellrepair.fill.tube.zip_rings_reference` for the merged
+:func:`shellrepair.fill.tube.zip_rings`; one :func:`shellrepair.fill.tube.lerp_loop`
+per array for :func:`shellrepair.fill.tube.lerp_arcs`; NumPy's ``mean`` and
+``linalg.norm`` for :func:`shellrepair.holes.loops.loop_stats`; a walk over the
+triangles for :func:`shellrepair.fill.merge.scan_edges`; NumPy's ``min`` /
+``max`` reductions for :func:`shellrepair.mesh.geometry.bounds` and
+:func:`shellrepair.mesh.geometry.triangle_boxes`; the NumPy gathering
 ``_faces_of_numpy`` for the compiled ``ScanContext.faces_of``.
 """
 
@@ -21,13 +21,16 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import compiled, context, fair, tube
-from shellrepair.io import Mesh
-from shellrepair.context import ScanContext
-from shellrepair.topology import edge_topology
-from shellrepair.geometry import bounds, triangle_boxes
-from shellrepair.holes import loop_stats
-from shellrepair.merge import scan_edges
+from shellrepair import compiled
+from shellrepair.mesh import index as context
+from shellrepair.fill import fair
+from shellrepair.fill import tube
+from shellrepair.mesh.io import Mesh
+from shellrepair.mesh.index import ScanContext
+from shellrepair.mesh.topology import edge_topology
+from shellrepair.mesh.geometry import bounds, triangle_boxes
+from shellrepair.holes.loops import loop_stats
+from shellrepair.fill.merge import scan_edges
 
 
 def _bumpy_patch(k, seed):

@@ -17,8 +17,8 @@ from eval import cases, metrics  # noqa: E402
 from eval.bench import COLD, add_ratios, best_peer, run_cold, speed_table  # noqa: E402
 from eval import peers  # noqa: E402
 from eval import shapes  # noqa: E402
-from shellrepair.holes import boundary_loops  # noqa: E402
-from shellrepair.topology import face_areas  # noqa: E402
+from shellrepair.holes.loops import boundary_loops  # noqa: E402
+from shellrepair.mesh.topology import face_areas  # noqa: E402
 
 
 # --------------------------------------------------------------------------
@@ -232,7 +232,7 @@ def test_pinch_case_has_two_holes_sharing_one_vertex():
 def test_band_case_leaves_two_loops_on_one_piece():
     c = cases.build_case("hard-band", seed=0, quick=True)
     assert c.n_loops == 2
-    from shellrepair.topology import face_components
+    from shellrepair.mesh.topology import face_components
 
     assert face_components(c.F, len(c.V))[0] == 1
 

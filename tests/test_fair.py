@@ -11,7 +11,10 @@ import pytest
 import scipy.sparse as sp
 
 from eval import shapes
-from shellrepair import compiled, fair, fair_kernels, intrinsic_kernels
+from shellrepair import compiled
+from shellrepair.fill import fair
+from shellrepair.fill import fair_kernels
+from shellrepair.fill import intrinsic_kernels
 
 #: CG against the direct solve, in mean edges. The direct solves themselves
 #: differ by ~1e-9 between two sparse factorisations of these matrices
@@ -105,7 +108,7 @@ BLOCKS_TOLERANCE = 1e-13
 @pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_the_compiled_energy_blocks_equal_scipys_products(order):
-    from shellrepair.intrinsic import intrinsic_laplacian
+    from shellrepair.fill.intrinsic import intrinsic_laplacian
 
     X, F, nf = _bumpy_grid(30, 4)
     n = len(X)
@@ -155,7 +158,7 @@ def test_order_3_fills_triangles_as_round_as_order_2(radius, seed):
     # thinner than order 2's (1st-percentile smallest angle 25.5° against
     # 29.9° for the first hole; this test failed there), and its second
     # cotangent round needed a fresh factorisation.
-    from shellrepair.io import Mesh
+    from shellrepair.mesh.io import Mesh
     from shellrepair.repair import repair_mesh
 
     V, F = shapes.bumpy_sphere(5, amplitude=0.03, frequency=5)
@@ -304,7 +307,7 @@ def _energy_rows_python(ptr, col, val, D, order, unknown, fixed):
 @pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_the_compiled_energy_rows_equal_the_python_expansion_to_the_bit(order):
-    from shellrepair.intrinsic import laplacian_arrays
+    from shellrepair.fill.intrinsic import laplacian_arrays
 
     X, F, nf = _bumpy_grid(16, 3)
     (ptr, col, val), M = laplacian_arrays(X, F)        # spare diagonal slots kept: repeated columns
@@ -390,7 +393,7 @@ def _wheel(spokes=40, rings=4):
 def test_the_energy_blocks_of_a_high_valence_vertex_equal_scipys_products(order):
     """Rows of more than 64 columns (a valence-40 centre) are sorted another
     way than short ones: the same blocks."""
-    from shellrepair.intrinsic import intrinsic_laplacian
+    from shellrepair.fill.intrinsic import intrinsic_laplacian
 
     X, F = _wheel()
     n = len(X)
@@ -412,7 +415,7 @@ def test_the_energy_blocks_of_a_high_valence_vertex_equal_scipys_products(order)
 @pytest.mark.skipif(not compiled.ENABLED, reason="Numba is not installed")
 @pytest.mark.parametrize("order", [1, 2, 3])
 def test_dropping_the_spare_diagonal_slots_changes_no_energy_entry(order):
-    from shellrepair.intrinsic import laplacian_arrays
+    from shellrepair.fill.intrinsic import laplacian_arrays
 
     X, F, nf = _bumpy_grid(24, 9)
     (ptr, col, val), M = laplacian_arrays(X, F)
@@ -457,7 +460,7 @@ def test_a_blown_up_patch_has_infinite_energy_without_warnings():
     patch loses every comparison; the same fan unmoved has finite energies."""
     import warnings
 
-    from shellrepair.fair import curvature_variation_energy, thin_plate_energy
+    from shellrepair.fill.fair import curvature_variation_energy, thin_plate_energy
 
     k = 8
     t = np.linspace(0, 2 * np.pi, k, endpoint=False)

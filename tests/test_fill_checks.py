@@ -1,4 +1,4 @@
-"""The checks every patch passes before it is kept (shellrepair.checks.check_patch).
+"""The checks every patch passes before it is kept (shellrepair.fill.checks.check_patch).
 
 Besides crossing the scan or itself, a patch must not fold back onto its
 neighbour across an edge: two triangles on one edge whose far corners,
@@ -14,10 +14,10 @@ import pytest
 
 from shellrepair import Mesh
 from eval import shapes
-from shellrepair.checks import FOLD_DEGREES, check_patch
-from shellrepair.holes import boundary_loops
-from shellrepair.context import ScanContext
-from shellrepair.patch import Patch
+from shellrepair.fill.checks import FOLD_DEGREES, check_patch
+from shellrepair.holes.loops import boundary_loops
+from shellrepair.mesh.index import ScanContext
+from shellrepair.fill.patch import Patch
 
 
 def _sheet_with_a_square_hole():
@@ -80,7 +80,7 @@ def test_checks_of_many_patches_at_once_are_those_of_each():
     check_patch does patch by patch: fans over a hole next to a ramp of
     the scan, one that passes, one folded onto the scan, two through the
     ramp, one with a NaN corner."""
-    from shellrepair.checks import check_patches
+    from shellrepair.fill.checks import check_patches
 
     V, F, loop = _sheet_with_a_square_hole()
     V = V.copy()
@@ -108,16 +108,16 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
     # turned off here to keep the refill tested on this case.)
     import numpy as np
 
-    import shellrepair.bands
+    import shellrepair.fill.bands
 
-    monkeypatch.setattr(shellrepair.bands, "pants_triples", lambda *a, **k: [])
+    monkeypatch.setattr(shellrepair.fill.bands, "pants_triples", lambda *a, **k: [])
     import shellrepair.repair   # (crossed caps are first tried as a tube: off too, to test the refill)
 
     monkeypatch.setattr(shellrepair.repair, "tube_crossed_caps", lambda *a, **k: None)
 
     from conftest import STRESS_SHAPES
     from eval import stress
-    from shellrepair.io import Mesh
+    from shellrepair.mesh.io import Mesh
     from shellrepair.repair import repair_mesh
 
     shapes = STRESS_SHAPES
@@ -136,8 +136,8 @@ def test_scan_answers_about_a_holes_triangles_are_kept_and_equal_fresh_ones(monk
     crosses no scan face) answers a triangle asked before, in any corner
     order and from another ``allowed`` of the same loop, without asking the
     scan again, and the answers are those of a fresh ask."""
-    import shellrepair.patch as patch_mod
-    from shellrepair.intersect import patch_vs_index
+    import shellrepair.fill.patch as patch_mod
+    from shellrepair.mesh.intersect import patch_vs_index
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.2, seed=4)
     c = V[F].mean(axis=1)

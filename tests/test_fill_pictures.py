@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from shellrepair.cli import main
-from shellrepair.closeups import FAILED_COLOR, best_direction, closeups, fill_regions, parse_camera
-from shellrepair.htmlreport import figure, scan_page
-from shellrepair.io import Mesh, read_mesh, write_mesh
-from shellrepair.render import frame_camera
+from shellrepair.report.closeups import FAILED_COLOR, best_direction, closeups, fill_regions, parse_camera
+from shellrepair.report.html import figure, scan_page
+from shellrepair.mesh.io import Mesh, read_mesh, write_mesh
+from shellrepair.appearance.render import frame_camera
 from shellrepair.repair import repair_mesh
-from shellrepair.upaxis import infer_up
+from shellrepair.report.upaxis import infer_up
 from eval.shapes import icosphere
 
 import cad_parts as cp
@@ -235,7 +235,7 @@ def test_the_camera_printed_is_the_camera_used():
     V, F = _ellipsoid_with_five_holes(subdiv=2)
     mesh = Mesh(V=V, F=F)
     repaired, report = repair_mesh(mesh, jobs=1)
-    from shellrepair.closeups import closeup_camera
+    from shellrepair.report.closeups import closeup_camera
 
     reg = fill_regions(repaired.V, repaired.F, repaired.face_filled)[0]
     cam = closeup_camera(repaired.V, repaired.F, reg["faces"], reg["centroid"], reg["radius"], (1.0, 0, 0),

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shellrepair import refine
-from shellrepair.topology import edge_topology
+from shellrepair.fill import refine
+from shellrepair.mesh.topology import edge_topology
 
 DATA = Path(__file__).parent / "data" / "relax_tie.npz"
 

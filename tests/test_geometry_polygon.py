@@ -5,8 +5,8 @@ the compiled outline test beside it)."""
 import numpy as np
 import pytest
 
-from shellrepair.geometry import points_in_polygon
-from shellrepair.triangulate_kernels import inside_outline
+from shellrepair.mesh.geometry import points_in_polygon
+from shellrepair.fill.triangulate_kernels import inside_outline
 
 
 def _cases(seed):
@@ -48,7 +48,7 @@ def test_points_in_polygon_equals_the_compiled_outline_test_on_triangle_centroid
 
 
 def test_points_in_polygon_many_pairs_in_chunks_give_the_same_answer(monkeypatch):
-    from shellrepair import geometry
+    from shellrepair.mesh import geometry
 
     P, Q = _cases(4)
     whole = points_in_polygon(P, Q)

@@ -1,4 +1,4 @@
-"""The repaired mesh with its aged look as glTF 2.0 (shellrepair.gltf, repair --gltf)."""
+"""The repaired mesh with its aged look as glTF 2.0 (shellrepair.appearance.gltf, repair --gltf)."""
 
 import io
 import subprocess
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from shellrepair import read_mesh
-from shellrepair.gltf import gltf_bytes, pbr_approximation
-from shellrepair.materials import get_material
+from shellrepair.appearance.gltf import gltf_bytes, pbr_approximation
+from shellrepair.appearance.materials import get_material
 from shellrepair.repair import repair_mesh
 
 trimesh = pytest.importorskip("trimesh", reason="trimesh writes and reads the glTF files")

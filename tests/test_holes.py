@@ -5,8 +5,8 @@ import pytest
 
 from shellrepair import detect_holes, read_mesh
 from eval import shapes
-from shellrepair.holes import boundary_loops, loop_stats
-from shellrepair.topology import edge_topology
+from shellrepair.holes.loops import boundary_loops, loop_stats
+from shellrepair.mesh.topology import edge_topology
 
 from conftest import shared_scan
 
@@ -142,7 +142,7 @@ def test_real_range_scan_outer_edges_are_borders():
 
 
 def test_edge_count_delta_matches_a_full_recount():
-    from shellrepair.topology import edge_count_delta, euler_characteristic
+    from shellrepair.mesh.topology import edge_count_delta, euler_characteristic
     V, F = shapes.icosphere(3)
     V2, F2, removed, kept = shapes.perforate_discs(V, F, n_holes=3, radius=0.3, seed=4)
     topo = edge_topology(F2, len(V2))
@@ -164,7 +164,7 @@ def test_edge_count_delta_matches_a_full_recount():
 def test_edge_count_delta_is_the_same_by_every_look_up(seed):
     """The record search (few edges asked of many), the key search and the
     shortcut for edges at new vertices (``n_before``) count alike."""
-    from shellrepair.topology import edge_count_delta
+    from shellrepair.mesh.topology import edge_count_delta
     V, F = shapes.icosphere(5)
     V2, F2, removed, kept = shapes.perforate_discs(V, F, n_holes=4, radius=0.2, seed=seed)
     topo = edge_topology(F2, len(V2))

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from shellrepair.batch import repair_folder
-from shellrepair.htmlreport import figure, scan_page
-from shellrepair.io import Mesh, read_mesh, write_mesh
+from shellrepair.report.html import figure, scan_page
+from shellrepair.mesh.io import Mesh, read_mesh, write_mesh
 from shellrepair.repair import repair_mesh
 from eval.shapes import icosphere
 
@@ -172,7 +172,7 @@ def test_repair_command_writes_the_page_with_the_mesh(tmp_path):
 
 
 def test_the_page_gives_the_options_as_the_command_line_spells_them():
-    from shellrepair.htmlreport import options_text
+    from shellrepair.report.html import options_text
     from shellrepair.options import RepairOptions
 
     text = options_text(RepairOptions(leave_open=[3], order_for={2: 1}, max_hole_size=(20, "mm")).as_dict())

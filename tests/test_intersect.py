@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair.topology import edge_topology
-from shellrepair.intersect import (NearFaces, TriangleIndex, crossing_pairs, embeds_by_projection,
+from shellrepair.mesh.topology import edge_topology
+from shellrepair.mesh.intersect import (NearFaces, TriangleIndex, crossing_pairs, embeds_by_projection,
                                    pair_intersections, patch_vs_index, self_intersections, triangles_cross)
-from shellrepair.predicates import orient2d, orient3d
+from shellrepair.mesh.predicates import orient2d, orient3d
 
 
 # --------------------------------------------------------------------------

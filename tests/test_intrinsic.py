@@ -4,7 +4,7 @@ ordinary cotangent Laplacian where nothing needs flipping."""
 import numpy as np
 
 from eval import shapes
-from shellrepair.intrinsic import cotangents, intrinsic_delaunay, intrinsic_laplacian, twins
+from shellrepair.fill.intrinsic import cotangents, intrinsic_delaunay, intrinsic_laplacian, twins
 
 
 def _slivered_grid(k=12, seed=0):
@@ -93,7 +93,7 @@ def test_the_compiled_arrays_are_the_same_operator():
     import scipy.sparse as sp
 
     from shellrepair import compiled
-    from shellrepair.intrinsic import laplacian_arrays
+    from shellrepair.fill.intrinsic import laplacian_arrays
 
     if not compiled.ENABLED:
         pytest.skip("Numba is not installed")

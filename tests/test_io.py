@@ -8,9 +8,9 @@ import pytest
 
 from shellrepair import MeshError, Mesh, read_mesh, write_mesh
 from eval import shapes
-from shellrepair import clean as clean_module
-from shellrepair.formats import ply as ply_module, polygons, stl as stl_module
-from shellrepair.io import clean_faces
+from shellrepair.mesh import clean as clean_module
+from shellrepair.mesh.formats import ply as ply_module, polygons, stl as stl_module
+from shellrepair.mesh.io import clean_faces
 
 
 def _mesh(float32=True, colors=True):
@@ -584,7 +584,7 @@ def _golden_files():
             f"property float z\nelement face {len(F)}\nproperty list ushort int vertex_indices\n"
             "property list uchar float weights\nend_header\n")
     files["floatlist_le.ply"] = head.encode() + V.astype("<f4").tobytes() + recs
-    from shellrepair.io import mesh_bytes
+    from shellrepair.mesh.io import mesh_bytes
 
     files["full.ply"] = mesh_bytes("full.ply", _golden_written()["full"])  # what a repair writes, read again
     return files
@@ -611,7 +611,7 @@ def _read_digest(m):
 
 def _golden_digests(tmp_path):
     """name -> hash: each read file's content, each mesh written by every writer."""
-    from shellrepair.io import mesh_bytes
+    from shellrepair.mesh.io import mesh_bytes
 
     out = {}
     meshes = dict(_golden_written())
@@ -768,7 +768,7 @@ def test_progress_that_is_not_a_callback_is_refused(tmp_path):
 
 
 def test_an_obj_output_names_the_filled_faces_as_a_group(tmp_path):
-    from shellrepair.formats.obj import FILLED_GROUP, SCAN_GROUP
+    from shellrepair.mesh.formats.obj import FILLED_GROUP, SCAN_GROUP
     from shellrepair.repair import repair_mesh
 
     V, F = shapes.icosphere(3)

@@ -9,11 +9,21 @@ seeded random, slivered and degenerate inputs and compare with
 import numpy as np
 import pytest
 
-from shellrepair import (bridge_kernels, checks_kernels, compiled, context_kernels, fair_kernels, intersect_kernels, intrinsic,
-                         intrinsic_kernels, patch_kernels, refine_kernels, topology, topology_kernels)
+from shellrepair import compiled
+from shellrepair.fill import bridge_kernels
+from shellrepair.fill import checks_kernels
+from shellrepair.mesh import index_kernels as context_kernels
+from shellrepair.fill import fair_kernels
+from shellrepair.mesh import intersect_kernels
+from shellrepair.fill import intrinsic
+from shellrepair.fill import intrinsic_kernels
+from shellrepair.fill import patch_kernels
+from shellrepair.fill import refine_kernels
+from shellrepair.mesh import topology
+from shellrepair.mesh import topology_kernels
 from eval import shapes
-from shellrepair.io import Mesh
-from shellrepair.context import ScanContext, rim_data, rim_data_numpy
+from shellrepair.mesh.io import Mesh
+from shellrepair.mesh.index import ScanContext, rim_data, rim_data_numpy
 
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 
@@ -102,7 +112,7 @@ def test_vertex_faces_equal_the_sparse_counting_sort(sub, two, monkeypatch):
 def test_rim_data_equals_the_python_walk():
     V, F = shapes.bumpy_sphere(3)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=3, radius=0.3, seed=4)
-    from shellrepair.holes import detect_holes
+    from shellrepair.holes.loops import detect_holes
 
     ctx = ScanContext(Mesh(V=V2, F=F2))
     loops = [h.vertices for h in detect_holes(V2, F2).holes]
@@ -158,7 +168,7 @@ def test_crossing_tests_give_the_same_answers_with_the_box_candidates(seed, monk
     """A crumpled patch over a scan: the crossing count, faces and pairs
     (against the scan) and the self-crossing pairs are those of the
     bounding-sphere candidates."""
-    from shellrepair.intersect import NearFaces, crossing_pairs, patch_vs_index
+    from shellrepair.mesh.intersect import NearFaces, crossing_pairs, patch_vs_index
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.05, seed=seed)
     rng = np.random.default_rng(seed)
@@ -182,7 +192,7 @@ def test_crossing_tests_give_the_same_answers_with_the_box_candidates(seed, monk
 
 
 def test_faces_near_equals_the_numpy_walk(monkeypatch):
-    from shellrepair.intersect import NearFaces
+    from shellrepair.mesh.intersect import NearFaces
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.05)
     F = np.vstack([F, [[0, 100, 200]]])            # one long face: in every answer ("big")
@@ -201,7 +211,7 @@ def test_faces_near_equals_the_numpy_walk(monkeypatch):
 
 
 def test_the_vertex_grid_has_the_same_keys_and_cells(monkeypatch):
-    from shellrepair.intersect import NearFaces
+    from shellrepair.mesh.intersect import NearFaces
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.05)
     V = V * [3.0, 1.0, 1.0] + 1e6                  # far from the origin, not square
@@ -241,7 +251,7 @@ def _submesh_with_free_middle(k, seed, jitter=0.15):
 @pytest.mark.parametrize("order", [1, 2, 3])
 @pytest.mark.parametrize("seed", range(3))
 def test_the_dense_fairing_equals_the_sparse_solve_to_round_off(order, seed, monkeypatch):
-    from shellrepair import fair
+    from shellrepair.fill import fair
 
     X, F, nf = _submesh_with_free_middle(10 + 2 * seed, seed)
     assert 0 < len(X) - nf <= fair.SMALL_UNKNOWNS
@@ -337,7 +347,8 @@ def test_the_compiled_relaxation_equals_the_numpy_rounds(seed):
     """Delaunay flips of a patch (refine.relax): the same triangles, the
     same changed faces, the same verdict, with forbidden chords, dirty
     faces, a round cap and the symmetric ties of a regular fan."""
-    from shellrepair import refine, triangulate
+    from shellrepair.fill import refine
+    from shellrepair.fill import triangulate
 
     rng = np.random.default_rng(seed)
     k = 24 + 4 * seed
@@ -392,7 +403,7 @@ def test_the_compiled_half_edge_pairing_equals_the_stable_argsort(seed):
 def test_plane_separated_pairs_never_cross_and_most_far_pairs_are_found(seed):
     """The prefilter only rules out pairs the exact test calls apart: on
     random, nearly coplanar, touching and offset (1e6) triangle pairs."""
-    from shellrepair.intersect import SIDE_BOUND, TINY, triangles_cross
+    from shellrepair.mesh.intersect import SIDE_BOUND, TINY, triangles_cross
 
     rng = np.random.default_rng(seed)
     p = 4000
@@ -433,7 +444,7 @@ def _outlines(seed):
 
 @pytest.mark.parametrize("seed", range(30))
 def test_outline_simplicity_equals_the_numpy_pair_test(seed):
-    from shellrepair.intersect import outline_is_simple, outline_is_simple_reference
+    from shellrepair.mesh.intersect import outline_is_simple, outline_is_simple_reference
 
     answers = []
     for Q in _outlines(seed):
@@ -447,8 +458,9 @@ def test_outline_simplicity_equals_the_numpy_pair_test(seed):
 
 @pytest.mark.parametrize("seed", range(20))
 def test_loop_diameter_equals_the_numpy_chunks_to_the_bit(seed):
-    from shellrepair import common_kernels, reference
-    from shellrepair.holes import loop_stats
+    from shellrepair import reference
+    from shellrepair.mesh import common_kernels
+    from shellrepair.holes.loops import loop_stats
 
     def diameter(Q):
         """The compiled diameter (holes' once the kernels are loaded)."""
@@ -489,7 +501,7 @@ def test_fold_test_equals_the_numpy_one(seed):
     neighbour (exact folds), some pushed nearly flat against one (within
     and beyond FOLD_DEGREES), plus a zero-area triangle: the compiled fold
     test flags exactly the triangles the NumPy one does."""
-    from shellrepair.checks import FOLD_DEGREES, folds_reference
+    from shellrepair.fill.checks import FOLD_DEGREES, folds_reference
 
     rng = np.random.default_rng(seed)
     n = 7
@@ -536,7 +548,7 @@ def test_face_cross_equals_the_numpy_cross_products():
     """Faces of a noisy sphere far from the origin, a zero-area face and a
     repeated face: the compiled gather-and-cross gives geometry.cross's
     products to the bit."""
-    from shellrepair.geometry import cross
+    from shellrepair.mesh.geometry import cross
 
     V, F = shapes.bumpy_sphere(2)
     V = V * 1e-3 + 1e6
@@ -589,8 +601,8 @@ def test_ring_sums_equal_the_sparse_products(seed):
 def test_continuation_arcs_equal_with_the_sparse_ring_sums(monkeypatch):
     """Whole continuation arcs of a perforated bumpy sphere's holes: the
     compiled ring sums give the arcs the sparse products give, bit for bit."""
-    from shellrepair import bridge
-    from shellrepair.holes import detect_holes
+    from shellrepair.fill import bridge
+    from shellrepair.holes.loops import detect_holes
 
     V, F = shapes.bumpy_sphere(3)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.3, seed=2)
@@ -639,7 +651,7 @@ def test_relaxation_angle_and_fold_terms_equal_the_numpy_ones(seed):
     mixed scales (flat, folded, degenerate and far-offset ones included):
     the compiled products and sums give refine.angle_between's and
     refine.unfolded's results to the bit."""
-    from shellrepair.refine import angle_between, unfolded
+    from shellrepair.fill.refine import angle_between, unfolded
 
     rng = np.random.default_rng(seed)
     m = 400
@@ -667,7 +679,7 @@ def test_refinement_split_test_equals_the_numpy_one(seed):
     """Centroids, mean scales and split verdicts of random triangles of
     mixed scales, far from the origin and degenerate ones included: the
     compiled split test equals refine's NumPy one to the bit."""
-    from shellrepair.refine import DENSITY_ALPHA, split_test_reference
+    from shellrepair.fill.refine import DENSITY_ALPHA, split_test_reference
 
     rng = np.random.default_rng(seed)
     n = 300
@@ -685,7 +697,7 @@ def test_refinement_split_test_equals_the_numpy_one(seed):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_point_triangle_distances_equal_the_numpy_version_to_the_bit(seed, monkeypatch):
-    from shellrepair.distance import point_mesh_distance
+    from shellrepair.mesh.distance import point_mesh_distance
 
     rng = np.random.default_rng(seed)
     V, F = shapes.bumpy_sphere(2, amplitude=0.05)
@@ -748,8 +760,8 @@ def test_compiled_crossing_filters_decide_as_the_exact_test(seed):
     then as triangles_cross does; pair_intersections with the kernels
     equals the NumPy one on every pair (random, coplanar, shared vertices
     and edges, degenerate, 1e6 offsets)."""
-    from shellrepair.intersect import SIDE_BOUND, pair_intersections, pair_intersections_numpy
-    from shellrepair.predicates import O3D_BOUND, TINY
+    from shellrepair.mesh.intersect import SIDE_BOUND, pair_intersections, pair_intersections_numpy
+    from shellrepair.mesh.predicates import O3D_BOUND, TINY
 
     A, Aid, B, Bid, kind = _crossing_pairs_mix(seed)
     r = np.arange(len(A))
@@ -774,8 +786,8 @@ def test_patch_pairs_are_the_overlapping_boxes_with_their_answers(seed):
     """intersect_kernels.patch_pairs (the faces' corners, boxes, pairs and tests in one
     call) gives the pairs box_pairs gives and cross_status's answers, both
     with all boxes compared (small) and with the grid (large)."""
-    from shellrepair.intersect import SIDE_BOUND
-    from shellrepair.predicates import O3D_BOUND, TINY
+    from shellrepair.mesh.intersect import SIDE_BOUND
+    from shellrepair.mesh.predicates import O3D_BOUND, TINY
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.05, seed=seed)
     offset = 1e6 if seed == 2 else 0.0
@@ -807,7 +819,7 @@ def test_projection_certificate_equals_the_numpy_one(seed, monkeypatch):
     """embeds_by_projection with intersect_kernels.projection_embeds equals its NumPy
     tail: fans over wavy loops (simple, self-crossing, with a repeated
     vertex, with triangles turned over or of zero area), at offset 1e6 too."""
-    from shellrepair.intersect import embeds_by_projection
+    from shellrepair.mesh.intersect import embeds_by_projection
 
     rng = np.random.default_rng(seed)
     k = int(rng.integers(3, 40))
@@ -844,7 +856,7 @@ def test_scan_edges_are_the_loop_edges_of_the_sorted_edge_list():
     patch edge and keeping those between loop vertices lists, in that order."""
     from types import SimpleNamespace
 
-    from shellrepair.merge import edges_of, scan_edges
+    from shellrepair.fill.merge import edges_of, scan_edges
 
     rng = np.random.default_rng(5)
     loop = rng.permutation(1000)[:30]
@@ -888,7 +900,8 @@ def test_a_relaxation_rounds_fused_parts_equal_refines_angles_and_fold_test(seed
     arguments and refine.unfolded's verdicts to the bit, on random quads
     of mixed scales, degenerate, flat and far-offset ones included; and
     the relaxation that uses it (refine.relax) flips as the NumPy rounds do."""
-    from shellrepair import refine, triangulate
+    from shellrepair.fill import refine
+    from shellrepair.fill import triangulate
 
     rng = np.random.default_rng(seed)
     m = 300

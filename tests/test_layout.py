@@ -3,8 +3,8 @@ others, a module that imports it back.
 
 Counted from the source, imports inside functions included (a lazy import
 hides a circle from Python at load time, not from a reader): the fill's
-stages read the scan's index (:mod:`shellrepair.context`) and the checks
-(:mod:`shellrepair.checks`) below them, the compiled kernels import none
+stages read the scan's index (:mod:`shellrepair.mesh.index`) and the checks
+(:mod:`shellrepair.fill.checks`) below them, the compiled kernels import none
 of the modules that call them (their warm-up is :mod:`shellrepair.warmup`),
 and the shader reads the materials and the reflectance package, never the
 other way round.
@@ -87,8 +87,8 @@ def cycles(graph):
 def test_the_graph_sees_imports_inside_functions():
     # the reader must count lazy imports, or the test below could not fail
     g = import_graph()
-    assert "shellrepair.mend" in g["shellrepair.checks"]          # inside mend_last
-    assert "shellrepair.holes" in g["shellrepair.checks"]         # inside blocked_in_plane
+    assert "shellrepair.fill.mend" in g["shellrepair.fill.checks"]          # inside mend_last
+    assert "shellrepair.holes.loops" in g["shellrepair.fill.checks"]         # inside blocked_in_plane
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
 
 
@@ -98,21 +98,22 @@ def test_no_module_imports_itself_through_others():
 
 def test_the_scan_index_checks_and_kernels_sit_below_the_stages_that_use_them():
     g = import_graph()
-    stages = {"shellrepair." + m for m in ("holes", "hole_or_border", "pinched", "patch", "bridge", "bands", "tube",
-                                            "pants", "mend", "merge", "probe", "selftest", "fill", "band_fill",
-                                            "fill_runs", "beside", "repair")}
-    assert not g["shellrepair.context"] & stages
+    stages = {"shellrepair.holes." + m for m in ("loops", "hole_or_border", "pinched")} \
+        | {"shellrepair.fill." + m for m in ("patch", "bridge", "bands", "tube", "pants", "mend", "merge", "probe",
+                                             "selftest", "hole", "band_fill", "runs", "beside")} \
+        | {"shellrepair.repair"}
+    assert not g["shellrepair.mesh.index"] & stages
     # the checks build on a patch's corners, mend, and merge's edge lists; no
     # stage that fills a hole, pairs loops or chooses an order is below them
-    assert g["shellrepair.checks"] & stages <= {"shellrepair.holes", "shellrepair.patch", "shellrepair.mend",
-                                                 "shellrepair.merge"}
+    assert g["shellrepair.fill.checks"] & stages <= {"shellrepair.holes.loops", "shellrepair.fill.patch", "shellrepair.fill.mend",
+                                                 "shellrepair.fill.merge"}
     # each kernel module imports the compiled switch, the plain helpers and
     # other kernel modules only, never the code it serves
-    kernel_modules = {m for m in g if m.endswith("_kernels") and m.count(".") == 1}
+    kernel_modules = {m for m in g if m.endswith("_kernels") and not m.startswith("shellrepair.appearance.")}
     assert len(kernel_modules) >= 10
     for m in kernel_modules:
-        assert g[m] <= {"shellrepair.compiled", "shellrepair.geometry", "shellrepair.halves"} | kernel_modules, m
-    assert g["shellrepair.materials"] & {"shellrepair.shader", "shellrepair.render"} == set()
+        assert g[m] <= {"shellrepair.compiled", "shellrepair.mesh.geometry", "shellrepair.mesh.halves"} | kernel_modules, m
+    assert g["shellrepair.appearance.materials"] & {"shellrepair.appearance.shader", "shellrepair.appearance.render"} == set()
 
 
 def test_each_kernel_module_stays_short():
@@ -121,7 +122,7 @@ def test_each_kernel_module_stays_short():
     from shellrepair import compiled
 
     for module in compiled.MODULES:
-        path = PACKAGE / (module.rsplit(".", 1)[1] + ".py")
+        path = (PACKAGE.parent / Path(*module.split("."))).with_suffix(".py")
         assert len(path.read_text(encoding="utf-8").splitlines()) <= 1000, path.name
     assert not (PACKAGE / "kernels.py").exists()
 
@@ -130,12 +131,14 @@ def test_each_kernel_module_stays_short():
 #: makes a new object (``Patch.with_``) or asks the owner's method
 #: (``WorkBudget.count``, ``Loop.reclass``) instead of setting another
 #: module's object's attributes.
-FILL_DATA = (("shellrepair.patch", "Patch"), ("shellrepair.patch", "_Pre"), ("shellrepair.checks", "WorkBudget"),
-             ("shellrepair.holes", "Loop"), ("shellrepair.mesh", "Mesh"))
+FILL_DATA = (("shellrepair.fill.patch", "Patch"), ("shellrepair.fill.patch", "_Pre"), ("shellrepair.fill.checks", "WorkBudget"),
+             ("shellrepair.holes.loops", "Loop"), ("shellrepair.mesh.core", "Mesh"))
 #: The fill's modules, held to that.
-FILL_MODULES = ("fill", "band_fill", "fill_runs", "beside", "bridge", "bands", "tube", "pants", "mend", "merge", "checks",
-                "probe", "selftest", "steiner", "repair", "context", "patch", "holes", "hole_or_border", "pinched",
-                "refine", "triangulate", "fair", "intersect")
+FILL_MODULES = tuple(f"shellrepair.fill.{m}" for m in (
+    "hole", "band_fill", "runs", "beside", "bridge", "bands", "tube", "pants", "mend", "merge", "checks", "probe",
+    "selftest", "steiner", "patch", "refine", "triangulate", "fair")) \
+    + tuple(f"shellrepair.holes.{m}" for m in ("loops", "hole_or_border", "pinched")) \
+    + ("shellrepair.repair", "shellrepair.mesh.index", "shellrepair.mesh.intersect")
 
 
 def _attributes_of(module, cls):
@@ -153,7 +156,7 @@ def _attributes_of(module, cls):
 def attribute_writes(module):
     """``(line, name.attr)`` of every attribute a module's code sets on an
     object other than ``self`` / ``cls``."""
-    tree = ast.parse((PACKAGE / f"{module}.py").read_text(encoding="utf-8"))
+    tree = ast.parse((PACKAGE.parent / Path(*module.split("."))).with_suffix(".py").read_text(encoding="utf-8"))
     out = []
     for n in ast.walk(tree):
         if isinstance(n, ast.Attribute) and isinstance(n.ctx, ast.Store) and isinstance(n.value, ast.Name) \
@@ -164,7 +167,7 @@ def attribute_writes(module):
 
 def test_the_attribute_reader_finds_writes_to_other_objects():
     # what the test below reads: an assignment through a name, self's left out
-    assert ("self", "cls") and _attributes_of("shellrepair.patch", "Patch") >= {"option", "choice", "fallback", "P"}
+    assert ("self", "cls") and _attributes_of("shellrepair.fill.patch", "Patch") >= {"option", "choice", "fallback", "P"}
     tree = ast.parse("def f(p):\n    p.option = 'x'\n    self.y = 1\n    q.z += 2\n")
     got = [f"{n.value.id}.{n.attr}" for n in ast.walk(tree) if isinstance(n, ast.Attribute)
            and isinstance(n.ctx, ast.Store) and n.value.id != "self"]
@@ -178,11 +181,11 @@ def test_no_fill_module_sets_the_attributes_of_data_another_module_owns():
             owned.setdefault(a, set()).add(module)
     bad = []
     for m in FILL_MODULES:
-        mine = {a for module, cls in FILL_DATA if module == f"shellrepair.{m}" for a in _attributes_of(module, cls)}
+        mine = {a for module, cls in FILL_DATA if module == m for a in _attributes_of(module, cls)}
         for line, what in attribute_writes(m):
             attr = what.split(".", 1)[1]
             if attr in owned and attr not in mine:
-                bad.append(f"shellrepair/{m}.py:{line}: {what}")
+                bad.append(f"{m}:{line}: {what}")
     assert bad == [], bad
 
 
@@ -192,7 +195,7 @@ def test_a_patch_cannot_be_changed_only_copied_with_changes():
     import numpy as np
     import pytest
 
-    from shellrepair.patch import Patch
+    from shellrepair.fill.patch import Patch
 
     p = Patch(hole_id=1, loop=np.arange(3), P=np.zeros((0, 3)), T=np.array([[0, 1, 2]]))
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -251,10 +254,10 @@ def _private_reaches(path):
 
 def test_the_reader_of_private_reaches_finds_each_kind(tmp_path):
     f = tmp_path / "t.py"
-    f.write_text("from shellrepair.fill import _one, ok\nimport shellrepair.mesh as m\n"
-                 "m.topology._grid\nok.__name__\nx = 'shellrepair.fill._two'\n")
-    assert sorted(n for _, n in _private_reaches(f)) == ["m..._grid", "shellrepair.fill._one",
-                                                          "shellrepair.fill._two"]
+    f.write_text("from shellrepair.fill.hole import _one, ok\nimport shellrepair.mesh.core as m\n"
+                 "m.topology._grid\nok.__name__\nx = 'shellrepair.fill.hole._two'\n")
+    assert sorted(n for _, n in _private_reaches(f)) == ["m..._grid", "shellrepair.fill.hole._one",
+                                                          "shellrepair.fill.hole._two"]
 
 
 def test_no_test_reaches_a_private_name_of_the_package():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from shellrepair import render as rd
+from shellrepair.appearance import render as rd
 from eval import shapes
 
 

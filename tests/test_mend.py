@@ -1,4 +1,4 @@
-"""The fill's last layer (shellrepair.mend): a patch that crosses the scan
+"""The fill's last layer (shellrepair.fill.mend): a patch that crosses the scan
 in a few places is cut there, and each cut-out region is triangulated again
 with triangles that cross neither the scan nor the rest of the patch.
 
@@ -12,7 +12,7 @@ with triangles that cross neither the scan nor the rest of the patch.
   number of rounds and region sizes; through a plane opening it is not
   asked (it would bend what is a flat face). The pillar is a closed piece,
   not linked with the loop, so the layer after it (Steiner points,
-  :mod:`shellrepair.steiner`) closes the opening over the pillar's top;
+  :mod:`shellrepair.fill.steiner`) closes the opening over the pillar's top;
 * a hole round a scan tongue twisted by 270° defeats every earlier layer
   and is closed by mending;
 * the fill keeps every answer the earlier layers give (the last layer runs
@@ -23,12 +23,12 @@ import numpy as np
 
 from eval import shapes
 from shellrepair import Mesh
-from shellrepair.checks import check_patch
-from shellrepair.fill import fill_hole
-from shellrepair.holes import boundary_loops
-from shellrepair.mend import mend_patch
-from shellrepair.context import ScanContext
-from shellrepair.patch import build_patch
+from shellrepair.fill.checks import check_patch
+from shellrepair.fill.hole import fill_hole
+from shellrepair.holes.loops import boundary_loops
+from shellrepair.fill.mend import mend_patch
+from shellrepair.mesh.index import ScanContext
+from shellrepair.fill.patch import build_patch
 
 
 def _sheet_with_a_hole(n=25, half=0.2):
@@ -160,7 +160,7 @@ def test_a_pillar_through_a_plane_opening_is_not_mended_and_is_passed_over():
 def test_a_pillar_is_given_up_within_the_rounds_and_the_region_bound():
     """The bounded work behind a fast failure: at most ``MEND_ROUNDS`` rounds,
     no region past ``MEND_MAX_LOOP`` edges is searched."""
-    from shellrepair.mend import MEND_MAX_LOOP, MEND_ROUNDS
+    from shellrepair.fill.mend import MEND_MAX_LOOP, MEND_ROUNDS
 
     V, F, loop = _sheet_with_a_hole()
     Vp, Fp = _pillar(0.5, 0.5, -0.3, 0.3, 0.03)
@@ -211,7 +211,7 @@ def test_a_hole_round_a_twisted_tongue_the_earlier_layers_leave_open_is_mended(m
     triangulation still crosses the scan after re-routing N chords"); the
     last layer mends the faired patch where it crosses, and the result
     passes every check."""
-    from shellrepair import fill
+    from shellrepair.fill import hole as fill
 
     V, F, loop = _sheet_with_a_twisted_tongue(1.5 * np.pi, 0.1)
     ctx = ScanContext(Mesh(V=V, F=F))

@@ -24,10 +24,10 @@ outlast it) stands in for the large loop.
 import numpy as np
 import pytest
 
-import shellrepair.checks as checks
+import shellrepair.fill.checks as checks
 from shellrepair import Mesh
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import edge_topology
+from shellrepair.mesh.topology import edge_topology
 from eval import shapes
 from eval.stress import triangle_pairs_added
 
@@ -107,9 +107,9 @@ def test_a_hole_with_no_passing_triangulation_gets_its_harmonic_patch(spent_budg
 def test_the_first_attempts_cross_the_pebble():
     """The faired patch and the flat triangulation of this opening do cross
     (what leaves only the harmonic patch)."""
-    from shellrepair.holes import detect_holes
-    from shellrepair.context import ScanContext
-    from shellrepair.patch import build_patch
+    from shellrepair.holes.loops import detect_holes
+    from shellrepair.mesh.index import ScanContext
+    from shellrepair.fill.patch import build_patch
 
     V, F = _lens_with_a_pebble()
     (hole,) = detect_holes(V, F).holes
@@ -129,8 +129,8 @@ def test_patches_crossing_each_other_are_found_with_or_without_the_kernels(monke
     from types import SimpleNamespace
 
     from shellrepair import compiled
-    from shellrepair.merge import Accepted
-    from shellrepair.patch import Patch
+    from shellrepair.fill.merge import Accepted
+    from shellrepair.fill.patch import Patch
 
     if compiled and not compiled.ENABLED:
         pytest.skip("Numba is not installed")

@@ -41,7 +41,7 @@ def test_unknown_options_and_numpy_integers():
 
 def test_batch_and_the_command_line_take_order_auto_and_refuse_bad_values(tmp_path, capsys):
     from shellrepair.cli import main
-    from shellrepair.io import Mesh, write_mesh
+    from shellrepair.mesh.io import Mesh, write_mesh
 
     V, F = icosphere(2)
     (tmp_path / "in").mkdir()

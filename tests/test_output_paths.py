@@ -45,7 +45,7 @@ def no_work(monkeypatch):
     def read_mesh(*a, **k):
         raise AssertionError("a scan was read before the output paths were checked")
 
-    monkeypatch.setattr("shellrepair.io.read_mesh", read_mesh)
+    monkeypatch.setattr("shellrepair.mesh.io.read_mesh", read_mesh)
 
 
 def _one_line(err, culprit, flag, pattern):

@@ -9,9 +9,12 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import bridge_kernels, compiled, context_kernels, triangulate_kernels
-from shellrepair.io import Mesh
-from shellrepair.context import ScanContext, submesh_reference, submesh
+from shellrepair import compiled
+from shellrepair.fill import bridge_kernels
+from shellrepair.mesh import index_kernels as context_kernels
+from shellrepair.fill import triangulate_kernels
+from shellrepair.mesh.io import Mesh
+from shellrepair.mesh.index import ScanContext, submesh_reference, submesh
 
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="numba is not installed")
 
@@ -44,7 +47,7 @@ def test_ring_faces_grow_their_buffers_past_any_first_guess(seed):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_submesh_numbering_equals_the_numpy_one(seed):
-    from shellrepair.holes import boundary_loops
+    from shellrepair.holes.loops import boundary_loops
 
     mesh = _perforated_torus(seed)
     ctx = ScanContext(mesh)
@@ -132,7 +135,7 @@ def test_inside_outline_labels_equal_points_in_poly(seed):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_delaunay_in_projection_compiled_equals_numpy(seed, monkeypatch):
-    from shellrepair import triangulate as tr
+    from shellrepair.fill import triangulate as tr
 
     rng = np.random.default_rng(seed)
     answers = 0
@@ -153,7 +156,7 @@ def test_delaunay_in_projection_compiled_equals_numpy(seed, monkeypatch):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_loop_cover_equals_the_numpy_checks_on_flat_and_nan_normals(seed):
-    from shellrepair.triangulate import loop_cover_reference
+    from shellrepair.fill.triangulate import loop_cover_reference
 
     rng = np.random.default_rng(seed)
     for k in (3, 5, 9):
@@ -195,8 +198,8 @@ def test_patch_corners_and_rim_sigma_equal_numpy(seed):
     """Corners and ids of patches with and without new vertices, and the
     rim scale with some rim vertices lacking scan edges (their loop edge
     instead), non-finite positions included: to the bit."""
-    from shellrepair.context import rim_sigma, rim_sigma_reference
-    from shellrepair.patch import Patch, corners, corners_reference
+    from shellrepair.mesh.index import rim_sigma, rim_sigma_reference
+    from shellrepair.fill.patch import Patch, corners, corners_reference
 
     mesh = _perforated_torus(seed)
     ctx = ScanContext(mesh)
@@ -221,7 +224,7 @@ def test_boundary_loops_of_a_few_faces_of_a_large_mesh_are_the_same_numbered_com
     """A small face set of a large mesh (its boundary vertices numbered
     among themselves) and the same faces numbered over all vertices give
     the same loops and chains in the same order; pinched sets included."""
-    from shellrepair import holes
+    from shellrepair.holes import loops as holes
 
     mesh = _perforated_torus(seed)
     ctx = ScanContext(mesh)
@@ -248,7 +251,8 @@ def test_edge_topology_of_a_few_faces_of_a_large_mesh_equals_the_full_numbering(
     its vertices are numbered among themselves or over the whole mesh
     (non-manifold and flipped faces included), and a vertex id out of
     range is still refused."""
-    from shellrepair import fastmesh, topology
+    from shellrepair.mesh import fastmesh
+    from shellrepair.mesh import topology
 
     if compiled:
         fastmesh.warm_up()                   # loaded: used for any size
@@ -276,8 +280,8 @@ def test_edge_topology_of_a_few_faces_of_a_large_mesh_equals_the_full_numbering(
 def test_turns_into_opening_leaves_the_vertex_scratch_clear():
     """The base test reads loop positions from the context's scratch and
     sets them back: later users find it all -1."""
-    from shellrepair.holes import boundary_loops
-    from shellrepair.patch import turns_into_opening
+    from shellrepair.holes.loops import boundary_loops
+    from shellrepair.fill.patch import turns_into_opening
 
     mesh = _perforated_torus(1)
     ctx = ScanContext(mesh)

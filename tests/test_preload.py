@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from shellrepair import common_kernels, compiled
+from shellrepair import compiled
+from shellrepair.mesh import common_kernels
 
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="needs the compiled kernels")
 
@@ -22,7 +23,7 @@ from shellrepair.preload import preload_fill
 
 preload = sys.argv[1] == "1"
 thread = preload_fill() if preload else None
-from shellrepair.io import Mesh
+from shellrepair.mesh.io import Mesh
 from shellrepair.repair import repair_mesh
 
 V, F = shapes.bumpy_sphere(4, amplitude=0.03, frequency=5)

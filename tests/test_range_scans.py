@@ -27,8 +27,8 @@ import pytest
 from eval import shapes
 from shellrepair import Mesh, read_mesh, write_mesh
 from shellrepair.cli import main
-from shellrepair.formats.ply import read_ply
-from shellrepair.intersect import self_intersections
+from shellrepair.mesh.formats.ply import read_ply
+from shellrepair.mesh.intersect import self_intersections
 
 from conftest import shared_scan
 

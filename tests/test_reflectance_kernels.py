@@ -1,9 +1,9 @@
 """The compiled shading kernels against their NumPy versions (the oracles:
-:mod:`shellrepair.reflectance.reference`, :meth:`shellrepair.shader.MaterialShader.evaluate_numpy`).
+:mod:`shellrepair.appearance.reflectance.reference`, :meth:`shellrepair.appearance.shader.MaterialShader.evaluate_numpy`).
 
 Stated tolerances (each asserted below):
 
-- every public function of shellrepair.reflectance: ``|f - f_np| <= 1e-12 |f_np| + 1e-250``.
+- every public function of shellrepair.appearance.reflectance: ``|f - f_np| <= 1e-12 |f_np| + 1e-250``.
   The kernels apply the same operations in the same order; exp and log
   are our own vectorisable versions (within 1 ulp of libm's,
   :func:`test_exp_expm1_log_within_one_ulp_of_libm`).  The 1e-250 floor
@@ -23,13 +23,13 @@ import numpy as np
 import pytest
 
 from shellrepair import compiled
-from shellrepair import shader as sd
-from shellrepair.reflectance import albedo as al
-from shellrepair.reflectance import dipole as dp
-from shellrepair.reflectance import dispatch, km
-from shellrepair.reflectance import layered as ly
-from shellrepair.reflectance import microfacet as mf
-from shellrepair.reflectance import reference as ref
+from shellrepair.appearance import shader as sd
+from shellrepair.appearance.reflectance import albedo as al
+from shellrepair.appearance.reflectance import dipole as dp
+from shellrepair.appearance.reflectance import dispatch, km
+from shellrepair.appearance.reflectance import layered as ly
+from shellrepair.appearance.reflectance import microfacet as mf
+from shellrepair.appearance.reflectance import reference as ref
 
 KERNELS_ON = all(dispatch.kernels(name) is not None for name in dispatch.KERNEL_MODULES)
 pytestmark = pytest.mark.skipif(not KERNELS_ON, reason="Numba kernels off (SHELLREPAIR_NO_NUMBA or numba missing)")
@@ -177,7 +177,7 @@ def test_exp_expm1_log_within_one_ulp_of_libm():
     x = np.concatenate([rng.uniform(-745, 709, 200000), rng.uniform(-1, 1, 100000),
                         rng.uniform(-1e-6, 1e-6, 10000), [0.0, -0.0, 1e-300, 0.3465, 0.3466, -0.3466, 709.7]])
     e, em1, lg = np.empty_like(x), np.empty_like(x), np.empty_like(x)
-    from shellrepair.reflectance import common_kernels
+    from shellrepair.appearance.reflectance import common_kernels
 
     common_kernels.exp_expm1_log(x, e, em1, lg)
     with np.errstate(all="ignore"):
@@ -224,7 +224,7 @@ def test_flush_to_zero_does_not_leak_out_of_the_kernels():
 
 
 def test_warm_up_compiles_every_kernel():
-    from shellrepair.shader import warm_up
+    from shellrepair.appearance.shader import warm_up
 
     n = warm_up()
     kernels = [getattr(dispatch.kernels(name), k) for name in dispatch.KERNEL_MODULES

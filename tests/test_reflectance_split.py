@@ -1,8 +1,8 @@
 """The reflectance package and the materials split behind their façades.
 
-``shellrepair.shading`` and ``shellrepair.materials`` are façades over
-``shellrepair.reflectance`` (microfacet, albedo, km, dipole, layered),
-``shellrepair.coverage`` and ``shellrepair.shader``.  These tests pin that
+``shellrepair.appearance.shading`` and ``shellrepair.appearance.materials`` are façades over
+``shellrepair.appearance.reflectance`` (microfacet, albedo, km, dipole, layered),
+``shellrepair.appearance.coverage`` and ``shellrepair.appearance.shader``.  These tests pin that
 
 - every public name of a façade IS the package's object (not a copy or a
   wrapper), so the rest of the code and the existing reference tests in
@@ -32,8 +32,13 @@ import sys
 import numpy as np
 import pytest
 
-from shellrepair import compiled, coverage, materials, reflectance, shader, shading
-from shellrepair.reflectance import albedo, dipole, km, layered, microfacet
+from shellrepair import compiled
+from shellrepair.appearance import coverage
+from shellrepair.appearance import materials
+from shellrepair.appearance import reflectance
+from shellrepair.appearance import shader
+from shellrepair.appearance import shading
+from shellrepair.appearance.reflectance import albedo, dipole, km, layered, microfacet
 
 PINS = pathlib.Path(__file__).parent / "data" / "reflectance_pins.npz"
 
@@ -78,16 +83,16 @@ def test_materials_facade_names_are_the_split_modules_objects():
         else:
             assert name in vars(materials), name
     assert materials.vertex_normals is coverage.vertex_normals
-    assert shader.MaterialShader.__module__ == "shellrepair.shader"
-    assert coverage.rust_coverage.__module__ == "shellrepair.coverage"
+    assert shader.MaterialShader.__module__ == "shellrepair.appearance.shader"
+    assert coverage.rust_coverage.__module__ == "shellrepair.appearance.coverage"
 
 
-@pytest.mark.parametrize("first", ["shellrepair.shader", "shellrepair.materials", "shellrepair.coverage",
-                                   "shellrepair.shading", "shellrepair.reflectance.layered"])
+@pytest.mark.parametrize("first", ["shellrepair.appearance.shader", "shellrepair.appearance.materials", "shellrepair.appearance.coverage",
+                                   "shellrepair.appearance.shading", "shellrepair.appearance.reflectance.layered"])
 @pytest.mark.slow
 def test_any_module_can_be_imported_first(first):
-    code = ("import %s; from shellrepair.materials import *; from shellrepair.shading import *; "
-            "from shellrepair.shader import *; import shellrepair.shader as s; "
+    code = ("import %s; from shellrepair.appearance.materials import *; from shellrepair.appearance.shading import *; "
+            "from shellrepair.appearance.shader import *; import shellrepair.appearance.shader as s; "
             "assert MaterialShader is s.MaterialShader and get_material is s.get_material" % first)
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr

@@ -6,10 +6,13 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import compiled, context, context_kernels, topology_kernels
-from shellrepair.io import Mesh
-from shellrepair.context import ScanContext
-from shellrepair.topology import edge_topology
+from shellrepair import compiled
+from shellrepair.mesh import index as context
+from shellrepair.mesh import index_kernels as context_kernels
+from shellrepair.mesh import topology_kernels
+from shellrepair.mesh.io import Mesh
+from shellrepair.mesh.index import ScanContext
+from shellrepair.mesh.topology import edge_topology
 
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="the region needs the compiled kernels")
 
@@ -197,7 +200,7 @@ def test_two_jobs_build_the_region_once_and_repair_as_one_job_does(fixed, monkey
     """With two jobs the region is started before the mesh is made manifold
     (a (V, F) pair) or at once (a mesh read_mesh prepared); it is built once
     and the repair is the one a single job gives, to the bit."""
-    from shellrepair.io import manifold_mesh
+    from shellrepair.mesh.io import manifold_mesh
     from shellrepair.repair import repair_mesh
 
     import threading

@@ -1,4 +1,4 @@
-"""Specification of shellrepair.render on meshes built here."""
+"""Specification of shellrepair.appearance.render on meshes built here."""
 
 import os
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from shellrepair import shader as sd
-from shellrepair import render as rd
+from shellrepair.appearance import shader as sd
+from shellrepair.appearance import render as rd
 
 
 def icosphere(subdiv=3, radius=1.0, center=(0.0, 0.0, 0.0)):
@@ -256,7 +256,7 @@ def test_cli_render_says_the_unit_and_model(tmp_path, capsys):
 
 
 def test_view_towards_faces_the_selected_faces():
-    from shellrepair.render import frame_camera, view_towards
+    from shellrepair.appearance.render import frame_camera, view_towards
     from eval import shapes
 
     V, F = shapes.icosphere(3)

@@ -9,7 +9,7 @@ from shellrepair import Mesh, detect_holes, read_mesh, write_mesh
 from eval import shapes
 from shellrepair.cli import main
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import edge_topology, euler_characteristic
+from shellrepair.mesh.topology import edge_topology, euler_characteristic
 
 from conftest import shared_scan
 
@@ -330,7 +330,7 @@ def test_loaded_whole_mesh_kernels_give_a_small_mesh_the_same_repair(monkeypatch
     """Once Numba's whole-mesh kernels are loaded (the benchmark loads them
     before timing), meshes below MIN_FACES use them too: the repair is the
     same to the bit, report included (timings aside)."""
-    from shellrepair import fastmesh
+    from shellrepair.mesh import fastmesh
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.02, frequency=5)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=5, radius=0.15, seed=2)
@@ -361,8 +361,8 @@ def test_first_attempts_made_for_a_chunk_at_once_change_no_hole(monkeypatch):
     patches with new vertices of every third hole are made to "cross the
     scan" (the same fake answer in the batched and the single query), so
     the retry path runs too: the repair equals the one without the batch."""
-    import shellrepair.checks as checks
-    import shellrepair.fill_runs as fill_runs
+    import shellrepair.fill.checks as checks
+    import shellrepair.fill.runs as fill_runs
 
     V, F = shapes.bumpy_sphere(3, amplitude=0.02, frequency=5)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=10, radius=0.25, seed=4)

@@ -9,7 +9,7 @@ from eval import shapes
 from shellrepair import Mesh, read_mesh, write_mesh
 from shellrepair.cli import main
 from shellrepair.errors import MeshError
-from shellrepair.holes import detect_holes
+from shellrepair.holes.loops import detect_holes
 from shellrepair.options import RepairOptions
 from shellrepair.repair import repair_mesh
 

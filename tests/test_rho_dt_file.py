@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shellrepair import shading as sh
-from shellrepair.reflectance import albedo
-from shellrepair.reflectance.table import write_table
+from shellrepair.appearance import shading as sh
+from shellrepair.appearance.reflectance import albedo
+from shellrepair.appearance.reflectance.table import write_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -21,7 +21,7 @@ def shipped():
 
 
 def test_the_shipped_file_is_small_and_made_for_the_current_parameters():
-    # a changed _TABLE_* constant without `python -m shellrepair.reflectance.table` fails here
+    # a changed _TABLE_* constant without `python -m shellrepair.appearance.reflectance.table` fails here
     assert os.path.getsize(albedo.SHIPPED_TABLE) < 1_000_000
     table = shipped()
     assert table is not None, "the shipped rho_dt table was made for other parameters: remake it"
@@ -33,7 +33,7 @@ def test_a_fresh_process_reads_the_table_and_builds_nothing(tmp_path):
     cache.mkdir()
     env = dict(os.environ, SHELLREPAIR_CACHE_DIR=str(cache),
                PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    code = ("from shellrepair.shading import rho_dt_table, diffuse_transmittance;"
+    code = ("from shellrepair.appearance.shading import rho_dt_table, diffuse_transmittance;"
             "print(rho_dt_table().values.shape, float(diffuse_transmittance(0.5, 0.3, 1.5)))")
     p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
                        timeout=300)
@@ -85,7 +85,7 @@ def test_a_file_for_other_parameters_is_not_read():
 
 @pytest.mark.slow
 def test_remaking_the_table_gives_the_shipped_values(tmp_path):
-    # `python -m shellrepair.reflectance.table` (about 40 s of CPU)
+    # `python -m shellrepair.appearance.reflectance.table` (about 40 s of CPU)
     made = write_table(tmp_path / "rho_dt_table.npz")
     with np.load(tmp_path / "rho_dt_table.npz") as z:
         again = albedo.decode_table(z)

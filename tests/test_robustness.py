@@ -22,11 +22,11 @@ from hypothesis import given, settings, strategies as st
 
 from shellrepair import Mesh, detect_holes, read_mesh, write_mesh
 from eval import shapes
-from shellrepair.clean import orient_faces
+from shellrepair.mesh.clean import orient_faces
 from shellrepair.cli import main
-from shellrepair.intersect import self_intersections
+from shellrepair.mesh.intersect import self_intersections
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import edge_topology, euler_characteristic
+from shellrepair.mesh.topology import edge_topology, euler_characteristic
 
 from conftest import shared_scan
 

@@ -5,15 +5,15 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair.refine import (FLIP_EPS, angle_between, in_sorted, independent_flips, refine_patch, refine_patches,
+from shellrepair.fill.refine import (FLIP_EPS, angle_between, in_sorted, independent_flips, refine_patch, refine_patches,
                                 relax, unfolded)
-from shellrepair.context import ScanContext, local_frame, rim_data
-from shellrepair.io import Mesh, read_mesh, write_mesh
-from shellrepair.report import holes_dict
-from shellrepair.holes import detect_holes
-from shellrepair.topology import (components_of_pieces, edge_topology, face_areas, face_components, face_pieces,
+from shellrepair.mesh.index import ScanContext, local_frame, rim_data
+from shellrepair.mesh.io import Mesh, read_mesh, write_mesh
+from shellrepair.report.table import holes_dict
+from shellrepair.holes.loops import detect_holes
+from shellrepair.mesh.topology import (components_of_pieces, edge_topology, face_areas, face_components, face_pieces,
                                   vertex_faces)
-from shellrepair.triangulate import triangulate_loop
+from shellrepair.fill.triangulate import triangulate_loop
 
 
 def _pieces_and_pinches():
@@ -283,7 +283,7 @@ def test_refinement_that_tests_only_what_changed_equals_the_plain_one():
 
 
 # --------------------------------------------------------------------------
-# compiled whole-mesh kernels (shellrepair.fastmesh) against the NumPy versions
+# compiled whole-mesh kernels (shellrepair.mesh.fastmesh) against the NumPy versions
 # --------------------------------------------------------------------------
 def _kernel_meshes():
     """Seeded meshes of every kind the kernels meet: a closed sphere, one with
@@ -320,8 +320,9 @@ def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypat
     from scipy.sparse.csgraph import connected_components
     import scipy.sparse as sp
 
-    from shellrepair import clean, fastmesh
-    from shellrepair.topology import edge_topology_reference
+    from shellrepair.mesh import clean
+    from shellrepair.mesh import fastmesh
+    from shellrepair.mesh.topology import edge_topology_reference
 
     triple_hash_numpy = clean.triple_hash_reference    # clean_faces' hash without the kernels
 
@@ -365,8 +366,8 @@ def test_kernels_give_the_numpy_topology_pieces_areas_and_vertex_faces(monkeypat
 
 def test_orientation_with_kernels_equals_the_numpy_search(monkeypatch):
     pytest.importorskip("numba")
-    from shellrepair import fastmesh
-    from shellrepair.clean import signed_volumes, orient_faces
+    from shellrepair.mesh import fastmesh
+    from shellrepair.mesh.clean import signed_volumes, orient_faces
 
     monkeypatch.setattr(fastmesh, "MIN_FACES", 0)
     rng = np.random.default_rng(11)
@@ -393,7 +394,7 @@ def test_orientation_with_kernels_equals_the_numpy_search(monkeypatch):
 
 def test_a_read_scan_is_the_same_with_kernels_and_without(tmp_path, monkeypatch):
     pytest.importorskip("numba")
-    from shellrepair import fastmesh
+    from shellrepair.mesh import fastmesh
 
     V, F = _pieces_and_pinches()
     keep = np.ones(len(F), bool)
@@ -415,7 +416,7 @@ def test_a_read_scan_is_the_same_with_kernels_and_without(tmp_path, monkeypatch)
 
 def test_kernels_refuse_a_face_outside_the_vertices():
     pytest.importorskip("numba")
-    from shellrepair import fastmesh
+    from shellrepair.mesh import fastmesh
 
     with pytest.raises(ValueError, match="outside"):
         fastmesh.edge_topology_arrays(np.array([[0, 1, 5]]), 4)
@@ -426,7 +427,7 @@ def test_row_kernels_on_two_threads_give_the_same_values(monkeypatch):
     """Face areas and edge lengths run in two halves on two threads on a
     large mesh: the same bits as one pass (each row is its own)."""
     pytest.importorskip("numba")
-    from shellrepair import fastmesh
+    from shellrepair.mesh import fastmesh
 
     V, F = shapes.bumpy_sphere(5)
     V = V * 1000 + 5e5                          # millimetres, far from the origin
@@ -456,8 +457,8 @@ def test_the_topology_on_two_threads_equals_it_on_one(shift):
     kind (shift 1 and 3: many small buckets, so the halves fall between
     vertex runs the steps must keep whole), and NumPy's edges and counts."""
     pytest.importorskip("numba")
-    from shellrepair import fastmesh
-    from shellrepair.topology import edge_topology_reference
+    from shellrepair.mesh import fastmesh
+    from shellrepair.mesh.topology import edge_topology_reference
 
     for name, V, F in _kernel_meshes():
         F = np.ascontiguousarray(F, np.int64)
@@ -473,7 +474,8 @@ def test_the_topology_on_two_threads_equals_it_on_one(shift):
 
 def test_a_large_mesh_takes_the_two_thread_topology(monkeypatch):
     pytest.importorskip("numba")
-    from shellrepair import fastmesh, halves
+    from shellrepair.mesh import fastmesh
+    from shellrepair.mesh import halves
 
     V, F = shapes.icosphere(3)
     calls = []

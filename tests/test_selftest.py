@@ -1,18 +1,20 @@
-"""The order test: each hole's fairing order chosen by test holes of its size (shellrepair.selftest, .probe)."""
+"""The order test: each hole's fairing order chosen by test holes of its size (shellrepair.fill.selftest, .probe)."""
 
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
 from eval import shapes
-from shellrepair import Mesh, detect_holes, probe, read_mesh, selftest
-from shellrepair.fill import fill_hole_at_order
-from shellrepair.context import ScanContext
-from shellrepair.patch import build_patch
-from shellrepair.probe import PROBES, hole_radius, probe_errors
+from shellrepair import Mesh, detect_holes, read_mesh
+from shellrepair.fill import probe
+from shellrepair.fill import selftest
+from shellrepair.fill.hole import fill_hole_at_order
+from shellrepair.mesh.index import ScanContext
+from shellrepair.fill.patch import build_patch
+from shellrepair.fill.probe import PROBES, hole_radius, probe_errors
 from shellrepair.repair import repair_mesh
-from shellrepair.distance import point_mesh_distance
-from shellrepair.selftest import CANDIDATES, DEFAULT_ORDER, MIN_EDGES, OrderTest, choose_order
+from shellrepair.mesh.distance import point_mesh_distance
+from shellrepair.fill.selftest import CANDIDATES, DEFAULT_ORDER, MIN_EDGES, OrderTest, choose_order
 
 from conftest import shared_scan
 
@@ -208,7 +210,7 @@ def test_on_a_sculpted_bust_auto_is_within_5_percent_of_the_best_single_order():
 
 
 def test_a_rims_roughness_is_its_noise_over_a_smooth_rims_curvature_term():
-    from shellrepair.probe import rim_roughness
+    from shellrepair.fill.probe import rim_roughness
 
     V, F = sphere_with_hole(radius=0.5)
     rim = detect_holes(V, F).loops[0].vertices

@@ -1,8 +1,8 @@
 """The order test's compiled steps give the numbers of their NumPy ones, to the bit (issue 14).
 
-``order="auto"`` fills test holes beside each hole (:mod:`shellrepair.selftest`,
-:mod:`shellrepair.probe`) and measures each candidate's fill: the centroid
-query, the distances of the removed scan to each fill have a compiled path (:mod:`shellrepair.distance_kernels`) beside the NumPy one
+``order="auto"`` fills test holes beside each hole (:mod:`shellrepair.fill.selftest`,
+:mod:`shellrepair.fill.probe`) and measures each candidate's fill: the centroid
+query, the distances of the removed scan to each fill have a compiled path (:mod:`shellrepair.mesh.distance_kernels`) beside the NumPy one
 it replaces; the NumPy one is the oracle. The tests below compare the two on
 inputs that reach the awkward cases (degenerate triangles, far offsets,
 walks that run out of mesh), and the last one compares the whole test's
@@ -13,8 +13,12 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair import Mesh, compiled, context_kernels, detect_holes, distance, distance_kernels, selftest
-from shellrepair.context import ScanContext
+from shellrepair import Mesh, compiled, detect_holes
+from shellrepair.mesh import index_kernels as context_kernels
+from shellrepair.mesh import distance
+from shellrepair.mesh import distance_kernels
+from shellrepair.fill import selftest
+from shellrepair.mesh.index import ScanContext
 
 pytest.importorskip("numba")
 pytestmark = pytest.mark.skipif(not compiled.ENABLED, reason="the compiled kernels are off (SHELLREPAIR_NO_NUMBA)")

@@ -1,4 +1,4 @@
-"""Specification of shellrepair.shading and the aged-metal material model.
+"""Specification of shellrepair.appearance.shading and the aged-metal material model.
 
 Every test checks a property that a wrong implementation would break: an
 analytic value, a bound, an invariant, or agreement with an independent
@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.integrate import quad
 
-from shellrepair import materials as mt
-from shellrepair import shader as sd
-from shellrepair import shading as sh
+from shellrepair.appearance import materials as mt
+from shellrepair.appearance import shader as sd
+from shellrepair.appearance import shading as sh
 
 FINITE = dict(divide="raise", invalid="raise", over="raise")
 

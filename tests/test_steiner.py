@@ -4,7 +4,7 @@ Where the scan crosses an opening's plane inside it (a blind bore from
 below rising through a box's missing top; a gear tooth split off the body
 it stood on, whose opening lies on the body's wall), every triangulation of
 the rim's own vertices crosses the scan. The last layer
-(:mod:`shellrepair.steiner`) closes such an opening with Steiner points
+(:mod:`shellrepair.fill.steiner`) closes such an opening with Steiner points
 lifted over what crosses it: every ``hole`` loop filled, no crossing added
 (exact count), original vertices bit-identical, flat where nothing is under
 the patch.
@@ -15,11 +15,11 @@ import pytest
 
 import cad_parts as cp
 from shellrepair import Mesh, detect_holes
-from shellrepair.context import ScanContext
-from shellrepair.intersect import self_intersections
+from shellrepair.mesh.index import ScanContext
+from shellrepair.mesh.intersect import self_intersections
 from shellrepair.repair import repair_mesh
-from shellrepair.steiner import LIFT, steiner_patch
-from shellrepair.topology import edge_topology
+from shellrepair.fill.steiner import LIFT, steiner_patch
+from shellrepair.mesh.topology import edge_topology
 
 
 def _repair_closes(V, F, **kw):
@@ -218,7 +218,7 @@ def _rim_triangulation_exists(V, F, loop):
     scan face by the exact crossing test; then the polygon's triangulations are
     searched by intervals (a triangulation of i..j uses one triangle
     (i, m, j) and triangulations of i..m and m..j)."""
-    from shellrepair.intersect import pair_intersections
+    from shellrepair.mesh.intersect import pair_intersections
 
     k = len(loop)
     tris = np.array([(i, m, j) for i in range(k) for m in range(i + 1, k) for j in range(m + 1, k)], np.int64)

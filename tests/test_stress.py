@@ -69,7 +69,7 @@ def test_a_crossing_beside_a_duplicated_shared_corner_is_one_pair():
 def test_closed_loops_tells_a_filled_hole_from_an_open_one():
     V, F = shapes.icosphere(2)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=2, radius=0.5, seed=1)
-    from shellrepair.holes import boundary_loops
+    from shellrepair.holes.loops import boundary_loops
 
     loops, _ = boundary_loops(F2, len(V2))
     assert len(loops) == 2

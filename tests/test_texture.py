@@ -12,7 +12,7 @@ import numpy as np
 
 from eval import shapes
 from shellrepair import Mesh, read_mesh, write_mesh
-from shellrepair.formats.obj import FILLED_GROUP, FILLED_MATERIAL
+from shellrepair.mesh.formats.obj import FILLED_GROUP, FILLED_MATERIAL
 from shellrepair.repair import repair_mesh
 
 
@@ -106,7 +106,7 @@ def test_a_textured_obj_reads_back_the_texture_it_was_written_with(tmp_path):
 
 def test_a_mesh_without_a_texture_writes_no_vt_or_material():
     V, F = shapes.icosphere(1)
-    from shellrepair.io import mesh_bytes
+    from shellrepair.mesh.io import mesh_bytes
 
     text = mesh_bytes("x.obj", Mesh(V=V, F=F))
     assert "vt " not in text and "usemtl" not in text and "mtllib" not in text

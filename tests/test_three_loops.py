@@ -4,7 +4,7 @@ The genus-2 shape (two tori joined) missing its bottom below a plane: the
 scan is the top with the two tori's holes, the missing region the bottom,
 bounded by the outline (the waist) and the two holes' inner rims (the
 legs). Capping the three loops (or a tube and a cap) cuts the handles; one
-pants (:mod:`shellrepair.pants`) keeps the genus.
+pants (:mod:`shellrepair.fill.pants`) keeps the genus.
 """
 
 import numpy as np
@@ -13,10 +13,10 @@ import pytest
 from eval import shapes
 from eval.stress import _genus2
 from shellrepair import Mesh, detect_holes
-from shellrepair.bridge import pants_triples
-from shellrepair.pants import pants_is_manifold
+from shellrepair.fill.bridge import pants_triples
+from shellrepair.fill.pants import pants_is_manifold
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import euler_characteristic
+from shellrepair.mesh.topology import euler_characteristic
 
 from test_bands import assert_closed_and_clean, filled_rms_permille
 
@@ -71,8 +71,8 @@ def test_pants_manifold_check_counts_boundaries_and_genus():
 @pytest.mark.slow
 def test_a_pants_that_cannot_be_built_falls_back_to_the_old_fill_bit_for_bit(genus2, monkeypatch):
     """No first pants: the band the arcs pair and the cap, as without triples."""
-    import shellrepair.bands as bands
-    import shellrepair.pants as pants
+    import shellrepair.fill.bands as bands
+    import shellrepair.fill.pants as pants
 
     V, F = genus2
     V2, F2, _ = shapes.remove_faces(V, F, V[F].mean(axis=1)[:, 2] < -0.2)
@@ -140,8 +140,8 @@ def test_a_failed_pants_leaves_its_capped_loop_to_the_refill_like_any_hole():
 
 
 def test_the_text_and_html_reports_name_all_three_loops_of_a_pants(genus2):
-    from shellrepair.htmlreport import scan_section
-    from shellrepair.report import table1_text
+    from shellrepair.report.html import scan_section
+    from shellrepair.report.table import table1_text
 
     V, F = genus2
     V2, F2, _ = shapes.remove_faces(V, F, V[F].mean(axis=1)[:, 2] < -0.2)

@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from eval import shapes
-from shellrepair.holes import detect_holes
-from shellrepair.io import Mesh, read_mesh, written_faces, write_mesh
+from shellrepair.holes.loops import detect_holes
+from shellrepair.mesh.io import Mesh, read_mesh, written_faces, write_mesh
 from shellrepair.repair import repair_mesh
-from shellrepair.report import table1_dict, table1_text
-from shellrepair.topology import coincident_vertices, edge_topology
+from shellrepair.report.table import table1_dict, table1_text
+from shellrepair.mesh.topology import coincident_vertices, edge_topology
 
 from conftest import shared_scan
 
@@ -73,7 +73,7 @@ def _brute_rep(V):
 
 @pytest.mark.parametrize("collide", [False, True])
 def test_coincident_vertices_equal_a_brute_force_join(monkeypatch, collide):
-    import shellrepair.topology as topology
+    import shellrepair.mesh.topology as topology
 
     if collide:   # every position hashes alike: the exact ordering path must still be right
         monkeypatch.setattr(topology, "_mix64", lambda w: w * np.uint64(0))
@@ -238,7 +238,7 @@ def test_extra_faces_on_a_closed_surface_are_split_off_without_moving_anything(s
     """Random faces on random edges of a sphere (three or four faces per
     edge): every non-manifold edge is resolved, and each face kept is the
     same triangle in space as before."""
-    from shellrepair.io import clean_faces, manifold_mesh
+    from shellrepair.mesh.io import clean_faces, manifold_mesh
 
     V, F = shapes.icosphere(2)
     rng = np.random.default_rng(seed)
@@ -282,7 +282,7 @@ def test_a_manifold_file_loads_exactly_as_written(tmp_path):
 
 
 def test_real_decimated_bunny_comes_out_closed_and_manifold(tmp_path):
-    from shellrepair.intersect import self_intersections
+    from shellrepair.mesh.intersect import self_intersections
 
     src = shared_scan("real_bunny_pymeshfix_decimated.ply")
     raw = read_mesh(src, clean=False, orient=False)

@@ -1,4 +1,4 @@
-"""Specification of the loop triangulation's layers (shellrepair.triangulate).
+"""Specification of the loop triangulation's layers (shellrepair.fill.triangulate).
 
 1. the minimum-weight search over the triangles of the 3D Delaunay
    tetrahedralization (``restricted_dp``) is Liepa's recurrence on a smaller
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from shellrepair.errors import MeshError
-from shellrepair.intersect import crossing_pairs
-from shellrepair.triangulate import delaunay_faces, liepa_dp, restricted_dp, triangulate_loop
+from shellrepair.mesh.intersect import crossing_pairs
+from shellrepair.fill.triangulate import delaunay_faces, liepa_dp, restricted_dp, triangulate_loop
 
 
 def assert_disc(T, k):
@@ -205,7 +205,7 @@ def wall_across(P, T, t):
 
 def wall_allowed(P, walls):
     """``allowed(T)`` for triangle_loop: True where T crosses no wall triangle."""
-    from shellrepair.intersect import pair_intersections
+    from shellrepair.mesh.intersect import pair_intersections
 
     def allowed(T):
         T = np.asarray(T)
@@ -271,8 +271,8 @@ def _occluded_shape(seed):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_random_occlusion_holes_are_all_closed_without_self_intersections(seed):
-    from shellrepair.intersect import self_intersections
-    from shellrepair.io import Mesh
+    from shellrepair.mesh.intersect import self_intersections
+    from shellrepair.mesh.io import Mesh
     from shellrepair.repair import repair_mesh
 
     V, F = _occluded_shape(seed)
@@ -305,7 +305,7 @@ def test_the_block_chord_search_picks_the_row_by_row_chord(kind):
     """The chord that cuts a long loop (k/4 apart either way, shortest, no
     forbidden pair) is found in O(k^1.5 log k) by blocks and k-d trees; it
     is the one the O(k²) row-by-row search picks, ties included."""
-    from shellrepair.triangulate import best_chord, best_chord_rows
+    from shellrepair.fill.triangulate import best_chord, best_chord_rows
 
     rng = np.random.default_rng(3)
     for _ in range(6):
@@ -337,7 +337,7 @@ def test_plane_frame_of_one_axis_equals_the_array_version_to_the_bit():
     zero, underflowing and overflowing axes go to the array version."""
     import warnings
 
-    from shellrepair import geometry
+    from shellrepair.mesh import geometry
 
     rng = np.random.default_rng(7)
     A = rng.normal(size=(3000, 3)) * 10.0 ** rng.integers(-150, 150, (3000, 3))
@@ -363,7 +363,7 @@ def test_a_tetrahedralization_asked_again_is_the_kept_one(monkeypatch):
     array or a copy) give the same faces without a second Qhull call, other
     points or another dtype their own; what a caller does to its copy does
     not change the kept answer; the oldest answers are let go."""
-    import shellrepair.triangulate as tr
+    import shellrepair.fill.triangulate as tr
 
     rng = np.random.default_rng(3)
     P = wavy_loop(40, rng)

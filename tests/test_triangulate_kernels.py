@@ -1,10 +1,10 @@
 """The compiled minimum-weight search over candidate triangles gives the
 NumPy search's triangulation to the bit.
 
-:func:`shellrepair.triangulate.restricted_dp` runs
-:func:`shellrepair.triangulate_kernels.restricted_prepare` and
-:func:`shellrepair.triangulate_kernels.restricted_search` when the kernels are on; its
-NumPy form :func:`shellrepair.triangulate.restricted_dp_reference` is the
+:func:`shellrepair.fill.triangulate.restricted_dp` runs
+:func:`shellrepair.fill.triangulate_kernels.restricted_prepare` and
+:func:`shellrepair.fill.triangulate_kernels.restricted_search` when the kernels are on; its
+NumPy form :func:`shellrepair.fill.triangulate.restricted_dp_reference` is the
 oracle. Both are run on seeded random loops, planar and nearly planar
 loops (where whole families of triangulations tie, so the first-of-equals
 rule decides), loops with forbidden chords, degenerate (zero-area)
@@ -16,8 +16,9 @@ errors by their message.
 import numpy as np
 import pytest
 
-from shellrepair import compiled, triangulate_kernels
-from shellrepair import triangulate as tr
+from shellrepair import compiled
+from shellrepair.fill import triangulate_kernels
+from shellrepair.fill import triangulate as tr
 from shellrepair.errors import MeshError
 from test_triangulate import all_triples, assert_disc, rim_normals, wavy_loop
 
@@ -340,7 +341,7 @@ def test_centred_loop_and_vector_area_equal_numpys_sums(seed):
     """NumPy sums a C-ordered (k,3) array's columns row after row from 0.0;
     the kernel does the same: equal to the bit for small and long loops,
     at huge offsets, and for columns of negative zeros (0.0 + -0.0 = 0.0)."""
-    from shellrepair.geometry import cross
+    from shellrepair.mesh.geometry import cross
 
     rng = np.random.default_rng(seed)
     for k in (3, 4, 7, 8, 9, 100, 129, 1000, 4097):

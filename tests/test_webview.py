@@ -1,4 +1,4 @@
-"""The HTML report's 3D view (shellrepair.webview).
+"""The HTML report's 3D view (shellrepair.report.webview).
 
 The payload is read back in Python: the faces, their filled flags, the
 regions and the edges left open are those of the repaired mesh, and a
@@ -21,13 +21,13 @@ import pytest
 
 from chromium import FLAGS, Chromium, find_chromium
 from eval.shapes import icosphere
-from shellrepair.aging import aging_maps
-from shellrepair.gltf import pbr_approximation
-from shellrepair.htmlreport import scan_page
-from shellrepair.io import Mesh, write_mesh
+from shellrepair.appearance.aging import aging_maps
+from shellrepair.appearance.gltf import pbr_approximation
+from shellrepair.report.html import scan_page
+from shellrepair.mesh.io import Mesh, write_mesh
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import edge_topology
-from shellrepair.webview import (DISPLAY_FACES, decode_payload, display_copy, filled_regions, view_payload,
+from shellrepair.mesh.topology import edge_topology
+from shellrepair.report.webview import (DISPLAY_FACES, decode_payload, display_copy, filled_regions, view_payload,
                                  viewer_html)
 
 

@@ -5,7 +5,7 @@ round the tube and the continuation arcs (circles with the tube's
 curvature) come back round to the loop they left: the arcs pair nothing.
 The loops still wrap the tube (the scan normals at their rims are radial to
 their planes) and head to each other, which
-:func:`shellrepair.bands.wrapped_pairs` reads; the tube keeps the genus
+:func:`shellrepair.fill.bands.wrapped_pairs` reads; the tube keeps the genus
 where two caps would cut the handle. Two small holes on either side of a
 thin tube, and the two rims of a scan that is itself a band of a sphere,
 are not paired that way.
@@ -16,11 +16,11 @@ import pytest
 
 from eval import shapes
 from shellrepair import Mesh, detect_holes
-from shellrepair.bands import wrapped_pairs
-from shellrepair.bridge import loop_sights
-from shellrepair.context import ScanContext
+from shellrepair.fill.bands import wrapped_pairs
+from shellrepair.fill.bridge import loop_sights
+from shellrepair.mesh.index import ScanContext
 from shellrepair.repair import repair_mesh
-from shellrepair.topology import euler_characteristic
+from shellrepair.mesh.topology import euler_characteristic
 
 from test_bands import assert_closed_and_clean, filled_rms_permille
 

@@ -43,7 +43,7 @@ from scipy.spatial import cKDTree
 
 from shellrepair import cli, read_mesh
 from eval import shapes
-from shellrepair.holes import boundary_loops
+from shellrepair.holes.loops import boundary_loops
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,0 +1,3 @@
+"""The aged look: reflectance models, corrosion and gilding maps, materials, the shader, the
+renderer and the glTF export.
+"""

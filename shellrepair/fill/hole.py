@@ -1,0 +1,562 @@
+"""Fill one hole: attempts, checks and retries (step 4).
+
+:func:`fill_hole` builds a patch with :func:`~shellrepair.fill.patch.build_patch`,
+checks it against the scan, itself and the edges the mesh has
+(:func:`checks.check_patch`) and, when it crosses, re-routes chords near the
+crossing, pins vertices near it to the flat triangulation, then tries the
+harmonic patch and the checked flat triangulation, within a counted work
+budget (:data:`HOLE_VERTICES` + :data:`HOLE_VERTICES_PER_EDGE` per rim
+edge, in patch vertices; no clock is read); where no
+triangulation passes, the harmonic patch on the first one, mended
+(:mod:`~shellrepair.fill.mend`) where it crosses; where that fails too, a patch
+with Steiner points lifted over the scan that crosses the opening
+(:mod:`~shellrepair.fill.steiner`). :func:`_seed_patches` is the paper's simple
+shape model (``method="seed"``). Two loops facing each other across a band
+are filled by :mod:`shellrepair.fill.band_fill`; a run of units (their first
+attempts batched) by :mod:`shellrepair.fill.runs`.
+"""
+
+from __future__ import annotations
+
+import copy
+import time
+
+import numpy as np
+from shellrepair.lazyscipy import cKDTree
+
+from shellrepair.fill import checks
+from shellrepair.fill.fair import umbrella_smooth
+
+from shellrepair.fill.checks import Outcome
+from shellrepair.fill.patch import PatchError, corners, _meets_edge_on, build_patch
+
+__all__ = ["fill_hole", "fill_hole_at_order", "band_order", "SEED_SMOOTH_PASSES"]
+
+#: Smoothing passes of the paper's seed method when ``smooth`` is not given.
+SEED_SMOOTH_PASSES = 10
+
+
+def _chords_near(ctx, patch, bad):
+    """Chords of the unrefined triangulation nearest to the faulty triangles."""
+    k = len(patch.loop)
+    C, _ = corners(ctx, patch)
+    P0 = ctx.V[patch.loop]
+    c0 = P0[patch.T0].mean(axis=1)
+    near = np.unique(cKDTree(c0).query(C[bad].mean(axis=1))[1])
+    out = set()
+    for t in patch.T0[near]:
+        for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+            a, b = int(min(a, b)), int(max(a, b))
+            if b - a > 1 and not (a == 0 and b == k - 1):
+                out.add((a, b))
+    return out
+
+
+#: Rounds of re-triangulation when the flat triangulation crosses the scan.
+FLAT_RETRIES = 12
+#: Rounds of re-triangulation when the faired patch crosses the scan.
+FAIRED_RETRIES = 3
+#: Rounds of growing the region held on the flat triangulation around a crossing.
+PIN_ROUNDS = 3
+#: New vertices the Steiner layer (:mod:`~shellrepair.fill.steiner`) may build
+#: for a hole whose work budget the earlier options spent: it is the last
+#: chance before the hole stays open, and its rounds are counted.
+STEINER_VERTICES = 20_000
+#: How each option is named in the report.
+OPTION_NAMES = {"faired": "faired order {order}", "harmonic": "harmonic (order 1)",
+                "flat cap": "flat cap: a planar opening the scan meets edge-on (order 1)"}
+
+
+def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth, budget):
+    """A flat cap that crosses slanting rim faces: let the cap bend (order
+    2) only near the crossing, the rest held flat; grow that region up to
+    ``PIN_ROUNDS`` times."""
+    free = None
+    n_new = len(patch.P)
+    for _ in range(PIN_ROUNDS):
+        if not budget.affords(n_new):
+            return None
+        free = _pin_region(patch, bad, free)
+        pinned = np.setdiff1d(np.arange(n_new), free)
+        try:
+            p = build_patch(ctx, hole_id, loop, order=2, smooth=smooth, initial=T0, pinned=pinned,
+                            max_vertices=budget.left())
+        except PatchError:
+            return None
+        budget.spend(p)
+        why, b2 = checks.check_patch(ctx, p)
+        if why is None:
+            return p.with_(option=f"flat cap: a planar opening the scan meets edge-on, bent (order 2) along "
+                                  f"{len(free)} vertices where rim faces slant across it")
+        if len(p.T) == len(patch.T):
+            bad = np.union1d(bad, b2)
+    return None
+
+
+def _pin_region(patch, bad, pinned):
+    """New vertices of the faulty triangles and two rings around them
+    (grown by two more rings each call), 0-based among the new vertices."""
+    k = len(patch.loop)
+    T = patch.T
+    mark = np.zeros(k + len(patch.P), bool)
+    if pinned is not None:
+        mark[k + np.asarray(pinned)] = True
+    mark[T[bad].ravel()] = True
+    for _ in range(2):
+        mark[T[mark[T].any(axis=1)].ravel()] = True
+    return np.flatnonzero(mark[k:])
+
+
+def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
+    """Fill one hole; ``order="auto"`` picks order 1, 2 or 3 by test holes
+    of its size cut into the scan beside it (:mod:`~shellrepair.fill.selftest`).
+
+    Parameters
+    ----------
+    ctx : ScanContext
+        The scan (:class:`shellrepair.mesh.index.ScanContext`).
+    hole_id : int
+        The loop's id in the scan's hole detection.
+    loop : (k,) int64
+        The rim's vertex indices, in boundary half-edge order.
+    order : 1, 2, 3 or "auto"
+        Fairing order of the first option.
+    smooth : int
+        Smoothing passes of the patch (0: none).
+    energy : bool
+        Measure each patch's energies (for the report).
+    budget : checks.WorkBudget, optional
+        The work allowed (default: the hole's own, from its rim length).
+    defer : list, optional
+        Where the failed attempts the last layer would mend are put, for
+        the caller to mend later (a band's caps, after the tube); None:
+        mended here.
+
+    Returns
+    -------
+    Outcome
+        ``(patch or None, reason, seconds, reasons tried)``
+        (:class:`shellrepair.fill.checks.Outcome`).
+    """
+    if order != "auto":
+        return fill_hole_at_order(ctx, hole_id, loop, order, smooth, energy, budget, defer)
+    from shellrepair.fill.selftest import DEFAULT_ORDER, OrderTest, choose_order
+
+    t0 = time.perf_counter()
+    beside = getattr(ctx, "beside", None)
+    budget = budget or checks.WorkBudget(len(loop))
+    fresh = copy.copy(budget)      # what an order-1 fill would start from
+    # the order-2 fill first: a faired patch with no vertex of its own is
+    # the same at every order (there is nothing to fair), so the candidates
+    # agree and no test is needed
+    deferred = None if defer is None else []     # the order-2 fill's, kept only if it is the one used
+    patch, reason, secs, reasons = fill_hole_at_order(ctx, hole_id, loop, 2, smooth, energy, budget, deferred)
+    if patch is not None and patch.steiner:
+        # the last layer's patch is not faired: no order to choose, none tested
+        if beside is not None:
+            beside.drop_test(hole_id)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+    if patch is not None and len(patch.P) == 0 and patch.option == OPTION_NAMES["faired"].format(order=2):
+        if defer is not None:
+            defer.extend(deferred)
+        if beside is not None:
+            beside.drop_test(hole_id)
+        test = OrderTest(DEFAULT_ORDER, why="no new vertex: every order gives this patch, not tested")
+        patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+    test = beside.take_test(hole_id, loop) if beside is not None else None
+    if test is None:
+        test = choose_order(ctx, hole_id, loop)
+    if test.order == 1:
+        patch, reason, secs, reasons = fill_hole_at_order(ctx, hole_id, loop, 1, smooth, energy, fresh, defer)
+        if patch is not None:
+            patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
+        budget.take_over(fresh)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+    if defer is not None:
+        defer.extend(deferred)
+    if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+    if test.order == 3:
+        try:
+            if patch.option == OPTION_NAMES["faired"].format(order=2):
+                # the first option as built: its refined triangulation is the one
+                # order 3 would refine again (the fairing's first solve does not
+                # read the new vertices' starting positions)
+                done, p3 = beside.take_o3(hole_id, patch.T) if beside is not None and not energy else (False, None)
+                if not done:
+                    p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=(patch.P, patch.T),
+                                     refine=False, energy=energy)
+                if p3 is not None:
+                    p3 = p3.with_(T0=patch.T0, disc=patch.disc)
+            else:
+                p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
+                                 max_vertices=max(budget.left(), len(patch.P)))
+        except PatchError:
+            p3 = None
+        if p3 is not None:
+            if checks.check_patch(ctx, p3)[0] is None:
+                # the merge falls back on order 2 where order 3 and another hole's patch cross
+                kept = patch.with_(option=patch.option + f" ({test.describe()}; order 3 and another hole's "
+                                                         f"patch would cross: order 2 kept)", choice=test)
+                p3 = p3.with_(option=patch.option.replace("order 2", "order 3") + f" ({test.describe()})",
+                              fallback=kept, choice=test)
+                return Outcome(p3, reason, time.perf_counter() - t0, reasons)
+            patch = patch.with_(option=patch.option + f" ({test.describe()}; order 3 crosses the scan: order 2 kept)",
+                                choice=test)
+            return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+    patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
+    return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+
+
+def band_order(ctx, loops):
+    """How a tube joining two loops is faired under ``order="auto"``.
+
+    First by test bands of the tube's own kind beside each loop
+    (:func:`shellrepair.fill.probe.tube_errors`): the candidates are the
+    fairing orders and the first tube held on its continuation arcs
+    (``probe.HELD``); the lowest error wins (equal errors: the default
+    order, then the lower). Where no test band can be cut (the band is as
+    long as the intact scan beside it, or meets another hole or a border),
+    the scan cannot tell: :data:`shellrepair.fill.selftest.DEFAULT_ORDER`, and
+    the held tube against the faired one by their energies, as with a
+    forced order (disc-shaped test holes beside the loops chose worse
+    there: on a torus seen from a ring of views, order 3, 3.2 ‰, against
+    order 2's held tube, 0.55 ‰).
+
+    Returns
+    -------
+    order : int
+        The fairing order (of the faired tube, and of the caps if the band
+        takes caps).
+    held : bool or None
+        True: try the held tube first; False: the faired one; None: the
+        one of lower energy first.
+    note : str
+        For the report.
+    """
+    from shellrepair.fill.probe import HELD, tube_errors
+    from shellrepair.fill.selftest import CANDIDATES, DEFAULT_ORDER, best_candidate
+
+    if len(loops) == 2:
+        errs, n = tube_errors(ctx, loops[0], loops[1], tuple(CANDIDATES) + (HELD,))
+        if errs:
+            best = best_candidate(errs)     # (the held tube is among them only where both test bands were made)
+            faired = best_candidate({o: e for o, e in errs.items() if o != HELD})
+            desc = ", ".join(f"{'held' if o == HELD else f'order {o}'} {e:.3g}" for o, e in errs.items())
+            return int(faired), best == HELD, f"auto: by {n} test bands beside the loops, RMS {desc}"
+    return DEFAULT_ORDER, None, (f"auto: order {DEFAULT_ORDER}, no test band fits beside the loops: the scan "
+                                 f"cannot tell (held or faired by energy)")
+
+
+def fill_hole_at_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
+    """Fill one hole, trying the options in turn.
+
+    0. Triangulate, refine and fair; done if the patch crosses nothing.
+    1. Otherwise check the flat triangulation against the
+       scan; where it crosses (a peninsula of scan next to the rim),
+       triangulate again with only triangles that cross no scan face
+       (``scan_aware``: the search over the loop's Delaunay triangles drops
+       each triangle the scan rejects); if that still crosses, forbid the
+       chords near the crossing and triangulate again.
+    2. Refine and fair that triangulation (order ``order``, then harmonic);
+       if the faired patch crosses the scan, re-route the chords near the
+       crossing and go back to 1 (at most ``FAIRED_RETRIES`` times).
+    3. Otherwise, when a flat triangulation passed, the last layer first
+       mends the failed faired and harmonic attempts with the fewest faults
+       (as in 4: a refined, faired surface re-triangulated around its
+       faults); only where that fails is the checked flat triangulation
+       kept (a large opening's flat triangulation has no new vertex).
+    4. If no triangulation passed (re-routing ran out of chords, rounds or
+       budget), the harmonic patch on the first triangulation
+       (:func:`_harmonic_last`); then the last layer mends the attempts
+       with the fewest faults (:func:`checks.mend_last`).
+    5. If that fails too, a patch with vertices of its own, lifted over
+       the scan that crosses the opening (:func:`_steiner_last`,
+       :mod:`~shellrepair.fill.steiner`); only then does the hole stay open.
+
+    The first faired attempt and the harmonic patch (tried at most once:
+    in step 2, or else in step 4) are always made; each later one only
+    within ``budget`` (a :class:`checks.WorkBudget`, default the hole's own): a
+    faired retry only if a patch of the first one's size still fits the
+    work budget; the rounds are counted (no clock is read). Past the
+    budget the hole keeps the checked flat triangulation, or its harmonic
+    patch (mended), or fails saying so.
+
+    Parameters
+    ----------
+    ctx : ScanContext
+        The scan (:class:`shellrepair.mesh.index.ScanContext`).
+    hole_id : int
+        The loop's id in the scan's hole detection.
+    loop : (k,) int64
+        The rim's vertex indices, in boundary half-edge order.
+    order : 1, 2, 3
+        Fairing order of the first option.
+    smooth : int
+        Smoothing passes of the patch (0: none).
+    energy : bool
+        Measure each patch's energies (for the report).
+    budget : checks.WorkBudget, optional
+        The work allowed (default: the hole's own, from its rim length).
+    defer : list, optional
+        Where the failed attempts the last layer would mend are put, for
+        the caller to mend later (a band's caps, after the tube); None:
+        mended here.
+
+    Returns
+    -------
+    Outcome
+        ``(patch or None, reason, seconds, reasons tried)``
+        (:class:`shellrepair.fill.checks.Outcome`).
+    """
+    out = _fill_by_options(ctx, hole_id, loop, order, smooth, energy, budget, defer)
+    if out.patch is not None and order != 1 and getattr(ctx, "base", "auto") == "flat":
+        # --base flat asked for a cap the opening cannot take: the row says why
+        from shellrepair.fill.patch import edge_on_verdict
+
+        capped, why = edge_on_verdict(ctx, loop, hole_id)
+        if not capped:
+            out = out._replace(patch=out.patch.with_(option=out.patch.option + f" (--base flat does not apply: {why})"))
+    return out
+
+
+def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
+    """The options of :func:`fill_hole_at_order` tried in turn (its steps 0-5)."""
+    t0 = time.perf_counter()
+    budget = budget or checks.WorkBudget(len(loop))
+    reasons = []
+    avoid = set()
+    flat_ok = None
+    options = [("faired", order)] + ([("harmonic", 1)] if order != 1 else [])
+    pre = ctx.pre_for(hole_id, loop)
+    edge_on = pre.edge_on if pre is not None and pre.edge_on is not None \
+        else (order != 1 and _meets_edge_on(ctx, loop, hole_id))
+    if order != 1 and edge_on:
+        options = [("flat cap", 1)] + options
+    # the first attempt, when the chunk built and checked it already (first_attempts)
+    done = pre.first if pre is not None and pre.first is not None \
+        and pre.first.key == (options[0], smooth, energy) else None
+    faired_rounds = 0
+    faulty = []            # (patch, faulty triangles, option) of the attempts that failed their checks
+    tried = set()          # the options built (or refused by build_patch) on some triangulation
+    first_flat = None      # the first round's triangulation
+    blocked = False
+    first = True
+    scan_aware = False
+    size = None            # new vertices of the first faired patch: what a faired retry costs
+    # a counted number of rounds; each faired attempt after the first asks
+    # the work budget (no clock: the same attempts on any machine)
+    for _ in range(FLAT_RETRIES + FAIRED_RETRIES + 2):
+        try:
+            flat = done.flat if first and done is not None else \
+                build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, avoid=avoid,
+                            scan_aware=scan_aware)
+        except PatchError as exc:
+            if avoid:
+                reasons.append(f"no triangulation avoids crossing the scan ({len(avoid)} chords re-routed)")
+            else:
+                reasons.append(f"triangulation: {exc}")
+            break
+        if first:  # the common case: the first option on the first triangulation is fine
+            first = False
+            first_flat = flat
+            name0, order0 = options[0]
+            tried.add(name0)
+            try:
+                if done is not None:
+                    if done.patch is None:
+                        raise PatchError(done.error)
+                    patch = done.patch
+                else:
+                    patch = build_patch(ctx, hole_id, loop, order=order0, smooth=smooth, initial=flat.T0,
+                                        energy=energy)
+                size = len(patch.P)
+                budget.spend(patch)
+                why0, bad0 = done.check if done is not None else checks.check_patch(ctx, patch)
+                faulty.append((patch, bad0, OPTION_NAMES[name0].format(order=order0)))
+                if why0 is None:
+                    return Outcome(patch.with_(option=OPTION_NAMES[name0].format(order=order0)), "",
+                                   time.perf_counter() - t0, reasons)
+                if name0 == "flat cap" and bad0.size:
+                    rolled = _roll_rim(ctx, hole_id, loop, flat.T0, patch, bad0, smooth, budget)
+                    if rolled is not None:
+                        return Outcome(rolled, "", time.perf_counter() - t0, reasons)
+                    reasons.append(f"flat cap: {why0}")
+            except PatchError:
+                pass
+        why, bad = checks.check_patch(ctx, flat)
+        if why is not None and not scan_aware:
+            scan_aware = True  # again, with only triangles that cross no scan face
+            continue
+        if why is not None:
+            blocked = checks.blocked_in_plane(ctx, hole_id, flat, bad)
+            if blocked:
+                reasons.append(f"flat: {why}; {blocked} scan faces cross the opening's own plane inside it, "
+                               f"so no flat triangulation avoids them")
+                faulty = []     # a plane region the scan crosses: no last layer (it would bend the face)
+                blocked = True
+                break
+            more = _chords_near(ctx, flat, bad) - avoid if bad.size else set()
+            if not more:
+                reasons.append(f"flat: {why}")
+                break
+            avoid |= more
+            continue
+        flat_ok = flat
+        retry = False
+        for name, o in options:
+            # the harmonic patch, the last option, is tried at most once per
+            # hole (no re-routing follows it): always, like the first attempt
+            last_option = name == "harmonic"
+            if size is not None and not last_option and not budget.affords(size):
+                reasons.append(f"{name}: not tried, {budget.describe()}")
+                continue
+            tried.add(name)
+            try:
+                patch = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
+                                    energy=energy,
+                                    max_vertices=None if size is None or last_option else budget.left())
+            except PatchError as exc:
+                reasons.append(f"{name}: {exc}")
+                continue
+            size = len(patch.P) if size is None else size
+            budget.spend(patch)
+            why, bad = checks.check_patch(ctx, patch)
+            faulty.append((patch, bad, OPTION_NAMES[name].format(order=o)))
+            pinned = None
+            for _grow in range(PIN_ROUNDS if why is not None and bad.size else 0):
+                if not budget.affords(size):
+                    break
+                # hold the new vertices around the crossing on the flat triangulation
+                pinned = _pin_region(patch, bad, pinned)
+                try:
+                    pp = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
+                                     energy=energy, pinned=pinned, max_vertices=budget.left())
+                except PatchError:
+                    break
+                budget.spend(pp)
+                w2, b2 = checks.check_patch(ctx, pp)
+                if w2 is None:
+                    patch, why = pp, None
+                    break
+                bad = np.union1d(bad, b2) if len(pp.T) == len(patch.T) else bad
+            if why is None:
+                option = OPTION_NAMES[name].format(order=o)
+                if avoid:
+                    option += f", {len(avoid)} chords re-routed"
+                if pinned is not None:
+                    option += f", {len(pinned)} vertices held on the flat triangulation"
+                return Outcome(patch.with_(option=option), "", time.perf_counter() - t0, reasons)
+            more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
+            if name == "faired" and more and faired_rounds < FAIRED_RETRIES:
+                faired_rounds += 1
+                avoid |= more
+                retry = True
+                break
+            reasons.append(f"{name}: {why}")
+        if not retry:
+            break
+    else:
+        reasons.append(f"the triangulation still crosses the scan after re-routing {len(avoid)} chords")
+    if flat_ok is not None:
+        mended = checks.mend_last(ctx, faulty, reasons) if faulty and defer is None else None
+        if mended is not None:
+            return Outcome(mended, "", time.perf_counter() - t0, reasons)
+        flat_ok = flat_ok.with_(option="flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else ""))
+        return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
+    if first_flat is not None and not blocked and ("harmonic", 1) in options and "harmonic" not in tried:
+        # no triangulation passed its checks, so the harmonic patch (the last
+        # option, always made) was not built on one: build it on the first
+        # triangulation. It bends least away from the rim, so on a large
+        # opening whose flat triangulation cuts through the scan it often
+        # crosses it in a few places only, which the last layer mends.
+        harmonic = _harmonic_last(ctx, hole_id, loop, first_flat, smooth, energy, budget, reasons)
+        if harmonic is not None:
+            patch, why, bad = harmonic
+            if why is None:
+                return Outcome(patch, "", time.perf_counter() - t0, reasons)
+            faulty.append((patch, bad, patch.option))
+    if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
+        defer.extend(faulty)
+        return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+    mended = checks.mend_last(ctx, faulty, reasons)
+    if mended is not None:
+        return Outcome(mended, "", time.perf_counter() - t0, reasons)
+    patch = _steiner_last(ctx, hole_id, loop, budget, reasons)
+    if patch is not None:
+        return Outcome(patch, "", time.perf_counter() - t0, reasons)
+    return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+
+
+def _steiner_last(ctx, hole_id, loop, budget, reasons):
+    """The last layer for a single hole no other option closed: a patch
+    with Steiner points lifted over the scan that crosses the opening
+    (:mod:`~shellrepair.fill.steiner`), within what is left of the hole's work
+    budget; None (the cause appended to ``reasons``) where it fails."""
+    from shellrepair.fill.steiner import steiner_patch
+
+    try:
+        res = steiner_patch(ctx, hole_id, loop, max_vertices=max(budget.left(), STEINER_VERTICES))
+    except (ValueError, IndexError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        # a degenerate outline the layer's arithmetic cannot take: the hole
+        # stays open as it would without the layer, saying so
+        reasons.append(f"last layer: Steiner points: {type(exc).__name__}: {exc}")
+        return None
+    budget.count(res.spent)
+    if res.patch is None:
+        reasons.append(f"last layer: {res.reason}")
+    return res.patch
+
+
+def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):
+    """The harmonic patch on ``flat``'s triangulation, for a hole none of
+    whose triangulations passed its checks: ``(patch, why, faulty
+    triangles)`` (``why`` None when it passes), or None when it cannot be
+    built (the cause appended to ``reasons``)."""
+    name = OPTION_NAMES["harmonic"]
+    try:
+        patch = build_patch(ctx, hole_id, loop, order=1, smooth=smooth, initial=flat.T0, energy=energy)
+    except PatchError as exc:
+        reasons.append(f"harmonic on the first triangulation: {exc}")
+        return None
+    budget.spend(patch)
+    why, bad = checks.check_patch(ctx, patch)
+    patch = patch.with_(option=f"{name} on the first triangulation")
+    if why is not None:
+        reasons.append(f"{patch.option}: {why}")
+    return patch, why, bad
+
+
+def _seed_patches(ctx, holes, passes, results):
+    """The paper's method: close, smooth a duplicate of the whole mesh, take the filled region."""
+    built = []
+    for h in holes:
+        try:
+            p = build_patch(ctx, h.id, h.vertices, order=1, smooth=0, refine=True, fair=False)
+            built.append(p)
+        except PatchError as exc:
+            results[h.id] = f"seed: {exc}"
+    n = ctx.n
+    newP = [p.P for p in built]
+    base = n
+    Fs = [ctx.F]
+    for p in built:
+        Fs.append(p.global_faces(base))
+        base += len(p.P)
+    X = np.vstack([ctx.V] + newP) if newP else ctx.V.copy()
+    Fall = np.vstack(Fs)
+    if base > n:
+        origin = ctx.V.mean(axis=0)
+        X = umbrella_smooth(X - origin, Fall, passes, (0.5,)) + origin  # the whole duplicate
+    out = {}
+    base = n
+    for p in built:
+        p = p.with_(P=X[base:base + len(p.P)])
+        base += len(p.P)
+        why, _ = checks.check_patch(ctx, p)
+        if why is None:
+            out[p.hole_id] = p.with_(option=f"seed, {passes} smoothing passes")
+        else:
+            results[p.hole_id] = f"seed: {why}"
+    return out

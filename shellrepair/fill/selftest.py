@@ -1,0 +1,157 @@
+"""Choose a hole's fairing order by what the scan says at the hole's own size (``order="auto"``).
+
+Which fairing order continues a scan best depends on the surface and on
+the hole's size against it: order 1 (harmonic, a membrane) is truest on a
+planar cut or a CAD face, order 2 (thin plate) where the scan carries
+relief or noise that a higher order would carry on into the hole, order 3
+(curvature continuous) on smooth curved surfaces and large holes in them.
+Instead of rules on the rim's bends, the opening's plane or a band of scan
+next to the rim, one measured criterion decides (:func:`choose_order`):
+
+1. Cut test holes of the hole's own outline and size into intact scan
+   near it (:func:`shellrepair.fill.probe.probe_errors`: up to ``PROBES``,
+   spread around the hole; a disc of its area where the outline does not
+   fit; half and a quarter of the size only where nothing of the full
+   size fits), their rims given the real rim's roughness
+   (:func:`shellrepair.fill.probe.rim_roughness`: a ragged rim is noise that a
+   higher order carries on into the hole).
+2. Fill each with every candidate order exactly as a hole is filled
+   (:func:`shellrepair.fill.probe._refined`: triangulate, refine; then
+   :func:`shellrepair.fill.fair.fair_patch_orders`).
+3. Measure each fill against the scan that was cut away: the RMS
+   distance of the removed vertices to the filled surface
+   (:func:`shellrepair.mesh.distance.point_mesh_distance`), pooled over the test holes.
+4. The order with the lowest error fills the real hole; equal errors
+   (a test hole too small for new vertices fills alike at every order) go
+   to ``DEFAULT_ORDER``, then to the lower order.
+
+Where no test hole fits (the hole is as large as the intact scan around
+it) the scan cannot tell: the hole takes ``DEFAULT_ORDER`` and the report
+says so. Holes with fewer than ``MIN_EDGES`` rim edges are not tested (a
+patch of a few triangles, where the orders differ by less than the scan's
+own noise). A tube (the band between two loops) is tested by its own
+kind: test bands beside its loops, refilled as tubes
+(:func:`shellrepair.fill.probe.tube_errors`, :func:`shellrepair.fill.hole.band_order`).
+
+Judged by its regret (the default's RMS over the best forced order's,
+``eval/regret.py``) on stress cases of seeds never used while developing
+it: BENCHMARKS.md, "The order test".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["choose_order", "best_candidate", "OrderTest", "CANDIDATES", "DEFAULT_ORDER"]
+
+#: Candidate fairing orders (ties go to ``DEFAULT_ORDER``, then the lower order).
+CANDIDATES = (1, 2, 3)
+#: The order of holes that are not tested, or where the scan cannot tell.
+DEFAULT_ORDER = 2
+#: Holes with fewer rim edges are not tested.
+MIN_EDGES = 8
+
+
+@dataclass(frozen=True)
+class OrderTest:
+    """What :func:`choose_order` found for one hole.
+
+    Attributes
+    ----------
+    order : int
+        The chosen order.
+    errors : dict of int -> float
+        RMS distance of the scan cut away by the test holes to each
+        candidate's fill, in the scan's units (empty when not tested).
+    probes : int
+        Test holes filled (0 when not tested).
+    scale : float
+        Their size over the hole's (1, 0.5 or 0.25; 0 when not tested).
+    why : str
+        Why the hole was not tested, or ''.
+    """
+
+    order: int
+    errors: dict = field(default_factory=dict)
+    probes: int = 0
+    scale: float = 0.0
+    why: str = ""
+
+    @property
+    def runner_up(self):
+        """The candidate with the next lowest error, or None."""
+        rest = sorted((e, o) for o, e in self.errors.items() if o != self.order)
+        return rest[0][1] if rest else None
+
+    def as_dict(self):
+        """The report's ``choice`` field of a hole: the chosen order, the
+        runner-up, each candidate's test RMS (scan units), how many test
+        holes and at which scale, and ``untold`` where the scan could not
+        tell (or the hole was too small to test) and the default was taken."""
+        return {"by": "test holes" if self.errors else "default",
+                "order": int(self.order),
+                "runner_up": None if self.runner_up is None else int(self.runner_up),
+                "test_rms": {str(o): float(e) for o, e in sorted(self.errors.items(), key=lambda t: str(t[0]))},
+                "probes": int(self.probes), "scale": float(self.scale),
+                "untold": not self.errors, "why": self.why}
+
+    def describe(self):
+        """One line for the report: the choice, its evidence and the runner-up."""
+        if not self.errors:
+            return f"auto: order {self.order}, {self.why}"
+        size = "its size" if self.scale == 1.0 else f"{self.scale:g} its size"
+        errs = ", ".join(f"order {o} {e:.3g}" for o, e in sorted(self.errors.items()))
+        line = f"auto: order {self.order}, by {self.probes} test holes of {size}, RMS {errs}"
+        ru = self.runner_up
+        if ru is not None:
+            line += f"; runner-up order {ru}"
+        return line
+
+
+def choose_order(ctx, hole_id, loop, candidates=None):
+    """Pick the fairing order of one hole by test holes of its size (module docstring).
+
+    Parameters
+    ----------
+    ctx : shellrepair.mesh.index.ScanContext
+        The scan (read only).
+    hole_id : int
+    loop : (k,) int64
+        The hole's rim.
+    candidates : sequence of int, optional
+        Default :data:`CANDIDATES`.
+
+    Returns
+    -------
+    test : OrderTest
+    """
+    from shellrepair.fill.probe import probe_errors
+
+    candidates = CANDIDATES if candidates is None else tuple(candidates)
+    loop = np.asarray(loop, np.int64)
+    k = len(loop)
+    if k < MIN_EDGES:
+        return OrderTest(DEFAULT_ORDER, why=f"{k} rim edges, not tested")
+    errors, n, scale = probe_errors(ctx, loop, candidates)
+    if not errors:
+        return OrderTest(DEFAULT_ORDER, why="no intact scan of the hole's size around it: the scan cannot tell")
+    best = best_candidate({o: errors[o] for o in candidates})
+    return OrderTest(int(best), errors=errors, probes=n, scale=scale)
+
+
+def best_candidate(errors):
+    """The candidate with the lowest error; equal errors go to
+    ``DEFAULT_ORDER``, then to the lower order (the fairing orders come
+    before ``probe.HELD``).
+
+    Parameters
+    ----------
+    errors : dict of (int or str) -> float
+
+    Returns
+    -------
+    candidate : int or str
+    """
+    return min(errors, key=lambda o: (errors[o], o != DEFAULT_ORDER, str(o)))
