@@ -97,7 +97,7 @@ from shellrepair.fill.beside import HelperThread
 from shellrepair.fill.checks import Outcome
 from shellrepair.fill.hole import SEED_SMOOTH_PASSES, fill_hole, _seed_patches
 from shellrepair.fill.runs import run_chunk, _worker, worker_context
-from shellrepair.fill.merge import Accepted, _merge
+from shellrepair.fill.merge import Accepted, _merge, crossings_after_merge
 from shellrepair.mesh.index import ScanContext
 from shellrepair.fill.patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
 # the order test of order="auto" (the default), which the fill imports on its
@@ -348,6 +348,16 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     if method == "fair" and bridge != "never":
         tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges, flags)
     _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, asked_order)
+    # the merged output checked once more, as a whole: a patch that crosses the scan, itself or another
+    # patch (none should: each was checked when built and when accepted) is left open and says so
+    accepted = [it[0] for it in acc.items]
+    crossed = crossings_after_merge(ctx, accepted)
+    for k, why in sorted(crossed.items()):
+        for hid, row in rows.items():
+            if row["status"] == "filled" and np.isin(scan.loops[hid].vertices, accepted[k].loop).all():
+                row.update(status="failed", new_vertices=0, new_faces=0, option=None,
+                           reason=f"left open: the check of the merged output found its patch crossing {why}")
+    accepted = [p for k, p in enumerate(accepted) if k not in crossed]
     asked_fill = set(opts.fill)
     for h in all_holes:
         if h.id in asked_open:
@@ -368,7 +378,6 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if asked:
             rows[h.id]["requested"] = ", ".join(asked)
     rows = [rows[h.id] for h in all_holes if h.id in rows]
-    accepted = [it[0] for it in acc.items]
     repaired = _merge(mesh, V, F, accepted)
     if stand_in.any():
         repaired.V[:len(V)][stand_in] = np.asarray(mesh.V, np.float64)[stand_in]

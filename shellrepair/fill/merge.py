@@ -258,3 +258,53 @@ def _merge(mesh, V, F, patches):
                 F_out=getattr(mesh, "F_out", None), joins=getattr(mesh, "joins", None),
                 fixes=dict(getattr(mesh, "fixes", {})), comments=list(getattr(mesh, "comments", [])),
                 texture=getattr(mesh, "texture", None))
+
+
+def crossings_after_merge(ctx, patches):
+    """The check of the merged output, once, against the scan and all patches.
+
+    Every patch was checked when it was built (against the scan) and when it
+    was accepted (against the patches accepted before it). This check runs
+    once more on what is about to be written, so that a crossing no earlier
+    step saw (a stage's bug, a patch swapped in later) is found and its patch
+    left open rather than written: each patch's triangles against the scan
+    (exact predicates, :func:`~shellrepair.mesh.intersect.patch_vs_index_many`),
+    and all patches' triangles against each other and themselves
+    (:func:`~shellrepair.mesh.intersect.crossing_pairs`; corners that are the
+    same vertex may touch).
+
+    Parameters
+    ----------
+    ctx : ScanContext
+        The scan's index.
+    patches : list of Patch
+        The accepted patches, in the order they were accepted.
+
+    Returns
+    -------
+    crossed : dict
+        ``{patch position: why}`` for every patch that crosses something:
+        ``"the scan"``, ``"itself"`` or ``"the patch of hole N"`` (a pair of
+        patches names the later one, which is left open).
+    """
+    from shellrepair.mesh.intersect import crossing_pairs, patch_vs_index_many
+
+    crossed = {}
+    if not patches:
+        return crossed
+    corners = [corners_of(ctx, p) for p in patches]
+    for k, bad in enumerate(patch_vs_index_many(corners, ctx.index)):
+        if len(bad):
+            crossed[k] = "the scan"
+    Cs, Is, owner, off = [], [], [], 0
+    for k, (p, (C, ids)) in enumerate(zip(patches, corners)):
+        Cs.append(C)
+        Is.append(np.where(ids < 0, ids - off, ids))     # new vertices: ids of their own across patches
+        owner.append(np.full(len(C), k, np.int64))
+        off += len(p.P)
+    C, ids, owner = np.concatenate(Cs), np.concatenate(Is), np.concatenate(owner)
+    for i, j in crossing_pairs(C - ctx.index.origin, ids).tolist():
+        a, b = sorted((int(owner[i]), int(owner[j])))
+        why = "itself" if a == b else f"the patch of hole {patches[a].hole_id}"
+        crossed.setdefault(b, why)
+    return crossed
