@@ -139,7 +139,7 @@ def time_systems(systems, repeat):
 
 
 COLD = {
-    "ours": "from shellrepair import cholesky; f = cholesky.factor(Q); z = f.solve(R)",
+    "ours": "from shellrepair.fill import cholesky; f = cholesky.factor(Q); z = f.solve(R)",
     "cholmod": "from sksparse.cholmod import cholesky; z = cholesky(Q)(R)",
     "splu": "import scipy.sparse.linalg as spla; z = spla.splu(Q).solve(R)",
     "igl": ("import igl; d = igl.min_quad_with_fixed_data(); "
@@ -154,7 +154,7 @@ def cold(repeat=3):
     Numba kernels loaded, before the clock starts)."""
     setup = ("import sys, time; sys.path.insert(0, %r); import numpy as np, scipy.sparse as sp; "
              "from eval import shapes; from shellrepair.fill.fair import uniform_laplacian; "
-             "from shellrepair import common_kernels; common_kernels.max_sq_distance(np.zeros((3, 3))); "
+             "from shellrepair.mesh import common_kernels; common_kernels.max_sq_distance(np.zeros((3, 3))); "
              "V, F = shapes.icosphere(3); K = uniform_laplacian(F, len(V)); "
              "u = np.arange(300); Q = sp.csc_matrix((K @ K)[u][:, u] + sp.identity(300) * 1e-3); "
              "R = np.ones((300, 3)); t = time.perf_counter(); ") % str(ROOT)

@@ -59,7 +59,7 @@ class _Compiles(ev.Listener):
 
 ev.register("numba:compile", _Compiles())
 
-from shellrepair import cholesky, fastmesh, warmup
+from shellrepair import warmup; from shellrepair.fill import cholesky; from shellrepair.mesh import fastmesh
 from shellrepair import compiled as built
 
 
@@ -79,7 +79,7 @@ print(json.dumps({"signatures": signatures(), "compiled": compiled}))
 
 _REPAIR = _COMMON + """
 import contextlib, io
-from shellrepair import cli, context
+from shellrepair import cli; from shellrepair.mesh import index as context
 from shellrepair.repair import repair_mesh
 from eval import shapes
 
