@@ -273,7 +273,11 @@ def corner_normal_sums(L, Fcat, V, nv):
                                np.ascontiguousarray(V, np.float64), int(nv))
 
 
-#: Points per leaf of :func:`arc_landings`' k-d tree of rim vertices.
+#: Points per leaf of :func:`arc_landings`' k-d tree of rim vertices. The tree is
+#: our own because the compiled kernel queries it sample by sample from inside
+#: its loop, where SciPy's ``cKDTree`` (a Python object) cannot be called; the
+#: NumPy oracle (:func:`shellrepair.fill.bridge.landings_reference`) asks a
+#: ``cKDTree`` and lands every arc on the same loop (tests/test_bridge_kernels.py).
 KD_LEAF = 8
 
 
