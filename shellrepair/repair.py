@@ -66,7 +66,6 @@ intuitive framework for real-time freeform modeling", SIGGRAPH 2004.
 
 from __future__ import annotations
 
-import re
 import time
 from typing import Any, NamedTuple, Optional
 
@@ -328,6 +327,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 _note_swap(rows, swapped)
                 if patch is None:
                     row["reason"] = conflict
+                    if acc.crossed is not None:
+                        row["crosses_hole"] = acc.crossed
                     if record is not None and record.get("chosen") == "tube":
                         tube_rejected = conflict
                 else:
@@ -437,9 +438,6 @@ def _note_swap(rows, swapped):
                                      new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)))
 
 
-_CROSSED = re.compile(r"patch would cross the patch of hole (\d+)$")
-
-
 def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges, flags=None):
     """Two single holes whose caps cross each other cannot both be capped:
     the region missing between them is a band their continuation arcs did
@@ -476,10 +474,9 @@ def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges
     """
     for hid in sorted(rows):
         row = rows[hid]
-        m = _CROSSED.match(str(row["reason"]))
-        if row["status"] != "failed" or m is None or hid in paired:
+        other = row.get("crosses_hole")
+        if row["status"] != "failed" or other is None or hid in paired:
             continue
-        other = int(m.group(1))
         if other in paired or other not in rows or rows[other]["status"] != "filled":
             continue
         A, B = scan.loops[other], scan.loops[hid]
@@ -501,6 +498,7 @@ def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges
                            new_vertices=int(len(tube.P)), new_faces=int(len(tube.T)))
         row.update(status="filled", reason=outs[1].reason, option=record.get("shape", "tube"), new_vertices=0,
                    new_faces=0)
+        row.pop("crosses_hole", None)
 
 
 def _fill_requested(opts, scan):
@@ -547,7 +545,7 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
     order_for = order_for or {}
     again = [h for h in holes if method == "fair" and h.id not in paired and h.id in rows
              and rows[h.id]["status"] == "failed"
-             and str(rows[h.id]["reason"]).startswith("patch would cross the patch of hole")]
+             and rows[h.id].get("crosses_hole") is not None]
     if not again:
         return
     grown = _merge(mesh, V, F, [it[0] for it in acc.items])
@@ -566,6 +564,7 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
         option = f"{patch.option} (filled again around the patches accepted before it: the first crossed one)"
         row.update(status="filled", reason=option, option=option, new_vertices=int(len(patch.P)),
                    new_faces=int(len(patch.T)))
+        row.pop("crosses_hole", None)
         if patch.choice is not None:
             row["choice"] = patch.choice.as_dict()
 

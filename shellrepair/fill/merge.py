@@ -197,8 +197,12 @@ class Accepted:
             Why none fitted ('' when one did).
         swapped : Patch or None
             The earlier hole's order-2 patch that replaced its order-3 one.
+
+        After a refusal, ``self.crossed`` is the hole whose accepted patch
+        this one crosses (None when it was refused for another reason).
         """
         tries = [patch] + ([patch.fallback] if patch.fallback is not None else [])
+        self.crossed = None
         first = None
         for p in tries:
             why, corners = self.conflict(ctx, p)
@@ -207,6 +211,7 @@ class Accepted:
                 return p, "", None
             first = first or (why, self.clash)
         why, j = first
+        self.crossed = None if j is None else int(self.items[j][0].hole_id)
         if j is None or self.items[j][0].fallback is None:
             return None, why, None
         old = self.items[j]
