@@ -76,6 +76,7 @@ class Accepted:
         self._boxes = []   # per item: its triangles' boxes (lo, hi) once built, else None
         self._own = []     # per item: its scan edges once listed, else None
         self._last = None  # (patch, its scan edges) of the last conflict check
+        self.crossed = None  # after place() refused a patch: the hole whose accepted patch it crosses
         self.lo = np.zeros((0, 3))
         self.hi = np.zeros((0, 3))
         self.edges = set()
