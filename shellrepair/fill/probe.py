@@ -161,6 +161,10 @@ def _roughen(Vl, Fl, ploop, rough, seed):
     moved along their normals by normal offsets of RMS
     ``sqrt(rough² − own²)`` (``own``: the test rim's own roughness), where
     the real rim is rougher; a copy of ``Vl``."""
+    # only the faces that touch the rim count (in their order: the same sums)
+    on = np.zeros(len(Vl), bool)
+    on[ploop] = True
+    Fl = Fl[on[Fl].any(axis=1)]
     own = rim_roughness(Vl, Fl, ploop)
     extra = float(np.sqrt(max(rough * rough - own * own, 0.0)))
     if extra <= 0.0:
@@ -255,6 +259,89 @@ def _open_edge_within(T, n, dist, limit):
     return bool(len(k) and (np.minimum(dist[k // n], dist[k % n]) < limit).any())
 
 
+class _NearEdges:
+    """The edges of the faces near a hole, sorted once for every placement
+    of :func:`_probe` (which before sorted each placement's region again).
+
+    ``eid`` (m,3): each near face's edges, as ids into ``ends`` (e,2), the
+    edges' corners (global vertex ids); the faces of edge ``i`` are
+    ``faces[start[i]:start[i + 1]]`` (positions in ``near_f``).
+    """
+
+    def __init__(self, F, near_f, n):
+        Fn = np.asarray(F[near_f], np.int64)
+        m = len(Fn)
+        E = np.sort(np.stack([Fn[:, [0, 1]], Fn[:, [1, 2]], Fn[:, [2, 0]]], axis=1), axis=2)
+        key = (E[..., 0] * np.int64(n) + E[..., 1]).ravel()
+        order = np.argsort(key)
+        ks = key[order]
+        new = np.ones(len(ks), bool)
+        new[1:] = ks[1:] != ks[:-1]
+        inv = np.empty(len(ks), np.int64)
+        inv[order] = np.cumsum(new) - 1
+        uk = ks[new]
+        self.eid = inv.reshape(m, 3)
+        self.ends = np.column_stack([uk // n, uk % n])
+        self.faces = order // 3
+        self.start = np.append(np.flatnonzero(new), len(ks))
+        self.m = m
+        self.n_edges = len(uk)
+        # where every edge has one or two faces: the face across each edge
+        # of each face (``m`` where none), for a cheaper gather
+        many = np.diff(self.start)
+        self.across = None
+        if m and many.max() <= 2:
+            other = np.full(len(ks), m, np.int64)
+            two = np.flatnonzero(many == 2)
+            a, b = self.start[two], self.start[two] + 1
+            other[order[a]] = self.faces[b]
+            other[order[b]] = self.faces[a]
+            self.across = other.reshape(m, 3)
+
+    def component(self, pos, seed):
+        """Of the near faces at positions ``pos`` (sorted), those joined to
+        ``pos[seed]`` through edges shared within ``pos``: their indices
+        into ``pos`` (sorted), as :func:`_component` finds them."""
+        from shellrepair.mesh.components import connected_components
+
+        k = len(pos)
+        loc = np.full(self.m + 1, -1, np.int64)
+        loc[pos] = np.arange(k)
+        if self.across is not None:
+            src = np.repeat(np.arange(k, dtype=np.int64), 3)
+            dst = loc[self.across[pos]].ravel()
+            ok = dst > src          # each pair once (and no face outside ``pos``)
+            _, lab = connected_components(k, src[ok], dst[ok])
+            keep = np.zeros(int(lab.max()) + 1, bool)
+            keep[lab[seed]] = True
+            return np.flatnonzero(keep[lab])
+        e = self.eid[pos].ravel()
+        lo = self.start[e]
+        cnt = self.start[e + 1] - lo
+        src = np.repeat(np.arange(k, dtype=np.int64), 3)
+        src = np.repeat(src, cnt)
+        first = np.repeat(lo - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt)
+        dst = loc[self.faces[first + np.arange(len(src))]]
+        ok = dst > src          # each pair once (the other way and a face with itself left out)
+        _, lab = connected_components(k, src[ok], dst[ok])
+        keep = np.zeros(int(lab.max()) + 1, bool)
+        keep[lab[seed]] = True
+        return np.flatnonzero(keep[lab])
+
+    def open_edge_within(self, V, pos, p, limit):
+        """:func:`_open_edge_within` of the near faces at ``pos``, the
+        distances measured from ``p``: the same answer from the edges
+        sorted once."""
+        e = self.eid[pos].ravel()
+        once = np.bincount(e, minlength=self.n_edges)[e] == 1
+        if not once.any():
+            return False
+        ends = self.ends[e[once]]
+        D = V[ends.ravel()] - p
+        d = np.sqrt((D * D).sum(axis=1)).reshape(-1, 2)
+        return bool((np.minimum(d[:, 0], d[:, 1]) < limit).any())
+
+
 def _probe(V, F, near, p_id, shape, margin):
     """A test hole of the hole's shape around scan vertex ``p_id``, with
     ``margin`` of intact scan around it; None where the scan is not intact
@@ -277,11 +364,12 @@ def _probe(V, F, near, p_id, shape, margin):
     R = r_out + margin
     # a face with every corner within R has its centroid within R: the
     # centroids' tree gives the few faces to test, in near_f's order
-    near_f, tree = near
+    near_f, tree, edges = near
     sub = np.sort(np.asarray(tree.query_ball_point(p, R), np.int64))
     T = F[near_f[sub]]
     dv = np.sqrt(((V[T] - p) ** 2).sum(axis=2))
-    region = near_f[sub[(dv <= R).all(axis=1)]]
+    pos = sub[(dv <= R).all(axis=1)]
+    region = near_f[pos]
     if region.size == 0:
         return None
     T = F[region]
@@ -300,16 +388,16 @@ def _probe(V, F, near, p_id, shape, margin):
         & (np.sqrt((P0 * P0).sum(axis=2)) <= r_out)
     if not own.all(axis=1).any():
         return None
-    comp = _component(T, seed)
+    comp = edges.component(pos, seed)
     region, T = region[comp], T[comp]
+    # the region's own boundary: only at its outer edge (else a hole or border is near)
+    if edges.open_edge_within(V, pos[comp], p, R - margin * 0.5):
+        return None          # (what the walk below finds, for less work: most placements end here)
     g, Tl = np.unique(T, return_inverse=True)
     Tl = Tl.reshape(-1, 3).astype(np.int64)
     Vg = V[g] - p
     dl = np.sqrt((Vg * Vg).sum(axis=1))
     pl = int(np.searchsorted(g, p_id))
-    # the region's own boundary: only at its outer edge (else a hole or border is near)
-    if _open_edge_within(Tl, len(g), dl, R - margin * 0.5):
-        return None          # (what the walk below finds, for less work: most placements end here)
     loops, chains = boundary_loops(Tl, len(g))
     if chains:
         return None
@@ -469,8 +557,10 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):
     near_f = ctx.ring_faces(loop, int(np.ceil(2.0 * reach / h)))
     T = V[ctx.F[near_f]]
     near_f = near_f[(((T - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
-    near = (near_f, cKDTree(V[ctx.F[near_f]].mean(axis=1)))
-    verts = np.unique(ctx.F[near_f])
+    near = (near_f, cKDTree(V[ctx.F[near_f]].mean(axis=1)), _NearEdges(ctx.F, near_f, len(V)))
+    mark = np.zeros(len(V), bool)
+    mark[ctx.F[near_f]] = True
+    verts = np.flatnonzero(mark)          # np.unique's, without its sort
     rim_dist = (verts, cKDTree(V[loop]).query(V[verts])[0])
     pool = _Pooled(candidates)
     taken = []
