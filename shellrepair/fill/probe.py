@@ -36,6 +36,8 @@ scan cannot tell, and the caller falls back to a documented default.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 __all__ = ["hole_radius", "probe_errors", "rim_roughness", "tube_errors", "HELD", "PROBES"]
@@ -342,12 +344,59 @@ class _NearEdges:
         return bool((np.minimum(d[:, 0], d[:, 1]) < limit).any())
 
 
+#: Placements of test holes in one near scan before its edges are sorted
+#: once for all (:class:`_NearEdges`); the first few sort their own region's.
+EDGES_AFTER = 3
+#: Near scans kept per scan (:func:`_near`): a scan's holes and scales
+#: often reach the same faces (on a small object, all of them).
+NEAR_KEPT = 2
+_NEAR_CACHE = weakref.WeakKeyDictionary()
+
+
+class _Near:
+    """The faces near a hole (``faces``, positions into the scan's ``F``),
+    their centroids' tree, the vertices they use, and their edges
+    (:class:`_NearEdges`, sorted on the ``EDGES_AFTER``-th placement)."""
+
+    def __init__(self, V, F, near_f):
+        from scipy.spatial import cKDTree
+
+        self.V, self.F, self.faces = V, F, near_f
+        self.tree = cKDTree(V[F[near_f]].mean(axis=1))
+        mark = np.zeros(len(V), bool)
+        mark[F[near_f]] = True
+        self.verts = np.flatnonzero(mark)          # np.unique's, without its sort
+        self.edges = None
+        self.placements = 0
+
+    def edges_for_placement(self):
+        """The edges sorted once, from the ``EDGES_AFTER``-th placement on; None before."""
+        self.placements += 1
+        if self.edges is None and self.placements >= EDGES_AFTER:
+            self.edges = _NearEdges(self.F, self.faces, len(self.V))
+        return self.edges
+
+
+def _near(ctx, near_f):
+    """:class:`_Near` of ``near_f`` in ``ctx``, kept with the scan for its
+    other holes and scales (the same faces give the same tree and edges)."""
+    kept = _NEAR_CACHE.setdefault(ctx, [])
+    for nr in kept:
+        if nr.V is ctx.V and nr.F is ctx.F and np.array_equal(nr.faces, near_f):
+            return nr
+    nr = _Near(ctx.V, ctx.F, near_f)
+    kept.insert(0, nr)
+    del kept[NEAR_KEPT:]
+    return nr
+
+
 def _probe(V, F, near, p_id, shape, margin):
     """A test hole of the hole's shape around scan vertex ``p_id``, with
     ``margin`` of intact scan around it; None where the scan is not intact
     and one piece of surface there.
 
-    ``near``: (faces near the hole, a cKDTree of their centroids).
+    ``near``: :class:`_Near` (the faces near the hole, a cKDTree of their
+    centroids, their edges).
     ``shape``: (outline (k,2), e1, normal) of the hole, scaled: the outline
     is laid on the scan's tangent plane at the vertex, its first axis
     ``e1`` turned into that plane (the hole's orientation kept).
@@ -364,7 +413,7 @@ def _probe(V, F, near, p_id, shape, margin):
     R = r_out + margin
     # a face with every corner within R has its centroid within R: the
     # centroids' tree gives the few faces to test, in near_f's order
-    near_f, tree, edges = near
+    near_f, tree = near.faces, near.tree
     sub = np.sort(np.asarray(tree.query_ball_point(p, R), np.int64))
     T = F[near_f[sub]]
     dv = np.sqrt(((V[T] - p) ** 2).sum(axis=2))
@@ -388,16 +437,24 @@ def _probe(V, F, near, p_id, shape, margin):
         & (np.sqrt((P0 * P0).sum(axis=2)) <= r_out)
     if not own.all(axis=1).any():
         return None
-    comp = edges.component(pos, seed)
-    region, T = region[comp], T[comp]
-    # the region's own boundary: only at its outer edge (else a hole or border is near)
-    if edges.open_edge_within(V, pos[comp], p, R - margin * 0.5):
-        return None          # (what the walk below finds, for less work: most placements end here)
+    # the region's own boundary: only at its outer edge (else a hole or border
+    # is near); what the walk below finds, for less work: most placements end here
+    edges = near.edges_for_placement()
+    if edges is not None:          # the near scan's edges, sorted once
+        comp = edges.component(pos, seed)
+        region, T = region[comp], T[comp]
+        if edges.open_edge_within(V, pos[comp], p, R - margin * 0.5):
+            return None
+    else:                          # the region's edges sorted here (the same answers)
+        comp = _component(T, seed)
+        region, T = region[comp], T[comp]
     g, Tl = np.unique(T, return_inverse=True)
     Tl = Tl.reshape(-1, 3).astype(np.int64)
     Vg = V[g] - p
     dl = np.sqrt((Vg * Vg).sum(axis=1))
     pl = int(np.searchsorted(g, p_id))
+    if edges is None and _open_edge_within(Tl, len(g), dl, R - margin * 0.5):
+        return None
     loops, chains = boundary_loops(Tl, len(g))
     if chains:
         return None
@@ -557,11 +614,8 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):
     near_f = ctx.ring_faces(loop, int(np.ceil(2.0 * reach / h)))
     T = V[ctx.F[near_f]]
     near_f = near_f[(((T - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
-    near = (near_f, cKDTree(V[ctx.F[near_f]].mean(axis=1)), _NearEdges(ctx.F, near_f, len(V)))
-    mark = np.zeros(len(V), bool)
-    mark[ctx.F[near_f]] = True
-    verts = np.flatnonzero(mark)          # np.unique's, without its sort
-    rim_dist = (verts, cKDTree(V[loop]).query(V[verts])[0])
+    near = _near(ctx, near_f)
+    rim_dist = (near.verts, cKDTree(V[loop]).query(V[near.verts])[0])
     pool = _Pooled(candidates)
     taken = []
     for lo, hi in SHELLS:
