@@ -344,9 +344,11 @@ class _NearEdges:
         return bool((np.minimum(d[:, 0], d[:, 1]) < limit).any())
 
 
-#: Placements of test holes in one near scan before its edges are sorted
-#: once for all (:class:`_NearEdges`); the first few sort their own region's.
-EDGES_AFTER = 3
+#: The near scan's edges are sorted once for all placements
+#: (:class:`_NearEdges`) when the placements' regions have added up to this
+#: many times its faces; before, each placement sorts its own region's
+#: (the same answers either way; only the cost differs).
+EDGES_AFTER = 0.5
 #: Near scans kept per scan (:func:`_near`): a scan's holes and scales
 #: often reach the same faces (on a small object, all of them).
 NEAR_KEPT = 2
@@ -356,7 +358,7 @@ _NEAR_CACHE = weakref.WeakKeyDictionary()
 class _Near:
     """The faces near a hole (``faces``, positions into the scan's ``F``),
     their centroids' tree, the vertices they use, and their edges
-    (:class:`_NearEdges`, sorted on the ``EDGES_AFTER``-th placement)."""
+    (:class:`_NearEdges`, sorted once enough placements need them)."""
 
     def __init__(self, V, F, near_f):
         from scipy.spatial import cKDTree
@@ -367,12 +369,17 @@ class _Near:
         mark[F[near_f]] = True
         self.verts = np.flatnonzero(mark)          # np.unique's, without its sort
         self.edges = None
-        self.placements = 0
+        self.sorted_faces = 0
 
-    def edges_for_placement(self):
-        """The edges sorted once, from the ``EDGES_AFTER``-th placement on; None before."""
-        self.placements += 1
-        if self.edges is None and self.placements >= EDGES_AFTER:
+    def edges_for_placement(self, k):
+        """The edges sorted once, for a placement whose region has ``k``
+        faces: None (the placement sorts its own region's) until the
+        placements have sorted ``EDGES_AFTER`` times as many faces as
+        the near scan has."""
+        if self.edges is None:
+            self.sorted_faces += k
+            if self.sorted_faces < EDGES_AFTER * len(self.faces):
+                return None
             self.edges = _NearEdges(self.F, self.faces, len(self.V))
         return self.edges
 
@@ -439,7 +446,7 @@ def _probe(V, F, near, p_id, shape, margin):
         return None
     # the region's own boundary: only at its outer edge (else a hole or border
     # is near); what the walk below finds, for less work: most placements end here
-    edges = near.edges_for_placement()
+    edges = near.edges_for_placement(len(pos))
     if edges is not None:          # the near scan's edges, sorted once
         comp = edges.component(pos, seed)
         region, T = region[comp], T[comp]
@@ -530,11 +537,43 @@ class _Pooled:
         return {o: float(np.sqrt(self.sq[o] / self.count)) for o in self.candidates if keep(o)}
 
 
+class _RimDistance:
+    """The distance of the near vertices to the hole's rim (nearest rim
+    vertex), measured only where a shell asks: a vertex farther than
+    ``hi * r + h`` from the rim's centroid plus the rim's reach from it
+    is farther than that from every rim vertex, so it is not measured for
+    a shell ending at ``hi`` (each measured distance is the tree's answer
+    for that vertex, whichever others are measured with it)."""
+
+    def __init__(self, V, verts, loop, c, rim_r):
+        from scipy.spatial import cKDTree
+
+        self.V, self.verts = V, verts
+        D = V[verts] - c
+        self.dc = np.sqrt((D * D).sum(axis=1))    # distance from the rim's centroid
+        self.rim_r = rim_r
+        self.tree = cKDTree(V[loop])
+        self.dist = np.full(len(verts), np.nan)
+        self.bound = -np.inf                     # vertices within this of the centroid are measured
+
+    def upto(self, limit):
+        """The distances, measured at least for every vertex within
+        ``limit`` of the rim (NaN for some beyond it)."""
+        bound = self.rim_r + limit + 1e-9 * (abs(self.rim_r) + abs(limit)) + 1e-300
+        if bound > self.bound:
+            todo = np.flatnonzero((self.dc <= bound) & np.isnan(self.dist))
+            if todo.size:
+                self.dist[todo] = self.tree.query(self.V[self.verts[todo]])[0]
+            self.bound = bound
+        return self.dist
+
+
 def _centres(rim_dist, r, h, lo, hi):
     """Candidate probe centres in the shell ``lo..hi`` (units of ``r``)
     beyond the rim: scan vertices, an even spread over them.
-    ``rim_dist``: (the vertices near the hole, their distance to its rim)."""
-    verts, dist = rim_dist
+    ``rim_dist``: the vertices near the hole and their distance to its
+    rim (:class:`_RimDistance`)."""
+    verts, dist = rim_dist.verts, rim_dist.upto(hi * r + h)
     sel = verts[(dist >= lo * r + h) & (dist <= hi * r + h)]
     if sel.size == 0:
         return sel
@@ -615,7 +654,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):
     T = V[ctx.F[near_f]]
     near_f = near_f[(((T - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
     near = _near(ctx, near_f)
-    rim_dist = (near.verts, cKDTree(V[loop]).query(V[near.verts])[0])
+    rim_dist = _RimDistance(V, near.verts, loop, c, rim_r)
     pool = _Pooled(candidates)
     taken = []
     for lo, hi in SHELLS:
