@@ -356,15 +356,17 @@ _NEAR_CACHE = weakref.WeakKeyDictionary()
 
 
 class _Near:
-    """The faces near a hole (``faces``, positions into the scan's ``F``),
-    their centroids' tree, the vertices they use, and their edges
-    (:class:`_NearEdges`, sorted once enough placements need them)."""
+    """The faces near a hole (``faces``, positions into the scan's ``F``;
+    ``corners``, their rows of ``F``), their centroids' tree, the vertices
+    they use, and their edges (:class:`_NearEdges`, sorted once enough
+    placements need them)."""
 
     def __init__(self, V, F, near_f):
         from scipy.spatial import cKDTree
 
         self.V, self.F, self.faces = V, F, near_f
-        self.tree = cKDTree(V[F[near_f]].mean(axis=1))
+        self.corners = F[near_f]                  # (m,3) vertex ids
+        self.tree = cKDTree(V[self.corners].mean(axis=1))
         mark = np.zeros(len(V), bool)
         mark[F[near_f]] = True
         self.verts = np.flatnonzero(mark)          # np.unique's, without its sort
@@ -422,14 +424,15 @@ def _probe(V, F, near, p_id, shape, margin):
     # centroids' tree gives the few faces to test, in near_f's order
     near_f, tree = near.faces, near.tree
     sub = np.sort(np.asarray(tree.query_ball_point(p, R), np.int64))
-    T = F[near_f[sub]]
-    dv = np.sqrt(((V[T] - p) ** 2).sum(axis=2))
-    pos = sub[(dv <= R).all(axis=1)]
+    D = V[near.corners[sub]] - p
+    D *= D                     # each corner's distance, its squares summed in order (x, y, z)
+    dv = np.sqrt(D[..., 0] + D[..., 1] + D[..., 2])
+    pos = sub[(dv[:, 0] <= R) & (dv[:, 1] <= R) & (dv[:, 2] <= R)]
     region = near_f[pos]
     if region.size == 0:
         return None
-    T = F[region]
-    seed = np.flatnonzero((T == p_id).any(axis=1))
+    T = near.corners[pos]
+    seed = np.flatnonzero((T[:, 0] == p_id) | (T[:, 1] == p_id) | (T[:, 2] == p_id))
     if seed.size == 0:
         return None
     # the outline on the tangent plane at the vertex; no face around the
