@@ -479,7 +479,11 @@ def _probe(V, F, near, p_id, shape, margin):
     if seed.size == 0:
         return None
     dfaces = np.flatnonzero(disc)
-    keep_d = _component(Tl[dfaces], np.flatnonzero((Tl[dfaces] == pl).any(axis=1)))
+    dseed = np.flatnonzero((Tl[dfaces] == pl).any(axis=1))
+    if edges is not None:
+        keep_d = edges.component(pos[comp][dfaces], dseed)
+    else:
+        keep_d = _component(Tl[dfaces], dseed)
     cut = np.zeros(len(Tl), bool)
     cut[dfaces[keep_d]] = True
     if (disc & ~cut).any():
