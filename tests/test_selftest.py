@@ -259,26 +259,3 @@ def test_a_hole_whose_patch_has_no_vertex_of_its_own_is_not_tested(monkeypatch):
     R2, _ = repair_mesh(Mesh(V=case.V, F=case.F), order_for={h["id"]: 2 for h in bare})
     assert np.array_equal(R.F, R2.F) and np.array_equal(R.V.view(np.uint64), R2.V.view(np.uint64))
 
-
-def test_the_near_scans_edges_find_the_same_piece_and_open_edges_as_a_regions_own_sort():
-    # probe._NearEdges (edges sorted once per near scan) against the
-    # region's own sort, on random regions of a sphere with fins (edges of
-    # three faces) and a degenerate face, and of the plain sphere
-    rng = np.random.default_rng(1)
-    V, F = shapes.icosphere(3)
-    fins = [[F[f, 0], F[f, 1], rng.integers(len(V))] for f in rng.choice(len(F), 30, replace=False)]
-    Fx = np.vstack([F, fins, [[F[0, 0], F[0, 0], F[0, 1]]]]).astype(np.int64)
-    for FF in (Fx, F):
-        near_f = np.sort(rng.choice(len(FF), 3 * len(FF) // 4, replace=False))
-        edges = probe._NearEdges(FF, near_f, len(V))
-        assert (edges.across is None) == (FF is Fx)
-        for _ in range(60):
-            pos = np.sort(rng.choice(len(near_f), rng.integers(1, len(near_f)), replace=False))
-            seed = rng.choice(len(pos), 2)
-            comp = edges.component(pos, seed)
-            assert np.array_equal(comp, probe._component(FF[near_f[pos]], seed))
-            p, limit = V[rng.integers(len(V))], rng.uniform(0.0, 2.0)
-            g, Tl = np.unique(FF[near_f[pos[comp]]], return_inverse=True)
-            dl = np.sqrt(((V[g] - p) ** 2).sum(axis=1))
-            assert edges.open_edge_within(V, pos[comp], p, limit) == \
-                probe._open_edge_within(Tl.reshape(-1, 3), len(g), dl, limit)
