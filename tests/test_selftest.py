@@ -140,6 +140,20 @@ def test_the_test_is_the_same_on_a_fresh_context_to_the_bit():
     assert got[0] == got[1] and any(t.errors for t in got[0])
 
 
+@pytest.mark.parametrize("seed", [2, 5])
+def test_the_test_is_the_same_whether_placements_sort_their_own_edges_or_the_near_scans(monkeypatch, seed):
+    # the near scan's edges sorted once (probe._NearEdges) or each placement's
+    # region sorted on its own: a cost, never a different test hole
+    V, F = shapes.bumpy_sphere(4, amplitude=0.03, frequency=4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.25, seed=seed)
+    got = []
+    for after in (0.0, float("inf")):
+        monkeypatch.setattr(probe, "EDGES_AFTER", after)
+        scan, ctx = context(V2, F2)
+        got.append([choose_order(ctx, h.id, h.vertices) for h in scan.holes])
+    assert got[0] == got[1] and any(t.errors for t in got[0])
+
+
 def test_ties_go_to_the_default_order_then_the_lower():
     t = OrderTest(2, errors={1: 1.0, 2: 1.0, 3: 1.0}, probes=3, scale=1.0)
     assert t.runner_up == 1
@@ -244,3 +258,4 @@ def test_a_hole_whose_patch_has_no_vertex_of_its_own_is_not_tested(monkeypatch):
     assert tested, "the other holes are still tested"
     R2, _ = repair_mesh(Mesh(V=case.V, F=case.F), order_for={h["id"]: 2 for h in bare})
     assert np.array_equal(R.F, R2.F) and np.array_equal(R.V.view(np.uint64), R2.V.view(np.uint64))
+

@@ -36,6 +36,8 @@ scan cannot tell, and the caller falls back to a documented default.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 __all__ = ["hole_radius", "probe_errors", "rim_roughness", "tube_errors", "HELD", "PROBES"]
@@ -161,6 +163,10 @@ def _roughen(Vl, Fl, ploop, rough, seed):
     moved along their normals by normal offsets of RMS
     ``sqrt(rough² − own²)`` (``own``: the test rim's own roughness), where
     the real rim is rougher; a copy of ``Vl``."""
+    # only the faces that touch the rim count (in their order: the same sums)
+    on = np.zeros(len(Vl), bool)
+    on[ploop] = True
+    Fl = Fl[on[Fl].any(axis=1)]
     own = rim_roughness(Vl, Fl, ploop)
     extra = float(np.sqrt(max(rough * rough - own * own, 0.0)))
     if extra <= 0.0:
@@ -255,12 +261,151 @@ def _open_edge_within(T, n, dist, limit):
     return bool(len(k) and (np.minimum(dist[k // n], dist[k % n]) < limit).any())
 
 
+class _NearEdges:
+    """The edges of the faces near a hole, sorted once for every placement
+    of :func:`_probe` (which before sorted each placement's region again).
+
+    ``eid`` (m,3): each near face's edges, as ids into ``ends`` (e,2), the
+    edges' corners (global vertex ids); the faces of edge ``i`` are
+    ``faces[start[i]:start[i + 1]]`` (positions in ``near_f``).
+    """
+
+    def __init__(self, F, near_f, n):
+        Fn = np.asarray(F[near_f], np.int64)
+        m = len(Fn)
+        E = np.sort(np.stack([Fn[:, [0, 1]], Fn[:, [1, 2]], Fn[:, [2, 0]]], axis=1), axis=2)
+        key = (E[..., 0] * np.int64(n) + E[..., 1]).ravel()
+        order = np.argsort(key)
+        ks = key[order]
+        new = np.ones(len(ks), bool)
+        new[1:] = ks[1:] != ks[:-1]
+        inv = np.empty(len(ks), np.int64)
+        inv[order] = np.cumsum(new) - 1
+        uk = ks[new]
+        self.eid = inv.reshape(m, 3)
+        self.ends = np.column_stack([uk // n, uk % n])
+        self.faces = order // 3
+        self.start = np.append(np.flatnonzero(new), len(ks))
+        self.m = m
+        self.n_edges = len(uk)
+        # where every edge has one or two faces: the face across each edge
+        # of each face (``m`` where none), for a cheaper gather
+        many = np.diff(self.start)
+        self.across = None
+        if m and many.max() <= 2:
+            other = np.full(len(ks), m, np.int64)
+            two = np.flatnonzero(many == 2)
+            a, b = self.start[two], self.start[two] + 1
+            other[order[a]] = self.faces[b]
+            other[order[b]] = self.faces[a]
+            self.across = other.reshape(m, 3)
+
+    def component(self, pos, seed):
+        """Of the near faces at positions ``pos`` (sorted), those joined to
+        ``pos[seed]`` through edges shared within ``pos``: their indices
+        into ``pos`` (sorted), as :func:`_component` finds them."""
+        from shellrepair.mesh.components import connected_components
+
+        k = len(pos)
+        loc = np.full(self.m + 1, -1, np.int64)
+        loc[pos] = np.arange(k)
+        if self.across is not None:
+            src = np.repeat(np.arange(k, dtype=np.int64), 3)
+            dst = loc[self.across[pos]].ravel()
+            ok = dst > src          # each pair once (and no face outside ``pos``)
+            _, lab = connected_components(k, src[ok], dst[ok])
+            keep = np.zeros(int(lab.max()) + 1, bool)
+            keep[lab[seed]] = True
+            return np.flatnonzero(keep[lab])
+        e = self.eid[pos].ravel()
+        lo = self.start[e]
+        cnt = self.start[e + 1] - lo
+        src = np.repeat(np.arange(k, dtype=np.int64), 3)
+        src = np.repeat(src, cnt)
+        first = np.repeat(lo - np.concatenate([[0], np.cumsum(cnt)[:-1]]), cnt)
+        dst = loc[self.faces[first + np.arange(len(src))]]
+        ok = dst > src          # each pair once (the other way and a face with itself left out)
+        _, lab = connected_components(k, src[ok], dst[ok])
+        keep = np.zeros(int(lab.max()) + 1, bool)
+        keep[lab[seed]] = True
+        return np.flatnonzero(keep[lab])
+
+    def open_edge_within(self, V, pos, p, limit):
+        """:func:`_open_edge_within` of the near faces at ``pos``, the
+        distances measured from ``p``: the same answer from the edges
+        sorted once."""
+        e = self.eid[pos].ravel()
+        once = np.bincount(e, minlength=self.n_edges)[e] == 1
+        if not once.any():
+            return False
+        ends = self.ends[e[once]]
+        D = V[ends.ravel()] - p
+        d = np.sqrt((D * D).sum(axis=1)).reshape(-1, 2)
+        return bool((np.minimum(d[:, 0], d[:, 1]) < limit).any())
+
+
+#: The near scan's edges are sorted once for all placements
+#: (:class:`_NearEdges`) when the placements' regions have added up to this
+#: many times its faces; before, each placement sorts its own region's
+#: (the same answers either way; only the cost differs).
+EDGES_AFTER = 0.5
+#: Near scans kept per scan (:func:`_near`): a scan's holes and scales
+#: often reach the same faces (on a small object, all of them).
+NEAR_KEPT = 2
+_NEAR_CACHE = weakref.WeakKeyDictionary()
+
+
+class _Near:
+    """The faces near a hole (``faces``, positions into the scan's ``F``;
+    ``corners``, their rows of ``F``), their centroids' tree, the vertices
+    they use, and their edges (:class:`_NearEdges`, sorted once enough
+    placements need them)."""
+
+    def __init__(self, V, F, near_f):
+        from scipy.spatial import cKDTree
+
+        self.V, self.F, self.faces = V, F, near_f
+        self.corners = F[near_f]                  # (m,3) vertex ids
+        self.tree = cKDTree(V[self.corners].mean(axis=1))
+        mark = np.zeros(len(V), bool)
+        mark[F[near_f]] = True
+        self.verts = np.flatnonzero(mark)          # np.unique's, without its sort
+        self.edges = None
+        self.sorted_faces = 0
+
+    def edges_for_placement(self, k):
+        """The edges sorted once, for a placement whose region has ``k``
+        faces: None (the placement sorts its own region's) until the
+        placements have sorted ``EDGES_AFTER`` times as many faces as
+        the near scan has."""
+        if self.edges is None:
+            self.sorted_faces += k
+            if self.sorted_faces < EDGES_AFTER * len(self.faces):
+                return None
+            self.edges = _NearEdges(self.F, self.faces, len(self.V))
+        return self.edges
+
+
+def _near(ctx, near_f):
+    """:class:`_Near` of ``near_f`` in ``ctx``, kept with the scan for its
+    other holes and scales (the same faces give the same tree and edges)."""
+    kept = _NEAR_CACHE.setdefault(ctx, [])
+    for nr in kept:
+        if nr.V is ctx.V and nr.F is ctx.F and np.array_equal(nr.faces, near_f):
+            return nr
+    nr = _Near(ctx.V, ctx.F, near_f)
+    kept.insert(0, nr)
+    del kept[NEAR_KEPT:]
+    return nr
+
+
 def _probe(V, F, near, p_id, shape, margin):
     """A test hole of the hole's shape around scan vertex ``p_id``, with
     ``margin`` of intact scan around it; None where the scan is not intact
     and one piece of surface there.
 
-    ``near``: (faces near the hole, a cKDTree of their centroids).
+    ``near``: :class:`_Near` (the faces near the hole, a cKDTree of their
+    centroids, their edges).
     ``shape``: (outline (k,2), e1, normal) of the hole, scaled: the outline
     is laid on the scan's tangent plane at the vertex, its first axis
     ``e1`` turned into that plane (the hole's orientation kept).
@@ -277,15 +422,17 @@ def _probe(V, F, near, p_id, shape, margin):
     R = r_out + margin
     # a face with every corner within R has its centroid within R: the
     # centroids' tree gives the few faces to test, in near_f's order
-    near_f, tree = near
+    near_f, tree = near.faces, near.tree
     sub = np.sort(np.asarray(tree.query_ball_point(p, R), np.int64))
-    T = F[near_f[sub]]
-    dv = np.sqrt(((V[T] - p) ** 2).sum(axis=2))
-    region = near_f[sub[(dv <= R).all(axis=1)]]
+    D = V[near.corners[sub]] - p
+    D *= D                     # each corner's distance, its squares summed in order (x, y, z)
+    dv = np.sqrt(D[..., 0] + D[..., 1] + D[..., 2])
+    pos = sub[(dv[:, 0] <= R) & (dv[:, 1] <= R) & (dv[:, 2] <= R)]
+    region = near_f[pos]
     if region.size == 0:
         return None
-    T = F[region]
-    seed = np.flatnonzero((T == p_id).any(axis=1))
+    T = near.corners[pos]
+    seed = np.flatnonzero((T[:, 0] == p_id) | (T[:, 1] == p_id) | (T[:, 2] == p_id))
     if seed.size == 0:
         return None
     # the outline on the tangent plane at the vertex; no face around the
@@ -300,16 +447,24 @@ def _probe(V, F, near, p_id, shape, margin):
         & (np.sqrt((P0 * P0).sum(axis=2)) <= r_out)
     if not own.all(axis=1).any():
         return None
-    comp = _component(T, seed)
-    region, T = region[comp], T[comp]
+    # the region's own boundary: only at its outer edge (else a hole or border
+    # is near); what the walk below finds, for less work: most placements end here
+    edges = near.edges_for_placement(len(pos))
+    if edges is not None:          # the near scan's edges, sorted once
+        comp = edges.component(pos, seed)
+        region, T = region[comp], T[comp]
+        if edges.open_edge_within(V, pos[comp], p, R - margin * 0.5):
+            return None
+    else:                          # the region's edges sorted here (the same answers)
+        comp = _component(T, seed)
+        region, T = region[comp], T[comp]
     g, Tl = np.unique(T, return_inverse=True)
     Tl = Tl.reshape(-1, 3).astype(np.int64)
     Vg = V[g] - p
     dl = np.sqrt((Vg * Vg).sum(axis=1))
     pl = int(np.searchsorted(g, p_id))
-    # the region's own boundary: only at its outer edge (else a hole or border is near)
-    if _open_edge_within(Tl, len(g), dl, R - margin * 0.5):
-        return None          # (what the walk below finds, for less work: most placements end here)
+    if edges is None and _open_edge_within(Tl, len(g), dl, R - margin * 0.5):
+        return None
     loops, chains = boundary_loops(Tl, len(g))
     if chains:
         return None
@@ -324,7 +479,11 @@ def _probe(V, F, near, p_id, shape, margin):
     if seed.size == 0:
         return None
     dfaces = np.flatnonzero(disc)
-    keep_d = _component(Tl[dfaces], np.flatnonzero((Tl[dfaces] == pl).any(axis=1)))
+    dseed = np.flatnonzero((Tl[dfaces] == pl).any(axis=1))
+    if edges is not None:
+        keep_d = edges.component(pos[comp][dfaces], dseed)
+    else:
+        keep_d = _component(Tl[dfaces], dseed)
     cut = np.zeros(len(Tl), bool)
     cut[dfaces[keep_d]] = True
     if (disc & ~cut).any():
@@ -385,11 +544,43 @@ class _Pooled:
         return {o: float(np.sqrt(self.sq[o] / self.count)) for o in self.candidates if keep(o)}
 
 
+class _RimDistance:
+    """The distance of the near vertices to the hole's rim (nearest rim
+    vertex), measured only where a shell asks: a vertex farther than
+    ``hi * r + h`` from the rim's centroid plus the rim's reach from it
+    is farther than that from every rim vertex, so it is not measured for
+    a shell ending at ``hi`` (each measured distance is the tree's answer
+    for that vertex, whichever others are measured with it)."""
+
+    def __init__(self, V, verts, loop, c, rim_r):
+        from scipy.spatial import cKDTree
+
+        self.V, self.verts = V, verts
+        D = V[verts] - c
+        self.dc = np.sqrt((D * D).sum(axis=1))    # distance from the rim's centroid
+        self.rim_r = rim_r
+        self.tree = cKDTree(V[loop])
+        self.dist = np.full(len(verts), np.nan)
+        self.bound = -np.inf                     # vertices within this of the centroid are measured
+
+    def upto(self, limit):
+        """The distances, measured at least for every vertex within
+        ``limit`` of the rim (NaN for some beyond it)."""
+        bound = self.rim_r + limit + 1e-9 * (abs(self.rim_r) + abs(limit)) + 1e-300
+        if bound > self.bound:
+            todo = np.flatnonzero((self.dc <= bound) & np.isnan(self.dist))
+            if todo.size:
+                self.dist[todo] = self.tree.query(self.V[self.verts[todo]])[0]
+            self.bound = bound
+        return self.dist
+
+
 def _centres(rim_dist, r, h, lo, hi):
     """Candidate probe centres in the shell ``lo..hi`` (units of ``r``)
     beyond the rim: scan vertices, an even spread over them.
-    ``rim_dist``: (the vertices near the hole, their distance to its rim)."""
-    verts, dist = rim_dist
+    ``rim_dist``: the vertices near the hole and their distance to its
+    rim (:class:`_RimDistance`)."""
+    verts, dist = rim_dist.verts, rim_dist.upto(hi * r + h)
     sel = verts[(dist >= lo * r + h) & (dist <= hi * r + h)]
     if sel.size == 0:
         return sel
@@ -469,9 +660,8 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):
     near_f = ctx.ring_faces(loop, int(np.ceil(2.0 * reach / h)))
     T = V[ctx.F[near_f]]
     near_f = near_f[(((T - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
-    near = (near_f, cKDTree(V[ctx.F[near_f]].mean(axis=1)))
-    verts = np.unique(ctx.F[near_f])
-    rim_dist = (verts, cKDTree(V[loop]).query(V[verts])[0])
+    near = _near(ctx, near_f)
+    rim_dist = _RimDistance(V, near.verts, loop, c, rim_r)
     pool = _Pooled(candidates)
     taken = []
     for lo, hi in SHELLS:
