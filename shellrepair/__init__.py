@@ -10,9 +10,9 @@ synthesized, and render the result with an aged-metal appearance.
 """
 
 from shellrepair.errors import MeshError
-from shellrepair.mesh.io import Mesh, read_mesh, write_mesh
-from shellrepair.holes.loops import detect_holes, boundary_loops
+from shellrepair.holes.loops import boundary_loops, detect_holes
 from shellrepair.mesh.convert import as_mesh, to_open3d, to_trimesh
+from shellrepair.mesh.io import Mesh, read_mesh, write_mesh
 from shellrepair.options import RepairOptions
 
 __version__ = "0.1.0"

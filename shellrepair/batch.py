@@ -383,9 +383,8 @@ def repair_folder(folder, outdir, options=None, *, jobs=None, scheduler=None, pr
         exception.
     """
     from shellrepair.mesh.io import atomic_write
-    from shellrepair.progress import as_callback
-
     from shellrepair.options import RepairOptions
+    from shellrepair.progress import as_callback
 
     opts = RepairOptions.make(options, **changes)  # checked once, before any scan
     if jobs is None:

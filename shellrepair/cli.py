@@ -439,11 +439,9 @@ def _closed(args):
 def _holes(args, bar):
     from shellrepair.holes.loops import detect_holes
     from shellrepair.mesh.io import read_mesh
-    from shellrepair.report.table import holes_dict, holes_table
-
-    from shellrepair.options import RepairOptions
-
     from shellrepair.mesh.units import in_scan_units
+    from shellrepair.options import RepairOptions
+    from shellrepair.report.table import holes_dict, holes_table
 
     opts = RepairOptions(**_hole_limits(args), fill_borders=args.fill_borders, closed=_closed(args))  # checked first
     mesh = read_mesh(args.scan, progress=bar)
@@ -478,7 +476,14 @@ def _same_file(a, b):
 
 
 def _repair(args, bar):
-    from shellrepair.mesh.io import SUPPORTED, atomic_write_many, check_output_path, format_losses, mesh_bytes, read_mesh
+    from shellrepair.mesh.io import (
+        SUPPORTED,
+        atomic_write_many,
+        check_output_path,
+        format_losses,
+        mesh_bytes,
+        read_mesh,
+    )
     from shellrepair.preload import preload_fill
     from shellrepair.report.table import table1_text
 
@@ -667,8 +672,8 @@ def _batch(args, bar):
 def _render(args, bar):
     import numpy as np
 
-    from shellrepair.mesh.io import read_mesh
     from shellrepair.appearance import render as rd
+    from shellrepair.mesh.io import read_mesh
 
     try:
         w, h = (int(x) for x in args.size.lower().split("x"))

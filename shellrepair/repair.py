@@ -70,6 +70,7 @@ import time
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
+
 # Every fill triangulates its loop with Qhull's Delaunay and measures with
 # k-d trees (scipy.spatial, 0.3-0.5 s to import, scipy.sparse with it): loaded
 # with this module, before a repair's clock starts, not by its first hole.
@@ -77,33 +78,32 @@ import numpy as np
 # scan (shellrepair.mesh.io) does not load it.
 import scipy.spatial  # noqa: F401
 
-from shellrepair.mesh.clean import describe_open_chains
-from shellrepair.mesh.convert import MeshLike, as_mesh
-from shellrepair.errors import MeshError
-from shellrepair.options import RepairOptions
-from shellrepair.progress import ProgressArg, as_callback
-from shellrepair.holes.loops import detect_holes
-from shellrepair.holes.pinched import split_pinched
-from shellrepair.mesh.io import Mesh, check_references, manifold_mesh
-from shellrepair.report.table import table1_dict
-from shellrepair.mesh.topology import edge_count_delta, edge_topology
-from shellrepair.mesh.units import in_scan_units
 from shellrepair import blas
-from shellrepair.fill.bands import Bands, find_bands
-from shellrepair.fill.pants import PantsUnit, expand, pants_unit
-from shellrepair.fill.band_fill import _fill_pair
-from shellrepair.fill.beside import HelperThread
-from shellrepair.fill.checks import Outcome
-from shellrepair.fill.hole import SEED_SMOOTH_PASSES, fill_hole, _seed_patches
-from shellrepair.fill.runs import run_chunk, _worker, worker_context
-from shellrepair.fill.merge import Accepted, _merge, crossings_after_merge
-from shellrepair.mesh.index import ScanContext
-from shellrepair.fill.patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
+from shellrepair.errors import MeshError
 # the order test of order="auto" (the default), which the fill imports on its
 # first hole: loaded with this module, before a repair's clock starts
-from shellrepair.mesh import distance
-from shellrepair.fill import probe
-from shellrepair.fill import selftest  # noqa: F401
+from shellrepair.fill import probe, selftest  # noqa: F401
+from shellrepair.fill.band_fill import _fill_pair
+from shellrepair.fill.bands import Bands, find_bands
+from shellrepair.fill.beside import HelperThread
+from shellrepair.fill.checks import Outcome
+from shellrepair.fill.hole import SEED_SMOOTH_PASSES, _seed_patches, fill_hole
+from shellrepair.fill.merge import Accepted, _merge, crossings_after_merge
+from shellrepair.fill.pants import PantsUnit, expand, pants_unit
+from shellrepair.fill.patch import BATCH, BandUnit, HoleUnit, Patch, build_patch
+from shellrepair.fill.runs import _worker, run_chunk, worker_context
+from shellrepair.holes.loops import detect_holes
+from shellrepair.holes.pinched import split_pinched
+from shellrepair.mesh import distance  # the order test's distances, loaded with it
+from shellrepair.mesh.clean import describe_open_chains
+from shellrepair.mesh.convert import MeshLike, as_mesh
+from shellrepair.mesh.index import ScanContext
+from shellrepair.mesh.io import Mesh, check_references, manifold_mesh
+from shellrepair.mesh.topology import edge_count_delta, edge_topology
+from shellrepair.mesh.units import in_scan_units
+from shellrepair.options import RepairOptions
+from shellrepair.progress import ProgressArg, as_callback
+from shellrepair.report.table import table1_dict
 
 __all__ = ["repair_mesh", "build_patch", "Patch", "SEED_SMOOTH_PASSES"]
 

@@ -19,20 +19,19 @@ import threading
 import numpy as np
 
 from shellrepair import compiled
-from shellrepair.fill import bridge_kernels
-from shellrepair.fill import checks_kernels
-from shellrepair.mesh import common_kernels
-from shellrepair.mesh import index_kernels as context_kernels
-from shellrepair.mesh import distance_kernels
-from shellrepair.fill import fair_kernels
-from shellrepair.mesh import intersect_kernels
-from shellrepair.fill import intrinsic_kernels
-from shellrepair.fill import patch_kernels
-from shellrepair.fill import refine_kernels
-from shellrepair.mesh import topology_kernels
-from shellrepair.fill import triangulate_kernels
+from shellrepair.fill import (
+    bridge_kernels,
+    checks_kernels,
+    fair_kernels,
+    intrinsic_kernels,
+    patch_kernels,
+    refine_kernels,
+    triangulate_kernels,
+)
 from shellrepair.fill.refine import FLIP_EPS, angle_between, unfolded
 from shellrepair.fill.triangulate import restricted_dp
+from shellrepair.mesh import common_kernels, distance_kernels, intersect_kernels, topology_kernels
+from shellrepair.mesh import index_kernels as context_kernels
 
 __all__ = ["warm_up"]
 

@@ -312,5 +312,10 @@ def substrate_reflectance(material):
 
 
 # the rust-coverage map (imports nothing from here, so eagerly)
-from shellrepair.appearance.coverage import rust_coverage, rust_coverage_from_colors, rust_coverage_from_occlusion, vertex_normals
+from shellrepair.appearance.coverage import (
+    rust_coverage,
+    rust_coverage_from_colors,
+    rust_coverage_from_occlusion,
+    vertex_normals,
+)
 

@@ -511,6 +511,7 @@ def render_mesh(V, F, *, size=(1024, 768), material="aged-bronze", filled=None,
         unit, an age outside [0, 1] or an unknown setting.
     """
     import open3d as o3d
+
     from shellrepair.appearance import aging as ag
 
     t0 = time.perf_counter()

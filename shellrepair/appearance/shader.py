@@ -26,9 +26,9 @@ import functools
 import numpy as np
 
 from shellrepair.appearance import reflectance as sh
-from shellrepair.appearance.reflectance import dispatch
-from shellrepair.appearance.reflectance import albedo as _albedo
 from shellrepair.appearance.materials import get_material, layer_thicknesses, substrate_reflectance, surface_params
+from shellrepair.appearance.reflectance import albedo as _albedo
+from shellrepair.appearance.reflectance import dispatch
 
 __all__ = ["shade_reference", "MaterialShader", "ModelChoice", "choose_model", "model_switch_footprint_um", "warm_up"]
 
@@ -530,7 +530,24 @@ def warm_up():
         Number of compiled specialisations (0 when the kernels are off:
         ``SHELLREPAIR_NO_NUMBA=1`` or Numba missing).
     """
-    from shellrepair.appearance.reflectance import beckmann_D, diffuse_transmittance, dipole_profile, dipole_rd, dipole_tail_fraction, fresnel_conductor, fresnel_dielectric, internal_reflectance, km_r_inf, km_reflectance, layered_diffuse, local_brdf, mean_transmittance, torrance_sparrow, torrance_sparrow_conductor, v_cavity_G
+    from shellrepair.appearance.reflectance import (
+        beckmann_D,
+        diffuse_transmittance,
+        dipole_profile,
+        dipole_rd,
+        dipole_tail_fraction,
+        fresnel_conductor,
+        fresnel_dielectric,
+        internal_reflectance,
+        km_r_inf,
+        km_reflectance,
+        layered_diffuse,
+        local_brdf,
+        mean_transmittance,
+        torrance_sparrow,
+        torrance_sparrow_conductor,
+        v_cavity_G,
+    )
 
     if dispatch.kernels("shader") is None:
         return 0

@@ -16,10 +16,10 @@ import numpy as np
 
 from shellrepair.fill import checks
 from shellrepair.fill.checks import Outcome
-from shellrepair.mesh.index import rim_data
-from shellrepair.fill.hole import OPTION_NAMES, PIN_ROUNDS, fill_hole, _pin_region, band_order
+from shellrepair.fill.hole import OPTION_NAMES, PIN_ROUNDS, _pin_region, band_order, fill_hole
 from shellrepair.fill.merge import Accepted
-from shellrepair.fill.patch import PatchError, corners, _meets_edge_on, build_patch
+from shellrepair.fill.patch import PatchError, _meets_edge_on, build_patch, corners
+from shellrepair.mesh.index import rim_data
 
 __all__ = ["flat_face_with_hole", "CAPS_SHARE", "GUIDE_SHARE", "COARSE_SPACING"]
 
@@ -99,9 +99,9 @@ def flat_face_with_hole(ctx, A, B):
         reversed (as the scan's faces have it), or None when the loops are
         not such a face.
     """
-    from shellrepair.holes.loops import loop_stats
     from shellrepair.fill.patch import EDGE_ON_CAD_PLANARITY, EDGE_ON_PLANARITY
     from shellrepair.fill.probe import inside_polygon
+    from shellrepair.holes.loops import loop_stats
 
     if not (_meets_edge_on(ctx, A.vertices, A.id) and _meets_edge_on(ctx, B.vertices, B.id)):
         return None

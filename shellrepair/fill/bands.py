@@ -14,9 +14,17 @@ from itertools import chain
 from typing import NamedTuple
 
 import numpy as np
-from shellrepair.lazyscipy import cKDTree
 
-from shellrepair.fill.bridge import ARC_SAMPLES, MAX_REACH, SIGHT_SLACK, continuation_arcs_many, band_pairs, loop_sights, pants_triples
+from shellrepair.fill.bridge import (
+    ARC_SAMPLES,
+    MAX_REACH,
+    SIGHT_SLACK,
+    band_pairs,
+    continuation_arcs_many,
+    loop_sights,
+    pants_triples,
+)
+from shellrepair.lazyscipy import cKDTree
 
 __all__ = ["Band", "Bands", "find_bands", "wrapped_pairs", "loops_with_partner"]
 

@@ -64,10 +64,10 @@ are found by :func:`shellrepair.fill.bands.find_bands`, the tube is built by
 from __future__ import annotations
 
 import numpy as np
-from shellrepair.lazyscipy import cKDTree
 
 from shellrepair import compiled
 from shellrepair.fill import bridge_kernels
+from shellrepair.lazyscipy import cKDTree
 
 __all__ = ["continuation_arcs", "continuation_arcs_many", "next_to", "arc_points", "loop_sights", "band_pairs",
            "pants_triples", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]

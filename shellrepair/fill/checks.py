@@ -20,16 +20,16 @@ This module imports no fill stage above it: :mod:`~shellrepair.fill.hole` and
 from __future__ import annotations
 
 import contextlib
-
 from typing import NamedTuple
 
 import numpy as np
 
 from shellrepair import compiled
 from shellrepair.fill import checks_kernels
-from shellrepair.mesh.intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
-from shellrepair.fill.merge import edges_of, scan_edges as patch_scan_edges
+from shellrepair.fill.merge import edges_of
+from shellrepair.fill.merge import scan_edges as patch_scan_edges
 from shellrepair.fill.patch import corners as corners_of
+from shellrepair.mesh.intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
 
 
 class Outcome(NamedTuple):

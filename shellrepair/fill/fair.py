@@ -67,14 +67,12 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-from shellrepair.lazyscipy import sparse as sp
-from shellrepair.lazyscipy import sparse_linalg as spla
 
 from shellrepair import compiled
-from shellrepair.fill import cholesky
-from shellrepair.fill import fair_kernels
-from shellrepair.fill import intrinsic_kernels
+from shellrepair.fill import cholesky, fair_kernels, intrinsic_kernels
 from shellrepair.fill.intrinsic import intrinsic_laplacian
+from shellrepair.lazyscipy import sparse as sp
+from shellrepair.lazyscipy import sparse_linalg as spla
 
 __all__ = ["fair_patch", "fair_patch_orders", "Operator", "as_matrix", "first_solve_memo", "uniform_laplacian", "taubin_smooth", "umbrella_smooth", "harmonic_interpolate",
            "cotan_operators", "energy_matrix", "as_sparse", "Factor", "pcg", "current_first_solve_memo", "energy_rows",

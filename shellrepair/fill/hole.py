@@ -22,13 +22,12 @@ import copy
 import time
 
 import numpy as np
-from shellrepair.lazyscipy import cKDTree
 
 from shellrepair.fill import checks
-from shellrepair.fill.fair import umbrella_smooth
-
 from shellrepair.fill.checks import Outcome
-from shellrepair.fill.patch import PatchError, corners, _meets_edge_on, build_patch
+from shellrepair.fill.fair import umbrella_smooth
+from shellrepair.fill.patch import PatchError, _meets_edge_on, build_patch, corners
+from shellrepair.lazyscipy import cKDTree
 
 __all__ = ["fill_hole", "fill_hole_at_order", "band_order", "SEED_SMOOTH_PASSES"]
 

@@ -32,11 +32,11 @@ digital geometry processing", Computing 81 (2007). N. Sharp, K. Crane,
 from __future__ import annotations
 
 import numpy as np
-from shellrepair.lazyscipy import sparse as sp
 
 from shellrepair import compiled
 from shellrepair.fill import intrinsic_kernels
 from shellrepair.fill.refine import independent_flips
+from shellrepair.lazyscipy import sparse as sp
 from shellrepair.mesh.topology import edge_topology, manifold_pairs
 
 __all__ = ["intrinsic_delaunay", "intrinsic_laplacian", "laplacian_arrays", "flip_to_delaunay", "flip_to_delaunay_reference",

@@ -40,9 +40,9 @@ from typing import NamedTuple
 import numpy as np
 
 from shellrepair.errors import MeshError
+from shellrepair.fill.triangulate import delaunay_faces, restricted_dp, with_loop_edges
 from shellrepair.mesh.geometry import cross, dot
 from shellrepair.mesh.intersect import TriangleIndex, patch_vs_index
-from shellrepair.fill.triangulate import with_loop_edges, delaunay_faces, restricted_dp
 
 #: Rings of patch triangles added around the faulty ones before cutting.
 MEND_RINGS = 1

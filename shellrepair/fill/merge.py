@@ -8,16 +8,15 @@ after the scan's own (original indices and values bit-identical), flags them
 
 from __future__ import annotations
 
-
 import numpy as np
-from shellrepair.lazyscipy import cKDTree
 
 from shellrepair import compiled
+from shellrepair.fill.patch import corners as corners_of
+from shellrepair.lazyscipy import cKDTree
 from shellrepair.mesh import intersect_kernels
 from shellrepair.mesh.geometry import bounding_spheres, bounds, triangle_boxes
 from shellrepair.mesh.intersect import _pairs_cross, ball_pairs, pair_intersections
 from shellrepair.mesh.io import Mesh
-from shellrepair.fill.patch import corners as corners_of
 
 
 def edges_of(T):

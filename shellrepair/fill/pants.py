@@ -40,6 +40,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+
 from shellrepair.lazyscipy import cKDTree
 
 __all__ = ["pants_initial", "pants_is_manifold", "PantsUnit", "PantsResult", "fill_pants", "with_fallback", "expand", "pants_unit"]
@@ -221,8 +222,8 @@ def fill_pants(ctx, unit):
 
     from shellrepair.fill import checks as _checks
     from shellrepair.fill.bridge import MAX_REACH, continuation_arcs
-    from shellrepair.mesh.index import rim_data
     from shellrepair.fill.patch import PatchError, build_patch
+    from shellrepair.mesh.index import rim_data
 
     t0 = time.perf_counter()
     A, B, C = unit.A, unit.B, unit.C

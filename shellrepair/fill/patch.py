@@ -21,14 +21,14 @@ from typing import NamedTuple
 import numpy as np
 
 from shellrepair import compiled
-from shellrepair.fill import patch_kernels
-from shellrepair.mesh.index import local_frame, rim_data, submesh
 from shellrepair.errors import MeshError
-from shellrepair.mesh.geometry import cross
+from shellrepair.fill import patch_kernels
 from shellrepair.fill.fair import fair_patch, harmonic_interpolate, patch_energies, taubin_smooth, uniform_laplacian
-from shellrepair.mesh.intersect import patch_vs_index
 from shellrepair.fill.refine import refine_patch, refine_patches
 from shellrepair.fill.triangulate import triangulate_loop
+from shellrepair.mesh.geometry import cross
+from shellrepair.mesh.index import local_frame, rim_data, submesh
+from shellrepair.mesh.intersect import patch_vs_index
 
 
 class HoleUnit(NamedTuple):

@@ -638,10 +638,10 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):
 
     from shellrepair.errors import MeshError
     from shellrepair.fill.fair import fair_patch_orders
-    from shellrepair.mesh.io import Mesh
-    from shellrepair.mesh.index import ScanContext
     from shellrepair.fill.patch import PatchError
     from shellrepair.mesh.distance import point_mesh_distance
+    from shellrepair.mesh.index import ScanContext
+    from shellrepair.mesh.io import Mesh
 
     max_probes = PROBES if max_probes is None else int(max_probes)
     V = ctx.V
@@ -743,11 +743,11 @@ def tube_errors(ctx, A, B, candidates):
     tests : int
     """
     from shellrepair.errors import MeshError
-    from shellrepair.holes.loops import boundary_loops
-    from shellrepair.mesh.io import Mesh
-    from shellrepair.mesh.index import ScanContext
     from shellrepair.fill.patch import PatchError, build_patch
+    from shellrepair.holes.loops import boundary_loops
     from shellrepair.mesh.distance import point_mesh_distance
+    from shellrepair.mesh.index import ScanContext
+    from shellrepair.mesh.io import Mesh
 
     V, F = ctx.V, ctx.F
     pool = _Pooled(candidates)
@@ -854,9 +854,9 @@ def _refined(ctx, loop, rings):
     triangles, and the refinement's edge length in rim edges (1 or
     ``TEST_COARSEN``).
     """
-    from shellrepair.mesh.index import local_frame, rim_data, submesh
     from shellrepair.fill.refine import refine_patch
     from shellrepair.fill.triangulate import triangulate_loop
+    from shellrepair.mesh.index import local_frame, rim_data, submesh
 
     k = len(loop)
     sigma, edge_normals, forbidden = rim_data(ctx, loop)

@@ -56,12 +56,12 @@ from typing import NamedTuple
 import numpy as np
 
 from shellrepair.fill.checks import check_patch
-from shellrepair.mesh.index import rim_data
 from shellrepair.fill.fair import harmonic_interpolate, uniform_laplacian
-from shellrepair.mesh.geometry import plane_frame
-from shellrepair.mesh.intersect import outline_is_simple
 from shellrepair.fill.patch import Patch
 from shellrepair.fill.refine import DENSITY_ALPHA, MAX_PATCH_FACES, _forbidden_pairs, _refine, refine_patch, relax_edges
+from shellrepair.mesh.geometry import plane_frame
+from shellrepair.mesh.index import rim_data
+from shellrepair.mesh.intersect import outline_is_simple
 
 #: How far above (or below) the highest (lowest) scan point under it a
 #: raised patch triangle's corners are put, in opening diameters.

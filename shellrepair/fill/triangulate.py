@@ -43,10 +43,9 @@ from collections import OrderedDict
 import numpy as np
 
 from shellrepair import compiled
+from shellrepair.errors import MeshError
 from shellrepair.fill import triangulate_kernels
 from shellrepair.mesh.geometry import cross, dot, plane_frame, points_in_polygon
-
-from shellrepair.errors import MeshError
 
 __all__ = ["triangulate_loop", "restricted_dp", "restricted_dp_reference", "delaunay_faces", "delaunay_faces_uncached",
            "delaunay_in_projection", "loop_cover_reference", "with_loop_edges", "best_chord", "best_chord_rows", "liepa_dp",

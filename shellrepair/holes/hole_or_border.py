@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from shellrepair.mesh.geometry import cross, plane_frame, points_in_polygon
 from shellrepair.mesh import fastmesh
+from shellrepair.mesh.geometry import cross, plane_frame, points_in_polygon
 
 __all__ = ["piece_views", "edge_on_share", "sampled_normals", "sample_plan", "wrap_certificate",
            "wrap_certificate_of_sums", "VIEW_DIRECTIONS", "WRAP_RATIO", "EDGE_ON_SHARE"]
@@ -480,8 +480,8 @@ def _band_rims(V, F, scan, rims, piece_of):
                 pairs.append((R.id, holes[j].id))
     if not pairs:
         return
-    from shellrepair.mesh.io import Mesh
     from shellrepair.mesh.index import ScanContext
+    from shellrepair.mesh.io import Mesh
 
     ctx = ScanContext(Mesh(V=np.asarray(V, np.float64), F=np.asarray(F, np.int64)))
     sights = loop_sights(ctx.V, scan.loops, lambda lp: ctx.F[ctx.ring_faces(lp, 3)],

@@ -81,10 +81,19 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from shellrepair.mesh.geometry import cross, uniq
 from shellrepair import compiled
+from shellrepair.holes.hole_or_border import (
+    EDGE_ON_DEGREES,
+    EDGE_ON_SHARE,
+    OUTER_SAMPLES,
+    WRAP_RATIO,
+    _band_rims,
+    _inside_fractions,
+    _piece_views,
+    edge_on_share,
+)
+from shellrepair.mesh.geometry import cross, uniq
 from shellrepair.mesh.topology import components_of_pieces, edge_topology, face_areas, face_pieces
-from shellrepair.holes.hole_or_border import EDGE_ON_DEGREES, EDGE_ON_SHARE, OUTER_SAMPLES, WRAP_RATIO, _band_rims, _inside_fractions, _piece_views, edge_on_share
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats"]
 

@@ -58,9 +58,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from shellrepair.lazyscipy import breadth_first_order
+from shellrepair.lazyscipy import sparse as sp
 from shellrepair.mesh import fastmesh
 from shellrepair.mesh.components import connected_components
-from shellrepair.lazyscipy import breadth_first_order, sparse as sp
 from shellrepair.mesh.geometry import concat_ranges, cross, dot
 from shellrepair.mesh.topology import CHUNK, corner_fans, edge_topology, manifold_pairs
 

@@ -32,9 +32,9 @@ Ours stays for both reasons.
 from __future__ import annotations
 
 import numpy as np
-from shellrepair.lazyscipy import cKDTree
 
 from shellrepair import compiled
+from shellrepair.lazyscipy import cKDTree
 from shellrepair.mesh import distance_kernels
 
 __all__ = ["point_mesh_distance", "nearest_triangle_distances_reference"]

@@ -56,14 +56,12 @@ import itertools
 
 import numpy as np
 
+from shellrepair import compiled
+from shellrepair.lazyscipy import cKDTree
+from shellrepair.mesh import fastmesh, intersect_kernels, topology_kernels
 from shellrepair.mesh.geometry import bounding_spheres, bounds, concat_ranges, cross, plane_frame, triangle_boxes, uniq
 from shellrepair.mesh.predicates import EPS, O3D_BOUND, TINY, orient2d, orient3d
-from shellrepair import compiled
-from shellrepair.mesh import intersect_kernels
-from shellrepair.mesh import topology_kernels
-from shellrepair.mesh import fastmesh
 from shellrepair.mesh.topology import vertex_faces
-from shellrepair.lazyscipy import cKDTree
 
 __all__ = ["TriangleIndex", "NearFaces", "pair_intersections", "crossing_pairs", "self_intersections",
            "patch_vs_index_many",

@@ -83,15 +83,15 @@ from typing import Union
 
 import numpy as np
 
-from shellrepair.mesh.clean import clean_faces
 from shellrepair.errors import MeshError
 from shellrepair.files import atomic_write, atomic_write_many, check_output_path, new_file_mode
+from shellrepair.mesh import fastmesh
+from shellrepair.mesh.clean import clean_faces
+from shellrepair.mesh.core import Mesh, as_written, written_faces
 from shellrepair.mesh.formats import READERS, SUPPORTED, WRITERS
 from shellrepair.mesh.formats.obj import obj_bytes
-from shellrepair.mesh.core import Mesh, as_written, written_faces
-from shellrepair.progress import ProgressArg
-from shellrepair.mesh import fastmesh
 from shellrepair.mesh.topology import edge_topology, face_areas
+from shellrepair.progress import ProgressArg
 
 __all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_bytes", "check_output_path", "clean_faces", "manifold_mesh",
            "atomic_write", "atomic_write_many", "new_file_mode", "written_faces", "SUPPORTED",

@@ -9,9 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from shellrepair.lazyscipy import sparse as sp
-from shellrepair.lazyscipy import connected_components
 
+from shellrepair.lazyscipy import connected_components
+from shellrepair.lazyscipy import sparse as sp
 from shellrepair.mesh import fastmesh
 from shellrepair.mesh.geometry import cross, uniq, vertex_faces_scipy
 

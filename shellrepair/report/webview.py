@@ -162,7 +162,7 @@ def display_copy(V, F, *, max_faces=DISPLAY_FACES):
         face_source = np.empty(len(Fd), np.int64)
         face_source[od] = alive[oa]
         return Vd, Fd, face_source, vertex_map
-    from scipy.spatial import cKDTree   # another numbering: the nearest instead
+    from scipy.spatial import cKDTree  # another numbering: the nearest instead
 
     vertex_map = np.where(used, cKDTree(Vd).query(V)[1], -1).astype(np.int64)
     face_source = cKDTree(V[F].mean(axis=1)).query(Vd[Fd].mean(axis=1))[1].astype(np.int64)
@@ -229,9 +229,9 @@ def view_payload(mesh, *, up=(0.0, 1.0, 0.0), age=None, seed=0, material="aged-b
     """
     from shellrepair.appearance import aging as ag
     from shellrepair.appearance.gltf import pbr_approximation
-    from shellrepair.report.overlay import OPEN_EDGE_COLOR
     from shellrepair.appearance.render import FILLED_TINT
     from shellrepair.mesh.topology import edge_topology
+    from shellrepair.report.overlay import OPEN_EDGE_COLOR
 
     V = np.asarray(mesh.V, np.float64)
     F = np.asarray(mesh.F, np.int64)

@@ -60,11 +60,32 @@ References
 from __future__ import annotations
 
 from shellrepair.appearance.reflectance import albedo, dipole, km, layered, microfacet
-from shellrepair.appearance.reflectance.albedo import RHO_DT_ETA_RANGE, RHO_DT_M_RANGE, RHO_DT_MAX_ERROR, RhoDtTable, diffuse_transmittance, internal_reflectance, mean_transmittance, rho_dt_table, specular_albedo, u_mean_weights
+from shellrepair.appearance.reflectance.albedo import (
+    RHO_DT_ETA_RANGE,
+    RHO_DT_M_RANGE,
+    RHO_DT_MAX_ERROR,
+    RhoDtTable,
+    diffuse_transmittance,
+    internal_reflectance,
+    mean_transmittance,
+    rho_dt_table,
+    specular_albedo,
+    u_mean_weights,
+)
 from shellrepair.appearance.reflectance.dipole import dipole_profile, dipole_rd, dipole_tail_fraction
 from shellrepair.appearance.reflectance.km import km_layers, km_mix, km_r_inf, km_reflectance, km_to_transport
 from shellrepair.appearance.reflectance.layered import layered_diffuse, local_brdf
-from shellrepair.appearance.reflectance.microfacet import COS_EPS, M_MIN, MU_FLOOR, beckmann_D, fresnel_conductor, fresnel_dielectric, torrance_sparrow, torrance_sparrow_conductor, v_cavity_G
+from shellrepair.appearance.reflectance.microfacet import (
+    COS_EPS,
+    M_MIN,
+    MU_FLOOR,
+    beckmann_D,
+    fresnel_conductor,
+    fresnel_dielectric,
+    torrance_sparrow,
+    torrance_sparrow_conductor,
+    v_cavity_G,
+)
 
 __all__ = [
     "M_MIN",

@@ -32,7 +32,7 @@ import threading
 import numpy as np
 
 from shellrepair.appearance.reflectance.dispatch import elementwise, kernels
-from shellrepair.appearance.reflectance.microfacet import COS_EPS, M_MIN, _TINY, _fresnel_dielectric_np
+from shellrepair.appearance.reflectance.microfacet import _TINY, COS_EPS, M_MIN, _fresnel_dielectric_np
 
 __all__ = [
     "RHO_DT_M_RANGE",

@@ -20,9 +20,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from shellrepair.appearance.reflectance.albedo import (
+    RHO_DT_ETA_RANGE,
+    _diffuse_transmittance_np,
+    _internal_reflectance_np,
+    _mean_transmittance_np,
+    rho_dt_table,
+)
 from shellrepair.appearance.reflectance.dispatch import directional, kernels, with_rows
-from shellrepair.appearance.reflectance.albedo import RHO_DT_ETA_RANGE, _diffuse_transmittance_np, _internal_reflectance_np, _mean_transmittance_np, rho_dt_table
-from shellrepair.appearance.reflectance.microfacet import COS_EPS, _TINY, _dot, _torrance_sparrow_np
+from shellrepair.appearance.reflectance.microfacet import _TINY, COS_EPS, _dot, _torrance_sparrow_np
 
 __all__ = ["layered_diffuse", "local_brdf"]
 

@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 # the guards, documented in their module and shared with the compiled kernels
-from shellrepair.appearance.reflectance._constants import COS_EPS, M_MIN, MU_FLOOR, _TINY
+from shellrepair.appearance.reflectance._constants import _TINY, COS_EPS, M_MIN, MU_FLOOR
 from shellrepair.appearance.reflectance.dispatch import directional, elementwise, kernels
 
 __all__ = [
