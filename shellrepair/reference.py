@@ -5,8 +5,10 @@ one), what a kernel of a ``shellrepair/*_kernels.py`` module computes, by
 the same operations in the same order, so that the tests can ask for
 equality to the bit. This module imports no kernel module.
 
-An oracle that the package itself also runs when the kernels are off stays
-beside its caller as a public ``*_reference`` function instead (for example
+Two of them are also what the package runs where the kernels are not
+loaded: :func:`loop_diameter` (hole detection's diameters) and
+:func:`ring_sums` (the continuation arcs'). Other such oracles stay beside
+their callers as public ``*_reference`` functions (for example
 :func:`shellrepair.fill.refine.relax_reference` or
 :func:`shellrepair.fill.intrinsic.flip_to_delaunay_reference`).
 """

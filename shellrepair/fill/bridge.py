@@ -68,6 +68,7 @@ import numpy as np
 from shellrepair import compiled
 from shellrepair.fill import bridge_kernels
 from shellrepair.lazyscipy import cKDTree
+from shellrepair.reference import ring_sums as ring_sums_reference
 
 __all__ = ["continuation_arcs", "continuation_arcs_many", "next_to", "arc_points", "loop_sights", "band_pairs",
            "pants_triples", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
@@ -208,7 +209,7 @@ def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
             np.add.at(acc, L[:, c], Nf)
     ln = np.linalg.norm(acc, axis=1, keepdims=True)
     Nv = np.divide(acc, ln, out=np.zeros_like(acc), where=ln > 0)
-    sums = bridge_kernels.ring_sums if compiled.ENABLED else _ring_sums
+    sums = bridge_kernels.ring_sums if compiled.ENABLED else ring_sums_reference
     s1, c1, N, s2, c2, N2 = sums(E, li, level, X, Nv)
     ok = (c1 > 0) & (c2 > 0)
     q1 = s1 / np.maximum(c1, 1)[:, None]
@@ -262,33 +263,6 @@ def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
     T = np.divide(T, tl, out=np.zeros_like(T), where=tl > 0)
     bounds = np.concatenate([[0], np.cumsum(sizes)])
     return q1, T, N, kap, s0, ok, bounds
-
-
-def _ring_sums(E, li, level, X, Nv):
-    """Per rim vertex ``li[i]``: the sums of ``X`` and ``Nv`` over its
-    neighbours at level 1, their count, and the same over the level-2
-    neighbours of those (the rows of ``R1 = A[li]`` and ``R2 = R1 A``
-    restricted to those levels, ``A`` the all-ones adjacency of the edges
-    ``E``): as sparse products, each row summed in column order from zero
-    (:func:`shellrepair.fill.bridge_kernels.ring_sums` is the same sums compiled).
-
-    Returns
-    -------
-    s1 : (p,3) float64, c1 : (p,) float64, n1 : (p,3) float64
-    s2 : (p,3) float64, c2 : (p,) float64, n2 : (p,3) float64
-    """
-    import scipy.sparse as sp
-
-    nv = len(level)
-    A = sp.csr_matrix((np.ones(2 * len(E)), (np.concatenate([E[:, 0], E[:, 1]]), np.concatenate([E[:, 1], E[:, 0]]))),
-                      shape=(nv, nv))
-    A.data[:] = 1.0
-    R1 = A[li].multiply((level == 1)[None]).tocsr()
-    R1.eliminate_zeros()
-    R2 = (R1 @ A).multiply((level == 2)[None]).tocsr()
-    R2.eliminate_zeros()
-    R2.data[:] = 1.0
-    return R1 @ X, R1.sum(axis=1).A1, R1 @ Nv, R2 @ X, R2.sum(axis=1).A1, R2 @ Nv
 
 
 def next_to(E, mark):

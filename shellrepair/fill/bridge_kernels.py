@@ -1,7 +1,7 @@
 """Compiled kernels of the continuation arcs between loops (:mod:`shellrepair.fill.bridge`, Numba).
 
 * :func:`ring_sums`: the sums over the two rings around a loop's vertices
-  (:func:`shellrepair.fill.bridge._ring_sums`), and :func:`block_ids`,
+  (:func:`shellrepair.reference.ring_sums`), and :func:`block_ids`,
   :func:`corner_normal_sums`: the arcs' local vertex numbers and vertex
   normal sums;
 * :func:`arc_landings`: where each continuation arc lands first, arc by
@@ -91,7 +91,7 @@ def _ring_sums(E, li, level, X, Nv):
 
 
 def ring_sums(E, li, level, X, Nv):
-    """:func:`shellrepair.fill.bridge._ring_sums` compiled: per rim vertex the
+    """:func:`shellrepair.reference.ring_sums` compiled: per rim vertex the
     sums over its level-1 neighbours and over their level-2 neighbours, in
     ascending vertex order from zero, as the sparse products add them.
 
@@ -107,7 +107,7 @@ def ring_sums(E, li, level, X, Nv):
     Returns
     -------
     s1, c1, n1, s2, c2, n2
-        As :func:`shellrepair.fill.bridge._ring_sums`.
+        As :func:`shellrepair.reference.ring_sums`.
     """
     c = lambda x: np.ascontiguousarray(x, np.float64)  # noqa: E731
     i = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731

@@ -94,6 +94,7 @@ from shellrepair.holes.hole_or_border import (
 )
 from shellrepair.mesh.geometry import cross, uniq
 from shellrepair.mesh.topology import components_of_pieces, edge_topology, face_areas, face_pieces
+from shellrepair.reference import loop_diameter
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats"]
 
@@ -414,16 +415,7 @@ def _diameter(Q, chunk=2048):
     k = sys.modules.get("shellrepair.mesh.common_kernels")
     if k is not None and compiled.ENABLED and len(Q) > 1 and np.isfinite(Q).all():
         return float(np.sqrt(k.max_sq_distance(Q)))
-    return _diameter_numpy(Q, chunk)
-
-
-def _diameter_numpy(Q, chunk=2048):
-    """:func:`_diameter` in NumPy (the kernel's test oracle)."""
-    best = 0.0
-    for i in range(0, len(Q), chunk):
-        d = ((Q[i:i + chunk, None, :] - Q[None, :, :]) ** 2).sum(axis=2)
-        best = max(best, float(d.max()))
-    return float(np.sqrt(best))
+    return loop_diameter(Q, chunk)
 
 
 def detect_holes(V: np.ndarray, F: np.ndarray, *, max_hole: int | None = None, fill_borders: bool = False,
