@@ -11,7 +11,8 @@ faces are split into pieces joined by shared new vertices, and each piece
 goes to the loop of the input whose rim vertices it uses.
 
 It writes ``<out>/order-calibration-seed<seed>.json`` (per hole: the
-test's RMS per order, its scale, the truth RMS per order) and ``.md``:
+test's RMS per order, its scale and number of test holes, the hole's
+radius, the truth RMS per order) and ``.md``:
 
 * the test's o3/o2 ratio in bins, against the truth's o3/o2 ratio in the
   same holes (how often order 3 was truer, the geometric mean of the
@@ -103,6 +104,7 @@ def patch_rms(V, F, faces, truth_V, truth_F, diag):
 
 def run_case(case):
     """Per judged hole of one case: the test's verdict and each forced order's truth RMS."""
+    from shellrepair.fill.probe import hole_radius
     from shellrepair.holes.loops import detect_holes
     from shellrepair.mesh.io import Mesh
     from shellrepair.repair import repair_mesh
@@ -123,6 +125,8 @@ def run_case(case):
             ch = row.get("choice") or {}
             if order == "auto" and ch.get("test_rms"):
                 judged[row["id"]] = {"edges": row["edges"], "pick": str(ch["order"]), "scale": ch["scale"],
+                                     "probes": ch.get("probes"),
+                                     "radius": hole_radius(case.V, loops[i]),
                                      "test": {str(k): float(v) for k, v in ch["test_rms"].items()}}
     holes = []
     for h, j in sorted(judged.items()):

@@ -217,11 +217,15 @@ def band_order(ctx, loops):
     (``probe.HELD``); the lowest error wins (equal errors: the default
     order, then the lower). Where no test band can be cut (the band is as
     long as the intact scan beside it, or meets another hole or a border),
-    the scan cannot tell: :data:`shellrepair.fill.selftest.DEFAULT_ORDER`, and
-    the held tube against the faired one by their energies, as with a
-    forced order (disc-shaped test holes beside the loops chose worse
-    there: on a torus seen from a ring of views, order 3, 3.2 ‰, against
-    order 2's held tube, 0.55 ‰).
+    the order is the one test holes of each loop's size beside it choose
+    (:func:`shellrepair.fill.selftest.choose_order_beside`, as for a pants;
+    before, order 2 by default: on a torus seen from a ring of views,
+    development seed 733 case 14, order 2 gave 21.8 per mille where order
+    3 gives 10.1), and the held tube is weighed against the faired one by
+    their energies, as with a forced order (disc-shaped test holes
+    beside the loops, asked to rank the held tube too, chose worse: on a
+    torus seen from a ring of views, order 3, 3.2 ‰, against order 2's
+    held tube, 0.55 ‰).
 
     Returns
     -------
@@ -235,7 +239,7 @@ def band_order(ctx, loops):
         For the report.
     """
     from shellrepair.fill.probe import HELD, tube_errors
-    from shellrepair.fill.selftest import CANDIDATES, DEFAULT_ORDER, best_candidate
+    from shellrepair.fill.selftest import CANDIDATES, best_candidate, choose_order_beside
 
     if len(loops) == 2:
         errs, n = tube_errors(ctx, loops[0], loops[1], tuple(CANDIDATES) + (HELD,))
@@ -244,8 +248,9 @@ def band_order(ctx, loops):
             faired = best_candidate({o: e for o, e in errs.items() if o != HELD})
             desc = ", ".join(f"{'held' if o == HELD else f'order {o}'} {e:.3g}" for o, e in errs.items())
             return int(faired), best == HELD, f"auto: by {n} test bands beside the loops, RMS {desc}"
-    return DEFAULT_ORDER, None, (f"auto: order {DEFAULT_ORDER}, no test band fits beside the loops: the scan "
-                                 f"cannot tell (held or faired by energy)")
+    test = choose_order_beside(ctx, loops)
+    return int(test.order), None, (f"{test.describe()}, no test band fits beside the loops "
+                                   f"(held or faired by energy)")
 
 
 def fill_hole_at_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):

@@ -207,8 +207,12 @@ def fill_pants(ctx, unit):
     a result saying why not (its fallback units are then filled as they
     were before: :func:`with_fallback`).
 
-    The pants (:func:`pants_initial`) is faired (order as the unit's,
-    ``"auto"`` as 2) and, if it fails its checks, held on its guide; then
+    The pants (:func:`pants_initial`) is faired (order as the unit's;
+    ``"auto"``: the order test holes beside its three loops choose,
+    :func:`shellrepair.fill.selftest.choose_order_beside`; before, a pants
+    under ``auto`` was always faired at order 2: on a genus-2 part seen
+    from four views, development seed 731 case 9, order 2 gave 4.57 per
+    mille where order 3, which the test chooses, gives 1.82) and, if it fails its checks, held on its guide; then
     the failed attempts are mended (:func:`shellrepair.fill.checks.mend_last`).
     Every option must pass :func:`shellrepair.fill.checks.check_patch`, repeat no
     edge of the scan and be a genus-0 surface bounded by exactly the three
@@ -223,6 +227,7 @@ def fill_pants(ctx, unit):
     from shellrepair.fill import checks as _checks
     from shellrepair.fill.bridge import MAX_REACH, continuation_arcs
     from shellrepair.fill.patch import PatchError, build_patch
+    from shellrepair.fill.selftest import choose_order_beside
     from shellrepair.mesh.index import rim_data
 
     t0 = time.perf_counter()
@@ -230,7 +235,8 @@ def fill_pants(ctx, unit):
     loop = np.concatenate([A.vertices, B.vertices, C.vertices])
     sizes = [len(A.vertices), len(B.vertices), len(C.vertices)]
     k = len(loop)
-    order = 2 if unit.order == "auto" else unit.order
+    choice = choose_order_beside(ctx, (A, B, C)) if unit.order == "auto" else None
+    order = unit.order if choice is None else choice.order
     budget = _checks.WorkBudget(k)
     scan_edges = _checks.edges_across(ctx, (A, B, C))
     why = []
@@ -268,7 +274,8 @@ def fill_pants(ctx, unit):
             budget.spend(p)
             w, bad = check(ctx, p)
             p = p.with_(option=f"pants joining loops {B.id} and {C.id} to loop {A.id}, "
-                               + (f"faired order {order}" if pinned is None else "refined, held on its guide"))
+                               + (f"faired order {order}" if pinned is None else "refined, held on its guide")
+                               + ("" if choice is None else f" ({choice.describe()})"), choice=choice)
             if w is None:
                 pants = p
                 break
@@ -280,7 +287,7 @@ def fill_pants(ctx, unit):
             why += notes
     secs = time.perf_counter() - t0
     if pants is not None:
-        pants = pants.with_(hole_id=A.id)
+        pants = pants.with_(hole_id=A.id, choice=pants.choice or choice)   # (a mended pants keeps the choice)
         e = pants.energy[_checks.ENERGY] if pants.energy is not None else None
         record = {"loops": [int(A.id), int(B.id), int(C.id)], "kinds": [A.kind, B.kind, C.kind],
                   "tube_energy": None if e is None else round(float(e), 6), "caps_energy": None,

@@ -50,8 +50,16 @@ MARGIN_EDGES = 5.0
 #: of the probe's radius (inner, outer), tried in turn until ``PROBES`` fit.
 SHELLS = ((1.2, 2.5), (2.5, 5.0), (5.0, 10.0))
 #: Probe radii tried, in units of the hole's (:func:`hole_radius`): the
-#: hole's own size first; smaller ones only where no probe of that size fits.
+#: hole's own size first; smaller ones only where fewer than ``MIN_PROBES``
+#: probes of that size fit.
 SCALES = (1.0, 0.5, 0.25)
+#: Test holes a scale needs before its verdict is taken (one alone is not
+#: repeated evidence: a single disc of the hole's area laid over a fat
+#: torus's tube, or over an armadillo's relief, ranked the orders the
+#: other way round from the real hole, where the next scale's 3 test holes
+#: ranked them as the real hole does; see :func:`probe_errors`). Where no
+#: scale reaches it, the largest scale with any test hole is taken.
+MIN_PROBES = 2
 #: Corners of the disc tried where no test hole of the hole's outline fits
 #: (an outline too long for the intact scan around it, such as a slit's).
 DISC_POINTS = 32
@@ -625,12 +633,15 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     # the real rim's roughness, given to each test hole's rim (a ragged rim
     # is noise a higher order carries on into the hole)
     rough = rim_roughness(V, ctx.F[ctx.ring_faces(loop, 1)], loop)
-    for f in SCALES:          # the largest scale at which a test hole fits
+    few = None               # the largest scale's verdict from fewer than MIN_PROBES test holes
+    for f in SCALES:          # the largest scale at which MIN_PROBES test holes fit
         for shape in own + [disc]:          # the hole's own outline, then a disc of its area
             errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough)
-            if n:
+            if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
                 return errors, n, f
-    return {}, 0, 0.0
+            if n and few is None:
+                few = (errors, n, f)
+    return few if few is not None else ({}, 0, 0.0)
 
 
 def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough):

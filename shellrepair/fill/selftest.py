@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["choose_order", "best_candidate", "OrderTest", "CANDIDATES", "DEFAULT_ORDER"]
+__all__ = ["choose_order", "choose_order_beside", "best_candidate", "OrderTest", "CANDIDATES", "DEFAULT_ORDER"]
 
 #: Candidate fairing orders (ties go to ``DEFAULT_ORDER``, then the lower order).
 CANDIDATES = (1, 2, 3)
@@ -139,6 +139,48 @@ def choose_order(ctx, hole_id, loop, candidates=None):
         return OrderTest(DEFAULT_ORDER, why="no intact scan of the hole's size around it: the scan cannot tell")
     best = best_candidate({o: errors[o] for o in candidates})
     return OrderTest(int(best), errors=errors, probes=n, scale=scale)
+
+
+def choose_order_beside(ctx, loops, candidates=None):
+    """The fairing order of a patch spanning several loops (a pants, or a
+    tube where no test band fits beside its loops): test holes of each
+    loop's size cut beside it (:func:`shellrepair.fill.probe.probe_errors`,
+    the test of a single hole), their squared errors pooled over the
+    loops (weighted by each loop's test holes); the lowest wins
+    (:func:`best_candidate`). Where no test hole fits beside any loop, the
+    scan cannot tell: ``DEFAULT_ORDER``.
+
+    Parameters
+    ----------
+    ctx : shellrepair.mesh.index.ScanContext
+    loops : sequence of shellrepair.holes.loops.Loop
+    candidates : sequence of int, optional
+        Default :data:`CANDIDATES`.
+
+    Returns
+    -------
+    test : OrderTest
+        ``scale`` is the largest of the loops' test scales.
+    """
+    from shellrepair.fill.probe import probe_errors
+
+    candidates = CANDIDATES if candidates is None else tuple(candidates)
+    sq, count, scale = dict.fromkeys(candidates, 0.0), 0, 0.0
+    for L in loops:
+        loop = np.asarray(L.vertices, np.int64)
+        if len(loop) < MIN_EDGES:
+            continue
+        errors, n, s = probe_errors(ctx, loop, candidates)
+        if not errors:
+            continue
+        for o in candidates:
+            sq[o] += errors[o] ** 2 * n
+        count += n
+        scale = max(scale, s)
+    if not count:
+        return OrderTest(DEFAULT_ORDER, why="no test hole fits beside its loops: the scan cannot tell")
+    rms = {o: float(np.sqrt(sq[o] / count)) for o in candidates}
+    return OrderTest(int(best_candidate(rms)), errors=rms, probes=count, scale=scale)
 
 
 def best_candidate(errors):
