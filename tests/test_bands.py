@@ -736,3 +736,23 @@ def test_a_tubes_default_is_as_true_as_its_best_forced_order(kind, ratio):
         rms[o] = filled_rms_permille(V, F, R)
     assert "auto: " in rep["holes"][0]["option"]
     assert rms["auto"] <= 1.1 * min(rms[1], rms[2], rms[3]), rms
+
+
+@pytest.mark.slow
+def test_a_tube_with_no_room_for_test_bands_takes_the_order_test_holes_beside_its_loops_choose():
+    """A fat torus whose inner band no view saw (eval's stress case 14 of
+    development seed 733): no test band fits beside the loops; before, the
+    tube then took order 2 (21.8 per mille), where the test holes beside
+    the loops choose order 3 (10.1)."""
+    from eval import stress
+
+    case = stress.stress_case(14, 733)
+    facts = stress.input_facts(case)
+    M = Mesh(V=case.V, F=case.F)
+    R, rep = repair_mesh(M)
+    tube = next(h for h in rep["holes"] if h["reason"].startswith("tube"))
+    assert "no test band fits" in tube["reason"] and "by " in tube["reason"] and "test holes" in tube["reason"]
+    assert "faired order 3" in tube["reason"]
+    auto = stress.measure(case, facts, R.V, R.F)["rms_permille"]
+    R2, _ = repair_mesh(M, order=2)
+    assert auto < 0.6 * stress.measure(case, facts, R2.V, R2.F)["rms_permille"]

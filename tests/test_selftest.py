@@ -259,3 +259,29 @@ def test_a_hole_whose_patch_has_no_vertex_of_its_own_is_not_tested(monkeypatch):
     R2, _ = repair_mesh(Mesh(V=case.V, F=case.F), order_for={h["id"]: 2 for h in bare})
     assert np.array_equal(R.F, R2.F) and np.array_equal(R.V.view(np.uint64), R2.V.view(np.uint64))
 
+
+
+@pytest.mark.slow
+def test_one_test_hole_is_not_enough_evidence_the_next_scale_with_two_decides(monkeypatch):
+    """A fat torus seen from a ring of views (eval's stress case 0 of seed
+    409305035): beside its 467-edge hole only one test hole of the hole's
+    size fits, and it ranks order 2 first; the three of half the size rank
+    order 3 first, as the truth does."""
+    from eval import stress
+
+    case = stress.stress_case(0, 409305035)
+    scan, ctx = context(case.V, case.F)
+    big = max(scan.holes, key=lambda L: hole_radius(case.V, L.vertices))
+    assert big.edges == 467
+    monkeypatch.setattr(probe, "MIN_PROBES", 1)
+    errors, n, scale = probe_errors(ctx, big.vertices, CANDIDATES)
+    assert (n, scale) == (1, 1.0) and min(errors, key=errors.get) == 2
+    monkeypatch.setattr(probe, "MIN_PROBES", 2)
+    errors, n, scale = probe_errors(ctx, big.vertices, CANDIDATES)
+    assert n >= 2 and scale == 0.5 and min(errors, key=errors.get) == 3
+    facts = stress.input_facts(case)
+    rms = {}
+    for o in (2, 3):
+        R, _ = repair_mesh(Mesh(V=case.V, F=case.F), order=2, order_for={big.id: o})
+        rms[o] = stress.measure(case, facts, R.V, R.F)["rms_permille"]
+    assert rms[3] < 0.5 * rms[2], rms

@@ -149,3 +149,20 @@ def test_the_text_and_html_reports_name_all_three_loops_of_a_pants(genus2):
     a, b, c = rep["bridges"][0]["loops"]
     assert f"  loops {a}, {b} and {c}: pants (pants: " in table1_text(rep)
     assert f"<li>loops {a}, {b} and {c}: pants (pants: " in scan_section(rep)
+
+
+def test_a_pants_under_auto_takes_the_order_its_loops_test_holes_choose_and_is_as_true_as_the_best(genus2):
+    """Before, a pants under ``auto`` was faired at order 2 whatever the scan said."""
+    V, F = genus2
+    V2, F2, _ = shapes.remove_faces(V, F, V[F].mean(axis=1)[:, 2] < -0.1)
+    M = Mesh(V=V2, F=F2)
+    R, rep = repair_mesh(M)
+    waist = rep["bridges"][0]["loops"][0]
+    row = next(h for h in rep["holes"] if h["id"] == waist)
+    choice = row["choice"]
+    assert choice["by"] == "test holes" and choice["probes"] >= 2 and not choice["untold"]
+    assert choice["test_rms"][str(choice["order"])] == min(choice["test_rms"].values())
+    assert f"faired order {choice['order']}" in row["option"]
+    forced = {o: filled_rms_permille(V, F, repair_mesh(M, order=o)[0]) for o in (1, 2, 3)}
+    auto = filled_rms_permille(V, F, R)
+    assert auto <= 1.05 * min(forced.values()), forced
