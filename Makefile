@@ -67,14 +67,18 @@ $(STAMP): $(INSTALLED) $(SOURCES) shellrepair/aot_types.json
 	@echo "building the package (first use, or a module changed since the last build)"
 	@echo "byte-compiling the package (an editable install does not; else the first run writes its .pyc)"
 	$(PY) -m compileall -q shellrepair
-	@echo "compiling the fill's kernels ahead of time (numba.pycc, two processes side by side;"
-	@echo "a run loads them in milliseconds and never imports Numba: shellrepair/compiled.py)"
+	@# the compiled modules are named by a hash of the kernels' sources: a change elsewhere
+	@# (a docstring, the report) finds them built and costs nothing here
+	@if $(PY) -c "from shellrepair import compiled; raise SystemExit(0 if compiled.aot_built() else 1)"; then \
+	  echo "the fill's kernels are compiled already for these sources (shellrepair/_aot_*)"; else \
+	echo "compiling the fill's kernels ahead of time (numba.pycc, two processes side by side;"; \
+	echo "a run loads them in milliseconds and never imports Numba: shellrepair/compiled.py)"; \
 	$(PY) -m shellrepair.aot build --part 0 & first=$$!; \
 	$(PY) -m shellrepair.aot build --part 1; second=$$?; wait $$first && [ $$second = 0 ] || { \
 	  echo "the ahead-of-time build failed: compiling the kernels with Numba's JIT instead (cached beside the package)"; \
 	  $(PY) -c "from shellrepair import warmup; warmup.warm_up(share=1)" & first=$$!; \
 	  $(PY) -c "from shellrepair import warmup; from shellrepair.fill import cholesky; warmup.warm_up(share=2); cholesky.warm_up()" \
-	    || { wait $$first; exit 1; }; wait $$first; }
+	    || { wait $$first; exit 1; }; wait $$first; }; fi
 	@echo "compiling the whole-mesh kernels (Numba, once, cached beside the package; used from 400k faces)"
 	$(PY) -c "from shellrepair.mesh import fastmesh; fastmesh.warm_up()"
 	touch $(STAMP)
