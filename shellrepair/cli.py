@@ -629,7 +629,10 @@ def _scan_up(arg, mesh):
     (:mod:`shellrepair.report.upaxis`)."""
     from shellrepair.report.upaxis import given_up, infer_up
 
-    return infer_up(mesh.V, mesh.F) if arg == "auto" else given_up(arg)
+    if arg != "auto":
+        return given_up(arg)
+    topo = mesh.cached("topology") if hasattr(mesh, "cached") else None
+    return infer_up(mesh.V, mesh.F, topo)
 
 
 

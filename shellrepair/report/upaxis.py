@@ -40,7 +40,7 @@ import numpy as np
 from shellrepair.errors import MeshError
 
 __all__ = ["infer_up", "scan_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_MIN_SIZE", "BASE_WALL_DEGREES", "BASE_BELOW",
-           "BASE_TOLERANCE", "BASE_MIN_HEIGHT", "ELONGATION", "SNAP_DEGREES"]
+           "BASE_TOLERANCE", "BASE_MIN_HEIGHT", "ELONGATION", "SNAP_DEGREES", "BLOCK"]
 
 #: A base's rim: RMS distance to its best-fit plane over its diameter, at most.
 BASE_PLANARITY = 0.03
@@ -124,12 +124,12 @@ def _snap(axis):
     return r, up_text(r)
 
 
-def _base(V, F, used, diag):
+def _base(V, F, used, diag, topo=None):
     """The base loop's (axis, loop id, wall angle in degrees), or None (rule 1)."""
     from shellrepair.holes.loops import boundary_loops, loop_stats
     from shellrepair.mesh.topology import edge_topology
 
-    topo = edge_topology(F, len(V))
+    topo = edge_topology(F, len(V)) if topo is None else topo
     loops, _ = boundary_loops(F, len(V), topo)
     if not loops:
         return None
@@ -165,11 +165,19 @@ def _base(V, F, used, diag):
     return None if best is None else best[1:]
 
 
+#: Faces per block of :func:`_longest` (its corners are gathered a block at
+#: a time: at 10M faces the whole gather was 700 MB at once).
+BLOCK = 1 << 20
+
+
 def _longest(V, F):
     """(coordinate axis index, elongation) of the faces' area-weighted spread (rule 2)."""
-    T = V[F]
-    C = T.mean(axis=1)
-    A = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    C = np.empty((len(F), 3))
+    A = np.empty(len(F))
+    for s in range(0, len(F), BLOCK):      # each face's centroid and area alone: the same bits by blocks
+        T = V[F[s:s + BLOCK]]
+        C[s:s + len(T)] = T.mean(axis=1)
+        A[s:s + len(T)] = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
     w = A / A.sum() if A.sum() > 0 else np.full(len(F), 1.0 / len(F))
     spread = np.sqrt(w @ (C - w @ C) ** 2)
     order = np.argsort(-spread, kind="stable")
@@ -198,7 +206,7 @@ def scan_up(before, report=None):
     return tuple(infer_up(before.V, before.F)["axis"])
 
 
-def infer_up(V, F):
+def infer_up(V, F, topo=None):
     """The scan's up axis by the module's rule.
 
     Parameters
@@ -206,6 +214,10 @@ def infer_up(V, F):
     V : (n,3) float64 array
     F : (m,3) int64 array
         The scan as read (its open base is what rule 1 looks for).
+    topo : EdgeTopology, optional
+        ``F``'s edge topology where the caller has it
+        (:meth:`shellrepair.mesh.io.Mesh.cached`, as :func:`read_mesh`
+        built it): not built again (3-4 s at 10M faces).
 
     Returns
     -------
@@ -225,12 +237,14 @@ def infer_up(V, F):
     F = np.asarray(F, np.int64)
     if F.ndim != 2 or F.shape[1] != 3 or len(F) == 0:
         return {"axis": [0.0, 1.0, 0.0], "name": "y", "rule": "default", "how": "the file's y axis: no faces"}
-    used = np.unique(F)
+    mark = np.zeros(len(V), bool)
+    mark[F] = True
+    used = np.flatnonzero(mark)           # np.unique(F), without its sort of 3m ids
     lo, hi = V[used].min(axis=0), V[used].max(axis=0)
     diag = float(np.linalg.norm(hi - lo))
     if not diag > 0 or not np.isfinite(diag):
         return {"axis": [0.0, 1.0, 0.0], "name": "y", "rule": "default", "how": "the file's y axis: a flat point"}
-    base = _base(V, F, used, diag)
+    base = _base(V, F, used, diag, topo)
     if base is not None:
         n, i, wall = base
         axis, name = _snap(n)
