@@ -69,12 +69,13 @@ class RepairOptions:
     base : {"auto", "flat", "faired"}
         A planar opening of a scan whose walls stand across its plane (the
         unscanned underside of a figure that stood on a table, or a cut
-        through the figure): ``"auto"`` (default) caps it flat where the
-        scan turns into the opening's plane along most of its rim and fairs
-        it otherwise (:func:`shellrepair.fill.patch.turns_into_opening`);
+        through the figure): ``"auto"`` (default) and ``"faired"``
+        continue the walls into a faired fill (the order test's choice);
         ``"flat"`` caps every such opening flat (the object's real base is
-        there); ``"faired"`` continues the walls into a faired fill. Planar
-        openings of CAD parts are capped flat in every case.
+        there: say so). Planar openings of CAD parts are capped flat in
+        every case. (``"auto"`` capped a scan's opening flat where the
+        walls turn into it until that rule was measured to lose:
+        :data:`shellrepair.fill.patch.EDGE_ON_COS`.)
     leave_open : tuple of int
         Hole ids (as ``shellrepair holes`` lists them) left open on
         purpose: reported as skipped, "left open by request".

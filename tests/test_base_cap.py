@@ -1,5 +1,5 @@
-"""A scan's planar opening met edge-on: a base the scan reached (flat cap)
-or a cut through walls that run on (faired fill) — patch._turns_into_opening."""
+"""A scan's planar opening met edge-on: faired, unless the user says its
+base is there (``--base flat``); a CAD face's outline is capped flat."""
 
 import numpy as np
 
@@ -39,12 +39,18 @@ def test_walls_cut_across_an_opening_are_continued_below_it():
     assert R.V[R.vertex_filled][:, 2].max() < V[rim, 2].min()     # a dome below the rim
 
 
-def test_a_base_whose_edge_the_scan_rounds_into_gets_a_flat_cap():
+def test_a_base_whose_edge_the_scan_rounds_into_is_faired_unless_the_user_says_flat():
+    """Until 2026-12-06 walls rounding into a planar opening got a flat cap
+    by a rule; measured against always fairing it lost (patch.EDGE_ON_COS),
+    so only the user's ``--base flat`` caps a scan's opening flat."""
     V, F, rim = walls_open_below(fillet=True)
     scan = detect_holes(V, F, fill_borders=True)
     assert 1e-6 < scan.loops[0].planarity < 0.02
     R, rep = repair_mesh(Mesh(V=V, F=F), fill_borders=True)
     assert rep["holes_after"] == 0
+    assert rep["holes"][0]["option"].startswith("faired order")
+    assert R.V[R.vertex_filled][:, 2].max() < V[rim, 2].min()     # a dome below the rim
+    R, rep = repair_mesh(Mesh(V=V, F=F), fill_borders=True, base="flat")
     assert rep["holes"][0]["option"].startswith("flat cap")
     z = R.V[R.vertex_filled][:, 2]
     assert np.abs(z - V[rim, 2].mean()).max() < 0.01           # in the opening's plane

@@ -377,10 +377,16 @@ EDGE_ON_PLANARITY = 0.02
 #: mean |cos| to its axis of at most this is an opening the scan meets
 #: edge-on: a statue's base, a foot's sole, the cut of a bust or a pipe's
 #: end. The walls stand across the opening's plane; a faired patch
-#: continues them into a dome. On a scan it gets a flat cap only where the
-#: walls turn into the opening's plane along most of its rim
-#: (:func:`turns_into_opening`): a base the scan reached the edge of, not
-#: a cut through walls that run on.
+#: continues them into a dome. On a scan it gets a flat cap only with
+#: ``--base flat`` (the user knows the object's base is there). Until
+#: 2026-12-06 it was also capped where the walls turn into the opening's
+#: plane along most of its rim (:func:`turns_into_opening`); measured
+#: against always fairing, that rule lost: 17.1 against 14.8 per mille
+#: (geometric means, the 18 plane-cut cases it was asked about,
+#: eval/results/base_rule-48611-58231-66107.md), and on development seeds
+#: 731, 733, 735 and 920328247 (64 stress cases) always fairing was closer
+#: to the truth on all 8 cases where the two differed (a dumbbell's
+#: occlusion 43.9 against 1.46, bases 17.2 against 12.1, 13.5 against 9.7).
 EDGE_ON_COS = 0.35
 EDGE_ON_RINGS = 6
 
@@ -401,8 +407,8 @@ def _meets_edge_on(ctx, loop, hole_id=None):
     """Is the loop a planar opening whose surrounding walls stand across its
     plane, to be capped flat? On a scan, by ``ctx.base``
     (:class:`shellrepair.options.RepairOptions`): ``"flat"`` every such
-    opening, ``"faired"`` none, ``"auto"`` where the walls turn into it
-    (:func:`turns_into_opening`); a CAD face's outline always."""
+    opening, ``"faired"`` and ``"auto"`` none (``EDGE_ON_COS`` says why);
+    a CAD face's outline always."""
     return edge_on_verdict(ctx, loop, hole_id)[0]
 
 
@@ -441,12 +447,11 @@ def edge_on_verdict(ctx, loop, hole_id=None):
     if c > EDGE_ON_COS:
         return False, (f"the scan beside it does not stand across its plane (mean |cos| of its faces' "
                        f"normals to the plane's {c:.2f}, over {EDGE_ON_COS})")
-    # the user's word on what the opening is (RepairOptions.base), else the rule
+    # the user's word on what the opening is (RepairOptions.base): a scan's
+    # opening is capped flat only when the user says its base is there
     if ctx.base == "flat":
         return True, ""
-    if ctx.base == "auto" and turns_into_opening(ctx, loop):
-        return True, ""
-    return False, "faired by request" if ctx.base == "faired" else "the scan does not turn into its plane"
+    return False, "faired by request" if ctx.base == "faired" else "a scan's opening is faired unless --base flat"
 
 
 def _face_cross(ctx, faces):
@@ -459,6 +464,8 @@ def _face_cross(ctx, faces):
 
 def turns_into_opening(ctx, loop):
     """Does the scan turn into the opening's plane along most of its rim?
+    (The statistic of the rule that capped such openings flat until it
+    was measured to lose, ``EDGE_ON_COS``; kept for eval/base_rule.py.)
 
     Walls standing across a planar opening either end there (a statue's
     real base: the scan's last faces bend into the base, along a fillet or
