@@ -250,9 +250,9 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
                       "reason": "the two loops outline one flat face with a hole, met edge-on"}
             return [Outcome(p, "", secs, []), Outcome(None, f"bridged with loop {A.id} by a flat face", secs, [])], \
                 record
-    held_first, note = None, ""
+    held_first, note, refair = None, "", None
     if order == "auto":
-        order, held_first, note = band_order(ctx, (A, B))
+        order, held_first, note, refair = band_order(ctx, (A, B))
     cap_order = order if cap_order is None else cap_order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
@@ -386,6 +386,19 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
         if valid:
             tube = min(valid, key=(lambda p: 0 if (p is held) == held_first else 1) if held_first is not None
                        else (lambda p: p.energy[checks.ENERGY] if p.energy is not None else np.inf))
+            if refair is not None and tube is faired:
+                # the energies keep the faired tube: its refined mesh faired
+                # again at the order the test holes beside the loops chose
+                # (band_order), kept if it passes the same checks (one
+                # attempt of the tube's own size, outside the budget: the
+                # tube is built already)
+                try:
+                    again = build_patch(ctx, A.id, loop, order=refair, smooth=smooth,
+                                        initial=(faired.P, faired.T), refine=False, energy=True)
+                except PatchError:
+                    again = None
+                if again is not None and checks.check_joining(ctx, again, scan_edges, "tube")[0] is None:
+                    tube = again.with_(option=faired.option.replace(f"faired order {order}", f"faired order {refair}"))
         elif mutual and bad.size and built is not None:
             # hold the vertices near the crossing on the arcs (as for a cap)
             pinned = None

@@ -217,15 +217,16 @@ def band_order(ctx, loops):
     (``probe.HELD``); the lowest error wins (equal errors: the default
     order, then the lower). Where no test band can be cut (the band is as
     long as the intact scan beside it, or meets another hole or a border),
-    the order is the one test holes of each loop's size beside it choose
-    (:func:`shellrepair.fill.selftest.choose_order_beside`, as for a pants;
-    before, order 2 by default: on a torus seen from a ring of views,
-    development seed 733 case 14, order 2 gave 21.8 per mille where order
-    3 gives 10.1), and the held tube is weighed against the faired one by
-    their energies, as with a forced order (disc-shaped test holes
-    beside the loops, asked to rank the held tube too, chose worse: on a
-    torus seen from a ring of views, order 3, 3.2 ‰, against order 2's
-    held tube, 0.55 ‰).
+    the scan cannot tell: :data:`shellrepair.fill.selftest.DEFAULT_ORDER`, and
+    the held tube against the faired one by their energies, as with a
+    forced order; where those energies keep the faired tube, it is faired
+    again at the order that test holes of each loop's size beside it
+    choose (``refair``, :func:`shellrepair.fill.selftest.choose_order_beside`).
+    The test holes do not judge the held tube: on a torus seen from a ring
+    of views they chose order 3, 3.2 ‰, where order 2's energies hold the
+    tube, 0.55 ‰ (tests/test_bands.py, ring 3); on a fat torus's unseen
+    band (development seed 733 case 14) order 2's faired tube gave 21.8 ‰,
+    the test holes' order 3 10.1.
 
     Returns
     -------
@@ -237,9 +238,12 @@ def band_order(ctx, loops):
         one of lower energy first.
     note : str
         For the report.
+    refair : int or None
+        The order to fair the tube at again where the energies keep the
+        faired one (None: ``order``'s faired tube stays).
     """
     from shellrepair.fill.probe import HELD, tube_errors
-    from shellrepair.fill.selftest import CANDIDATES, best_candidate, choose_order_beside
+    from shellrepair.fill.selftest import CANDIDATES, DEFAULT_ORDER, best_candidate, choose_order_beside
 
     if len(loops) == 2:
         errs, n = tube_errors(ctx, loops[0], loops[1], tuple(CANDIDATES) + (HELD,))
@@ -247,10 +251,12 @@ def band_order(ctx, loops):
             best = best_candidate(errs)     # (the held tube is among them only where both test bands were made)
             faired = best_candidate({o: e for o, e in errs.items() if o != HELD})
             desc = ", ".join(f"{'held' if o == HELD else f'order {o}'} {e:.3g}" for o, e in errs.items())
-            return int(faired), best == HELD, f"auto: by {n} test bands beside the loops, RMS {desc}"
+            return int(faired), best == HELD, f"auto: by {n} test bands beside the loops, RMS {desc}", None
     test = choose_order_beside(ctx, loops)
-    return int(test.order), None, (f"{test.describe()}, no test band fits beside the loops "
-                                   f"(held or faired by energy)")
+    refair = int(test.order) if test.errors and test.order != DEFAULT_ORDER else None
+    return DEFAULT_ORDER, None, (f"auto: order {DEFAULT_ORDER}, no test band fits beside the loops: held or "
+                                 f"faired by energy" + ("" if refair is None else f"; faired, at the order of "
+                                                        f"{test.probes} test holes beside them, {refair}")), refair
 
 
 def fill_hole_at_order(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defer=None):
