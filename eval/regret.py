@@ -96,10 +96,8 @@ def over_peer(rows):
 
 def regret(rows):
     """(regret, best forced tool) of one case, or (None, None)."""
-    def ok(t):
-        return _ok(rows, t)
-    cands = {t: rows[t]["rms_permille"] for t in FORCED if ok(t)}
-    if not cands or not ok(DEFAULT):
+    cands = {t: rows[t]["rms_permille"] for t in FORCED if _ok(rows, t)}
+    if not cands or not _ok(rows, DEFAULT):
         return None, None
     best = min(cands, key=cands.get)
     return (rows[DEFAULT]["rms_permille"] + FLOOR) / (cands[best] + FLOOR), best

@@ -181,10 +181,9 @@ def _repair_one(task, options, progress):
     if picture is not None:
         from shellrepair.report.closeups import closeups, pictures_record
         from shellrepair.report.html import figure, file_sha256
-        from shellrepair.report.upaxis import infer_up
+        from shellrepair.report.upaxis import mesh_up
 
-        topo = mesh.cached("topology") if hasattr(mesh, "cached") else None    # as read_mesh built it
-        report["up"] = up = infer_up(mesh.V, mesh.F, topo)   # the one axis of every picture of this scan
+        report["up"] = up = mesh_up(mesh)   # the one axis of every picture of this scan
         fig = figure(mesh, repaired, report, up=up["axis"])
         report["input_sha256"] = file_sha256(scan)
         report["picture"] = {"file": Path(picture).name, "alt": fig["alt"], "width": fig["width"],

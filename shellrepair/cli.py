@@ -627,12 +627,9 @@ def _glb_path(arg, others, what):
 def _scan_up(arg, mesh):
     """The up axis record of ``--up`` for a scan: given, or inferred from it
     (:mod:`shellrepair.report.upaxis`)."""
-    from shellrepair.report.upaxis import given_up, infer_up
+    from shellrepair.report.upaxis import given_up, mesh_up
 
-    if arg != "auto":
-        return given_up(arg)
-    topo = mesh.cached("topology") if hasattr(mesh, "cached") else None
-    return infer_up(mesh.V, mesh.F, topo)
+    return mesh_up(mesh) if arg == "auto" else given_up(arg)
 
 
 

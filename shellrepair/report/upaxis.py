@@ -39,7 +39,7 @@ import numpy as np
 
 from shellrepair.errors import MeshError
 
-__all__ = ["infer_up", "scan_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_MIN_SIZE", "BASE_WALL_DEGREES", "BASE_BELOW",
+__all__ = ["infer_up", "mesh_up", "scan_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_MIN_SIZE", "BASE_WALL_DEGREES", "BASE_BELOW",
            "BASE_TOLERANCE", "BASE_MIN_HEIGHT", "ELONGATION", "SNAP_DEGREES", "BLOCK"]
 
 #: A base's rim: RMS distance to its best-fit plane over its diameter, at most.
@@ -203,7 +203,25 @@ def scan_up(before, report=None):
     rec = (report or {}).get("up")
     if rec and rec.get("axis") is not None:
         return tuple(float(x) for x in rec["axis"])
-    return tuple(infer_up(before.V, before.F)["axis"])
+    return tuple(mesh_up(before)["axis"])
+
+
+def mesh_up(mesh):
+    """:func:`infer_up` of a mesh, with the edge topology :func:`read_mesh`
+    kept for its arrays (:meth:`shellrepair.mesh.io.Mesh.cached`) where it
+    has one.
+
+    Parameters
+    ----------
+    mesh : shellrepair.mesh.io.Mesh
+
+    Returns
+    -------
+    up : dict
+        As :func:`infer_up` gives it.
+    """
+    topo = mesh.cached("topology") if hasattr(mesh, "cached") else None
+    return infer_up(mesh.V, mesh.F, topo)
 
 
 def infer_up(V, F, topo=None):
