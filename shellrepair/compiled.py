@@ -73,6 +73,7 @@ MODULES = (
     "shellrepair.fill.refine_kernels",
     "shellrepair.fill.fair_kernels",
     "shellrepair.fill.checks_kernels",
+    "shellrepair.fill.probe_kernels",
     "shellrepair.fill.bridge_kernels",
     "shellrepair.mesh.distance_kernels",
     "shellrepair.fill.cholesky",

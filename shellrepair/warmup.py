@@ -25,6 +25,7 @@ from shellrepair.fill import (
     fair_kernels,
     intrinsic_kernels,
     patch_kernels,
+    probe_kernels,
     refine_kernels,
     triangulate_kernels,
 )
@@ -149,3 +150,6 @@ def _warm_second():
     S, raw = triangulate_kernels.outline_cross(C[:, :2], T, X)
     triangulate_kernels.cover_free(S, raw[:, 2], 4, np.array([3], np.int64))
     triangulate_kernels.loop_edges_present(triangulate_kernels.tet_faces(np.array([[3, 1, 0, 2]], np.int32), 4), 4)
+    start, fpos, across, _ = probe_kernels.near_adjacency(T, 4)
+    probe_kernels.placement(X, T, across, start, fpos, 1, X[1], 2.0, 0.5)
+    probe_kernels.component_within(across, np.array([0, 1], np.int64), np.array([0], np.int64))

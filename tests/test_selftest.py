@@ -154,6 +154,40 @@ def test_the_test_is_the_same_whether_placements_sort_their_own_edges_or_the_nea
     assert got[0] == got[1] and any(t.errors for t in got[0])
 
 
+@pytest.mark.parametrize("seed", [2, 5])
+def test_the_test_is_the_same_whether_placements_are_walked_compiled_or_by_numpy_steps(monkeypatch, seed):
+    # the compiled walk of a placement's region (probe_kernels.placement)
+    # against the centroid tree, edge sort and labelling it replaces: the
+    # same test holes, the same errors to the bit
+    from shellrepair import compiled
+
+    if not compiled.ENABLED:
+        pytest.skip("the kernels are off")
+    V, F = shapes.bumpy_sphere(4, amplitude=0.03, frequency=4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.25, seed=seed)
+    got = []
+    for on in (True, False):
+        monkeypatch.setattr(probe, "COMPILED_WALK", on)
+        scan, ctx = context(V2, F2)
+        got.append([choose_order(ctx, h.id, h.vertices) for h in scan.holes])
+    assert got[0] == got[1] and any(t.errors for t in got[0])
+
+
+def test_a_near_scan_that_is_not_a_plain_surface_is_left_to_the_numpy_steps():
+    from shellrepair import compiled
+    from shellrepair.fill import probe_kernels
+
+    if not compiled.ENABLED:
+        pytest.skip("the kernels are off")
+    fan = np.array([[0, 1, 2], [1, 0, 3]], np.int64)
+    start, pos, across, ok = probe_kernels.near_adjacency(fan, 4)
+    assert ok and across.tolist() == [[1, 2, 2], [0, 2, 2]]
+    assert pos[start[0]:start[1]].tolist() == [0, 1]
+    fin = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]], np.int64)      # an edge of three faces
+    assert not probe_kernels.near_adjacency(fin, 5)[3]
+    assert not probe_kernels.near_adjacency(np.array([[0, 0, 1]], np.int64), 2)[3]    # a degenerate face
+
+
 def test_ties_go_to_the_default_order_then_the_lower():
     t = OrderTest(2, errors={1: 1.0, 2: 1.0, 3: 1.0}, probes=3, scale=1.0)
     assert t.runner_up == 1

@@ -1,0 +1,238 @@
+"""Compiled kernels of the order test's placements (:mod:`shellrepair.fill.probe`, Numba).
+
+A test hole is placed around a scan vertex only where the scan within the
+test hole's reach is intact: the faces within that reach joined to the
+vertex's faces have no open edge close to it (else a hole or the scan's
+border is near). Most placements tried end there (1722 of 2245 on eight
+cases of eval's seed 408096311), and in NumPy each cost a centroid tree
+query, a sort of the region's edges and a component labelling, a few
+milliseconds of dispatch whatever the region's size.
+
+* :func:`near_adjacency`: the faces near a hole, once for all their
+  placements: each face's neighbour across each edge and each vertex's
+  faces;
+* :func:`placement`: one placement's region walked from the vertex's faces
+  across shared edges, only as far as faces lie within reach, stopping at
+  the first open edge close to the vertex;
+* :func:`component_within`: the faces of a subset joined to some of them
+  across shared edges.
+
+Each gives what :func:`shellrepair.fill.probe._probe`'s NumPy steps give
+(the same faces, the same verdict; tests/test_selftest.py). How the
+kernels are compiled and switched off: :mod:`shellrepair.compiled`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["near_adjacency", "placement", "component_within"]
+
+from shellrepair import compiled
+
+njit = compiled.kernel
+
+
+@njit(cache=True, nogil=True)
+def _near_adjacency(lc, nv):
+    m = lc.shape[0]
+    cnt = np.zeros(nv + 1, np.int64)
+    for f in range(m):
+        for c in range(3):
+            cnt[lc[f, c] + 1] += 1
+    start = np.cumsum(cnt)
+    fill = start[:-1].copy()
+    pos = np.empty(3 * m, np.int64)
+    for f in range(m):                 # faces in ascending order: each vertex's list ascending
+        for c in range(3):
+            v = lc[f, c]
+            pos[fill[v]] = f
+            fill[v] += 1
+    across = np.full((m, 3), m, np.int64)
+    ok = True
+    for f in range(m):
+        a0, a1, a2 = lc[f, 0], lc[f, 1], lc[f, 2]
+        if a0 == a1 or a1 == a2 or a2 == a0:
+            ok = False                 # a degenerate face: not a plain surface
+            break
+        for j in range(3):
+            a = lc[f, j]
+            b = lc[f, (j + 1) % 3]
+            found = 0
+            for i in range(start[a], start[a + 1]):
+                g = pos[i]
+                if g != f and (lc[g, 0] == b or lc[g, 1] == b or lc[g, 2] == b):
+                    across[f, j] = g
+                    found += 1
+            if found > 1:
+                ok = False             # an edge of three faces or more
+        if not ok:
+            break
+    return start, pos, across, ok
+
+
+def near_adjacency(lc, nv):
+    """The near faces' adjacency, for :func:`placement`.
+
+    Parameters
+    ----------
+    lc : (m,3) int64
+        The near faces' corners, numbered 0..nv-1.
+    nv : int
+
+    Returns
+    -------
+    start : (nv+1,) int64
+    pos : (3m,) int64
+        The faces of vertex ``v`` are ``pos[start[v]:start[v+1]]``, ascending.
+    across : (m,3) int64
+        The face across edge ``(corner j, corner j+1)`` of each face, ``m``
+        where there is none.
+    ok : bool
+        False where a face is degenerate or an edge has three faces or more
+        (``across`` is then not complete: the caller takes the NumPy path).
+    """
+    return _near_adjacency(np.ascontiguousarray(lc, np.int64), int(nv))
+
+
+@njit(cache=True, nogil=True)
+def _dist(V, v, p):
+    dx = V[v, 0] - p[0]
+    dy = V[v, 1] - p[1]
+    dz = V[v, 2] - p[2]
+    return np.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True, nogil=True)
+def _within(V, corners, f, p, R):
+    return _dist(V, corners[f, 0], p) <= R and _dist(V, corners[f, 1], p) <= R and _dist(V, corners[f, 2], p) <= R
+
+
+@njit(cache=True, nogil=True)
+def _placement(V, corners, across, start, pos, lp, p, R, limit):
+    m = corners.shape[0]
+    state = np.zeros(m, np.int8)       # 0 not seen, 1 in the component, 2 beyond reach
+    queue = np.empty(m, np.int64)
+    seeds = np.empty(start[lp + 1] - start[lp], np.int64)
+    ns = 0
+    qn = 0
+    for i in range(start[lp], start[lp + 1]):
+        f = pos[i]
+        if _within(V, corners, f, p, R):
+            state[f] = 1
+            queue[qn] = f
+            qn += 1
+            seeds[ns] = f
+            ns += 1
+    if ns == 0:
+        return 1, queue[:0], seeds[:0]
+    head = 0
+    while head < qn:
+        f = queue[head]
+        head += 1
+        for j in range(3):
+            g = across[f, j]
+            opened = g == m
+            if not opened:
+                st = state[g]
+                if st == 0:
+                    if _within(V, corners, g, p, R):
+                        state[g] = 1
+                        queue[qn] = g
+                        qn += 1
+                    else:
+                        state[g] = 2
+                        opened = True
+                elif st == 2:
+                    opened = True
+            if opened:
+                da = _dist(V, corners[f, j], p)
+                db = _dist(V, corners[f, (j + 1) % 3], p)
+                if min(da, db) < limit:
+                    return 2, queue[:0], seeds[:ns]
+    return 0, np.sort(queue[:qn]), seeds[:ns]
+
+
+def placement(V, corners, across, start, pos, lp, p, R, limit):
+    """One placement's region: the near faces with every corner within
+    ``R`` of ``p`` joined to the faces of vertex ``lp`` across shared edges.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    corners : (m,3) int64
+        The near faces' corners (ids into ``V``).
+    across, start, pos
+        :func:`near_adjacency` of those faces.
+    lp : int
+        The placement's vertex, in the numbering of :func:`near_adjacency`.
+    p : (3,) float64
+        Its position.
+    R, limit : float
+
+    Returns
+    -------
+    status : int
+        0: the region; 1: no face of the vertex within reach; 2: an edge
+        of the region with one face in it has a corner closer than
+        ``limit`` to ``p`` (the walk stops there).
+    region : (r,) int64
+        The region's faces (positions in ``corners``), ascending (status 0).
+    seeds : (s,) int64
+        The vertex's faces within reach, ascending (statuses 0 and 2).
+    """
+    return _placement(V, corners, across, start, pos, int(lp), np.ascontiguousarray(p, np.float64), float(R),
+                      float(limit))
+
+
+@njit(cache=True, nogil=True)
+def _component_within(across, faces, seeds):
+    m = across.shape[0]
+    state = np.zeros(m, np.int8)       # 1 in the subset, 2 reached
+    for f in faces:
+        state[f] = 1
+    queue = np.empty(faces.size, np.int64)
+    qn = 0
+    for i in seeds:
+        f = faces[i]
+        if state[f] == 1:
+            state[f] = 2
+            queue[qn] = f
+            qn += 1
+    head = 0
+    while head < qn:
+        f = queue[head]
+        head += 1
+        for j in range(3):
+            g = across[f, j]
+            if g < m and state[g] == 1:
+                state[g] = 2
+                queue[qn] = g
+                qn += 1
+    keep = np.empty(qn, np.int64)
+    k = 0
+    for i in range(faces.size):        # the subset's order
+        if state[faces[i]] == 2:
+            keep[k] = i
+            k += 1
+    return keep
+
+
+def component_within(across, faces, seeds):
+    """The faces of ``faces`` joined to ``faces[seeds]`` across edges shared within ``faces``.
+
+    Parameters
+    ----------
+    across : (m,3) int64
+        :func:`near_adjacency`'s neighbours.
+    faces : (k,) int64
+        A subset of the faces, distinct.
+    seeds : (s,) int64
+        Indices into ``faces`` of some of them.
+
+    Returns
+    -------
+    keep : (c,) int64
+        Indices into ``faces`` of the joined ones, ascending.
+    """
+    return _component_within(across, np.ascontiguousarray(faces, np.int64), np.ascontiguousarray(seeds, np.int64))
