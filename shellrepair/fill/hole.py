@@ -215,9 +215,10 @@ def band_order(ctx, loops):
     (:func:`shellrepair.fill.probe.tube_errors`): the candidates are the
     fairing orders and the first tube held on its continuation arcs
     (``probe.HELD``); the lowest error wins (equal errors: the default
-    order, then the lower). Where no test band can be cut (the band is as
-    long as the intact scan beside it, or meets another hole or a border),
-    the scan cannot tell: :data:`shellrepair.fill.selftest.DEFAULT_ORDER`, and
+    order, then the lower); the verdict needs a test band beside each loop
+    (``probe.MIN_BANDS``). Where fewer can be cut (the band is as long as
+    the intact scan beside it, or meets another hole or a border), the scan
+    cannot tell: :data:`shellrepair.fill.selftest.DEFAULT_ORDER`, and
     the held tube against the faired one by their energies, as with a
     forced order; where those energies keep the faired tube, it is faired
     again at the order that test holes of each loop's size beside it
@@ -242,19 +243,22 @@ def band_order(ctx, loops):
         The order to fair the tube at again where the energies keep the
         faired one (None: ``order``'s faired tube stays).
     """
-    from shellrepair.fill.probe import HELD, tube_errors
+    from shellrepair.fill.probe import HELD, MIN_BANDS, tube_errors
     from shellrepair.fill.selftest import CANDIDATES, DEFAULT_ORDER, best_candidate, choose_order_beside
 
+    n = 0
     if len(loops) == 2:
         errs, n = tube_errors(ctx, loops[0], loops[1], tuple(CANDIDATES) + (HELD,))
-        if errs:
+        if errs and n >= MIN_BANDS:
             best = best_candidate(errs)     # (the held tube is among them only where both test bands were made)
             faired = best_candidate({o: e for o, e in errs.items() if o != HELD})
             desc = ", ".join(f"{'held' if o == HELD else f'order {o}'} {e:.3g}" for o, e in errs.items())
             return int(faired), best == HELD, f"auto: by {n} test bands beside the loops, RMS {desc}", None
     test = choose_order_beside(ctx, loops)
     refair = int(test.order) if test.errors and test.order != DEFAULT_ORDER else None
-    return DEFAULT_ORDER, None, (f"auto: order {DEFAULT_ORDER}, no test band fits beside the loops: held or "
+    why = "no test band fits beside the loops" if n == 0 else \
+        f"{n} test band beside the loops, fewer than {MIN_BANDS}"
+    return DEFAULT_ORDER, None, (f"auto: order {DEFAULT_ORDER}, {why}: held or "
                                  f"faired by energy" + ("" if refair is None else f"; faired, at the order of "
                                                         f"{test.probes} test holes beside them, {refair}")), refair
 
