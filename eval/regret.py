@@ -18,7 +18,9 @@ candidate that could have been chosen). Writes
 mean and maximum).
 
 With ``--peers`` the other hole fillers run on the same cases (those
-installed: ``pip install -e '.[bench]'``; eval/peers.py), and each case
+installed: ``pip install -e '.[bench]'``; eval/peers.py), screened Poisson
+reconstruction kept where it covers the holes among them (``poisson``,
+:func:`eval.peers.poisson_trimmed`), and each case
 also gets the default's RMS over the best peer's that closed every hole
 (same floor): issue 36 asks for a median of at most 0.7 and no case over
 1.1.
@@ -49,7 +51,7 @@ from eval import peers, stress  # noqa: E402
 FORCED = ("ours-o1", "ours-o2", "ours-o3")
 DEFAULT = "ours-auto"
 #: The peers of ``--peers`` (run where installed).
-PEERS = ("cgal", "meshlib-nicely", "pymeshfix", "pymeshlab")
+PEERS = ("cgal", "meshlib-nicely", "pymeshfix", "pymeshlab", "poisson")
 #: Per mille of the diagonal added to both sides of the ratio.
 FLOOR = 0.05
 
