@@ -373,9 +373,10 @@ _NEAR_CACHE = weakref.WeakKeyDictionary()
 
 class _Near:
     """The faces near a hole (``faces``, positions into the scan's ``F``;
-    ``corners``, their rows of ``F``), their centroids' tree, the vertices
-    they use, and their edges (:class:`_NearEdges`, sorted once enough
-    placements need them)."""
+    ``corners``, their rows of ``F``), the vertices they use, their
+    adjacency for the compiled placement walk (:meth:`adjacency`), and for
+    the NumPy steps their centroids' tree and their edges
+    (:class:`_NearEdges`, sorted once enough placements need them)."""
 
     def __init__(self, V, F, near_f):
         self.V, self.F, self.faces = V, F, near_f
@@ -493,8 +494,8 @@ def _probe(V, F, near, p_id, shape, margin):
     ``margin`` of intact scan around it; None where the scan is not intact
     and one piece of surface there.
 
-    ``near``: :class:`_Near` (the faces near the hole, a cKDTree of their
-    centroids, their edges).
+    ``near``: :class:`_Near` (the faces near the hole, their adjacency;
+    for the NumPy steps their centroids' tree and edges).
     ``shape``: (outline (k,2), e1, normal) of the hole, scaled: the outline
     is laid on the scan's tangent plane at the vertex, its first axis
     ``e1`` turned into that plane (the hole's orientation kept).
