@@ -783,3 +783,25 @@ def test_one_test_band_is_not_enough_evidence_for_a_tube():
     auto = stress.measure(case, facts, R.V, R.F)["rms_permille"]
     R3, _ = repair_mesh(M, order=3)
     assert auto <= 1.05 * stress.measure(case, facts, R3.V, R3.F)["rms_permille"]
+
+
+def test_a_test_band_measured_at_every_kth_removed_vertex_ranks_as_the_whole_band(monkeypatch):
+    """A test band's removed scan is measured at ``probe.TUBE_MEASURE_POINTS``
+    of its vertices at most (a test tube far from its band made each
+    measure visit every triangle): on a torus's unseen inner band, measured
+    at every vertex or at a few hundred, the candidates rank alike."""
+    from shellrepair.fill import probe
+    from shellrepair.mesh.index import ScanContext
+
+    V, F, V2, F2 = torus_inner_band(3)[:4]
+    scan = detect_holes(V2, F2)
+    ctx = ScanContext(Mesh(V=V2, F=F2))
+    ctx.know_loops(scan.loops)
+    A, B = sorted(scan.holes, key=lambda L: -L.edges)[:2]
+    got = []
+    for most in (10 ** 9, 300):
+        monkeypatch.setattr(probe, "TUBE_MEASURE_POINTS", most)
+        errs, n = probe.tube_errors(ctx, A, B, (1, 2, 3, probe.HELD))
+        got.append((n, sorted(errs, key=errs.get, reverse=False), errs))
+    assert got[0][0] == got[1][0] == 2
+    assert got[0][1] == got[1][1] and got[0][2] != got[1][2]
