@@ -153,3 +153,4 @@ def _warm_second():
     start, fpos, across, _ = probe_kernels.near_adjacency(T, 4)
     probe_kernels.placement(X, T, across, start, fpos, 1, X[1], 2.0, 0.5)
     probe_kernels.component_within(across, np.array([0, 1], np.int64), np.array([0], np.int64))
+    probe_kernels.inside_polygon(X[:, 0], X[:, 1], X[:3, :2])

@@ -765,11 +765,11 @@ def test_one_test_band_is_not_enough_evidence_for_a_tube():
     """A torus seen from a ring of views, its inner band unseen (case 7 of
     seed 1538843172): only the band beside one loop can be cut, and it
     rated orders 2 and 3 alike (0.041 and 0.043) where order 3 is six times
-    truer on the real band. One band alone does not decide (probe.MIN_BANDS):
+    truer on the real band. One band alone does not decide (band_test.MIN_BANDS):
     the tube goes the way of a tube with no test band, faired at the order
     the test holes beside its loops choose."""
     from eval import stress
-    from shellrepair.fill.probe import MIN_BANDS
+    from shellrepair.fill.band_test import MIN_BANDS
 
     assert MIN_BANDS == 2
     case = stress.stress_case(7, 1538843172)
@@ -786,11 +786,11 @@ def test_one_test_band_is_not_enough_evidence_for_a_tube():
 
 
 def test_a_test_band_measured_at_every_kth_removed_vertex_ranks_as_the_whole_band(monkeypatch):
-    """A test band's removed scan is measured at ``probe.TUBE_MEASURE_POINTS``
+    """A test band's removed scan is measured at ``band_test.TUBE_MEASURE_POINTS``
     of its vertices at most (a test tube far from its band made each
     measure visit every triangle): on a torus's unseen inner band, measured
     at every vertex or at a few hundred, the candidates rank alike."""
-    from shellrepair.fill import probe
+    from shellrepair.fill import band_test
     from shellrepair.mesh.index import ScanContext
 
     V, F, V2, F2 = torus_inner_band(3)[:4]
@@ -800,8 +800,8 @@ def test_a_test_band_measured_at_every_kth_removed_vertex_ranks_as_the_whole_ban
     A, B = sorted(scan.holes, key=lambda L: -L.edges)[:2]
     got = []
     for most in (10 ** 9, 300):
-        monkeypatch.setattr(probe, "TUBE_MEASURE_POINTS", most)
-        errs, n = probe.tube_errors(ctx, A, B, (1, 2, 3, probe.HELD))
+        monkeypatch.setattr(band_test, "TUBE_MEASURE_POINTS", most)
+        errs, n = band_test.tube_errors(ctx, A, B, (1, 2, 3, band_test.HELD))
         got.append((n, sorted(errs, key=errs.get, reverse=False), errs))
     assert got[0][0] == got[1][0] == 2
     assert got[0][1] == got[1][1] and got[0][2] != got[1][2]

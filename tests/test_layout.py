@@ -135,7 +135,7 @@ FILL_DATA = (("shellrepair.fill.patch", "Patch"), ("shellrepair.fill.patch", "_P
              ("shellrepair.holes.loops", "Loop"), ("shellrepair.mesh.core", "Mesh"))
 #: The fill's modules, held to that.
 FILL_MODULES = tuple(f"shellrepair.fill.{m}" for m in (
-    "hole", "band_fill", "runs", "beside", "bridge", "bands", "tube", "pants", "mend", "merge", "checks", "probe",
+    "hole", "band_fill", "runs", "beside", "bridge", "bands", "tube", "pants", "mend", "merge", "checks", "probe", "band_test",
     "selftest", "steiner", "patch", "refine", "triangulate", "fair")) \
     + tuple(f"shellrepair.holes.{m}" for m in ("loops", "hole_or_border", "pinched")) \
     + ("shellrepair.repair", "shellrepair.mesh.index", "shellrepair.mesh.intersect")

@@ -319,3 +319,23 @@ def test_one_test_hole_is_not_enough_evidence_the_next_scale_with_two_decides(mo
         R, _ = repair_mesh(Mesh(V=case.V, F=case.F), order=2, order_for={big.id: o})
         rms[o] = stress.measure(case, facts, R.V, R.F)["rms_permille"]
     assert rms[3] < 0.5 * rms[2], rms
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_compiled_even_odd_test_answers_as_numpy(seed):
+    # random outlines (with horizontal edges and repeated corners) and points
+    # on their corners, on their edges' heights and at random
+    from shellrepair import compiled
+    from shellrepair.fill import probe_kernels
+
+    if not compiled.ENABLED:
+        pytest.skip("the kernels are off")
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0, 2 * np.pi, 40))
+    poly = np.column_stack([np.cos(t), np.sin(t)]) * rng.uniform(0.5, 1.5, (40, 1))
+    poly[5, 1] = poly[4, 1]              # a horizontal edge
+    poly[9] = poly[8]                    # a repeated corner
+    x = np.concatenate([rng.uniform(-2, 2, 500), poly[:, 0], np.full(10, 0.1)])
+    y = np.concatenate([rng.uniform(-2, 2, 500), poly[:, 1], np.full(10, poly[4, 1])])
+    got = probe_kernels.inside_polygon(x, y, poly)
+    assert np.array_equal(got, probe.inside_polygon_reference(x, y, poly)) and got.any() and not got.all()

@@ -212,11 +212,11 @@ def band_order(ctx, loops):
     """How a tube joining two loops is faired under ``order="auto"``.
 
     First by test bands of the tube's own kind beside each loop
-    (:func:`shellrepair.fill.probe.tube_errors`): the candidates are the
+    (:func:`shellrepair.fill.band_test.tube_errors`): the candidates are the
     fairing orders and the first tube held on its continuation arcs
-    (``probe.HELD``); the lowest error wins (equal errors: the default
+    (``band_test.HELD``); the lowest error wins (equal errors: the default
     order, then the lower); the verdict needs a test band beside each loop
-    (``probe.MIN_BANDS``). Where fewer can be cut (the band is as long as
+    (``band_test.MIN_BANDS``). Where fewer can be cut (the band is as long as
     the intact scan beside it, or meets another hole or a border), the scan
     cannot tell: :data:`shellrepair.fill.selftest.DEFAULT_ORDER`, and
     the held tube against the faired one by their energies, as with a
@@ -243,7 +243,7 @@ def band_order(ctx, loops):
         The order to fair the tube at again where the energies keep the
         faired one (None: ``order``'s faired tube stays).
     """
-    from shellrepair.fill.probe import HELD, MIN_BANDS, tube_errors
+    from shellrepair.fill.band_test import HELD, MIN_BANDS, tube_errors
     from shellrepair.fill.selftest import CANDIDATES, DEFAULT_ORDER, best_candidate, choose_order_beside
 
     n = 0

@@ -43,7 +43,8 @@ import numpy as np
 from shellrepair import compiled
 from shellrepair.fill import probe_kernels
 
-__all__ = ["hole_radius", "probe_errors", "rim_roughness", "tube_errors", "HELD", "PROBES", "MIN_BANDS"]
+__all__ = ["hole_radius", "probe_errors", "rim_roughness", "inside_polygon", "inside_polygon_reference", "mean_edge",
+           "Pooled", "PROBES"]
 
 #: Test holes per real hole.
 PROBES = 3
@@ -199,7 +200,17 @@ def hole_outline(V, loop):
 
 
 def inside_polygon(x, y, poly):
-    """Even-odd test of points (x, y) against a closed polygon (k,2)."""
+    """Even-odd test of points (x, y) against a closed polygon (k,2):
+    compiled (:func:`shellrepair.fill.probe_kernels.inside_polygon`) where
+    the kernels are on, else :func:`inside_polygon_reference` (the same
+    answer)."""
+    if compiled.ENABLED:
+        return probe_kernels.inside_polygon(x, y, poly)
+    return inside_polygon_reference(x, y, poly)
+
+
+def inside_polygon_reference(x, y, poly):
+    """:func:`inside_polygon` in NumPy (the compiled kernel's test oracle)."""
     x = np.asarray(x, np.float64)[:, None]
     y = np.asarray(y, np.float64)[:, None]
     ax, ay = poly[:, 0][None], poly[:, 1][None]
@@ -210,7 +221,7 @@ def inside_polygon(x, y, poly):
     return (straddle & (x < xc)).sum(axis=1) % 2 == 1
 
 
-def _mean_edge(V, loop):
+def mean_edge(V, loop):
     P = V[loop]
     return float(np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).mean())
 
@@ -378,8 +389,9 @@ class _Near:
     the NumPy steps their centroids' tree and their edges
     (:class:`_NearEdges`, sorted once enough placements need them)."""
 
-    def __init__(self, V, F, near_f):
+    def __init__(self, V, F, near_f, vpos=None):
         self.V, self.F, self.faces = V, F, near_f
+        self.vpos = vpos                           # the scan's vertex scratch (ScanContext.vpos), or None
         self.corners = np.ascontiguousarray(F[near_f], np.int64)     # (m,3) vertex ids
         mark = np.zeros(len(V), bool)
         mark[self.corners] = True
@@ -406,7 +418,13 @@ class _Near:
         if self._adjacency is None:
             self._adjacency = False
             if compiled.ENABLED and COMPILED_WALK:
-                lc = np.searchsorted(self.verts, self.corners)
+                if self.vpos is not None:       # each corner's place in verts, by the scan's scratch
+                    vp = self.vpos()
+                    vp[self.verts] = np.arange(len(self.verts))
+                    lc = vp[self.corners]
+                    vp[self.verts] = -1
+                else:
+                    lc = np.searchsorted(self.verts, self.corners)
                 start, pos, across, ok = probe_kernels.near_adjacency(lc, len(self.verts))
                 if ok:
                     self._adjacency = (start, pos, across)
@@ -432,7 +450,7 @@ def _near(ctx, near_f):
     for nr in kept:
         if nr.V is ctx.V and nr.F is ctx.F and np.array_equal(nr.faces, near_f):
             return nr
-    nr = _Near(ctx.V, ctx.F, near_f)
+    nr = _Near(ctx.V, ctx.F, near_f, ctx.vpos)
     kept.insert(0, nr)
     del kept[NEAR_KEPT:]
     return nr
@@ -589,7 +607,7 @@ def _probe(V, F, near, p_id, shape, margin):
     return Vl[ids], remap[Fk], remap[ploop], Vl[removed]
 
 
-class _Pooled:
+class Pooled:
     """Squared distances of the removed scan to each candidate's fill,
     summed over test holes (or bands), and their RMS."""
 
@@ -737,14 +755,14 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim):
 
     max_probes = PROBES if max_probes is None else int(max_probes)
     V = ctx.V
-    h = _mean_edge(V, loop)
+    h = mean_edge(V, loop)
     r = max(r, float(np.sqrt((shape[0] ** 2).sum(axis=1).max())))   # the outline's reach from its centre
     if not np.isfinite(r) or r <= 0 or h <= 0:
         return {}, 0
     margin = MARGIN_EDGES * h
     c = V[loop].mean(axis=0)
     rim_r = float(np.sqrt(((V[loop] - c) ** 2).sum(axis=1)).max())
-    pool = _Pooled(candidates)
+    pool = Pooled(candidates)
     taken = []
     for lo, hi in SHELLS:
         if pool.tests >= max_probes:
@@ -798,168 +816,6 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim):
                         for o, (Xu, _) in zip(candidates, faired)):
                 taken.append(pid)
     return pool.rms(), pool.tests
-
-
-#: The tube's candidate that is not a fairing order: the first tube (along
-#: the continuation arcs) refined and held, not faired.
-HELD = "held"
-#: Rings of intact scan left between a tube's real loop and its test band.
-TUBE_GAP_RINGS = 3
-#: Rings of scan kept beyond the test band (the fairing reads up to 3).
-TUBE_MARGIN_RINGS = 4
-#: Test bands a tube's verdict needs: one beside each loop. One band alone
-#: is not repeated evidence (as for test holes, :data:`MIN_PROBES`): on a
-#: torus seen from a ring of views, the one band that fitted beside its
-#: unseen inner band rated order 2 and 3 alike (0.041 and 0.043), where
-#: order 3 fills the real band six times closer (1.05 against 6.44 per
-#: mille, case 7 of seed 1538843172). On the development seeds (731, 733,
-#: 735, 920328247, 508373691, 213891280, 408096311: five tubes with one
-#: band) the RMS moved on one case only, 16.357 -> 16.361 per mille.
-MIN_BANDS = 2
-#: A test band's removed scan is measured at this many of its vertices at
-#: most (every k-th, in the order of their ids): each measure finds the 8
-#: fill triangles nearest a point, and where the test tube lies far from
-#: the band (two far-apart loops) that search visits every triangle. On
-#: an armadillo's discs, 31k removed vertices against test tubes of 32k
-#: triangles took 6 of the repair's 9.8 s (5.7 s after); on 96
-#: development cases (seeds 731, 733, 735, 408096311, 213891280,
-#: 920328247) every output is the same either way.
-TUBE_MEASURE_POINTS = 4096
-
-
-def tube_errors(ctx, A, B, candidates):
-    """RMS error of each candidate order on test bands of a tube's own kind.
-
-    A tube (the missing band between loops ``A`` and ``B``) does not fill
-    like a disc: its patch runs round the part from loop to loop. So the
-    test is a band too: beside each loop, ``TUBE_GAP_RINGS`` rings out, a
-    band of intact scan as many rings wide as the missing band is long in
-    the loop's edges (:func:`_band_length`: along the continuation arcs
-    from loop to loop) is cut away, refilled as a tube is (its two
-    rims joined along their continuation arcs,
-    :func:`shellrepair.fill.tube.guide_tube`, then refined and faired at each
-    order, :func:`shellrepair.fill.patch.build_patch`), and the removed scan is
-    measured against each fill. A test band that is not a clean band (it
-    meets another hole or a border, or its rims are not two loops) is
-    skipped; the held tube is judged only where both test bands were made
-    (it follows both loops' arcs: on an arm missing a band between its
-    stump and a domed fingertip, the stump's test band alone ranked the
-    held tube first, 0.0026 against order 3's 0.0055, where on the real
-    band it lies 7x further from the arm than order 3).
-
-    Parameters
-    ----------
-    ctx : shellrepair.mesh.index.ScanContext
-    A, B : shellrepair.holes.loops.Loop
-    candidates : sequence of int or HELD
-        Fairing orders, and :data:`HELD` for the tube held on its arcs.
-
-    Returns
-    -------
-    errors : dict of (int or str) -> float
-        Pooled over the test bands; empty when none could be cut and filled.
-    tests : int
-    """
-    from shellrepair.errors import MeshError
-    from shellrepair.fill.patch import PatchError, build_patch
-    from shellrepair.holes.loops import boundary_loops
-    from shellrepair.mesh.distance import point_mesh_distance
-    from shellrepair.mesh.index import ScanContext
-    from shellrepair.mesh.io import Mesh
-
-    V, F = ctx.V, ctx.F
-    pool = _Pooled(candidates)
-    gap = _band_length(ctx, A, B)     # how far the missing band runs from loop to loop
-    if not np.isfinite(gap):
-        return {}, 0
-    for L in (A, B):
-        loop = np.asarray(L.vertices, np.int64)
-        h = _mean_edge(V, loop)
-        if not h > 0:
-            continue
-        w = max(2, int(round(gap / h)))
-        m = TUBE_GAP_RINGS
-        band = np.setdiff1d(ctx.ring_faces(loop, m + w), ctx.ring_faces(loop, m))
-        keep = np.setdiff1d(ctx.ring_faces(loop, m + w + TUBE_MARGIN_RINGS), band)
-        if band.size == 0 or keep.size == 0:
-            continue
-        g, Fl = np.unique(F[keep], return_inverse=True)
-        Fl = Fl.reshape(-1, 3).astype(np.int64)
-        bverts = np.unique(F[band])
-        removed = np.setdiff1d(bverts, g)
-        if removed.size == 0:
-            continue
-        loops, chains = boundary_loops(Fl, len(g))
-        if chains:
-            continue
-        on_band = np.isin(g, bverts)
-        rims = [np.asarray(lp, np.int64) for lp in loops if on_band[lp].all()]
-        if len(rims) != 2:
-            continue
-        origin = V[g].mean(axis=0)
-        try:
-            lctx = ScanContext(Mesh(V=V[g] - origin, F=Fl))
-            LA, LB = rims
-            Pg, Tg, _ = _first_tube(lctx, LA, LB)
-            if not (len(Pg) and np.isfinite(Pg).all()):
-                continue
-            tl = np.concatenate([LA, LB])
-            Q = V[removed] - origin
-            if len(Q) > TUBE_MEASURE_POINTS:
-                Q = Q[::-(-len(Q) // TUBE_MEASURE_POINTS)]
-
-            def fills():
-                q = None          # the refined tube's new vertices (the same at every order)
-                for o in candidates:
-                    if o == HELD:     # the first tube refined, every vertex held where the arcs put it
-                        if q is None:
-                            q = len(build_patch(lctx, 0, tl, order=2, initial=(Pg, Tg)).P)
-                        p = build_patch(lctx, 0, tl, order=2, initial=(Pg, Tg), pinned=np.arange(q))
-                    else:
-                        p = build_patch(lctx, 0, tl, order=o, initial=(Pg, Tg))
-                        q = len(p.P)
-                    yield o, point_mesh_distance(Q, np.vstack([lctx.V[tl], p.P]), p.T)
-
-            pool.add(fills())
-        except (MeshError, PatchError, ValueError, IndexError, FloatingPointError):
-            continue
-    # the held tube follows both loops' arcs: a test beside one loop only
-    # does not see the other's, so it is not judged there
-    return pool.rms(keep=lambda o: o != HELD or pool.tests == 2), pool.tests
-
-
-def _band_length(ctx, A, B):
-    """The length of the missing band between loops ``A`` and ``B`` along
-    the surface: the first tube's rings (:func:`_first_tube`), about one
-    rim edge apart, counted, times their spacing; inf where no first tube
-    is made."""
-    LA, LB = (np.asarray(L.vertices, np.int64) for L in (A, B))
-    try:
-        Pg, _, spacing = _first_tube(ctx, LA, LB)
-    except (ValueError, IndexError, FloatingPointError):
-        return float("inf")
-    if not np.isfinite(Pg).all():
-        return float("inf")
-    return (len(Pg) / max(len(LA), 1) + 1.0) * spacing
-
-
-def _first_tube(ctx, LA, LB):
-    """The first tube between loops ``LA`` and ``LB`` of ``ctx`` along
-    their continuation arcs (:func:`shellrepair.fill.tube.guide_tube`, rings
-    at the rim's mean edge, arcs followed up to ``MAX_REACH`` times the
-    larger loop's diameter): (new vertices, triangles, ring spacing).
-    (:func:`shellrepair.fill.band_fill._fill_pair` builds the real band's the same
-    way, with the loops' diameters as detect_holes measured them.)"""
-    from shellrepair.fill.bridge import MAX_REACH, continuation_arcs
-    from shellrepair.fill.tube import guide_tube
-    from shellrepair.holes.loops import _diameter
-    from shellrepair.mesh.index import rim_data
-
-    PA, PB = ctx.V[LA], ctx.V[LB]
-    arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(x, 3)], x) for x in (LA, LB)]
-    spacing = float(np.mean(rim_data(ctx, np.concatenate([LA, LB]))[0]))
-    Pg, Tg = guide_tube(PA, PB, *arcs, spacing=spacing, reach=MAX_REACH * max(_diameter(PA), _diameter(PB)))
-    return Pg, Tg, spacing
 
 
 def _refined(ctx, loop, rings):

@@ -15,7 +15,10 @@ milliseconds of dispatch whatever the region's size.
   across shared edges, only as far as faces lie within reach, stopping at
   the first open edge close to the vertex;
 * :func:`component_within`: the faces of a subset joined to some of them
-  across shared edges.
+  across shared edges;
+* :func:`inside_polygon`: the even-odd test of points against an outline
+  (:func:`shellrepair.fill.probe.inside_polygon_reference`, whose (points ×
+  outline edges) arrays cost 1.3 ms a call on eval's cases).
 
 Each gives what :func:`shellrepair.fill.probe._probe`'s NumPy steps give
 (the same faces, the same verdict; tests/test_selftest.py). How the
@@ -26,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["near_adjacency", "placement", "component_within"]
+__all__ = ["near_adjacency", "placement", "component_within", "inside_polygon"]
 
 from shellrepair import compiled
 
@@ -236,3 +239,37 @@ def component_within(across, faces, seeds):
         Indices into ``faces`` of the joined ones, ascending.
     """
     return _component_within(across, np.ascontiguousarray(faces, np.int64), np.ascontiguousarray(seeds, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _inside_polygon(x, y, poly):
+    k = poly.shape[0]
+    out = np.zeros(x.size, np.bool_)
+    for i in range(x.size):
+        c = 0
+        for j in range(k):
+            ax, ay = poly[j, 0], poly[j, 1]
+            bx, by = poly[(j + 1) % k, 0], poly[(j + 1) % k, 1]
+            if (ay > y[i]) != (by > y[i]):
+                if x[i] < ax + (y[i] - ay) * (bx - ax) / (by - ay):
+                    c += 1
+        out[i] = c % 2 == 1
+    return out
+
+
+def inside_polygon(x, y, poly):
+    """Even-odd test of points against a closed polygon, with the
+    operations of :func:`shellrepair.fill.probe.inside_polygon_reference`
+    in the same order (the same answer to the bit).
+
+    Parameters
+    ----------
+    x, y : (p,) float64
+    poly : (k,2) float64
+
+    Returns
+    -------
+    inside : (p,) bool
+    """
+    return _inside_polygon(np.ascontiguousarray(x, np.float64).ravel(), np.ascontiguousarray(y, np.float64).ravel(),
+                           np.ascontiguousarray(poly, np.float64))

@@ -31,7 +31,7 @@ says so. Holes with fewer than ``MIN_EDGES`` rim edges are not tested (a
 patch of a few triangles, where the orders differ by less than the scan's
 own noise). A tube (the band between two loops) is tested by its own
 kind: test bands beside its loops, refilled as tubes
-(:func:`shellrepair.fill.probe.tube_errors`, :func:`shellrepair.fill.hole.band_order`).
+(:func:`shellrepair.fill.band_test.tube_errors`, :func:`shellrepair.fill.hole.band_order`).
 
 Judged by its regret (the default's RMS over the best forced order's,
 ``eval/regret.py``) on stress cases of seeds never used while developing
@@ -186,7 +186,7 @@ def choose_order_beside(ctx, loops, candidates=None):
 def best_candidate(errors):
     """The candidate with the lowest error; equal errors go to
     ``DEFAULT_ORDER``, then to the lower order (the fairing orders come
-    before ``probe.HELD``).
+    before ``band_test.HELD``).
 
     Parameters
     ----------
