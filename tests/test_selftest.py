@@ -339,3 +339,19 @@ def test_the_compiled_even_odd_test_answers_as_numpy(seed):
     y = np.concatenate([rng.uniform(-2, 2, 500), poly[:, 1], np.full(10, poly[4, 1])])
     got = probe_kernels.inside_polygon(x, y, poly)
     assert np.array_equal(got, probe.inside_polygon_reference(x, y, poly)) and got.any() and not got.all()
+
+
+def test_the_order_test_keeps_no_scan_alive_after_its_repair():
+    # what the test keeps for a scan's other holes (the near faces, their
+    # adjacency, the vertex scratch) goes with the scan
+    import gc
+    import weakref
+
+    V, F = sphere_with_hole(radius=0.6)
+    scan, ctx = context(V, F)
+    t = choose_order(ctx, scan.holes[0].id, scan.holes[0].vertices)
+    assert t.errors
+    gone = weakref.ref(ctx)
+    del ctx
+    gc.collect()
+    assert gone() is None

@@ -391,7 +391,7 @@ class _Near:
 
     def __init__(self, V, F, near_f, vpos=None):
         self.V, self.F, self.faces = V, F, near_f
-        self.vpos = vpos                           # the scan's vertex scratch (ScanContext.vpos), or None
+        self.vpos = vpos                           # the scan's vertex scratch (ScanContext.vpos()), or None
         self.corners = np.ascontiguousarray(F[near_f], np.int64)     # (m,3) vertex ids
         mark = np.zeros(len(V), bool)
         mark[self.corners] = True
@@ -419,7 +419,7 @@ class _Near:
             self._adjacency = False
             if compiled.ENABLED and COMPILED_WALK:
                 if self.vpos is not None:       # each corner's place in verts, by the scan's scratch
-                    vp = self.vpos()
+                    vp = self.vpos
                     vp[self.verts] = np.arange(len(self.verts))
                     lc = vp[self.corners]
                     vp[self.verts] = -1
@@ -450,7 +450,9 @@ def _near(ctx, near_f):
     for nr in kept:
         if nr.V is ctx.V and nr.F is ctx.F and np.array_equal(nr.faces, near_f):
             return nr
-    nr = _Near(ctx.V, ctx.F, near_f, ctx.vpos)
+    # (the scratch array, not the context: what the cache keeps must not
+    # keep the context, its weak key, alive)
+    nr = _Near(ctx.V, ctx.F, near_f, ctx.vpos())
     kept.insert(0, nr)
     del kept[NEAR_KEPT:]
     return nr
