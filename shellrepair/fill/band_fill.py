@@ -224,10 +224,14 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
     # one budget for the band (both loops' edges): the tube's attempts after
     # its first are made only while it lasts, the caps get their shares
     budget = checks.WorkBudget(len(loop))
-    # a pair found only as wrapping one tube (bands.wrapped_pairs) may be
-    # two holes that merely wrap a thin part: its caps are filled as those
-    # holes would be alone (``order`` as given, "auto" included)
-    cap_order = order if wrapped else None
+    # the caps are filled as the holes would be alone (``order`` as given,
+    # "auto" included: each cap's own order test), not at the order the
+    # tube's test chose: on a torus seen by a scanner (validation seed
+    # 134226128, case 0) a 484-edge cap took the tube's default order 2
+    # where its own test holes chose order 3 (the case 9.61 -> 8.74 per
+    # mille). Before, only a pair found as wrapping one tube
+    # (bands.wrapped_pairs, ``wrapped``) had its caps filled so.
+    cap_order = order
     scan_edges = checks.edges_across(ctx, (A, B))
     face = flat_face_with_hole(ctx, A, B)
     if face is not None:
@@ -253,7 +257,6 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
     held_first, note, refair = None, "", None
     if order == "auto":
         order, held_first, note, refair = band_order(ctx, (A, B))
-    cap_order = order if cap_order is None else cap_order
     PA, PB = ctx.V[A.vertices], ctx.V[B.vertices]
     arcs = [continuation_arcs(ctx.V, ctx.F[ctx.ring_faces(L.vertices, 3)], L.vertices) for L in (A, B)]
     first = "along the continuation arcs"
@@ -437,14 +440,20 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
             for L in (A, B):
                 t1 = time.perf_counter()
                 try:
-                    c = build_patch(ctx, L.id, L.vertices, order=order, smooth=smooth, energy=True)
+                    co, test = cap_order, None
+                    if co == "auto":
+                        from shellrepair.fill.selftest import choose_order
+                        test = choose_order(ctx, L.id, L.vertices)
+                        co = int(test.order)
+                    c = build_patch(ctx, L.id, L.vertices, order=co, smooth=smooth, energy=True)
                     why, _ = checks.check_patch(ctx, c)
                 except PatchError as exc:
                     c, why = None, str(exc)
                 if why is not None:
                     c = None
                 else:
-                    c = c.with_(option=OPTION_NAMES["faired"].format(order=order))
+                    c = c.with_(option=OPTION_NAMES["faired"].format(order=co)
+                                + ("" if test is None else f" ({test.describe()})"), choice=test)
                 caps.append(Outcome(c, why or "", time.perf_counter() - t1, []))
         else:
             caps = fill_caps(1.0)
