@@ -247,8 +247,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     ctx.know_loops(scan.loops)
     results = {}
     bands = find_bands(ctx, scan) if bridge != "never" and method == "fair" else Bands([], [])
-    # each pair's flags, for a pair the fill tries again (tube_crossed_caps)
-    flags = {frozenset((b.A.id, b.B.id)): (b.mutual, b.wrapped)
+    # each pair's mutual flag, for a pair the fill tries again (tube_crossed_caps)
+    flags = {frozenset((b.A.id, b.B.id)): b.mutual
              for b in bands.pairs + [x for t in bands.triples for x in t[3]]}
     # a loop left open or capped flat by request joins no band; its partner is filled alone
     alone = asked_open | flat_caps
@@ -262,7 +262,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     def order_of(*loops):     # the order asked for one of these loops, else the scan's
         return next((asked_order[L.id] for L in loops if L.id in asked_order), order)
 
-    units = [BandUnit(b.A, b.B, order_of(b.A, b.B), smooth, bridge, b.mutual, b.wrapped) for b in pairs]
+    units = [BandUnit(b.A, b.B, order_of(b.A, b.B), smooth, bridge, b.mutual) for b in pairs]
     units += [pants_unit(A, B, C, fb, order_of(A, B, C), smooth, bridge) for A, B, C, fb in triples]
     units += [HoleUnit(h.id, h.vertices, order_of(h), smooth) for h in holes if h.id not in paired]
     units.sort(key=lambda u: u.first_id)
@@ -466,7 +466,7 @@ def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges
     bridges : list of dict
         The report's band records (gets one per pair tried).
     flags : dict, optional
-        ``(mutual, wrapped)`` per pair of loop ids, from the band search.
+        ``mutual`` per pair of loop ids, from the band search.
 
     Returns
     -------
@@ -484,7 +484,7 @@ def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges
         if j is None or A.kind != "hole" or np.intersect1d(A.vertices, B.vertices).size:
             continue
         outs, record = _fill_pair(ctx, A, B, order, smooth, mode,
-                                  *(flags or {}).get(frozenset((A.id, B.id)), (False, False)))
+                                  (flags or {}).get(frozenset((A.id, B.id)), False))
         row["seconds"] = round(row["seconds"] + outs[0].seconds, 4)
         tube = outs[0].patch if record.get("chosen") == "tube" else None
         why, corners = acc.conflict(ctx, tube, skip=j) if tube is not None else ("", None)

@@ -192,7 +192,7 @@ def _restore_collinear(T, rings):
     return np.array(T, np.int64)
 
 
-def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
+def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
     """A missing region bounded by loops A and B: a tube, or a cap on each.
 
     The tube starts from :func:`~shellrepair.fill.tube.guide_tube` (rings
@@ -230,7 +230,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False, wrapped=False):
     # 134226128, case 0) a 484-edge cap took the tube's default order 2
     # where its own test holes chose order 3 (the case 9.61 -> 8.74 per
     # mille). Before, only a pair found as wrapping one tube
-    # (bands.wrapped_pairs, ``wrapped``) had its caps filled so.
+    # (bands.wrapped_pairs) had its caps filled so.
     cap_order = order
     scan_edges = checks.edges_across(ctx, (A, B))
     face = flat_face_with_hole(ctx, A, B)

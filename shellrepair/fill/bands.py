@@ -109,7 +109,7 @@ def find_bands(ctx, scan):
     if len(rest) >= 2:
         wrapped = wrapped_pairs(ctx.V, loops, rest, lambda lp: ctx.F[ctx.ring_faces(lp, 3)], touching, arcs)
         pairs = pairs + wrapped
-    # such a pair's caps are filled as the holes alone would be (Band.wrapped)
+    # (how the pair was found, for the record: every pair's caps are filled as the holes alone would be)
     wrapped = {frozenset((loops[i].id, loops[j].id)) for i, j, _, _ in wrapped}
 
     def band(i, j, sc):

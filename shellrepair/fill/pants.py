@@ -182,7 +182,7 @@ def pants_unit(A, B, C, pairs, order, smooth, mode):
     fallback, with caps on the other loops)."""
     from shellrepair.fill.patch import BandUnit, HoleUnit
 
-    fb = [BandUnit(b.A, b.B, order, smooth, mode, b.mutual, b.wrapped) for b in pairs]
+    fb = [BandUnit(b.A, b.B, order, smooth, mode, b.mutual) for b in pairs]
     done = {L.id for b in pairs for L in (b.A, b.B)}
     fb += [HoleUnit(L.id, L.vertices, order, smooth) for L in (A, B, C) if L.id not in done]
     return PantsUnit(A, B, C, order, smooth, mode, tuple(sorted(fb, key=lambda u: u.first_id)))

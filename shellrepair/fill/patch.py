@@ -52,7 +52,6 @@ class BandUnit(NamedTuple):
     smooth: int
     mode: str              # the ``bridge`` option: "auto" or "always"
     mutual: bool = False   # each loop sends most of its arcs to the other (shellrepair.fill.bands.Band)
-    wrapped: bool = False  # paired as wrapping one tube: its caps filled as the holes alone would be
 
     @property
     def first_id(self):

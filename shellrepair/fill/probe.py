@@ -762,8 +762,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim):
     if not np.isfinite(r) or r <= 0 or h <= 0:
         return {}, 0
     margin = MARGIN_EDGES * h
-    c = V[loop].mean(axis=0)
-    rim_r = float(np.sqrt(((V[loop] - c) ** 2).sum(axis=1)).max())
+    c, rim_r = rim.c, rim.rim_r            # the rim's centroid and reach, measured once for the hole
     pool = Pooled(candidates)
     taken = []
     for lo, hi in SHELLS:
