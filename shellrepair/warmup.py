@@ -152,5 +152,9 @@ def _warm_second():
     triangulate_kernels.loop_edges_present(triangulate_kernels.tet_faces(np.array([[3, 1, 0, 2]], np.int32), 4), 4)
     start, fpos, across, _ = probe_kernels.near_adjacency(T, 4)
     probe_kernels.placement(X, T, across, start, fpos, 1, X[1], 2.0, 0.5)
+    probe_kernels.placement_statuses(X, T, across, start, fpos, np.array([1], np.int64), np.array([1], np.int64),
+                                     2.0, 0.5)
+    probe_kernels.faces_within(X, T, np.array([0, 1], np.int64), X[0], 1.0)
+    probe_kernels.within_distance(X, np.array([0, 1], np.int64), X[0], 1.0)
     probe_kernels.component_within(across, np.array([0, 1], np.int64), np.array([0], np.int64))
     probe_kernels.inside_polygon(X[:, 0], X[:, 1], X[:3, :2])

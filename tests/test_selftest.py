@@ -188,6 +188,57 @@ def test_a_near_scan_that_is_not_a_plain_surface_is_left_to_the_numpy_steps():
     assert not probe_kernels.near_adjacency(np.array([[0, 0, 1]], np.int64), 2)[3]    # a degenerate face
 
 
+@pytest.mark.parametrize("seed", [2, 5])
+def test_placements_walked_all_at_once_end_as_each_walked_alone(seed):
+    # probe_kernels.placement_statuses walks many placements over one scratch
+    # (reset after each): each status is the one placement gives alone
+    from shellrepair import compiled
+    from shellrepair.fill import probe_kernels
+
+    if not compiled.ENABLED:
+        pytest.skip("the kernels are off")
+    V, F = shapes.bumpy_sphere(4, amplitude=0.03, frequency=4)
+    V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=6, radius=0.25, seed=seed)
+    corners = np.ascontiguousarray(F2, np.int64)
+    verts = np.unique(corners)
+    start, pos, across, ok = probe_kernels.near_adjacency(np.searchsorted(verts, corners), len(verts))
+    assert ok
+    pids = verts[::7]
+    lps = np.searchsorted(verts, pids)
+    seen = set()
+    for R, limit in ((0.3, 0.25), (0.15, 0.1), (1e-9, 0.0)):
+        alone = [probe_kernels.placement(V2, corners, across, start, pos, lp, V2[v], R, limit)[0]
+                 for lp, v in zip(lps, pids)]
+        together = probe_kernels.placement_statuses(V2, corners, across, start, pos, lps, pids, R, limit)
+        assert together.tolist() == alone
+        seen |= set(alone)
+    assert seen == {0, 1, 2}      # regions, walks ended at an open edge, vertices with no face within reach
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_compiled_reach_filters_keep_what_numpy_keeps(seed):
+    # the order test's region (faces with a corner within reach) and the rim
+    # distance's vertices within bound, compiled: the same ones to the bit,
+    # also for corners exactly at the reach and at a large offset
+    from shellrepair import compiled
+    from shellrepair.fill import probe_kernels
+
+    if not compiled.ENABLED:
+        pytest.skip("the kernels are off")
+    rng = np.random.default_rng(seed)
+    V = rng.normal(size=(400, 3)) + 1e6 * seed
+    F = rng.integers(0, 400, (900, 3))
+    c = V[3].copy()
+    d = np.sqrt(((V - c) ** 2).sum(axis=1))
+    for reach in (0.5, float(d[10]), float(np.median(d)), 0.0):
+        faces = np.sort(rng.choice(900, 600, replace=False))
+        want = faces[(((V[F[faces]] - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
+        assert np.array_equal(probe_kernels.faces_within(V, F, faces, c, reach), want)
+        verts = np.sort(rng.choice(400, 250, replace=False))
+        want = np.flatnonzero(np.sqrt(((V[verts] - c) ** 2).sum(axis=1)) <= reach)
+        assert np.array_equal(probe_kernels.within_distance(V, verts, c, reach), want)
+
+
 def test_ties_go_to_the_default_order_then_the_lower():
     t = OrderTest(2, errors={1: 1.0, 2: 1.0, 3: 1.0}, probes=3, scale=1.0)
     assert t.runner_up == 1

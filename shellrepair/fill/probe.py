@@ -430,6 +430,22 @@ class _Near:
                     self._adjacency = (start, pos, across)
         return self._adjacency or None
 
+    def ends(self, pids, shape, margin):
+        """{vertex id: whether the compiled walk ends its placement} for the
+        candidate centres ``pids`` (:func:`probe_kernels.placement_statuses`,
+        one call for all: most end at an open edge near them, and each
+        :func:`_probe` call cost 0.2 ms on a scan with a thousand holes);
+        None where the walk is not compiled (:meth:`adjacency`)."""
+        adj = self.adjacency()
+        if adj is None or len(pids) == 0:
+            return None
+        start, fpos, across = adj
+        _, R, limit = _reaches(shape[0], margin)
+        pids = np.asarray(pids, np.int64)
+        status = probe_kernels.placement_statuses(self.V, self.corners, across, start, fpos,
+                                                  np.searchsorted(self.verts, pids), pids, R, limit)
+        return dict(zip(pids.tolist(), (status != 0).tolist()))
+
     def edges_for_placement(self, k):
         """The edges sorted once, for a placement whose region has ``k``
         faces: None (the placement sorts its own region's) until the
@@ -509,6 +525,23 @@ def _region(V, near, p_id, p, R, limit, outline, r_out, e1, n0):
     return pos[comp], T[comp], frame, edges
 
 
+def _reaches(outline, margin):
+    """A test hole's reaches from its centre: (the outline's, the region's
+    ``R`` with its margin, the ``limit`` within which an open edge refuses
+    the placement)."""
+    r_out = float(np.sqrt((outline * outline).sum(axis=1).max()))
+    R = r_out + margin
+    return r_out, R, R - margin * 0.5
+
+
+def _faces_within(V, F, faces, c, reach):
+    """The faces of ``faces`` with a corner within ``reach`` of ``c`` (in their order)."""
+    if compiled.ENABLED:
+        return probe_kernels.faces_within(V, F, faces, c, reach)
+    T = V[F[faces]]
+    return faces[(((T - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
+
+
 def _probe(V, F, near, p_id, shape, margin):
     """A test hole of the hole's shape around scan vertex ``p_id``, with
     ``margin`` of intact scan around it; None where the scan is not intact
@@ -528,9 +561,7 @@ def _probe(V, F, near, p_id, shape, margin):
 
     outline, e1, n0 = shape
     p = V[p_id]
-    r_out = float(np.sqrt((outline * outline).sum(axis=1).max()))
-    R = r_out + margin
-    limit = R - margin * 0.5
+    r_out, R, limit = _reaches(outline, margin)
     adj = near.adjacency()
     edges = None
     if adj is not None:
@@ -665,8 +696,11 @@ class _RimDistance:
         """Distances of ``verts`` (ascending ids), measured at least for
         every one within ``limit`` of the rim (NaN for some beyond it)."""
         bound = self.rim_r + limit + 1e-9 * (abs(self.rim_r) + abs(limit)) + 1e-300
-        D = self.V[verts] - self.c
-        need = np.flatnonzero(np.sqrt((D * D).sum(axis=1)) <= bound)    # within bound of the rim's centroid
+        if compiled.ENABLED:
+            need = probe_kernels.within_distance(self.V, verts, self.c, bound)
+        else:
+            D = self.V[verts] - self.c
+            need = np.flatnonzero(np.sqrt((D * D).sum(axis=1)) <= bound)    # within bound of the rim's centroid
         out = np.full(len(verts), np.nan)
         if need.size == 0:
             return out
@@ -681,6 +715,29 @@ class _RimDistance:
             order = np.argsort(ids, kind="stable")
             self.ids, self.dist = ids[order], np.concatenate([self.dist, d])[order]
         return out
+
+
+class _Rings:
+    """The faces within some rings of a hole's rim, for each shell, scale
+    and outline of its test: one walk (:meth:`ScanContext.ring_walk`)
+    answers every ring count up to its own, so the rim is walked again only
+    for more rings than any asked before (on a scan with a thousand holes,
+    a walk for each shell, scale and outline cost 0.5 s)."""
+
+    def __init__(self, ctx, loop):
+        self.ctx, self.loop = ctx, loop
+        self.walked = 0                  # rings of the walk kept
+        self.found = self.off = None
+
+    def faces(self, rings):
+        """:meth:`ScanContext.ring_faces` of the rim and ``rings`` rings, sorted."""
+        rings = max(1, int(rings))
+        if rings > self.walked:
+            got = self.ctx.ring_walk(self.loop, rings)
+            if got is None:                  # the kernels off: the NumPy walk
+                return self.ctx.ring_faces(self.loop, rings)
+            (self.found, self.off), self.walked = got, rings
+        return np.sort(self.found[:self.off[rings]])
 
 
 def _centres(rim_dist, verts, r, h, lo, hi):
@@ -736,10 +793,12 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     # the near vertices' distances to the rim, kept for every scale and outline
     c = V[loop].mean(axis=0)
     rim = _RimDistance(V, loop, c, float(np.sqrt(((V[loop] - c) ** 2).sum(axis=1)).max()))
+    rings = _Rings(ctx, loop)
     few = None               # the largest scale's verdict from fewer than MIN_PROBES test holes
     for f in SCALES:          # the largest scale at which MIN_PROBES test holes fit
         for shape in own + [disc]:          # the hole's own outline, then a disc of its area
-            errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough, rim)
+            errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough, rim,
+                                      rings)
             if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
                 return errors, n, f
             if n and few is None:
@@ -747,7 +806,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     return few if few is not None else ({}, 0, 0.0)
 
 
-def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim):
+def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings):
     from shellrepair.errors import MeshError
     from shellrepair.fill.fair import fair_patch_orders
     from shellrepair.fill.patch import PatchError
@@ -782,11 +841,11 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim):
         # mille); at 10M faces the outermost region cost 1.4-1.8 s a hole,
         # most holes fit their test holes in the first shell.
         reach = rim_r + hi * r + r + margin + 2 * h
-        near_f = ctx.ring_faces(loop, int(np.ceil(2.0 * reach / h)))
-        T = V[ctx.F[near_f]]
-        near_f = near_f[(((T - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
+        near_f = rings.faces(int(np.ceil(2.0 * reach / h)))
+        near_f = _faces_within(V, ctx.F, near_f, c, reach)
         near = _near(ctx, near_f)
         cands = _centres(rim, near.verts, r, h, lo, hi)
+        ends = near.ends(cands, shape, margin)
         # farthest first from what is taken (the first: the shell's first candidate)
         left = list(cands)
         while left and pool.tests < max_probes:
@@ -799,6 +858,8 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim):
             else:
                 j = 0
             pid = int(left.pop(j))
+            if ends is not None and ends[pid]:
+                continue         # (the compiled walk of its region ended it: _probe would say None)
             got = _probe(V, ctx.F, near, pid, shape, margin)
             if got is None:
                 continue

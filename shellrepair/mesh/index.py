@@ -262,6 +262,23 @@ class ScanContext:
             return context_kernels.ring_faces(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
         return self._ring_faces_numpy(verts, rings)
 
+    def ring_walk(self, verts, rings):
+        """The walk of :meth:`ring_faces` with each ring's end: ``(faces in
+        walk order, off)``, ``np.sort(faces[:off[r]])`` being
+        ``ring_faces(verts, r)`` for every ``1 <= r <= rings``
+        (:func:`shellrepair.mesh.index_kernels.ring_walk`); None with the
+        kernels off."""
+        if not compiled.ENABLED:
+            return None
+        F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
+        verts = np.asarray(verts, np.int64)
+        reg = self._local_lists(verts)
+        if reg is not None:
+            got, off = context_kernels.ring_walk(verts, rings, reg.vf_order, reg.vf_start, F, self._vmark, self._fmark)
+            if reg.covered[F[got]].all():   # every list the walk read was complete
+                return got, off
+        return context_kernels.ring_walk(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
+
     def _ring_faces_numpy(self, verts, rings):
         """:meth:`ring_faces` in NumPy (the compiled walk's test oracle)."""
         vm, fm = self._vmark, self._fmark
