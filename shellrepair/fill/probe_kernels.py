@@ -298,11 +298,7 @@ def _within_distance(V, verts, c, bound):
     keep = np.empty(verts.size, np.int64)
     k = 0
     for i in range(verts.size):
-        v = verts[i]
-        dx = V[v, 0] - c[0]
-        dy = V[v, 1] - c[1]
-        dz = V[v, 2] - c[2]
-        if np.sqrt(dx * dx + dy * dy + dz * dz) <= bound:
+        if _dist(V, verts[i], c) <= bound:
             keep[k] = i
             k += 1
     return keep[:k]

@@ -250,16 +250,10 @@ class ScanContext:
         return uniq(order[concat_ranges(s, start[verts + 1] - s)] // 3)
 
     def ring_faces(self, verts, rings):
-        """Faces within ``rings`` rings of ``verts`` (sorted)."""
+        """Faces within ``rings`` rings of ``verts`` (sorted): the compiled
+        walk's faces (:meth:`ring_walk`) sorted, or the NumPy walk."""
         if compiled.ENABLED:
-            F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
-            verts = np.asarray(verts, np.int64)
-            reg = self._local_lists(verts)
-            if reg is not None:
-                got = context_kernels.ring_faces(verts, rings, reg.vf_order, reg.vf_start, F, self._vmark, self._fmark)
-                if reg.covered[F[got]].all():   # every list the walk read was complete
-                    return got
-            return context_kernels.ring_faces(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
+            return np.sort(self.ring_walk(verts, rings)[0])
         return self._ring_faces_numpy(verts, rings)
 
     def ring_walk(self, verts, rings):
