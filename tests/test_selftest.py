@@ -406,3 +406,38 @@ def test_the_order_test_keeps_no_scan_alive_after_its_repair():
     del ctx
     gc.collect()
     assert gone() is None
+
+
+def _split_open_edges(V, F):
+    """Each open edge split at its midpoint, the face on it split in two."""
+    F = np.asarray(F, np.int64)
+    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    keys, counts = np.unique(E, axis=0, return_counts=True)
+    open_edges = {tuple(e) for e in keys[counts == 1]}
+    Vl, out = list(np.asarray(V, np.float64)), []
+    for f in F.tolist():
+        for j in range(3):
+            a, b, c = f[j], f[(j + 1) % 3], f[(j + 2) % 3]
+            if (min(a, b), max(a, b)) in open_edges:
+                Vl.append((Vl[a] + Vl[b]) / 2.0)
+                out += [[a, len(Vl) - 1, c], [len(Vl) - 1, b, c]]
+                break
+        else:
+            out.append(f)
+    return np.asarray(Vl), np.asarray(out, np.int64)
+
+
+def test_test_holes_of_the_holes_size_fit_where_its_rim_edges_are_shorter_than_the_scans_faces(monkeypatch):
+    # a rim of quarter-length edges between the sphere's own faces (a disc cut
+    # across a coarse grid gives such rims): the intact margin a test hole
+    # needs is counted in the faces' size, not only in rim edges, or no test
+    # hole of the hole's size is found complete anywhere
+    V, F = sphere_with_hole(radius=0.5)
+    V, F = _split_open_edges(*_split_open_edges(V, F))
+    scan, ctx = context(V, F)
+    h = scan.holes[0]
+    assert probe._longest_edges(V, F[ctx.ring_faces(h.vertices, 1)]) > 3.0 * probe.mean_edge(V, h.vertices)
+    errors, n, scale = probe_errors(ctx, h.vertices, CANDIDATES)
+    assert n == PROBES and scale == 1.0 and errors[3] < errors[2] < errors[1]
+    monkeypatch.setattr(probe, "MARGIN_FACES", 0.0)      # the margin in rim edges alone
+    assert probe_errors(ctx, h.vertices, CANDIDATES)[2] < 1.0

@@ -50,6 +50,13 @@ __all__ = ["hole_radius", "probe_errors", "rim_roughness", "inside_polygon", "in
 PROBES = 3
 #: Intact scan kept around a test hole, in rim edges (the fairing reads 3 rings).
 MARGIN_EDGES = 5.0
+#: ... and at least this many times the mean longest edge of the scan
+#: faces at the rim: a placement is refused where the faces within its
+#: reach leave an edge closer than half the margin to its centre, so a
+#: margin under two faces' size refuses every placement (a rim of short
+#: edges between long faces: a disc cut across a torus's coarse grid,
+#: rim edges 0.0104, its faces' longest 0.031).
+MARGIN_FACES = 3.0
 #: Shells searched for probe centres: distance from the hole's rim, in units
 #: of the probe's radius (inner, outer), tried in turn until ``PROBES`` fit.
 SHELLS = ((1.2, 2.5), (2.5, 5.0), (5.0, 10.0))
@@ -740,6 +747,16 @@ class _Rings:
         return np.sort(self.found[:self.off[rings]])
 
 
+def _longest_edges(V, T):
+    """Mean over the faces ``T`` (f,3) of each one's longest edge (0 without faces)."""
+    if len(T) == 0:
+        return 0.0
+    P = V[T]
+    e = np.stack([((P[:, 1] - P[:, 0]) ** 2).sum(axis=1), ((P[:, 2] - P[:, 1]) ** 2).sum(axis=1),
+                  ((P[:, 0] - P[:, 2]) ** 2).sum(axis=1)], axis=1)
+    return float(np.sqrt(e.max(axis=1)).mean())
+
+
 def _centres(rim_dist, verts, r, h, lo, hi):
     """Candidate probe centres in the shell ``lo..hi`` (units of ``r``)
     beyond the rim: scan vertices, an even spread over them.
@@ -789,7 +806,10 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     own = [outline] if inside_polygon(np.zeros(1), np.zeros(1), outline)[0] else []
     # the real rim's roughness, given to each test hole's rim (a ragged rim
     # is noise a higher order carries on into the hole)
-    rough = rim_roughness(V, ctx.F[ctx.ring_faces(loop, 1)], loop)
+    ring = ctx.F[ctx.ring_faces(loop, 1)]
+    rough = rim_roughness(V, ring, loop)
+    # the margin a placement needs where the scan's faces are longer than the rim's edges
+    faces_margin = MARGIN_FACES * _longest_edges(V, ring)
     # the near vertices' distances to the rim, kept for every scale and outline
     c = V[loop].mean(axis=0)
     rim = _RimDistance(V, loop, c, float(np.sqrt(((V[loop] - c) ** 2).sum(axis=1)).max()))
@@ -798,7 +818,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     for f in SCALES:          # the largest scale at which MIN_PROBES test holes fit
         for shape in own + [disc]:          # the hole's own outline, then a disc of its area
             errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough, rim,
-                                      rings)
+                                      rings, faces_margin)
             if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
                 return errors, n, f
             if n and few is None:
@@ -806,7 +826,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     return few if few is not None else ({}, 0, 0.0)
 
 
-def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings):
+def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings, faces_margin=0.0):
     from shellrepair.errors import MeshError
     from shellrepair.fill.fair import fair_patch_orders
     from shellrepair.fill.patch import PatchError
@@ -820,7 +840,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
     r = max(r, float(np.sqrt((shape[0] ** 2).sum(axis=1).max())))   # the outline's reach from its centre
     if not np.isfinite(r) or r <= 0 or h <= 0:
         return {}, 0
-    margin = MARGIN_EDGES * h
+    margin = max(MARGIN_EDGES * h, faces_margin)
     c, rim_r = rim.c, rim.rim_r            # the rim's centroid and reach, measured once for the hole
     pool = Pooled(candidates)
     taken = []
