@@ -61,11 +61,17 @@ def test_torus_missing_its_inner_band_gets_a_tube(cut, r):
     assert rms <= 10.0, rms
 
 
-def test_an_order_3_cap_crossing_another_falls_back_on_its_order_2_fill():
+def test_an_order_3_cap_crossing_another_falls_back_on_its_order_2_fill(monkeypatch):
     # at the default order both caps of this band choose order 3; the first
     # one's order-3 cap bulges into the second's: the merge puts the first
     # hole's checked order-2 fill in its place and both close (before,
-    # the second hole stayed open)
+    # the second hole stayed open). (The first cap's order 3 also departs
+    # from its order 2 a little more than its order 1 does, 0.137 against
+    # 0.134, which keeps order 2 before the merge; that guard is set aside
+    # here, so that the merge's own fallback is what is tested.)
+    from shellrepair.fill import hole
+
+    monkeypatch.setattr(hole, "_departs", lambda *a: None)
     V, F, V2, F2 = torus_without_inner_band()
     R, rep = repair_mesh(Mesh(V=V2, F=F2), bridge="never")
     assert rep["holes_after"] == 0

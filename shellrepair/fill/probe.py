@@ -1,7 +1,9 @@
 """Which patch continues this scan best, asked of the scan at the hole's own size.
 
-:func:`probe_errors` cuts test holes of the hole's own size (a disc of the
-hole's area, :func:`hole_radius`) into intact scan next to the hole,
+:func:`probe_errors` cuts test holes of the hole's own size (its own
+outline; where that fits nowhere, a disc as wide as the hole across its
+narrow axis, :func:`outline_narrow_axis`, then a disc of the hole's area,
+:func:`hole_radius`) into intact scan next to the hole,
 fills each with every candidate fairing order exactly as a hole is
 filled (triangulate, refine, fair: :func:`_refined`
 and :func:`shellrepair.fill.fair.fair_patch_orders`), and measures each fill
@@ -24,12 +26,15 @@ clean rim order 3 wins; with the rim moved by noise of 0.5 % of the radius
 order 2 does, and the choice follows (tests/test_repair.py).
 
 A probe is placed where the disc and a margin of ``MARGIN_EDGES`` rim
-edges around it are intact scan: no boundary edge (of a hole or of the
+edges (at least ``MARGIN_FACES`` of the rim faces' longest edges) around
+it are intact scan: no boundary edge (of a hole or of the
 scan's border) inside, and the disc one piece of surface (a thin part
 whose far side comes within the radius is not a disc). Candidates are the
 scan vertices in shells around the hole, from just outside its rim
 outwards (``SHELLS``); up to ``PROBES`` of them are taken, each as far as
-possible from those already taken (the same ones for the same scan). Where
+possible from those already taken (the same ones for the same scan). A
+test hole too small for a vertex of its own fills alike at every order and
+does not count. Where
 no probe fits (the hole is as large as the intact scan around it), the
 scan cannot tell, and the caller falls back to a documented default.
 """
@@ -204,6 +209,26 @@ def hole_outline(V, loop):
     Q = P - P.mean(axis=0)
     _, _, vt = np.linalg.svd(Q, full_matrices=False)
     return np.column_stack([Q @ vt[0], Q @ vt[1]]), vt[0], vt[1], vt[2]
+
+
+def outline_narrow_axis(poly):
+    """The half width of a closed polygon (k,2) across its narrow axis:
+    twice the square root of the smaller eigenvalue of its area's second
+    moments about its centroid (the minor semi-axis of the ellipse with the
+    same moments; a disc's radius for a disc)."""
+    x, y = np.asarray(poly, np.float64).T
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cr = x * yn - xn * y
+    A = cr.sum() / 2.0
+    if abs(A) <= 0:
+        return 0.0
+    cx = ((x + xn) * cr).sum() / (6.0 * A)
+    cy = ((y + yn) * cr).sum() / (6.0 * A)
+    sxx = ((x * x + x * xn + xn * xn) * cr).sum() / (12.0 * A) - cx * cx
+    syy = ((y * y + y * yn + yn * yn) * cr).sum() / (12.0 * A) - cy * cy
+    sxy = ((x * yn + 2 * x * y + 2 * xn * yn + xn * y) * cr).sum() / (24.0 * A) - cx * cy
+    lam = np.linalg.eigvalsh(np.array([[sxx, sxy], [sxy, syy]]))[0]
+    return float(2.0 * np.sqrt(max(lam, 0.0)))
 
 
 def inside_polygon(x, y, poly):
@@ -649,9 +674,16 @@ def _probe(V, F, near, p_id, shape, margin):
 
 class Pooled:
     """Squared distances of the removed scan to each candidate's fill,
-    summed over test holes (or bands), and their RMS."""
+    summed over test holes (or bands), and their RMS.
 
-    def __init__(self, candidates):
+    ``informative_only``: a test whose candidates all fill alike (a test
+    hole too small for a vertex of its own: every order gives its flat
+    triangulation) does not count; it says nothing about the order, and
+    counted it made a tie that the default order took.
+    """
+
+    def __init__(self, candidates, informative_only=False):
+        self.informative_only = informative_only
         self.candidates = tuple(candidates)
         self.sq = dict.fromkeys(self.candidates, 0.0)
         self.count = 0
@@ -660,14 +692,21 @@ class Pooled:
     def add(self, distances):
         """One test: ``distances`` yields (candidate, (p,) distances) for
         every candidate, lazily; the first with a non-finite distance drops
-        the whole test (the candidates after it are not built). Returns
-        whether the test counted."""
-        dd, n = {}, 0
+        the whole test (the candidates after it are not built), and so does
+        one whose candidates' distances are all the same where
+        ``informative_only``. Returns whether the test counted."""
+        dd, n, first, same = {}, 0, None, True
         for o, e in distances:
             if not np.isfinite(e).all():
                 return False
             dd[o] = float((e * e).sum())
             n = len(e)
+            if first is None:
+                first = e
+            else:
+                same = same and np.array_equal(first, e)
+        if same and self.informative_only and len(dd) > 1:
+            return False
         for o in self.candidates:
             self.sq[o] += dd[o]
         self.count += n
@@ -799,7 +838,15 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     r0 = hole_radius(V, loop)
     outline, e1, _, n0 = hole_outline(V, loop)
     t = np.linspace(0.0, 2.0 * np.pi, DISC_POINTS, endpoint=False)
-    disc = np.column_stack([np.cos(t), np.sin(t)]) * r0
+    unit = np.column_stack([np.cos(t), np.sin(t)])
+    # where the outline fits nowhere: first a disc as wide as the hole is
+    # across its narrow axis (how far its middle lies from its rim, which is
+    # what sets how far each order carries the rim on: a strip 2.1 x 0.45
+    # under a torus's tube, whose disc of equal area, radius 0.5, wrapped
+    # round the tube of radius 0.3 in every test hole and ranked order 2
+    # first, 1.46 per mille where order 3 gives 0.13), then a disc of its area
+    narrow = unit * min(r0, outline_narrow_axis(outline))
+    disc = unit * r0
     # an outline that does not hold its own centre holds no face around a
     # probe's centre vertex either (that face has the vertex as a corner):
     # every placement would be refused, so it is not tried
@@ -816,7 +863,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     rings = _Rings(ctx, loop)
     few = None               # the largest scale's verdict from fewer than MIN_PROBES test holes
     for f in SCALES:          # the largest scale at which MIN_PROBES test holes fit
-        for shape in own + [disc]:          # the hole's own outline, then a disc of its area
+        for shape in own + ([narrow] if f == 1.0 else []) + [disc]:   # the outline, the narrow disc, the disc of its area
             errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough, rim,
                                       rings, faces_margin)
             if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
@@ -842,7 +889,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
         return {}, 0
     margin = max(MARGIN_EDGES * h, faces_margin)
     c, rim_r = rim.c, rim.rim_r            # the rim's centroid and reach, measured once for the hole
-    pool = Pooled(candidates)
+    pool = Pooled(candidates, informative_only=True)
     taken = []
     for lo, hi in SHELLS:
         if pool.tests >= max_probes:
