@@ -136,7 +136,8 @@ def choose_order(ctx, hole_id, loop, candidates=None):
         return OrderTest(DEFAULT_ORDER, why=f"{k} rim edges, not tested")
     errors, n, scale = probe_errors(ctx, loop, candidates)
     if not errors:
-        return OrderTest(DEFAULT_ORDER, why="no intact scan of the hole's size around it: the scan cannot tell")
+        return OrderTest(DEFAULT_ORDER, why="no intact scan of the hole's size around it (or the test holes that fit "
+                                            "have no vertex of their own): the scan cannot tell")
     best = best_candidate({o: errors[o] for o in candidates})
     return OrderTest(int(best), errors=errors, probes=n, scale=scale)
 
