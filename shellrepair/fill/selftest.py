@@ -10,9 +10,10 @@ next to the rim, one measured criterion decides (:func:`choose_order`):
 
 1. Cut test holes of the hole's own outline and size into intact scan
    near it (:func:`shellrepair.fill.probe.probe_errors`: up to ``PROBES``,
-   spread around the hole; a disc of its area where the outline does not
-   fit; half and a quarter of the size only where nothing of the full
-   size fits), their rims given the real rim's roughness
+   spread around the hole; where the outline does not fit, a disc as wide
+   as the hole across its narrow axis, then a disc of its area; half and a
+   quarter of the size only where nothing of the full size fits), their
+   rims given the real rim's roughness
    (:func:`shellrepair.fill.probe.rim_roughness`: a ragged rim is noise that a
    higher order carries on into the hole).
 2. Fill each with every candidate order exactly as a hole is filled
@@ -21,9 +22,12 @@ next to the rim, one measured criterion decides (:func:`choose_order`):
 3. Measure each fill against the scan that was cut away: the RMS
    distance of the removed vertices to the filled surface
    (:func:`shellrepair.mesh.distance.point_mesh_distance`), pooled over the test holes.
-4. The order with the lowest error fills the real hole; equal errors
-   (a test hole too small for new vertices fills alike at every order) go
-   to ``DEFAULT_ORDER``, then to the lower order.
+4. The order with the lowest error fills the real hole; equal errors go
+   to ``DEFAULT_ORDER``, then to the lower order (a test hole too small
+   for new vertices fills alike at every order and is not counted).
+5. Where order 3 wins, it is kept only where its patch on the real hole
+   departs from the order-2 patch less than the order-1 patch does (the
+   orders converge there); else order 2 (:func:`shellrepair.fill.hole.fill_hole`).
 
 Where no test hole fits (the hole is as large as the intact scan around
 it) the scan cannot tell: the hole takes ``DEFAULT_ORDER`` and the report
