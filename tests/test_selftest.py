@@ -462,15 +462,20 @@ def test_an_outlines_narrow_axis_is_the_half_width_of_the_ellipse_of_its_moments
     assert probe.outline_narrow_axis(rect) == pytest.approx(2.0 * np.sqrt(1.0 / 12.0))
 
 
-def test_a_test_whose_candidates_all_fill_alike_does_not_count():
-    pool = probe.Pooled((1, 2, 3), informative_only=True)
-    same = np.array([0.1, 0.2, 0.3])
-    assert not pool.add((o, same.copy()) for o in (1, 2, 3))
-    assert pool.tests == 0 and pool.rms() == {}
-    assert pool.add((o, same * o) for o in (1, 2, 3))
-    assert pool.tests == 1 and pool.rms()[1] < pool.rms()[2] < pool.rms()[3]
-    counted = probe.Pooled((1, 2, 3))          # a tube's test bands count every band
-    assert counted.add((o, same.copy()) for o in (1, 2, 3)) and counted.tests == 1
+def test_test_holes_with_no_vertex_of_their_own_are_not_evidence(monkeypatch):
+    # every test hole refined so coarsely that it gets no vertex of its own:
+    # each order fills it with the same flat triangulation, so it says nothing
+    # of the order; the scan cannot tell (before, such ties were counted and
+    # order 2 was reported as chosen "by 3 test holes")
+    V, F = sphere_with_hole(radius=0.5)
+    scan, ctx = context(V, F)
+    h = scan.holes[0]
+    assert probe_errors(ctx, h.vertices, CANDIDATES)[1] == PROBES
+    monkeypatch.setattr(probe, "TEST_MAX_UNKNOWNS", 0)
+    monkeypatch.setattr(probe, "TEST_COARSEN", 1e6)
+    assert probe_errors(ctx, h.vertices, CANDIDATES) == ({}, 0, 0.0)
+    t = choose_order(ctx, h.id, h.vertices)
+    assert t.order == DEFAULT_ORDER and not t.errors and "no vertex of their own" in t.describe()
 
 
 @pytest.mark.slow

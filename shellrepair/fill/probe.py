@@ -674,16 +674,9 @@ def _probe(V, F, near, p_id, shape, margin):
 
 class Pooled:
     """Squared distances of the removed scan to each candidate's fill,
-    summed over test holes (or bands), and their RMS.
+    summed over test holes (or bands), and their RMS."""
 
-    ``informative_only``: a test whose candidates all fill alike (a test
-    hole too small for a vertex of its own: every order gives its flat
-    triangulation) does not count; it says nothing about the order, and
-    counted it made a tie that the default order took.
-    """
-
-    def __init__(self, candidates, informative_only=False):
-        self.informative_only = informative_only
+    def __init__(self, candidates):
         self.candidates = tuple(candidates)
         self.sq = dict.fromkeys(self.candidates, 0.0)
         self.count = 0
@@ -692,21 +685,14 @@ class Pooled:
     def add(self, distances):
         """One test: ``distances`` yields (candidate, (p,) distances) for
         every candidate, lazily; the first with a non-finite distance drops
-        the whole test (the candidates after it are not built), and so does
-        one whose candidates' distances are all the same where
-        ``informative_only``. Returns whether the test counted."""
-        dd, n, first, same = {}, 0, None, True
+        the whole test (the candidates after it are not built). Returns
+        whether the test counted."""
+        dd, n = {}, 0
         for o, e in distances:
             if not np.isfinite(e).all():
                 return False
             dd[o] = float((e * e).sum())
             n = len(e)
-            if first is None:
-                first = e
-            else:
-                same = same and np.array_equal(first, e)
-        if same and self.informative_only and len(dd) > 1:
-            return False
         for o in self.candidates:
             self.sq[o] += dd[o]
         self.count += n
@@ -863,13 +849,17 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     rings = _Rings(ctx, loop)
     few = None               # the largest scale's verdict from fewer than MIN_PROBES test holes
     for f in SCALES:          # the largest scale at which MIN_PROBES test holes fit
+        small = False
         for shape in own + ([narrow] if f == 1.0 else []) + [disc]:   # the outline, the narrow disc, the disc of its area
-            errors, n = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough, rim,
-                                      rings, faces_margin)
+            errors, n, alike = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough,
+                                             rim, rings, faces_margin)
             if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
                 return errors, n, f
             if n and few is None:
                 few = (errors, n, f)
+            small = alike > 0 and not n
+        if small:             # the disc of its area fits, too small for a vertex: smaller ones are too
+            break
     return few if few is not None else ({}, 0, 0.0)
 
 
@@ -889,10 +879,11 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
         return {}, 0
     margin = max(MARGIN_EDGES * h, faces_margin)
     c, rim_r = rim.c, rim.rim_r            # the rim's centroid and reach, measured once for the hole
-    pool = Pooled(candidates, informative_only=True)
+    pool = Pooled(candidates)
     taken = []
+    alike = 0                  # test holes with no vertex of their own
     for lo, hi in SHELLS:
-        if pool.tests >= max_probes:
+        if pool.tests + alike >= max_probes:
             break
         # the scan near the hole, as far as this shell's test holes and their
         # margins reach: faces within as many rings of the rim as reach it at
@@ -915,7 +906,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
         ends = near.ends(cands, shape, margin)
         # farthest first from what is taken (the first: the shell's first candidate)
         left = list(cands)
-        while left and pool.tests < max_probes:
+        while left and pool.tests + alike < max_probes:
             if taken:
                 P = V[np.asarray(left)]
                 dmin = np.min(np.sqrt(((P[:, None, :] - V[np.asarray(taken)][None]) ** 2).sum(axis=2)), axis=1)
@@ -939,12 +930,18 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
             except (MeshError, PatchError, ValueError, IndexError):
                 continue
             X0, Fs, nf, _, scale, org = P0
+            if len(X0) == nf:
+                # no vertex of its own: every order fills it alike, so it says
+                # nothing of the order (counted, it made ties that order 2 took)
+                alike += 1
+                taken.append(pid)
+                continue
             faired = fair_patch_orders(X0, Fs, nf, tuple(candidates), rounds=TEST_ROUNDS, operator=False)
             Tp = Fs[len(Fs) - len(T):]
             if pool.add((o, point_mesh_distance(Q - origin, org + scale * np.vstack([X0[:nf], Xu]), Tp))
                         for o, (Xu, _) in zip(candidates, faired)):
                 taken.append(pid)
-    return pool.rms(), pool.tests
+    return pool.rms(), pool.tests, alike
 
 
 def _refined(ctx, loop, rings):
