@@ -478,6 +478,19 @@ def test_test_holes_with_no_vertex_of_their_own_are_not_evidence(monkeypatch):
     assert t.order == DEFAULT_ORDER and not t.errors and "no vertex of their own" in t.describe()
 
 
+def test_a_rim_collapsed_to_a_point_gets_no_test_hole_and_no_error():
+    # every rim vertex at one position: no radius, no edge length; the test
+    # says the scan cannot tell instead of failing
+    V, F = sphere_with_hole(radius=0.5)
+    h = context(V, F)[0].holes[0]
+    V = V.copy()
+    V[h.vertices] = V[h.vertices[0]]
+    _, ctx = context(V, F)
+    assert probe_errors(ctx, h.vertices, CANDIDATES) == ({}, 0, 0.0)
+    t = choose_order(ctx, h.id, h.vertices)
+    assert t.order == DEFAULT_ORDER and "cannot tell" in t.describe()
+
+
 @pytest.mark.slow
 def test_a_strip_under_a_torus_is_tested_by_a_disc_as_wide_as_the_strip():
     """Case 6 of design seed 12: a torus (tube 0.3) seen from a ring of

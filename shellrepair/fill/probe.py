@@ -863,7 +863,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     return few if few is not None else ({}, 0, 0.0)
 
 
-def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings, faces_margin=0.0):
+def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings, faces_margin):
     from shellrepair.errors import MeshError
     from shellrepair.fill.fair import fair_patch_orders
     from shellrepair.fill.patch import PatchError
@@ -876,7 +876,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
     h = mean_edge(V, loop)
     r = max(r, float(np.sqrt((shape[0] ** 2).sum(axis=1).max())))   # the outline's reach from its centre
     if not np.isfinite(r) or r <= 0 or h <= 0:
-        return {}, 0
+        return {}, 0, 0
     margin = max(MARGIN_EDGES * h, faces_margin)
     c, rim_r = rim.c, rim.rim_r            # the rim's centroid and reach, measured once for the hole
     pool = Pooled(candidates)
