@@ -180,3 +180,25 @@ def test_edge_count_delta_is_the_same_by_every_look_up(seed):
     assert edge_count_delta(topo, new, n + 3) == want
     assert edge_count_delta(topo, new, n + 3, n_before=n) == want
     assert len(new) * 3 * 64 < len(topo.edges)          # the record search ran
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_boundary_half_edges_alone_are_the_topologys_and_give_the_same_loops(seed):
+    # face soups with open edges, edges of three faces and pinched rims:
+    # the boundary half-edges found by one sort of the edge keys are the
+    # whole topology's, and the loops walked from them are the same
+    from shellrepair.mesh.topology import boundary_half_edges
+
+    rng = np.random.default_rng(seed)
+    for _ in range(300):
+        n = int(rng.integers(3, 30))
+        F = rng.integers(0, n, (int(rng.integers(1, 40)), 3))
+        F = F[(F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])]
+        if not len(F):
+            continue
+        nv = n + int(rng.integers(0, 200))
+        topo = edge_topology(F, nv)
+        assert np.array_equal(boundary_half_edges(F, nv), topo.boundary_he)
+        (l1, c1), (l2, c2) = boundary_loops(F, nv), boundary_loops(F, nv, topo)
+        assert [x.tolist() for x in l1] == [x.tolist() for x in l2]
+        assert [x.tolist() for x in c1] == [x.tolist() for x in c2]

@@ -93,7 +93,8 @@ from shellrepair.holes.hole_or_border import (
     edge_on_share,
 )
 from shellrepair.mesh.geometry import cross, uniq
-from shellrepair.mesh.topology import components_of_pieces, edge_topology, face_areas, face_pieces
+from shellrepair.mesh import fastmesh
+from shellrepair.mesh.topology import boundary_half_edges, components_of_pieces, edge_topology, face_areas, face_pieces
 from shellrepair.reference import loop_diameter
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats"]
@@ -236,12 +237,21 @@ def boundary_loops(F, n_vertices, topo=None):
         Chains of boundary half-edges that do not close.
     """
     F = np.asarray(F, np.int64)
-    if topo is None:
-        topo = edge_topology(F, n_vertices)
-    bhe = topo.boundary_he
-    if bhe.size == 0:
-        return [], []
-    ends = topo.ends(bhe)
+    if topo is None and not fastmesh.enabled(len(F)):
+        # the boundary half-edges alone (the same ones as the topology's)
+        bhe = boundary_half_edges(F, n_vertices)
+        if bhe.size == 0:
+            return [], []
+        nxt = bhe + 1
+        nxt[bhe % 3 == 2] -= 3
+        ends = np.column_stack([F.reshape(-1)[bhe], F.reshape(-1)[nxt]])
+    else:
+        if topo is None:
+            topo = edge_topology(F, n_vertices)
+        bhe = topo.boundary_he
+        if bhe.size == 0:
+            return [], []
+        ends = topo.ends(bhe)
     src = ends[:, 0]
     dst = ends[:, 1]
     n = int(n_vertices)
@@ -263,7 +273,7 @@ def boundary_loops(F, n_vertices, topo=None):
     nxt[single] = order[start[dc[single]]]
     multi = np.flatnonzero(out_count[dc] > 1)
     if multi.size:
-        _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt, dc)
+        _resolve_pinches(F, bhe, src, dst, order, start, multi, nxt, dc)
 
     loops, chains = [], []
     # has_prev: chains must start at a half-edge nobody points to
@@ -292,7 +302,7 @@ def boundary_loops(F, n_vertices, topo=None):
     return loops, chains
 
 
-def _resolve_pinches(F, topo, bhe, src, dst, order, start, multi, nxt, dc):
+def _resolve_pinches(F, bhe, src, dst, order, start, multi, nxt, dc):
     """At vertices with several outgoing boundary half-edges, continue along
     the fan of faces the incoming half-edge belongs to (``dc``: ``dst`` in
     the numbering ``start`` is indexed by)."""

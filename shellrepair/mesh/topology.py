@@ -18,7 +18,7 @@ from shellrepair.mesh.geometry import cross, uniq, vertex_faces_scipy
 #: Faces per chunk in per-face geometry over the whole mesh.
 CHUNK = 1 << 16
 
-__all__ = ["EdgeTopology", "edge_topology", "edge_topology_reference", "edge_count_delta", "face_components", "face_pieces", "face_areas",
+__all__ = ["EdgeTopology", "edge_topology", "edge_topology_reference", "boundary_half_edges", "edge_count_delta", "face_components", "face_pieces", "face_areas",
            "face_normals",
            "euler_characteristic", "vertex_faces", "components_of_pieces", "manifold_pairs",
            "coincident_vertices", "corner_fans"]
@@ -210,6 +210,43 @@ def edge_topology_reference(F, n):
     # an edge with one face has its one half-edge at the head of its group
     boundary_he = np.sort(order[starts[count == 1]])
     return order, edge_of_he, edges, count, boundary_he
+
+
+def boundary_half_edges(F, n_vertices):
+    """The half-edges (ids ``3f+c``, from corner ``c`` of face ``f`` to the
+    next) whose edge has one face, ascending: :func:`edge_topology`'s
+    ``boundary_he`` from one sort of the edge keys, without the rest of its
+    arrays (on the small regions the order test walks, 1980 calls for 150
+    holes, its whole topology cost 0.27 s).
+
+    Parameters
+    ----------
+    F : (m,3) int64 array
+    n_vertices : int
+
+    Returns
+    -------
+    boundary_he : (b,) int64
+    """
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    n = int(n_vertices)
+    if not len(F):
+        return np.zeros(0, np.int64)
+    if F.min() < 0 or F.max() >= n:
+        raise ValueError("a face refers to a vertex outside [0, n_vertices)")
+    a = F.ravel()
+    b = F[:, [1, 2, 0]].ravel()
+    key = np.minimum(a, b) * np.int64(max(n, 1)) + np.maximum(a, b)
+    s = np.sort(key)
+    once = np.ones(len(s), bool)
+    same = s[1:] == s[:-1]
+    once[1:] &= ~same
+    once[:-1] &= ~same
+    single = s[once]
+    if not len(single):
+        return np.zeros(0, np.int64)
+    i = np.minimum(np.searchsorted(single, key), len(single) - 1)
+    return np.flatnonzero(single[i] == key)
 
 
 def manifold_pairs(topo):
