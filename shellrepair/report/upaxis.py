@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from shellrepair.errors import MeshError
+from shellrepair.mesh.geometry import cross
 
 __all__ = ["infer_up", "mesh_up", "scan_up", "given_up", "parse_up", "up_text", "BASE_PLANARITY", "BASE_MIN_SIZE", "BASE_WALL_DEGREES", "BASE_BELOW",
            "BASE_TOLERANCE", "BASE_MIN_HEIGHT", "ELONGATION", "SNAP_DEGREES", "BLOCK"]
@@ -175,9 +176,13 @@ def _longest(V, F):
     C = np.empty((len(F), 3))
     A = np.empty(len(F))
     for s in range(0, len(F), BLOCK):      # each face's centroid and area alone: the same bits by blocks
-        T = V[F[s:s + BLOCK]]
-        C[s:s + len(T)] = T.mean(axis=1)
-        A[s:s + len(T)] = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+        Fb = F[s:s + BLOCK]
+        P0, P1, P2 = V[Fb[:, 0]], V[Fb[:, 1]], V[Fb[:, 2]]
+        # T.mean(axis=1) and np.cross term by term, in their order (the
+        # same bits; at 10M faces the strided mean and np.cross's axis
+        # moves took 2.0 of the 3.4 s)
+        C[s:s + len(Fb)] = (P0 + P1 + P2) / 3
+        A[s:s + len(Fb)] = 0.5 * np.linalg.norm(cross(P1 - P0, P2 - P0), axis=1)
     w = A / A.sum() if A.sum() > 0 else np.full(len(F), 1.0 / len(F))
     spread = np.sqrt(w @ (C - w @ C) ** 2)
     order = np.argsort(-spread, kind="stable")
