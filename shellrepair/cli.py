@@ -525,12 +525,15 @@ def _repair(args, bar):
     if args.plan:
         report["plan"] = str(args.plan)
     report["notes"] = list(mesh.notes) + format_losses(out, repaired)
+    report["up"] = up = _scan_up(args.up, mesh)     # the one axis of every picture of this scan
+    # what reading the scan kept for the repair and the up axis (its edge
+    # topology: 0.5 GB at 10M faces) is not kept while the output is written
+    mesh.forget()
     if bar is not None:
         bar(f"writing {out.name}", 0, 2)
     payload = mesh_bytes(out, repaired)
     if bar is not None:
         bar(f"writing {out.name}", 1, 2)
-    report["up"] = up = _scan_up(args.up, mesh)     # the one axis of every picture of this scan
     html = None
     if page is not None:
         from shellrepair.report.closeups import closeups, pictures_record

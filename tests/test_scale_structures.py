@@ -107,6 +107,11 @@ def test_what_loading_keeps_on_the_mesh_is_what_detection_would_build(tmp_path):
         row = len(a) // 2 + 1
         a[row] = a[row][::-1] if edit == "F" else a[row] + 1e-9
         assert m.cached("pieces", "face_areas") == (None, None), edit
+    # forgotten (the command line, once the up axis is found): nothing kept, the arrays free
+    m = read_mesh(tmp_path / "sphere.ply")
+    assert m.cached("face_areas") is not None
+    m.forget()
+    assert m.cached("pieces", "face_areas") == (None, None)
 
 
 def test_vertex_face_lists_equal_a_stable_sort():

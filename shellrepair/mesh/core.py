@@ -197,6 +197,11 @@ class Mesh:
         for name, value in values.items():
             self._cache[name] = (self.V, self.F, value, sig)
 
+    def forget(self):
+        """Drop every value :meth:`remember` kept (:meth:`cached` then
+        gives None), so that its arrays can be freed."""
+        self._cache.clear()
+
     @property
     def n_vertices(self):
         return int(self.V.shape[0])

@@ -167,8 +167,9 @@ def _base(V, F, used, diag, topo=None):
 
 
 #: Faces per block of :func:`_longest` (its corners are gathered a block at
-#: a time: at 10M faces the whole gather was 700 MB at once).
-BLOCK = 1 << 20
+#: a time: at 10M faces the whole gather was 700 MB at once; a block's
+#: corners and products are 50 MB at this size, 200 MB at 1 << 20).
+BLOCK = 1 << 18
 
 
 def _longest(V, F):
@@ -183,8 +184,18 @@ def _longest(V, F):
         # moves took 2.0 of the 3.4 s)
         C[s:s + len(Fb)] = (P0 + P1 + P2) / 3
         A[s:s + len(Fb)] = 0.5 * np.linalg.norm(cross(P1 - P0, P2 - P0), axis=1)
-    w = A / A.sum() if A.sum() > 0 else np.full(len(F), 1.0 / len(F))
-    spread = np.sqrt(w @ (C - w @ C) ** 2)
+    total = A.sum()
+    if total > 0:
+        A /= total                 # the weights, in A's own memory (A / A.sum(), the same bits)
+        w = A
+    else:
+        w = np.full(len(F), 1.0 / len(F))
+    # sqrt(w @ (C - w @ C) ** 2), the centring and squaring done in C's own
+    # memory (the same bits; at 10M faces the two temporaries were 480 MB,
+    # the whole repair's peak)
+    C -= w @ C
+    np.multiply(C, C, out=C)
+    spread = np.sqrt(w @ C)
     order = np.argsort(-spread, kind="stable")
     k, j = int(order[0]), int(order[1])
     elong = float(spread[k] / spread[j]) if spread[j] > 0 else float("inf")
