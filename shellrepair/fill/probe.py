@@ -48,6 +48,7 @@ import numpy as np
 from shellrepair import compiled
 from shellrepair.fill import probe_kernels
 from shellrepair.mesh.geometry import cross, uniq
+from shellrepair.mesh.topology import boundary_half_edges
 
 __all__ = ["hole_radius", "probe_errors", "rim_roughness", "inside_polygon", "inside_polygon_reference", "mean_edge",
            "Pooled", "PROBES"]
@@ -635,14 +636,20 @@ def _probe(V, F, near, p_id, shape, margin):
     pl = int(np.searchsorted(g, p_id))
     if not open_checked and _open_edge_within(Tl, len(g), dl, limit):
         return None
-    loops, chains = boundary_loops(Tl, len(g))
-    if chains:
+    # the region's own rim: its boundary half-edges, which close into loops
+    # (no chain) where every vertex has as many leaving as arriving; none of
+    # their vertices closer than ``limit`` (boundary_loops' verdict without
+    # walking the loops)
+    bhe = boundary_half_edges(Tl, len(g))
+    nxt = bhe + 1
+    nxt[bhe % 3 == 2] -= 3
+    src, dst = Tl.reshape(-1)[bhe], Tl.reshape(-1)[nxt]
+    if not np.array_equal(np.bincount(src, minlength=len(g)), np.bincount(dst, minlength=len(g))):
+        return None
+    if len(src) and dl[src].min() < limit:
         return None
     on_edge = np.zeros(len(g), bool)
-    for L in loops:
-        if dl[L].min() < limit:
-            return None
-        on_edge[L] = True
+    on_edge[src] = True
     inside = inside_polygon(Vg @ a, Vg @ b, outline) & (dl <= r_out)
     disc = inside[Tl].all(axis=1)
     seed = np.flatnonzero(disc & (Tl == pl).any(axis=1))
