@@ -865,9 +865,12 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     rim = _RimDistance(V, loop, c, float(np.sqrt(((V[loop] - c) ** 2).sum(axis=1)).max()))
     rings = _Rings(ctx, loop)
     few = None               # the largest scale's verdict from fewer than MIN_PROBES test holes
+    # a hole as wide across its narrow axis as its area's disc: the narrow
+    # disc is that disc, whose search would run twice to the same answer
+    narrow_too = [] if np.array_equal(narrow, disc) else [narrow]
     for f in SCALES:          # the largest scale at which MIN_PROBES test holes fit
         small = False
-        for shape in own + ([narrow] if f == 1.0 else []) + [disc]:   # the outline, the narrow disc, the disc of its area
+        for shape in own + (narrow_too if f == 1.0 else []) + [disc]:   # the outline, the narrow disc, the disc of its area
             errors, n, alike = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough,
                                              rim, rings, faces_margin)
             if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
