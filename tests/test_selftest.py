@@ -309,7 +309,7 @@ def test_on_a_sculpted_bust_auto_is_within_5_percent_of_the_best_single_order():
 
 
 def test_a_rims_roughness_is_its_noise_over_a_smooth_rims_curvature_term():
-    from shellrepair.fill.probe import rim_roughness
+    from shellrepair.fill.roughness import rim_roughness
 
     V, F = sphere_with_hole(radius=0.5)
     rim = detect_holes(V, F).loops[0].vertices
@@ -538,3 +538,72 @@ def test_an_order_3_patch_departing_from_order_2_more_than_order_1_does_is_not_t
     auto = stress.measure(case, facts, R.V, R.F)["rms_permille"]
     R2, _ = repair_mesh(M, order=2)
     assert auto == pytest.approx(stress.measure(case, facts, R2.V, R2.F)["rms_permille"], rel=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_a_test_regions_rim_is_the_vertices_of_its_loops_or_none_where_a_chain_is_left(seed):
+    """probe.rim_tails judges a placement's region without walking its
+    loops: on face soups (open edges, edges of three faces, pinches, flipped
+    faces) and on pieces of a sphere, it is None exactly where the walk
+    leaves an open chain, and otherwise the vertices of the walk's loops."""
+    from shellrepair.holes.loops import boundary_loops
+
+    rng = np.random.default_rng(seed)
+    V, F = shapes.icosphere(3)
+    for t in range(600):
+        if t % 2:
+            n = int(rng.integers(3, 25))
+            T = rng.integers(0, n, (int(rng.integers(1, 30)), 3))
+            T = T[(T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])]
+        else:
+            n, T = len(V), F[rng.random(len(F)) < rng.uniform(0.05, 0.9)]
+        if not len(T):
+            continue
+        loops, chains = boundary_loops(T, n)
+        tails = probe.rim_tails(T, n)
+        assert (tails is None) == bool(chains)
+        if tails is not None:
+            on = np.zeros(n, bool)
+            for L in loops:
+                on[L] = True
+            assert np.array_equal(np.flatnonzero(on), np.unique(tails))
+
+
+def test_a_test_holes_order_3_patch_is_taken_as_the_fill_would_keep_it():
+    """Order 3 counts on a test hole as the fill would keep it on a real
+    one: where its patch departs from order 2's more than order 1's does,
+    order 2's patch stands in its place (hole._departs); elsewhere, and
+    where the candidates are not orders 1, 2 and 3, the patches are as
+    faired."""
+    P2 = np.zeros((4, 3))
+    P1 = P2 + [0.0, 0.0, 0.1]
+    calm, wild = P2 + [0.0, 0.0, -0.05], P2 + [0.0, 0.0, -0.3]
+    got = probe.as_filled((1, 2, 3), [P1, P2, wild])
+    assert got[0] is P1 and got[1] is P2 and got[2] is P2
+    got = probe.as_filled((1, 2, 3), [P1, P2, calm])
+    assert got[2] is calm
+    got = probe.as_filled((2, 3), [P2, wild])
+    assert got[1] is wild
+
+
+@pytest.mark.slow
+def test_discs_on_a_fat_torus_get_order_3_where_a_test_hole_balloons_at_order_3():
+    """Case 2 of seed 114979771: four discs on a torus of r/R 0.7. Beside two
+    199-edge discs one of the two test holes had order 3 ballooning (test
+    RMS 0.084 against order 2's 0.0053), which the fill would never keep;
+    taken as the fill keeps it, order 3 wins there, as it does on the discs
+    (truth: order 3 0.44 per mille, order 2 3.18)."""
+    from eval import stress
+
+    case = stress.stress_case(2, 114979771)
+    if case.name != "s114979771-02-discs-torus-0.7":    # the draw depends on the shapes at hand
+        pytest.skip(f"drew {case.name} without ../shared's scans")
+    from shellrepair.repair import repair_mesh
+
+    facts = stress.input_facts(case)
+    M = Mesh(V=case.V, F=case.F)
+    R, rep = repair_mesh(M)
+    R3, _ = repair_mesh(M, order=3)
+    auto = stress.measure(case, facts, R.V, R.F)["rms_permille"]
+    assert auto <= 1.05 * stress.measure(case, facts, R3.V, R3.F)["rms_permille"]
+    assert sum(h["choice"]["order"] == 3 for h in rep["holes"] if h.get("choice")) >= 3

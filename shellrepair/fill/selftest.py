@@ -14,11 +14,13 @@ next to the rim, one measured criterion decides (:func:`choose_order`):
    as the hole across its narrow axis, then a disc of its area; half and a
    quarter of the size only where nothing of the full size fits), their
    rims given the real rim's roughness
-   (:func:`shellrepair.fill.probe.rim_roughness`: a ragged rim is noise that a
+   (:func:`shellrepair.fill.roughness.rim_roughness`: a ragged rim is noise that a
    higher order carries on into the hole).
 2. Fill each with every candidate order exactly as a hole is filled
    (:func:`shellrepair.fill.probe._refined`: triangulate, refine; then
-   :func:`shellrepair.fill.fair.fair_patch_orders`).
+   :func:`shellrepair.fill.fair.fair_patch_orders`), order 3 as the fill
+   would keep it (step 5: order 2's patch where order 3's does not
+   converge, :func:`shellrepair.fill.probe.as_filled`).
 3. Measure each fill against the scan that was cut away: the RMS
    distance of the removed vertices to the filled surface
    (:func:`shellrepair.mesh.distance.point_mesh_distance`), pooled over the test holes.
