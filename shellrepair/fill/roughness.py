@@ -95,7 +95,26 @@ def roughen(Vl, Fl, ploop, rough, seed):
     """The test hole's rim given the real rim's roughness: its vertices
     moved along their normals by normal offsets of RMS
     ``sqrt(rough² − own²)`` (``own``: the test rim's own roughness), where
-    the real rim is rougher; a copy of ``Vl``."""
+    the real rim is rougher.
+
+    Parameters
+    ----------
+    Vl : (n,3) float64
+        The test hole's scan (local).
+    Fl : (m,3) int64
+    ploop : (k,) int64
+        The test hole's rim.
+    rough : float
+        The real rim's :func:`rim_roughness`.
+    seed : int
+        Seeds the offsets (the same offsets for the same scan).
+
+    Returns
+    -------
+    V : (n,3) float64
+        A copy of ``Vl`` with the rim moved, or ``Vl`` itself where the
+        test rim is as rough already.
+    """
     # only the faces that touch the rim count (in their order: the same sums)
     on = np.zeros(len(Vl), bool)
     on[ploop] = True
