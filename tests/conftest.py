@@ -24,6 +24,22 @@ def shared_scan(name):
     return p
 
 
+def auto_and_forced_rms(case, order):
+    """A stress case (:func:`eval.stress.stress_case`) repaired with the
+    defaults and with ``order`` forced: (the default's RMS, the forced
+    RMS, in per mille of the truth's diagonal, and the default's report)."""
+    from eval import stress
+    from shellrepair import Mesh
+    from shellrepair.repair import repair_mesh
+
+    facts = stress.input_facts(case)
+    M = Mesh(V=case.V, F=case.F)
+    R, rep = repair_mesh(M)
+    Rf, _ = repair_mesh(M, order=order)
+    return (stress.measure(case, facts, R.V, R.F)["rms_permille"],
+            stress.measure(case, facts, Rf.V, Rf.F)["rms_permille"], rep)
+
+
 @pytest.fixture
 def sphere():
     return shapes.icosphere(3)

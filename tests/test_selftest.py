@@ -16,7 +16,7 @@ from shellrepair.repair import repair_mesh
 from shellrepair.mesh.distance import point_mesh_distance
 from shellrepair.fill.selftest import CANDIDATES, DEFAULT_ORDER, MIN_EDGES, OrderTest, choose_order
 
-from conftest import shared_scan
+from conftest import auto_and_forced_rms, shared_scan
 
 
 def context(V, F):
@@ -510,12 +510,8 @@ def test_a_strip_under_a_torus_is_tested_by_a_disc_as_wide_as_the_strip():
     assert probe.outline_narrow_axis(outline) < 0.5 * hole_radius(case.V, strip.vertices)
     test = choose_order(ctx, strip.id, strip.vertices)
     assert test.order == 3 and test.scale == 1.0 and test.probes == PROBES
-    facts = stress.input_facts(case)
-    M = Mesh(V=case.V, F=case.F)
-    R, _ = repair_mesh(M)
-    R3, _ = repair_mesh(M, order=3)
-    auto = stress.measure(case, facts, R.V, R.F)["rms_permille"]
-    assert auto <= 1.05 * stress.measure(case, facts, R3.V, R3.F)["rms_permille"]
+    auto, forced, _ = auto_and_forced_rms(case, 3)
+    assert auto <= 1.05 * forced
 
 
 @pytest.mark.slow
@@ -598,12 +594,6 @@ def test_discs_on_a_fat_torus_get_order_3_where_a_test_hole_balloons_at_order_3(
     case = stress.stress_case(2, 114979771)
     if case.name != "s114979771-02-discs-torus-0.7":    # the draw depends on the shapes at hand
         pytest.skip(f"drew {case.name} without ../shared's scans")
-    from shellrepair.repair import repair_mesh
-
-    facts = stress.input_facts(case)
-    M = Mesh(V=case.V, F=case.F)
-    R, rep = repair_mesh(M)
-    R3, _ = repair_mesh(M, order=3)
-    auto = stress.measure(case, facts, R.V, R.F)["rms_permille"]
-    assert auto <= 1.05 * stress.measure(case, facts, R3.V, R3.F)["rms_permille"]
+    auto, forced, rep = auto_and_forced_rms(case, 3)
+    assert auto <= 1.05 * forced
     assert sum(h["choice"]["order"] == 3 for h in rep["holes"] if h.get("choice")) >= 3

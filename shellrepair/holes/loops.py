@@ -94,7 +94,8 @@ from shellrepair.holes.hole_or_border import (
 )
 from shellrepair.mesh.geometry import cross, uniq
 from shellrepair.mesh import fastmesh
-from shellrepair.mesh.topology import boundary_half_edges, components_of_pieces, edge_topology, face_areas, face_pieces
+from shellrepair.mesh.topology import (boundary_half_edges, components_of_pieces, edge_topology, face_areas, face_pieces,
+                                       half_edge_ends)
 from shellrepair.reference import loop_diameter
 
 __all__ = ["Loop", "HoleScan", "boundary_loops", "detect_holes", "loop_stats"]
@@ -242,9 +243,7 @@ def boundary_loops(F, n_vertices, topo=None):
         bhe = boundary_half_edges(F, n_vertices)
         if bhe.size == 0:
             return [], []
-        nxt = bhe + 1
-        nxt[bhe % 3 == 2] -= 3
-        ends = np.column_stack([F.reshape(-1)[bhe], F.reshape(-1)[nxt]])
+        ends = half_edge_ends(F, bhe)
     else:
         if topo is None:
             topo = edge_topology(F, n_vertices)

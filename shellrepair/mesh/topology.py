@@ -18,7 +18,7 @@ from shellrepair.mesh.geometry import cross, uniq, vertex_faces_scipy
 #: Faces per chunk in per-face geometry over the whole mesh.
 CHUNK = 1 << 16
 
-__all__ = ["EdgeTopology", "edge_topology", "edge_topology_reference", "boundary_half_edges", "edge_count_delta", "face_components", "face_pieces", "face_areas",
+__all__ = ["EdgeTopology", "edge_topology", "edge_topology_reference", "boundary_half_edges", "half_edge_ends", "edge_count_delta", "face_components", "face_pieces", "face_areas",
            "face_normals",
            "euler_characteristic", "vertex_faces", "components_of_pieces", "manifold_pairs",
            "coincident_vertices", "corner_fans"]
@@ -99,11 +99,17 @@ class EdgeTopology:
 
     def ends(self, h):
         """(k,2) int64: tail and head of the half-edges ``h`` (ids ``3f+c``)."""
-        h = np.asarray(h, np.int64)
-        flat = self.faces.reshape(-1)
-        nxt = h + 1
-        nxt[h % 3 == 2] -= 3
-        return np.column_stack([flat[h], flat[nxt]])
+        return half_edge_ends(self.faces, h)
+
+
+def half_edge_ends(F, h):
+    """(k,2) int64: tail and head of the half-edges ``h`` (ids ``3f+c``,
+    from corner ``c`` of face ``f`` to the next) of the faces ``F``."""
+    h = np.asarray(h, np.int64)
+    flat = np.asarray(F).reshape(-1)
+    nxt = h + 1
+    nxt[h % 3 == 2] -= 3
+    return np.column_stack([flat[h], flat[nxt]])
 
 
 def edge_topology(F, n_vertices=None):
