@@ -588,12 +588,14 @@ def test_discs_on_a_fat_torus_get_order_3_where_a_test_hole_balloons_at_order_3(
     199-edge discs one of the two test holes had order 3 ballooning (test
     RMS 0.084 against order 2's 0.0053), which the fill would never keep;
     taken as the fill keeps it, order 3 wins there, as it does on the discs
-    (truth: order 3 0.44 per mille, order 2 3.18)."""
+    (truth: order 3 0.44 per mille, order 2 3.18). The fourth hole (413
+    edges) is judged by test holes of half its size and keeps order 2."""
     from eval import stress
 
     case = stress.stress_case(2, 114979771)
     if case.name != "s114979771-02-discs-torus-0.7":    # the draw depends on the shapes at hand
         pytest.skip(f"drew {case.name} without ../shared's scans")
-    auto, forced, rep = auto_and_forced_rms(case, 3)
-    assert auto <= 1.05 * forced
-    assert sum(h["choice"]["order"] == 3 for h in rep["holes"] if h.get("choice")) >= 3
+    auto, forced, rep = auto_and_forced_rms(case, 2)
+    assert auto <= 0.3 * forced          # order 2 on the discs was 2.61 per mille; order 2 everywhere 3.1
+    discs = [h for h in rep["holes"] if h.get("choice") and h["edges"] < 300]
+    assert len(discs) == 3 and all(h["choice"]["order"] == 3 for h in discs)

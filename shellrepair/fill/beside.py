@@ -228,7 +228,7 @@ class Beside:
         :func:`~shellrepair.fill.patch.build_patch` would (kept in ``pre``, which
         the order-2 build then reads), and fair it at order 3 on the
         helper once the hole's test asks for order 3."""
-        from shellrepair.fill.patch import refine_patch
+        from shellrepair.fill.patch import refine_patch, split_chords
 
         got = self.tests.get(hole_id)
         if got is None or pre.T0 is None or not np.array_equal(T0, pre.T0):
@@ -236,6 +236,8 @@ class Beside:
         sigma, _, forbidden = pre.rim
         origin, scale, Pl0 = pre.frame
         Pl, T = pre.refined_once(lambda: refine_patch(Pl0, pre.T0, sigma / scale, len(loop), forbidden))
+        if len(pre.T0) == len(loop) - 2:    # a disc: its chords split as the faired fill's (build_patch)
+            Pl, T = split_chords(Pl, T, sigma / scale, len(loop), forbidden)
         P = origin + scale * Pl[len(loop):]
         test = got[1]
 

@@ -190,7 +190,7 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
                     p3 = p3.with_(T0=patch.T0, disc=patch.disc)
             else:
                 p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
-                                 max_vertices=max(budget.left(), len(patch.P)))
+                                 max_vertices=max(budget.left(), len(patch.P)), chords=True)
         except PatchError:
             p3 = None
         departs = _departs(ctx, hole_id, loop, smooth, patch, p3) if p3 is not None else None
@@ -423,7 +423,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                     patch = done.patch
                 else:
                     patch = build_patch(ctx, hole_id, loop, order=order0, smooth=smooth, initial=flat.T0,
-                                        energy=energy)
+                                        energy=energy, chords=name0 == "faired")
                 size = len(patch.P)
                 budget.spend(patch)
                 why0, bad0 = done.check if done is not None else checks.check_patch(ctx, patch)
@@ -468,7 +468,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
             tried.add(name)
             try:
                 patch = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
-                                    energy=energy,
+                                    energy=energy, chords=name == "faired",
                                     max_vertices=None if size is None or last_option else budget.left())
             except PatchError as exc:
                 reasons.append(f"{name}: {exc}")
@@ -485,7 +485,8 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                 pinned = _pin_region(patch, bad, pinned)
                 try:
                     pp = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
-                                     energy=energy, pinned=pinned, max_vertices=budget.left())
+                                     energy=energy, pinned=pinned, max_vertices=budget.left(),
+                                     chords=name == "faired")
                 except PatchError:
                     break
                 budget.spend(pp)

@@ -24,7 +24,7 @@ from shellrepair import compiled
 from shellrepair.errors import MeshError
 from shellrepair.fill import patch_kernels
 from shellrepair.fill.fair import fair_patch, harmonic_interpolate, patch_energies, taubin_smooth, uniform_laplacian
-from shellrepair.fill.refine import refine_patch, refine_patches
+from shellrepair.fill.refine import refine_patch, refine_patches, split_chords
 from shellrepair.fill.triangulate import triangulate_loop
 from shellrepair.mesh.geometry import cross
 from shellrepair.mesh.index import local_frame, rim_data, submesh
@@ -178,7 +178,7 @@ def _prefill(ctx, units):
 
 
 def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
-                energy=False, pinned=None, scan_aware=False, max_vertices=None):
+                energy=False, pinned=None, scan_aware=False, max_vertices=None, chords=False):
     """Build one hole's patch (no checks against the scan).
 
     Parameters
@@ -210,6 +210,11 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     max_vertices : int, optional
         Raise :class:`PatchError` when refinement makes more new vertices
         than this (a work budget), before the costly fairing.
+    chords : bool
+        After refinement, split the long chords of a faired (order 2 or 3)
+        disc patch (:func:`~shellrepair.fill.refine.split_chords`): the
+        faired option of a hole's fill; not a flat cap, an order-1 patch or
+        a tube.
 
     Returns
     -------
@@ -248,6 +253,8 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
             Pl, T = pre.refined
         else:
             Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
+        if chords and fair and order >= 2 and len(T0) == k - 2 and len(Pl) >= k:
+            Pl, T = split_chords(Pl, T, sigma / scale, k, forbidden)
     q = len(Pl) - k
     if max_vertices is not None and q > max_vertices:
         # a work bound (shellrepair.fill.checks.WorkBudget): stop before fairing

@@ -931,7 +931,7 @@ def _refined(ctx, loop, rings):
     triangles, and the refinement's edge length in rim edges (1 or
     ``TEST_COARSEN``).
     """
-    from shellrepair.fill.refine import refine_patch
+    from shellrepair.fill.refine import refine_patch, split_chords
     from shellrepair.fill.triangulate import triangulate_loop
     from shellrepair.mesh.index import local_frame, rim_data, submesh
 
@@ -946,6 +946,7 @@ def _refined(ctx, loop, rings):
     s2 = float(np.mean(sigma / scale)) ** 2
     c = TEST_COARSEN if area / (np.sqrt(3.0) / 4.0 * s2) / 2.0 > TEST_MAX_UNKNOWNS else 1.0
     Pl, T = refine_patch(Pl, T, c * sigma / scale, k, forbidden)
+    Pl, T = split_chords(Pl, T, c * sigma / scale, k, forbidden)    # as a faired fill's
     g, Fs, nf, _ = submesh(ctx, loop, Pl, T, rings=rings)
     X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
     return (X, Fs, nf, g, scale, origin), T, c

@@ -103,7 +103,7 @@ def first_attempts(ctx, chunk):
             beside.start_o3(pre, hole_id, loop, unit.smooth, flat.T0)
         try:
             patch, error = build_patch(ctx, hole_id, loop, order=first[1], smooth=unit.smooth, initial=flat.T0,
-                                       energy=False), ""
+                                       energy=False, chords=first[0] == "faired"), ""
         except PatchError as exc:
             patch, error = None, str(exc)
         made.append((pre, _First((first, unit.smooth, False), flat, patch, error, None)))
