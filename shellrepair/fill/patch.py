@@ -253,7 +253,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
             Pl, T = pre.refined
         else:
             Pl, T = refine_patch(Pl, T, sigma / scale, k, forbidden)
-        if chords and fair and order >= 2 and len(T0) == k - 2 and len(Pl) >= k:
+        if chords and fair and order >= 2 and len(T0) == k - 2:
             Pl, T = split_chords(Pl, T, sigma / scale, k, forbidden)
     q = len(Pl) - k
     if max_vertices is not None and q > max_vertices:
