@@ -23,6 +23,7 @@ import numpy as np
 from shellrepair import compiled
 from shellrepair.fill import refine_kernels
 from shellrepair.mesh.geometry import cross
+from shellrepair.mesh.topology import edge_topology, manifold_pairs
 
 __all__ = ["refine_patch", "refine_patches", "split_chords", "relax_edges", "relax", "relax_reference", "split_test_reference",
            "angle_between", "unfolded", "independent_flips", "in_sorted", "DENSITY_ALPHA"]
@@ -196,19 +197,15 @@ def _long_chords(P, T, s, is_loop, beta):
     t = len(T)
     if t == 0:
         return None
-    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])   # half-edge slot * t + triangle
-    key = np.sort(E, axis=1)
-    order = np.lexsort((key[:, 1], key[:, 0]))
-    k = key[order]
-    same = (k[1:] == k[:-1]).all(axis=1)
-    pair = same.copy()
-    pair[1:] &= ~same[:-1]                 # an edge of exactly two half-edges
-    pair[:-1] &= ~same[1:]
-    i = np.flatnonzero(pair)
-    if i.size == 0:
+    topo = edge_topology(T, len(P))
+    g1, g2 = manifold_pairs(topo)          # the half-edges (3f + c) of each edge of two triangles, in edge order
+    if g1.size == 0:
         return None
-    h1, h2 = order[i], order[i + 1]
-    a, b = k[i, 0], k[i, 1]
+    a, b = topo.edges[topo.edge_count == 2].T
+    # numbered slot * t + triangle, the lower first: each split triangle's
+    # two halves go in that order
+    g1, g2 = (g1 % 3) * t + g1 // 3, (g2 % 3) * t + g2 // 3
+    h1, h2 = np.minimum(g1, g2), np.maximum(g1, g2)
     D = P[a] - P[b]
     L = np.sqrt((D * D).sum(axis=1))
     want = np.flatnonzero(is_loop[a] & is_loop[b] & (L > beta * 0.5 * (s[a] + s[b])))
