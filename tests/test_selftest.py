@@ -322,6 +322,38 @@ def test_a_rims_roughness_is_its_noise_over_a_smooth_rims_curvature_term():
     assert 0.6 * 0.01 < rim_roughness(V2, F, rim) < 1.4 * 0.01 + smooth   # the noise, within its neighbours
 
 
+def test_a_test_rim_finer_than_the_real_rim_is_not_taken_for_a_smoother_one():
+    """Rims of the same smooth sphere at two densities: the coarse one's
+    roughness is its curvature term, four times the fine one's (κh²).
+    Compared at the coarse rim's density, the two differ by the rims'
+    shapes only, and the fine test rim gets a quarter of the noise it gets
+    when they are compared as they are. A coarse rim carrying noise still
+    gives its noise to the fine rim."""
+    from shellrepair.fill.roughness import rim_roughness, roughen
+
+    def rim_of(subdivisions):
+        V, F = sphere_with_hole(subdivisions=subdivisions, radius=0.5)
+        rim = detect_holes(V, F).loops[0].vertices
+        h = float(np.mean(np.linalg.norm(V[rim] - V[np.roll(rim, -1)], axis=1)))
+        return V, F, rim, h
+
+    Vc, Fc, rc, hc = rim_of(3)
+    Vf, Ff, rf, hf = rim_of(4)
+    coarse, fine = rim_roughness(Vc, Fc, rc), rim_roughness(Vf, Ff, rf)
+    assert 2.0 < coarse / fine < 8.0 and 1.5 < hc / hf < 2.5
+
+    def moved(W):
+        return float(np.sqrt(np.mean(np.sum((W[rf] - Vf[rf]) ** 2, axis=1))))
+
+    as_they_are = moved(roughen(Vf, Ff, rf, coarse, 0))
+    assert as_they_are > 0.5 * coarse                         # the fine rim taken for a smoother one
+    assert moved(roughen(Vf, Ff, rf, coarse, 0, edge=hc)) < 0.35 * as_they_are
+    noisy = Vc.copy()
+    noisy[rc] += 0.01 * np.random.default_rng(1).choice([-1.0, 1.0], len(rc))[:, None] * noisy[rc]
+    given = roughen(Vf, Ff, rf, rim_roughness(noisy, Fc, rc), 0, edge=hc)
+    assert 0.5 * 0.01 < moved(given) < 1.5 * 0.01
+
+
 def test_a_hole_whose_patch_has_no_vertex_of_its_own_is_not_tested(monkeypatch):
     """A patch with no new vertex is the same at every order (nothing to
     fair): the candidates agree, so no test hole is cut for it, and the

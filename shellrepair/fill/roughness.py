@@ -6,7 +6,9 @@ often carries the scanner's noise (a ragged fringe) that a higher order
 carries on into the hole; the test holes' rims, cut through clean scan,
 would not. So the real rim's roughness (:func:`rim_roughness`, the RMS
 umbrella offset along the normal) is measured once per hole and each test
-hole's rim is given as much (:func:`roughen`).
+hole's rim is given as much (:func:`roughen`), the two compared at the real
+rim's density: a smooth surface's umbrella offset grows as the edge length
+squared, so a test rim on finer scan is not taken for a smoother one.
 """
 
 from __future__ import annotations
@@ -91,11 +93,22 @@ def _umbrella_rms(V, loop, mean, unit, good):
     return float(np.sqrt(np.mean(off * off)))
 
 
-def roughen(Vl, Fl, ploop, rough, seed):
+def roughen(Vl, Fl, ploop, rough, seed, edge=None):
     """The test hole's rim given the real rim's roughness: its vertices
     moved along their normals by normal offsets of RMS
     ``sqrt(rough² − own²)`` (``own``: the test rim's own roughness), where
     the real rim is rougher.
+
+    The two are compared at the real rim's density: on a smooth surface the
+    umbrella offset grows as the edge length squared (κh²), so ``own`` is
+    taken times ``(edge / h)²`` (``h``: the test rim's mean edge length).
+    Otherwise a test hole laid where the scan is finer than at the real rim
+    reads as smoother, and its rim is given noise the real rim does not
+    have: on a fat torus (r/R 0.7, its grid finer on the inner side) the
+    discs' test rims had 0.5-0.8 times the real rims' roughness from their
+    shorter edges alone, and the noise added to them ranked order 3 last
+    on holes where it is truest (order 2 0.0026, order 3 0.0136 where
+    without the noise order 3 gives 0.0031).
 
     Parameters
     ----------
@@ -108,6 +121,9 @@ def roughen(Vl, Fl, ploop, rough, seed):
         The real rim's :func:`rim_roughness`.
     seed : int
         Seeds the offsets (the same offsets for the same scan).
+    edge : float, optional
+        The real rim's mean edge length (None: the two rims' roughness
+        compared as they are).
 
     Returns
     -------
@@ -121,6 +137,11 @@ def roughen(Vl, Fl, ploop, rough, seed):
     Fl = Fl[on[Fl].any(axis=1)]
     mean, unit, good = _rim_normals(Vl, Fl, ploop)
     own = _umbrella_rms(Vl, ploop, mean, unit, good)
+    if edge is not None:
+        p = np.asarray(ploop, np.int64)
+        h = float(np.linalg.norm(Vl[p] - Vl[np.roll(p, 1)], axis=1).mean())
+        if h > 0.0 and np.isfinite(edge) and edge > 0.0:
+            own *= (edge / h) ** 2
     extra = float(np.sqrt(max(rough * rough - own * own, 0.0)))
     if extra <= 0.0:
         return Vl

@@ -11,8 +11,8 @@ next to the rim, one measured criterion decides (:func:`choose_order`):
 1. Cut test holes of the hole's own outline and size into intact scan
    near it (:func:`shellrepair.fill.probe.probe_errors`: up to ``PROBES``,
    spread around the hole; where the outline does not fit, a disc as wide
-   as the hole across its narrow axis, then a disc of its area; half and a
-   quarter of the size only where nothing of the full size fits), their
+   as the hole across its narrow axis, then a disc of its area; half the
+   size only where fewer than two of the full size fit), their
    rims given the real rim's roughness
    (:func:`shellrepair.fill.roughness.rim_roughness`: a ragged rim is noise that a
    higher order carries on into the hole).
@@ -31,9 +31,11 @@ next to the rim, one measured criterion decides (:func:`choose_order`):
    departs from the order-2 patch less than the order-1 patch does (the
    orders converge there); else order 2 (:func:`shellrepair.fill.hole.fill_hole`).
 
-Where no test hole fits (the hole is as large as the intact scan around
-it) the scan cannot tell: the hole takes ``DEFAULT_ORDER`` and the report
-says so. Holes with fewer than ``MIN_EDGES`` rim edges are not tested (a
+Where fewer than two test holes fit at the hole's size and at half of it
+(the hole is as large as the intact scan around it; one test hole alone is
+not repeated evidence, and a test hole of a quarter of the size does not
+predict the hole: ``probe.SCALES``), the scan cannot tell: the hole takes
+``DEFAULT_ORDER`` and the report says so. Holes with fewer than ``MIN_EDGES`` rim edges are not tested (a
 patch of a few triangles, where the orders differ by less than the scan's
 own noise). A tube (the band between two loops) is tested by its own
 kind: test bands beside its loops, refilled as tubes
@@ -74,7 +76,7 @@ class OrderTest:
     probes : int
         Test holes filled (0 when not tested).
     scale : float
-        Their size over the hole's (1, 0.5 or 0.25; 0 when not tested).
+        Their size over the hole's (1 or 0.5; 0 when not tested).
     why : str
         Why the hole was not tested, or ''.
     """
@@ -142,8 +144,9 @@ def choose_order(ctx, hole_id, loop, candidates=None):
         return OrderTest(DEFAULT_ORDER, why=f"{k} rim edges, not tested")
     errors, n, scale = probe_errors(ctx, loop, candidates)
     if not errors:
-        return OrderTest(DEFAULT_ORDER, why="no intact scan of the hole's size around it (or the test holes that fit "
-                                            "have no vertex of their own): the scan cannot tell")
+        return OrderTest(DEFAULT_ORDER, why="fewer than two test holes of its size or half of it fit in the intact "
+                                            "scan around it (or those that fit have no vertex of their own): "
+                                            "the scan cannot tell")
     best = best_candidate({o: errors[o] for o in candidates})
     return OrderTest(int(best), errors=errors, probes=n, scale=scale)
 
