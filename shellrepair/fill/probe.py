@@ -73,7 +73,7 @@ SHELLS = ((1.2, 2.5), (2.5, 5.0), (5.0, 10.0))
 #: hole's own size first; half of it only where fewer than ``MIN_PROBES``
 #: probes of that size fit. A quarter is not tried: a test hole of a
 #: sixteenth of the hole's area does not say how each order carries the rim
-#: across the hole. Per-hole screens (eval/results/order-test/quarter/) found
+#: across the hole. Per-hole screens (eval/results/order-test/rim-density/) found
 #: the test's verdicts at a quarter of the size worse than order 2 alone on
 #: design and development seeds alike. Where the quarter goes, a verdict
 #: from one test hole is not taken either (``MIN_PROBES``): an armadillo's

@@ -8,7 +8,7 @@ RMS for each policy; prints the geometric mean of the regret
 ((RMS + 0.05) / (best forced order's RMS + 0.05)) over the cases, the
 design seeds (11-14) and the development seeds (731, 733, 735) apart.
 
-Run from the repository root: ``python eval/results/order-test/quarter/screen.py``.
+Run from the repository root: ``python eval/results/order-test/rim-density/screen.py``.
 """
 
 import collections
