@@ -5,7 +5,8 @@ does not fill like a disc, so its test is a band too: :func:`tube_errors`
 cuts a band of intact scan beside each loop, as long as the missing band,
 refills it as a tube at each fairing order and held on its continuation
 arcs (:data:`HELD`), and measures the removed scan against each fill, the
-errors pooled as the test holes' are (:class:`shellrepair.fill.probe.Pooled`).
+errors combined as the test holes' are (:class:`shellrepair.fill.probe.Pooled`:
+the geometric mean over the test bands of each one's RMS).
 :func:`shellrepair.fill.hole.band_order` reads the verdict.
 """
 

@@ -8,8 +8,9 @@ fills each with every candidate fairing order exactly as a hole is
 filled (triangulate, refine, fair: :func:`_refined`
 and :func:`shellrepair.fill.fair.fair_patch_orders`), and measures each fill
 against the scan that was cut away: the RMS distance of the removed
-vertices to the filled surface. The errors of all probes are pooled; the
-candidate with the lowest wins (:func:`shellrepair.fill.selftest.choose_order`).
+vertices to the filled surface. Each candidate's errors on the probes
+are combined by their geometric mean (each probe weighs alike,
+:class:`Pooled`); the candidate with the lowest wins (:func:`shellrepair.fill.selftest.choose_order`).
 
 Why at the hole's own size: the orders differ most deep inside a hole, and
 how much depends on the hole's size against the surface's curvature and
@@ -615,12 +616,23 @@ def _probe(V, F, near, p_id, shape, margin):
 
 
 class Pooled:
-    """Squared distances of the removed scan to each candidate's fill,
-    summed over test holes (or bands), and their RMS."""
+    """Each candidate's error over the test holes (or bands): the
+    geometric mean of each test's own RMS distance of the removed scan to
+    the candidate's fill.
+
+    Each test weighs alike, whatever its number of removed vertices: pooled
+    over all removed vertices, as before, a test hole on finer scan
+    outweighed the others (on a fat torus, one holding 4188 of the removed
+    vertices, where order 3 lies 2x further than order 2, outweighed two
+    where it is 5-8x truer), and one on a crease outweighed several on
+    smooth scan. On the development seeds the regret went 1.1039 -> 1.0811,
+    1.0072 -> 1.0118, 1.0764 -> 1.0668 (eval/results/order-test/rim-density/).
+    The squared distances are also kept (``sq``, ``count``)."""
 
     def __init__(self, candidates):
         self.candidates = tuple(candidates)
         self.sq = dict.fromkeys(self.candidates, 0.0)
+        self.logs = dict.fromkeys(self.candidates, 0.0)
         self.count = 0
         self.tests = 0
 
@@ -637,15 +649,17 @@ class Pooled:
             n = len(e)
         for o in self.candidates:
             self.sq[o] += dd[o]
+            self.logs[o] += 0.5 * np.log(max(dd[o] / max(n, 1), 1e-300))
         self.count += n
         self.tests += 1
         return True
 
     def rms(self, keep=lambda o: True):
-        """{candidate: RMS} of those ``keep`` admits; empty before any test."""
+        """{candidate: geometric mean over the tests of their RMS} of those
+        ``keep`` admits; empty before any test."""
         if not self.tests:
             return {}
-        return {o: float(np.sqrt(self.sq[o] / self.count)) for o in self.candidates if keep(o)}
+        return {o: float(np.exp(self.logs[o] / self.tests)) for o in self.candidates if keep(o)}
 
 
 class _RimDistance:
@@ -754,7 +768,8 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     -------
     errors : dict of int -> float
         RMS distance (scan units) of the removed scan to each candidate's
-        fill, pooled over the probes; empty when no probe fits.
+        fill, the geometric mean over the probes of each one's RMS
+        (:class:`Pooled`); empty when no probe fits.
     probes : int
         How many test holes were filled.
     scale : float

@@ -23,7 +23,8 @@ next to the rim, one measured criterion decides (:func:`choose_order`):
    converge, :func:`shellrepair.fill.probe.as_filled`).
 3. Measure each fill against the scan that was cut away: the RMS
    distance of the removed vertices to the filled surface
-   (:func:`shellrepair.mesh.distance.point_mesh_distance`), pooled over the test holes.
+   (:func:`shellrepair.mesh.distance.point_mesh_distance`), per test hole;
+   over the test holes, the geometric mean of their RMS (each weighs alike).
 4. The order with the lowest error fills the real hole; equal errors go
    to ``DEFAULT_ORDER``, then to the lower order (a test hole too small
    for new vertices fills alike at every order and is not counted).
@@ -71,8 +72,9 @@ class OrderTest:
     order : int
         The chosen order.
     errors : dict of int -> float
-        RMS distance of the scan cut away by the test holes to each
-        candidate's fill, in the scan's units (empty when not tested).
+        Each candidate's error on the test holes, in the scan's units: the
+        geometric mean over the test holes of the RMS distance of the scan
+        each cut away to the candidate's fill (empty when not tested).
     probes : int
         Test holes filled (0 when not tested).
     scale : float
