@@ -60,14 +60,21 @@ def refine_patch(P, T, sigma, n_loop, forbidden=None, alpha=DENSITY_ALPHA, max_f
     T2 : (t',3) int64
         Same loop vertices first, new vertices after them.
     """
+    P, T, s, is_loop = _start(P, T, sigma, n_loop)
+    P, T, _, _ = _refine(P, T, s, is_loop, _forbidden_pairs(forbidden), alpha, max_faces)
+    return P, T
+
+
+def _start(P, T, sigma, n_loop):
+    """A patch's arrays as :func:`refine_patch` and :func:`split_chords`
+    take them: copies of ``P`` and ``T``, each vertex's scale (the rim's
+    ``sigma``; vertices already inside get its mean) and the rim mask."""
     P = np.array(P, np.float64)
     T = np.array(T, np.int64)
     s = np.concatenate([np.asarray(sigma, np.float64), np.zeros(len(P) - n_loop)])
     if len(P) > n_loop:  # vertices already inside: give them the mean scale
         s[n_loop:] = np.mean(sigma)
-    is_loop = np.arange(len(P)) < n_loop
-    P, T, _, _ = _refine(P, T, s, is_loop, _forbidden_pairs(forbidden), alpha, max_faces)
-    return P, T
+    return P, T, s, np.arange(len(P)) < n_loop
 
 
 def refine_patches(items, alpha=DENSITY_ALPHA, max_faces=MAX_PATCH_FACES):
@@ -165,10 +172,8 @@ def split_chords(P, T, sigma, n_loop, forbidden=None, beta=DENSITY_ALPHA, max_fa
     T2 : (t',3) int64
         The same vertices first, the midpoints after them.
     """
-    P = np.array(P, np.float64)
-    T = np.array(T, np.int64)
-    s = np.concatenate([np.asarray(sigma, np.float64), np.zeros(len(P) - n_loop)])
-    is_loop = np.arange(len(P)) < n_loop
+    # (the scale of a vertex inside is never read here: a chord joins two rim vertices)
+    P, T, s, is_loop = _start(P, T, sigma, n_loop)
     forb = _forbidden_pairs(forbidden)
     settled = False
     for _ in range(64):

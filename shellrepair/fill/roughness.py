@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from shellrepair.mesh.geometry import cross, uniq
+from shellrepair.mesh.geometry import cross, mean_edge, uniq
 
 __all__ = ["rim_roughness", "roughen"]
 
@@ -138,8 +138,7 @@ def roughen(Vl, Fl, ploop, rough, seed, edge=None):
     mean, unit, good = _rim_normals(Vl, Fl, ploop)
     own = _umbrella_rms(Vl, ploop, mean, unit, good)
     if edge is not None:
-        p = np.asarray(ploop, np.int64)
-        h = float(np.linalg.norm(Vl[p] - Vl[np.roll(p, 1)], axis=1).mean())
+        h = mean_edge(Vl, np.asarray(ploop, np.int64))
         if h > 0.0 and np.isfinite(edge) and edge > 0.0:
             own *= (edge / h) ** 2
     extra = float(np.sqrt(max(rough * rough - own * own, 0.0)))

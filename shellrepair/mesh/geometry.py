@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-__all__ = ["cross", "dot", "uniq", "plane_frame", "bounding_spheres", "bounds", "triangle_boxes", "concat_ranges",
+__all__ = ["cross", "dot", "uniq", "mean_edge", "plane_frame", "bounding_spheres", "bounds", "triangle_boxes", "concat_ranges",
            "points_in_polygon"]
 
 
@@ -33,6 +33,23 @@ def uniq(a):
     keep[0] = True
     np.not_equal(a[1:], a[:-1], out=keep[1:])
     return a[keep]
+
+
+def mean_edge(V, loop):
+    """The mean length of a closed loop's edges.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    loop : (k,) int64
+        Vertex indices in order; the last joins the first.
+
+    Returns
+    -------
+    h : float
+    """
+    P = V[loop]
+    return float(np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).mean())
 
 
 def plane_frame(axis):
