@@ -25,15 +25,24 @@ does the same factorisation in dense blocks:
    later vertices B its subtree's columns reach (the rows of L below S).
 3. **Numeric** (:func:`_numeric`, multifrontal): in post-order, a node's
    front gathers its columns of Q and its children's update matrices,
-   factors the S block (LAPACK's Cholesky), solves for the B rows, and
-   hands the Schur complement F_BB − L_BS L_BSᵀ to its parent. The work is
-   dense matrix products (BLAS, on the calling thread alone:
-   :func:`shellrepair.blas.one_thread`; on two cores with the other one
-   busy, OpenBLAS's second thread made the 12k-unknown order-3
-   factorisation 10x slower, 1.79 s against 0.18 s), not sparse column
-   updates.
+   factors the S block (:func:`_chol`), solves for the B rows
+   (:func:`_forward_rows`), and hands the Schur complement
+   F_BB − L_BS L_BSᵀ to its parent (:func:`_schur_lower`). The work is
+   dense products, not sparse column updates.
 4. **Solve** (:func:`_solve`): forward then backward substitution front
    by front.
+
+The dense products are our own loops, not BLAS: every sum runs in one
+fixed order, so a repair writes the same bytes on every processor.
+OpenBLAS picks its kernels by processor, and they round differently: one
+machine's repairs of eval's cases with OpenBLAS's SkylakeX, Haswell and
+Prescott kernels (``OPENBLAS_CORETYPE``) wrote three different files
+where the products and the S blocks' Cholesky (LAPACK's potrf) were
+OpenBLAS's (vertices apart by up to 5e-10), and the same file once they
+were these loops (eval/results/cpu-independence/). They cost little:
+the products sum four rows at a time along contiguous rows (a front's
+update 0.6 ms against BLAS's 0.4 at 150 x 300, 2.2 against 1.3 at
+300 x 400, where it sums the lower triangle alone).
 
 Why our own and not the library the field uses, measured by
 ``eval/bench_solvers.py`` (``make bench-solvers``; its tables in
@@ -81,7 +90,6 @@ import threading
 
 import numpy as np
 
-from shellrepair import blas
 
 __all__ = ["Factor", "NotPositiveDefinite", "factor", "nd_order", "LEAF", "warm_up"]
 
@@ -92,14 +100,11 @@ __all__ = ["Factor", "NotPositiveDefinite", "factor", "nd_order", "LEAF", "warm_
 #: 24: 93, 32: 92, 48: 87, 64: 86; over the 14 of the 1.3M two-disc case
 #: 16: 559 ms, 32: 384, 48: 376, 64: 436.
 LEAF = 48
-#: Fronts with at least this many entries in L_BS apply them in the solves
-#: as one BLAS product (smaller ones in loops: a call costs more there).
-GEMV_WORK = 4096
 #: A separating level leaves at least this share of its part on either side
 #: (a speed setting: against always the median vertex's level, the 1.3M
 #: two-disc case's three largest systems took 14-18 % fewer multiply-adds).
 BALANCE = 0.3
-#: Rows of the blocked triangular solves (one BLAS product per block).
+#: Rows of the blocked triangular solves (one :func:`_sub_product` per block).
 BLOCK = 64
 
 from shellrepair import compiled
@@ -430,10 +435,76 @@ def _symbolic(ptr, idx, n, perm, node_start, node_parent):
 
 
 @njit(cache=True, nogil=True)
+def _sub_product(C, r0, r1, A, B, p):
+    """C[r0:r1] −= A[r0:r1, :p] · B[:p] in place (row-major, B's rows as
+    wide as C's), four rows of C at a time: for each inner index k in
+    ascending order, B's row k times each of the four rows' factors is
+    added to the rows' sums along contiguous memory; then the sums are
+    subtracted. Every entry's sum runs over k in the same order on every
+    CPU (no BLAS kernel chosen by the processor, no fused multiply-add):
+    OpenBLAS's products, used before, gave a scan's repair other last bits
+    with its Haswell kernels than with its SkylakeX kernels on one machine."""
+    n = C.shape[1]
+    R = np.empty((4, n), np.float64)
+    for i0 in range(r0, r1, 4):
+        m = min(4, r1 - i0)
+        R[:, :] = 0.0
+        for k in range(p):
+            f0 = A[i0, k]
+            f1 = A[i0 + 1, k] if m > 1 else 0.0
+            f2 = A[i0 + 2, k] if m > 2 else 0.0
+            f3 = A[i0 + 3, k] if m > 3 else 0.0
+            for b in range(n):
+                z = B[k, b]
+                R[0, b] += f0 * z
+                R[1, b] += f1 * z
+                R[2, b] += f2 * z
+                R[3, b] += f3 * z
+        for a in range(m):
+            for b in range(n):
+                C[i0 + a, b] -= R[a, b]
+
+
+@njit(cache=True, nogil=True)
+def _schur_lower(Fm, ns, Z):
+    """The update matrix F_BB − L_BS L_BSᵀ of a front, its lower triangle
+    (all the parent reads): U[a, b] = Fm[ns + a, ns + b] − Σ_k Z[k, a] Z[k, b]
+    for b ≤ a, Z = L_BSᵀ (ns, nb) row-major; four rows at a time, each sum
+    over k in ascending order, as :func:`_sub_product` (the same bits on
+    every CPU). Measured against BLAS's full product (one thread, this
+    2-core machine): 0.03 ms either at 48 x 100, 0.62 against 0.42 ms at
+    150 x 300, 2.2 against 1.3 ms at 300 x 400 (it sums only the lower
+    triangle, half the work)."""
+    nb = Z.shape[1]
+    U = np.zeros((nb, nb), np.float64)
+    R = np.empty((4, nb), np.float64)
+    for i0 in range(0, nb, 4):
+        m = min(4, nb - i0)
+        w = i0 + m                        # the columns a lower triangle's rows reach
+        R[:, :w] = 0.0
+        for k in range(ns):
+            f0 = Z[k, i0]
+            f1 = Z[k, i0 + 1] if m > 1 else 0.0
+            f2 = Z[k, i0 + 2] if m > 2 else 0.0
+            f3 = Z[k, i0 + 3] if m > 3 else 0.0
+            for b in range(w):
+                z = Z[k, b]
+                R[0, b] += f0 * z
+                R[1, b] += f1 * z
+                R[2, b] += f2 * z
+                R[3, b] += f3 * z
+        for a in range(m):
+            for b in range(i0 + a + 1):
+                U[i0 + a, b] = Fm[ns + i0 + a, ns + b] - R[a, b]
+    return U
+
+
+@njit(cache=True, nogil=True)
 def _forward_rows(L, Z):
     """Z ← L⁻¹ Z in place (L lower triangular, Z (ns, nb) row-major), by
-    blocks of ``BLOCK`` rows: the products with the rows already solved are
-    BLAS, each row's own update an axpy along Z's contiguous rows."""
+    blocks of ``BLOCK`` rows: the products with the rows already solved
+    are :func:`_sub_product`, each row's own update an axpy along Z's
+    contiguous rows."""
     ns = L.shape[0]
     nb = Z.shape[1]
     if nb == 0 or ns == 0:
@@ -441,7 +512,7 @@ def _forward_rows(L, Z):
     for k0 in range(0, ns, BLOCK):
         k1 = min(k0 + BLOCK, ns)
         if k0 > 0:
-            Z[k0:k1] -= np.dot(np.ascontiguousarray(L[k0:k1, :k0]), Z[:k0])
+            _sub_product(Z, k0, k1, L, Z, k0)
         for k in range(k0, k1):
             for j in range(k0, k):
                 f = L[k, j]
@@ -523,7 +594,7 @@ def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kid
                 for bcol in range(nb):
                     l_val[base + a * nb + bcol] = Z[a, bcol]
             if nb > 0:
-                U = Fm[ns:, ns:] - np.dot(np.ascontiguousarray(Z.T), Z)
+                U = _schur_lower(Fm, ns, Z)
             else:
                 U = np.zeros((0, 0), np.float64)
         else:
@@ -550,15 +621,59 @@ def _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kid
 
 @njit(cache=True, nogil=True)
 def _chol(S):
-    """Lower Cholesky factor of the symmetric matrix S (LAPACK's potrf);
-    a (0,0) array where S is not positive definite."""
-    for a in range(S.shape[0]):
+    """Lower Cholesky factor of the symmetric matrix S (its lower triangle
+    read); a (0,0) array where S is not positive definite.
+
+    Right-looking: each column's pivot square-rooted and the column below
+    it divided by it, then the trailing lower triangle less the column's
+    outer product. Four columns at a time (a panel, each of its columns
+    applied to the panel's later ones first), the trailing rows then less
+    the four outer products in turn along contiguous rows: every entry
+    gets the same operations in the same order as one column at a time,
+    and on every CPU (LAPACK's potrf, used before, runs the BLAS kernels
+    OpenBLAS picks by processor). 0.18 ms against potrf's 0.09 at 150 rows,
+    1.2 against 0.44 at 300 (one thread, this 2-core machine)."""
+    n = S.shape[0]
+    for a in range(n):
         if not (S[a, a] > 0.0) or not np.isfinite(S[a, a]):
             return np.zeros((0, 0), np.float64)
-    L = np.linalg.cholesky(S)
-    for a in range(S.shape[0]):
-        if not (L[a, a] > 0.0) or not np.isfinite(L[a, a]):
-            return np.zeros((0, 0), np.float64)
+    L = np.zeros((n, n), np.float64)
+    for a in range(n):
+        for b in range(a + 1):
+            L[a, b] = S[a, b]
+    C = np.zeros((4, n), np.float64)        # the panel's columns, along rows
+    for j0 in range(0, n, 4):
+        jb = min(4, n - j0)
+        j1 = j0 + jb
+        for j in range(j0, j1):
+            d = L[j, j]
+            if not (d > 0.0) or not np.isfinite(d):
+                return np.zeros((0, 0), np.float64)
+            d = np.sqrt(d)
+            L[j, j] = d
+            q = j - j0
+            for i in range(j + 1, n):
+                L[i, j] /= d
+                C[q, i] = L[i, j]
+            for i in range(j + 1, n):
+                f = C[q, i]
+                for c in range(j + 1, min(i + 1, j1)):
+                    L[i, c] -= f * C[q, c]
+        for i in range(j1, n):
+            if jb == 4:
+                f0, f1, f2, f3 = C[0, i], C[1, i], C[2, i], C[3, i]
+                for c in range(j1, i + 1):
+                    x = L[i, c]
+                    x -= f0 * C[0, c]
+                    x -= f1 * C[1, c]
+                    x -= f2 * C[2, c]
+                    x -= f3 * C[3, c]
+                    L[i, c] = x
+            else:
+                for q in range(jb):
+                    f = C[q, i]
+                    for c in range(j1, i + 1):
+                        L[i, c] -= f * C[q, c]
     return L
 
 
@@ -589,15 +704,6 @@ def _solve3(Y, node_start, b_ptr, b_idx, l_ptr, l_val):
             Y[s0 + a, 1] = t1 / d
             Y[s0 + a, 2] = t2 / d
         zb = base + ns * ns
-        if ns * nb >= GEMV_WORK:     # y_B −= L_BS y_S as one BLAS product
-            Z = l_val[zb:zb + ns * nb].reshape(ns, nb)
-            W = np.dot(np.ascontiguousarray(Y[s0:s0 + ns].T), Z)
-            for a in range(nb):
-                q = b_idx[b0 + a]
-                Y[q, 0] -= W[0, a]
-                Y[q, 1] -= W[1, a]
-                Y[q, 2] -= W[2, a]
-            continue
         for bcol in range(ns):
             row = zb + bcol * nb
             y0 = Y[s0 + bcol, 0]
@@ -616,16 +722,7 @@ def _solve3(Y, node_start, b_ptr, b_idx, l_ptr, l_val):
         nb = b_ptr[i + 1] - b0
         base = l_ptr[i]
         zb = base + ns * ns
-        if ns * nb >= GEMV_WORK:     # y_S −= L_BSᵀ y_B as one BLAS product
-            Z = l_val[zb:zb + ns * nb].reshape(ns, nb)
-            G = np.empty((nb, 3), np.float64)
-            for a in range(nb):
-                q = b_idx[b0 + a]
-                G[a, 0] = Y[q, 0]
-                G[a, 1] = Y[q, 1]
-                G[a, 2] = Y[q, 2]
-            Y[s0:s0 + ns] -= np.dot(Z, G)
-        for bcol in range(ns if ns * nb < GEMV_WORK else 0):
+        for bcol in range(ns):
             row = zb + bcol * nb
             t0 = Y[s0 + bcol, 0]
             t1 = Y[s0 + bcol, 1]
@@ -708,8 +805,7 @@ class Factor:
             return np.zeros(B.shape)
         one = B.ndim == 1
         B2 = np.ascontiguousarray(B.reshape(self.n, -1))
-        with blas.one_thread():
-            X = _solve(B2, self.perm, self.node_start, self.b_ptr, self.b_idx, self.l_ptr, self.l_val)
+        X = _solve(B2, self.perm, self.node_start, self.b_ptr, self.b_idx, self.l_ptr, self.l_val)
         return X[:, 0] if one else X
 
 
@@ -745,11 +841,7 @@ def factor(Q, leaf=LEAF):
         return Factor(0, np.zeros(0, np.int64), z, z, np.zeros(0, np.int64), z, np.zeros(0))
     perm, node_start, node_parent = _nd(ptr, idx, n, int(leaf))
     iperm, b_ptr, b_idx, first, kids = _symbolic(ptr, idx, n, perm, node_start, node_parent)
-    try:
-        with blas.one_thread():    # fronts of a few hundred rows: one thread is faster (shellrepair.blas)
-            ok, l_ptr, l_val = _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kids)
-    except np.linalg.LinAlgError:   # LAPACK's Cholesky met a non-positive pivot
-        ok = False
+    ok, l_ptr, l_val = _numeric(ptr, idx, val, n, perm, iperm, node_start, b_ptr, b_idx, first, kids)
     if not ok:
         raise NotPositiveDefinite("a front's pivot block is not positive definite")
     return Factor(n, perm, node_start, b_ptr, b_idx, l_ptr, l_val)
