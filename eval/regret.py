@@ -188,7 +188,7 @@ def main(argv=None):
         g, best = regret(rows)
         op, peer = over_peer(rows)
         print(f"  regret {g}, over the best peer {op} ({peer})", flush=True)
-        cases.append({"case": case.name, "rows": rows, "regret": None if g is None else round(g, 4), "best": best,
+        cases.append({"case": case.name, "faces": int(len(case.F)), "rows": rows, "regret": None if g is None else round(g, 4), "best": best,
                       "over_peer": None if op is None else round(op, 4), "peer": peer})
     a.out.mkdir(parents=True, exist_ok=True)
     stem = a.out / f"regret-seed{a.seed}{'-quick' if a.quick else ''}"
