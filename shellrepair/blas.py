@@ -1,7 +1,8 @@
 """One BLAS thread for the fill: the bundled OpenBLAS thread counts, set and put back.
 
-The fill is many small dense products (a hole's fronts in
-:mod:`shellrepair.fill.cholesky`, NumPy's small matrix products around it).
+The fill is many small dense products (NumPy's small matrix products;
+the fronts of :mod:`shellrepair.fill.cholesky` were BLAS products too
+until they became its own loops, for the same bytes on every processor).
 NumPy and SciPy each bundle an OpenBLAS, whose default is a thread per
 core; on a product of a few hundred rows the second thread costs more than
 it gives, and after each call OpenBLAS's workers spin for a while, taking
