@@ -440,31 +440,40 @@ def _symbolic(ptr, idx, n, perm, node_start, node_parent):
 
 
 @njit(cache=True, nogil=True)
+def _four_row_sums(R, A, B, i0, m, p, w):
+    """R[q, :w] = Σ_{k<p} A[i0 + q, k] B[k, :w] for the ``m`` (at most four)
+    rows q of A from ``i0`` (R's other rows: sums of zeros): for each inner
+    index k in ascending order, B's row k times each row's factor is added
+    to the rows' sums along contiguous memory. Every entry's sum runs over
+    k in the same order on every CPU (no BLAS kernel chosen by the
+    processor, no fused multiply-add): OpenBLAS's products, used before,
+    gave a scan's repair other last bits with its Haswell kernels than with
+    its SkylakeX kernels on one machine. The products of
+    :func:`_sub_product` and :func:`_schur_lower`."""
+    R[:, :w] = 0.0
+    for k in range(p):
+        f0 = A[i0, k]
+        f1 = A[i0 + 1, k] if m > 1 else 0.0
+        f2 = A[i0 + 2, k] if m > 2 else 0.0
+        f3 = A[i0 + 3, k] if m > 3 else 0.0
+        for b in range(w):
+            z = B[k, b]
+            R[0, b] += f0 * z
+            R[1, b] += f1 * z
+            R[2, b] += f2 * z
+            R[3, b] += f3 * z
+
+
+@njit(cache=True, nogil=True)
 def _sub_product(C, r0, r1, A, B, p):
     """C[r0:r1] −= A[r0:r1, :p] · B[:p] in place (row-major, B's rows as
-    wide as C's), four rows of C at a time: for each inner index k in
-    ascending order, B's row k times each of the four rows' factors is
-    added to the rows' sums along contiguous memory; then the sums are
-    subtracted. Every entry's sum runs over k in the same order on every
-    CPU (no BLAS kernel chosen by the processor, no fused multiply-add):
-    OpenBLAS's products, used before, gave a scan's repair other last bits
-    with its Haswell kernels than with its SkylakeX kernels on one machine."""
+    wide as C's), four rows of C at a time (:func:`_four_row_sums`), the
+    sums then subtracted."""
     n = C.shape[1]
     R = np.empty((4, n), np.float64)
     for i0 in range(r0, r1, 4):
         m = min(4, r1 - i0)
-        R[:, :] = 0.0
-        for k in range(p):
-            f0 = A[i0, k]
-            f1 = A[i0 + 1, k] if m > 1 else 0.0
-            f2 = A[i0 + 2, k] if m > 2 else 0.0
-            f3 = A[i0 + 3, k] if m > 3 else 0.0
-            for b in range(n):
-                z = B[k, b]
-                R[0, b] += f0 * z
-                R[1, b] += f1 * z
-                R[2, b] += f2 * z
-                R[3, b] += f3 * z
+        _four_row_sums(R, A, B, i0, m, p, n)
         for a in range(m):
             for b in range(n):
                 C[i0 + a, b] -= R[a, b]
@@ -474,30 +483,19 @@ def _sub_product(C, r0, r1, A, B, p):
 def _schur_lower(Fm, ns, Z):
     """The update matrix F_BB − L_BS L_BSᵀ of a front, its lower triangle
     (all the parent reads): U[a, b] = Fm[ns + a, ns + b] − Σ_k Z[k, a] Z[k, b]
-    for b ≤ a, Z = L_BSᵀ (ns, nb) row-major; four rows at a time, each sum
-    over k in ascending order, as :func:`_sub_product` (the same bits on
-    every CPU). Measured against BLAS's full product (one thread, this
+    for b ≤ a, Z = L_BSᵀ (ns, nb) row-major; four rows at a time
+    (:func:`_four_row_sums`: the same bits on every CPU). Measured against BLAS's full product (one thread, this
     2-core machine): 0.03 ms either at 48 x 100, 0.62 against 0.42 ms at
     150 x 300, 2.2 against 1.3 ms at 300 x 400 (it sums only the lower
     triangle, half the work)."""
     nb = Z.shape[1]
     U = np.zeros((nb, nb), np.float64)
     R = np.empty((4, nb), np.float64)
+    ZT = Z.T                              # (a view: its rows' factors are Z's columns)
     for i0 in range(0, nb, 4):
         m = min(4, nb - i0)
         w = i0 + m                        # the columns a lower triangle's rows reach
-        R[:, :w] = 0.0
-        for k in range(ns):
-            f0 = Z[k, i0]
-            f1 = Z[k, i0 + 1] if m > 1 else 0.0
-            f2 = Z[k, i0 + 2] if m > 2 else 0.0
-            f3 = Z[k, i0 + 3] if m > 3 else 0.0
-            for b in range(w):
-                z = Z[k, b]
-                R[0, b] += f0 * z
-                R[1, b] += f1 * z
-                R[2, b] += f2 * z
-                R[3, b] += f3 * z
+        _four_row_sums(R, ZT, Z, i0, m, ns, w)
         for a in range(m):
             for b in range(i0 + a + 1):
                 U[i0 + a, b] = Fm[ns + i0 + a, ns + b] - R[a, b]
