@@ -37,17 +37,34 @@ def current(calls, n=3, key=lambda q: q["sidx"], agg=gm):
     return None
 
 
-def simulate(rec, policy):
+def case_rms(rec, order_of):
+    """The case's RMS (per mille) with each piece of the default's added
+    surface (keyed by the input loops it touches) taken from the run at
+    ``order_of(key)`` where that run has the same piece; the default's own
+    piece where ``order_of`` gives None or the run has no such piece."""
     runs = rec["runs"]
-    dec = {l: policy(c) for l, c in calls_of(rec["probes"]).items()}
     A = M = 0.0
     for key, (a, ms) in runs["auto"]["comps"].items():
-        ls = [int(x) for x in key.split(",")]
-        o = dec.get(ls[0])
+        o = order_of(key)
         if o is not None and key in runs[str(o)]["comps"]:
             a, ms = runs[str(o)]["comps"][key]
         A += a; M += a * ms
     return 1000 * math.sqrt(M / A) / rec["diag"] if A > 0 else None
+
+
+def first_loop(key):
+    """The first input loop of a piece's key."""
+    return int(key.split(",")[0])
+
+
+def single_loop(key):
+    """The loop of a piece that touches one loop, else None."""
+    return None if "," in key else int(key)
+
+
+def simulate(rec, policy):
+    dec = {l: policy(c) for l, c in calls_of(rec["probes"]).items()}
+    return case_rms(rec, lambda key: dec.get(first_loop(key)))
 
 
 def recomb(rec, run):
@@ -111,22 +128,13 @@ def agree2(calls):
 
 POLICIES.update({"first2": lambda c: current(c, 2), "agree2": agree2, "first4": lambda c: current(c, 4),
                  "first5": lambda c: current(c, 5)})
-for k in ("all9", "meanreg9", "similar5", "minimax3"):
-    POLICIES.pop(k)
 
-if __name__ == "__main__":
-    main()
 
 
 def oracle(rec):
     runs = rec["runs"]
-    A = M = 0.0
-    for key, (a, ms) in runs["auto"]["comps"].items():
-        opts = [runs[o]["comps"][key] for o in "123" if key in runs[o]["comps"]]
-        if opts:
-            a, ms = min(opts, key=lambda t: t[1])
-        A += a; M += a * ms
-    return 1000 * math.sqrt(M / A) / rec["diag"] if A > 0 else None
+    return case_rms(rec, lambda key: min((o for o in "123" if key in runs[o]["comps"]),
+                                         key=lambda o: runs[o]["comps"][key][1], default=None))
 
 
 def oracle_report(files):
@@ -158,20 +166,13 @@ def collar_policy_sim(cfile, kfile, which="raw", fi=0, fallback="current"):
                 continue
             e = t[which]
             dec[h["loop"]] = pick(e)
-        def pol_sim(rec, dec):
-            runs = rec["runs"]
-            A = M = 0.0
-            for key, (a, ms) in runs["auto"]["comps"].items():
-                ls = [int(x) for x in key.split(",")]
-                o = dec.get(ls[0]) if len(ls) == 1 else None
-                if o is None and fallback == "current" and ls[0] in calls:
-                    o = current(calls[ls[0]])
-                if o is not None and key in runs[str(o)]["comps"]:
-                    a, ms = runs[str(o)]["comps"][key]
-                A += a; M += a * ms
-            return 1000 * math.sqrt(M / A) / rec["diag"]
+        def order_of(key):
+            o = dec.get(single_loop(key))
+            if o is None and fallback == "current" and first_loop(key) in calls:
+                o = current(calls[first_loop(key)])
+            return o
         cur = simulate(rec, current)
-        col = pol_sim(rec, dec)
+        col = case_rms(rec, order_of)
         out.append((name, regret(rec, rec["runs"]["auto"]["rms"]), regret(rec, cur), regret(rec, col)))
     return out
 
@@ -202,14 +203,59 @@ def combo_sim(cfile, kfile, mode, fi=0, which="raw"):
             elif mode == "extra2":
                 ee = (errs or []) + ([col[l]] if l in col else [])
                 dec[l] = pick(list(gm(ee))) if len(ee) >= 2 else None
-        runs = rec["runs"]
-        A = M = 0.0
-        for key, (a, ms) in runs["auto"]["comps"].items():
-            ls = [int(x) for x in key.split(",")]
-            o = dec.get(ls[0]) if len(ls) == 1 else None
-            if o is not None and key in runs[str(o)]["comps"]:
-                a, ms = runs[str(o)]["comps"][key]
-            A += a; M += a * ms
         out.append((name, regret(rec, rec["runs"]["auto"]["rms"]), regret(rec, simulate(rec, current)),
-                    regret(rec, 1000 * math.sqrt(M / A) / rec["diag"])))
+                    regret(rec, case_rms(rec, lambda key: dec.get(single_loop(key))))))
+    return out
+
+
+def paired(calls, z=1.0, n=3, every=False):
+    for call in calls:
+        errs = take(call, n)
+        if len(errs) >= 2:
+            L = np.log(np.maximum(np.array(errs), 1e-300))      # (tests, 3)
+            d = L - L[:, [1]]                                     # against order 2
+            m = d.mean(axis=0)
+            se = d.std(axis=0, ddof=1) / np.sqrt(len(d))
+            best, score = 2, 0.0
+            for k in (0, 2):
+                ok = (d[:, k] < 0).all() if every else (m[k] + z * se[k] < 0)
+                if ok and m[k] < score:
+                    best, score = k + 1, m[k]
+            return best
+    return None
+
+
+POLICIES.update({"z0": lambda c: paired(c, 0.0), "z0.5": lambda c: paired(c, 0.5),
+                 "z1": lambda c: paired(c, 1.0), "z2": lambda c: paired(c, 2.0), "every": lambda c: paired(c, every=True),
+                 "o2": lambda c: 2})
+
+
+if __name__ == "__main__":
+    main()
+
+
+def extrap_sim(cfile, kfile, target=1.0, which="raw", mode="collar-first"):
+    recs = {r["case"]: r for r in json.load(open(cfile))}
+    ks = {r["case"]: r for r in json.load(open(kfile))}
+    out = []
+    for name, rec in recs.items():
+        if rec["runs"]["auto"]["rms"] is None or any(rec["runs"][k]["rms"] is None for k in "123"):
+            continue
+        calls = calls_of(rec["probes"])
+        dec = {}
+        for h in ks[name]["holes"]:
+            a, b = h["tests"][0], h["tests"][1]
+            if not a or not b or a["m"] == b["m"]:
+                continue
+            ea, eb = np.log(np.maximum(a[which], 1e-300)), np.log(np.maximum(b[which], 1e-300))
+            slope = (eb - ea) / np.log(b["m"] / a["m"])
+            pred = eb + slope * np.log(target / 0.3)
+            dec[h["loop"]] = pick(list(pred))
+        for l, c in calls.items():
+            if l not in dec or mode == "probes-first":
+                o = current(c)
+                if o is not None:
+                    dec[l] = o
+        out.append((name, regret(rec, rec["runs"]["auto"]["rms"]), regret(rec, simulate(rec, current)),
+                    regret(rec, case_rms(rec, lambda key: dec.get(single_loop(key))))))
     return out
