@@ -515,7 +515,7 @@ def family_of(index, seed):
     return FAMILIES[int(order[int(index) % len(FAMILIES)])]
 
 
-def stress_case(index, seed, *, quick=False, family=None, shape=None, shapes_ok=None):
+def stress_case(index, seed, *, quick=False, family=None, shape=None, shapes_ok=None, ragged=0.0):
     """Build case ``index`` of seed ``seed``.
 
     Parameters
@@ -527,6 +527,12 @@ def stress_case(index, seed, *, quick=False, family=None, shape=None, shapes_ok=
         Force the family and/or the ground truth (otherwise drawn).
     shapes_ok : sequence of str, optional
         Shapes to draw from (default :func:`available_shapes`).
+    ragged : float
+        Give every rim a scanner's ragged fringe (:func:`ragged_rims`):
+        its vertices moved along their normals by noise of standard
+        deviation ``ragged`` times the scan's mean edge length (the next
+        ring by half as much); the truth stays the clean surface. 0: none,
+        and the case is the same as without the option.
 
     Returns
     -------
@@ -592,8 +598,66 @@ def stress_case(index, seed, *, quick=False, family=None, shape=None, shapes_ok=
         params["removed_area_pct"] = round(100 * _area_fraction(V, F0, rem), 1)
     name = f"s{seed}-{index:02d}-{family}-{shape}"
     case = casemod.make_case(name, family, shape, desc, V, F0, rem, seed=seed, notes=notes, clean=False)
+    if ragged > 0:
+        case.V = ragged_rims(case.V, case.F, ragged, np.random.default_rng([int(seed), int(index), RAGGED_STREAM]))
+        case.name = name = f"{name}-ragged{ragged:g}"
+        params["ragged"] = float(ragged)
     case.params = params
     return case
+
+
+#: The random stream of :func:`ragged_rims` (apart from the case's own draws,
+#: so a ragged case has the same shape and holes as its clean twin).
+RAGGED_STREAM = 11
+
+
+def ragged_rims(V, F, sigma, rng):
+    """A scanner's ragged fringe at every boundary loop of ``(V, F)``.
+
+    Where a handheld scanner stops seeing a surface (grazing views, an
+    occluder's shadow) the last rows of points it keeps are its noisiest.
+    Each rim vertex is moved along its normal (area-weighted face normals)
+    by a normal deviate of standard deviation ``sigma`` times the mesh's mean
+    edge length, each vertex of the next ring by half as much. The order
+    test gives its test holes the real rim's roughness for this reason
+    (:mod:`shellrepair.fill.roughness`); stress cases without this option
+    have rims as clean as the rest of the scan.
+
+    Parameters
+    ----------
+    V : (n,3) float64
+    F : (m,3) int64
+    sigma : float
+        Standard deviation over the mean edge length.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    V2 : (n,3) float64
+        ``V`` with the rims moved, rounded to float32 as the case's other
+        vertices are.
+    """
+    from shellrepair.mesh.topology import boundary_half_edges, half_edge_ends
+
+    V = np.asarray(V, np.float64)
+    F = np.asarray(F, np.int64)
+    rim = np.unique(half_edge_ends(F, boundary_half_edges(F, len(V))))
+    near = np.isin(F, rim).any(axis=1)
+    ring = np.setdiff1d(np.unique(F[near]), rim)
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    h = float(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1).mean())
+    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    vn = np.zeros_like(V)
+    for c in range(3):
+        np.add.at(vn, F[:, c], N)
+    vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
+    scale = np.zeros(len(V))
+    scale[ring] = 0.5
+    scale[rim] = 1.0
+    moved = np.flatnonzero(scale)
+    V2 = V.copy()
+    V2[moved] += (sigma * h * scale[moved] * rng.standard_normal(len(moved)))[:, None] * vn[moved]
+    return _f32(V2)
 
 
 # --------------------------------------------------------------------------

@@ -98,6 +98,28 @@ def test_cases_are_reproducible_from_seed_and_index():
     assert not (len(a.F) == len(c.F) and np.array_equal(a.V, c.V))
 
 
+def test_a_ragged_case_moves_only_its_rims_and_next_ring_along_their_normals_and_keeps_the_clean_truth():
+    clean = stress.stress_case(0, 7, quick=True, family="discs", shape="bumpy")
+    rag = stress.stress_case(0, 7, quick=True, family="discs", shape="bumpy", ragged=0.2)
+    assert np.array_equal(rag.F, clean.F) and np.array_equal(rag.V_true, clean.V_true)
+    assert rag.params["ragged"] == 0.2 and "ragged" not in clean.params
+    moved = np.flatnonzero(np.any(rag.V != clean.V, axis=1))
+    from shellrepair.mesh.topology import boundary_half_edges, half_edge_ends
+
+    rim = np.unique(half_edge_ends(clean.F, boundary_half_edges(clean.F, len(clean.V))))
+    ring = np.unique(clean.F[np.isin(clean.F, rim).any(axis=1)])
+    assert np.isin(rim, moved).mean() > 0.9 and np.isin(moved, ring).all()
+    # along the normal: the offsets are about sigma edges, not a tangential slide
+    E = np.concatenate([clean.F[:, [0, 1]], clean.F[:, [1, 2]]])
+    h = np.linalg.norm(clean.V[E[:, 0]] - clean.V[E[:, 1]], axis=1).mean()
+    off = np.linalg.norm(rag.V[rim] - clean.V[rim], axis=1)
+    assert 0.1 * h < np.sqrt(np.mean(off ** 2)) < 0.3 * h
+    # the same draw for the same case, and none at 0
+    again = stress.stress_case(0, 7, quick=True, family="discs", shape="bumpy", ragged=0.2)
+    assert np.array_equal(again.V, rag.V)
+    assert np.array_equal(stress.stress_case(0, 7, quick=True, family="discs", shape="bumpy", ragged=0.0).V, clean.V)
+
+
 def test_scanner_cases_keep_the_unseen_area_in_their_range():
     for fam in ("scanner", "scanner-hard"):
         case = stress.stress_case(0, 11, quick=True, family=fam, shape="torus-0.3")
