@@ -322,6 +322,28 @@ def test_a_rims_roughness_is_its_noise_over_a_smooth_rims_curvature_term():
     assert 0.6 * 0.01 < rim_roughness(V2, F, rim) < 1.4 * 0.01 + smooth   # the noise, within its neighbours
 
 
+def test_a_rims_noise_is_the_noise_it_was_given_and_not_the_surfaces_curvature():
+    from shellrepair.fill.roughness import add_noise, rim_noise, rim_roughness
+
+    V, F = sphere_with_hole(radius=0.5)
+    rim = detect_holes(V, F).loops[0].vertices
+    # a clean rim: its roughness is the curvature term, its noise less (what
+    # is left is the jagged rim's own: vertices of two faces beside those of three)
+    assert rim_noise(V, F, rim) < 0.5 * rim_roughness(V, F, rim)
+    for sigma in (0.002, 0.01):
+        n = V[rim] / np.linalg.norm(V[rim], axis=1)[:, None]
+        V2 = V.copy()
+        V2[rim] += sigma * np.random.default_rng(1).standard_normal(len(rim))[:, None] * n
+        real = rim_noise(V2, F, rim)
+        assert 0.7 * sigma < real < 1.3 * sigma
+        # given to a clean rim, the real rim's noise is found there again
+        # (another draw of some 60 offsets: within their sampling error)
+        V3 = add_noise(V, F, rim, real, seed=0)
+        assert 0.7 * real < rim_noise(V3, F, rim) < 1.3 * real
+        # a rim as noisy already is left as it is
+        assert add_noise(V2, F, rim, 0.5 * sigma, seed=0) is V2
+
+
 def test_a_test_rim_finer_than_the_real_rim_is_not_taken_for_a_smoother_one():
     """Rims of the same smooth sphere at two densities: the coarse one's
     roughness is its curvature term, four times the fine one's (κh²).
