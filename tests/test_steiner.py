@@ -162,6 +162,79 @@ def test_a_loop_the_layer_cannot_close_in_its_budget_says_why():
     assert res.patch is not None and res.spent >= len(res.patch.P) > 0
 
 
+def test_a_round_over_the_work_budget_stops_refining_at_the_budgets_size(monkeypatch):
+    # the refusal is the same as after refining on (the round is over the
+    # budget either way); only the refinement stops where it is over it
+    from shellrepair.fill import steiner
+
+    V, F, g = cp.box_with_bore_through_top()
+    loop = detect_holes(V, F, closed=True).loops[0].vertices
+    ctx = ScanContext(Mesh(V=V, F=F))
+    full = steiner_patch(ctx, 0, loop)
+    assert full.patch is not None and "round 1" not in full.patch.option   # it takes denser rounds
+    made = []
+    refine = steiner._refine
+
+    def counted(*a):
+        out = refine(*a)
+        made.append((len(a[1]), len(out[1]), a[-1]))
+        return out
+
+    monkeypatch.setattr(steiner, "_refine", counted)
+    budget = full.spent // 2          # enough for the first round, not for the one that passes
+    res = steiner_patch(ctx, 0, loop, max_vertices=budget)
+    assert res.patch is None and "over the work budget left" in res.reason
+    # no round refined past the cap (its rim layer may have made more already)
+    assert made and all(after <= max(cap, before) for before, after, cap in made)
+    assert all(cap <= len(loop) - 2 + budget for _, _, cap in made)
+    # with the budget this round needs, the same patch as with none
+    again = steiner_patch(ctx, 0, loop, max_vertices=full.spent)
+    assert again.patch is not None and again.patch.P.tobytes() == full.patch.P.tobytes()
+
+
+def test_a_patch_is_lifted_over_the_same_faces_whichever_it_reaches_first():
+    # faces are paired with the patch's triangles as the patch rises to
+    # them; lifting with every face paired at once gives the same heights
+    from shellrepair.fill.steiner import LIFT_PASSES, _lift, _overlapping
+
+    rng = np.random.default_rng(5)
+    for trial in range(20):
+        X = rng.uniform(-1, 1, (40, 2))
+        from scipy.spatial import Delaunay
+        T = Delaunay(X).simplices.astype(np.int64)
+        k = 6
+        base = rng.uniform(-0.05, 0.05, len(X))
+        m = 300
+        c = rng.uniform(-1.2, 1.2, (m, 1, 2))
+        xy = c + rng.uniform(-0.2, 0.2, (m, 3, 2))
+        lo = rng.uniform(-0.5, 2.0, m) * rng.choice([0.1, 1.0], m)
+        hmin, hmax = lo, lo + rng.uniform(0, 0.3, m)
+        for side in (("out of", 1.0), ("into", -1.0)):
+            got = _lift(X, T, base, (xy, hmin, hmax), side, k)
+            # every face paired at once: the lift as it was written first
+            sign = side[1]
+            fmin, fmax = (hmin, hmax) if sign > 0 else (-hmax, -hmin)
+            g = sign * base
+            near = np.flatnonzero(fmax >= g.min() - 1e-9)
+            pt, pf = _overlapping(X[T], xy[near])
+            pf = near[pf]
+            rim = np.arange(len(X)) < k
+            for _ in range(LIFT_PASSES):
+                if not pt.size:
+                    break
+                gc = g[T]
+                meet = (fmin[pf] <= gc.max(axis=1)[pt]) & (fmax[pf] >= gc.min(axis=1)[pt])
+                need = np.full(len(T), -np.inf)
+                np.maximum.at(need, pt[meet], fmax[pf[meet]] + LIFT)
+                corner = np.full(len(X), -np.inf)
+                np.maximum.at(corner, T.ravel(), np.repeat(need, 3))
+                raised = ~rim & (corner > g)
+                if not raised.any():
+                    break
+                g = np.where(raised, corner, g)
+            assert got.tobytes() == (sign * g).tobytes(), trial
+
+
 @pytest.mark.parametrize("where", ["rotated, 1e6 off the origin", "scaled by 1e-6", "scaled by 1e6"])
 def test_the_bore_closes_at_any_place_and_scale(where):
     from scipy.spatial.transform import Rotation
