@@ -162,40 +162,32 @@ def test_a_loop_the_layer_cannot_close_in_its_budget_says_why():
     assert res.patch is not None and res.spent >= len(res.patch.P) > 0
 
 
-def test_a_round_over_the_work_budget_stops_refining_at_the_budgets_size(monkeypatch):
-    # the refusal is the same as after refining on (the round is over the
-    # budget either way); only the refinement stops where it is over it
-    from shellrepair.fill import steiner
+def test_a_rounds_refinement_stops_exactly_where_the_round_is_over_the_work_budget():
+    # a round's patch is a disc: k rim vertices and n new ones make
+    # k + 2n - 2 triangles; the round is over the budget where its two
+    # sides' checks would spend 2n > budget - spent. The refinement stops
+    # past round_faces triangles, so it stops only where the round would
+    # be refused anyway, and a round it lets through is refined as before
+    from shellrepair.fill.refine import MAX_PATCH_FACES
+    from shellrepair.fill.steiner import round_faces
 
-    V, F, g = cp.box_with_bore_through_top()
-    loop = detect_holes(V, F, closed=True).loops[0].vertices
-    ctx = ScanContext(Mesh(V=V, F=F))
-    full = steiner_patch(ctx, 0, loop)
-    assert full.patch is not None and "round 1" not in full.patch.option   # it takes denser rounds
-    made = []
-    refine = steiner._refine
-
-    def counted(*a):
-        out = refine(*a)
-        made.append((len(a[1]), len(out[1]), a[-1]))
-        return out
-
-    monkeypatch.setattr(steiner, "_refine", counted)
-    budget = full.spent // 2          # enough for the first round, not for the one that passes
-    res = steiner_patch(ctx, 0, loop, max_vertices=budget)
-    assert res.patch is None and "over the work budget left" in res.reason
-    # no round refined past the cap (its rim layer may have made more already)
-    assert made and all(after <= max(cap, before) for before, after, cap in made)
-    assert all(cap <= len(loop) - 2 + budget for _, _, cap in made)
-    # with the budget this round needs, the same patch as with none
-    again = steiner_patch(ctx, 0, loop, max_vertices=full.spent)
-    assert again.patch is not None and again.patch.P.tobytes() == full.patch.P.tobytes()
+    for k in (3, 4, 8, 57, 400):
+        for budget in (0, 1, 2, 7, 100, 25_090, 37_000):
+            for spent in (0, 1, 5, 99, 30_000):
+                cap = round_faces(k, budget, spent)
+                n = np.arange(40_000)
+                stopped = k + 2 * n - 2 > cap
+                over = spent + 2 * n > budget
+                assert (over[stopped]).all(), (k, budget, spent)
+                if cap < MAX_PATCH_FACES:
+                    assert np.array_equal(stopped, over), (k, budget, spent)
+    assert round_faces(8, None, 0) == round_faces(8, 10 ** 9, 0) == MAX_PATCH_FACES
 
 
 def test_a_patch_is_lifted_over_the_same_faces_whichever_it_reaches_first():
     # faces are paired with the patch's triangles as the patch rises to
     # them; lifting with every face paired at once gives the same heights
-    from shellrepair.fill.steiner import LIFT_PASSES, _lift, _overlapping
+    from shellrepair.fill.steiner import LIFT_PASSES, lift_heights, overlapping_triangles
 
     rng = np.random.default_rng(5)
     for trial in range(20):
@@ -210,13 +202,13 @@ def test_a_patch_is_lifted_over_the_same_faces_whichever_it_reaches_first():
         lo = rng.uniform(-0.5, 2.0, m) * rng.choice([0.1, 1.0], m)
         hmin, hmax = lo, lo + rng.uniform(0, 0.3, m)
         for side in (("out of", 1.0), ("into", -1.0)):
-            got = _lift(X, T, base, (xy, hmin, hmax), side, k)
+            got = lift_heights(X, T, base, (xy, hmin, hmax), side, k)
             # every face paired at once: the lift as it was written first
             sign = side[1]
             fmin, fmax = (hmin, hmax) if sign > 0 else (-hmax, -hmin)
             g = sign * base
             near = np.flatnonzero(fmax >= g.min() - 1e-9)
-            pt, pf = _overlapping(X[T], xy[near])
+            pt, pf = overlapping_triangles(X[T], xy[near])
             pf = near[pf]
             rim = np.arange(len(X)) < k
             for _ in range(LIFT_PASSES):

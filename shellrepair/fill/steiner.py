@@ -178,7 +178,7 @@ def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
                 scale = scale.copy()
                 scale[_ring(T, near, len(X3))] /= 2
                 X3, T, scale = _rim_layer(X3, T, scale, near, k, forbidden, BESIDE_RIM ** r)
-                cap = _round_faces(k, max_vertices, spent)
+                cap = round_faces(k, max_vertices, spent)
                 X3, T, _, capped = _refine(X3, T, scale, np.arange(len(X3)) < k, _forbidden_pairs(forbidden),
                                            DENSITY_ALPHA, cap)
                 capped = capped and cap < MAX_PATCH_FACES
@@ -192,7 +192,7 @@ def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
             base = _harmonic(T, X, H, k)
             best, near = None, np.zeros(0, np.int64)
             for side in _sides(X, T):
-                h = _lift(X, T, base, face, side, k)
+                h = lift_heights(X, T, base, face, side, k)
                 new = centre + diameter * (X[k:, :1] * u + X[k:, 1:] * v + h[k:, None] * axis)
                 patch = Patch(hole_id=hole_id, loop=loop, P=new, T=T, T0=T0, disc=True, steiner=True)
                 spent += n_new
@@ -217,7 +217,7 @@ def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
     return None, "; ".join(why), spent, folded
 
 
-def _round_faces(k, max_vertices, spent):
+def round_faces(k, max_vertices, spent):
     """The most triangles a round's refinement may make: where it would
     make more, the round is over the work budget anyway, so it stops there
     instead of refining on.
@@ -633,7 +633,7 @@ def _sides(X, T):
     return [("out of", facing), ("into", -facing)]
 
 
-def _lift(X, T, base, face, side, k):
+def lift_heights(X, T, base, face, side, k):
     """Heights of the patch vertices lifted to ``side`` (module notes, step
     3): a patch triangle whose footprint overlaps a scan face's, and whose
     heights overlap that face's, has its corners raised above the face;
@@ -660,7 +660,7 @@ def _lift(X, T, base, face, side, k):
     for _ in range(LIFT_PASSES):
         top = int(np.searchsorted(low, g.max(), side="right"))   # faces that may meet the patch now
         if top > reached:
-            i, j = _overlapping(A, xy[near[reached:top]])
+            i, j = overlapping_triangles(A, xy[near[reached:top]])
             pt, pf = np.concatenate([pt, i]), np.concatenate([pf, near[reached:top][j]])
             reached = top
         if not pt.size:
@@ -678,7 +678,7 @@ def _lift(X, T, base, face, side, k):
     return sign * g
 
 
-def _overlapping(A, B):
+def overlapping_triangles(A, B):
     """Pairs (i, j) of 2-D triangles ``A[i]`` and ``B[j]`` (a face seen
     edge-on is a segment) whose interiors overlap by more than ``TOUCH``:
     their boxes first (:func:`_box_pairs`), then separating axes (the edge
