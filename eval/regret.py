@@ -203,9 +203,10 @@ def main(argv=None):
     a.out.mkdir(parents=True, exist_ok=True)
     stem = a.out / f"regret-seed{a.seed}{'-quick' if a.quick else ''}{f'-ragged{a.ragged:g}' if a.ragged else ''}"
     command = "python eval/regret.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    stem.with_suffix(".json").write_text(json.dumps({"command": command, "cases": cases,
+    # (not with_suffix: a stem such as "-ragged0.1" has a dot of its own)
+    stem.parent.joinpath(stem.name + ".json").write_text(json.dumps({"command": command, "cases": cases,
                                                      "summary": summary(cases)}, indent=1))
-    stem.with_suffix(".md").write_text(markdown(cases, command))
+    stem.parent.joinpath(stem.name + ".md").write_text(markdown(cases, command))
     print(markdown(cases, command))
 
 
