@@ -639,7 +639,28 @@ def lift_heights(X, T, base, face, side, k):
     heights overlap that face's, has its corners raised above the face;
     repeated (at most :data:`LIFT_PASSES` times) until no face is met, so
     a scan face wholly above the patch (the far wall of a part) is passed
-    under, not climbed. The rim stays where it is."""
+    under, not climbed. The rim stays where it is.
+
+    Parameters
+    ----------
+    X : (q,2) float64
+        The patch's vertices in the plane (rim first), in opening diameters.
+    T : (t,3) int64
+    base : (q,) float64
+        Their heights before lifting (the rim's are kept).
+    face : tuple
+        The scan faces' footprints (m,3,2) and lowest and highest heights
+        (m,), (m,) (:func:`_scan_footprints`).
+    side : (str, float)
+        The side to lift to (:func:`_sides`): its name and sign.
+    k : int
+        Rim vertices.
+
+    Returns
+    -------
+    h : (q,) float64
+        The lifted heights.
+    """
     xy, hmin, hmax = face
     sign = side[1]
     fmin, fmax = (hmin, hmax) if sign > 0 else (-hmax, -hmin)   # the faces' heights up that side
@@ -682,7 +703,18 @@ def overlapping_triangles(A, B):
     """Pairs (i, j) of 2-D triangles ``A[i]`` and ``B[j]`` (a face seen
     edge-on is a segment) whose interiors overlap by more than ``TOUCH``:
     their boxes first (:func:`_box_pairs`), then separating axes (the edge
-    normals of both)."""
+    normals of both).
+
+    Parameters
+    ----------
+    A : (a,3,2) float64
+    B : (b,3,2) float64
+
+    Returns
+    -------
+    i, j : (p,) int64
+        Each overlapping pair once.
+    """
     alo, ahi = A.min(axis=1), A.max(axis=1)
     blo, bhi = B.min(axis=1), B.max(axis=1)
     pi, pj = _box_pairs(alo, ahi, blo, bhi)
