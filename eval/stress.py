@@ -31,6 +31,11 @@ case ``i`` takes slot ``i mod 6``):
     bust's missing base (the Nefertiti bust when present, otherwise the
     other figures and a bumpy sphere).
 
+``--ragged S`` gives every case's rims a scanner's ragged fringe
+(:func:`ragged_rims`: noise along the normal of ``S`` mean edge lengths, half
+as much on the next ring; the truth stays clean). Without it the rims are as
+clean as the rest of the scan.
+
 Ground truths: the closed meshes ``closed_*.ply`` of ``../shared/data``
 (skipped, with the reason printed once, when absent) and procedural shapes:
 tori of radius ratio 0.15, 0.3, 0.5 and 0.7, a genus-2 shape (two tori
@@ -1107,8 +1112,10 @@ def markdown(result):
 
 
 def run(n, seed, *, tools=DEFAULT_TOOLS, timeout=DEFAULT_TIMEOUT, out=RESULTS, name="stress", only=None,
-        quick=False, n_samples=N_SAMPLES, command=None, log=print):
-    """Build and run ``n`` cases of ``seed``; write ``<name>.json`` and ``<name>.md`` under ``out``."""
+        quick=False, n_samples=N_SAMPLES, command=None, log=print, ragged=0.0):
+    """Build and run ``n`` cases of ``seed`` (rims given a ragged fringe of
+    ``ragged`` edges, :func:`ragged_rims`); write ``<name>.json`` and
+    ``<name>.md`` under ``out``."""
     from eval.bench import _write_json, machine_info
     from eval.worker import ToolRunner
 
@@ -1133,7 +1140,7 @@ def run(n, seed, *, tools=DEFAULT_TOOLS, timeout=DEFAULT_TIMEOUT, out=RESULTS, n
         for i in indices:
             t0 = time.perf_counter()
             try:
-                case = stress_case(i, seed, quick=quick, shapes_ok=shapes_ok)
+                case = stress_case(i, seed, quick=quick, shapes_ok=shapes_ok, ragged=ragged)
             except Exception as exc:  # a case that cannot be built is said, not fatal
                 log(f"case {i}: not built: {type(exc).__name__}: {exc}")
                 result["cases"].append({"name": f"s{seed}-{i:02d}", "error": str(exc)})
@@ -1176,6 +1183,8 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="coarse procedural shapes only (a smoke run)")
     ap.add_argument("--name", default="stress", help="output file stem under --out (default stress)")
     ap.add_argument("--out", default=str(RESULTS), help="output folder (default eval/results)")
+    ap.add_argument("--ragged", type=float, default=0.0,
+                    help="give every rim a scanner's ragged fringe of this many mean edge lengths (ragged_rims)")
     args = ap.parse_args(sys.argv[1:] if argv is None else argv)
     tools = [OURS] if args.no_peers else [s.strip() for s in args.tools.split(",") if s.strip()]
     bad = [t for t in tools if t not in peers.TOOLS]
@@ -1185,7 +1194,8 @@ def main(argv=None):
     only = None if args.only is None else [int(s) for s in args.only.split(",") if s.strip()]
     cmd = "python eval/stress.py " + " ".join(sys.argv[1:] if argv is None else argv)
     run(args.n, args.seed, tools=tools, timeout=args.timeout, out=args.out, name=args.name, only=only,
-        quick=args.quick, n_samples=args.samples, command=cmd.strip(), log=lambda s: print(s, flush=True))
+        quick=args.quick, n_samples=args.samples, command=cmd.strip(), log=lambda s: print(s, flush=True),
+        ragged=args.ragged)
     return 0
 
 
