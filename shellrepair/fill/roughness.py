@@ -143,17 +143,29 @@ def roughen(Vl, Fl, ploop, rough, seed, edge=None):
         A copy of ``Vl`` with the rim moved, or ``Vl`` itself where the
         test rim is as rough already.
     """
-    # only the faces that touch the rim count (in their order: the same sums)
-    on = np.zeros(len(Vl), bool)
-    on[ploop] = True
-    Fl = Fl[on[Fl].any(axis=1)]
-    mean, unit, good = _rim_normals(Vl, Fl, ploop)
+    mean, unit, good = _rim_normals(Vl, _touching(Vl, Fl, ploop), ploop)
     own = _umbrella_rms(Vl, ploop, mean, unit, good)
     if edge is not None:
         h = mean_edge(Vl, np.asarray(ploop, np.int64))
         if h > 0.0 and np.isfinite(edge) and edge > 0.0:
             own *= (edge / h) ** 2
-    extra = float(np.sqrt(max(rough * rough - own * own, 0.0)))
+    return _offset(Vl, ploop, unit, rough, own, seed)
+
+
+def _touching(Vl, Fl, ploop):
+    """The faces of ``Fl`` that touch the rim ``ploop``, in their order
+    (the sums over them come out the same)."""
+    on = np.zeros(len(Vl), bool)
+    on[ploop] = True
+    return Fl[on[Fl].any(axis=1)]
+
+
+def _offset(Vl, ploop, unit, real, own, seed):
+    """``Vl`` with the rim ``ploop`` moved along ``unit`` by normal
+    offsets of standard deviation ``sqrt(real² − own²)`` drawn from
+    ``seed``; ``Vl`` itself where ``own`` is as large already (the shared
+    step of :func:`roughen` and :func:`add_noise`)."""
+    extra = float(np.sqrt(max(real * real - own * own, 0.0)))
     if extra <= 0.0:
         return Vl
     z = np.random.default_rng(seed).standard_normal(len(ploop))
@@ -186,7 +198,11 @@ def rim_noise(V, F, loop):
     """
     V = np.asarray(V, np.float64)
     loop = np.asarray(loop, np.int64)
-    mean, unit, good = _rim_normals(V, F, loop)
+    return _umbrella_noise(V, loop, *_rim_normals(V, F, loop))
+
+
+def _umbrella_noise(V, loop, mean, unit, good):
+    """:func:`rim_noise` from the rim's :func:`_rim_normals`."""
     off = ((V[loop] - mean) * unit).sum(axis=1)
     ok = good & np.roll(good, -1)
     if not ok.any():
@@ -220,15 +236,6 @@ def add_noise(Vl, Fl, ploop, noise, seed):
         A copy of ``Vl`` with the rim moved, or ``Vl`` itself where the
         test rim is as noisy already.
     """
-    on = np.zeros(len(Vl), bool)
-    on[ploop] = True
-    Fl = Fl[on[Fl].any(axis=1)]
-    own = rim_noise(Vl, Fl, ploop)
-    extra = float(np.sqrt(max(noise * noise - own * own, 0.0)))
-    if extra <= 0.0:
-        return Vl
-    _, unit, _ = _rim_normals(Vl, Fl, ploop)
-    z = np.random.default_rng(seed).standard_normal(len(ploop))
-    out = Vl.copy()
-    out[ploop] += (extra * z)[:, None] * unit
-    return out
+    ploop = np.asarray(ploop, np.int64)
+    mean, unit, good = _rim_normals(Vl, _touching(Vl, Fl, ploop), ploop)
+    return _offset(Vl, ploop, unit, noise, _umbrella_noise(np.asarray(Vl, np.float64), ploop, mean, unit, good), seed)
