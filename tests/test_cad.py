@@ -270,6 +270,28 @@ def test_fandisk_flat_regions_close_flat():
     assert_openings_close_flat(V2, F2, si_before=0)
 
 
+def test_fandisk_faces_planar_only_to_the_files_digits_still_close_flat():
+    # the file's coordinates carry four to six decimals: some of the part's
+    # flat faces are planar only to about 1e-5 of their size (their
+    # triangles' normals agree to 1e-6, not 1e-9); walls stand across their
+    # outlines (creases), so each is a CAD face's outline, capped flat, not
+    # faired into a dome (as the stress suite's occlusions of them were
+    # until 2026-12-07: 16.1 per mille from the truth, the cap 0.28)
+    M = read_mesh(shared_scan("closed_fandisk_cad.ply"))
+    label = _flat_regions(M.V, M.F, cos_tol=1e-6)
+    tried = 0
+    for r in np.argsort(-np.bincount(label), kind="stable")[:8]:
+        V2, F2 = cp.remove(M.V, M.F, np.flatnonzero(label == r))
+        loops = detect_holes(V2, F2, fill_borders=True).loops
+        if not all(1e-6 < L.planarity < 1e-4 for L in loops):
+            continue
+        tried += 1
+        report = assert_openings_close_flat(V2, F2, si_before=0)
+        assert all(row["option"].startswith("flat cap") for row in report["holes"]), \
+            [row["option"] for row in report["holes"]]
+    assert tried >= 2
+
+
 def test_a_planar_loop_without_walls_at_its_rim_is_still_faired_round():
     # the pole of a faceted dome cut at a ring of latitude: the loop is
     # exactly planar, but the faces around it slant (none stands across the
