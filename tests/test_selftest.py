@@ -674,3 +674,52 @@ def test_discs_on_a_fat_torus_get_order_3_where_a_test_hole_balloons_at_order_3(
     assert auto <= 0.3 * forced          # order 2 on the discs was 2.61 per mille; order 2 everywhere 3.1
     discs = [h for h in rep["holes"] if h.get("choice") and h["edges"] < 300]
     assert len(discs) == 3 and all(h["choice"]["order"] == 3 for h in discs)
+
+
+# --------------------------------------------------------------------------
+# holes the scan stands across: test holes stop at creases (fill.creases)
+# --------------------------------------------------------------------------
+def test_the_scan_stands_across_a_cylinders_open_end_and_not_across_a_disc_in_a_sphere():
+    from shellrepair.fill.creases import walled
+
+    V, F = shapes.cylinder(0.5, 2.0, 48, 40)
+    top = np.arange(48) * 41 + 40
+    V = np.vstack([V, [[0.0, 0.0, 1.0]]])
+    F = np.vstack([F, np.column_stack([top, np.roll(top, -1), np.full(48, len(V) - 1)])])   # closed at the top
+    scan, ctx = context(V, F)
+    assert walled(ctx, scan.loops[0].vertices)          # the open bottom: walls across its plane
+    V2, F2 = sphere_with_hole()
+    scan, ctx = context(V2, F2)
+    assert not walled(ctx, scan.loops[0].vertices)      # a cap's opening: the scan turns into its plane
+
+
+def test_faces_are_joined_across_edges_but_not_across_a_crease():
+    from shellrepair.fill.creases import CREASE_DEGREES, smooth_component
+
+    # a strip folded along x = 1: two faces flat at z = 0, two standing up at 90 degrees
+    X = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [1, 0, 1], [1, 1, 1]], float)
+    F = np.array([[0, 1, 2], [1, 3, 2], [1, 4, 3], [4, 5, 3]], np.int64)
+    limit = np.cos(np.radians(CREASE_DEGREES))
+    assert smooth_component(X, F, 0, limit).tolist() == [0, 1]
+    assert smooth_component(X, F, 3, limit).tolist() == [2, 3]
+    assert smooth_component(X, F, 0, -1.0).tolist() == [0, 1, 2, 3]     # no edge a crease: one piece
+    X[4:, 0] = 1.1                                                      # a fold of a few degrees is no crease
+    X[4:, 2] = 0.05
+    assert smooth_component(X, F, 0, limit).tolist() == [0, 1, 2, 3]
+
+
+def test_a_cad_faces_occlusion_is_tested_by_test_holes_stopped_at_its_creases():
+    """Case 0 of seed 297394076, the fandisk under a ring of views: its
+    holes are faces the views missed up to their creases, the walls standing
+    across them. Test holes laid across the creases beside them rated
+    orders 2 and 3 first, and the repair was 9.73 per mille from the truth
+    where order 1 forced gives 4.82. Stopped at the creases, the test holes
+    are met by walls as the holes are, and the repair is as true as order 1."""
+    from eval import stress
+
+    if "fandisk" not in stress.available_shapes():
+        pytest.skip("the fandisk is one of ../shared's scans")
+    case = stress.stress_case(0, 297394076, family="scanner", shape="fandisk")
+    auto, forced, rep = auto_and_forced_rms(case, 1)
+    assert auto <= 1.05 * forced
+    assert any(row.get("choice", {}).get("order") == 1 for row in rep["holes"])

@@ -150,8 +150,11 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     # agree and no test is needed
     deferred = None if defer is None else []     # the order-2 fill's, kept only if it is the one used
     patch, reason, secs, reasons = fill_hole_at_order(ctx, hole_id, loop, 2, smooth, energy, budget, deferred)
-    if patch is not None and patch.steiner:
-        # the last layer's patch is not faired: no order to choose, none tested
+    if patch is not None and (patch.steiner or (patch.option or "").startswith("flat cap")):
+        # the last layer's patch, and a flat cap (a CAD face's outline, or
+        # an opening the user called a flat base), are not faired: no order
+        # to choose, none tested (an order-1 choice would replace the cap by
+        # a faired patch, off its plane by round-off)
         if beside is not None:
             beside.drop_test(hole_id)
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)

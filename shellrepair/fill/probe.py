@@ -26,6 +26,11 @@ beyond the test rim's own, drawn from a fixed seed): on a sphere with a
 clean rim order 3 wins; with the rim moved by noise of 0.5 % of the radius
 order 2 does, and the choice follows (tests/test_repair.py).
 
+Where the scan stands across the hole (:func:`shellrepair.fill.creases.walled`:
+walls around it, as on a CAD part whose face the views missed up to its
+creases), a test hole stops at creases (:mod:`shellrepair.fill.creases`), so
+that it too is met by walls standing across it.
+
 A probe is placed where the disc and a margin of ``MARGIN_EDGES`` rim
 edges (at least ``MARGIN_FACES`` of the rim faces' longest edges) around
 it are intact scan: no boundary edge (of a hole or of the
@@ -49,6 +54,7 @@ import numpy as np
 
 from shellrepair import compiled
 from shellrepair.fill import probe_kernels
+from shellrepair.fill.creases import CREASE_DEGREES, smooth_component, walled
 from shellrepair.fill.roughness import rim_roughness, roughen
 from shellrepair.mesh.geometry import cross, mean_edge
 from shellrepair.mesh.topology import boundary_half_edges, half_edge_ends
@@ -514,7 +520,7 @@ def rim_tails(T, n):
     return src
 
 
-def _probe(V, F, near, p_id, shape, margin):
+def _probe(V, F, near, p_id, shape, margin, crease=None):
     """A test hole of the hole's shape around scan vertex ``p_id``, with
     ``margin`` of intact scan around it; None where the scan is not intact
     and one piece of surface there.
@@ -524,6 +530,9 @@ def _probe(V, F, near, p_id, shape, margin):
     ``shape``: (outline (k,2), e1, normal) of the hole, scaled: the outline
     is laid on the scan's tangent plane at the vertex, its first axis
     ``e1`` turned into that plane (the hole's orientation kept).
+    ``crease``: None, or the cosine below which an edge is a crease: the
+    test hole is then the faces joined to the one at its centre across
+    edges that are not creases (:data:`shellrepair.fill.creases.CREASE_DEGREES`).
 
     Returns (Vl, Fl, ploop, Q): local positions, the local scan with the
     test hole cut, the test hole's loop (local ids) and the removed
@@ -588,6 +597,13 @@ def _probe(V, F, near, p_id, shape, margin):
     cut[dfaces[keep_d]] = True
     if (disc & ~cut).any():
         return None          # faces of another sheet within the outline: not one piece of surface there
+    if crease is not None:
+        # stopped at creases: the part beyond one stays scan, the crease its rim
+        kept = dfaces[keep_d]
+        sub = smooth_component(Vg, Tl[kept], int(np.searchsorted(keep_d, dseed[0])), crease)
+        if len(sub) < len(kept):
+            cut = np.zeros(len(Tl), bool)
+            cut[kept[sub]] = True
     Fk = Tl[~cut]
     lk, ck = boundary_loops(Fk, len(g))
     if ck:
@@ -798,6 +814,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     c = V[loop].mean(axis=0)
     rim = _RimDistance(V, loop, c, float(np.sqrt(((V[loop] - c) ** 2).sum(axis=1)).max()))
     rings = _Rings(ctx, loop)
+    crease = float(np.cos(np.radians(CREASE_DEGREES))) if walled(ctx, loop) else None
     # a hole as wide across its narrow axis as its area's disc: the narrow
     # disc is that disc, whose search would run twice to the same answer
     narrow_too = [] if np.array_equal(narrow, disc) else [narrow]
@@ -805,7 +822,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
         small = False
         for shape in own + (narrow_too if f == 1.0 else []) + [disc]:   # the outline, the narrow disc, the disc of its area
             errors, n, alike = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough,
-                                             rim, rings, faces_margin)
+                                             rim, rings, faces_margin, crease)
             if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
                 return errors, n, f
             small = alike > 0 and not n
@@ -814,7 +831,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     return {}, 0, 0.0
 
 
-def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings, faces_margin):
+def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings, faces_margin, crease=None):
     from shellrepair.errors import MeshError
     from shellrepair.fill.fair import fair_patch_orders
     from shellrepair.fill.patch import PatchError
@@ -869,7 +886,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
             pid = int(left.pop(j))
             if ends is not None and ends[pid]:
                 continue         # (the compiled walk of its region ended it: _probe would say None)
-            got = _probe(V, ctx.F, near, pid, shape, margin)
+            got = _probe(V, ctx.F, near, pid, shape, margin, crease)
             if got is None:
                 continue
             Vl, Fl, ploop, Q = got
