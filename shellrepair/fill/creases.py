@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from shellrepair.mesh.geometry import cross
-
 __all__ = ["CREASE_DEGREES", "walled", "smooth_component"]
 
 #: Where the scan stands across a hole (:func:`walled`), a test hole stops
@@ -44,11 +42,11 @@ CREASE_DEGREES = 45.0
 
 
 def walled(ctx, loop):
-    """Does the scan stand across the hole: the faces of ``EDGE_ON_RINGS``
-    rings around it at an area-weighted mean |cos| to its best-fit plane's
-    normal of at most ``EDGE_ON_COS`` (:mod:`shellrepair.fill.patch`; its
-    flat-cap rule asks this of planar openings, here the rim's planarity is
-    not asked)?
+    """Does the scan stand across the hole: the faces of six rings around it
+    at an area-weighted mean |cos| to its best-fit plane's normal of at most
+    ``EDGE_ON_COS`` (:func:`shellrepair.fill.patch.walls_cos`; the flat-cap
+    rule asks this of planar openings, here the rim's planarity is not
+    asked)?
 
     Parameters
     ----------
@@ -59,14 +57,11 @@ def walled(ctx, loop):
     -------
     bool
     """
-    from shellrepair.fill.patch import EDGE_ON_COS, EDGE_ON_RINGS
+    from shellrepair.fill.patch import EDGE_ON_COS, walls_cos
     from shellrepair.holes.loops import loop_stats
 
-    axis = loop_stats(ctx.V, loop)["axis"]
-    T = ctx.F[ctx.ring_faces(loop, EDGE_ON_RINGS)]
-    n = cross(ctx.V[T[:, 1]] - ctx.V[T[:, 0]], ctx.V[T[:, 2]] - ctx.V[T[:, 0]])
-    area = np.sqrt((n * n).sum(axis=1)).sum()
-    return bool(area > 0 and np.abs(n @ axis).sum() <= EDGE_ON_COS * area)
+    c = walls_cos(ctx, loop, loop_stats(ctx.V, loop)["axis"])
+    return c is not None and c <= EDGE_ON_COS
 
 
 def smooth_component(X, F, seed, cos_limit):
@@ -89,17 +84,12 @@ def smooth_component(X, F, seed, cos_limit):
         Positions in ``F``, ascending; ``seed`` among them.
     """
     from shellrepair.mesh.components import connected_components
+    from shellrepair.mesh.topology import edge_topology, face_normals, manifold_pairs
 
-    m = len(F)
-    n = cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]])
+    n = face_normals(X, F)
     n = n / np.maximum(np.sqrt((n * n).sum(axis=1)), 1e-300)[:, None]
-    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    fid = np.tile(np.arange(m), 3)
-    key = E[:, 0] * (int(F.max()) + 1) + E[:, 1]
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    same = np.flatnonzero(ks[1:] == ks[:-1])
-    a, b = fid[order[same]], fid[order[same + 1]]
+    h1, h2 = manifold_pairs(edge_topology(F, len(X)))
+    a, b = h1 // 3, h2 // 3              # half-edge 3f + j is face f's
     smooth = (n[a] * n[b]).sum(axis=1) >= cos_limit
-    _, lab = connected_components(m, a[smooth], b[smooth])
+    _, lab = connected_components(len(F), a[smooth], b[smooth])
     return np.flatnonzero(lab == lab[seed])

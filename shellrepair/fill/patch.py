@@ -459,12 +459,9 @@ def edge_on_verdict(ctx, loop, hole_id=None):
                 hit = bool(np.any((ln > 0) & (np.abs(n @ st["axis"]) <= EDGE_ON_COS * ln)))
                 return hit, "" if hit else "no face beside it stands across its plane"
         return False, "no face of area beside it"
-    n = _face_cross(ctx, ctx.ring_faces(loop, EDGE_ON_RINGS))
-    a = 0.5 * np.linalg.norm(n, axis=1)
-    if a.sum() <= 0:
+    c = walls_cos(ctx, loop, st["axis"])
+    if c is None:
         return False, "no face of area beside it"
-    cosines = np.abs(n @ st["axis"]) / np.maximum(2 * a, 1e-300)
-    c = float(np.sum(a * cosines) / a.sum())
     if c > EDGE_ON_COS:
         return False, (f"the scan beside it does not stand across its plane (mean |cos| of its faces' "
                        f"normals to the plane's {c:.2f}, over {EDGE_ON_COS})")
@@ -473,6 +470,31 @@ def edge_on_verdict(ctx, loop, hole_id=None):
     if ctx.base == "flat":
         return True, ""
     return False, "faired by request" if ctx.base == "faired" else "a scan's opening is faired unless --base flat"
+
+
+def walls_cos(ctx, loop, axis):
+    """How far the scan around a loop stands across it: the area-weighted
+    mean |cos| of the normals of the faces of ``EDGE_ON_RINGS`` rings around
+    it to ``axis`` (its plane's normal); None where those faces have no area.
+    At most ``EDGE_ON_COS``: the walls stand across the opening.
+
+    Parameters
+    ----------
+    ctx : shellrepair.mesh.index.ScanContext
+    loop : (k,) int64
+    axis : (3,) float64
+        Unit normal.
+
+    Returns
+    -------
+    c : float or None
+    """
+    n = _face_cross(ctx, ctx.ring_faces(loop, EDGE_ON_RINGS))
+    a = 0.5 * np.linalg.norm(n, axis=1)
+    if a.sum() <= 0:
+        return None
+    cosines = np.abs(n @ axis) / np.maximum(2 * a, 1e-300)
+    return float(np.sum(a * cosines) / a.sum())
 
 
 def _face_cross(ctx, faces):
