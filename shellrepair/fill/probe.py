@@ -585,6 +585,15 @@ def _probe(V, F, near, p_id, shape, margin, crease=None):
     seed = np.flatnonzero(disc & (Tl == pl).any(axis=1))
     if seed.size == 0:
         return None
+    # a test hole removes the vertices whose faces it all takes, and it
+    # takes only faces within the outline: where no vertex has all its
+    # faces there, it removes none (nothing to measure against), known
+    # before the region's pieces and loops are walked
+    enclosed = np.zeros(len(g), bool)
+    enclosed[Tl[disc]] = True
+    enclosed[Tl[~disc]] = False
+    if not enclosed.any():
+        return None
     dfaces = np.flatnonzero(disc)
     dseed = np.flatnonzero((Tl[dfaces] == pl).any(axis=1))
     if adj is not None:
