@@ -708,6 +708,33 @@ def test_faces_are_joined_across_edges_but_not_across_a_crease():
     assert smooth_component(X, F, 0, limit).tolist() == [0, 1, 2, 3]
 
 
+def test_a_test_hole_stops_at_a_crease_it_crosses_and_keeps_the_relief_inside_it():
+    """A grid with a wall standing up along one side and a sharp spike in
+    its middle: the test hole from a corner face stops at the wall's crease,
+    which reaches its edge, and takes the spike with it (a piece that the
+    smooth part encloses is relief within the hole, not beyond a crease: left
+    as scan, it was an island, and a test hole with an island has two rims)."""
+    from shellrepair.fill.creases import CREASE_DEGREES, crease_cut, smooth_component
+
+    n = 7
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    X = np.column_stack([i, j, np.zeros(n * n)]).astype(float)
+    X[i == n - 1, 0] = n - 2                 # the last column stands up: a wall at x = n - 2
+    X[i == n - 1, 2] = 1.0
+    spike = 2 * n + 3
+    X[spike, 2] = 3.0
+    quads = [(a * n + b, (a + 1) * n + b, a * n + b + 1, (a + 1) * n + b + 1) for a in range(n - 1) for b in range(n - 1)]
+    F = np.array([f for p, q, r, t in quads for f in ((p, q, t), (p, t, r))], np.int64)
+    wall = np.flatnonzero((X[F][:, :, 2] == 1.0).any(axis=1))
+    at_spike = np.flatnonzero((F == spike).any(axis=1))
+    limit = np.cos(np.radians(CREASE_DEGREES))
+    cut = crease_cut(X, F, 0, limit)
+    assert set(cut.tolist()) == set(range(len(F))) - set(wall.tolist())
+    assert not set(at_spike.tolist()) & set(smooth_component(X, F, 0, limit).tolist())   # the spike's edges are creases
+    assert crease_cut(X, F, 0, -1.0).tolist() == list(range(len(F)))                     # no crease: the whole outline
+
+
 def test_a_cad_faces_occlusion_is_tested_by_test_holes_stopped_at_its_creases():
     """Case 0 of seed 297394076, the fandisk under a ring of views: its
     holes are faces the views missed up to their creases, the walls standing

@@ -54,7 +54,7 @@ import numpy as np
 
 from shellrepair import compiled
 from shellrepair.fill import probe_kernels
-from shellrepair.fill.creases import CREASE_DEGREES, smooth_component, walled
+from shellrepair.fill.creases import CREASE_DEGREES, crease_cut, walled
 from shellrepair.fill.roughness import rim_roughness, roughen
 from shellrepair.mesh.geometry import cross, mean_edge
 from shellrepair.mesh.topology import boundary_half_edges, half_edge_ends
@@ -532,7 +532,8 @@ def _probe(V, F, near, p_id, shape, margin, crease=None):
     ``e1`` turned into that plane (the hole's orientation kept).
     ``crease``: None, or the cosine below which an edge is a crease: the
     test hole is then the faces joined to the one at its centre across
-    edges that are not creases (:data:`shellrepair.fill.creases.CREASE_DEGREES`).
+    edges that are not creases (:data:`shellrepair.fill.creases.CREASE_DEGREES`),
+    with the relief they enclose (:func:`shellrepair.fill.creases.crease_cut`).
 
     Returns (Vl, Fl, ploop, Q): local positions, the local scan with the
     test hole cut, the test hole's loop (local ids) and the removed
@@ -607,9 +608,10 @@ def _probe(V, F, near, p_id, shape, margin, crease=None):
     if (disc & ~cut).any():
         return None          # faces of another sheet within the outline: not one piece of surface there
     if crease is not None:
-        # stopped at creases: the part beyond one stays scan, the crease its rim
+        # stopped at creases: the part beyond one stays scan, the crease its
+        # rim; relief that the rest encloses is cut with it
         kept = dfaces[keep_d]
-        sub = smooth_component(Vg, Tl[kept], int(np.searchsorted(keep_d, dseed[0])), crease)
+        sub = crease_cut(Vg, Tl[kept], int(np.searchsorted(keep_d, dseed[0])), crease)
         if len(sub) < len(kept):
             cut = np.zeros(len(Tl), bool)
             cut[kept[sub]] = True

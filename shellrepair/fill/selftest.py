@@ -13,8 +13,8 @@ next to the rim, one measured criterion decides (:func:`choose_order`):
    spread around the hole; where the outline does not fit, a disc as wide
    as the hole across its narrow axis, then a disc of its area; half the
    size only where fewer than two of the full size fit; where the scan
-   stands across the hole, each stopped at the creases it crosses,
-   :mod:`shellrepair.fill.creases`), their
+   stands across the hole, each stopped at the creases it crosses, the
+   relief it encloses cut with it, :mod:`shellrepair.fill.creases`), their
    rims given the real rim's roughness
    (:func:`shellrepair.fill.roughness.rim_roughness`: a ragged rim is noise that a
    higher order carries on into the hole).
