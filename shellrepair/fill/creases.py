@@ -98,9 +98,11 @@ def crease_cut(X, F, seed, cos_limit):
     edge) lies beyond a crease. A piece enclosed by the smooth part is
     relief within the test hole (a scanned statue's fine detail has edges
     past the crease angle here and there): left as scan, it made islands in
-    the test hole, and a test hole with islands is no hole of one rim (on
-    two Nefertiti bases of seed 865890797, 374 of 1052 placements failed
-    so, none of them for a crease crossing the outline).
+    the test hole, and a test hole with islands is no hole of one rim: on
+    two Nefertiti bases of seed 865890797, 374 placements failed so (2 to
+    62 rims each), and the test fell back to test holes of half the hole's
+    size; with the relief cut, none failed, and the default's fill took
+    0.33 and 0.28 s instead of 2.53 and 2.11.
 
     Parameters
     ----------
