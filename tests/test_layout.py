@@ -100,7 +100,7 @@ def test_the_scan_index_checks_and_kernels_sit_below_the_stages_that_use_them():
     g = import_graph()
     stages = {"shellrepair.holes." + m for m in ("loops", "hole_or_border", "pinched")} \
         | {"shellrepair.fill." + m for m in ("patch", "bridge", "bands", "tube", "pants", "mend", "merge", "probe",
-                                             "selftest", "hole", "band_fill", "runs", "beside")} \
+                                             "placement", "selftest", "hole", "band_fill", "runs", "beside")} \
         | {"shellrepair.repair"}
     assert not g["shellrepair.mesh.index"] & stages
     # the checks build on a patch's corners, mend, and merge's edge lists; no
@@ -135,8 +135,8 @@ FILL_DATA = (("shellrepair.fill.patch", "Patch"), ("shellrepair.fill.patch", "_P
              ("shellrepair.holes.loops", "Loop"), ("shellrepair.mesh.core", "Mesh"))
 #: The fill's modules, held to that.
 FILL_MODULES = tuple(f"shellrepair.fill.{m}" for m in (
-    "hole", "band_fill", "runs", "beside", "bridge", "bands", "tube", "pants", "mend", "merge", "checks", "probe", "band_test",
-    "selftest", "steiner", "patch", "refine", "triangulate", "fair")) \
+    "hole", "band_fill", "runs", "beside", "bridge", "bands", "tube", "pants", "mend", "merge", "checks", "probe", "placement",
+    "band_test", "selftest", "steiner", "patch", "refine", "triangulate", "fair")) \
     + tuple(f"shellrepair.holes.{m}" for m in ("loops", "hole_or_border", "pinched")) \
     + ("shellrepair.repair", "shellrepair.mesh.index", "shellrepair.mesh.intersect")
 

@@ -6,7 +6,7 @@ from scipy.spatial import cKDTree
 
 from eval import shapes
 from shellrepair import Mesh, detect_holes, read_mesh
-from shellrepair.fill import probe
+from shellrepair.fill import placement, probe
 from shellrepair.fill import selftest
 from shellrepair.fill.hole import fill_hole_at_order
 from shellrepair.mesh.index import ScanContext
@@ -142,13 +142,13 @@ def test_the_test_is_the_same_on_a_fresh_context_to_the_bit():
 
 @pytest.mark.parametrize("seed", [2, 5])
 def test_the_test_is_the_same_whether_placements_sort_their_own_edges_or_the_near_scans(monkeypatch, seed):
-    # the near scan's edges sorted once (probe._NearEdges) or each placement's
+    # the near scan's edges sorted once (placement._NearEdges) or each placement's
     # region sorted on its own: a cost, never a different test hole
     V, F = shapes.bumpy_sphere(4, amplitude=0.03, frequency=4)
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.25, seed=seed)
     got = []
     for after in (0.0, float("inf")):
-        monkeypatch.setattr(probe, "EDGES_AFTER", after)
+        monkeypatch.setattr(placement, "EDGES_AFTER", after)
         scan, ctx = context(V2, F2)
         got.append([choose_order(ctx, h.id, h.vertices) for h in scan.holes])
     assert got[0] == got[1] and any(t.errors for t in got[0])
@@ -167,7 +167,7 @@ def test_the_test_is_the_same_whether_placements_are_walked_compiled_or_by_numpy
     V2, F2, _, _ = shapes.perforate_discs(V, F, n_holes=4, radius=0.25, seed=seed)
     got = []
     for on in (True, False):
-        monkeypatch.setattr(probe, "COMPILED_WALK", on)
+        monkeypatch.setattr(placement, "COMPILED_WALK", on)
         scan, ctx = context(V2, F2)
         got.append([choose_order(ctx, h.id, h.vertices) for h in scan.holes])
     assert got[0] == got[1] and any(t.errors for t in got[0])
@@ -448,7 +448,7 @@ def test_the_compiled_even_odd_test_answers_as_numpy(seed):
     x = np.concatenate([rng.uniform(-2, 2, 500), poly[:, 0], np.full(10, 0.1)])
     y = np.concatenate([rng.uniform(-2, 2, 500), poly[:, 1], np.full(10, poly[4, 1])])
     got = probe_kernels.inside_polygon(x, y, poly)
-    assert np.array_equal(got, probe.inside_polygon_reference(x, y, poly)) and got.any() and not got.all()
+    assert np.array_equal(got, placement.inside_polygon_reference(x, y, poly)) and got.any() and not got.all()
 
 
 def test_the_order_test_keeps_no_scan_alive_after_its_repair():
@@ -507,13 +507,13 @@ def test_test_holes_of_the_holes_size_fit_where_its_rim_edges_are_shorter_than_t
 def test_an_outlines_narrow_axis_is_the_half_width_of_the_ellipse_of_its_moments():
     t = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
     circle = np.column_stack([np.cos(t), np.sin(t)])
-    assert probe.outline_narrow_axis(2.0 * circle + [5.0, -3.0]) == pytest.approx(2.0, rel=1e-4)
+    assert placement.outline_narrow_axis(2.0 * circle + [5.0, -3.0]) == pytest.approx(2.0, rel=1e-4)
     ellipse = circle * [3.0, 1.0]
     turned = ellipse @ np.array([[0.6, 0.8], [-0.8, 0.6]])
-    assert probe.outline_narrow_axis(turned[::-1]) == pytest.approx(1.0, rel=1e-4)     # either turn, any axis
+    assert placement.outline_narrow_axis(turned[::-1]) == pytest.approx(1.0, rel=1e-4)     # either turn, any axis
     # a 4 x 1 rectangle: second moment 1/12 across it, half width 2 * sqrt(1/12)
     rect = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 1.0], [0.0, 1.0]])
-    assert probe.outline_narrow_axis(rect) == pytest.approx(2.0 * np.sqrt(1.0 / 12.0))
+    assert placement.outline_narrow_axis(rect) == pytest.approx(2.0 * np.sqrt(1.0 / 12.0))
 
 
 def test_test_holes_with_no_vertex_of_their_own_are_not_evidence(monkeypatch):
@@ -560,8 +560,8 @@ def test_a_strip_under_a_torus_is_tested_by_a_disc_as_wide_as_the_strip():
         pytest.skip(f"drew {case.name} without ../shared's scans")
     scan, ctx = context(case.V, case.F)
     strip = next(h for h in scan.holes if h.id == 1)
-    outline = probe.hole_outline(case.V, strip.vertices)[0]
-    assert probe.outline_narrow_axis(outline) < 0.5 * hole_radius(case.V, strip.vertices)
+    outline = placement.hole_outline(case.V, strip.vertices)[0]
+    assert placement.outline_narrow_axis(outline) < 0.5 * hole_radius(case.V, strip.vertices)
     test = choose_order(ctx, strip.id, strip.vertices)
     assert test.order == 3 and test.scale == 1.0 and test.probes == PROBES
     auto, forced, _ = auto_and_forced_rms(case, 3)
@@ -592,7 +592,7 @@ def test_an_order_3_patch_departing_from_order_2_more_than_order_1_does_is_not_t
 
 @pytest.mark.parametrize("seed", range(2))
 def test_a_test_regions_rim_is_the_vertices_of_its_loops_or_none_where_a_chain_is_left(seed):
-    """probe.rim_tails judges a placement's region without walking its
+    """placement.rim_tails judges a placement's region without walking its
     loops: on face soups (open edges, edges of three faces, pinches, flipped
     faces) and on pieces of a sphere, it is None exactly where the walk
     leaves an open chain, and otherwise the vertices of the walk's loops."""
@@ -610,7 +610,7 @@ def test_a_test_regions_rim_is_the_vertices_of_its_loops_or_none_where_a_chain_i
         if not len(T):
             continue
         loops, chains = boundary_loops(T, n)
-        tails = probe.rim_tails(T, n)
+        tails = placement.rim_tails(T, n)
         assert (tails is None) == bool(chains)
         if tails is not None:
             on = np.zeros(n, bool)

@@ -100,7 +100,7 @@ def flat_face_with_hole(ctx, A, B):
         not such a face.
     """
     from shellrepair.fill.patch import EDGE_ON_CAD_PLANARITY, EDGE_ON_PLANARITY
-    from shellrepair.fill.probe import inside_polygon
+    from shellrepair.fill.placement import inside_polygon
     from shellrepair.holes.loops import loop_stats
 
     if not (_meets_edge_on(ctx, A.vertices, A.id) and _meets_edge_on(ctx, B.vertices, B.id)):

@@ -26,8 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from shellrepair.fill.probe import ROUGHNESS_SEED, Pooled, mean_edge
+from shellrepair.fill.probe import ROUGHNESS_SEED, Pooled
 from shellrepair.fill.roughness import add_noise, rim_noise
+from shellrepair.mesh.geometry import mean_edge
 
 __all__ = ["tube_errors", "HELD", "MIN_BANDS", "TUBE_GAP_RINGS", "TUBE_MARGIN_RINGS", "TUBE_MEASURE_POINTS"]
 

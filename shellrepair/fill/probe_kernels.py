@@ -17,10 +17,10 @@ milliseconds of dispatch whatever the region's size.
 * :func:`component_within`: the faces of a subset joined to some of them
   across shared edges;
 * :func:`inside_polygon`: the even-odd test of points against an outline
-  (:func:`shellrepair.fill.probe.inside_polygon_reference`, whose (points ×
+  (:func:`shellrepair.fill.placement.inside_polygon_reference`, whose (points ×
   outline edges) arrays cost 1.3 ms a call on eval's cases).
 
-Each gives what :func:`shellrepair.fill.probe._probe`'s NumPy steps give
+Each gives what :func:`shellrepair.fill.placement.cut_test_hole`'s NumPy steps give
 (the same faces, the same verdict; tests/test_selftest.py). How the
 kernels are compiled and switched off: :mod:`shellrepair.compiled`.
 """
@@ -395,7 +395,7 @@ def _inside_polygon(x, y, poly):
 
 def inside_polygon(x, y, poly):
     """Even-odd test of points against a closed polygon, with the
-    operations of :func:`shellrepair.fill.probe.inside_polygon_reference`
+    operations of :func:`shellrepair.fill.placement.inside_polygon_reference`
     in the same order (the same answer to the bit).
 
     Parameters
