@@ -498,12 +498,6 @@ def cut_test_hole(V, F, near, p_id, shape, margin, crease=None):
     pl = int(np.searchsorted(g, p_id))
     if not open_checked and _open_edge_within(Tl, len(g), dl, limit):
         return None
-    # the region's own rim: closed loops, none of their vertices closer than ``limit``
-    src = rim_tails(Tl, len(g))
-    if src is None or (len(src) and dl[src].min() < limit):
-        return None
-    on_edge = np.zeros(len(g), bool)
-    on_edge[src] = True
     inside = inside_polygon(Vg @ a, Vg @ b, outline) & (dl <= r_out)
     disc = inside[Tl].all(axis=1)
     seed = np.flatnonzero(disc & (Tl == pl).any(axis=1))
@@ -512,12 +506,20 @@ def cut_test_hole(V, F, near, p_id, shape, margin, crease=None):
     # a test hole removes the vertices whose faces it all takes, and it
     # takes only faces within the outline: where no vertex has all its
     # faces there, it removes none (nothing to measure against), known
-    # before the region's pieces and loops are walked
+    # before the region's rim, pieces and loops are walked (on a star's
+    # small holes most placements end here: 229 of 340 on case 15 of seed
+    # 865890797)
     enclosed = np.zeros(len(g), bool)
     enclosed[Tl[disc]] = True
     enclosed[Tl[~disc]] = False
     if not enclosed.any():
         return None
+    # the region's own rim: closed loops, none of their vertices closer than ``limit``
+    src = rim_tails(Tl, len(g))
+    if src is None or (len(src) and dl[src].min() < limit):
+        return None
+    on_edge = np.zeros(len(g), bool)
+    on_edge[src] = True
     dfaces = np.flatnonzero(disc)
     dseed = np.flatnonzero((Tl[dfaces] == pl).any(axis=1))
     if adj is not None:
