@@ -318,7 +318,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         loops = ([u.A, u.B] if isinstance(u, BandUnit) else [u.A, u.B, u.C] if isinstance(u, PantsUnit)
                  else [scan.loops[u.hole_id]])
         tube_rejected = None
-        tube_ok = False
+        tube_ok, joined = False, None
         for L, (patch, reason, secs, _) in zip(loops, outs):
             row = {"id": L.id, "edges": L.edges, "status": "failed", "reason": reason,
                    "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
@@ -332,14 +332,15 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                     if record is not None and record.get("chosen") == "tube":
                         tube_rejected = conflict
                 else:
-                    tube_ok = True
+                    tube_ok, joined = True, patch
                     row.update(status="filled", reason=patch.option, new_vertices=int(len(patch.P)),
-                               new_faces=int(len(patch.T)), option=patch.option)
+                               new_faces=int(len(patch.T)), option=patch.option, **_kind(patch))
                     if patch.choice is not None:
                         row["choice"] = patch.choice.as_dict()
             elif record is not None and record.get("chosen") == "tube":
                 if tube_ok:
-                    row.update(status="filled", option=record.get("shape", "tube"), new_vertices=0, new_faces=0)
+                    row.update(status="filled", option=record.get("shape", "tube"), new_vertices=0, new_faces=0,
+                               **_kind(joined))
                 else:
                     row["reason"] = tube_rejected or row["reason"]
             if L.kind == "hole":
@@ -431,11 +432,19 @@ def _beside(use):
     return HelperThread() if use else contextlib.nullcontext()
 
 
+def _kind(patch):
+    """A filled row's typed account of its patch: ``kind`` (one of
+    :data:`shellrepair.fill.patch.KINDS`) and the fairing ``order`` (None
+    where it was not faired)."""
+    return {"kind": patch.kind, "order": None if patch.order is None else int(patch.order)}
+
+
 def _note_swap(rows, swapped):
     """An earlier hole's row, when the merge put its order-2 fill in place of its order-3 one."""
     if swapped is not None and swapped.hole_id in rows:
         rows[swapped.hole_id].update(reason=swapped.option, option=swapped.option,
-                                     new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)))
+                                     new_vertices=int(len(swapped.P)), new_faces=int(len(swapped.T)),
+                                     **_kind(swapped))
 
 
 def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges, flags=None):
@@ -495,9 +504,9 @@ def tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, mode, bridges
         bridges.append(record)
         paired.update((other, hid))
         rows[other].update(status="filled", reason=tube.option, option=tube.option,
-                           new_vertices=int(len(tube.P)), new_faces=int(len(tube.T)))
+                           new_vertices=int(len(tube.P)), new_faces=int(len(tube.T)), **_kind(tube))
         row.update(status="filled", reason=outs[1].reason, option=record.get("shape", "tube"), new_vertices=0,
-                   new_faces=0)
+                   new_faces=0, **_kind(tube))
         row.pop("crosses_hole", None)
 
 
@@ -563,7 +572,7 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
             continue
         option = f"{patch.option} (filled again around the patches accepted before it: the first crossed one)"
         row.update(status="filled", reason=option, option=option, new_vertices=int(len(patch.P)),
-                   new_faces=int(len(patch.T)))
+                   new_faces=int(len(patch.T)), **_kind(patch))
         row.pop("crosses_hole", None)
         if patch.choice is not None:
             row["choice"] = patch.choice.as_dict()

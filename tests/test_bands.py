@@ -882,3 +882,21 @@ def test_the_caps_of_a_pair_take_their_own_order_test():
     cap = next(h for h in rep["holes"] if h["id"] == 0)
     assert cap["status"] == "filled" and cap["choice"]["by"] == "test holes"
     assert f"faired order {cap['choice']['order']} (auto: order" in cap["reason"]
+
+
+def test_each_filled_row_names_its_patch_kind_and_the_table_counts_them():
+    """The report's rows say what filled each loop as data, not only as a
+    sentence: ``kind`` (one of shellrepair.fill.patch.KINDS) and the
+    fairing ``order``; both loops of a band joined by one tube say "tube",
+    and the table's "filled by" line counts the kinds."""
+    from shellrepair.fill.patch import KINDS
+    from shellrepair.report.table import table1_text
+
+    _, _, V2, F2, _ = torus_inner_band(3)
+    R, rep = repair_mesh(Mesh(V=V2, F=F2), order=2)
+    filled = [h for h in rep["holes"] if h["status"] == "filled"]
+    assert len(filled) == 2 and all(h["kind"] in KINDS for h in filled)
+    assert [h["kind"] for h in filled] == ["tube", "tube"]
+    assert all(h["order"] == 2 for h in filled)
+    line = next(x for x in table1_text(rep).splitlines() if x.strip().startswith("filled by:"))
+    assert line.split(":", 1)[1].strip() == "tube ×2"

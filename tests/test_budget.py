@@ -71,7 +71,8 @@ def test_a_spent_budget_stops_the_retries_and_keeps_the_checked_flat_triangulati
     budget.vertices = 0          # nothing left after the first attempt
     patch, reason, _, reasons = fill.fill_hole_at_order(ctx, 0, loop, 2, 0, budget=budget)
     assert spy.refined == 2                      # the first attempt and the harmonic patch only
-    assert patch is not None and len(patch.P) == 0 and patch.option.startswith("flat triangulation")
+    assert patch is not None and len(patch.P) == 0 and patch.kind == "flat"
+    assert patch.option.startswith("flat triangulation")
     assert any("not tried" in r and "work budget" in r for r in reasons)
     assert budget.spent > 0                      # the first attempt was counted
 
@@ -171,5 +172,5 @@ def test_failed_faired_attempts_are_mended_before_the_flat_triangulation_is_kept
     monkeypatch.setattr(mend, "mend_patch", mend_patch)
     monkeypatch.setattr(checks, "check_patch", check)
     patch, *_ = fill.fill_hole_at_order(ctx, 0, loop, 2, 0)
-    assert patch is not None and "mended" in patch.option and len(patch.P) > 0
+    assert patch is not None and patch.mended > 0 and "mended" in patch.option and len(patch.P) > 0
     assert real_check(ctx, patch)[0] is None

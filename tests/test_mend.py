@@ -123,7 +123,7 @@ def _passes_over_the_pillar(ctx, out, z1):
     """The Steiner layer's patch: it passes its checks, and over the
     pillar's axis it is above the pillar's top ``z1``."""
     assert out.patch is not None, out.reason
-    assert out.patch.option.startswith("Steiner points")
+    assert out.patch.kind == "steiner" and out.patch.option.startswith("Steiner points")
     assert check_patch(ctx, out.patch)[0] is None
     assert out.patch.P[:, 2].max() > z1
 
@@ -179,7 +179,7 @@ def test_the_last_layer_leaves_a_hole_the_earlier_layers_fill_alone():
     ctx = ScanContext(Mesh(V=V, F=F))
     out = fill_hole(ctx, 0, loop, 2, 0)
     assert out.patch is not None
-    assert "mended" not in out.patch.option
+    assert out.patch.mended == 0 and "mended" not in out.patch.option
 
 
 def _sheet_with_a_twisted_tongue(twist, dip, n=21, width=2, length=0.28):
@@ -218,6 +218,6 @@ def test_a_hole_round_a_twisted_tongue_the_earlier_layers_leave_open_is_mended(m
     out = fill_hole(ctx, 0, loop, 2, 0)
     assert any("still crosses the scan after re-routing" in r for r in out.reasons)
     assert out.patch is not None, out.reason
-    assert "mended" in out.patch.option
+    assert out.patch.mended > 0 and out.patch.kind == "faired" and "mended" in out.patch.option
     assert check_patch(ctx, out.patch)[0] is None
     assert _is_disc_on(out.patch.T, loop)

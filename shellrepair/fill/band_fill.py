@@ -247,7 +247,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
             p, why = None, str(exc)
         if why is None:
             p = p.with_(option=f"flat face with a hole: with loop {B.id}, a planar opening the scan meets "
-                               "edge-on around another (order 1)", hole_id=A.id)
+                               "edge-on around another (order 1)", hole_id=A.id, kind="flat face")
             secs = time.perf_counter() - t0
             record = {"loops": [int(A.id), int(B.id)], "kinds": [A.kind, B.kind], "tube_energy": None,
                       "caps_energy": None, "chosen": "tube", "shape": "flat face with a hole",
@@ -282,6 +282,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
                 why_tube = str(exc)
                 return None, np.zeros(0, np.int64), None
             budget.spend(p)
+        p = p.with_(kind="tube", pinned=0 if pinned is None else len(pinned))
         why, bad = checks.check_joining(ctx, p, scan_edges, "tube")
         if why is None:
             how = f"faired order {o}" if fair else "refined, not faired"
@@ -401,7 +402,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
                 except PatchError:
                     again = None
                 if again is not None and checks.check_joining(ctx, again, scan_edges, "tube")[0] is None:
-                    tube = again.with_(option=faired.option.replace(f"faired order {order}", f"faired order {refair}"))
+                    tube = again.with_(option=faired.option.replace(f"faired order {order}", f"faired order {refair}"),
+                                       kind="tube")
         elif mutual and bad.size and built is not None:
             # hold the vertices near the crossing on the arcs (as for a cap)
             pinned = None
@@ -453,7 +455,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
                     c = None
                 else:
                     c = c.with_(option=OPTION_NAMES["faired"].format(order=co)
-                                + ("" if test is None else f" ({test.describe()})"), choice=test)
+                                + ("" if test is None else f" ({test.describe()})"), choice=test, kind="faired")
                 caps.append(Outcome(c, why or "", time.perf_counter() - t1, []))
         else:
             caps = fill_caps(1.0)

@@ -283,7 +283,7 @@ def mend_last(ctx, faulty, reasons, check=None, what="patch"):
         res = mend_patch(ctx, patch, bad, check)
         if res.patch is not None:
             return res.patch.with_(option=f"{option}, mended: {res.regions} region(s) around {bad.size} faulty "
-                                          f"triangles re-triangulated")
+                                          f"triangles re-triangulated", mended=int(res.regions))
         reasons.append(f"last layer, mending the {option} {what} ({bad.size} faulty triangles): {res.reason}")
     return None
 

@@ -86,7 +86,8 @@ def _roll_rim(ctx, hole_id, loop, T0, patch, bad, smooth, budget):
         why, b2 = checks.check_patch(ctx, p)
         if why is None:
             return p.with_(option=f"flat cap: a planar opening the scan meets edge-on, bent (order 2) along "
-                                  f"{len(free)} vertices where rim faces slant across it")
+                                  f"{len(free)} vertices where rim faces slant across it", kind="flat cap",
+                           pinned=len(pinned))
         if len(p.T) == len(patch.T):
             bad = np.union1d(bad, b2)
     return None
@@ -150,7 +151,7 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     # agree and no test is needed
     deferred = None if defer is None else []     # the order-2 fill's, kept only if it is the one used
     patch, reason, secs, reasons = fill_hole_at_order(ctx, hole_id, loop, 2, smooth, energy, budget, deferred)
-    if patch is not None and (patch.steiner or (patch.option or "").startswith("flat cap")):
+    if patch is not None and patch.kind in ("steiner", "flat cap"):
         # the last layer's patch, and a flat cap (a CAD face's outline, or
         # an opening the user called a flat base), are not faired: no order
         # to choose, none tested (an order-1 choice would replace the cap by
@@ -158,7 +159,7 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         if beside is not None:
             beside.drop_test(hole_id)
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
-    if patch is not None and len(patch.P) == 0 and patch.option == OPTION_NAMES["faired"].format(order=2):
+    if patch is not None and len(patch.P) == 0 and patch.kind == "faired" and patch.order == 2 and patch.plain:
         if defer is not None:
             defer.extend(deferred)
         if beside is not None:
@@ -177,11 +178,11 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if defer is not None:
         defer.extend(deferred)
-    if patch is None or patch.order != 2 or len(patch.P) == 0 or "held" in patch.option:
+    if patch is None or patch.order != 2 or len(patch.P) == 0 or patch.pinned:
         return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if test.order == 3:
         try:
-            if patch.option == OPTION_NAMES["faired"].format(order=2):
+            if patch.kind == "faired" and patch.plain:
                 # the first option as built: its refined triangulation is the one
                 # order 3 would refine again (the fairing's first solve does not
                 # read the new vertices' starting positions)
@@ -190,10 +191,10 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
                     p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=(patch.P, patch.T),
                                      refine=False, energy=energy)
                 if p3 is not None:
-                    p3 = p3.with_(T0=patch.T0, disc=patch.disc)
+                    p3 = p3.with_(T0=patch.T0, disc=patch.disc, kind="faired")
             else:
                 p3 = build_patch(ctx, hole_id, loop, order=3, smooth=smooth, initial=patch.T0, energy=energy,
-                                 max_vertices=max(budget.left(), len(patch.P)), chords=True)
+                                 max_vertices=max(budget.left(), len(patch.P)), chords=True).with_(kind="faired")
         except PatchError:
             p3 = None
         departs = _departs(ctx, hole_id, loop, smooth, patch, p3) if p3 is not None else None
@@ -441,6 +442,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                 else:
                     patch = build_patch(ctx, hole_id, loop, order=order0, smooth=smooth, initial=flat.T0,
                                         energy=energy, chords=name0 == "faired")
+                patch = patch.with_(kind=name0)
                 size = len(patch.P)
                 budget.spend(patch)
                 why0, bad0 = done.check if done is not None else checks.check_patch(ctx, patch)
@@ -490,6 +492,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
             except PatchError as exc:
                 reasons.append(f"{name}: {exc}")
                 continue
+            patch = patch.with_(kind=name, rerouted=len(avoid))
             size = len(patch.P) if size is None else size
             budget.spend(patch)
             why, bad = checks.check_patch(ctx, patch)
@@ -503,7 +506,8 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                 try:
                     pp = build_patch(ctx, hole_id, loop, order=o, smooth=smooth, initial=flat.T0, avoid=avoid,
                                      energy=energy, pinned=pinned, max_vertices=budget.left(),
-                                     chords=name == "faired")
+                                     chords=name == "faired").with_(kind=name, rerouted=len(avoid),
+                                                                    pinned=len(pinned))
                 except PatchError:
                     break
                 budget.spend(pp)
@@ -534,7 +538,8 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
         mended = checks.mend_last(ctx, faulty, reasons) if faulty and defer is None else None
         if mended is not None:
             return Outcome(mended, "", time.perf_counter() - t0, reasons)
-        flat_ok = flat_ok.with_(option="flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else ""))
+        flat_ok = flat_ok.with_(option="flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else ""),
+                                kind="flat", rerouted=len(avoid))
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
     if first_flat is not None and not blocked and ("harmonic", 1) in options and "harmonic" not in tried:
         # no triangulation passed its checks, so the harmonic patch (the last
@@ -593,7 +598,7 @@ def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):
         return None
     budget.spend(patch)
     why, bad = checks.check_patch(ctx, patch)
-    patch = patch.with_(option=f"{name} on the first triangulation")
+    patch = patch.with_(option=f"{name} on the first triangulation", kind="harmonic")
     if why is not None:
         reasons.append(f"{patch.option}: {why}")
     return patch, why, bad
@@ -627,7 +632,7 @@ def _seed_patches(ctx, holes, passes, results):
         base += len(p.P)
         why, _ = checks.check_patch(ctx, p)
         if why is None:
-            out[p.hole_id] = p.with_(option=f"seed, {passes} smoothing passes")
+            out[p.hole_id] = p.with_(option=f"seed, {passes} smoothing passes", kind="seed")
         else:
             results[p.hole_id] = f"seed: {why}"
     return out

@@ -472,7 +472,8 @@ def mend_patch(ctx, patch, bad, check, rings=MEND_RINGS, rounds=MEND_ROUNDS):
         cand = Patch(hole_id=patch.hole_id, loop=loop, P=P_all[keep_new], T=remap[T2],
                      colors=None if colors is None else colors[keep_new],
                      props={n: v[keep_new] for n, v in props.items()}, T0=patch.T0, energy=None,
-                     order=patch.order, disc=patch.disc)
+                     order=patch.order, disc=patch.disc, kind=patch.kind, rerouted=patch.rerouted,
+                     pinned=patch.pinned)
         w, b2 = check(ctx, cand)
         if w is None:
             return MendResult(cand, "", regions, rnd)

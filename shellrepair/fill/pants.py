@@ -275,7 +275,8 @@ def fill_pants(ctx, unit):
             w, bad = check(ctx, p)
             p = p.with_(option=f"pants joining loops {B.id} and {C.id} to loop {A.id}, "
                                + (f"faired order {order}" if pinned is None else "refined, held on its guide")
-                               + ("" if choice is None else f" ({choice.describe()})"), choice=choice)
+                               + ("" if choice is None else f" ({choice.describe()})"), choice=choice, kind="pants",
+                       pinned=0 if pinned is None else len(p.P))
             if w is None:
                 pants = p
                 break

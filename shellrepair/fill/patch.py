@@ -62,6 +62,14 @@ class PatchError(Exception):
     """A patch option that cannot be used; the message is the reason."""
 
 
+#: What made a patch (:attr:`Patch.kind`): a faired surface at its order;
+#: the harmonic one (the last faired option); a flat cap on a planar
+#: opening the scan meets edge-on; the flat triangulation; the paper's
+#: smoothed seed; Steiner points of the last layer; a tube between two
+#: loops, a pants joining three, a flat face with a hole in it.
+KINDS = ("faired", "harmonic", "flat cap", "flat", "seed", "steiner", "tube", "pants", "flat face")
+
+
 @dataclass(frozen=True)
 class Patch:
     """A hole's shell patch, before merging.
@@ -84,13 +92,24 @@ class Patch:
     colors : (q,c) uint8 or None
     props : dict of name -> (q,) array
     option : str
-        Which option was accepted.
+        Which option was accepted, as a sentence for the report (nothing
+        reads it back: decisions read ``kind`` and the counts below).
+    kind : str
+        What made the patch, one of :data:`KINDS` ("" for a patch no fill
+        option has named yet).
     choice : shellrepair.fill.selftest.OrderTest or None
         What the order test measured when ``order="auto"`` chose this
         patch's order (None for a forced order or an untested kind).
     disc : bool
         The triangles form one disc bounded by ``loop`` (k − 2 triangles
         before refinement); False for a tube between two loops.
+    rerouted : int
+        Chords of the first triangulation re-routed to avoid the scan.
+    pinned : int
+        New vertices held on the flat triangulation where the faired
+        surface crossed the scan.
+    mended : int
+        Regions the last layer (:mod:`shellrepair.fill.mend`) re-triangulated.
     """
 
     hole_id: int
@@ -106,7 +125,16 @@ class Patch:
     disc: bool = False
     fallback: object = None   # order 3 chosen by "auto": the hole's checked order-2 patch (same rim edges)
     choice: object = None     # the OrderTest behind an "auto" order
-    steiner: bool = False     # built by the last layer with Steiner points (shellrepair.fill.steiner): not faired
+    kind: str = ""
+    rerouted: int = 0
+    pinned: int = 0
+    mended: int = 0
+
+    @property
+    def plain(self):
+        """The option as first built: no chord re-routed, no vertex held,
+        nothing mended."""
+        return not (self.rerouted or self.pinned or self.mended)
 
     def with_(self, **changes):
         """A copy of this patch with ``changes`` (field name -> value); the

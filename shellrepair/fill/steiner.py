@@ -194,7 +194,7 @@ def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
             for side in _sides(X, T):
                 h = lift_heights(X, T, base, face, side, k)
                 new = centre + diameter * (X[k:, :1] * u + X[k:, 1:] * v + h[k:, None] * axis)
-                patch = Patch(hole_id=hole_id, loop=loop, P=new, T=T, T0=T0, disc=True, steiner=True)
+                patch = Patch(hole_id=hole_id, loop=loop, P=new, T=T, T0=T0, disc=True, kind="steiner")
                 spent += n_new
                 bad_why, bad = check_patch(ctx, patch)
                 lifted = float(np.abs(h - base).max()) * diameter
@@ -389,7 +389,7 @@ def _joined(hole_id, loop, parts):
     option = (f"Steiner points: {n} vertices off the rim, in {len(parts)} pieces cut along chords between rim "
               f"vertices (its outline is not simple in any plane): " + " | ".join(options))
     return Patch(hole_id=hole_id, loop=loop, P=np.vstack(Ps), T=np.vstack(Ts), T0=np.vstack(T0s), disc=True,
-                 steiner=True, option=option)
+                 kind="steiner", option=option)
 
 
 def _axes(ctx, loop, C):

@@ -219,7 +219,7 @@ def table1_text(d, *, limit=30):
     kinds = {}
     for h in d["holes"]:
         if h["status"] == "filled" and h.get("option"):
-            k = h["option"].split(",")[0].split(":")[0].split(" (")[0]
+            k = _filled_by(h)
             kinds[k] = kinds.get(k, 0) + 1
     if kinds:
         lines.append("  filled by: " + ", ".join(f"{k} ×{v}" for k, v in sorted(kinds.items(), key=lambda t: -t[1])))
@@ -234,6 +234,16 @@ def table1_text(d, *, limit=30):
         if len(open_rows) > limit:
             lines.append(f"    ... {len(open_rows) - limit} more (see the JSON report)")
     return "\n".join(lines)
+
+
+def _filled_by(row):
+    """What filled a hole, from its row's ``kind`` and ``order`` ("faired
+    order 3", "tube", "flat cap"); a report written before rows named their
+    kind: the first words of its ``option``."""
+    kind = row.get("kind")
+    if not kind:
+        return row["option"].split(",")[0].split(":")[0].split(" (")[0]
+    return f"{kind} order {row['order']}" if kind == "faired" and row.get("order") else kind
 
 
 def status_counts(summary):
