@@ -11,7 +11,7 @@ from shellrepair.fill import selftest
 from shellrepair.fill.hole import fill_hole_at_order
 from shellrepair.mesh.index import ScanContext
 from shellrepair.fill.patch import build_patch
-from shellrepair.fill.probe import PROBES, hole_radius, probe_errors
+from shellrepair.fill.probe import MIN_PROBES, PROBES, Pooled, hole_radius, probe_errors
 from shellrepair.repair import repair_mesh
 from shellrepair.mesh.distance import point_mesh_distance
 from shellrepair.fill.selftest import CANDIDATES, DEFAULT_ORDER, MIN_EDGES, OrderTest, choose_order
@@ -73,11 +73,14 @@ def test_a_holes_radius_is_the_disc_of_its_area():
 
 
 def test_test_holes_of_the_holes_size_fit_beside_a_hole_on_a_sphere():
+    """They fit at the hole's own size; on a sphere every test hole ranks
+    the same order first, so the test stops at two of its three
+    (:meth:`Pooled.settled`)."""
     V, F = sphere_with_hole(radius=0.5)
     scan, ctx = context(V, F)
     h = scan.holes[0]
     errors, n, scale = probe_errors(ctx, h.vertices, CANDIDATES)
-    assert n == PROBES and scale == 1.0 and set(errors) == set(CANDIDATES)
+    assert n == 2 < PROBES and scale == 1.0 and set(errors) == set(CANDIDATES)
     assert all(np.isfinite(e) and e > 0 for e in errors.values())
 
 
@@ -262,7 +265,7 @@ def test_auto_is_the_default_order_and_the_report_gives_its_evidence():
     V, F = sphere_with_hole(radius=0.6)
     _, rep = repair_mesh(Mesh(V=V, F=F))
     opt = rep["holes"][0]["option"]
-    assert rep["holes_after"] == 0 and "auto: order 3, by 3 test holes of its size" in opt and "runner-up" in opt
+    assert rep["holes_after"] == 0 and "auto: order 3, by 2 test holes of its size" in opt and "runner-up" in opt
 
 
 def test_the_report_row_holds_the_choice_its_runner_up_and_the_test_errors():
@@ -415,7 +418,7 @@ def test_one_test_hole_is_not_enough_evidence_the_next_scale_with_two_decides(mo
     big = max(scan.holes, key=lambda L: hole_radius(case.V, L.vertices))
     assert big.edges == 467
     errors, n, scale = probe_errors(ctx, big.vertices, CANDIDATES)
-    assert n == PROBES and scale == 1.0 and min(errors, key=errors.get) == 3
+    assert MIN_PROBES <= n <= PROBES and scale == 1.0 and min(errors, key=errors.get) == 3
     monkeypatch.setattr(probe, "outline_narrow_axis", lambda poly: np.inf)     # the disc of its area only
     monkeypatch.setattr(probe, "MIN_PROBES", 1)
     errors, n, scale = probe_errors(ctx, big.vertices, CANDIDATES)
@@ -499,7 +502,7 @@ def test_test_holes_of_the_holes_size_fit_where_its_rim_edges_are_shorter_than_t
     longest = np.linalg.norm(T - np.roll(T, 1, axis=1), axis=2).max(axis=1).mean()
     assert longest > 3.0 * probe.mean_edge(V, h.vertices)
     errors, n, scale = probe_errors(ctx, h.vertices, CANDIDATES)
-    assert n == PROBES and scale == 1.0 and errors[3] < errors[2] < errors[1]
+    assert MIN_PROBES <= n <= PROBES and scale == 1.0 and errors[3] < errors[2] < errors[1]
     monkeypatch.setattr(probe, "MARGIN_FACES", 0.0)      # the margin in rim edges alone
     assert probe_errors(ctx, h.vertices, CANDIDATES)[2] < 1.0
 
@@ -524,7 +527,7 @@ def test_test_holes_with_no_vertex_of_their_own_are_not_evidence(monkeypatch):
     V, F = sphere_with_hole(radius=0.5)
     scan, ctx = context(V, F)
     h = scan.holes[0]
-    assert probe_errors(ctx, h.vertices, CANDIDATES)[1] == PROBES
+    assert probe_errors(ctx, h.vertices, CANDIDATES)[1] >= MIN_PROBES
     monkeypatch.setattr(probe, "TEST_MAX_UNKNOWNS", 0)
     monkeypatch.setattr(probe, "TEST_COARSEN", 1e6)
     assert probe_errors(ctx, h.vertices, CANDIDATES) == ({}, 0, 0.0)
@@ -563,7 +566,7 @@ def test_a_strip_under_a_torus_is_tested_by_a_disc_as_wide_as_the_strip():
     outline = placement.hole_outline(case.V, strip.vertices)[0]
     assert placement.outline_narrow_axis(outline) < 0.5 * hole_radius(case.V, strip.vertices)
     test = choose_order(ctx, strip.id, strip.vertices)
-    assert test.order == 3 and test.scale == 1.0 and test.probes == PROBES
+    assert test.order == 3 and test.scale == 1.0 and MIN_PROBES <= test.probes <= PROBES
     auto, forced, _ = auto_and_forced_rms(case, 3)
     assert auto <= 1.05 * forced
 
@@ -650,6 +653,21 @@ def test_each_test_hole_weighs_alike_whatever_its_count_of_removed_vertices():
     assert got[3] == pytest.approx((0.010 * 0.002 * 0.002) ** (1 / 3))
     assert not pool.add(iter([(2, np.full(3, np.nan)), (3, np.zeros(3))]))     # a test with a non-finite distance is dropped
     assert pool.tests == 3
+
+
+def test_two_test_holes_that_agree_settle_a_test_of_three_and_two_that_differ_do_not():
+    """Best of three: a third test hole is cut only where the first two
+    rank the candidates differently; two that agree are a majority the
+    third could not outvote, and the pooled errors rank their candidate
+    first."""
+    agree, differ = Pooled((1, 2, 3)), Pooled((1, 2, 3))
+    for pool, tests in ((agree, ((3.0, 1.0, 2.0), (5.0, 0.5, 0.6))), (differ, ((3.0, 1.0, 2.0), (5.0, 0.9, 0.6)))):
+        pool.add(iter([(o, np.full(4, e)) for o, e in zip((1, 2, 3), tests[0])]))
+        assert not pool.settled(PROBES)                 # one test is no majority
+        pool.add(iter([(o, np.full(4, e)) for o, e in zip((1, 2, 3), tests[1])]))
+    assert agree.settled(PROBES) and min(agree.rms().items(), key=lambda t: t[1])[0] == 2
+    assert not differ.settled(PROBES)
+    assert not agree.settled(2)                         # every planned test made: nothing left to settle
 
 
 @pytest.mark.slow
