@@ -19,7 +19,7 @@ from shellrepair import Mesh
 from eval import shapes
 from shellrepair.holes.loops import boundary_loops
 from shellrepair.mesh.index import ScanContext
-from shellrepair.fill.patch import PatchError, build_patch
+from shellrepair.fill.patch import OverBudget, PatchError, build_patch
 
 
 def _sheet_with_a_hole(n=25):
@@ -35,8 +35,9 @@ def test_refinement_past_the_vertices_left_stops_before_fairing():
     ctx, loop = _sheet_with_a_hole()
     full = build_patch(ctx, 0, loop, order=2)
     assert len(full.P) > 10
-    with pytest.raises(PatchError, match="work budget"):
+    with pytest.raises(OverBudget, match="work budget") as over:       # a kind of PatchError callers can tell
         build_patch(ctx, 0, loop, order=2, max_vertices=len(full.P) - 1)
+    assert isinstance(over.value, PatchError)
     same = build_patch(ctx, 0, loop, order=2, max_vertices=len(full.P))
     assert np.array_equal(same.P, full.P) and np.array_equal(same.T, full.T)
 

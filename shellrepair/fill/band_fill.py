@@ -18,7 +18,7 @@ from shellrepair.fill import checks
 from shellrepair.fill.checks import Outcome
 from shellrepair.fill.hole import OPTION_NAMES, PIN_ROUNDS, _pin_region, band_order, fill_hole
 from shellrepair.fill.merge import Accepted
-from shellrepair.fill.patch import PatchError, _meets_edge_on, build_patch, corners
+from shellrepair.fill.patch import OverBudget, PatchError, _meets_edge_on, build_patch, corners
 from shellrepair.mesh.index import rim_data
 
 __all__ = ["flat_face_with_hole", "CAPS_SHARE", "GUIDE_SHARE", "COARSE_SPACING"]
@@ -342,13 +342,14 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
         # held): the arcs carry the scan's curvature across the gap, which
         # fairing can flatten; the fairer valid option is kept, so the two
         # are checked in order of energy and the second only if the first fails
+        over = False           # the first tube alone was over the band's whole work budget
         try:
             # the first tube: at most the band's whole work budget
             built = build_patch(ctx, A.id, loop, order=order, smooth=smooth, initial=init, energy=True,
                                 max_vertices=int(budget.vertices))
             budget.spend(built)
         except PatchError as exc:
-            why_tube, built = str(exc), None
+            why_tube, built, over = str(exc), None, isinstance(exc, OverBudget)
         faired, bad, held, hbad, hp = None, np.zeros(0, np.int64), None, np.zeros(0, np.int64), None
         q = len(built.P) if built is not None and (not lean or held_first) else 0
         if q and budget.affords(q):
@@ -415,8 +416,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
                 if tube is not None:
                     break
                 bad = np.union1d(bad, b2) if b2.size else bad
-        over = built is None and "work budget" in why_tube    # the first tube alone was over: so is this
-        if tube is None and mutual and order != 1 and not over:
+        if tube is None and mutual and order != 1 and not over:     # (over: so would the harmonic tube be)
             # the harmonic tube (order 1, as caps fall back to): it keeps to
             # the rim's own plane at a spike of the rim (a scan face with
             # two rim edges), where order 2 overshoots across the spike;

@@ -62,6 +62,12 @@ class PatchError(Exception):
     """A patch option that cannot be used; the message is the reason."""
 
 
+class OverBudget(PatchError):
+    """A refined patch with more new vertices than the work budget left
+    (``build_patch``'s ``max_vertices``): a larger attempt of the same
+    opening would be over it too."""
+
+
 #: What made a patch (:attr:`Patch.kind`): a faired surface at its order;
 #: the harmonic one (the last faired option); a flat cap on a planar
 #: opening the scan meets edge-on; the flat triangulation; the paper's
@@ -286,7 +292,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     q = len(Pl) - k
     if max_vertices is not None and q > max_vertices:
         # a work bound (shellrepair.fill.checks.WorkBudget): stop before fairing
-        raise PatchError(f"refined patch has {q} new vertices, over the work budget left ({int(max_vertices)})")
+        raise OverBudget(f"refined patch has {q} new vertices, over the work budget left ({int(max_vertices)})")
     colors = None
     props = {}
     new_local = Pl[k:]
