@@ -668,6 +668,10 @@ def test_two_test_holes_that_agree_settle_a_test_of_three_and_two_that_differ_do
     assert agree.settled(PROBES) and min(agree.rms().items(), key=lambda t: t[1])[0] == 2
     assert not differ.settled(PROBES)
     assert not agree.settled(2)                         # every planned test made: nothing left to settle
+    tied = Pooled((2, 3))
+    for _ in range(2):
+        tied.add(iter([(2, np.full(4, 1.0)), (3, np.full(4, 1.0))]))
+    assert not tied.settled(PROBES)                     # ties rank no order first: the third test decides
 
 
 @pytest.mark.slow

@@ -152,19 +152,20 @@ class Pooled:
         for o in self.candidates:
             self.logs[o] += 0.5 * np.log(max(dd[o] / max(n, 1), 1e-300))
         self.tests += 1
-        from shellrepair.fill.selftest import best_candidate
-
-        self.firsts.append(best_candidate(dd))
+        low = min(dd[o] for o in self.candidates)
+        tops = [o for o in self.candidates if dd[o] == low]
+        self.firsts.append(tops[0] if len(tops) == 1 else None)     # (a tie: no candidate first)
         return True
 
     def settled(self, planned):
         """Whether the tests so far decide a test of ``planned`` tests:
-        they all rank the same candidate first and are a majority of
+        they all rank the same candidate first (alone: a test with a tie
+        at its lowest error ranks none first) and are a majority of
         ``planned`` (two of three), so the tests left could not outvote
         them. The pooled errors then rank that candidate first too (each
         test's log RMS is lowest for it, so their sum is)."""
         return (self.tests > planned // 2 and self.tests < planned
-                and len(set(self.firsts)) == 1)
+                and len(set(self.firsts)) == 1 and self.firsts[0] is not None)
 
     def rms(self, keep=lambda o: True):
         """{candidate: geometric mean over the tests of their RMS} of those
