@@ -50,6 +50,9 @@ def test_scan_page_is_self_contained_and_lists_every_hole():
     holes = page.split('<table class="sortable holes">')[1].split("</table>")[0]
     assert holes.count("<tr>") + holes.count('<tr class="open">') == 1 + report["holes_before"]
     assert "0" * 64 in page and "--order 2" in page
+    # each filled hole's patch kind, a column of its own to sort by
+    assert '<th class="t">patch</th>' in holes
+    assert holes.count('<td class="t">faired</td>') == sum(h["kind"] == "faired" for h in report["holes"]) > 0
 
 
 def test_holes_left_open_come_first_with_their_reason():

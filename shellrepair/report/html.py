@@ -249,9 +249,10 @@ def _table1(report):
 
 def _hole_rows(report):
     holes = sorted(report.get("holes", []), key=lambda h: (_STATUS_ORDER.get(h.get("status"), 3), h.get("id", 0)))
-    cols = [("id", "id"), ("edges", "edges"), ("status", "status"), ("reason", "reason"), ("option", "option"),
+    cols = [("id", "id"), ("edges", "edges"), ("status", "status"), ("patch", "kind"), ("order", "order"),
+            ("reason", "reason"), ("option", "option"),
             ("new vertices", "new_vertices"), ("new faces", "new_faces"), ("seconds", "seconds")]
-    text_cols = {"status", "reason", "option"}
+    text_cols = {"status", "kind", "reason", "option"}
     head = "".join(f'<th class="t">{_e(n)}</th>' if k in text_cols else f"<th>{_e(n)}</th>" for n, k in cols)
     body = []
     for h in holes:
