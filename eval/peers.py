@@ -141,6 +141,10 @@ def ours_o3(V, F):
     return _ours(V, F, order=3)
 
 
+def ours_flat(V, F):
+    return _ours(V, F, order="flat")
+
+
 def ours_auto(V, F):
     return _ours(V, F, order="auto")
 
@@ -388,7 +392,7 @@ def poisson_trimmed(V, F):
 
 
 #: Tool name -> fill function, in the order of the tables.
-OURS = {"ours-o1": ours_o1, "ours-o2": ours_o2, "ours-o3": ours_o3, "ours-auto": ours_auto,
+OURS = {"ours-o1": ours_o1, "ours-o2": ours_o2, "ours-o3": ours_o3, "ours-flat": ours_flat, "ours-auto": ours_auto,
         "ours-cli": ours_cli, "ours-seed": ours_seed}
 PEERS = {
     "pymeshlab": pymeshlab_close_holes,

@@ -4,7 +4,9 @@
 ``0..n-1`` of the seed (:func:`eval.stress.stress_case`, families drawn as
 the stress suite draws them) and fills each with our default
 (``ours-auto``) and with one candidate kind forced on every hole
-(``ours-o1``, ``ours-o2``, ``ours-o3``), in this process, measuring each as
+(``ours-o1``, ``ours-o2``, ``ours-o3``; and ``ours-flat``, the rim's
+triangulation with no new vertex, shown beside them: not a candidate of
+the default, so not in its regret), in this process, measuring each as
 the stress suite does (:func:`eval.stress.measure`, RMS in per mille of
 the truth's diagonal over the filled surface).
 
@@ -26,7 +28,8 @@ also gets the default's RMS over the best peer's that closed every hole
 1.1.
 
 The cost column is the default's fill seconds (the report's, imports and
-kernel loading excluded) over the fastest forced order's on the same case.
+kernel loading excluded) over the fastest forced order's on the same case
+.
 With ``--ragged S`` every rim gets a scanner's ragged fringe
 (:func:`eval.stress.ragged_rims`: noise along the normal of ``S`` mean edge
 lengths, half as much on the next ring; the truth stays the clean surface).
@@ -56,6 +59,8 @@ import numpy as np  # noqa: E402
 from eval import peers, stress  # noqa: E402
 
 FORCED = ("ours-o1", "ours-o2", "ours-o3")
+#: Forced kinds shown beside them that the default does not choose among.
+SHOWN = ("ours-flat",)
 DEFAULT = "ours-auto"
 #: The peers of ``--peers`` (run where installed).
 PEERS = ("cgal", "meshlib-nicely", "pymeshfix", "pymeshlab", "poisson")
@@ -63,7 +68,7 @@ PEERS = ("cgal", "meshlib-nicely", "pymeshfix", "pymeshlab", "poisson")
 FLOOR = 0.05
 
 
-def run_case(case, tools=(DEFAULT,) + FORCED, log=print):
+def run_case(case, tools=(DEFAULT,) + FORCED + SHOWN, log=print):
     """{tool: row} for one case (RMS, closure, fill seconds)."""
     facts = stress.input_facts(case)
     rows = {}
@@ -149,14 +154,14 @@ def summary(cases):
 def markdown(cases, command):
     peers = [t for t in PEERS if any(t in c["rows"] for c in cases)]
     lines = [f"Command: `{command}`", "",
-             "| case | default ‰ | o1 ‰ | o2 ‰ | o3 ‰ | best | regret | cost |"
+             "| case | default ‰ | o1 ‰ | o2 ‰ | o3 ‰ | flat ‰ | best | regret | cost |"
              + "".join(f" {t} ‰ |" for t in peers) + (" over best peer |" if peers else ""),
-             "|---|---|---|---|---|---|---|---|" + "---|" * (len(peers) + bool(peers))]
+             "|---|---|---|---|---|---|---|---|---|" + "---|" * (len(peers) + bool(peers))]
     for c in cases:
         cell = lambda t: ("–" if c["rows"].get(t, {}).get("rms_permille") is None
                           else f"{c['rows'][t]['rms_permille']:.3g}"
                           + ("" if c["rows"][t]["holes_closed"] == c["rows"][t]["holes"] else " (open)"))
-        lines.append(f"| {c['case']} | " + " | ".join(cell(t) for t in (DEFAULT,) + FORCED)
+        lines.append(f"| {c['case']} | " + " | ".join(cell(t) for t in (DEFAULT,) + FORCED + SHOWN)
                      + f" | {c['best'] or '–'} | " + ("–" if c["regret"] is None else f"{c['regret']:.3f}")
                      + " | " + ("–" if cost(c["rows"]) is None else f"{cost(c['rows']):.2f}") + " |"
                      + "".join(f" {cell(t)} |" for t in peers)
@@ -191,7 +196,7 @@ def main(argv=None):
     for i in range(a.start, a.start + a.n):
         case = stress.stress_case(i, a.seed, quick=a.quick, shapes_ok=shapes_ok, ragged=a.ragged)
         print(f"{case.name}: {len(case.F)} faces ({case.description})", flush=True)
-        tools = (DEFAULT,) + FORCED
+        tools = (DEFAULT,) + FORCED + SHOWN
         if a.peers:
             tools += tuple(t for t in PEERS if peers.tool_available(t)[0])
         rows = run_case(case, tools)

@@ -89,7 +89,7 @@ def build_parser():
     r.add_argument("--leave-open", type=_ids, default=(), metavar="ID,...",
                    help="hole ids (as `shellrepair holes` lists them) to leave open on purpose (default: none)")
     r.add_argument("--order-for", type=_id_orders, default={}, metavar="ID=N,...",
-                   help="a fairing order (1, 2, 3 or auto) for single holes, over --order (default: none)")
+                   help="a fairing order (1, 2, 3, flat or auto) for single holes, over --order (default: none)")
     r.add_argument("--cap-flat", type=_ids, default=(), metavar="ID,...",
                    help="hole ids to cap on their own with the harmonic patch (order 1: flat where the rim is "
                         "planar, a cut you know is flat), never bridged to another loop (default: none)")
@@ -216,11 +216,11 @@ def _age(text):
 
 
 def _order(text):
-    if text == "auto":
+    if text in ("auto", "flat"):
         return text
     if text in ("1", "2", "3"):
         return int(text)
-    raise argparse.ArgumentTypeError(f"must be 1, 2, 3 or auto, not {text!r}")
+    raise argparse.ArgumentTypeError(f"must be 1, 2, 3, flat or auto, not {text!r}")
 
 
 def _ids(text):
@@ -265,15 +265,16 @@ def _id_orders(text):
             out[int(hid)] = _order(o.strip())
         except (ValueError, argparse.ArgumentTypeError):
             raise argparse.ArgumentTypeError(f"must be ID=ORDER pairs separated by commas, such as 3=1,7=auto "
-                                             f"(ORDER 1, 2, 3 or auto), not {text!r}") from None
+                                             f"(ORDER 1, 2, 3, flat or auto), not {text!r}") from None
     return out
 
 
 def _repair_options(p):
-    p.add_argument("--order", type=_order, default="auto", metavar="{1,2,3,auto}",
-                   help="fairing order: 1 harmonic, 2 bilaplacian, 3 curvature-continuous, "
-                        "auto (default): per hole, the order whose fills of test holes of the hole's size, "
-                        "cut into the scan beside it, lie closest to the scan cut away")
+    p.add_argument("--order", type=_order, default="auto", metavar="{1,2,3,flat,auto}",
+                   help="fairing order: 1 harmonic, 2 bilaplacian, 3 curvature-continuous, flat: the rim's "
+                        "triangulation with no new vertex; auto (default): per hole, the order whose fills of "
+                        "test holes of the hole's size, cut into the scan beside it, lie closest to the scan "
+                        "cut away")
     p.add_argument("--smooth", type=int, default=0, help="non-shrinking smoothing passes of each patch (default: 0)")
     p.add_argument("--method", choices=("fair", "seed"), default="fair",
                    help="fair: local faired shells (default); seed: the paper's smoothed-copy method")

@@ -24,7 +24,7 @@ from shellrepair.errors import MeshError
 
 __all__ = ["RepairOptions"]
 
-_ORDERS = (1, 2, 3, "auto")
+_ORDERS = (1, 2, 3, "flat", "auto")
 _METHODS = ("fair", "seed")
 _BRIDGES = ("auto", "never", "always")
 _BASES = ("auto", "flat", "faired")
@@ -40,9 +40,11 @@ class RepairOptions:
 
     Attributes
     ----------
-    order : {1, 2, 3, "auto"}
+    order : {1, 2, 3, "flat", "auto"}
         Fairing order: harmonic, bilaplacian, curvature-continuous;
-        ``"auto"`` (default) picks 1, 2 or 3 per hole: the order whose
+        ``"flat"``: the rim's triangulation with no new vertex (a band's
+        tube and a pants at order 1); ``"auto"`` (default) picks 1, 2 or
+        3 per hole: the order whose
         fills of test holes of the hole's own size, cut into intact scan
         beside it, lie closest to the scan cut away; a tube's by test
         bands of its own kind (:mod:`shellrepair.fill.selftest`,
@@ -122,7 +124,7 @@ class RepairOptions:
 
     def __post_init__(self):
         if isinstance(self.order, bool) or self.order not in _ORDERS:
-            raise MeshError(f"order must be 1, 2, 3 or 'auto', got {self.order!r}")
+            raise MeshError(f"order must be 1, 2, 3, 'flat' or 'auto', got {self.order!r}")
         if not _whole(self.smooth) or self.smooth < 0:
             raise MeshError(f"smooth must be a whole number, 0 or more, got {self.smooth!r}")
         if self.max_hole is not None and (not _whole(self.max_hole) or self.max_hole < 1):
@@ -162,8 +164,8 @@ class RepairOptions:
             object.__setattr__(self, name, tuple(sorted({int(i) for i in ids})))
         if not isinstance(self.order_for, dict) or not all(
                 _whole(i) and i >= 0 and not isinstance(o, bool) and o in _ORDERS for i, o in self.order_for.items()):
-            raise MeshError(f"order_for must map hole ids to 1, 2, 3 or 'auto', got {self.order_for!r}")
-        object.__setattr__(self, "order_for", {int(i): (o if o == "auto" else int(o))
+            raise MeshError(f"order_for must map hole ids to 1, 2, 3, 'flat' or 'auto', got {self.order_for!r}")
+        object.__setattr__(self, "order_for", {int(i): (o if o in ("auto", "flat") else int(o))
                                                for i, o in sorted(self.order_for.items())})
         for a, b, what in (("leave_open", "order_for", "left open and given an order"),
                            ("leave_open", "cap_flat", "left open and capped flat"),
@@ -174,7 +176,7 @@ class RepairOptions:
                 raise MeshError(f"hole {min(both)} is both {what}")
         # NumPy integers in, plain ints kept (reports are JSON)
         for name in ("smooth", "jobs") + (("max_hole",) if self.max_hole is not None else ()) + \
-                (("order",) if self.order != "auto" else ()):
+                (("order",) if self.order not in ("auto", "flat") else ()):
             object.__setattr__(self, name, int(getattr(self, name)))
 
     def replace(self, **changes):

@@ -262,8 +262,11 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     def order_of(*loops):     # the order asked for one of these loops, else the scan's
         return next((asked_order[L.id] for L in loops if L.id in asked_order), order)
 
-    units = [BandUnit(b.A, b.B, order_of(b.A, b.B), smooth, bridge, b.mutual) for b in pairs]
-    units += [pants_unit(A, B, C, fb, order_of(A, B, C), smooth, bridge) for A, B, C, fb in triples]
+    def joined(o):            # a tube or a pants has new vertices: "flat" joins loops at order 1
+        return 1 if o == "flat" else o
+
+    units = [BandUnit(b.A, b.B, joined(order_of(b.A, b.B)), smooth, bridge, b.mutual) for b in pairs]
+    units += [pants_unit(A, B, C, fb, joined(order_of(A, B, C)), smooth, bridge) for A, B, C, fb in triples]
     units += [HoleUnit(h.id, h.vertices, order_of(h), smooth) for h in holes if h.id not in paired]
     units.sort(key=lambda u: u.first_id)
     if index_built is not None:
@@ -348,7 +351,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if record is not None:
             bridges.append(record)
     if method == "fair" and bridge != "never":
-        tube_crossed_caps(ctx, scan, paired, rows, acc, order, smooth, bridge, bridges, flags)
+        tube_crossed_caps(ctx, scan, paired, rows, acc, 1 if order == "flat" else order, smooth, bridge, bridges,
+                          flags)
     _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, asked_order)
     # the merged output checked once more, as a whole: a patch that crosses the scan, itself or another
     # patch (none should: each was checked when built and when accepted) is left open and says so

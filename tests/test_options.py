@@ -57,6 +57,18 @@ def test_batch_and_the_command_line_take_order_auto_and_refuse_bad_values(tmp_pa
     assert err.startswith("error: --jobs must be") and err.count("\n") == 1
 
 
+def test_order_flat_is_an_option_of_the_library_and_the_command_line(tmp_path, capsys):
+    from shellrepair.cli import main
+    from shellrepair.mesh.io import Mesh, read_mesh, write_mesh
+
+    assert RepairOptions(order="flat").order == "flat"
+    assert RepairOptions(order_for={3: "flat"}).order_for == {3: "flat"}
+    V, F = icosphere(2)
+    write_mesh(tmp_path / "s.ply", Mesh(V=V, F=F[4:]))
+    assert main(["repair", str(tmp_path / "s.ply"), "-o", str(tmp_path / "o.ply"), "--order", "flat", "-q"]) == 0
+    assert len(read_mesh(tmp_path / "o.ply").V) == len(V)          # no new vertex
+
+
 def test_every_option_of_every_command_says_what_it_does_and_its_default():
     from shellrepair.cli import build_parser
 

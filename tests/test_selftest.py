@@ -772,3 +772,41 @@ def test_a_cad_faces_occlusion_is_tested_by_test_holes_stopped_at_its_creases():
     auto, forced, rep = auto_and_forced_rms(case, 1)
     assert auto <= 1.05 * forced
     assert any(row.get("choice", {}).get("order") == 1 for row in rep["holes"])
+
+
+def test_the_flat_triangulation_can_be_measured_like_the_orders():
+    """Asked for (``WITH_FLAT``; not the default's candidates), the test
+    holes are also measured against the rim's triangulation with no new
+    vertex; on a sphere it lies far from the scan cut away, and order 3 is
+    chosen."""
+    from shellrepair.fill.selftest import FLAT, WITH_FLAT
+
+    V, F = sphere_with_hole(radius=0.6)
+    scan, ctx = context(V, F)
+    h = scan.holes[0]
+    assert FLAT not in choose_order(ctx, h.id, h.vertices).errors          # the default's candidates: the orders
+    test = choose_order(ctx, h.id, h.vertices, WITH_FLAT)
+    assert set(test.errors) == set(WITH_FLAT)
+    assert test.order == 3 and test.errors[FLAT] > 3 * test.errors[3]
+    assert "flat " in test.describe() and test.as_dict()["test_rms"]["flat"] == test.errors[FLAT]
+
+
+def test_a_hole_the_test_gives_the_flat_triangulation_is_filled_with_no_new_vertex(monkeypatch):
+    from shellrepair.fill.hole import fill_hole
+
+    V, F = sphere_with_hole(radius=0.5)
+    scan, ctx = context(V, F)
+    h = scan.holes[0]
+    told = OrderTest("flat", errors={1: 0.3, 2: 0.2, 3: 0.25, "flat": 0.1}, probes=2, scale=1.0)
+    monkeypatch.setattr(selftest, "choose_order", lambda *a, **k: told)
+    out = fill_hole(ctx, h.id, h.vertices, "auto", 0)
+    assert out.patch.kind == "flat" and len(out.patch.P) == 0 and out.patch.choice is told
+    assert out.patch.option.startswith("flat triangulation (auto: flat, by 2 test holes")
+    assert told.as_dict()["order"] == "flat" and told.as_dict()["runner_up"] == 2
+
+
+def test_order_flat_fills_every_single_hole_with_its_rim_triangulation():
+    V, F = sphere_with_hole(radius=0.5)
+    R, rep = repair_mesh(Mesh(V=V, F=F), order="flat")
+    assert rep["holes_after"] == 0 and len(R.V) == len(V)
+    assert [(r["kind"], r["order"]) for r in rep["holes"]] == [("flat", None)]

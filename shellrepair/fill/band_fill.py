@@ -444,8 +444,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
                 try:
                     co, test = cap_order, None
                     if co == "auto":
-                        from shellrepair.fill.selftest import choose_order
-                        test = choose_order(ctx, L.id, L.vertices)
+                        from shellrepair.fill.selftest import CANDIDATES, choose_order
+                        test = choose_order(ctx, L.id, L.vertices, CANDIDATES)     # a cap is faired
                         co = int(test.order)
                     c = build_patch(ctx, L.id, L.vertices, order=co, smooth=smooth, energy=True)
                     why, _ = checks.check_patch(ctx, c)

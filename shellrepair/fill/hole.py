@@ -138,9 +138,19 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         ``(patch or None, reason, seconds, reasons tried)``
         (:class:`shellrepair.fill.checks.Outcome`).
     """
+    if order == "flat":
+        t0 = time.perf_counter()
+        flat = _flat_patch(ctx, hole_id, loop)
+        if flat is not None:
+            return Outcome(flat.with_(option="flat triangulation"), "", time.perf_counter() - t0, [])
+        out = fill_hole_at_order(ctx, hole_id, loop, 1, smooth, energy, budget, defer)
+        if out.patch is not None:
+            out = out._replace(patch=out.patch.with_(option=out.patch.option + " (the flat triangulation crosses "
+                                                                                 "the scan)"))
+        return out
     if order != "auto":
         return fill_hole_at_order(ctx, hole_id, loop, order, smooth, energy, budget, defer)
-    from shellrepair.fill.selftest import DEFAULT_ORDER, OrderTest, choose_order
+    from shellrepair.fill.selftest import DEFAULT_ORDER, FLAT, OrderTest, choose_order
 
     t0 = time.perf_counter()
     beside = getattr(ctx, "beside", None)
@@ -170,6 +180,18 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     test = beside.take_test(hole_id, loop) if beside is not None else None
     if test is None:
         test = choose_order(ctx, hole_id, loop)
+    if test.order == FLAT:
+        flat = _flat_patch(ctx, hole_id, loop)
+        if flat is not None:
+            budget.take_over(fresh)
+            flat = flat.with_(option=f"flat triangulation ({test.describe()})", choice=test)
+            return Outcome(flat, "", time.perf_counter() - t0, [])
+        if patch is not None:
+            patch = patch.with_(option=patch.option + f" ({test.describe()}; the flat triangulation crosses the "
+                                                      f"scan: order 2 kept)", choice=test)
+        if defer is not None:
+            defer.extend(deferred)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     if test.order == 1:
         patch, reason, secs, reasons = fill_hole_at_order(ctx, hole_id, loop, 1, smooth, energy, fresh, defer)
         if patch is not None:
@@ -216,6 +238,18 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
             return Outcome(patch, reason, time.perf_counter() - t0, reasons)
     patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
     return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+
+
+def _flat_patch(ctx, hole_id, loop):
+    """The rim's flat triangulation (no new vertex, kind "flat") where it
+    passes the fill's checks, else None."""
+    try:
+        flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False)
+    except PatchError:
+        return None
+    if checks.check_patch(ctx, flat)[0] is not None:
+        return None
+    return flat.with_(kind="flat")
 
 
 def _departs(ctx, hole_id, loop, smooth, p2, p3):

@@ -61,7 +61,12 @@ from shellrepair.fill.placement import (cut_test_hole, faces_within, hole_outlin
 from shellrepair.fill.roughness import rim_roughness, roughen
 from shellrepair.mesh.geometry import cross, mean_edge
 
-__all__ = ["probe_errors", "hole_radius", "Pooled", "as_filled", "PROBES"]
+__all__ = ["probe_errors", "hole_radius", "Pooled", "as_filled", "PROBES", "FLAT"]
+
+#: The candidate of the rim's triangulation with no new vertex
+#: (:data:`shellrepair.fill.selftest.FLAT`): measured on each test hole's
+#: triangulation before refinement, as the fill's flat triangulation is made.
+FLAT = "flat"
 
 #: Test holes per real hole, at most: a third is cut only where the first
 #: two disagree (:meth:`Pooled.settled`). Per-hole screens of seven seeds
@@ -346,6 +351,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
     from shellrepair.mesh.io import Mesh
 
     max_probes = PROBES if max_probes is None else int(max_probes)
+    orders = tuple(o for o in candidates if o != FLAT)
     V = ctx.V
     h = mean_edge(V, loop)
     r = max(r, float(np.sqrt((shape[0] ** 2).sum(axis=1).max())))   # the outline's reach from its centre
@@ -400,7 +406,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
             origin = Vl.mean(axis=0)
             try:
                 lctx = ScanContext(Mesh(V=Vl - origin, F=Fl))
-                P0, T, _ = _refined(lctx, ploop, max(candidates))
+                P0, T, _, flat_T = _refined(lctx, ploop, max(orders))
             except (MeshError, PatchError, ValueError, IndexError):
                 continue
             X0, Fs, nf, _, scale, org = P0
@@ -410,12 +416,18 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
                 alike += 1
                 taken.append(pid)
                 continue
-            faired = [Xu for Xu, _ in fair_patch_orders(X0, Fs, nf, tuple(candidates), rounds=TEST_ROUNDS,
+            faired = [Xu for Xu, _ in fair_patch_orders(X0, Fs, nf, orders, rounds=TEST_ROUNDS,
                                                          operator=False)]
-            faired = as_filled(candidates, faired)
+            faired = as_filled(orders, faired)
             Tp = Fs[len(Fs) - len(T):]
-            if pool.add((o, point_mesh_distance(Q - origin, org + scale * np.vstack([X0[:nf], Xu]), Tp))
-                        for o, Xu in zip(candidates, faired)):
+
+            def distances():
+                for o, Xu in zip(orders, faired):
+                    yield o, point_mesh_distance(Q - origin, org + scale * np.vstack([X0[:nf], Xu]), Tp)
+                if FLAT in candidates:
+                    yield FLAT, point_mesh_distance(Q - origin, org + scale * X0[:nf], flat_T)
+
+            if pool.add(distances()):
                 taken.append(pid)
     return pool.rms(), pool.tests, alike
 
@@ -462,11 +474,12 @@ def _refined(ctx, loop, rings):
     at ``TEST_COARSEN`` times the rim's edge length when the rim's density
     would give more than ``TEST_MAX_UNKNOWNS`` new vertices.
 
-    Returns ((X, Fs, nf, g, scale, origin), T, c): the submesh positions
-    (fixed scan vertices first), its faces (the patch's last), the number
-    of fixed vertices, their ids in ``ctx``, the frame, the patch
-    triangles, and the refinement's edge length in rim edges (1 or
-    ``TEST_COARSEN``).
+    Returns ((X, Fs, nf, g, scale, origin), T, c, flat): the submesh
+    positions (fixed scan vertices first), its faces (the patch's last),
+    the number of fixed vertices, their ids in ``ctx``, the frame, the
+    patch triangles, the refinement's edge length in rim edges (1 or
+    ``TEST_COARSEN``), and the rim's triangulation before refinement in
+    the submesh's ids (the flat candidate).
     """
     from shellrepair.fill.refine import refine_patch, split_chords
     from shellrepair.fill.triangulate import triangulate_loop
@@ -476,6 +489,7 @@ def _refined(ctx, loop, rings):
     sigma, edge_normals, forbidden = rim_data(ctx, loop)
     origin, scale, Pl = local_frame(ctx, loop, sigma)
     T = triangulate_loop(Pl, edge_normals, forbidden)
+    T0 = T
     # new vertices at the rim's density: ~ the area over an equilateral
     # triangle's, halved (a mesh has about half as many vertices as faces)
     e = Pl[T]
@@ -484,6 +498,6 @@ def _refined(ctx, loop, rings):
     c = TEST_COARSEN if area / (np.sqrt(3.0) / 4.0 * s2) / 2.0 > TEST_MAX_UNKNOWNS else 1.0
     Pl, T = refine_patch(Pl, T, c * sigma / scale, k, forbidden)
     Pl, T = split_chords(Pl, T, c * sigma / scale, k, forbidden)    # as a faired fill's
-    g, Fs, nf, _ = submesh(ctx, loop, Pl, T, rings=rings)
+    g, Fs, nf, loc = submesh(ctx, loop, Pl, T, rings=rings)
     X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
-    return (X, Fs, nf, g, scale, origin), T, c
+    return (X, Fs, nf, g, scale, origin), T, c, np.asarray(loc, np.int64)[T0]

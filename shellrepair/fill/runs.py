@@ -86,6 +86,8 @@ def first_attempts(ctx, chunk):
         if not isinstance(unit, HoleUnit):
             continue
         hole_id, loop = unit.hole_id, np.asarray(unit.loop, np.int64)
+        if unit.order == "flat":
+            continue           # (fill_hole builds the flat triangulation itself)
         pre = ctx.pre_for(hole_id, loop)
         if pre is None:
             continue

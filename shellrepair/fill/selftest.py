@@ -55,14 +55,34 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["choose_order", "choose_order_beside", "best_candidate", "OrderTest", "CANDIDATES", "DEFAULT_ORDER"]
+__all__ = ["choose_order", "choose_order_beside", "best_candidate", "OrderTest", "CANDIDATES", "DEFAULT_ORDER",
+           "FLAT", "WITH_FLAT", "label"]
 
 #: Candidate fairing orders (ties go to ``DEFAULT_ORDER``, then the lower order).
 CANDIDATES = (1, 2, 3)
+#: The rim's triangulation with no new vertex (``order="flat"``).
+FLAT = "flat"
+#: The orders and the flat triangulation, for :func:`choose_order`'s
+#: ``candidates``. Not the default: measured as a candidate of ``auto``
+#: (eval/results/order-test/flat-candidate/), it helped on the design
+#: seeds' fandisk occlusions (regret 1.463 -> 1.242) and on fresh seed
+#: 910875920 (1.0599 -> 1.0580), and lost on fresh fandisk seed 609833624
+#: (15 cases, 1.023x worse: a disc its test holes gave the flat
+#: triangulation, 2.95 where order 3 is truest).
+WITH_FLAT = CANDIDATES + (FLAT,)
 #: The order of holes that are not tested, or where the scan cannot tell.
 DEFAULT_ORDER = 2
 #: Holes with fewer rim edges are not tested.
 MIN_EDGES = 8
+
+
+def label(o):
+    """How the report names candidate ``o``: "order 2", "flat"."""
+    return FLAT if o == FLAT else f"order {o}"
+
+
+def _value(o):
+    return o if o == FLAT else int(o)
 
 
 @dataclass(frozen=True)
@@ -71,9 +91,9 @@ class OrderTest:
 
     Attributes
     ----------
-    order : int
-        The chosen order.
-    errors : dict of int -> float
+    order : int or "flat"
+        The chosen order (or the flat triangulation).
+    errors : dict of (int or "flat") -> float
         Each candidate's error on the test holes, in the scan's units: the
         geometric mean over the test holes of the RMS distance of the scan
         each cut away to the candidate's fill (empty when not tested).
@@ -94,7 +114,7 @@ class OrderTest:
     @property
     def runner_up(self):
         """The candidate with the next lowest error, or None."""
-        rest = sorted((e, o) for o, e in self.errors.items() if o != self.order)
+        rest = sorted(((e, str(o)), o) for o, e in self.errors.items() if o != self.order)
         return rest[0][1] if rest else None
 
     def as_dict(self):
@@ -103,8 +123,8 @@ class OrderTest:
         holes and at which scale, and ``untold`` where the scan could not
         tell (or the hole was too small to test) and the default was taken."""
         return {"by": "test holes" if self.errors else "default",
-                "order": int(self.order),
-                "runner_up": None if self.runner_up is None else int(self.runner_up),
+                "order": _value(self.order),
+                "runner_up": None if self.runner_up is None else _value(self.runner_up),
                 "test_rms": {str(o): float(e) for o, e in sorted(self.errors.items(), key=lambda t: str(t[0]))},
                 "probes": int(self.probes), "scale": float(self.scale),
                 "untold": not self.errors, "why": self.why}
@@ -112,13 +132,13 @@ class OrderTest:
     def describe(self):
         """One line for the report: the choice, its evidence and the runner-up."""
         if not self.errors:
-            return f"auto: order {self.order}, {self.why}"
+            return f"auto: {label(self.order)}, {self.why}"
         size = "its size" if self.scale == 1.0 else f"{self.scale:g} its size"
-        errs = ", ".join(f"order {o} {e:.3g}" for o, e in sorted(self.errors.items()))
-        line = f"auto: order {self.order}, by {self.probes} test holes of {size}, RMS {errs}"
+        errs = ", ".join(f"{label(o)} {e:.3g}" for o, e in sorted(self.errors.items(), key=lambda t: str(t[0])))
+        line = f"auto: {label(self.order)}, by {self.probes} test holes of {size}, RMS {errs}"
         ru = self.runner_up
         if ru is not None:
-            line += f"; runner-up order {ru}"
+            line += f"; runner-up {label(ru)}"
         return line
 
 
@@ -132,8 +152,8 @@ def choose_order(ctx, hole_id, loop, candidates=None):
     hole_id : int
     loop : (k,) int64
         The hole's rim.
-    candidates : sequence of int, optional
-        Default :data:`CANDIDATES`.
+    candidates : sequence of (int or "flat"), optional
+        Default :data:`CANDIDATES` (:data:`WITH_FLAT`: the flat triangulation too).
 
     Returns
     -------
@@ -152,7 +172,7 @@ def choose_order(ctx, hole_id, loop, candidates=None):
                                             "scan around it (or those that fit have no vertex of their own): "
                                             "the scan cannot tell")
     best = best_candidate({o: errors[o] for o in candidates})
-    return OrderTest(int(best), errors=errors, probes=n, scale=scale)
+    return OrderTest(_value(best), errors=errors, probes=n, scale=scale)
 
 
 def choose_order_beside(ctx, loops, candidates=None):
