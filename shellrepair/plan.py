@@ -30,7 +30,7 @@ from shellrepair.errors import MeshError
 __all__ = ["read_plan", "ACTIONS"]
 
 #: The actions a loop of ``holes --json`` may be given, and the request each makes.
-ACTIONS = ("leave open", "cap flat", "fill", "order 1", "order 2", "order 3", "order auto")
+ACTIONS = ("leave open", "cap flat", "fill", "order 1", "order 2", "order 3", "order flat", "order auto")
 _LISTS = ("leave_open", "cap_flat", "fill")
 
 
@@ -97,7 +97,7 @@ def read_plan(path):
         i = int(lp["id"])
         if action.startswith("order "):
             o = action.split()[1]
-            out["order_for"][i] = o if o == "auto" else int(o)
+            out["order_for"][i] = o if o in ("auto", "flat") else int(o)
         else:
             out[action.replace(" ", "_")].append(i)
         edges, center = lp.get("edges"), lp.get("center")

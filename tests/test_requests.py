@@ -271,3 +271,19 @@ def test_a_perforated_statue_repaired_with_a_plan_file_does_what_the_plan_says(t
     holes = {L.id: L for L in detect_holes(V, F).loops}
     assert sorted(R.V[left.vertices].tolist()) == sorted(V[holes[a].vertices].tolist())
     assert d["holes_after"] == 1 and d["plan"] == str(tmp_path / "plan.json")
+
+
+def test_a_plan_can_ask_for_the_flat_triangulation_of_one_hole(tmp_path, capsys):
+    import json
+
+    V, F, (a, b, c) = three_holes()
+    p = tmp_path / "s.ply"
+    write_mesh(p, Mesh(V=V, F=F))
+    assert main(["holes", str(p), "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    next(lp for lp in plan["loops"] if lp["id"] == b)["action"] = "order flat"
+    (tmp_path / "plan.json").write_text(json.dumps(plan))
+    assert main(["repair", str(p), "-o", str(tmp_path / "o.ply"), "--plan", str(tmp_path / "plan.json"), "-q"]) == 0
+    rows = {h["id"]: h for h in json.loads((tmp_path / "o.report.json").read_text())["holes"]}
+    assert rows[b]["requested"] == "order flat" and rows[b]["kind"] == "flat" and rows[b]["new_vertices"] == 0
+    assert rows[a]["kind"] == rows[c]["kind"] == "faired"
