@@ -1,12 +1,12 @@
 """Command line: a thin layer over the library.
 
     shellrepair holes SCAN [--json] [--max-hole N] [--fill-borders] [--closed auto|yes|no]
-    shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3] [--smooth N]
+    shellrepair repair SCAN [-o OUT] [--report R.json] [--order 1|2|3|flat|auto] [--smooth N]
                        [--max-hole N] [--fill-borders] [--method fair|seed] [--jobs N]
                        [--bridge auto|never|always] [--base auto|flat|faired]
                        [--leave-open ID,...] [--order-for ID=N,...] [--cap-flat ID,...] [--fill ID,...]
                        [--plan PLAN.json] [--html PAGE.html] [--gltf OUT.glb] [--up auto|AXIS|X,Y,Z]
-    shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3] [--max-hole N]
+    shellrepair batch DIR -o OUTDIR [--jobs N] [--scheduler ADDRESS] [--order 1|2|3|flat|auto] [--max-hole N]
                       [--fill-borders] [--bridge auto|never|always] [--base auto|flat|faired] [--json]
     shellrepair render MESH -o OUT.png [--size WxH] [--material M] [--highlight-filled] [--view AZ,EL]
                        [--look-at X,Y,Z] [--radius R] [--before MESH] [--unit mm|cm|m] [--age A]
