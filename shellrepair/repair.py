@@ -262,11 +262,11 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     def order_of(*loops):     # the order asked for one of these loops, else the scan's
         return next((asked_order[L.id] for L in loops if L.id in asked_order), order)
 
-    def joined(o):            # a tube or a pants has new vertices: "flat" joins loops at order 1
+    def joining_order(o):            # a tube or a pants has new vertices: "flat" joins loops at order 1
         return 1 if o == "flat" else o
 
-    units = [BandUnit(b.A, b.B, joined(order_of(b.A, b.B)), smooth, bridge, b.mutual) for b in pairs]
-    units += [pants_unit(A, B, C, fb, joined(order_of(A, B, C)), smooth, bridge) for A, B, C, fb in triples]
+    units = [BandUnit(b.A, b.B, joining_order(order_of(b.A, b.B)), smooth, bridge, b.mutual) for b in pairs]
+    units += [pants_unit(A, B, C, fb, joining_order(order_of(A, B, C)), smooth, bridge) for A, B, C, fb in triples]
     units += [HoleUnit(h.id, h.vertices, order_of(h), smooth) for h in holes if h.id not in paired]
     units.sort(key=lambda u: u.first_id)
     if index_built is not None:
@@ -321,7 +321,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         loops = ([u.A, u.B] if isinstance(u, BandUnit) else [u.A, u.B, u.C] if isinstance(u, PantsUnit)
                  else [scan.loops[u.hole_id]])
         tube_rejected = None
-        tube_ok, joined = False, None
+        tube_ok, tube_patch = False, None
         for L, (patch, reason, secs, _) in zip(loops, outs):
             row = {"id": L.id, "edges": L.edges, "status": "failed", "reason": reason,
                    "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
@@ -335,7 +335,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                     if record is not None and record.get("chosen") == "tube":
                         tube_rejected = conflict
                 else:
-                    tube_ok, joined = True, patch
+                    tube_ok, tube_patch = True, patch
                     row.update(status="filled", reason=patch.option, new_vertices=int(len(patch.P)),
                                new_faces=int(len(patch.T)), option=patch.option, **_kind(patch))
                     if patch.choice is not None:
@@ -343,7 +343,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
             elif record is not None and record.get("chosen") == "tube":
                 if tube_ok:
                     row.update(status="filled", option=record.get("shape", "tube"), new_vertices=0, new_faces=0,
-                               **_kind(joined))
+                               **_kind(tube_patch))
                 else:
                     row["reason"] = tube_rejected or row["reason"]
             if L.kind == "hole":
@@ -351,8 +351,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if record is not None:
             bridges.append(record)
     if method == "fair" and bridge != "never":
-        tube_crossed_caps(ctx, scan, paired, rows, acc, 1 if order == "flat" else order, smooth, bridge, bridges,
-                          flags)
+        tube_crossed_caps(ctx, scan, paired, rows, acc, joining_order(order), smooth, bridge, bridges, flags)
     _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, method, asked_order)
     # the merged output checked once more, as a whole: a patch that crosses the scan, itself or another
     # patch (none should: each was checked when built and when accepted) is left open and says so

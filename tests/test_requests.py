@@ -193,14 +193,22 @@ def test_max_hole_takes_a_length_in_the_scans_units(tmp_path, capsys):
         RepairOptions(max_hole_size=(-1, "mm"))
 
 
-def test_a_plan_edited_from_holes_json_steers_the_repair_and_is_refused_on_another_scan(tmp_path, capsys):
+def _three_holes_and_their_plan(tmp_path, capsys):
+    """``three_holes()`` written to ``s.ply`` and its ``holes --json``:
+    (V, F, hole ids, the scan's path, the plan)."""
     import json
 
-    V, F, (a, b, c) = three_holes()
+    V, F, ids = three_holes()
     p = tmp_path / "s.ply"
     write_mesh(p, Mesh(V=V, F=F))
     assert main(["holes", str(p), "--json"]) == 0
-    plan = json.loads(capsys.readouterr().out)
+    return V, F, ids, p, json.loads(capsys.readouterr().out)
+
+
+def test_a_plan_edited_from_holes_json_steers_the_repair_and_is_refused_on_another_scan(tmp_path, capsys):
+    import json
+
+    V, F, (a, b, c), p, plan = _three_holes_and_their_plan(tmp_path, capsys)
     by_id = {lp["id"]: lp for lp in plan["loops"]}
     by_id[a]["action"] = "leave open"
     by_id[b]["action"] = "order 1"
@@ -276,11 +284,7 @@ def test_a_perforated_statue_repaired_with_a_plan_file_does_what_the_plan_says(t
 def test_a_plan_can_ask_for_the_flat_triangulation_of_one_hole(tmp_path, capsys):
     import json
 
-    V, F, (a, b, c) = three_holes()
-    p = tmp_path / "s.ply"
-    write_mesh(p, Mesh(V=V, F=F))
-    assert main(["holes", str(p), "--json"]) == 0
-    plan = json.loads(capsys.readouterr().out)
+    _, _, (a, b, c), p, plan = _three_holes_and_their_plan(tmp_path, capsys)
     next(lp for lp in plan["loops"] if lp["id"] == b)["action"] = "order flat"
     (tmp_path / "plan.json").write_text(json.dumps(plan))
     assert main(["repair", str(p), "-o", str(tmp_path / "o.ply"), "--plan", str(tmp_path / "plan.json"), "-q"]) == 0

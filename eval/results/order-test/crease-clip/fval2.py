@@ -16,7 +16,7 @@ for i in idx:
     rows = regret.run_case(c, tools=regret.FORCED + (regret.DEFAULT,), log=lambda *a: None)
     g, _ = regret.regret(rows)
     res["base"].append(g)
-    line = [c.name, "forced " + " ".join(f"{rows[t]['rms_permille']:.3f}" for t in regret.FORCED),
+    line = [c.name, "forced " + " ".join((f"{rows[t]['rms_permille']:.3f}" if rows[t].get('rms_permille') is not None else 'none') for t in regret.FORCED),
             f"base {rows[regret.DEFAULT]['rms_permille']:.3f} r {g:.3f}" if g else "base none"]
     rec = {"case": c.name, "forced": {t: rows[t]["rms_permille"] for t in regret.FORCED}, "base": rows[regret.DEFAULT]["rms_permille"], "g": {"base": g}}
     for v in variants:
