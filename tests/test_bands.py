@@ -826,6 +826,32 @@ def test_one_test_band_decides_where_no_test_hole_beside_tells(monkeypatch):
     assert order == selftest.DEFAULT_ORDER and refair == 3
 
 
+def test_one_test_band_is_pooled_with_the_test_holes_beside_the_loops(monkeypatch):
+    """With one test band and test holes beside the loops, every test
+    weighs alike: a band that tells the orders far apart outweighs test
+    holes that rate them alike (a star's band: the test holes alone took
+    order 2 where order 3 is 7x truer), and a band that rates them alike
+    leaves the verdict to the test holes."""
+    from shellrepair.fill import band_test, selftest
+    from shellrepair.fill.hole import band_order, pooled_with_band
+
+    alike = selftest.OrderTest(2, errors={1: 0.0088, 2: 0.00171, 3: 0.00173}, probes=5, scale=1.0)
+    telling = {1: 0.0497, 2: 0.0068, 3: 0.00098}
+    pooled = pooled_with_band(telling, alike)
+    assert pooled.order == 3 and pooled.probes == 6
+    assert pooled.errors[2] == pytest.approx((0.0068 * 0.00171 ** 5) ** (1 / 6))
+    monkeypatch.setattr(band_test, "tube_errors", lambda ctx, A, B, cands: (telling, 1))
+    monkeypatch.setattr(selftest, "choose_order_beside", lambda ctx, loops: alike)
+    order, held, note, refair = band_order(None, ("A", "B"))
+    assert (order, held, refair) == (selftest.DEFAULT_ORDER, None, 3)
+    assert "pooled with the test band" in note
+    # a band rating orders 2 and 3 alike: the test holes' clear verdict stands
+    clear = selftest.OrderTest(3, errors={1: 0.1, 2: 0.02, 3: 0.01}, probes=3, scale=1.0)
+    assert pooled_with_band({1: 0.2, 2: 0.041, 3: 0.043}, clear).order == 3
+    # and a band that does not judge a candidate leaves it out
+    assert set(pooled_with_band({2: 0.01, 3: 0.02}, clear).errors) == {2, 3}
+
+
 @pytest.mark.slow
 def test_a_thin_torus_band_seen_by_one_test_band_gets_its_order():
     """A thin torus (r/R 0.15) whose unseen band is one tube (case 15 of
