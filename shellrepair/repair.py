@@ -86,7 +86,7 @@ from shellrepair.fill import probe, selftest  # noqa: F401
 from shellrepair.fill.band_fill import _fill_pair
 from shellrepair.fill.bands import Bands, find_bands
 from shellrepair.fill.beside import HelperThread
-from shellrepair.fill.checks import Outcome
+from shellrepair.fill.checks import CLASHES, MERGED_CHECK, NO_PATCH_PASSES, Outcome
 from shellrepair.fill.hole import SEED_SMOOTH_PASSES, _seed_patches, fill_hole
 from shellrepair.fill.merge import Accepted, _merge, crossings_after_merge
 from shellrepair.fill.pants import PantsUnit, expand, pants_unit
@@ -322,14 +322,16 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                  else [scan.loops[u.hole_id]])
         tube_rejected = None
         tube_ok, tube_patch = False, None
-        for L, (patch, reason, secs, _) in zip(loops, outs):
-            row = {"id": L.id, "edges": L.edges, "status": "failed", "reason": reason,
-                   "new_vertices": 0, "new_faces": 0, "seconds": round(secs, 4), "option": None}
+        for L, out in zip(loops, outs):
+            patch = out.patch
+            row = {"id": L.id, "edges": L.edges, "status": "failed", "reason": out.reason,
+                   "failure": out.failure or NO_PATCH_PASSES, "new_vertices": 0, "new_faces": 0,
+                   "seconds": round(out.seconds, 4), "option": None}
             if patch is not None:
                 patch, conflict, swapped = acc.place(ctx, patch)
                 _note_swap(rows, swapped)
                 if patch is None:
-                    row["reason"] = conflict
+                    row.update(reason=conflict, failure=CLASHES)
                     if acc.crossed is not None:
                         row["crosses_hole"] = acc.crossed
                     if record is not None and record.get("chosen") == "tube":
@@ -344,8 +346,8 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
                 if tube_ok:
                     row.update(status="filled", option=record.get("shape", "tube"), new_vertices=0, new_faces=0,
                                **_kind(tube_patch))
-                else:
-                    row["reason"] = tube_rejected or row["reason"]
+                elif tube_rejected:
+                    row.update(reason=tube_rejected, failure=CLASHES)
             if L.kind == "hole":
                 rows[L.id] = row
         if record is not None:
@@ -360,7 +362,7 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
     for k, why in sorted(crossed.items()):
         for hid, row in rows.items():
             if row["status"] == "filled" and np.isin(scan.loops[hid].vertices, accepted[k].loop).all():
-                row.update(status="failed", new_vertices=0, new_faces=0, option=None,
+                row.update(status="failed", new_vertices=0, new_faces=0, option=None, failure=MERGED_CHECK,
                            reason=f"left open: the check of the merged output found its patch crossing {why}")
     accepted = [p for k, p in enumerate(accepted) if k not in crossed]
     asked_fill = set(opts.fill)
@@ -383,6 +385,9 @@ def _repair_mesh(mesh: MeshLike, options: Optional[RepairOptions] = None, *, pro
         if asked:
             rows[h.id]["requested"] = ", ".join(asked)
     rows = [rows[h.id] for h in all_holes if h.id in rows]
+    for row in rows:       # why a hole stays open, as data: on failed rows only
+        if row["status"] != "failed":
+            row.pop("failure", None)
     repaired = _merge(mesh, V, F, accepted)
     if stand_in.any():
         repaired.V[:len(V)][stand_in] = np.asarray(mesh.V, np.float64)[stand_in]
@@ -564,14 +569,16 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
     ctx2 = ScanContext(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
     for h in again:
         row = rows[h.id]
-        patch, reason, secs, _ = fill_hole(ctx2, h.id, np.asarray(h.vertices, np.int64),
-                                           order_for.get(h.id, order), smooth)
-        row["seconds"] = round(row["seconds"] + secs, 4)
+        out = fill_hole(ctx2, h.id, np.asarray(h.vertices, np.int64), order_for.get(h.id, order), smooth)
+        patch, reason, failure = out.patch, out.reason, out.failure or NO_PATCH_PASSES
+        row["seconds"] = round(row["seconds"] + out.seconds, 4)
         if patch is not None:
             patch, reason, swapped = acc.place(ctx, patch)
             _note_swap(rows, swapped)
+            failure = CLASHES
         if patch is None:
-            row["reason"] = f"{row['reason']}; filled again around the accepted patches: {reason}"
+            row.update(reason=f"{row['reason']}; filled again around the accepted patches: {reason}",
+                       failure=failure)
             continue
         option = f"{patch.option} (filled again around the patches accepted before it: the first crossed one)"
         row.update(status="filled", reason=option, option=option, new_vertices=int(len(patch.P)),

@@ -70,9 +70,9 @@ def test_a_spent_budget_stops_the_retries_and_keeps_the_checked_flat_triangulati
     spy = _Spy(monkeypatch)
     budget = checks.WorkBudget(len(loop))
     budget.vertices = 0          # nothing left after the first attempt
-    patch, reason, _, reasons = fill.fill_hole_at_order(ctx, 0, loop, 2, 0, budget=budget)
+    patch, reason, _, reasons, failure = fill.fill_hole_at_order(ctx, 0, loop, 2, 0, budget=budget)
     assert spy.refined == 2                      # the first attempt and the harmonic patch only
-    assert patch is not None and len(patch.P) == 0 and patch.kind == "flat"
+    assert patch is not None and len(patch.P) == 0 and patch.kind == "flat" and failure == ""
     assert patch.option.startswith("flat triangulation")
     assert any("not tried" in r and "work budget" in r for r in reasons)
     assert budget.spent > 0                      # the first attempt was counted

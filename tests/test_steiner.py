@@ -18,6 +18,7 @@ from shellrepair import Mesh, detect_holes
 from shellrepair.mesh.index import ScanContext
 from shellrepair.mesh.intersect import self_intersections
 from shellrepair.repair import repair_mesh
+from shellrepair.report.table import table1_text
 from shellrepair.fill.steiner import LIFT, steiner_patch
 from shellrepair.mesh.topology import edge_topology
 
@@ -158,8 +159,16 @@ def test_a_loop_the_layer_cannot_close_in_its_budget_says_why():
     ctx = ScanContext(Mesh(V=V, F=F))
     res = steiner_patch(ctx, 0, loop, max_vertices=0)
     assert res.patch is None and "work budget" in res.reason
+    assert res.over_budget and not res.degenerate      # the same, as data
     res = steiner_patch(ctx, 0, loop)
-    assert res.patch is not None and res.spent >= len(res.patch.P) > 0
+    assert res.patch is not None and res.spent >= len(res.patch.P) > 0 and not res.over_budget
+
+
+def test_a_loop_with_no_extent_is_told_apart_from_one_that_crosses():
+    V, F, g = cp.box_with_bore_through_top()
+    ctx = ScanContext(Mesh(V=V, F=F))
+    res = steiner_patch(ctx, 0, np.array([0, 1], np.int64))
+    assert res.patch is None and res.degenerate and not res.over_budget
 
 
 def test_a_rounds_refinement_stops_exactly_where_the_round_is_over_the_work_budget():
@@ -249,6 +258,9 @@ def test_an_opening_linked_with_a_ring_stays_open_and_says_why():
     row = [r for r in report["holes"] if r["edges"] == 32][0]
     assert row["status"] == "failed"
     assert "last layer: Steiner points" in row["reason"] and "cross the scan" in row["reason"]
+    assert row["failure"] == "no patch passes"        # the same, as data
+    assert all("failure" not in r for r in report["holes"] if r["status"] != "failed")
+    assert "failed because: no patch passes ×1" in table1_text(report)
     assert self_intersections(R.V, R.F) == si
 
 

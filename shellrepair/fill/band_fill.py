@@ -456,7 +456,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
                 else:
                     c = c.with_(option=OPTION_NAMES["faired"].format(order=co)
                                 + ("" if test is None else f" ({test.describe()})"), choice=test, kind="faired")
-                caps.append(Outcome(c, why or "", time.perf_counter() - t1, []))
+                caps.append(Outcome(c, why or "", time.perf_counter() - t1, [],
+                                    "" if c is not None else checks.NO_PATCH_PASSES))
         else:
             caps = fill_caps(1.0)
     if caps is None:
@@ -477,7 +478,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
                 notes = []
                 mended = checks.mend_last(ctx, cap_faults[L.id], notes)
                 caps[n] = Outcome(mended, "" if mended is not None else "; ".join([c.reason] + notes),
-                                  c.seconds, c.reasons + notes)
+                                  c.seconds, c.reasons + notes,
+                                  "" if mended is not None else c.failure or checks.NO_PATCH_PASSES)
         if caps_crossing(caps) and tube_faults:
             notes = []
             tube = checks.mend_last(ctx, [(p, b, f"tube to loop {B.id} ({first})") for p, b, first in tube_faults],

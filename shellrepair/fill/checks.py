@@ -32,12 +32,30 @@ from shellrepair.fill.patch import corners as corners_of
 from shellrepair.mesh.intersect import crossing_pairs, embeds_by_projection, patch_vs_index, patch_vs_index_many
 
 
+#: Why a hole stays open, as data (a failed row's ``failure`` in the
+#: report; ``reason`` says it in words): no patch built for it passed the
+#: checks (it crosses the scan or itself, or folds), the last layer
+#: included; the last layer stopped at the hole's work budget before one
+#: passed; its rim has no extent (fewer than three vertices, or all on one
+#: point); its patch crosses a patch accepted before it (``crosses_hole``
+#: names that hole) or needs an edge one of them made, also when filled
+#: again around them; the check of the merged output found its patch
+#: crossing.
+NO_PATCH_PASSES = "no patch passes"
+WORK_BUDGET = "work budget"
+DEGENERATE_RIM = "degenerate rim"
+CLASHES = "clashes with a patch"
+MERGED_CHECK = "merged check"
+FAILURES = (NO_PATCH_PASSES, WORK_BUDGET, DEGENERATE_RIM, CLASHES, MERGED_CHECK)
+
+
 class Outcome(NamedTuple):
     """What filling one loop gave."""
     patch: object          # the accepted-so-far Patch, or None when the loop stays open
     reason: str            # why it stays open ("" when filled, or what a band's partner did)
     seconds: float
     reasons: list          # the reasons of the attempts that failed on the way
+    failure: str = ""      # one of FAILURES where the loop stays open and its fill said why ("" otherwise)
 
 
 #: Two triangles on one edge whose far corners, seen along the edge, are

@@ -135,7 +135,7 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     Returns
     -------
     Outcome
-        ``(patch or None, reason, seconds, reasons tried)``
+        ``(patch or None, reason, seconds, reasons tried, failure)``
         (:class:`shellrepair.fill.checks.Outcome`).
     """
     if order == "flat":
@@ -160,7 +160,8 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     # the same at every order (there is nothing to fair), so the candidates
     # agree and no test is needed
     deferred = None if defer is None else []     # the order-2 fill's, kept only if it is the one used
-    patch, reason, secs, reasons = fill_hole_at_order(ctx, hole_id, loop, 2, smooth, energy, budget, deferred)
+    patch, reason, secs, reasons, failure = fill_hole_at_order(ctx, hole_id, loop, 2, smooth, energy, budget,
+                                                               deferred)
     if patch is not None and patch.kind in ("steiner", "flat cap"):
         # the last layer's patch, and a flat cap (a CAD face's outline, or
         # an opening the user called a flat base), are not faired: no order
@@ -168,7 +169,7 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
         # a faired patch, off its plane by round-off)
         if beside is not None:
             beside.drop_test(hole_id)
-        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
     if patch is not None and len(patch.P) == 0 and patch.kind == "faired" and patch.order == 2 and patch.plain:
         if defer is not None:
             defer.extend(deferred)
@@ -176,7 +177,7 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
             beside.drop_test(hole_id)
         test = OrderTest(DEFAULT_ORDER, why="no new vertex: every order gives this patch, not tested")
         patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
-        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
     test = beside.take_test(hole_id, loop) if beside is not None else None
     if test is None:
         test = choose_order(ctx, hole_id, loop)
@@ -191,17 +192,18 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
                                                       f"scan: order 2 kept)", choice=test)
         if defer is not None:
             defer.extend(deferred)
-        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
     if test.order == 1:
-        patch, reason, secs, reasons = fill_hole_at_order(ctx, hole_id, loop, 1, smooth, energy, fresh, defer)
+        patch, reason, secs, reasons, failure = fill_hole_at_order(ctx, hole_id, loop, 1, smooth, energy, fresh,
+                                                                   defer)
         if patch is not None:
             patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
         budget.take_over(fresh)
-        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
     if defer is not None:
         defer.extend(deferred)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or patch.pinned:
-        return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+        return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
     if test.order == 3:
         try:
             if patch.kind == "faired" and patch.plain:
@@ -224,7 +226,7 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
             patch = patch.with_(option=patch.option + f" ({test.describe()}; order 3 departs from order 2 more than "
                                                       f"order 1 does, {departs[1]:.3g} > {departs[0]:.3g}: "
                                                       f"order 2 kept)", choice=test)
-            return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+            return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
         if p3 is not None:
             if checks.check_patch(ctx, p3)[0] is None:
                 # the merge falls back on order 2 where order 3 and another hole's patch cross
@@ -235,9 +237,9 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
                 return Outcome(p3, reason, time.perf_counter() - t0, reasons)
             patch = patch.with_(option=patch.option + f" ({test.describe()}; order 3 crosses the scan: order 2 kept)",
                                 choice=test)
-            return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+            return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
     patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
-    return Outcome(patch, reason, time.perf_counter() - t0, reasons)
+    return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
 
 
 def _flat_patch(ctx, hole_id, loop):
@@ -461,8 +463,9 @@ def fill_hole_at_order(ctx, hole_id, loop, order, smooth, energy=False, budget=N
     Returns
     -------
     Outcome
-        ``(patch or None, reason, seconds, reasons tried)``
-        (:class:`shellrepair.fill.checks.Outcome`).
+        ``(patch or None, reason, seconds, reasons tried, failure)``
+        (:class:`shellrepair.fill.checks.Outcome`; ``failure`` one of
+        :data:`shellrepair.fill.checks.FAILURES` where no patch passed).
     """
     out = _fill_by_options(ctx, hole_id, loop, order, smooth, energy, budget, defer)
     if out.patch is not None and order != 1 and getattr(ctx, "base", "auto") == "flat":
@@ -498,6 +501,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
     blocked = False
     first = True
     scan_aware = False
+    over_budget = False    # an option not tried for the work budget
     size = None            # new vertices of the first faired patch: what a faired retry costs
     # a counted number of rounds; each faired attempt after the first asks
     # the work budget (no clock: the same attempts on any machine)
@@ -566,6 +570,7 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
             last_option = name == "harmonic"
             if size is not None and not last_option and not budget.affords(size):
                 reasons.append(f"{name}: not tried, {budget.describe()}")
+                over_budget = True
                 continue
             tried.add(name)
             try:
@@ -638,21 +643,26 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
             faulty.append((patch, bad, patch.option))
     if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
         defer.extend(faulty)
-        return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+        return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons,
+                       checks.WORK_BUDGET if over_budget else checks.NO_PATCH_PASSES)
     mended = checks.mend_last(ctx, faulty, reasons)
     if mended is not None:
         return Outcome(mended, "", time.perf_counter() - t0, reasons)
-    patch = _steiner_last(ctx, hole_id, loop, budget, reasons)
+    patch, failure = _steiner_last(ctx, hole_id, loop, budget, reasons)
     if patch is not None:
         return Outcome(patch, "", time.perf_counter() - t0, reasons)
-    return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons)
+    if failure == checks.NO_PATCH_PASSES and over_budget:
+        failure = checks.WORK_BUDGET
+    return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons, failure)
 
 
 def _steiner_last(ctx, hole_id, loop, budget, reasons):
     """The last layer for a single hole no other option closed: a patch
     with Steiner points lifted over the scan that crosses the opening
     (:mod:`~shellrepair.fill.steiner`), within what is left of the hole's work
-    budget; None (the cause appended to ``reasons``) where it fails."""
+    budget. Returns ``(patch, "")``, or ``(None, failure)`` where it fails
+    (one of :data:`shellrepair.fill.checks.FAILURES`; the cause appended
+    to ``reasons``)."""
     from shellrepair.fill.steiner import steiner_patch
 
     try:
@@ -661,11 +671,13 @@ def _steiner_last(ctx, hole_id, loop, budget, reasons):
         # a degenerate outline the layer's arithmetic cannot take: the hole
         # stays open as it would without the layer, saying so
         reasons.append(f"last layer: Steiner points: {type(exc).__name__}: {exc}")
-        return None
+        return None, checks.NO_PATCH_PASSES
     budget.count(res.spent)
-    if res.patch is None:
-        reasons.append(f"last layer: {res.reason}")
-    return res.patch
+    if res.patch is not None:
+        return res.patch, ""
+    reasons.append(f"last layer: {res.reason}")
+    return None, (checks.DEGENERATE_RIM if res.degenerate else checks.WORK_BUDGET if res.over_budget
+                  else checks.NO_PATCH_PASSES)
 
 
 def _harmonic_last(ctx, hole_id, loop, flat, smooth, energy, budget, reasons):

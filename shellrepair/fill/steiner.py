@@ -94,6 +94,8 @@ class SteinerResult(NamedTuple):
     patch: object          # Patch, or None
     reason: str            # why not ("" when a patch passed)
     spent: int             # new vertices built and checked
+    over_budget: bool = False   # a round was not made: over the work budget left
+    degenerate: bool = False    # the loop has fewer than three vertices or no extent
 
 
 def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
@@ -122,38 +124,41 @@ def steiner_patch(ctx, hole_id, loop, max_vertices=None, rounds=ROUNDS):
     loop = np.asarray(loop, np.int64)
     k = len(loop)
     if k < 3:
-        return SteinerResult(None, "a loop of fewer than three vertices", 0)
+        return SteinerResult(None, "a loop of fewer than three vertices", 0, degenerate=True)
     P = ctx.V[loop]
     diameter = float(np.ptp(P, axis=0).max())
     if not np.isfinite(diameter) or diameter <= 0:
-        return SteinerResult(None, "the loop has no extent", 0)
-    patch, why, spent, folded = _over_planes(ctx, hole_id, loop, max_vertices, rounds)
+        return SteinerResult(None, "the loop has no extent", 0, degenerate=True)
+    patch, why, spent, folded, stopped = _over_planes(ctx, hole_id, loop, max_vertices, rounds)
     if patch is None and folded:
         left = None if max_vertices is None else max_vertices - spent
-        patch, cut_why, cut_spent = _cut_patch(ctx, hole_id, loop, left, rounds, 0)
+        patch, cut_why, cut_spent, cut_stopped = _cut_patch(ctx, hole_id, loop, left, rounds, 0)
         spent += cut_spent
+        stopped = stopped or cut_stopped
         why = f"{why}; {cut_why}"
     if patch is None:
-        return SteinerResult(None, "Steiner points: " + why, spent)
+        return SteinerResult(None, "Steiner points: " + why, spent, over_budget=stopped)
     return SteinerResult(_interpolate_attributes(ctx, patch, k + len(patch.P)), "", spent)
 
 
 def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
     """The patch over the first plane (:func:`_axes`) that gives one that
     passes (module notes, steps 1 to 5), its attributes not yet
-    interpolated. Returns ``(patch or None, why, spent, folded)``:
-    ``folded`` when the outline is not simple in any plane tried."""
+    interpolated. Returns ``(patch or None, why, spent, folded, stopped)``:
+    ``folded`` when the outline is not simple in any plane tried,
+    ``stopped`` when a round was not made for the work budget."""
     k = len(loop)
     P = ctx.V[loop]
     centre = P.mean(axis=0)
     C = P - centre
     diameter = float(np.ptp(P, axis=0).max())
     if not np.isfinite(diameter) or diameter <= 0:
-        return None, "the loop has no extent", 0, False
+        return None, "the loop has no extent", 0, False, False
     sigma, _, forbidden = rim_data(ctx, loop)
     spent = 0
     why = []
     folded = True
+    stopped = False          # a round not made: over the work budget left
     for name, axis in _axes(ctx, loop, C):
         u, v = plane_frame(axis)
         Q = np.column_stack([C @ u, C @ v]) / diameter
@@ -187,6 +192,7 @@ def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
             if max_vertices is not None and (capped or spent + 2 * n_new > max_vertices):
                 why.append(f"seen along {name}, round {r + 1}: " + (f"over {n_new}" if capped else f"{n_new}")
                            + " Steiner points, over the work budget left")
+                stopped = True
                 break
             X = X3[:, :2]
             base = _harmonic(T, X, H, k)
@@ -210,11 +216,11 @@ def _over_planes(ctx, hole_id, loop, max_vertices, rounds):
                           f"(lifted {other[0][1]:.3g})" if other else "")
                 patch = patch.with_(option=f"Steiner points: {len(patch.P)} vertices off the rim (plane normal to "
                                            f"{name}, round {r + 1}), lifted {lifted:.3g} off it {side[0]} the part{runner}")
-                return patch, "", spent, False
+                return patch, "", spent, False, stopped
         if tried:
             why.append(f"seen along {name}, {len(tried) // 2} rounds: "
                        + "; ".join(f"{t[2][0]} the part, {t[0]}" for t in tried[-2:]))
-    return None, "; ".join(why), spent, folded
+    return None, "; ".join(why), spent, folded, stopped
 
 
 def round_faces(k, max_vertices, spent):
@@ -262,22 +268,26 @@ def _cut_patch(ctx, hole_id, loop, max_vertices, rounds, depth):
     the pieces against each other, the folds across the chords). The next
     chord (at most :data:`CUT_TRIES` a level) where a piece fails. The
     chords are rim edges of both pieces: never split, never lifted.
-    Returns ``(patch or None, why, spent)``."""
+    Returns ``(patch or None, why, spent, stopped)`` (``stopped``: a round
+    or a cut was not made for the work budget)."""
     k = len(loop)
     spent = 0
     why = []
+    stopped = False
     _, _, forbidden = rim_data(ctx, loop)
     for i, j in _chords(ctx, loop, forbidden):
         sides = [np.arange(i, j + 1), np.concatenate([np.arange(j, k), np.arange(0, i + 1)])]
         parts = []
         for s in sides:
             left = None if max_vertices is None else max_vertices - spent
-            patch, w, used, folded = _over_planes(ctx, hole_id, loop[s], left, rounds)
+            patch, w, used, folded, hit = _over_planes(ctx, hole_id, loop[s], left, rounds)
             spent += used
+            stopped = stopped or hit
             if patch is None and folded and depth + 1 < CUT_DEPTH and len(s) >= 4:
                 left = None if max_vertices is None else max_vertices - spent
-                patch, w, used = _cut_patch(ctx, hole_id, loop[s], left, rounds, depth + 1)
+                patch, w, used, hit = _cut_patch(ctx, hole_id, loop[s], left, rounds, depth + 1)
                 spent += used
+                stopped = stopped or hit
             if patch is None:
                 why.append(f"cut between rim vertices {i} and {j}: the piece of {len(s)} vertices fails ({w})")
                 break
@@ -286,14 +296,15 @@ def _cut_patch(ctx, hole_id, loop, max_vertices, rounds, depth):
             whole = _joined(hole_id, loop, parts)
             bad_why, _ = check_patch(ctx, whole)
             if bad_why is None:
-                return whole, "", spent
+                return whole, "", spent, stopped
             why.append(f"cut between rim vertices {i} and {j}: the pieces together fail ({bad_why})")
         if max_vertices is not None and spent >= max_vertices:
             why.append("the work budget is spent")
+            stopped = True
             break
     if not why:
         why.append("no chord to cut it along")
-    return None, "cut into pieces along chords: " + "; ".join(why), spent
+    return None, "cut into pieces along chords: " + "; ".join(why), spent, stopped
 
 
 #: Chords tried, at each level of cutting (:func:`_cut_patch`).

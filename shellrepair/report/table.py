@@ -226,6 +226,13 @@ def table1_text(d, *, limit=30):
     for b in d.get("bridges") or []:
         if b["chosen"] == "tube" or "hole" in b.get("kinds", ()):  # borders that stay open need no line
             lines.append(f"  loops {loops_phrase(b['loops'])}: {b.get('shape') or b['chosen']} ({b['reason']})")
+    failures = {}
+    for h in d["holes"]:
+        if h["status"] == "failed" and h.get("failure"):
+            failures[h["failure"]] = failures.get(h["failure"], 0) + 1
+    if failures:
+        lines.append("  failed because: " + ", ".join(f"{k} ×{v}" for k, v in
+                                                     sorted(failures.items(), key=lambda t: -t[1])))
     open_rows = [h for h in d["holes"] if h["status"] != "filled"]
     if open_rows:
         lines.append("  left open:")
