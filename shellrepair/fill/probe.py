@@ -63,9 +63,10 @@ from shellrepair.mesh.geometry import cross, mean_edge
 
 __all__ = ["probe_errors", "hole_radius", "Pooled", "as_filled", "PROBES", "FLAT"]
 
-#: The candidate of the rim's triangulation with no new vertex
-#: (:data:`shellrepair.fill.selftest.FLAT`): measured on each test hole's
-#: triangulation before refinement, as the fill's flat triangulation is made.
+#: The candidate of the rim's triangulation with no new vertex (also
+#: :data:`shellrepair.fill.selftest.FLAT`, read from here): measured on each
+#: test hole's triangulation before refinement, as the fill's flat
+#: triangulation is made.
 FLAT = "flat"
 
 #: Test holes per real hole, at most: a third is cut only where the first

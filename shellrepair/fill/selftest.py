@@ -55,13 +55,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from shellrepair.fill.probe import FLAT as _probe_flat
+
 __all__ = ["choose_order", "choose_order_beside", "best_candidate", "OrderTest", "CANDIDATES", "DEFAULT_ORDER",
            "FLAT", "WITH_FLAT", "label"]
 
 #: Candidate fairing orders (ties go to ``DEFAULT_ORDER``, then the lower order).
 CANDIDATES = (1, 2, 3)
-#: The rim's triangulation with no new vertex (``order="flat"``).
-FLAT = "flat"
+#: The rim's triangulation with no new vertex (``order="flat"``): the
+#: test's own name for it, :data:`shellrepair.fill.probe.FLAT`.
+FLAT = _probe_flat
 #: The orders and the flat triangulation, for :func:`choose_order`'s
 #: ``candidates``. Not the default: measured as a candidate of ``auto``
 #: (eval/results/order-test/flat-candidate/), it helped on the design
