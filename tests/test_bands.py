@@ -850,6 +850,12 @@ def test_one_test_band_is_pooled_with_the_test_holes_beside_the_loops(monkeypatc
     assert pooled_with_band({1: 0.2, 2: 0.041, 3: 0.043}, clear).order == 3
     # and a band that does not judge a candidate leaves it out
     assert set(pooled_with_band({2: 0.01, 3: 0.02}, clear).errors) == {2, 3}
+    # a band its refill restores exactly (RMS 0) wins, without a log of 0
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        exact = pooled_with_band({1: 0.0, 2: 0.01, 3: 0.02}, clear)
+    assert exact.order == 1 and np.isfinite(list(exact.errors.values())).all()
 
 
 @pytest.mark.slow

@@ -392,7 +392,9 @@ def pooled_with_band(band, test):
     from shellrepair.fill.selftest import OrderTest, best_candidate
 
     k = int(test.probes)
-    pooled = {o: float(np.exp((np.log(band[o]) + k * np.log(e)) / (1 + k)))
+    # (an error of exactly 0, a refill that restores the scan, counts as
+    # 1e-300, as Pooled counts it: no log of 0)
+    pooled = {o: float(np.exp((np.log(max(band[o], 1e-300)) + k * np.log(max(e, 1e-300))) / (1 + k)))
               for o, e in test.errors.items() if o in band}
     return OrderTest(int(best_candidate(pooled)), errors=pooled, probes=k + 1, scale=test.scale)
 
