@@ -216,23 +216,15 @@ def table1_text(d, *, limit=30):
                                      "nonmanifold_vertices_split", "vertices_added")]
     if any(v for _, v in fixes):
         lines.append("  topology: " + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in fixes if v))
-    kinds = {}
-    for h in d["holes"]:
-        if h["status"] == "filled" and h.get("option"):
-            k = _filled_by(h)
-            kinds[k] = kinds.get(k, 0) + 1
+    kinds = _tally(_filled_by(h) for h in d["holes"] if h["status"] == "filled" and h.get("option"))
     if kinds:
-        lines.append("  filled by: " + ", ".join(f"{k} ×{v}" for k, v in sorted(kinds.items(), key=lambda t: -t[1])))
+        lines.append("  filled by: " + kinds)
     for b in d.get("bridges") or []:
         if b["chosen"] == "tube" or "hole" in b.get("kinds", ()):  # borders that stay open need no line
             lines.append(f"  loops {loops_phrase(b['loops'])}: {b.get('shape') or b['chosen']} ({b['reason']})")
-    failures = {}
-    for h in d["holes"]:
-        if h["status"] == "failed" and h.get("failure"):
-            failures[h["failure"]] = failures.get(h["failure"], 0) + 1
+    failures = _tally(h["failure"] for h in d["holes"] if h["status"] == "failed" and h.get("failure"))
     if failures:
-        lines.append("  failed because: " + ", ".join(f"{k} ×{v}" for k, v in
-                                                     sorted(failures.items(), key=lambda t: -t[1])))
+        lines.append("  failed because: " + failures)
     open_rows = [h for h in d["holes"] if h["status"] != "filled"]
     if open_rows:
         lines.append("  left open:")
@@ -241,6 +233,15 @@ def table1_text(d, *, limit=30):
         if len(open_rows) > limit:
             lines.append(f"    ... {len(open_rows) - limit} more (see the JSON report)")
     return "\n".join(lines)
+
+
+def _tally(keys):
+    """``"faired order 3 ×4, tube ×1"``: each key with its count, most
+    first (equal counts in the order first seen); "" for none."""
+    counts = {}
+    for k in keys:
+        counts[k] = counts.get(k, 0) + 1
+    return ", ".join(f"{k} ×{v}" for k, v in sorted(counts.items(), key=lambda t: -t[1]))
 
 
 def _filled_by(row):
