@@ -216,7 +216,9 @@ def _age(text):
 
 
 def _order(text):
-    if text in ("auto", "flat"):
+    from shellrepair.options import NAMED_ORDERS
+
+    if text in NAMED_ORDERS:
         return text
     if text in ("1", "2", "3"):
         return int(text)

@@ -22,9 +22,11 @@ from dataclasses import dataclass
 
 from shellrepair.errors import MeshError
 
-__all__ = ["RepairOptions"]
+__all__ = ["RepairOptions", "NAMED_ORDERS", "order_value"]
 
-_ORDERS = (1, 2, 3, "flat", "auto")
+#: The orders given by name, not number: the flat triangulation and the order test's choice.
+NAMED_ORDERS = ("flat", "auto")
+_ORDERS = (1, 2, 3) + NAMED_ORDERS
 _METHODS = ("fair", "seed")
 _BRIDGES = ("auto", "never", "always")
 _BASES = ("auto", "flat", "faired")
@@ -32,6 +34,21 @@ _BASES = ("auto", "flat", "faired")
 
 def _whole(x):
     return isinstance(x, numbers.Integral) and not isinstance(x, bool)
+
+
+def order_value(o):
+    """An order as the options keep it: ``"flat"`` and ``"auto"`` by name,
+    a number as a plain int (``"2"`` or ``numpy.int64(2)`` -> ``2``).
+
+    Parameters
+    ----------
+    o : int, str
+
+    Returns
+    -------
+    int or str
+    """
+    return o if o in NAMED_ORDERS else int(o)
 
 
 @dataclass(frozen=True)
@@ -165,8 +182,7 @@ class RepairOptions:
         if not isinstance(self.order_for, dict) or not all(
                 _whole(i) and i >= 0 and not isinstance(o, bool) and o in _ORDERS for i, o in self.order_for.items()):
             raise MeshError(f"order_for must map hole ids to 1, 2, 3, 'flat' or 'auto', got {self.order_for!r}")
-        object.__setattr__(self, "order_for", {int(i): (o if o in ("auto", "flat") else int(o))
-                                               for i, o in sorted(self.order_for.items())})
+        object.__setattr__(self, "order_for", {int(i): order_value(o) for i, o in sorted(self.order_for.items())})
         for a, b, what in (("leave_open", "order_for", "left open and given an order"),
                            ("leave_open", "cap_flat", "left open and capped flat"),
                            ("leave_open", "fill", "left open and filled"),
@@ -176,7 +192,7 @@ class RepairOptions:
                 raise MeshError(f"hole {min(both)} is both {what}")
         # NumPy integers in, plain ints kept (reports are JSON)
         for name in ("smooth", "jobs") + (("max_hole",) if self.max_hole is not None else ()) + \
-                (("order",) if self.order not in ("auto", "flat") else ()):
+                (("order",) if self.order not in NAMED_ORDERS else ()):
             object.__setattr__(self, name, int(getattr(self, name)))
 
     def replace(self, **changes):

@@ -26,6 +26,7 @@ import json
 from pathlib import Path
 
 from shellrepair.errors import MeshError
+from shellrepair.options import order_value
 
 __all__ = ["read_plan", "ACTIONS"]
 
@@ -97,7 +98,7 @@ def read_plan(path):
         i = int(lp["id"])
         if action.startswith("order "):
             o = action.split()[1]
-            out["order_for"][i] = o if o in ("auto", "flat") else int(o)
+            out["order_for"][i] = order_value(o)
         else:
             out[action.replace(" ", "_")].append(i)
         edges, center = lp.get("edges"), lp.get("center")
