@@ -19,13 +19,24 @@ relief. A band a few rings wide next to the rim (the earlier test) sees
 only the first rings, where every order is close to the scan; a small
 hole's verdict says nothing of a large one's.
 
-A real rim is often rougher than intact scan (a scanner's ragged fringe
+A real rim is often noisier than intact scan (a scanner's ragged fringe
 at the edge of what it saw), and a higher order carries that noise on into
-the hole. So each test hole's rim is given the real rim's roughness
-(:func:`shellrepair.fill.roughness.rim_roughness`, the offsets along the normal that the real rim has
-beyond the test rim's own, drawn from a fixed seed): on a sphere with a
-clean rim order 3 wins; with the rim moved by noise of 0.5 % of the radius
-order 2 does, and the choice follows (tests/test_repair.py).
+the hole. So each test hole's rim is given the real rim's noise
+(:func:`shellrepair.fill.roughness.rim_noise`: the normal offsets' changes
+from one rim vertex to the next, where the surface's curvature term
+cancels; what the real rim has beyond the test rim's own, drawn from a
+fixed seed): on a sphere with a clean rim order 3 wins; with the rim moved
+by noise of 0.5 % of the radius order 2 does, and the choice follows
+(tests/test_repair.py). The noise is given only where the real rim is
+clearly the noisier (:data:`shellrepair.fill.roughness.SIGNIFICANCE`: two
+clean rims differ by their grids' jags alone). Until 2026-12-07 the rims
+were compared by their roughness (the offsets themselves), which holds
+the curvature term too: a real rim on more curved scan than its test
+holes had the difference given to them as noise, which weighs against
+order 3 (5 discs on a fat torus, case 8 of seed 162639851: order 2 on
+every disc, 4.95 per mille, where order 3 gives 0.577).
+eval/results/order-test/probe-noise/ has the screens on development
+seeds; BENCHMARKS.md ("The order test") the seeds drawn after the change.
 
 Where the scan stands across the hole (:func:`shellrepair.fill.creases.walled`:
 walls around it, as on a CAD part whose face the views missed up to its
@@ -58,7 +69,7 @@ from shellrepair.fill import probe_kernels
 from shellrepair.fill.creases import CREASE_DEGREES, walled
 from shellrepair.fill.placement import (cut_test_hole, faces_within, hole_outline, hole_radius, inside_polygon,
                                         near_scan, outline_narrow_axis)
-from shellrepair.fill.roughness import rim_roughness, roughen
+from shellrepair.fill.roughness import add_noise, rim_noise
 from shellrepair.mesh.geometry import cross, mean_edge
 
 __all__ = ["probe_errors", "hole_radius", "Pooled", "as_filled", "PROBES", "FLAT"]
@@ -113,8 +124,8 @@ DISC_POINTS = 32
 CENTRES_PER_SHELL = 24
 #: Candidate centres whose placement walks are asked for at once (:class:`_Ends`).
 ENDS_BATCH = 8
-#: Seed of the offsets that give a test hole's rim the real rim's roughness
-#: (:func:`shellrepair.fill.roughness.roughen`): the same offsets for the same scan.
+#: Seed of the offsets that give a test hole's rim the real rim's noise
+#: (:func:`shellrepair.fill.roughness.add_noise`): the same offsets for the same scan.
 ROUGHNESS_SEED = 0
 #: Cotangent rounds of the test's fairing (the fill itself uses
 #: ``fair.COTAN_ROUNDS``); fewer make the test cheaper.
@@ -344,10 +355,10 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     # probe's centre vertex either (that face has the vertex as a corner):
     # every placement would be refused, so it is not tried
     own = [outline] if inside_polygon(np.zeros(1), np.zeros(1), outline)[0] else []
-    # the real rim's roughness, given to each test hole's rim (a ragged rim
+    # the real rim's noise, given to each test hole's rim (a ragged rim
     # is noise a higher order carries on into the hole)
     ring = ctx.F[ctx.ring_faces(loop, 1)]
-    rough = rim_roughness(V, ring, loop)
+    noise = rim_noise(V, ring, loop)
     # the margin a placement needs where the scan's faces are longer than the rim's edges
     faces_margin = MARGIN_FACES * _longest_edges(V, ring)
     # the near vertices' distances to the rim, kept for every scale and outline
@@ -361,7 +372,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     for f in SCALES:          # the largest scale at which MIN_PROBES test holes fit
         small = False
         for shape in own + (narrow_too if f == 1.0 else []) + [disc]:   # the outline, the narrow disc, the disc of its area
-            errors, n, alike = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), rough,
+            errors, n, alike = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), noise,
                                              rim, rings, faces_margin, crease)
             if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
                 return errors, n, f
@@ -371,7 +382,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     return {}, 0, 0.0
 
 
-def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings, faces_margin, crease=None):
+def _probe_errors(ctx, loop, candidates, max_probes, r, shape, noise, rim, rings, faces_margin, crease=None):
     from shellrepair.errors import MeshError
     from shellrepair.fill.fair import fair_patch_orders
     from shellrepair.fill.patch import PatchError
@@ -431,7 +442,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, rough, rim, rings
             if got is None:
                 continue
             Vl, Fl, ploop, Q = got
-            Vl = roughen(Vl, Fl, ploop, rough, ROUGHNESS_SEED + len(taken), edge=h)
+            Vl = add_noise(Vl, Fl, ploop, noise, ROUGHNESS_SEED + len(taken), count=len(loop))
             origin = Vl.mean(axis=0)
             try:
                 lctx = ScanContext(Mesh(V=Vl - origin, F=Fl))

@@ -15,9 +15,10 @@ next to the rim, one measured criterion decides (:func:`choose_order`):
    size only where fewer than two of the full size fit; where the scan
    stands across the hole, each stopped at the creases it crosses, the
    relief it encloses cut with it, :mod:`shellrepair.fill.creases`), their
-   rims given the real rim's roughness
-   (:func:`shellrepair.fill.roughness.rim_roughness`: a ragged rim is noise that a
-   higher order carries on into the hole).
+   rims given the real rim's noise
+   (:func:`shellrepair.fill.roughness.rim_noise`: a ragged rim is noise that a
+   higher order carries on into the hole; the surface's curvature, which
+   differs between the real rim and a test rim, is not counted).
 2. Fill each with every candidate order exactly as a hole is filled
    (:func:`shellrepair.fill.probe._refined`: triangulate, refine; then
    :func:`shellrepair.fill.fair.fair_patch_orders`), order 3 as the fill
