@@ -11,7 +11,7 @@ the geometric mean over the test bands of each one's RMS).
 
 A test band's rims are given the real loops' noise
 (:func:`shellrepair.fill.roughness.rim_noise`), as test holes' rims are
-given the real rim's roughness: a tube faired to a ragged rim carries its
+(those only where the real rim is clearly the noisier): a tube faired to a ragged rim carries its
 noise across the whole band, and a test band cut through clean scan does
 not show it. With every rim given a scanner's fringe (``eval/regret.py
 --ragged 0.1``), on the band cases of three seeds drawn for the check
