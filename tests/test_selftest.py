@@ -704,6 +704,24 @@ def test_discs_on_a_fat_torus_get_order_3_where_a_test_hole_balloons_at_order_3(
 # --------------------------------------------------------------------------
 # holes the scan stands across: test holes stop at creases (fill.creases)
 # --------------------------------------------------------------------------
+@pytest.mark.slow
+def test_discs_on_a_fat_torus_whose_test_holes_lie_on_flatter_scan_get_order_3():
+    """Case 8 of seed 162639851: five discs on a torus of r/R 0.7, tested
+    by test holes of half their size on less curved scan. Given the
+    difference of the rims' umbrella offsets (the curvature term) as
+    noise, every disc took order 2 (4.95 per mille; order 3 0.577). Given
+    only noise the real rims clearly have more of, they take order 3."""
+    from eval import stress
+
+    case = stress.stress_case(8, 162639851)
+    if case.name != "s162639851-08-discs-torus-0.7":    # the draw depends on the shapes at hand
+        pytest.skip(f"drew {case.name} without ../shared's scans")
+    auto, forced, rep = auto_and_forced_rms(case, 3)
+    assert auto <= 1.05 * forced
+    discs = [h for h in rep["holes"] if h.get("choice")]
+    assert len(discs) == 4 and all(h["choice"]["order"] == 3 for h in discs)
+
+
 def test_the_scan_stands_across_a_cylinders_open_end_and_not_across_a_disc_in_a_sphere():
     from shellrepair.fill.creases import walled
 
