@@ -95,19 +95,6 @@ def _touching(Vl, Fl, ploop):
     return Fl[on[Fl].any(axis=1)]
 
 
-def _offset(Vl, ploop, unit, real, own, seed):
-    """``Vl`` with the rim ``ploop`` moved along ``unit`` by normal
-    offsets of standard deviation ``sqrt(real² − own²)`` drawn from
-    ``seed``; ``Vl`` itself where ``own`` is as large already."""
-    extra = float(np.sqrt(max(real * real - own * own, 0.0)))
-    if extra <= 0.0:
-        return Vl
-    z = np.random.default_rng(seed).standard_normal(len(ploop))
-    out = Vl.copy()
-    out[ploop] += (extra * z)[:, None] * unit
-    return out
-
-
 def rim_noise(V, F, loop):
     """A rim's noise along its normal, apart from the surface's curvature.
 
@@ -190,4 +177,10 @@ def add_noise(Vl, Fl, ploop, noise, seed, count=None):
         error = np.sqrt(2.0 * noise ** 4 / max(int(count), 1) + 2.0 * own ** 4 / max(len(ploop), 1))
         if noise * noise - own * own <= SIGNIFICANCE * error:
             return Vl
-    return _offset(Vl, ploop, unit, noise, own, seed)
+    extra = float(np.sqrt(max(noise * noise - own * own, 0.0)))
+    if extra <= 0.0:
+        return Vl
+    z = np.random.default_rng(seed).standard_normal(len(ploop))
+    out = Vl.copy()
+    out[ploop] += (extra * z)[:, None] * unit
+    return out

@@ -1,5 +1,5 @@
 """A/B screen: default with and without env VAR=1; forced orders only where they differ.
-usage: abscreen.py VAR SEED N FAMS(comma or '') [SHAPE]"""
+usage: abscreen.py VAR SEED N FAMS(comma or "") [SHAPE or any] [RAGGED]"""
 import sys, os, hashlib; sys.path.insert(0, ".")
 import numpy as np
 from eval import stress, regret
@@ -7,14 +7,15 @@ from shellrepair.repair import repair_mesh
 from shellrepair.mesh.io import Mesh
 var, seed, n = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 fams = sys.argv[4].split(",") if len(sys.argv) > 4 and sys.argv[4] else None
-shape = sys.argv[5] if len(sys.argv) > 5 else None
+shape = sys.argv[5] if len(sys.argv) > 5 and sys.argv[5] != "any" else None
+ragged = float(sys.argv[6]) if len(sys.argv) > 6 else 0.0
 ok = stress.available_shapes()
 G = lambda a: float(np.exp(np.mean(np.log(a)))) if a else float("nan")
 ga, gb = [], []
 def h(m): return hashlib.sha256(np.ascontiguousarray(m.V).tobytes() + np.ascontiguousarray(m.F).tobytes()).hexdigest()[:12]
 for i in range(n):
     fam = fams[i % len(fams)] if fams else None
-    c = stress.stress_case(i, seed, shapes_ok=ok, family=fam, shape=shape)
+    c = stress.stress_case(i, seed, shapes_ok=ok, family=fam, shape=shape, ragged=ragged)
     os.environ.pop(var, None)
     ma, _ = repair_mesh(Mesh(V=c.V, F=c.F), order="auto")
     os.environ[var] = "1"
