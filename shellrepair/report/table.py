@@ -238,10 +238,9 @@ def table1_text(d, *, limit=30):
 def _tally(keys):
     """``"faired order 3 ×4, tube ×1"``: each key with its count, most
     first (equal counts in the order first seen); "" for none."""
-    counts = {}
-    for k in keys:
-        counts[k] = counts.get(k, 0) + 1
-    return ", ".join(f"{k} ×{v}" for k, v in sorted(counts.items(), key=lambda t: -t[1]))
+    from collections import Counter
+
+    return ", ".join(f"{k} ×{v}" for k, v in Counter(keys).most_common())
 
 
 def _filled_by(row):
