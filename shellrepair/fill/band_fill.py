@@ -16,12 +16,12 @@ import numpy as np
 
 from shellrepair.fill import checks
 from shellrepair.fill.checks import Outcome
-from shellrepair.fill.hole import OPTION_NAMES, PIN_ROUNDS, _pin_region, band_order, fill_hole
+from shellrepair.fill.hole import OPTION_NAMES, PIN_ROUNDS, _pin_region, band_order, fill_hole, refair_on_harmonic
 from shellrepair.fill.merge import Accepted
 from shellrepair.fill.patch import OverBudget, PatchError, _meets_edge_on, build_patch, corners
 from shellrepair.mesh.index import rim_data
 
-__all__ = ["flat_face_with_hole", "refair_on_harmonic", "CAPS_SHARE", "GUIDE_SHARE", "COARSE_SPACING", "REFAIR_ROUNDS"]
+__all__ = ["flat_face_with_hole", "CAPS_SHARE", "GUIDE_SHARE", "COARSE_SPACING"]
 
 
 #: Share of a band's budget the two caps get when they are filled before
@@ -38,65 +38,6 @@ GUIDE_SHARE = 0.5
 #: Ring spacing of the coarse tube of :func:`_coarse_tube`, in rim edge
 #: lengths: about 1/16 of the vertices of the tube at the rim's spacing.
 COARSE_SPACING = 4.0
-#: Rounds of :func:`refair_on_harmonic`: each holds two more rings around the
-#: new faults on the harmonic tube (a work bound: at most this many fairings
-#: of the tube's own size, no refinement; a scanner-hidden torus band needed 6).
-REFAIR_ROUNDS = 6
-
-
-def refair_on_harmonic(ctx, tube, order, smooth, check):
-    """A harmonic tube, kept where the band's order failed, faired again at that order.
-
-    Where the tube faired at ``order`` crosses the scan or itself (often one
-    triangle at a spike of a rim, which no re-triangulation of its
-    surroundings mends) the band falls back on the harmonic tube (order 1),
-    which keeps to the rims' planes. On a torus whose underside a scanner
-    missed, that tube runs straight across the missing arc of the torus's
-    section: 29.1 per mille from the truth, where the order-2 tube that
-    failed its checks by one triangle lay 5.5 from it. So the harmonic
-    tube's own mesh is faired again at ``order``; where that fairing fails
-    its checks, the vertices of its faulty triangles and two rings around
-    them are held where the harmonic tube has them, and the region grows by
-    two rings a round (:data:`REFAIR_ROUNDS`). The first fairing that passes
-    is kept; if none does, the harmonic tube is.
-
-    Parameters
-    ----------
-    ctx : shellrepair.mesh.index.ScanContext
-    tube : shellrepair.fill.patch.Patch or None
-        The band's tube; only a harmonic one (``order`` 1) with new vertices is faired again.
-    order : int
-        The band's fairing order.
-    smooth : int
-    check : callable
-        ``check(ctx, patch) -> (why or None, faulty triangles)``, the tube's checks.
-
-    Returns
-    -------
-    tube : shellrepair.fill.patch.Patch or None
-        The tube faired again, or ``tube`` itself.
-    """
-    if tube is None or order == 1 or tube.order != 1 or not len(tube.P):
-        return tube
-    region = None
-    for _ in range(REFAIR_ROUNDS):
-        try:
-            again = build_patch(ctx, tube.hole_id, tube.loop, order=order, smooth=smooth,
-                                initial=(tube.P, tube.T), refine=False, energy=True, pinned=region)
-        except PatchError:
-            return tube
-        again = again.with_(kind="tube", pinned=0 if region is None else len(region), mended=tube.mended,
-                            rerouted=tube.rerouted)
-        why, bad = check(ctx, again)
-        if why is None:
-            held = "" if region is None else f", {len(region)} vertices held on it around its faults"
-            return again.with_(option=f"{tube.option}; faired again at order {order} on its mesh{held}")
-        if not bad.size:
-            return tube
-        region = _pin_region(again, bad, region)
-    return tube
-
-
 def _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget):
     """The first tube of a band whose arcs' guide is too large for the band's
     budget, or None.
@@ -535,7 +476,10 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
             c = caps[n]
             if c.patch is None and cap_faults.get(L.id):
                 notes = []
-                mended = checks.mend_last(ctx, cap_faults[L.id], notes)
+                # (faired again at the order of the cap's failed faired
+                # attempts: none where the test chose order 1)
+                mended = refair_on_harmonic(ctx, checks.mend_last(ctx, cap_faults[L.id], notes),
+                                            max((f[0].order or 1 for f in cap_faults[L.id]), default=1), smooth)
                 caps[n] = Outcome(mended, "" if mended is not None else "; ".join([c.reason] + notes),
                                   c.seconds, c.reasons + notes,
                                   "" if mended is not None else c.failure or checks.NO_PATCH_PASSES)

@@ -29,7 +29,8 @@ from shellrepair.fill.fair import umbrella_smooth
 from shellrepair.fill.patch import PatchError, _meets_edge_on, build_patch, corners
 from shellrepair.lazyscipy import cKDTree
 
-__all__ = ["fill_hole", "fill_hole_at_order", "band_order", "pooled_with_band", "SEED_SMOOTH_PASSES"]
+__all__ = ["fill_hole", "fill_hole_at_order", "band_order", "pooled_with_band", "refair_on_harmonic",
+           "SEED_SMOOTH_PASSES", "REFAIR_ROUNDS"]
 
 #: Smoothing passes of the paper's seed method when ``smooth`` is not given.
 SEED_SMOOTH_PASSES = 10
@@ -57,6 +58,11 @@ FLAT_RETRIES = 12
 FAIRED_RETRIES = 3
 #: Rounds of growing the region held on the flat triangulation around a crossing.
 PIN_ROUNDS = 3
+#: Rounds of :func:`refair_on_harmonic`, each holding two more rings around
+#: the new faults on the harmonic patch (a work bound: at most this many
+#: fairings of the patch's own size, no refinement; a scanner-hidden torus
+#: band needed 6).
+REFAIR_ROUNDS = 6
 #: New vertices the Steiner layer (:mod:`~shellrepair.fill.steiner`) may build
 #: for a hole whose work budget the earlier options spent: it is the last
 #: chance before the hole stays open, and its rounds are counted.
@@ -612,7 +618,8 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                     option += f", {len(avoid)} chords re-routed"
                 if pinned is not None:
                     option += f", {len(pinned)} vertices held on the flat triangulation"
-                return Outcome(patch.with_(option=option), "", time.perf_counter() - t0, reasons)
+                return Outcome(refair_on_harmonic(ctx, patch.with_(option=option), order, smooth, energy=energy), "",
+                               time.perf_counter() - t0, reasons)
             more = _chords_near(ctx, patch, bad) - avoid if bad.size else set()
             if name == "faired" and more and faired_rounds < FAIRED_RETRIES:
                 faired_rounds += 1
@@ -627,7 +634,8 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
     if flat_ok is not None:
         mended = checks.mend_last(ctx, faulty, reasons) if faulty and defer is None else None
         if mended is not None:
-            return Outcome(mended, "", time.perf_counter() - t0, reasons)
+            return Outcome(refair_on_harmonic(ctx, mended, order, smooth, energy=energy), "", time.perf_counter() - t0,
+                           reasons)
         flat_ok = flat_ok.with_(option="flat triangulation" + (f", {len(avoid)} chords re-routed" if avoid else ""),
                                 kind="flat", rerouted=len(avoid))
         return Outcome(flat_ok, "", time.perf_counter() - t0, reasons)
@@ -641,7 +649,8 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
         if harmonic is not None:
             patch, why, bad = harmonic
             if why is None:
-                return Outcome(patch, "", time.perf_counter() - t0, reasons)
+                return Outcome(refair_on_harmonic(ctx, patch, order, smooth, energy=energy), "",
+                               time.perf_counter() - t0, reasons)
             faulty.append((patch, bad, patch.option))
     if defer is not None:   # the caller runs the last layer later (a band's cap: after the tube)
         defer.extend(faulty)
@@ -649,13 +658,74 @@ def _fill_by_options(ctx, hole_id, loop, order, smooth, energy=False, budget=Non
                        checks.WORK_BUDGET if over_budget else checks.NO_PATCH_PASSES)
     mended = checks.mend_last(ctx, faulty, reasons)
     if mended is not None:
-        return Outcome(mended, "", time.perf_counter() - t0, reasons)
+        return Outcome(refair_on_harmonic(ctx, mended, order, smooth, energy=energy), "", time.perf_counter() - t0,
+                       reasons)
     patch, failure = _steiner_last(ctx, hole_id, loop, budget, reasons)
     if patch is not None:
         return Outcome(patch, "", time.perf_counter() - t0, reasons)
     if failure == checks.NO_PATCH_PASSES and over_budget:
         failure = checks.WORK_BUDGET
     return Outcome(None, "; ".join(reasons), time.perf_counter() - t0, reasons, failure)
+
+
+def refair_on_harmonic(ctx, patch, order, smooth, check=None, energy=True):
+    """A harmonic patch, kept where the hole's order failed, faired again at that order.
+
+    Where the patch faired at ``order`` crosses the scan or itself (often a
+    few triangles at a spike of the rim, which no re-triangulation of their
+    surroundings mends), the hole falls back on the harmonic patch (order
+    1), which keeps to the rim's plane: a membrane. On a torus whose
+    underside a scanner missed, the harmonic tube ran straight across the
+    missing arc of the torus's section, 29.1 per mille from the truth, where
+    the order-2 tube that failed its checks by one triangle lay 5.5 from it.
+    So the harmonic patch's own mesh (mended where the last layer mended it)
+    is faired again at ``order``; where that fairing fails its checks, the
+    vertices of its faulty triangles and two rings around them are held
+    where the harmonic patch has them, the region growing by two rings a
+    round (:data:`REFAIR_ROUNDS`). The first fairing that passes is kept;
+    if none does, the harmonic patch is.
+
+    Parameters
+    ----------
+    ctx : shellrepair.mesh.index.ScanContext
+    patch : shellrepair.fill.patch.Patch or None
+        Only a harmonic patch or tube (``patch.order`` 1) with new vertices is faired again.
+    order : int
+        The order the hole's faired attempts were made at (1: nothing to do).
+    smooth : int
+    check : callable, optional
+        ``check(ctx, patch) -> (why or None, faulty triangles)``; default
+        :func:`shellrepair.fill.checks.check_patch`.
+    energy : bool
+        Measure the new patch's energies.
+
+    Returns
+    -------
+    patch : shellrepair.fill.patch.Patch or None
+        Faired again (kind ``faired``, or ``tube``), or ``patch`` itself.
+    """
+    if (patch is None or order not in (2, 3) or patch.order != 1 or patch.kind not in ("harmonic", "tube")
+            or not len(patch.P)):
+        return patch
+    check = checks.check_patch if check is None else check
+    kind = "tube" if patch.kind == "tube" else "faired"
+    region = None
+    for _ in range(REFAIR_ROUNDS):
+        try:
+            again = build_patch(ctx, patch.hole_id, patch.loop, order=order, smooth=smooth,
+                                initial=(patch.P, patch.T), refine=False, energy=energy, pinned=region)
+        except PatchError:
+            return patch
+        again = again.with_(kind=kind, T0=patch.T0, disc=patch.disc, pinned=0 if region is None else len(region),
+                            mended=patch.mended, rerouted=patch.rerouted)
+        why, bad = check(ctx, again)
+        if why is None:
+            held = "" if region is None else f", {len(region)} vertices held on it around its faults"
+            return again.with_(option=f"{patch.option}; faired again at order {order} on its mesh{held}")
+        if not bad.size:
+            return patch
+        region = _pin_region(again, bad, region)
+    return patch
 
 
 def _steiner_last(ctx, hole_id, loop, budget, reasons):
