@@ -38,6 +38,8 @@ GUIDE_SHARE = 0.5
 #: Ring spacing of the coarse tube of :func:`_coarse_tube`, in rim edge
 #: lengths: about 1/16 of the vertices of the tube at the rim's spacing.
 COARSE_SPACING = 4.0
+
+
 def _coarse_tube(ctx, A, B, PA, PB, arcs, spacing, reach, order, budget):
     """The first tube of a band whose arcs' guide is too large for the band's
     budget, or None.
