@@ -423,7 +423,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
             # always tried once (as the first tube, at most the whole budget)
             with budget.whole():
                 tube, _, _ = attempt(first, init, 1)
-            tube = refair_on_harmonic(ctx, tube, order, smooth, check_tube)
+            tube = refair_on_harmonic(ctx, tube, order if refair is None else refair, smooth, check_tube)
     if tube is None and not lean:
         tube, _, _ = attempt("zipped", tube_triangles(PA, PB), order)
     if tube is None and mutual and mode != "always" and tube_faults:
@@ -433,7 +433,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
         notes = []
         tube = refair_on_harmonic(ctx, checks.mend_last(ctx, [(p, b, f"tube to loop {B.id} ({how})")
                                                             for p, b, how in tube_faults], notes,
-                                                        check=check_tube, what="tube"), order, smooth, check_tube)
+                                                        check=check_tube, what="tube"),
+                                  order if refair is None else refair, smooth, check_tube)
         if notes:
             why_tube += "; " + "; ".join(notes)
         tube_faults = [] if tube is None else tube_faults   # (not mended again after the caps)
@@ -490,7 +491,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
             tube = refair_on_harmonic(ctx, checks.mend_last(ctx, [(p, b, f"tube to loop {B.id} ({first})")
                                                                 for p, b, first in tube_faults],
                                                             notes, check=check_tube, what="tube"),
-                                      order, smooth, check_tube)
+                                      order if refair is None else refair, smooth, check_tube)
             if notes:
                 why_tube += "; " + "; ".join(notes)
     why_caps = caps_crossing(caps)
