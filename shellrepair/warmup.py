@@ -139,6 +139,8 @@ def _warm_second():
     refine_kernels.split_test(X, T, np.ones(4), 1.5)
     vo, vs = topology_kernels.vertex_faces(T, 4)
     context_kernels.ring_walk(np.array([0], np.int64), 2, vo, vs, T, np.zeros(4, np.bool_), np.zeros(2, np.bool_))
+    context_kernels.ring_walk_within(np.array([0], np.int64), 2, vo, vs, T, X, X[0], 1.0, np.zeros(4, np.bool_),
+                                     np.zeros(2, np.bool_))
     distance_kernels.centroids(X, T)
     distance_kernels.nearest_triangle_distances(X[:2], X, T, np.zeros((2, 2), np.int64))
     context_kernels.rim_walk(np.array([0, 1, 3, 2], np.int64), *topology_kernels.vertex_faces(T, 4), T, X)
@@ -154,7 +156,6 @@ def _warm_second():
     probe_kernels.placement(X, T, across, start, fpos, 1, X[1], 2.0, 0.5)
     probe_kernels.placement_statuses(X, T, across, start, fpos, np.array([1], np.int64), np.array([1], np.int64),
                                      2.0, 0.5)
-    probe_kernels.faces_within(X, T, np.array([0, 1], np.int64), X[0], 1.0)
     probe_kernels.within_distance(X, np.array([0, 1], np.int64), X[0], 1.0)
     probe_kernels.component_within(across, np.array([0, 1], np.int64), np.array([0], np.int64))
     probe_kernels.inside_polygon(X[:, 0], X[:, 1], X[:3, :2])

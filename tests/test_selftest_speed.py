@@ -56,6 +56,73 @@ def test_a_walk_that_runs_out_of_mesh_repeats_its_last_ring_end():
     assert np.array_equal(np.sort(faces[:off[2]]), ctx._ring_faces_numpy(np.array([0]), 2))
 
 
+def _within(ctx, faces, c, reach):
+    """The faces of ``faces`` with a corner within ``reach`` of ``c``."""
+    D = ctx.V[ctx.F[faces]] - c
+    return faces[((D * D).sum(axis=2) <= reach * reach).any(axis=1)]
+
+
+@pytest.mark.parametrize("shift", [0.0, 1e6])
+def test_the_test_region_is_every_face_within_reach_where_the_scan_within_reach_is_one_piece(shift, monkeypatch):
+    """ScanContext.faces_near on a perforated sphere (the scan within any
+    ball around a hole is one piece there): the faces within the rings
+    that have a corner within reach, as the full ring walk finds them;
+    the NumPy walk finds the same; the scratch marks are left clear."""
+    ctx, holes = perforated()
+    ctx = ScanContext(Mesh(V=ctx.V + shift, F=ctx.F))
+    for h in holes:
+        loop = np.asarray(h.vertices, np.int64)
+        c = ctx.V[loop].mean(axis=0)
+        for rings, reach in ((3, 10.0), (60, 0.3), (60, 0.05), (12, 0.4)):
+            got = ctx.faces_near(loop, rings, c, reach)
+            assert got.dtype == np.int64 and np.all(np.diff(got) > 0)
+            assert np.array_equal(got, _within(ctx, ctx.ring_faces(loop, rings), c, reach))
+    assert not ctx._vmark.any() and not ctx._fmark.any()
+    with monkeypatch.context() as m:
+        m.setattr(compiled, "ENABLED", False)
+        loop = np.asarray(holes[0].vertices, np.int64)
+        c = ctx.V[loop].mean(axis=0)
+        numpy_walk = ctx.faces_near(loop, 60, c, 0.3)
+    assert np.array_equal(numpy_walk, ctx.faces_near(loop, 60, c, 0.3))
+
+
+def hairpin(length=4.0, radius=0.15, nu=160, nv=9):
+    """A strip folded back on itself: a lower sheet at z = 0 (x from 0 to
+    ``length``), a half turn of ``radius``, an upper sheet at z = 2 radius
+    back over it."""
+    total = 2 * length + np.pi * radius
+    u, v = np.meshgrid(np.linspace(0.0, total, nu), np.linspace(0.0, 1.0, nv), indexing="ij")
+    u, v = u.ravel(), v.ravel()
+    t = np.clip((u - length) / radius, 0.0, np.pi)
+    x = np.where(u < length, u, np.where(u > length + np.pi * radius, length - (u - length - np.pi * radius),
+                                          length + radius * np.sin(t)))
+    z = np.where(u < length, 0.0, np.where(u > length + np.pi * radius, 2 * radius, radius - radius * np.cos(t)))
+    V = np.column_stack([x, v, z])
+    i, j = np.meshgrid(np.arange(nu - 1), np.arange(nv - 1), indexing="ij")
+    a = (i * nv + j).ravel()
+    F = np.concatenate([np.column_stack([a, a + nv, a + nv + 1]), np.column_stack([a, a + nv + 1, a + 1])])
+    return V, F.astype(np.int64)
+
+
+def test_the_test_region_leaves_out_scan_joined_to_the_hole_only_beyond_reach(monkeypatch):
+    """The sheet folded back over the start lies within reach of it, but
+    the fold that joins the two lies beyond: the walk within reach keeps
+    the lower sheet's faces alone, where the full ring walk with the faces
+    beyond reach dropped after it kept the upper sheet's too."""
+    V, F = hairpin()
+    ctx = ScanContext(Mesh(V=V, F=F))
+    start = np.array([int(np.argmin(((V - [1.0, 0.5, 0.0]) ** 2).sum(axis=1)))], np.int64)
+    c, reach, rings = V[start[0]], 1.0, 400
+    got = ctx.faces_near(start, rings, c, reach)
+    upper = (V[F][:, :, 2] > 0.29).all(axis=1)
+    full = _within(ctx, ctx.ring_faces(start, rings), c, reach)
+    assert upper[full].any() and not upper[got].any()
+    assert np.array_equal(got, full[~upper[full]])
+    with monkeypatch.context() as m:
+        m.setattr(compiled, "ENABLED", False)
+        assert np.array_equal(ctx.faces_near(start, rings, c, reach), got)
+
+
 @pytest.mark.parametrize("shift", [0.0, 1e6])
 def test_centroids_are_numpys_means(shift):
     rng = np.random.default_rng(5)

@@ -32,7 +32,7 @@ from shellrepair.mesh.geometry import cross
 from shellrepair.mesh.topology import boundary_half_edges, half_edge_ends
 
 __all__ = ["hole_radius", "hole_outline", "outline_narrow_axis", "inside_polygon", "inside_polygon_reference",
-           "rim_tails", "near_scan", "faces_within", "cut_test_hole", "EDGES_AFTER", "COMPILED_WALK"]
+           "rim_tails", "near_scan", "cut_test_hole", "EDGES_AFTER", "COMPILED_WALK"]
 
 
 def hole_radius(V, loop):
@@ -410,14 +410,6 @@ def _reaches(outline, margin):
     r_out = float(np.sqrt((outline * outline).sum(axis=1).max()))
     R = r_out + margin
     return r_out, R, R - margin * 0.5
-
-
-def faces_within(V, F, faces, c, reach):
-    """The faces of ``faces`` with a corner within ``reach`` of ``c`` (in their order)."""
-    if compiled.ENABLED:
-        return probe_kernels.faces_within(V, F, faces, c, reach)
-    T = V[F[faces]]
-    return faces[(((T - c) ** 2).sum(axis=2) <= reach * reach).any(axis=1)]
 
 
 def rim_tails(T, n):

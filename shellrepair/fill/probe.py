@@ -67,7 +67,7 @@ import numpy as np
 from shellrepair import compiled
 from shellrepair.fill import probe_kernels
 from shellrepair.fill.creases import CREASE_DEGREES, walled
-from shellrepair.fill.placement import (cut_test_hole, faces_within, hole_outline, hole_radius, inside_polygon,
+from shellrepair.fill.placement import (cut_test_hole, hole_outline, hole_radius, inside_polygon,
                                         near_scan, outline_narrow_axis)
 from shellrepair.fill.roughness import add_noise, rim_noise
 from shellrepair.mesh.geometry import cross, mean_edge
@@ -237,32 +237,6 @@ class _RimDistance:
         return out
 
 
-class _Rings:
-    """The faces within some rings of a hole's rim, for each shell, scale
-    and outline of its test: one walk (:meth:`ScanContext.ring_walk`)
-    answers every ring count up to its own, so the rim is walked again only
-    for more rings than any asked before (on a scan with a thousand holes,
-    a walk for each shell, scale and outline cost 0.5 s)."""
-
-    def __init__(self, ctx, loop):
-        self.ctx, self.loop = ctx, loop
-        self.walked = 0                  # rings of the walk kept
-        self.found = self.off = None
-
-    def faces(self, rings):
-        """The faces of :meth:`ScanContext.ring_faces` of the rim and
-        ``rings`` rings, in the walk's order (not sorted: the caller sorts
-        what it keeps of them, a quarter or less at 10M faces, where
-        sorting them all took 1.4 s of the order test's 22)."""
-        rings = max(1, int(rings))
-        if rings > self.walked:
-            got = self.ctx.ring_walk(self.loop, rings)
-            if got is None:                  # the kernels off: the NumPy walk
-                return self.ctx.ring_faces(self.loop, rings)
-            (self.found, self.off), self.walked = got, rings
-        return self.found[:self.off[rings]]
-
-
 class _Ends:
     """Which candidate centres the compiled walk ends (an open edge near,
     :meth:`~shellrepair.fill.placement._Near.ends`), asked in batches of
@@ -364,7 +338,6 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     # the near vertices' distances to the rim, kept for every scale and outline
     c = V[loop].mean(axis=0)
     rim = _RimDistance(V, loop, c, float(np.sqrt(((V[loop] - c) ** 2).sum(axis=1)).max()))
-    rings = _Rings(ctx, loop)
     crease = float(np.cos(np.radians(CREASE_DEGREES))) if walled(ctx, loop) else None
     # a hole as wide across its narrow axis as its area's disc: the narrow
     # disc is that disc, whose search would run twice to the same answer
@@ -373,7 +346,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
         small = False
         for shape in own + (narrow_too if f == 1.0 else []) + [disc]:   # the outline, the narrow disc, the disc of its area
             errors, n, alike = _probe_errors(ctx, loop, candidates, max_probes, f * r0, (f * shape, e1, n0), noise,
-                                             rim, rings, faces_margin, crease)
+                                             rim, faces_margin, crease)
             if n >= min(MIN_PROBES, PROBES if max_probes is None else int(max_probes)):
                 return errors, n, f
             small = alike > 0 and not n
@@ -382,7 +355,7 @@ def probe_errors(ctx, loop, candidates, max_probes=None):
     return {}, 0, 0.0
 
 
-def _probe_errors(ctx, loop, candidates, max_probes, r, shape, noise, rim, rings, faces_margin, crease=None):
+def _probe_errors(ctx, loop, candidates, max_probes, r, shape, noise, rim, faces_margin, crease=None):
     from shellrepair.errors import MeshError
     from shellrepair.fill.fair import fair_patch_orders
     from shellrepair.fill.patch import PatchError
@@ -406,10 +379,13 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, noise, rim, rings
         if pool.tests + alike >= max_probes or pool.settled(max_probes):
             break
         # the scan near the hole, as far as this shell's test holes and their
-        # margins reach: faces within as many rings of the rim as reach it at
-        # half the rim's edge length, then those with a corner within reach
-        # (a scan finer than that further out only loses far probes: a probe
-        # whose surroundings are cut short fails its check). Walked shell by
+        # margins reach: faces with a corner within reach, walked from the
+        # rim without leaving that reach (ScanContext.faces_near), within as
+        # many rings as reach it at half the rim's edge length (a scan finer
+        # than that further out only loses far probes: a probe whose
+        # surroundings are cut short fails its check). The walk used to run
+        # every ring first and keep those within reach after: at 10M faces
+        # it touched four times the faces it kept. Walked shell by
         # shell, the outer shells only where the inner ones did not give the
         # test holes: a shell's candidates and test holes lie within its own
         # reach, so they are the ones the outermost shell's region gives
@@ -419,9 +395,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, noise, rim, rings
         # mille); at 10M faces the outermost region cost 1.4-1.8 s a hole,
         # most holes fit their test holes in the first shell.
         reach = rim_r + hi * r + r + margin + 2 * h
-        near_f = rings.faces(int(np.ceil(2.0 * reach / h)))
-        near_f = np.sort(faces_within(V, ctx.F, near_f, c, reach))     # (a filter: sorting after it is the same)
-        near = near_scan(ctx, near_f)
+        near = near_scan(ctx, ctx.faces_near(loop, int(np.ceil(2.0 * reach / h)), c, reach))
         cands = _centres(rim, near.verts, r, h, lo, hi)
         ends = _Ends(near, shape, margin)
         # farthest first from what is taken (the first: the shell's first candidate)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["near_adjacency", "placement", "placement_statuses", "component_within", "inside_polygon",
-           "faces_within", "within_distance"]
+           "within_distance"]
 
 from shellrepair import compiled
 
@@ -250,47 +250,6 @@ def placement_statuses(V, corners, across, start, pos, lps, vids, R, limit):
     """
     return _placement_statuses(V, corners, across, start, pos, np.ascontiguousarray(lps, np.int64),
                                np.ascontiguousarray(vids, np.int64), float(R), float(limit))
-
-
-@njit(cache=True, nogil=True)
-def _faces_within(V, F, faces, c, reach2):
-    keep = np.empty(faces.size, np.int64)
-    k = 0
-    for f in faces:
-        for j in range(3):
-            v = F[f, j]
-            dx = V[v, 0] - c[0]
-            dy = V[v, 1] - c[1]
-            dz = V[v, 2] - c[2]
-            if dx * dx + dy * dy + dz * dz <= reach2:
-                keep[k] = f
-                k += 1
-                break
-    return keep[:k]
-
-
-def faces_within(V, F, faces, c, reach):
-    """The faces of ``faces`` with a corner within ``reach`` of ``c``, in
-    their order: NumPy's ``faces[(((V[F[faces]] - c) ** 2).sum(axis=2) <=
-    reach * reach).any(axis=1)]`` to the bit, without its (faces, 3, 3)
-    temporaries (on a scan with a thousand holes the test's regions cost
-    0.8 s of gathering so).
-
-    Parameters
-    ----------
-    V : (n,3) float64
-    F : (m,3) int64
-    faces : (k,) int64
-    c : (3,) float64
-    reach : float
-
-    Returns
-    -------
-    (j,) int64
-    """
-    reach = float(reach)
-    return _faces_within(V, np.ascontiguousarray(F, np.int64), np.ascontiguousarray(faces, np.int64),
-                         np.ascontiguousarray(c, np.float64), reach * reach)
 
 
 @njit(cache=True, nogil=True)

@@ -273,6 +273,69 @@ class ScanContext:
                 return got, off
         return context_kernels.ring_walk(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
 
+    def faces_near(self, verts, rings, c, reach):
+        """The faces within ``rings`` rings of ``verts`` that the walk
+        reaches without leaving ``reach`` of ``c``: a face is kept, and its
+        vertices walked on from, only where one of its corners lies within
+        ``reach`` of ``c`` (sorted;
+        :func:`shellrepair.mesh.index_kernels.ring_walk_within`, or
+        :meth:`_faces_near_numpy` with the kernels off).
+
+        Parameters
+        ----------
+        verts : (k,) int64
+        rings : int
+        c : (3,) float64
+        reach : float
+
+        Returns
+        -------
+        faces : (f,) int64
+        """
+        verts = np.asarray(verts, np.int64)
+        if not compiled.ENABLED:
+            return self._faces_near_numpy(verts, rings, c, reach)
+        F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
+        reg = self._local_lists(verts)
+        if reg is not None:
+            got = context_kernels.ring_walk_within(verts, rings, reg.vf_order, reg.vf_start, F, self.V, c, reach,
+                                                   self._vmark, self._fmark)
+            if reg.covered[F[got]].all():   # every list the walk read was complete
+                return got
+        return context_kernels.ring_walk_within(verts, rings, self.vf_order, self.vf_start, F, self.V, c, reach,
+                                                self._vmark, self._fmark)
+
+    def _faces_near_numpy(self, verts, rings, c, reach):
+        """:meth:`faces_near` in NumPy (the compiled walk's test oracle)."""
+        vm, fm = self._vmark, self._fmark
+        front = uniq(verts)
+        vm[front] = True
+        marked_v, seen, kept = [front], [], []
+        c = np.asarray(c, np.float64)
+        r2 = float(reach) * float(reach)
+        try:
+            for _ in range(max(1, int(rings))):
+                f = self._faces_of_numpy(front)
+                f = f[~fm[f]]
+                fm[f] = True
+                seen.append(f)
+                D = self.V[self.F[f]] - c
+                D *= D
+                f = f[((D[..., 0] + D[..., 1] + D[..., 2]) <= r2).any(axis=1)]
+                kept.append(f)
+                vs = uniq(self.F[f])
+                front = vs[~vm[vs]]
+                vm[front] = True
+                marked_v.append(front)
+                if front.size == 0:
+                    break
+        finally:
+            for a in marked_v:
+                vm[a] = False
+            for a in seen:
+                fm[a] = False
+        return np.sort(np.concatenate(kept)) if kept else np.zeros(0, np.int64)
+
     def _ring_faces_numpy(self, verts, rings):
         """:meth:`ring_faces` in NumPy (the compiled walk's test oracle)."""
         vm, fm = self._vmark, self._fmark

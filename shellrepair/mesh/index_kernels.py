@@ -7,7 +7,8 @@
 * :func:`ring_faces`: the faces within some rings of a vertex set
   (:meth:`shellrepair.mesh.index.ScanContext.ring_faces`), and
   :func:`ring_walk`: the rings in one walk, each ring's end recorded (the
-  order test's band);
+  order test's band); :func:`ring_walk_within`: the rings walked only
+  within a reach of a point (the order test's region);
 * :func:`submesh`: a hole's submesh in local numbering
   (:func:`shellrepair.mesh.index.submesh`); :func:`rim_sigma`: a patch's rim
   scale (:func:`shellrepair.mesh.index.rim_sigma`);
@@ -24,7 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["faces_in_boxes", "ring_faces", "submesh", "rim_sigma", "rim_edges", "boxes_meeting", "rim_walk", "ring_walk"]
+__all__ = ["faces_in_boxes", "ring_faces", "submesh", "rim_sigma", "rim_edges", "boxes_meeting", "rim_walk", "ring_walk",
+           "ring_walk_within"]
 
 from shellrepair import compiled
 from shellrepair.mesh.common_kernels import _ring_collect
@@ -487,3 +489,103 @@ def ring_walk(verts, rings, vf_order, vf_start, F, vmark, fmark):
         ``off[r]``: how many of ``faces`` lie within ``r`` rings (``off[0] = 0``).
     """
     return _ring_walk(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F, vmark, fmark)
+
+
+# --------------------------------------------------------------------------
+# the scan within reach of a hole, walked only within that reach (the order test's region)
+# --------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _ring_walk_within(verts, rings, vf_order, vf_start, F, V, c, reach2, vmark, fmark):
+    # _ring_walk's rings, a face kept (and walked on from) only where a
+    # corner lies within reach of c; the others marked, listed to be reset
+    marked = np.empty(max(verts.size, 16), np.int64)
+    nm = 0
+    front = np.empty(max(verts.size, 16), np.int64)
+    nfr = 0
+    for v in verts:
+        if not vmark[v]:
+            vmark[v] = True
+            marked[nm] = v
+            nm += 1
+            front[nfr] = v
+            nfr += 1
+    found = np.empty(max(64, 8 * verts.size), np.int64)
+    nf = 0
+    beyond = np.empty(64, np.int64)
+    nb = 0
+    for r in range(max(1, rings)):
+        need = 0
+        for i in range(nfr):
+            need += vf_start[front[i] + 1] - vf_start[front[i]]
+        found = _room(found, nf + need)
+        beyond = _room(beyond, nb + need)
+        f0 = nf
+        for i in range(nfr):
+            v = front[i]
+            for p in range(vf_start[v], vf_start[v + 1]):
+                f = vf_order[p] // 3
+                if fmark[f]:
+                    continue
+                fmark[f] = True
+                near = False
+                for j in range(3):
+                    w = F[f, j]
+                    dx = V[w, 0] - c[0]
+                    dy = V[w, 1] - c[1]
+                    dz = V[w, 2] - c[2]
+                    if dx * dx + dy * dy + dz * dz <= reach2:
+                        near = True
+                        break
+                if near:
+                    found[nf] = f
+                    nf += 1
+                else:
+                    beyond[nb] = f
+                    nb += 1
+        marked = _room(marked, nm + 3 * (nf - f0))
+        front = _room(front, 3 * (nf - f0))
+        nm, nfr = _ring_expand(found, f0, nf, F, vmark, marked, nm, front)
+        if nfr == 0:
+            break
+    for i in range(nm):
+        vmark[marked[i]] = False
+    for j in range(nf):
+        fmark[found[j]] = False
+    for j in range(nb):
+        fmark[beyond[j]] = False
+    out = found[:nf].copy()
+    out.sort()
+    return out
+
+
+def ring_walk_within(verts, rings, vf_order, vf_start, F, V, c, reach, vmark, fmark):
+    """The faces near ``verts`` within ``reach`` of ``c``, walked only within
+    that reach: :func:`ring_walk`'s rings (at most ``rings``), each face
+    kept, and its vertices walked on from, only where one of its corners
+    lies within ``reach`` of ``c``. A face within reach that the walk
+    reaches only through faces beyond it is not kept (the ring walk with
+    the faces beyond reach dropped after it, which this walk replaced in
+    the order test, kept it); on a scan of 10M faces that walk touched four
+    times the faces it kept.
+
+    Parameters
+    ----------
+    verts : (k,) int64
+    rings : int
+    vf_order, vf_start : int64 arrays
+        Vertex-face lists complete at every vertex the walk reaches.
+    F : (m,3) int64
+    V : (n,3) float64
+    c : (3,) float64
+    reach : float
+    vmark, fmark : bool arrays
+        Scratch marks (all False; left all False).
+
+    Returns
+    -------
+    faces : (f,) int64
+        Sorted.
+    """
+    return _ring_walk_within(np.ascontiguousarray(verts, np.int64), int(rings), vf_order, vf_start, F,
+                             np.ascontiguousarray(V, np.float64), np.ascontiguousarray(c, np.float64),
+                             float(reach) * float(reach), vmark, fmark)
