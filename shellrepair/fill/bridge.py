@@ -71,7 +71,7 @@ from shellrepair.lazyscipy import cKDTree
 from shellrepair.reference import ring_sums as ring_sums_reference
 
 __all__ = ["continuation_arcs", "continuation_arcs_many", "next_to", "arc_points", "loop_sights", "band_pairs",
-           "pants_triples", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK"]
+           "pants_triples", "MAX_REACH", "ARCS_PER_LOOP", "ARC_SAMPLES", "SIGHT_SLACK", "ARC_SMOOTH"]
 
 #: Arcs are followed at most this many loop diameters (or one full turn):
 #: the search horizon for a partner loop, not a decision threshold.
@@ -87,9 +87,14 @@ SIGHT_SLACK = 0.15
 #: Rim vertices this many steps along the loop from an arc's own vertex are
 #: where the arc starts, not where it lands.
 SELF_SKIP = 2
+#: An arc's direction and curvature are read over ``2 * ARC_SMOOTH + 1``
+#: consecutive rim vertices at least (:func:`continuation_arcs`);
+#: :func:`loop_sights` reads each over the rim between its neighbours' arcs
+#: where that is longer.
+ARC_SMOOTH = 2
 
 
-def continuation_arcs(V, F_near, loop, smooth=2):
+def continuation_arcs(V, F_near, loop, smooth=ARC_SMOOTH):
     """Where the scan heads at each rim vertex, as an osculating circle.
 
     Parameters
@@ -135,7 +140,7 @@ def continuation_arcs(V, F_near, loop, smooth=2):
     return continuation_arcs_many(V, [F_near], [loop], smooth)[0]
 
 
-def continuation_arcs_many(V, F_nears, loops, smooth=2):
+def continuation_arcs_many(V, F_nears, loops, smooth=ARC_SMOOTH):
     """:func:`continuation_arcs` of several loops at once (the one
     implementation: a single loop is a batch of one).
 
@@ -151,7 +156,8 @@ def continuation_arcs_many(V, F_nears, loops, smooth=2):
     F_nears : list of (r,3) int64
         Per loop, its ``F_near``.
     loops : list of (k,) int64
-    smooth : int
+    smooth : int or sequence of int
+        As for :func:`continuation_arcs`; a sequence gives each loop its own.
 
     Returns
     -------
@@ -164,7 +170,7 @@ def continuation_arcs_many(V, F_nears, loops, smooth=2):
     return [tuple(x[bounds[i]:bounds[i + 1]] for x in cols) for i in range(len(bounds) - 1)]
 
 
-def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
+def _continuation_arcs_cat(V, F_nears, loops, smooth=ARC_SMOOTH):
     """:func:`continuation_arcs_many` with the loops' rows concatenated.
 
     Returns
@@ -236,24 +242,23 @@ def _continuation_arcs_cat(V, F_nears, loops, smooth=2):
     kap = np.where(np.abs(step) > 0, -np.sum((N - N2) * T, axis=1) / np.where(step != 0, step, 1.0), 0.0)
     ok &= step > 0
     s0 = lb
-    sm = (k_of > 2 * smooth + 1) if smooth else np.zeros(len(loopcat), bool)
+    w_row = np.repeat(np.broadcast_to(np.asarray(smooth, np.int64), (len(loops),)), sizes)
+    sm = (k_of > 2 * w_row + 1) & (w_row > 0)
     if sm.any():
-        r = np.flatnonzero(sm)
-        shifts = [shifted(d)[r] for d in range(-smooth, smooth + 1)]
+        N0, T0, kw = N, T, np.where(ok, kap, np.nan)
+        kap, T, N = kap.copy(), T.copy(), N.copy()
+        for w in np.unique(w_row[sm]).tolist():      # the loops of each window, each from the unsmoothed rows
+            r = np.flatnonzero(sm & (w_row == w))
+            shifts = [shifted(d)[r] for d in range(-w, w + 1)]
 
-        def ring_sum(Y):
-            return sum(Y[ix] for ix in shifts)
-        Nn = ring_sum(N * ok[:, None])
-        Nn = Nn / np.maximum(np.linalg.norm(Nn, axis=1, keepdims=True), 1e-300)
-        kw = np.where(ok, kap, np.nan)
-        km = _nanmedian_columns(np.stack([kw[ix] for ix in shifts]))
-        kap = kap.copy()
-        kap[r] = np.where(np.isfinite(km), km, 0.0)
-        Ts = ring_sum(T * ok[:, None])
-        T = T.copy()
-        T[r] = Ts
-        N = N.copy()
-        N[r] = Nn
+            def ring_sum(Y):
+                return sum(Y[ix] for ix in shifts)
+            Nn = ring_sum(N0 * ok[:, None])
+            Nn = Nn / np.maximum(np.linalg.norm(Nn, axis=1, keepdims=True), 1e-300)
+            km = _nanmedian_columns(np.stack([kw[ix] for ix in shifts]))
+            kap[r] = np.where(np.isfinite(km), km, 0.0)
+            T[r] = ring_sum(T0 * ok[:, None])
+            N[r] = Nn
     rest = np.flatnonzero(~sm)
     if rest.size:
         N[rest] = N[rest] / np.maximum(np.linalg.norm(N[rest], axis=1, keepdims=True), 1e-300)
@@ -351,7 +356,8 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
         Indices of the loops whose arcs are followed (default all).
     arcs_out : dict, optional
         Filled with each followed loop's :func:`continuation_arcs` (by
-        index), for a caller that reads them again (:func:`shellrepair.fill.bands.wrapped_pairs`).
+        index, read over the sights' windows), for a caller that reads them
+        again (:func:`shellrepair.fill.bands.wrapped_pairs`).
 
     Returns
     -------
@@ -371,7 +377,15 @@ def loop_sights(V, loops, faces_near, *, candidates=None, max_reach=MAX_REACH, n
     if not follow:
         return {}
     rims = [np.asarray(loops[a].vertices, np.int64) for a in follow]
-    *cols, bounds = _continuation_arcs_cat(V, [faces_near(lp) for lp in rims], rims)
+    # each arc stands for the rim between its neighbours' arcs, and reads
+    # its direction and curvature over that stretch (the curvatures'
+    # median), five vertices at least: on a ragged rim (a scanner's fringe,
+    # noise of a tenth of an edge along the normal) the curvature at one
+    # vertex scatters by about the tube's own (a torus's band: interquartile
+    # range 1.2 around -2.0), and its two loops' arcs missed each other over
+    # five vertices (eval/results/ragged-sights/)
+    wide = [max(ARC_SMOOTH, int(round(len(lp) / max(n_arcs, 1)))) for lp in rims]
+    *cols, bounds = _continuation_arcs_cat(V, [faces_near(lp) for lp in rims], rims, wide)
     if arcs_out is not None:
         arcs_out.update((a, tuple(x[bounds[i]:bounds[i + 1]] for x in cols)) for i, a in enumerate(follow))
     # per followed loop with arcs: its evenly spaced arcs (rows), all loops'
