@@ -558,7 +558,10 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
     earlier hole's: on the scan with every accepted patch appended, so the
     new fill's checks keep it off them (one round, in hole order, each at
     its requested order where ``order_for`` has one; the row is updated in
-    place)."""
+    place). Where that fails too and the crossed patch is an order-3 patch
+    of ``order="auto"`` with an order-2 fill of its hole (``Patch.fallback``),
+    the hole is filled once more around the patches with that order-2 fill
+    in its place, which is kept only if this fill is (:func:`_refill_beside_fallback`)."""
     order_for = order_for or {}
     again = [h for h in holes if method == "fair" and h.id not in paired and h.id in rows
              and rows[h.id]["status"] == "failed"
@@ -577,7 +580,18 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
             _note_swap(rows, swapped)
             failure = CLASHES
         if patch is None:
-            row.update(reason=f"{row['reason']}; filled again around the accepted patches: {reason}",
+            patch, why = _refill_beside_fallback(ctx, mesh, V, F, h, row, rows, acc, order_for.get(h.id, order),
+                                                 smooth)
+            if patch is not None:
+                option = (f"{patch.option} (filled again around the patches accepted before it, hole "
+                          f"{row['crosses_hole']}'s order-2 fill in place of its order-3 patch: the first crossed both)")
+                row.update(status="filled", reason=option, option=option, new_vertices=int(len(patch.P)),
+                           new_faces=int(len(patch.T)), **_kind(patch))
+                row.pop("crosses_hole", None)
+                if patch.choice is not None:
+                    row["choice"] = patch.choice.as_dict()
+                continue
+            row.update(reason=f"{row['reason']}; filled again around the accepted patches: {reason}{why}",
                        failure=failure)
             continue
         option = f"{patch.option} (filled again around the patches accepted before it: the first crossed one)"
@@ -586,6 +600,52 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
         row.pop("crosses_hole", None)
         if patch.choice is not None:
             row["choice"] = patch.choice.as_dict()
+
+
+def _refill_beside_fallback(ctx, mesh, V, F, h, row, rows, acc, order, smooth):
+    """The last try of :func:`_refill_crossed` for hole ``h``: the accepted
+    patch its fill crosses (``row["crosses_hole"]``), where that is an
+    order-3 patch chosen by ``order="auto"``, gives way to its hole's
+    order-2 fill (``Patch.fallback``, checked when it was built) if that
+    fits with the other accepted patches; ``h`` is filled on the scan with
+    the accepted patches so changed appended, and the exchange is kept
+    only if that fill is accepted. Closing both holes comes before the
+    higher order of one: on a fat torus seen by five views near its
+    equator (case 10 of seed 318614305) a 552-edge hole stayed open
+    beside a neighbour's order-3 cap, where the neighbour's order-2 cap
+    leaves it room.
+
+    Returns
+    -------
+    patch : Patch or None
+        ``h``'s accepted patch (``acc`` and the crossed hole's row then
+        hold the order-2 fill), or None (``acc`` unchanged).
+    why : str
+        Why it was not tried or failed ('' when it was not tried), to
+        append to the row's reason.
+    """
+    j = next((k for k, it in enumerate(acc.items) if it[0].hole_id == row.get("crosses_hole")), None)
+    alt = None if j is None else acc.items[j][0].fallback
+    if alt is None:
+        return None, ""
+    why, corners = acc.conflict(ctx, alt, skip=j)
+    if why is not None:
+        return None, f"; hole {row['crosses_hole']}'s order-2 fill in its place: {why}"
+    old = acc.items[j]
+    acc.replace(j, alt, *corners)
+    grown = _merge(mesh, V, F, [it[0] for it in acc.items])
+    ctx3 = ScanContext(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
+    out = fill_hole(ctx3, h.id, np.asarray(h.vertices, np.int64), order, smooth)
+    row["seconds"] = round(row["seconds"] + out.seconds, 4)
+    patch, why = out.patch, out.reason
+    if patch is not None:
+        why, corners = acc.conflict(ctx, patch)
+        if why is None:
+            acc.add(patch, *corners)
+            _note_swap(rows, alt)
+            return patch, ""
+    acc.restore(j, old)
+    return None, f"; around hole {row['crosses_hole']}'s order-2 fill in place of its order-3 patch: {why}"
 
 
 def _kept(mesh):

@@ -131,6 +131,30 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
     assert len(again) == 1
 
 
+@pytest.mark.slow
+def test_a_hole_that_crosses_a_neighbours_order_3_cap_even_when_filled_again_closes_beside_its_order_2_fill():
+    """A fat torus (r/R 0.7) seen by five views near its equator, 26 % of
+    it unseen (seed 318614305, case 10, drawn after the session's changes):
+    the 552-edge hole's fill crossed hole 0's order-3 cap, and again when
+    filled around the accepted patches; the hole stayed open under the
+    default while every forced order closed all four. Hole 0 now gives way
+    to its order-2 fill, the hole is filled around that, and every hole
+    closes with nothing crossing and no original vertex moved."""
+    from eval import stress
+    from shellrepair.repair import repair_mesh
+
+    c = stress.stress_case(10, 318614305)
+    R, rep = repair_mesh(Mesh(V=c.V, F=c.F))
+    assert rep["holes_after"] == 0
+    assert rep["boundary_edges_after"] == 0 and rep["nonmanifold_edges_after"] == 0
+    assert np.array_equal(R.V[:len(c.V)], c.V)
+    rows = {h["id"]: h for h in rep["holes"]}
+    assert "hole 0's order-2 fill in place of its order-3 patch" in rows[2]["option"]
+    assert rows[0]["order"] == 2 and rows[0]["choice"]["order"] == 3
+    facts = stress.input_facts(c)
+    assert stress.measure(c, facts, R.V, R.F)["si_added"] == 0
+
+
 def test_scan_answers_about_a_holes_triangles_are_kept_and_equal_fresh_ones(monkeypatch):
     """The triangulation's ``allowed`` test (a triangle of loop positions
     crosses no scan face) answers a triangle asked before, in any corner

@@ -174,6 +174,11 @@ class Accepted:
         self.edges.update(scan_edges(patch))
         self.replace(j, patch, C, ids)
 
+    def restore(self, j, item):
+        """Put back ``item`` (as :attr:`items` held it) in item ``j``'s place
+        after a :meth:`replace` that was not kept."""
+        self._set(j, item)
+
     def _set(self, j, item):
         """Item ``j`` becomes ``item`` (patch, corners, ids); its box follows."""
         self.items[j] = item
