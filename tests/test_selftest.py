@@ -826,3 +826,31 @@ def test_order_flat_fills_every_single_hole_with_its_rim_triangulation():
     R, rep = repair_mesh(Mesh(V=V, F=F), order="flat")
     assert rep["holes_after"] == 0 and len(R.V) == len(V)
     assert [(r["kind"], r["order"]) for r in rep["holes"]] == [("flat", None)]
+
+
+def test_every_hole_the_order_test_measured_has_its_verdict_in_its_row():
+    """A scanner-hard fandisk (seed 557931736, case 6): its 257-edge hole's
+    order-2 fill crossed the scan and holds vertices on the flat
+    triangulation, so order 3 is not built on it. The test's verdict
+    (order 3, each candidate's error, the runner-up) is still the row's
+    ``choice``, and the reason says why order 2 stayed; before, the row
+    said nothing of the test that had run."""
+    from eval import stress
+
+    case = stress.stress_case(6, 557931736)
+    tested = []
+    real = selftest.choose_order
+
+    def spy(ctx, hole_id, *a, **k):
+        tested.append(hole_id)
+        return real(ctx, hole_id, *a, **k)
+
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(selftest, "choose_order", spy)
+        R, rep = repair_mesh(Mesh(V=case.V, F=case.F), jobs=1)
+    rows = {h["id"]: h for h in rep["holes"]}
+    assert tested and all("choice" in rows[i] for i in tested if rows[i]["status"] == "filled"), \
+        [rows[i].get("option") for i in tested]
+    row = rows[0]
+    assert row["order"] == 2 and row["choice"]["order"] == 3 and set(row["choice"]["test_rms"]) == {"1", "2", "3"}
+    assert "held on the flat triangulation" in row["option"] and "order 3 not tried" in row["option"]

@@ -209,6 +209,14 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
     if defer is not None:
         defer.extend(deferred)
     if patch is None or patch.order != 2 or len(patch.P) == 0 or patch.pinned:
+        if patch is not None and test.order == 3:
+            # (order 3 is built on a plain order-2 patch only)
+            why = ("the order-2 patch holds vertices where it crossed" if patch.pinned
+                   else "the order-2 fill gave another patch")
+            patch = patch.with_(option=patch.option + f" ({test.describe()}; order 3 not tried: {why})",
+                                choice=test)
+        elif patch is not None:
+            patch = patch.with_(option=patch.option + f" ({test.describe()})", choice=test)
         return Outcome(patch, reason, time.perf_counter() - t0, reasons, failure)
     if test.order == 3:
         try:
