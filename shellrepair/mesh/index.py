@@ -264,14 +264,22 @@ class ScanContext:
         kernels off."""
         if not compiled.ENABLED:
             return None
+        return self._walk(verts, lambda v, order, start, F: context_kernels.ring_walk(
+            v, rings, order, start, F, self._vmark, self._fmark), faces=lambda got: got[0])
+
+    def _walk(self, verts, walk, faces=lambda got: got):
+        """``walk(verts, vf_order, vf_start, F)`` over the region's
+        vertex-face lists where they are complete at ``verts``, kept where
+        they were complete at every vertex of the faces it found
+        (``faces(result)``), else over the whole mesh's lists."""
         F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
         verts = np.asarray(verts, np.int64)
         reg = self._local_lists(verts)
         if reg is not None:
-            got, off = context_kernels.ring_walk(verts, rings, reg.vf_order, reg.vf_start, F, self._vmark, self._fmark)
-            if reg.covered[F[got]].all():   # every list the walk read was complete
-                return got, off
-        return context_kernels.ring_walk(verts, rings, self.vf_order, self.vf_start, F, self._vmark, self._fmark)
+            got = walk(verts, reg.vf_order, reg.vf_start, F)
+            if reg.covered[F[faces(got)]].all():   # every list the walk read was complete
+                return got
+        return walk(verts, self.vf_order, self.vf_start, F)
 
     def faces_near(self, verts, rings, c, reach):
         """The faces within ``rings`` rings of ``verts`` that the walk
@@ -292,61 +300,39 @@ class ScanContext:
         -------
         faces : (f,) int64
         """
-        verts = np.asarray(verts, np.int64)
         if not compiled.ENABLED:
             return self._faces_near_numpy(verts, rings, c, reach)
-        F = self.F if self.F.flags.c_contiguous and self.F.dtype == np.int64 else np.ascontiguousarray(self.F, np.int64)
-        reg = self._local_lists(verts)
-        if reg is not None:
-            got = context_kernels.ring_walk_within(verts, rings, reg.vf_order, reg.vf_start, F, self.V, c, reach,
-                                                   self._vmark, self._fmark)
-            if reg.covered[F[got]].all():   # every list the walk read was complete
-                return got
-        return context_kernels.ring_walk_within(verts, rings, self.vf_order, self.vf_start, F, self.V, c, reach,
-                                                self._vmark, self._fmark)
+        return self._walk(verts, lambda v, order, start, F: context_kernels.ring_walk_within(
+            v, rings, order, start, F, self.V, c, reach, self._vmark, self._fmark))
 
     def _faces_near_numpy(self, verts, rings, c, reach):
         """:meth:`faces_near` in NumPy (the compiled walk's test oracle)."""
-        vm, fm = self._vmark, self._fmark
-        front = uniq(verts)
-        vm[front] = True
-        marked_v, seen, kept = [front], [], []
         c = np.asarray(c, np.float64)
         r2 = float(reach) * float(reach)
+
+        def within(f):
+            D = self.V[self.F[f]] - c
+            D *= D
+            return f[((D[..., 0] + D[..., 1] + D[..., 2]) <= r2).any(axis=1)]
+
+        return self._ring_faces_numpy(verts, rings, within)
+
+    def _ring_faces_numpy(self, verts, rings, keep=None):
+        """:meth:`ring_faces` in NumPy (the compiled walk's test oracle);
+        ``keep``: the faces of a ring kept and walked on from (all of them
+        by default; :meth:`_faces_near_numpy`'s reach)."""
+        vm, fm = self._vmark, self._fmark
+        front = uniq(np.asarray(verts, np.int64))
+        vm[front] = True
+        marked_v, seen, found = [front], [], []
         try:
             for _ in range(max(1, int(rings))):
                 f = self._faces_of_numpy(front)
                 f = f[~fm[f]]
                 fm[f] = True
                 seen.append(f)
-                D = self.V[self.F[f]] - c
-                D *= D
-                f = f[((D[..., 0] + D[..., 1] + D[..., 2]) <= r2).any(axis=1)]
-                kept.append(f)
-                vs = uniq(self.F[f])
-                front = vs[~vm[vs]]
-                vm[front] = True
-                marked_v.append(front)
-                if front.size == 0:
-                    break
-        finally:
-            for a in marked_v:
-                vm[a] = False
-            for a in seen:
-                fm[a] = False
-        return np.sort(np.concatenate(kept)) if kept else np.zeros(0, np.int64)
-
-    def _ring_faces_numpy(self, verts, rings):
-        """:meth:`ring_faces` in NumPy (the compiled walk's test oracle)."""
-        vm, fm = self._vmark, self._fmark
-        front = uniq(verts)
-        vm[front] = True
-        marked_v, found = [front], []
-        try:
-            for _ in range(max(1, int(rings))):
-                f = self._faces_of_numpy(front)
-                f = f[~fm[f]]
-                fm[f] = True
+                if keep is not None:
+                    f = keep(f)
                 found.append(f)
                 vs = uniq(self.F[f])
                 front = vs[~vm[vs]]
@@ -357,7 +343,7 @@ class ScanContext:
         finally:
             for a in marked_v:
                 vm[a] = False
-            for a in found:
+            for a in seen:
                 fm[a] = False
         return np.sort(np.concatenate(found)) if found else np.zeros(0, np.int64)
 

@@ -129,6 +129,31 @@ def _ring_expand(found, f0, nf, F, vmark, marked, nm, front):
 
 
 @njit(cache=True, nogil=True)
+def _first_front(verts, vmark):
+    # A walk's first front: the distinct vertices of verts, marked; returns
+    # (marked, front, count), both lists holding the same vertices.
+    marked = np.empty(max(verts.size, 16), np.int64)
+    front = np.empty(max(verts.size, 16), np.int64)
+    n = 0
+    for v in verts:
+        if not vmark[v]:
+            vmark[v] = True
+            marked[n] = v
+            front[n] = v
+            n += 1
+    return marked, front, n
+
+
+@njit(cache=True, nogil=True)
+def _front_faces(front, nfr, vf_start):
+    # How many face entries the vertex-face lists of the front hold (the room a ring needs).
+    need = 0
+    for i in range(nfr):
+        need += vf_start[front[i] + 1] - vf_start[front[i]]
+    return need
+
+
+@njit(cache=True, nogil=True)
 def _room(a, size):
     # a, or a larger copy when it holds fewer than size entries (the loops
     # that fill the buffers take them as arguments and never reassign
@@ -435,26 +460,14 @@ def rim_walk(loop, vf_order, vf_start, F, V):
 @njit(cache=True, nogil=True)
 def _ring_walk(verts, rings, vf_order, vf_start, F, vmark, fmark):
     # _ring_faces' walk, its faces kept in walk order with each ring's end
-    marked = np.empty(max(verts.size, 16), np.int64)
-    nm = 0
-    front = np.empty(max(verts.size, 16), np.int64)
-    nfr = 0
-    for v in verts:
-        if not vmark[v]:
-            vmark[v] = True
-            marked[nm] = v
-            nm += 1
-            front[nfr] = v
-            nfr += 1
+    marked, front, nm = _first_front(verts, vmark)
+    nfr = nm
     R = max(1, rings)
     off = np.zeros(R + 1, np.int64)
     found = np.empty(max(64, 8 * verts.size), np.int64)
     nf = 0
     for r in range(R):
-        need = nf
-        for i in range(nfr):
-            need += vf_start[front[i] + 1] - vf_start[front[i]]
-        found = _room(found, need)
+        found = _room(found, nf + _front_faces(front, nfr, vf_start))
         f0 = nf
         nf = _ring_collect(front, nfr, vf_order, vf_start, fmark, found, nf)
         off[r + 1:] = nf
@@ -498,25 +511,14 @@ def ring_walk(verts, rings, vf_order, vf_start, F, vmark, fmark):
 def _ring_walk_within(verts, rings, vf_order, vf_start, F, V, c, reach2, vmark, fmark):
     # _ring_walk's rings, a face kept (and walked on from) only where a
     # corner lies within reach of c; the others marked, listed to be reset
-    marked = np.empty(max(verts.size, 16), np.int64)
-    nm = 0
-    front = np.empty(max(verts.size, 16), np.int64)
-    nfr = 0
-    for v in verts:
-        if not vmark[v]:
-            vmark[v] = True
-            marked[nm] = v
-            nm += 1
-            front[nfr] = v
-            nfr += 1
+    marked, front, nm = _first_front(verts, vmark)
+    nfr = nm
     found = np.empty(max(64, 8 * verts.size), np.int64)
     nf = 0
     beyond = np.empty(64, np.int64)
     nb = 0
     for r in range(max(1, rings)):
-        need = 0
-        for i in range(nfr):
-            need += vf_start[front[i] + 1] - vf_start[front[i]]
+        need = _front_faces(front, nfr, vf_start)
         found = _room(found, nf + need)
         beyond = _room(beyond, nb + need)
         f0 = nf
