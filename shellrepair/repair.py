@@ -568,8 +568,7 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
              and rows[h.id].get("crosses_hole") is not None]
     if not again:
         return
-    grown = _merge(mesh, V, F, [it[0] for it in acc.items])
-    ctx2 = ScanContext(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
+    ctx2 = _grown_context(mesh, V, F, acc)
     for h in again:
         row = rows[h.id]
         out = fill_hole(ctx2, h.id, np.asarray(h.vertices, np.int64), order_for.get(h.id, order), smooth)
@@ -600,6 +599,13 @@ def _refill_crossed(ctx, mesh, V, F, holes, paired, rows, acc, order, smooth, me
         row.pop("crosses_hole", None)
         if patch.choice is not None:
             row["choice"] = patch.choice.as_dict()
+
+
+def _grown_context(mesh, V, F, acc):
+    """A context of the scan with every patch ``acc`` holds appended (the
+    scan a refill's checks keep its patch off)."""
+    grown = _merge(mesh, V, F, [it[0] for it in acc.items])
+    return ScanContext(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
 
 
 def _refill_beside_fallback(ctx, mesh, V, F, h, row, rows, acc, order, smooth):
@@ -633,8 +639,7 @@ def _refill_beside_fallback(ctx, mesh, V, F, h, row, rows, acc, order, smooth):
         return None, f"; hole {row['crosses_hole']}'s order-2 fill in its place: {why}"
     old = acc.items[j]
     acc.replace(j, alt, *corners)
-    grown = _merge(mesh, V, F, [it[0] for it in acc.items])
-    ctx3 = ScanContext(Mesh(V=grown.V, F=grown.F, vertex_colors=grown.vertex_colors, vertex_props=grown.vertex_props))
+    ctx3 = _grown_context(mesh, V, F, acc)
     out = fill_hole(ctx3, h.id, np.asarray(h.vertices, np.int64), order, smooth)
     row["seconds"] = round(row["seconds"] + out.seconds, 4)
     patch, why = out.patch, out.reason
