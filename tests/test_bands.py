@@ -982,3 +982,21 @@ def test_each_filled_row_names_its_patch_kind_and_the_table_counts_them():
     assert all(h["order"] == 2 for h in filled)
     line = next(x for x in table1_text(rep).splitlines() if x.strip().startswith("filled by:"))
     assert line.split(":", 1)[1].strip() == "tube ×2"
+
+
+@pytest.mark.slow
+def test_a_band_left_to_its_caps_says_why_it_has_no_tube():
+    """Where the loops' continuation arcs give no tube to start from and
+    the caps pass, the band is capped and its record says so. Before, two
+    such bands of a ragged scanner occlusion on a Nefertiti (stress seed
+    524575295, case 8: 1335 loops) read "tube failed: " and nothing else."""
+    from eval import stress
+
+    case = stress.stress_case(8, 524575295, ragged=0.1)
+    if case.name != "s524575295-08-scanner-nefertiti-ragged0.1":    # the draw depends on the shapes at hand
+        pytest.skip(f"drew {case.name} without ../shared's scans")
+    _, rep = repair_mesh(Mesh(V=case.V, F=case.F))
+    failed = [b for b in rep["bridges"] if b["reason"].startswith("tube failed")]
+    assert failed
+    assert all(b["reason"] != "tube failed: " and b["chosen"] == "caps" for b in failed)
+    assert any("gave no tube to start from" in b["reason"] for b in failed)

@@ -267,6 +267,9 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
     except (ValueError, IndexError, FloatingPointError):   # degenerate rims: the plain zip below
         Pg, Tg = np.zeros((0, 3)), None
     tube, why_tube = None, ""
+    if not (len(Pg) and np.isfinite(Pg).all()):
+        # (said in the record where no other attempt says why the tube failed)
+        why_tube = "the loops' continuation arcs gave no tube to start from"
     tube_faults = []       # (tube, faulty triangles, how it was started) of the tubes that failed their checks
 
     def attempt(first, init, o, fair=True, pinned=None, built=None):
