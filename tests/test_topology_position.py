@@ -20,7 +20,7 @@ from eval import shapes
 from shellrepair.holes.loops import detect_holes
 from shellrepair.mesh.io import Mesh, read_mesh, written_faces, write_mesh
 from shellrepair.repair import repair_mesh
-from shellrepair.report.table import table1_dict, table1_text
+from shellrepair.report.table import REASON_WIDTH, short_reason, table1_dict, table1_text
 from shellrepair.mesh.topology import coincident_vertices, edge_topology
 
 from conftest import shared_scan
@@ -323,3 +323,25 @@ def test_borders_left_open_do_not_withhold_the_rate_and_open_chains_count_as_not
                     extra={"border_edges_after": 0, "boundary_edges_after": 2, "nonmanifold_edges_after": 0})
     assert d["open_chains"] == 1 and d["interpolation_rate"] == 50.0
     assert "1 boundary chains that do not close" in table1_text(d)
+
+
+def test_a_hole_left_open_reads_as_one_line_in_the_table_and_whole_in_the_json():
+    """The last layer's account of a hole it gave up on runs to thousands of
+    characters; the table shows its first and last steps (a step's own
+    account in parentheses is not split) and how many lie between, the
+    JSON row keeps every step."""
+    first = "no triangulation avoids crossing the scan (2 chords re-routed)"
+    middle = [f"attempt {i}: patch would cross the scan ({i} triangles; tried twice)" for i in range(12)]
+    last = "last layer: Steiner points (seen along its normal; round 4: over 11847 points)"
+    reason = "; ".join([first] + middle + [last])
+    rows = _rows(1) + [{"id": 7, "edges": 4, "status": "failed", "reason": reason, "failure": "no patch passes"}]
+    d = table1_dict(2, rows)
+    assert d["holes"][1]["reason"] == reason
+    line = next(x for x in table1_text(d).splitlines() if x.strip().startswith("hole    7"))
+    assert len(line) < len("    hole    7 (4 edges): failed: ") + REASON_WIDTH + 40
+    shown = short_reason(reason)
+    assert shown.startswith(first) and "[12 more steps: the JSON report]" in shown
+    assert shown.endswith(last)                              # its "; " inside parentheses kept
+    long_last = short_reason("; ".join([first, "x" * 500]))
+    assert long_last.startswith(first + "; [the JSON report has it all]; xxx") and long_last.endswith("x…")
+    assert short_reason("flat: patch would cross the scan (1 triangles)") == "flat: patch would cross the scan (1 triangles)"

@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["holes_dict", "holes_table", "interpolation_rate", "repaired", "status_counts", "table1_dict", "table1_text"]
+__all__ = ["holes_dict", "holes_table", "interpolation_rate", "repaired", "short_reason", "status_counts", "table1_dict",
+           "table1_text"]
 
 STATUSES = ("filled", "skipped", "failed")
 
@@ -229,10 +230,57 @@ def table1_text(d, *, limit=30):
     if open_rows:
         lines.append("  left open:")
         for h in open_rows[:limit]:
-            lines.append(f"    hole {h['id']:>4} ({h['edges']} edges): {h['status']}: {h['reason']}")
+            lines.append(f"    hole {h['id']:>4} ({h['edges']} edges): {h['status']}: {short_reason(h['reason'])}")
         if len(open_rows) > limit:
             lines.append(f"    ... {len(open_rows) - limit} more (see the JSON report)")
     return "\n".join(lines)
+
+
+#: A left-open row's reason in the table is cut to about this many characters.
+REASON_WIDTH = 240
+
+
+def short_reason(reason, width=REASON_WIDTH):
+    """A hole's reason as one line of the table: whole where it is short;
+    else its first and last steps (the attempts are separated by "; "),
+    each cut to its share of ``width``, with the number of steps between
+    them. The JSON report keeps every step: a hole the last layer gave up
+    on reads thousands of characters (a 4-edge gap of a ragged scan: 2174).
+
+    Parameters
+    ----------
+    reason : str
+    width : int
+
+    Returns
+    -------
+    line : str
+    """
+    reason = " ".join(str(reason).split())
+    if len(reason) <= width:
+        return reason
+    steps = _steps(reason)
+    if len(steps) < 2:
+        return reason[:width - 1] + "…"
+    half = max(width // 2 - 30, 20)
+    first, last = steps[0], steps[-1]
+    cut = lambda t: t if len(t) <= half else t[:half - 1] + "…"
+    between = len(steps) - 2
+    middle = f" [{between} more steps: the JSON report]; " if between else " [the JSON report has it all]; "
+    return cut(first) + ";" + middle + cut(last)
+
+
+def _steps(reason):
+    """``reason`` split at each "; " outside parentheses (a step's own
+    account, in parentheses, may hold "; " of its own)."""
+    out, depth, start = [], 0, 0
+    for i, ch in enumerate(reason):
+        depth += (ch == "(") - (ch == ")")
+        if depth == 0 and reason.startswith("; ", i):
+            out.append(reason[start:i])
+            start = i + 2
+    out.append(reason[start:])
+    return out
 
 
 def _tally(keys):
