@@ -344,4 +344,5 @@ def test_a_hole_left_open_reads_as_one_line_in_the_table_and_whole_in_the_json()
     assert shown.endswith(last)                              # its "; " inside parentheses kept
     long_last = short_reason("; ".join([first, "x" * 500]))
     assert long_last.startswith(first + "; [the JSON report has it all]; xxx") and long_last.endswith("x…")
-    assert short_reason("flat: patch would cross the scan (1 triangles)") == "flat: patch would cross the scan (1 triangles)"
+    brief = "flat: patch would cross the scan (1 triangles)"
+    assert short_reason(brief) == brief

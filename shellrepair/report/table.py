@@ -275,7 +275,7 @@ def _steps(reason):
     account, in parentheses, may hold "; " of its own)."""
     out, depth, start = [], 0, 0
     for i, ch in enumerate(reason):
-        depth += (ch == "(") - (ch == ")")
+        depth = max(0, depth + (ch == "(") - (ch == ")"))
         if depth == 0 and reason.startswith("; ", i):
             out.append(reason[start:i])
             start = i + 2
