@@ -114,6 +114,9 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
     import shellrepair.repair   # (crossed caps are first tried as a tube: off too, to test the refill)
 
     monkeypatch.setattr(shellrepair.repair, "tube_crossed_caps", lambda *a, **k: None)
+    from shellrepair.fill import band_fill    # (nor a band cut open along a seam)
+
+    monkeypatch.setattr(band_fill, "_seam_patch", lambda *a: (None, "left out by the test"))
 
     from conftest import STRESS_SHAPES
     from eval import stress
@@ -132,18 +135,29 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
 
 
 @pytest.mark.slow
-def test_a_hole_that_crosses_a_neighbours_order_3_cap_even_when_filled_again_closes_beside_its_order_2_fill():
+def test_a_hole_that_crosses_a_neighbours_order_3_cap_even_when_filled_again_closes_beside_its_order_2_fill(
+        monkeypatch):
     """A fat torus (r/R 0.7) seen by five views near its equator, 26 % of
     it unseen (seed 318614305, case 10, drawn after the session's changes):
     the 552-edge hole's fill crossed hole 0's order-3 cap, and again when
     filled around the accepted patches; the hole stayed open under the
     default while every forced order closed all four. Hole 0 now gives way
     to its order-2 fill, the hole is filled around that, and every hole
-    closes with nothing crossing and no original vertex moved."""
+    closes with nothing crossing and no original vertex moved. (Since the
+    seam, the band of that hole and another is one patch, 0.35 per mille
+    from the truth with its genus, where the caps lay 7.82: the seam is
+    left out here to test the refill; with it, below.)"""
     from eval import stress
+    from shellrepair.fill import band_fill
     from shellrepair.repair import repair_mesh
 
     c = stress.stress_case(10, 318614305)
+    facts = stress.input_facts(c)
+    R, rep = repair_mesh(Mesh(V=c.V, F=c.F))
+    m = stress.measure(c, facts, R.V, R.F)
+    assert m["holes_closed"] == m["holes"] and m["topology_ok"] and m["si_added"] == 0 and m["rms_permille"] < 1.0
+    assert any("cut open along a seam" in (h["option"] or "") for h in rep["holes"])
+    monkeypatch.setattr(band_fill, "_seam_patch", lambda *a: (None, "left out by the test"))
     R, rep = repair_mesh(Mesh(V=c.V, F=c.F))
     assert rep["holes_after"] == 0
     assert rep["boundary_edges_after"] == 0 and rep["nonmanifold_edges_after"] == 0
@@ -151,7 +165,6 @@ def test_a_hole_that_crosses_a_neighbours_order_3_cap_even_when_filled_again_clo
     rows = {h["id"]: h for h in rep["holes"]}
     assert "hole 0's order-2 fill in place of its order-3 patch" in rows[2]["option"]
     assert rows[0]["order"] == 2 and rows[0]["choice"]["order"] == 3
-    facts = stress.input_facts(c)
     assert stress.measure(c, facts, R.V, R.F)["si_added"] == 0
 
 
