@@ -116,7 +116,7 @@ def test_a_hole_whose_patch_crosses_an_earlier_holes_is_filled_again_around_it(m
     monkeypatch.setattr(shellrepair.repair, "tube_crossed_caps", lambda *a, **k: None)
     from shellrepair.fill import band_fill    # (nor a band cut open along a seam)
 
-    monkeypatch.setattr(band_fill, "_seam_patch", lambda *a: (None, "left out by the test"))
+    monkeypatch.setattr(band_fill, "SEAM", False)
 
     from conftest import STRESS_SHAPES
     from eval import stress
@@ -157,7 +157,7 @@ def test_a_hole_that_crosses_a_neighbours_order_3_cap_even_when_filled_again_clo
     m = stress.measure(c, facts, R.V, R.F)
     assert m["holes_closed"] == m["holes"] and m["topology_ok"] and m["si_added"] == 0 and m["rms_permille"] < 1.0
     assert any("cut open along a seam" in (h["option"] or "") for h in rep["holes"])
-    monkeypatch.setattr(band_fill, "_seam_patch", lambda *a: (None, "left out by the test"))
+    monkeypatch.setattr(band_fill, "SEAM", False)
     R, rep = repair_mesh(Mesh(V=c.V, F=c.F))
     assert rep["holes_after"] == 0
     assert rep["boundary_edges_after"] == 0 and rep["nonmanifold_edges_after"] == 0

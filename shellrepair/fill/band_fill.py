@@ -21,12 +21,16 @@ from shellrepair.fill.merge import Accepted
 from shellrepair.fill.patch import OverBudget, PatchError, _meets_edge_on, build_patch, corners
 from shellrepair.mesh.index import rim_data
 
-__all__ = ["flat_face_with_hole", "CAPS_SHARE", "GUIDE_SHARE", "COARSE_SPACING"]
+__all__ = ["flat_face_with_hole", "seam_loop", "CAPS_SHARE", "GUIDE_SHARE", "COARSE_SPACING", "SEAM"]
 
 
 #: Share of a band's budget the two caps get when they are filled before
 #: the tube (the rest is the tube's).
 CAPS_SHARE = 0.7
+#: Where every tube fails, the band is cut open along a seam and filled as
+#: one hole (:func:`seam_loop`); False leaves such a band to its caps, as
+#: before 2026-12-08 (tests of what comes after use it).
+SEAM = True
 
 
 #: Largest share of a band's work budget the guide tube's own vertices may
@@ -441,8 +445,8 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
         if notes:
             why_tube += "; " + "; ".join(notes)
         tube_faults = [] if tube is None else tube_faults   # (not mended again after the caps)
-    if tube is None and not over and (caps is None or caps_crossing(caps)
-                                      or not all(_stands(c.patch) for c in caps)):
+    if tube is None and SEAM and not over and (caps is None or caps_crossing(caps)
+                                               or not all(_stands(c.patch) for c in caps)):
         # every tube from the loops' arcs or their zip failed: the band cut
         # open along a seam and filled as one hole (seam_loop). Not where
         # the caps came first (loops that see each other one way only) and
