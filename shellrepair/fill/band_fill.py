@@ -454,7 +454,7 @@ def _fill_pair(ctx, A, B, order, smooth, mode, mutual=False):
         # paired one way, were joined by the seam's sheet, whose energy
         # beat their caps' (caps with no vertex of their own have none;
         # tests/test_fill_pictures.py). Nor where the first tube alone was
-        # over the band's work budget: the seam's fill is as large
+        # over the band's work budget: the seam's fill is as large.
         tube, why_seam = _seam_patch(ctx, A, B, order, smooth, scan_edges)
         if tube is None:
             why_tube += f"; cut open along a seam and filled as one hole: {why_seam}"
