@@ -828,6 +828,29 @@ def test_order_flat_fills_every_single_hole_with_its_rim_triangulation():
     assert [(r["kind"], r["order"]) for r in rep["holes"]] == [("flat", None)]
 
 
+def test_the_flat_triangulation_of_a_rim_bent_round_a_cylinder_follows_the_cylinder():
+    """A disc cut from a cylinder as wide as the cylinder's radius: its rim
+    bends round the axis. The rim's projection along its own axis gives a
+    valid triangulation whose triangles cut the bend's chord (up to 0.2
+    off the surface, before the flat fill became the minimum-weight
+    triangulation); Liepa's minimum-weight triangulation keeps to the
+    surface, within the chords' own sag between neighbouring columns."""
+    n, m = 48, 60
+    t, z = np.meshgrid(np.arange(n) * 2 * np.pi / n, np.linspace(-3.0, 3.0, m))
+    V = np.column_stack([np.cos(t.ravel()), np.sin(t.ravel()), z.ravel()])
+    F = np.array([f for i in range(m - 1) for j in range(n)
+                  for a, b in [(i * n + j, i * n + (j + 1) % n)] for f in ([a, b, b + n], [a, b + n, a + n])])
+    keep = np.linalg.norm(V[F].mean(axis=1) - [1.0, 0.0, 0.0], axis=1) > 0.8
+    R, rep = repair_mesh(Mesh(V=V, F=F[keep]), order="flat")
+    assert rep["holes_after"] == 0 and len(R.V) == len(V)
+    new = R.F[int(keep.sum()):]
+    at_disc = new[(np.linalg.norm(R.V[new] - [1.0, 0.0, 0.0], axis=2) < 1.0).all(axis=1)]
+    assert len(at_disc) > 20
+    off = np.abs(np.linalg.norm(R.V[at_disc].mean(axis=1)[:, :2], axis=1) - 1.0)
+    sag = 1.0 - np.cos(np.pi / n)           # a chord between neighbouring columns
+    assert off.max() < 2 * sag
+
+
 def test_every_hole_the_order_test_measured_has_its_verdict_in_its_row():
     """A scanner-hard fandisk (seed 557931736, case 6): its 257-edge hole's
     order-2 fill crossed the scan and holds vertices on the flat

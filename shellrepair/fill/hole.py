@@ -260,7 +260,7 @@ def _flat_patch(ctx, hole_id, loop):
     """The rim's flat triangulation (no new vertex, kind "flat") where it
     passes the fill's checks, else None."""
     try:
-        flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False)
+        flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, minimal=True)
     except PatchError:
         return None
     if checks.check_patch(ctx, flat)[0] is not None:

@@ -212,7 +212,7 @@ def _prefill(ctx, units):
 
 
 def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, avoid=(), initial=None,
-                energy=False, pinned=None, scan_aware=False, max_vertices=None, chords=False):
+                energy=False, pinned=None, scan_aware=False, max_vertices=None, chords=False, minimal=False):
     """Build one hole's patch (no checks against the scan).
 
     Parameters
@@ -249,6 +249,12 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
         disc patch (:func:`~shellrepair.fill.refine.split_chords`): the
         faired option of a hole's fill; not a flat cap, an order-1 patch or
         a tube.
+    minimal : bool
+        Triangulate by Liepa's minimum-weight search alone
+        (:func:`~shellrepair.fill.triangulate.triangulate_loop` with
+        ``fast=False``), not the Delaunay triangulation of the loop's
+        projection: the flat candidate, where the triangulation is the
+        patch and so decides its shape.
 
     Returns
     -------
@@ -267,7 +273,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
     else:
         origin, scale, Pl = local_frame(ctx, loop, sigma)
     forbidden = forbidden | set(avoid)
-    fresh = pre is not None and not avoid and not scan_aware  # the batch's first attempt applies
+    fresh = pre is not None and not avoid and not scan_aware and not minimal  # the batch's first attempt applies
     if initial is not None:
         if isinstance(initial, tuple):  # a first tube with vertices inside (tube.guide_tube)
             P_in, initial = initial
@@ -277,7 +283,7 @@ def build_patch(ctx, hole_id, loop, order=2, smooth=0, refine=True, fair=True, a
         T = pre.T0
     else:
         try:
-            T = triangulate_loop(Pl, edge_normals, forbidden,
+            T = triangulate_loop(Pl, edge_normals, forbidden, fast=not minimal,
                                  allowed=scan_allowed(ctx, loop) if scan_aware else None)
         except MeshError as exc:
             raise PatchError(str(exc)) from None

@@ -420,7 +420,7 @@ def _probe_errors(ctx, loop, candidates, max_probes, r, shape, noise, rim, faces
             origin = Vl.mean(axis=0)
             try:
                 lctx = ScanContext(Mesh(V=Vl - origin, F=Fl))
-                P0, T, _, flat_T = _refined(lctx, ploop, max(orders))
+                P0, T, _, flat_T = _refined(lctx, ploop, max(orders), flat=FLAT in candidates)
             except (MeshError, PatchError, ValueError, IndexError):
                 continue
             X0, Fs, nf, _, scale, org = P0
@@ -482,7 +482,7 @@ def as_filled(candidates, faired):
     return out
 
 
-def _refined(ctx, loop, rings):
+def _refined(ctx, loop, rings, flat=False):
     """The test hole triangulated and refined as :func:`~shellrepair.fill.patch.build_patch`
     does, in the hole's local frame, with ``rings`` rings of scan around it;
     at ``TEST_COARSEN`` times the rim's edge length when the rim's density
@@ -492,8 +492,9 @@ def _refined(ctx, loop, rings):
     positions (fixed scan vertices first), its faces (the patch's last),
     the number of fixed vertices, their ids in ``ctx``, the frame, the
     patch triangles, the refinement's edge length in rim edges (1 or
-    ``TEST_COARSEN``), and the rim's triangulation before refinement in
-    the submesh's ids (the flat candidate).
+    ``TEST_COARSEN``), and, with ``flat``, the rim's minimum-weight
+    triangulation in the submesh's ids, as the fill's flat candidate
+    makes it (``build_patch(..., minimal=True)``; else None).
     """
     from shellrepair.fill.refine import refine_patch, split_chords
     from shellrepair.fill.triangulate import triangulate_loop
@@ -503,7 +504,7 @@ def _refined(ctx, loop, rings):
     sigma, edge_normals, forbidden = rim_data(ctx, loop)
     origin, scale, Pl = local_frame(ctx, loop, sigma)
     T = triangulate_loop(Pl, edge_normals, forbidden)
-    T0 = T
+    T0 = triangulate_loop(Pl, edge_normals, forbidden, fast=False) if flat else None
     # new vertices at the rim's density: ~ the area over an equilateral
     # triangle's, halved (a mesh has about half as many vertices as faces)
     e = Pl[T]
@@ -514,4 +515,4 @@ def _refined(ctx, loop, rings):
     Pl, T = split_chords(Pl, T, c * sigma / scale, k, forbidden)    # as a faired fill's
     g, Fs, nf, loc = submesh(ctx, loop, Pl, T, rings=rings)
     X = np.vstack([(ctx.V[g] - origin) / scale, Pl[k:]])
-    return (X, Fs, nf, g, scale, origin), T, c, np.asarray(loc, np.int64)[T0]
+    return (X, Fs, nf, g, scale, origin), T, c, (np.asarray(loc, np.int64)[T0] if flat else None)
