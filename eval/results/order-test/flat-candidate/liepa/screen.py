@@ -1,5 +1,5 @@
-import sys, os, json; sys.path.insert(0, "/tmp/s60/w")
-os.environ.setdefault("SHELLREPAIR_SHAPE_CACHE", "/work/main/eval/.shape-cache")
+import sys, os, json; sys.path.insert(0, ".")  # run from the repository root
+os.environ.setdefault("SHELLREPAIR_SHAPE_CACHE", "eval/.shape-cache")
 import numpy as np
 from eval import stress, regret
 from shellrepair.fill import selftest
@@ -29,7 +29,7 @@ for i in range(n):
     f = lambda t: f"{rows[t]['rms_permille']:.3g}" if rows[t].get('rms_permille') is not None else "none"
     print(c.name, "| forced", " ".join(f(t) for t in FORCED), f"| base {f(regret.DEFAULT)} r3 {g3 and round(g3,3)} r4 {g4 and round(g4,3)} | withflat {rf.get('rms_permille') and round(rf['rms_permille'],3)} r4 {f4 and round(f4,3)} | s {rows[regret.DEFAULT]['seconds']} {rf.get('seconds')}", flush=True)
     recs.append({"case": c.name, "rows": rows, "withflat": rf})
-json.dump(recs, open(f"/tmp/s60/screen-{seed}-{ragged}.json", "w"))
+json.dump(recs, open(f"screen-{seed}-{ragged}.json", "w"))
 for k in res:
     g = res[k]
     if g: print(k, "geomean %.4f max %.3f over1.5 %d n %d" % (G(g), max(g), sum(x > 1.5 for x in g), len(g)))
