@@ -257,8 +257,10 @@ def fill_hole(ctx, hole_id, loop, order, smooth, energy=False, budget=None, defe
 
 
 def _flat_patch(ctx, hole_id, loop):
-    """The rim's flat triangulation (no new vertex, kind "flat") where it
-    passes the fill's checks, else None."""
+    """The rim's flat triangulation (no new vertex, kind "flat"): its
+    minimum-weight triangulation (``build_patch(..., minimal=True)``; the
+    patch is the triangulation, so not the projection's Delaunay the faired
+    fills start from), where it passes the fill's checks, else None."""
     try:
         flat = build_patch(ctx, hole_id, loop, order=1, smooth=0, refine=False, fair=False, minimal=True)
     except PatchError:
