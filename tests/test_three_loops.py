@@ -102,7 +102,8 @@ def _failed_pants_case():
     M = Mesh(V=c.V, F=c.F)
     # (the pants and the refill, not the order's choice, are under test; nor
     # the seam, which now gives the band of 3 and 14 a tube: 35.98 -> 27.8
-    # per mille under the defaults)
+    # per mille under the defaults; set, not restored: this runs in its own
+    # interpreter, the test below)
     band_fill.SEAM = False
     R, rep = repair_mesh(M, order=2)
     pants = [b.get("pants") for b in rep["bridges"] if b.get("pants")]
